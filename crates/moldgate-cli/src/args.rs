@@ -1,0 +1,459 @@
+//! Command-line arguments, validated once into library options, and the commands.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
+use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::report::{Input, RadiusSource, Report};
+use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
+
+use crate::output::{refuse_input, write_atomic};
+use crate::summary;
+use crate::Failure;
+
+/// Where to put the injection gate of a plastic part, from its triangle mesh.
+#[derive(Debug, Parser)]
+#[command(name = "moldgate", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Locate the gate of a part (an STL file or a built-in sample).
+    Locate(LocateArgs),
+    /// Write a built-in sample part as a binary STL.
+    Sample(SampleArgs),
+    /// List the built-in materials and their gate radii (Eq. 7-8, Table 1).
+    Materials(MaterialsArgs),
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum CentreArg {
+    /// Area-weighted facet centroids (the paper's Eq. 5).
+    Surface,
+    /// Centroid of the enclosed volume.
+    Volume,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum NearestArg {
+    /// 3D distance from the node's surface point.
+    #[value(name = "3d")]
+    ThreeD,
+    /// Distance in the projection plane.
+    #[value(name = "2d")]
+    TwoD,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ThicknessArg {
+    /// Keep only nodes whose wall is thicker than R_gate (the paper's rule).
+    Require,
+    /// Measure and report thickness but do not filter on it.
+    Ignore,
+}
+
+#[derive(Debug, Args)]
+pub struct LocateArgs {
+    /// The part: a binary or ASCII STL file.
+    #[arg(required_unless_present = "sample", conflicts_with = "sample")]
+    pub file: Option<PathBuf>,
+    /// Use a built-in sample part instead of a file (see `moldgate sample --list`).
+    #[arg(long, value_name = "NAME")]
+    pub sample: Option<String>,
+    /// Length unit of the file.
+    #[arg(long, default_value = "mm", value_name = "mm|cm|m|in")]
+    pub units: String,
+    /// Demolding direction: +x, -y, ... or x,y,z. Rays come from its + side.
+    #[arg(long, default_value = "+z", allow_hyphen_values = true, value_name = "DIR")]
+    pub demold: String,
+    /// Material: PP, ABS, PC (the paper's Table 1) or one from --materials-file.
+    #[arg(long, default_value = "PP")]
+    pub material: String,
+    /// TOML file of user materials: one table per material with n, t_melt, t_wall,
+    /// gamma_opt, mu_opt, k.
+    #[arg(long, value_name = "FILE")]
+    pub materials_file: Option<PathBuf>,
+    /// Override the material's power-law index n.
+    #[arg(long)]
+    pub n: Option<f64>,
+    /// Override the melt temperature, degrees C.
+    #[arg(long, allow_hyphen_values = true)]
+    pub t_melt: Option<f64>,
+    /// Override the mould wall temperature, degrees C.
+    #[arg(long, allow_hyphen_values = true)]
+    pub t_wall: Option<f64>,
+    /// Override the optimal shear rate, 1/s.
+    #[arg(long)]
+    pub gamma_opt: Option<f64>,
+    /// Override the viscosity at that shear rate, Pa s.
+    #[arg(long)]
+    pub mu_opt: Option<f64>,
+    /// Override the thermal conductivity, W/(m C).
+    #[arg(long)]
+    pub k: Option<f64>,
+    /// Force the gate radius in mm instead of Eq. 8.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub gate_radius: Option<f64>,
+    /// Grid spacing in mm [default: min(R_gate, longest projected side / 100)].
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub spacing: Option<f64>,
+    /// Shift the grid by this fraction of the spacing along both axes.
+    #[arg(long, default_value_t = 0.0, value_name = "F", allow_hyphen_values = true)]
+    pub grid_offset: f64,
+    /// Points on each node's circle.
+    #[arg(long, default_value_t = 16)]
+    pub circle_points: usize,
+    /// Which centre of mass the gate is placed by.
+    #[arg(long, value_enum, default_value = "surface")]
+    pub centre: CentreArg,
+    /// How nearness to the centre of mass is measured.
+    #[arg(long, value_enum, default_value = "3d")]
+    pub nearest: NearestArg,
+    /// The paper's rule that R_gate be below the wall thickness.
+    #[arg(long, value_enum, default_value = "require")]
+    pub thickness_rule: ThicknessArg,
+    /// Keep only nodes whose circle is flat within --flat-tol.
+    #[arg(long)]
+    pub require_flat: bool,
+    /// Flatness tolerance along the demolding direction, mm [default: 0.1 R_gate].
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub flat_tol: Option<f64>,
+    /// Put the gate on the parting line, nearest the centre of mass (aesthetic parts).
+    #[arg(long)]
+    pub aesthetic: bool,
+    /// Largest grid accepted, in nodes.
+    #[arg(long, default_value_t = 4_000_000)]
+    pub max_nodes: usize,
+    /// Print the JSON report on stdout instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the JSON report to this file (written whole or not at all).
+    #[arg(short, long, value_name = "FILE.json")]
+    pub output: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct SampleArgs {
+    /// Sample name.
+    #[arg(required_unless_present = "list")]
+    pub name: Option<String>,
+    /// Output STL file.
+    #[arg(short, long, required_unless_present = "list", value_name = "FILE.stl")]
+    pub output: Option<PathBuf>,
+    /// List the samples.
+    #[arg(long)]
+    pub list: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct MaterialsArgs {
+    /// Also list the materials of this TOML file.
+    #[arg(long, value_name = "FILE")]
+    pub materials_file: Option<PathBuf>,
+}
+
+/// Reads a TOML file of user materials.
+fn read_materials(path: &Path) -> Result<BTreeMap<String, Material>, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::input(format!("{}: cannot read: {e}", path.display())))?;
+    let mut table: BTreeMap<String, Material> = toml::from_str(&text).map_err(|e| {
+        let place = e
+            .span()
+            .map(|s| format!("line {}: ", text[..s.start].lines().count().max(1)))
+            .unwrap_or_default();
+        Failure::usage(format!(
+            "{}: {place}{}",
+            path.display(),
+            e.message().trim_end_matches('.')
+        ))
+    })?;
+    for (name, m) in table.iter_mut() {
+        m.name = name.clone();
+        m.validate()
+            .map_err(|e| Failure::usage(format!("{}: {e}", path.display())))?;
+    }
+    Ok(table)
+}
+
+/// The material: user file first, then the built-ins, then single-parameter overrides.
+fn material(a: &LocateArgs) -> Result<Material, Failure> {
+    let user = match &a.materials_file {
+        Some(p) => read_materials(p)?,
+        None => BTreeMap::new(),
+    };
+    let mut m = user
+        .iter()
+        .find(|(k, _)| k.eq_ignore_ascii_case(&a.material))
+        .map(|(_, m)| m.clone())
+        .or_else(|| Material::builtin(&a.material))
+        .ok_or_else(|| {
+            let mut known: Vec<String> = moldgate::material::BUILTIN
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            known.extend(user.keys().cloned());
+            Failure::usage(format!(
+                "unknown material '{}' (known: {})",
+                a.material,
+                known.join(", ")
+            ))
+        })?;
+    let overrides = [
+        (&mut m.n, a.n),
+        (&mut m.t_melt, a.t_melt),
+        (&mut m.t_wall, a.t_wall),
+        (&mut m.gamma_opt, a.gamma_opt),
+        (&mut m.mu_opt, a.mu_opt),
+        (&mut m.k, a.k),
+    ];
+    let mut changed = false;
+    for (field, value) in overrides {
+        if let Some(v) = value {
+            *field = v;
+            changed = true;
+        }
+    }
+    if changed {
+        m.name += " (modified)";
+    }
+    m.validate().map_err(|e| Failure::usage(e.to_string()))?;
+    Ok(m)
+}
+
+/// Validates the raw arguments into library options, once.
+fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, RadiusSource), Failure> {
+    let direction: Direction = a
+        .demold
+        .parse()
+        .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--demold: {e}")))?;
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(Failure::usage(format!(
+                "{name} must be a positive number, got {v}"
+            )))
+        }
+    };
+    let (gate_radius_mm, source) = match a.gate_radius {
+        Some(r) => (positive("--gate-radius", r)?, RadiusSource::Forced),
+        None => (material.gate_radius_mm(), RadiusSource::Material),
+    };
+    let spacing = match a.spacing {
+        Some(h) => Spacing::Mm(positive("--spacing", h)?),
+        None => Spacing::Auto,
+    };
+    if !a.grid_offset.is_finite() {
+        return Err(Failure::usage("--grid-offset must be a finite number"));
+    }
+    if a.circle_points < 3 {
+        return Err(Failure::usage(format!(
+            "--circle-points must be at least 3, got {}",
+            a.circle_points
+        )));
+    }
+    if let Some(t) = a.flat_tol {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(Failure::usage(format!(
+                "--flat-tol must be zero or positive, got {t}"
+            )));
+        }
+    }
+    if a.max_nodes == 0 {
+        return Err(Failure::usage("--max-nodes must be positive"));
+    }
+    let options = LocateOptions {
+        direction,
+        gate_radius_mm,
+        spacing,
+        grid_offset: a.grid_offset,
+        circle_points: a.circle_points,
+        centre: match a.centre {
+            CentreArg::Surface => CentreKind::Surface,
+            CentreArg::Volume => CentreKind::Volume,
+        },
+        nearest: match a.nearest {
+            NearestArg::ThreeD => Nearest::Surface3d,
+            NearestArg::TwoD => Nearest::Plane2d,
+        },
+        thickness_rule: match a.thickness_rule {
+            ThicknessArg::Require => ThicknessRule::Require,
+            ThicknessArg::Ignore => ThicknessRule::Ignore,
+        },
+        flat_rule: if a.require_flat {
+            FlatRule::Require
+        } else {
+            FlatRule::Report
+        },
+        flat_tolerance_mm: a.flat_tol,
+        mode: if a.aesthetic {
+            GateMode::Aesthetic
+        } else {
+            GateMode::Paper
+        },
+        max_nodes: a.max_nodes,
+    };
+    Ok((options, source))
+}
+
+/// Reads a mesh file; every failure names the file.
+pub fn load_file(path: &Path, units: Units) -> Result<LoadedMesh, Failure> {
+    let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
+    if path.is_dir() {
+        return Err(fail(&"is a folder, not a mesh file"));
+    }
+    let file = File::open(path).map_err(|e| fail(&format_args!("cannot open: {e}")))?;
+    let len = file
+        .metadata()
+        .map_err(|e| fail(&format_args!("cannot read: {e}")))?
+        .len();
+    mesh::read_stl(BufReader::with_capacity(1 << 16, file), len, units).map_err(|e| fail(&e))
+}
+
+pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
+    let material = material(&a)?;
+    let (options, radius_source) = options(&a, &material)?;
+    let units: Units = a
+        .units
+        .parse()
+        .map_err(|e: String| Failure::usage(format!("--units: {e}")))?;
+    if let Some(out) = &a.output {
+        refuse_input(out, a.file.as_deref())?;
+    }
+    let t = Instant::now();
+    let (part, input) = match (&a.file, &a.sample) {
+        (Some(path), _) => {
+            let part = load_file(path, units)?;
+            let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            let input = Input {
+                path: Some(path.display().to_string()),
+                sample: None,
+                bytes,
+            };
+            (part, input)
+        }
+        (None, Some(name)) => {
+            let m = moldgate::samples::sample(name).ok_or_else(|| unknown_sample(name))?;
+            let input = Input {
+                path: None,
+                sample: Some(name.clone()),
+                bytes: 0,
+            };
+            (mesh::from_generated(m), input)
+        }
+        (None, None) => return Err(Failure::usage("give a mesh file or --sample NAME")),
+    };
+    let load_s = t.elapsed().as_secs_f64();
+    let analysis = locate(&part, &options).map_err(|e| Failure::usage(e.to_string()))?;
+    let report = Report::new(
+        input,
+        &part.stats,
+        &part.warnings,
+        &material,
+        radius_source,
+        &analysis,
+        load_s,
+    );
+    let json = serde_json::to_string_pretty(&report)
+        .map_err(|e| Failure {
+            code: 1,
+            message: format!("cannot encode the report: {e}"),
+        })?
+        + "\n";
+    if let Some(out) = &a.output {
+        write_atomic(out, json.as_bytes())?;
+    }
+    let mut stdout = std::io::stdout().lock();
+    let printed = if a.json {
+        stdout.write_all(json.as_bytes())
+    } else {
+        stdout.write_all(summary::render(&report).as_bytes())
+    };
+    printed
+        .and_then(|_| stdout.flush())
+        .map_err(|e| Failure::output(format!("stdout: {e}")))?;
+    match (&report.gate, &report.no_gate_reason) {
+        (None, Some(reason)) => Err(Failure::no_gate(format!(
+            "{}: {reason}",
+            report
+                .input
+                .path
+                .clone()
+                .or(report.input.sample.clone())
+                .unwrap_or_default()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+fn unknown_sample(name: &str) -> Failure {
+    let names: Vec<&str> = moldgate::samples::SAMPLES.iter().map(|s| s.name).collect();
+    Failure::usage(format!(
+        "unknown sample '{name}' (known: {})",
+        names.join(", ")
+    ))
+}
+
+pub fn run_sample(a: SampleArgs) -> Result<(), Failure> {
+    if a.list {
+        let mut out = String::new();
+        for s in moldgate::samples::SAMPLES {
+            out += &format!("{:10} {}\n", s.name, s.description);
+        }
+        print!("{out}");
+        return Ok(());
+    }
+    let (Some(name), Some(path)) = (a.name, a.output) else {
+        return Err(Failure::usage("give a sample name and -o FILE.stl"));
+    };
+    let mesh = moldgate::samples::sample(&name).ok_or_else(|| unknown_sample(&name))?;
+    let mut bytes = Vec::new();
+    mesh.write_stl(&mut bytes)
+        .map_err(|e| Failure::output(format!("cannot encode STL: {e}")))?;
+    write_atomic(&path, &bytes)?;
+    eprintln!(
+        "wrote {} ({} triangles, mm)",
+        path.display(),
+        mesh.triangles.len()
+    );
+    Ok(())
+}
+
+pub fn run_materials(a: MaterialsArgs) -> Result<(), Failure> {
+    let mut all: Vec<Material> = moldgate::material::BUILTIN
+        .iter()
+        .filter_map(|n| Material::builtin(n))
+        .collect();
+    if let Some(p) = &a.materials_file {
+        all.extend(read_materials(p)?.into_values());
+    }
+    let mut out = format!(
+        "{:<10} {:>7} {:>7} {:>7} {:>9} {:>8} {:>6} {:>10} {:>10}\n",
+        "material", "n", "Tmelt_C", "Twall_C", "gamma_1/s", "mu_Pa.s", "k", "v_m/s", "R_gate_mm"
+    );
+    for m in all {
+        out += &format!(
+            "{:<10} {:>7} {:>7} {:>7} {:>9} {:>8} {:>6} {:>10.5} {:>10.4}\n",
+            m.name,
+            m.n,
+            m.t_melt,
+            m.t_wall,
+            m.gamma_opt,
+            m.mu_opt,
+            m.k,
+            m.melt_velocity_m_s(),
+            m.gate_radius_mm()
+        );
+    }
+    print!("{out}");
+    Ok(())
+}

@@ -1,0 +1,80 @@
+//! The `moldgate` command: parses arguments, reads files, calls the library, prints.
+//!
+//! Exit codes (also in the README):
+//! 0 success; 1 unexpected internal error; 2 invalid command line or option value;
+//! 3 input file missing, unreadable or malformed; 4 no node qualifies for a gate;
+//! 5 output cannot be written.
+
+mod args;
+mod output;
+mod summary;
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+use args::{Cli, Command};
+
+/// An error with the exit code it maps to.
+#[derive(Debug)]
+pub struct Failure {
+    /// Process exit code.
+    pub code: u8,
+    /// One line for stderr.
+    pub message: String,
+}
+
+impl Failure {
+    /// Invalid command line or option value.
+    pub fn usage(message: impl Into<String>) -> Failure {
+        Failure {
+            code: 2,
+            message: message.into(),
+        }
+    }
+
+    /// Unreadable or malformed input.
+    pub fn input(message: impl Into<String>) -> Failure {
+        Failure {
+            code: 3,
+            message: message.into(),
+        }
+    }
+
+    /// No gate could be placed.
+    pub fn no_gate(message: impl Into<String>) -> Failure {
+        Failure {
+            code: 4,
+            message: message.into(),
+        }
+    }
+
+    /// Output cannot be written.
+    pub fn output(message: impl Into<String>) -> Failure {
+        Failure {
+            code: 5,
+            message: message.into(),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Locate(a) => args::run_locate(a),
+        Command::Sample(a) => args::run_sample(a),
+        Command::Materials(a) => args::run_materials(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            // A closed stdout (moldgate ... | head) is not an error worth a message.
+            if f.message.contains("Broken pipe") {
+                return ExitCode::SUCCESS;
+            }
+            let _ = writeln!(std::io::stderr(), "moldgate: error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}

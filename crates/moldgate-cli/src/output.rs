@@ -1,0 +1,59 @@
+//! Writing files whole or not at all, and never over the input.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::Failure;
+
+/// Refuses an output path that names the input file (also through links or `..`).
+pub fn refuse_input(output: &Path, input: Option<&Path>) -> Result<(), Failure> {
+    let Some(input) = input else { return Ok(()) };
+    let same = match (output.canonicalize(), input.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => output == input,
+    };
+    if same {
+        return Err(Failure::output(format!(
+            "{}: refusing to write the output over the input file",
+            output.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
+/// file is either the old one or the complete new one, never a half-written one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
+    let fail = |e: std::io::Error| {
+        Failure::output(format!("{}: cannot write: {e}", path.display()))
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if path.is_dir() {
+        return Err(Failure::output(format!(
+            "{}: is a folder, not a file",
+            path.display()
+        )));
+    }
+    let name = path
+        .file_name()
+        .ok_or_else(|| Failure::output(format!("{}: not a file name", path.display())))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(fail(e));
+    }
+    Ok(())
+}

@@ -1,0 +1,77 @@
+//! Centres of mass: the paper's surface superposition (Eq. 3-5) and the volumetric centre of
+//! the enclosed solid (divergence theorem).
+
+use serde::Serialize;
+
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+
+/// Which centre of mass the gate is placed by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CentreKind {
+    /// The area-weighted mean of the facet centroids, the paper's Eq. 5 (the default).
+    #[default]
+    Surface,
+    /// The centroid of the enclosed volume; needs a closed mesh.
+    Volume,
+}
+
+/// Both centres of mass of a mesh.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Centres {
+    /// Eq. 5: sum(C_f A_f) / sum(A_f), with A_f from Eq. 3 and C_f from Eq. 4.
+    pub surface: DVec3,
+    /// Total facet area in mm^2 (the denominator of Eq. 5).
+    pub area_mm2: f64,
+    /// The centroid of the enclosed solid, when its signed volume is not negligible.
+    pub volume: Option<DVec3>,
+    /// Signed enclosed volume in mm^3 (positive for outward-facing normals).
+    pub volume_mm3: f64,
+}
+
+impl Centres {
+    /// Computes both centres in one pass over the triangles.
+    pub fn of(mesh: &Mesh) -> Centres {
+        // Moments are taken about the box centre so that the volume sums do not cancel
+        // catastrophically on parts far from the origin.
+        let origin = mesh.bounds().centre();
+        let mut area = 0.0;
+        let mut area_moment = DVec3::ZERO;
+        let mut volume = 0.0;
+        let mut volume_moment = DVec3::ZERO;
+        for t in 0..mesh.triangles.len() {
+            let [a, b, c] = mesh.corners(t).map(|p| p - origin);
+            let cross = (b - a).cross(c - a);
+            let a_f = 0.5 * cross.length(); // Eq. 3
+            let c_f = (a + b + c) / 3.0; // Eq. 4
+            area += a_f;
+            area_moment += c_f * a_f;
+            // Signed tetrahedron (origin, a, b, c): volume a.(b x c)/6, centroid (a+b+c)/4.
+            let v = a.dot(b.cross(c)) / 6.0;
+            volume += v;
+            volume_moment += (a + b + c) * (v / 4.0);
+        }
+        let size = mesh.bounds().diagonal();
+        let volume_centre = if volume.abs() > 1e-9 * size * size * size {
+            Some(origin + volume_moment / volume)
+        } else {
+            None
+        };
+        Centres {
+            surface: origin + area_moment / area, // Eq. 5
+            area_mm2: area,
+            volume: volume_centre,
+            volume_mm3: volume,
+        }
+    }
+
+    /// The centre of the kind asked for, or `None` for a volume centre of a mesh that
+    /// encloses no volume.
+    pub fn get(&self, kind: CentreKind) -> Option<DVec3> {
+        match kind {
+            CentreKind::Surface => Some(self.surface),
+            CentreKind::Volume => self.volume,
+        }
+    }
+}

@@ -1,0 +1,167 @@
+//! Typed errors of the library. Each carries where the problem is: a line, a byte offset, a
+//! triangle index, or the option at fault. Messages are lower-case with no final period.
+
+use thiserror::Error;
+
+/// Where in a mesh file a problem was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Place {
+    /// A 1-based line of a text file.
+    Line(u64),
+    /// A 0-based byte offset of a binary file.
+    Byte(u64),
+}
+
+impl std::fmt::Display for Place {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Place::Line(n) => write!(f, "line {n}"),
+            Place::Byte(n) => write!(f, "byte {n}"),
+        }
+    }
+}
+
+/// A mesh file that cannot be read.
+#[derive(Debug, Error)]
+pub enum LoadError {
+    /// The operating system refused to read the file.
+    #[error("cannot read: {0}")]
+    Io(#[from] std::io::Error),
+    /// The file has no bytes.
+    #[error("empty file")]
+    Empty,
+    /// A binary STL shorter than its header.
+    #[error("truncated binary STL: {len} bytes, shorter than the 84-byte header")]
+    TruncatedHeader {
+        /// File length in bytes.
+        len: u64,
+    },
+    /// A binary STL whose data stops before the triangle count in its header says.
+    #[error(
+        "truncated binary STL: the header declares {declared} triangles ({expected} bytes) but the file has {len} bytes; triangle {triangle} is cut at byte {offset}"
+    )]
+    Truncated {
+        /// Triangle count in the header.
+        declared: u64,
+        /// Size the header implies: 84 + 50 x declared.
+        expected: u64,
+        /// Actual file length.
+        len: u64,
+        /// Index of the first incomplete triangle.
+        triangle: u64,
+        /// Byte offset where that triangle starts.
+        offset: u64,
+    },
+    /// A binary STL longer than its triangle count says.
+    #[error(
+        "binary STL triangle count does not match the file size: the header declares {declared} triangles ({expected} bytes) but the file has {len} bytes (extra data from byte {expected})"
+    )]
+    CountMismatch {
+        /// Triangle count in the header.
+        declared: u64,
+        /// Size the header implies.
+        expected: u64,
+        /// Actual file length.
+        len: u64,
+    },
+    /// A syntax error in a text mesh file.
+    #[error("{place}: {message}")]
+    Syntax {
+        /// Where the error is.
+        place: Place,
+        /// What is wrong.
+        message: String,
+    },
+    /// A coordinate that is NaN or infinite.
+    #[error("{place}: triangle {triangle} has a non-finite coordinate ({value})")]
+    NonFinite {
+        /// Where the coordinate is.
+        place: Place,
+        /// 0-based triangle index.
+        triangle: u64,
+        /// The offending value as read.
+        value: f32,
+    },
+    /// A mesh whose facets all have zero area.
+    #[error("no facet has a non-zero area ({facets} facets read)")]
+    NoArea {
+        /// How many facets were read.
+        facets: u64,
+    },
+    /// A file whose format is not supported.
+    #[error("unsupported mesh format: {0}")]
+    Unsupported(String),
+}
+
+/// An analysis option that is out of range.
+#[derive(Debug, Error, PartialEq)]
+pub enum OptionsError {
+    /// The demolding direction has zero length or is not finite.
+    #[error("the demolding direction must be a non-zero finite vector, got ({0}, {1}, {2})")]
+    ZeroDirection(f64, f64, f64),
+    /// A demolding direction that cannot be parsed.
+    #[error("cannot read demolding direction '{0}': expected +x, -y, ... or three numbers x,y,z")]
+    BadDirection(String),
+    /// A material parameter that must be positive is not.
+    #[error("material '{material}': {parameter} must be a positive finite number, got {value}")]
+    NonPositiveMaterial {
+        /// The material's name.
+        material: String,
+        /// The parameter's name.
+        parameter: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// The melt is not hotter than the mould wall.
+    #[error(
+        "material '{material}': the melt temperature ({t_melt} C) must be above the wall temperature ({t_wall} C)"
+    )]
+    MeltNotAboveWall {
+        /// The material's name.
+        material: String,
+        /// Melt temperature in degrees Celsius.
+        t_melt: f64,
+        /// Mould wall temperature in degrees Celsius.
+        t_wall: f64,
+    },
+    /// A length or count option that must be positive is not.
+    #[error("{option} must be a positive finite number, got {value}")]
+    NonPositive {
+        /// The option's name.
+        option: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// The grid would have more nodes than the limit.
+    #[error(
+        "a spacing of {spacing_mm} mm gives a grid of {n_u} x {n_w} = {nodes} nodes, more than the limit of {limit}; use a spacing of at least {min_spacing_mm:.4} mm"
+    )]
+    GridTooLarge {
+        /// Requested spacing.
+        spacing_mm: f64,
+        /// Nodes along u.
+        n_u: u64,
+        /// Nodes along w.
+        n_w: u64,
+        /// n_u x n_w.
+        nodes: u64,
+        /// The node limit.
+        limit: u64,
+        /// The smallest spacing within the limit.
+        min_spacing_mm: f64,
+    },
+}
+
+/// Why no gate could be placed.
+#[derive(Debug, Error)]
+pub enum LocateError {
+    /// An option is out of range.
+    #[error(transparent)]
+    Options(#[from] OptionsError),
+    /// No node of the grid passed every rule.
+    #[error("no node qualifies for a gate: {reason}")]
+    NoCandidate {
+        /// Which rule removed the last nodes, with the counts.
+        reason: String,
+    },
+}

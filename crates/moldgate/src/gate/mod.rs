@@ -1,0 +1,488 @@
+//! The paper's gate location: nodal quadrature, projection along the demolding direction,
+//! candidate rules, and the candidate nearest the centre of mass.
+
+pub mod projection;
+pub mod quadrature;
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::centre::{CentreKind, Centres};
+use crate::error::{LocateError, OptionsError};
+use crate::frame::{Direction, Frame};
+use crate::math::{DVec2, DVec3};
+use crate::mesh::LoadedMesh;
+use crate::parting::{AestheticGate, PartingLine};
+use projection::{Hit, RayLattice};
+pub use quadrature::{auto_spacing, Grid, Spacing};
+
+/// How "nearest the centre of mass" is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Nearest {
+    /// 3D distance from the node's surface point (the first hit of its centre ray).
+    #[default]
+    #[serde(rename = "3d")]
+    Surface3d,
+    /// Distance in the projection plane.
+    #[serde(rename = "2d")]
+    Plane2d,
+}
+
+/// Whether the paper's rule "R_gate below the wall thickness" removes candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ThicknessRule {
+    /// A node qualifies only if the wall under its whole disc is thicker than R_gate (the
+    /// paper's rule; nodes whose rays never leave an open mesh pass with unknown thickness).
+    #[default]
+    Require,
+    /// Thickness is measured and reported but does not remove candidates.
+    Ignore,
+}
+
+/// Whether a flat seat is required.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FlatRule {
+    /// Flatness is reported, not required (the paper does not require it).
+    #[default]
+    Report,
+    /// A node qualifies only if its circle lies within the flatness tolerance of its centre.
+    Require,
+}
+
+/// Which gate is the answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GateMode {
+    /// The qualifying node nearest the centre of mass (the paper's main rule).
+    #[default]
+    Paper,
+    /// The point of the parting line nearest the centre of mass (the paper's aesthetic rule).
+    Aesthetic,
+}
+
+/// Options of [`locate`]. Every field documents its default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocateOptions {
+    /// Demolding direction; rays come from its + side. Default +Z.
+    pub direction: Direction,
+    /// Gate radius R_gate in mm, usually [`crate::Material::gate_radius_mm`]. Default: PP's
+    /// 1.4254 mm.
+    pub gate_radius_mm: f64,
+    /// Grid spacing. Default [`Spacing::Auto`].
+    pub spacing: Spacing,
+    /// Grid shift as a fraction of the spacing, along u and w. Default 0.
+    pub grid_offset: f64,
+    /// Points on each node's circle. Default 16.
+    pub circle_points: usize,
+    /// Centre of mass the gate is placed by. Default [`CentreKind::Surface`] (Eq. 5).
+    pub centre: CentreKind,
+    /// How nearness is measured. Default [`Nearest::Surface3d`].
+    pub nearest: Nearest,
+    /// Wall-thickness rule. Default [`ThicknessRule::Require`].
+    pub thickness_rule: ThicknessRule,
+    /// Flat-seat rule. Default [`FlatRule::Report`].
+    pub flat_rule: FlatRule,
+    /// Flatness tolerance along D in mm. Default `None`: 0.1 R_gate.
+    pub flat_tolerance_mm: Option<f64>,
+    /// Which gate is the answer. Default [`GateMode::Paper`].
+    pub mode: GateMode,
+    /// Largest grid accepted, in nodes. Default 4 000 000.
+    pub max_nodes: usize,
+}
+
+impl Default for LocateOptions {
+    fn default() -> Self {
+        LocateOptions {
+            direction: Direction::PLUS_Z,
+            gate_radius_mm: crate::Material::builtin("PP")
+                .expect("PP is built in")
+                .gate_radius_mm(),
+            spacing: Spacing::Auto,
+            grid_offset: 0.0,
+            circle_points: 16,
+            centre: CentreKind::Surface,
+            nearest: Nearest::Surface3d,
+            thickness_rule: ThicknessRule::Require,
+            flat_rule: FlatRule::Report,
+            flat_tolerance_mm: None,
+            mode: GateMode::Paper,
+            max_nodes: 4_000_000,
+        }
+    }
+}
+
+/// How many nodes pass each rule, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct RuleCounts {
+    /// Nodes of the grid.
+    pub nodes: usize,
+    /// Nodes whose own ray hits the part.
+    pub centre_hits: usize,
+    /// Nodes whose ray and every circle ray hit the part (the paper's candidates).
+    pub circle_on_part: usize,
+    /// Of those, nodes whose wall under the disc is thicker than R_gate.
+    pub thicker_than_radius: usize,
+    /// Of the circle-on-part nodes, those whose thickness is unknown (the ray never leaves
+    /// an open mesh); they pass the thickness rule.
+    pub thickness_unknown: usize,
+    /// Of the circle-on-part nodes, those whose circle lies within the flatness tolerance.
+    pub flat: usize,
+    /// Nodes that pass every rule in force: the pool the gate is chosen from.
+    pub qualifying: usize,
+}
+
+/// The gate chosen on the grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gate {
+    /// Node index (`iw * n_u + iu`).
+    pub node: usize,
+    /// Node column and row.
+    pub node_iu_iw: (usize, usize),
+    /// Node position in the projection plane.
+    pub node_uw: DVec2,
+    /// The gate point on the surface (first hit of the node's ray).
+    pub point: DVec3,
+    /// Outward unit normal of the triangle hit there.
+    pub normal: DVec3,
+    /// Index of that triangle.
+    pub triangle: u32,
+    /// Wall thickness along D at the node, if the ray leaves the solid.
+    pub thickness_mm: Option<f64>,
+    /// Smallest wall thickness along D over the node and its circle.
+    pub disc_thickness_mm: Option<f64>,
+    /// Whether the circle lies within the flatness tolerance.
+    pub flat: bool,
+    /// 3D distance from the gate point to the centre of mass.
+    pub distance_3d: f64,
+    /// Distance in the projection plane.
+    pub distance_2d: f64,
+    /// How many nodes were equally near (within round-off); the lowest index wins.
+    pub ties: usize,
+}
+
+/// Seconds spent in each stage of [`locate`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct StageTimes {
+    /// Centres of mass.
+    pub centre_s: f64,
+    /// Frame, projection of the vertices and grid.
+    pub grid_s: f64,
+    /// Casting the rays.
+    pub projection_s: f64,
+    /// Rules and selection.
+    pub select_s: f64,
+    /// Parting line and aesthetic gate.
+    pub parting_s: f64,
+}
+
+/// Everything [`locate`] found.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// Options in force (the spacing used is in `grid`).
+    pub options: LocateOptions,
+    /// Both centres of mass.
+    pub centres: Centres,
+    /// The centre the gate was placed by.
+    pub centre: DVec3,
+    /// The demolding frame.
+    pub frame: Frame,
+    /// The grid of nodes.
+    pub grid: Grid,
+    /// Flatness tolerance used, in mm.
+    pub flat_tolerance_mm: f64,
+    /// Nodes passing each rule.
+    pub counts: RuleCounts,
+    /// The nearest qualifying node, if any.
+    pub grid_gate: Option<Gate>,
+    /// The qualifying node nearest by the other measure (2D when the rule is 3D and back),
+    /// since the paper does not say which distance it means.
+    pub other_rule_gate: Option<Gate>,
+    /// The parting line.
+    pub parting: PartingLine,
+    /// The point of the parting line nearest the centre.
+    pub aesthetic_gate: Option<AestheticGate>,
+    /// Time per stage.
+    pub times: StageTimes,
+    /// Warnings about the analysis (not the mesh).
+    pub warnings: Vec<String>,
+}
+
+/// The answer: a grid gate or an aesthetic gate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ChosenGate {
+    /// The paper's grid gate.
+    Paper(Gate),
+    /// The parting-line gate.
+    Aesthetic(AestheticGate),
+}
+
+impl ChosenGate {
+    /// The gate point.
+    pub fn point(&self) -> DVec3 {
+        match self {
+            ChosenGate::Paper(g) => g.point,
+            ChosenGate::Aesthetic(g) => g.point,
+        }
+    }
+}
+
+impl Analysis {
+    /// The gate of the chosen mode, or why there is none.
+    pub fn gate(&self) -> Result<ChosenGate, LocateError> {
+        match self.options.mode {
+            GateMode::Paper => self
+                .grid_gate
+                .map(ChosenGate::Paper)
+                .ok_or_else(|| LocateError::NoCandidate {
+                    reason: self.why_no_candidate(),
+                }),
+            GateMode::Aesthetic => self.aesthetic_gate.map(ChosenGate::Aesthetic).ok_or_else(|| {
+                LocateError::NoCandidate {
+                    reason: "the part has no parting line for this demolding direction (no edge between a face towards +D and one away from it)".into(),
+                }
+            }),
+        }
+    }
+
+    /// One sentence saying which rule removed the last nodes.
+    pub fn why_no_candidate(&self) -> String {
+        let c = &self.counts;
+        let r = self.options.gate_radius_mm;
+        let mut s = format!(
+            "of {} nodes, {} hit the part and {} have their whole circle of radius {r:.3} mm on it",
+            c.nodes, c.centre_hits, c.circle_on_part
+        );
+        if self.options.thickness_rule == ThicknessRule::Require {
+            s += &format!(
+                "; {} of those have walls thicker than {r:.3} mm",
+                c.thicker_than_radius + c.thickness_unknown
+            );
+        }
+        if self.options.flat_rule == FlatRule::Require {
+            s += &format!("; {} are flat", c.flat);
+        }
+        s + " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)"
+    }
+}
+
+/// Locates the gate on a loaded part: the paper's algorithm, end to end.
+///
+/// Does no I/O. Fails only on invalid options; a part where no node qualifies is an
+/// [`Analysis`] whose [`Analysis::gate`] says why.
+pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
+    let mesh = &part.mesh;
+    let r = options.gate_radius_mm;
+    for (option, value) in [("gate radius", r), ("circle points", options.circle_points as f64)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(OptionsError::NonPositive { option, value });
+        }
+    }
+    let mut warnings = Vec::new();
+    let mut times = StageTimes::default();
+
+    let t = Instant::now();
+    let centres = Centres::of(mesh);
+    let centre = match centres.get(options.centre) {
+        Some(c) => c,
+        None => {
+            warnings.push(
+                "the mesh encloses no volume, so the surface centre of mass is used".into(),
+            );
+            centres.surface
+        }
+    };
+    times.centre_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let frame = Frame::new(options.direction);
+    let projected: Vec<DVec3> = mesh
+        .vertices
+        .par_iter()
+        .map(|&p| {
+            let q = frame.project(p);
+            DVec3::new(q.x, q.y, frame.height(p))
+        })
+        .collect();
+    let (lo, hi) = projected.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(p.truncate()), hi.max(p.truncate())),
+    );
+    let spacing = match options.spacing {
+        Spacing::Auto => auto_spacing(hi - lo, r),
+        Spacing::Mm(h) => h,
+    };
+    let grid = Grid::new(lo, hi, spacing, options.grid_offset, options.max_nodes)?;
+    let flat_tolerance_mm = options.flat_tolerance_mm.unwrap_or(0.1 * r);
+    if !(flat_tolerance_mm.is_finite() && flat_tolerance_mm >= 0.0) {
+        return Err(OptionsError::NonPositive {
+            option: "flatness tolerance",
+            value: flat_tolerance_mm,
+        });
+    }
+    // Lattice 0 holds the nodes; lattice k >= 1 the k-th circle point of every node (Eq. 6),
+    // which is the node lattice shifted by R (cos theta_k, sin theta_k).
+    let k = options.circle_points;
+    let lattices: Vec<RayLattice> = (0..=k)
+        .map(|i| {
+            let shift = if i == 0 {
+                DVec2::ZERO
+            } else {
+                let theta = std::f64::consts::TAU * (i - 1) as f64 / k as f64;
+                DVec2::new(theta.cos(), theta.sin()) * r
+            };
+            RayLattice {
+                origin: DVec2::from_array(grid.first) + shift,
+                spacing,
+                n_u: grid.n_u,
+                n_w: grid.n_w,
+            }
+        })
+        .collect();
+    times.grid_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let hits = projection::cast(&projected, &mesh.triangles, &lattices);
+    drop(projected);
+    times.projection_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let (centre_hits, circles) = hits.split_first().expect("lattice 0 exists");
+    let nodes: Vec<NodeVerdict> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| judge(i, centre_hits, circles, flat_tolerance_mm))
+        .collect();
+    let mut counts = RuleCounts {
+        nodes: grid.len(),
+        ..RuleCounts::default()
+    };
+    for v in &nodes {
+        counts.centre_hits += v.centre_hit as usize;
+        counts.circle_on_part += v.circle_on_part as usize;
+        if v.circle_on_part {
+            match v.disc_thickness {
+                Some(th) if th > r => counts.thicker_than_radius += 1,
+                Some(_) => {}
+                None => counts.thickness_unknown += 1,
+            }
+            counts.flat += v.flat as usize;
+        }
+    }
+    let qualifies = |v: &NodeVerdict| {
+        v.circle_on_part
+            && (options.thickness_rule == ThicknessRule::Ignore
+                || v.disc_thickness.is_none_or(|th| th > r))
+            && (options.flat_rule == FlatRule::Report || v.flat)
+    };
+    let pool: Vec<usize> = (0..grid.len()).filter(|&i| qualifies(&nodes[i])).collect();
+    counts.qualifying = pool.len();
+    let pick = |rule: Nearest| {
+        nearest_node(&pool, &grid, &frame, centre, centre_hits, rule).map(|(i, ties)| {
+            let hit = centre_hits[i];
+            let node_uw = grid.node(i);
+            let point = frame.point(node_uw, hit.first);
+            let mut normal = mesh.normal(hit.triangle as usize);
+            if normal.dot(frame.d) < 0.0 {
+                // The ray met the triangle from its back: the winding is inverted.
+                normal = -normal;
+            }
+            Gate {
+                node: i,
+                node_iu_iw: grid.coords(i),
+                node_uw,
+                point,
+                normal,
+                triangle: hit.triangle,
+                thickness_mm: hit.thickness(),
+                disc_thickness_mm: nodes[i].disc_thickness,
+                flat: nodes[i].flat,
+                distance_3d: point.distance(centre),
+                distance_2d: node_uw.distance(frame.project(centre)),
+                ties,
+            }
+        })
+    };
+    let grid_gate = pick(options.nearest);
+    let other_rule_gate = pick(match options.nearest {
+        Nearest::Surface3d => Nearest::Plane2d,
+        Nearest::Plane2d => Nearest::Surface3d,
+    });
+    times.select_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let parting = PartingLine::new(mesh, &part.topology, &frame);
+    let aesthetic_gate = parting.nearest(mesh, &frame, centre);
+    times.parting_s = t.elapsed().as_secs_f64();
+
+    Ok(Analysis {
+        options: options.clone(),
+        centres,
+        centre,
+        frame,
+        grid,
+        flat_tolerance_mm,
+        counts,
+        grid_gate,
+        other_rule_gate,
+        parting,
+        aesthetic_gate,
+        times,
+        warnings,
+    })
+}
+
+/// What the rays of one node found.
+#[derive(Debug, Clone, Copy)]
+struct NodeVerdict {
+    centre_hit: bool,
+    circle_on_part: bool,
+    disc_thickness: Option<f64>,
+    flat: bool,
+}
+
+fn judge(i: usize, centre: &[Hit], circles: &[Vec<Hit>], flat_tol: f64) -> NodeVerdict {
+    let c = centre[i];
+    let circle_on_part = c.is_hit() && circles.iter().all(|l| l[i].is_hit());
+    let disc_thickness = std::iter::once(&c)
+        .chain(circles.iter().map(|l| &l[i]))
+        .filter_map(Hit::thickness)
+        .reduce(f64::min);
+    let flat = circle_on_part && circles.iter().all(|l| (l[i].first - c.first).abs() <= flat_tol);
+    NodeVerdict {
+        centre_hit: c.is_hit(),
+        circle_on_part,
+        disc_thickness,
+        flat,
+    }
+}
+
+/// The pool node nearest `centre` by `rule`, and how many tie with it. Distances within
+/// 1e-9 of the larger of the best distance and the spacing count as ties, and the lowest node
+/// index wins, so the answer does not depend on thread scheduling or summation order.
+fn nearest_node(
+    pool: &[usize],
+    grid: &Grid,
+    frame: &Frame,
+    centre: DVec3,
+    hits: &[Hit],
+    rule: Nearest,
+) -> Option<(usize, usize)> {
+    let c2 = frame.project(centre);
+    let distance = |i: usize| {
+        let q = grid.node(i);
+        match rule {
+            Nearest::Surface3d => frame.point(q, hits[i].first).distance(centre),
+            Nearest::Plane2d => q.distance(c2),
+        }
+    };
+    let d: Vec<f64> = pool.iter().map(|&i| distance(i)).collect();
+    let best = d.iter().copied().reduce(f64::min)?;
+    let tol = 1e-9 * best.max(grid.spacing);
+    let mut near = pool.iter().zip(&d).filter(|(_, &di)| di <= best + tol);
+    let (&first, _) = near.next()?;
+    Some((first, 1 + near.count()))
+}

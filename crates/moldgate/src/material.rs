@@ -1,0 +1,143 @@
+//! Thermoplastic materials and the gate radius of the paper's Eq. 7-8.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::OptionsError;
+
+/// The rheological and thermal parameters of a thermoplastic, in the units of the paper's
+/// Table 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Name, e.g. `PP`.
+    #[serde(default)]
+    pub name: String,
+    /// Power-law index n of the melt (dimensionless).
+    pub n: f64,
+    /// Melt temperature T_melt in degrees Celsius.
+    pub t_melt: f64,
+    /// Mould wall temperature T_wall in degrees Celsius.
+    pub t_wall: f64,
+    /// Optimal shear rate gamma_opt in 1/s.
+    pub gamma_opt: f64,
+    /// Viscosity mu_opt at that shear rate, in Pa s.
+    pub mu_opt: f64,
+    /// Thermal conductivity k in W/(m C).
+    pub k: f64,
+}
+
+/// The built-in materials: the paper's Table 1 (cases 1, 3 and 5).
+pub const BUILTIN: [&str; 3] = ["PP", "ABS", "PC"];
+
+impl Material {
+    /// A material of the paper's Table 1 by name (any case), or `None`.
+    pub fn builtin(name: &str) -> Option<Material> {
+        let (n, t_melt, t_wall, gamma_opt, mu_opt, k) = match name.to_ascii_uppercase().as_str() {
+            "PP" => (0.2718, 230.0, 50.0, 10_000.0, 9.88, 0.15),
+            // Table 1 gives mu = 30.93 for case 3 and 30.96 for case 4; both round to 1.9 mm.
+            "ABS" => (0.2354, 230.0, 50.0, 5_000.0, 30.93, 0.18),
+            "PC" => (0.1869, 305.0, 95.0, 8_000.0, 42.85, 0.24),
+            _ => return None,
+        };
+        Some(Material {
+            name: name.to_ascii_uppercase(),
+            n,
+            t_melt,
+            t_wall,
+            gamma_opt,
+            mu_opt,
+            k,
+        })
+    }
+
+    /// Checks that every parameter is positive and finite and that the melt is hotter than
+    /// the wall, so that Eq. 7 has a real root.
+    pub fn validate(&self) -> Result<(), OptionsError> {
+        for (parameter, value) in [
+            ("n", self.n),
+            ("gamma_opt", self.gamma_opt),
+            ("mu_opt", self.mu_opt),
+            ("k", self.k),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(OptionsError::NonPositiveMaterial {
+                    material: self.name.clone(),
+                    parameter,
+                    value,
+                });
+            }
+        }
+        for (parameter, value) in [("t_melt", self.t_melt), ("t_wall", self.t_wall)] {
+            if !value.is_finite() {
+                return Err(OptionsError::NonPositiveMaterial {
+                    material: self.name.clone(),
+                    parameter,
+                    value,
+                });
+            }
+        }
+        if self.t_melt <= self.t_wall {
+            return Err(OptionsError::MeltNotAboveWall {
+                material: self.name.clone(),
+                t_melt: self.t_melt,
+                t_wall: self.t_wall,
+            });
+        }
+        Ok(())
+    }
+
+    /// The mean melt-front velocity of Eq. 7, in m/s:
+    /// v = sqrt(5 (T_melt - T_wall) k / (3 mu_opt)).
+    pub fn melt_velocity_m_s(&self) -> f64 {
+        (5.0 * (self.t_melt - self.t_wall) * self.k / (3.0 * self.mu_opt)).sqrt()
+    }
+
+    /// The gate radius of Eq. 8 in millimetres: R = (3 + 1/n) v / gamma_opt, which the
+    /// formula gives in metres.
+    pub fn gate_radius_mm(&self) -> f64 {
+        1000.0 * (3.0 + 1.0 / self.n) * self.melt_velocity_m_s() / self.gamma_opt
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_1_gate_radii() {
+        // The paper's Table 1 prints 1.4, 1.9 and 1.5 mm; the formula gives these unrounded.
+        for (name, printed, exact) in [
+            ("PP", 1.4, 1.425_445_651),
+            ("ABS", 1.9, 1.915_4),
+            ("PC", 1.5, 1.461_5),
+        ] {
+            let r = Material::builtin(name).unwrap().gate_radius_mm();
+            assert!((r - exact).abs() < 1e-4, "{name}: {r}");
+            assert_eq!((r * 10.0).round() / 10.0, printed, "{name}: {r}");
+        }
+    }
+
+    #[test]
+    fn abs_case_4_viscosity_also_rounds_to_table_1() {
+        let mut abs = Material::builtin("abs").unwrap();
+        abs.mu_opt = 30.96;
+        assert_eq!((abs.gate_radius_mm() * 10.0).round(), 19.0);
+    }
+
+    #[test]
+    fn invalid_parameters_are_refused() {
+        let mut m = Material::builtin("PP").unwrap();
+        m.mu_opt = 0.0;
+        assert!(matches!(
+            m.validate(),
+            Err(OptionsError::NonPositiveMaterial { parameter: "mu_opt", .. })
+        ));
+        let mut m = Material::builtin("PP").unwrap();
+        m.t_wall = 240.0;
+        assert!(matches!(m.validate(), Err(OptionsError::MeltNotAboveWall { .. })));
+        let mut m = Material::builtin("PP").unwrap();
+        m.n = f64::NAN;
+        assert!(m.validate().is_err());
+        assert!(Material::builtin("PEEK").is_none());
+    }
+}

@@ -1,0 +1,319 @@
+//! Triangle meshes: the [`Mesh`] type, loading from files, welding and topology.
+//!
+//! Loading never panics: a file that cannot be read is a [`LoadError`] with a place (line,
+//! byte offset or triangle). Defects that do not stop the work (degenerate facets, open edges,
+//! several bodies) are counted in [`MeshStats`] beside the mesh.
+
+pub mod stl;
+pub mod topology;
+pub mod units;
+
+use std::io::BufRead;
+
+use rustc_hash::FxHashMap;
+use serde::Serialize;
+
+use crate::error::LoadError;
+use crate::math::{Aabb, DVec3};
+pub use topology::Topology;
+pub use units::Units;
+
+/// An indexed triangle mesh in millimetres, with identical vertices welded.
+#[derive(Debug, Clone, Default)]
+pub struct Mesh {
+    /// Vertex positions in millimetres.
+    pub vertices: Vec<DVec3>,
+    /// Triangles as indices into `vertices`; no triangle repeats a vertex.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// The three corners of triangle `t`.
+    #[inline]
+    pub fn corners(&self, t: usize) -> [DVec3; 3] {
+        let [a, b, c] = self.triangles[t];
+        [
+            self.vertices[a as usize],
+            self.vertices[b as usize],
+            self.vertices[c as usize],
+        ]
+    }
+
+    /// The unit normal of triangle `t` (right-hand rule on its corner order), or zero when
+    /// the triangle has no area.
+    pub fn normal(&self, t: usize) -> DVec3 {
+        let [a, b, c] = self.corners(t);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    /// The box around every vertex.
+    pub fn bounds(&self) -> Aabb {
+        Aabb::of_points(&self.vertices)
+    }
+
+    /// Multiplies every coordinate by `factor` (a unit conversion).
+    pub fn scale(&mut self, factor: f64) {
+        if factor != 1.0 {
+            for v in &mut self.vertices {
+                *v *= factor;
+            }
+        }
+    }
+
+    /// Writes the mesh as a binary STL (in millimetres) to `out`.
+    pub fn write_stl(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
+        stl::write_binary(self, out)
+    }
+}
+
+/// The file format a mesh came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Format {
+    /// Binary STL.
+    StlBinary,
+    /// ASCII STL.
+    StlAscii,
+    /// Made by moldgate's own code (a sample part).
+    Generated,
+}
+
+/// What loading found in a file, beside the mesh itself.
+#[derive(Debug, Clone, Serialize)]
+pub struct MeshStats {
+    /// The file format.
+    pub format: Format,
+    /// The unit the file was read in.
+    pub units: Units,
+    /// Facets in the file.
+    pub facets_read: u64,
+    /// Solids (`solid ... endsolid` blocks) in an ASCII STL; 1 otherwise.
+    pub solids: u64,
+    /// Facet corners before welding (3 per facet).
+    pub corners_read: u64,
+    /// Vertices after welding identical positions.
+    pub vertices: u64,
+    /// Triangles kept (facets less the collapsed ones).
+    pub triangles: u64,
+    /// Facets dropped because two corners welded to the same vertex.
+    pub collapsed_facets: u64,
+    /// Kept triangles with zero area (three distinct but collinear corners).
+    pub zero_area_triangles: u64,
+    /// Edges used by one triangle only (0 on a closed mesh).
+    pub open_edges: u64,
+    /// Edges used by more than two triangles.
+    pub non_manifold_edges: u64,
+    /// Connected bodies (triangles linked through shared vertices).
+    pub bodies: u64,
+    /// Surface area in mm^2.
+    pub area_mm2: f64,
+    /// Bounding box in mm.
+    pub bounds_min: [f64; 3],
+    /// Bounding box in mm.
+    pub bounds_max: [f64; 3],
+}
+
+impl MeshStats {
+    /// True when every edge has exactly two triangles.
+    pub fn is_closed(&self) -> bool {
+        self.open_edges == 0 && self.non_manifold_edges == 0
+    }
+}
+
+/// A mesh read from a file, with what was found on the way.
+#[derive(Debug, Clone)]
+pub struct LoadedMesh {
+    /// The welded mesh in millimetres.
+    pub mesh: Mesh,
+    /// Counts of what was read and of defects.
+    pub stats: MeshStats,
+    /// Non-fatal problems, one sentence each.
+    pub warnings: Vec<String>,
+    /// The mesh's topology (edges and bodies), built once at load.
+    pub topology: Topology,
+}
+
+/// Reads an STL (binary or ASCII) of `len` bytes from `reader`, converting it to millimetres.
+///
+/// Binary is recognised by its size (84 + 50 n bytes for the n triangles its header declares)
+/// before the word `solid` is looked at, since many binary files start with it.
+pub fn read_stl(reader: impl BufRead, len: u64, units: Units) -> Result<LoadedMesh, LoadError> {
+    let raw = stl::read(reader, len)?;
+    finish(raw, units)
+}
+
+/// Builds a [`LoadedMesh`] from generated geometry in millimetres.
+pub fn from_generated(mesh: Mesh) -> LoadedMesh {
+    let facets = mesh.triangles.len() as u64;
+    let raw = RawMesh {
+        format: Format::Generated,
+        solids: 1,
+        facets_read: facets,
+        corners_read: 3 * facets,
+        collapsed_facets: 0,
+        mesh,
+        warnings: Vec::new(),
+    };
+    finish(raw, Units::Mm).expect("generated meshes have area")
+}
+
+/// A welded mesh as a reader produced it, before unit conversion and topology.
+#[derive(Debug)]
+pub struct RawMesh {
+    /// Format read.
+    pub format: Format,
+    /// Solid blocks.
+    pub solids: u64,
+    /// Facets in the file.
+    pub facets_read: u64,
+    /// Corners before welding.
+    pub corners_read: u64,
+    /// Facets dropped by welding.
+    pub collapsed_facets: u64,
+    /// The welded mesh in file units.
+    pub mesh: Mesh,
+    /// Reader warnings.
+    pub warnings: Vec<String>,
+}
+
+fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
+    let RawMesh {
+        format,
+        solids,
+        facets_read,
+        corners_read,
+        collapsed_facets,
+        mut mesh,
+        mut warnings,
+    } = raw;
+    mesh.scale(units.mm_per_unit());
+    let mut area = 0.0;
+    let mut zero_area = 0u64;
+    for t in 0..mesh.triangles.len() {
+        let [a, b, c] = mesh.corners(t);
+        let a2 = (b - a).cross(c - a).length();
+        if a2 == 0.0 {
+            zero_area += 1;
+        }
+        area += 0.5 * a2;
+    }
+    if area <= 0.0 {
+        return Err(LoadError::NoArea {
+            facets: facets_read,
+        });
+    }
+    let topology = Topology::new(&mesh);
+    let bounds = mesh.bounds();
+    if collapsed_facets > 0 {
+        warnings.push(format!(
+            "{collapsed_facets} degenerate facets (two corners at the same point) were dropped"
+        ));
+    }
+    if zero_area > 0 {
+        warnings.push(format!(
+            "{zero_area} triangles have zero area (collinear corners)"
+        ));
+    }
+    if topology.open_edges > 0 {
+        warnings.push(format!(
+            "the mesh is open: {} edges belong to one triangle only; thickness is unknown where rays do not leave the solid",
+            topology.open_edges
+        ));
+    }
+    if topology.non_manifold_edges > 0 {
+        warnings.push(format!(
+            "{} edges are shared by more than two triangles",
+            topology.non_manifold_edges
+        ));
+    }
+    if topology.bodies > 1 {
+        warnings.push(format!(
+            "the file holds {} separate bodies",
+            topology.bodies
+        ));
+    }
+    if let Some(w) = units::size_warning(bounds.diagonal(), units) {
+        warnings.push(w);
+    }
+    let stats = MeshStats {
+        format,
+        units,
+        facets_read,
+        solids,
+        corners_read,
+        vertices: mesh.vertices.len() as u64,
+        triangles: mesh.triangles.len() as u64,
+        collapsed_facets,
+        zero_area_triangles: zero_area,
+        open_edges: topology.open_edges,
+        non_manifold_edges: topology.non_manifold_edges,
+        bodies: topology.bodies,
+        area_mm2: area,
+        bounds_min: bounds.min.to_array(),
+        bounds_max: bounds.max.to_array(),
+    };
+    Ok(LoadedMesh {
+        mesh,
+        stats,
+        warnings,
+        topology,
+    })
+}
+
+/// Welds identical corner positions into shared vertices as facets arrive.
+///
+/// Positions are compared by their exact bit patterns (with -0.0 read as 0.0): STL writers
+/// repeat a shared corner's coordinates exactly, and any tolerance would merge real detail.
+#[derive(Debug, Default)]
+pub struct Welder {
+    index: FxHashMap<[u64; 3], u32>,
+    mesh: Mesh,
+    collapsed: u64,
+}
+
+impl Welder {
+    /// A welder expecting about `triangles` facets.
+    pub fn with_capacity(triangles: usize) -> Welder {
+        let vertices = triangles / 2 + 16;
+        Welder {
+            index: FxHashMap::with_capacity_and_hasher(vertices, Default::default()),
+            mesh: Mesh {
+                vertices: Vec::with_capacity(vertices),
+                triangles: Vec::with_capacity(triangles),
+            },
+            collapsed: 0,
+        }
+    }
+
+    fn vertex(&mut self, p: DVec3) -> u32 {
+        // Adding 0.0 turns -0.0 into 0.0 so both weld together.
+        let key = [
+            (p.x + 0.0).to_bits(),
+            (p.y + 0.0).to_bits(),
+            (p.z + 0.0).to_bits(),
+        ];
+        let next = self.mesh.vertices.len() as u32;
+        *self.index.entry(key).or_insert_with(|| {
+            self.mesh.vertices.push(p + DVec3::ZERO);
+            next
+        })
+    }
+
+    /// Adds one facet; a facet whose corners weld to fewer than three vertices is dropped
+    /// and counted.
+    pub fn push(&mut self, corners: [DVec3; 3]) {
+        let a = self.vertex(corners[0]);
+        let b = self.vertex(corners[1]);
+        let c = self.vertex(corners[2]);
+        if a == b || b == c || a == c {
+            self.collapsed += 1;
+        } else {
+            self.mesh.triangles.push([a, b, c]);
+        }
+    }
+
+    /// The welded mesh and the number of dropped facets.
+    pub fn finish(self) -> (Mesh, u64) {
+        (self.mesh, self.collapsed)
+    }
+}

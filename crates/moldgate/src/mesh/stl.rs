@@ -1,0 +1,345 @@
+//! STL, binary and ASCII.
+//!
+//! Binary is recognised by its size rule before the word `solid` is looked at: a file of
+//! exactly 84 + 50 n bytes (a trailing newline allowed) for the n its header declares is
+//! binary, whatever its first bytes. Otherwise a file that starts with `solid` and whose
+//! first kilobyte is text is ASCII; anything else is a binary file with a wrong size, and the
+//! error says whether it is cut short or too long.
+//!
+//! ASCII is read tolerantly: keywords in any case, several `solid` blocks, facets with more
+//! than three corners (split into a fan), a missing final `endsolid` (with a warning). The
+//! facet normal is ignored; orientation comes from the corner order.
+
+use std::io::{BufRead, Read, Write};
+
+use super::{Format, Mesh, RawMesh, Welder};
+use crate::error::{LoadError, Place};
+use crate::math::DVec3;
+
+const HEADER: u64 = 84;
+const RECORD: u64 = 50;
+
+/// Reads an STL of `len` bytes.
+pub fn read(mut reader: impl BufRead, len: u64) -> Result<RawMesh, LoadError> {
+    if len == 0 {
+        return Err(LoadError::Empty);
+    }
+    let mut head = Vec::with_capacity(1024);
+    (&mut reader).take(1024).read_to_end(&mut head)?;
+    if head.is_empty() {
+        return Err(LoadError::Empty);
+    }
+    let declared = if head.len() >= HEADER as usize {
+        Some(u32::from_le_bytes([head[80], head[81], head[82], head[83]]) as u64)
+    } else {
+        None
+    };
+    if let Some(n) = declared {
+        let expected = HEADER + RECORD * n;
+        if len >= expected && len - expected <= 2 {
+            return read_binary((&head[..]).chain(reader), n);
+        }
+    }
+    if looks_ascii(&head) {
+        return read_ascii((&head[..]).chain(reader));
+    }
+    let Some(declared) = declared else {
+        return Err(LoadError::TruncatedHeader { len });
+    };
+    let expected = HEADER + RECORD * declared;
+    if len < expected {
+        let triangle = (len - HEADER) / RECORD;
+        Err(LoadError::Truncated {
+            declared,
+            expected,
+            len,
+            triangle,
+            offset: HEADER + RECORD * triangle,
+        })
+    } else {
+        Err(LoadError::CountMismatch {
+            declared,
+            expected,
+            len,
+        })
+    }
+}
+
+/// True when the file starts (after white space) with `solid` and its first bytes hold no
+/// control characters, which the floats of a binary STL almost always do.
+fn looks_ascii(head: &[u8]) -> bool {
+    let text = head.trim_ascii_start();
+    text.len() >= 5
+        && text[..5].eq_ignore_ascii_case(b"solid")
+        && head
+            .iter()
+            .all(|&b| b >= 0x20 || matches!(b, b'\t' | b'\n' | b'\r' | 0x0c))
+}
+
+fn read_binary(mut reader: impl Read, declared: u64) -> Result<RawMesh, LoadError> {
+    let mut header = [0u8; HEADER as usize];
+    reader.read_exact(&mut header)?;
+    let mut welder = Welder::with_capacity(declared as usize);
+    const CHUNK: usize = 4096;
+    let mut buf = vec![0u8; CHUNK * RECORD as usize];
+    let mut done = 0u64;
+    while done < declared {
+        let count = (declared - done).min(CHUNK as u64) as usize;
+        let bytes = &mut buf[..count * RECORD as usize];
+        reader.read_exact(bytes)?;
+        for (i, rec) in bytes.chunks_exact(RECORD as usize).enumerate() {
+            let triangle = done + i as u64;
+            let mut corners = [DVec3::ZERO; 3];
+            for (k, corner) in corners.iter_mut().enumerate() {
+                let mut xyz = [0.0f64; 3];
+                for (j, c) in xyz.iter_mut().enumerate() {
+                    let at = 12 + 12 * k + 4 * j;
+                    let v = f32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]]);
+                    if !v.is_finite() {
+                        return Err(LoadError::NonFinite {
+                            place: Place::Byte(HEADER + RECORD * triangle + at as u64),
+                            triangle,
+                            value: v,
+                        });
+                    }
+                    *c = v as f64;
+                }
+                *corner = DVec3::from_array(xyz);
+            }
+            welder.push(corners);
+        }
+        done += count as u64;
+    }
+    let (mesh, collapsed_facets) = welder.finish();
+    Ok(RawMesh {
+        format: Format::StlBinary,
+        solids: 1,
+        facets_read: declared,
+        corners_read: 3 * declared,
+        collapsed_facets,
+        mesh,
+        warnings: Vec::new(),
+    })
+}
+
+/// What the ASCII parser expects next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Expect {
+    Solid,
+    FacetOrEnd,
+    Normal,
+    NormalValues(u8),
+    Outer,
+    Loop,
+    VertexOrEndloop,
+    VertexValues(u8),
+    Endfacet,
+}
+
+fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
+    let mut welder = Welder::with_capacity(1024);
+    let mut expect = Expect::Solid;
+    let mut line_no = 0u64;
+    let mut line = Vec::new();
+    let mut solids = 0u64;
+    let mut facets = 0u64;
+    let mut corners: Vec<DVec3> = Vec::with_capacity(3);
+    let mut xyz = [0.0f64; 3];
+    let mut warnings = Vec::new();
+    let syntax = |line: u64, message: String| LoadError::Syntax {
+        place: Place::Line(line),
+        message,
+    };
+    loop {
+        line.clear();
+        if reader.read_until(b'\n', &mut line)? == 0 {
+            break;
+        }
+        line_no += 1;
+        let mut tokens = line
+            .split(|b| b.is_ascii_whitespace())
+            .filter(|t| !t.is_empty());
+        while let Some(tok) = tokens.next() {
+            let is = |word: &str| tok.eq_ignore_ascii_case(word.as_bytes());
+            let shown = || String::from_utf8_lossy(tok).into_owned();
+            match expect {
+                Expect::Solid => {
+                    if !is("solid") {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'solid', found '{}'", shown()),
+                        ));
+                    }
+                    solids += 1;
+                    expect = Expect::FacetOrEnd;
+                    break; // the rest of the line is the solid's name
+                }
+                Expect::FacetOrEnd => {
+                    if is("facet") {
+                        expect = Expect::Normal;
+                    } else if is("endsolid") {
+                        expect = Expect::Solid;
+                        break; // the rest of the line is the solid's name
+                    } else {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'facet' or 'endsolid', found '{}'", shown()),
+                        ));
+                    }
+                }
+                Expect::Normal => {
+                    if is("normal") {
+                        expect = Expect::NormalValues(0);
+                    } else if is("outer") {
+                        expect = Expect::Loop;
+                    } else {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'normal', found '{}'", shown()),
+                        ));
+                    }
+                }
+                Expect::NormalValues(i) => {
+                    // The normal is not used, but it must be a number.
+                    parse_number(tok, line_no)?;
+                    expect = if i == 2 {
+                        Expect::Outer
+                    } else {
+                        Expect::NormalValues(i + 1)
+                    };
+                }
+                Expect::Outer => {
+                    if !is("outer") {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'outer loop', found '{}'", shown()),
+                        ));
+                    }
+                    expect = Expect::Loop;
+                }
+                Expect::Loop => {
+                    if !is("loop") {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'loop' after 'outer', found '{}'", shown()),
+                        ));
+                    }
+                    corners.clear();
+                    expect = Expect::VertexOrEndloop;
+                }
+                Expect::VertexOrEndloop => {
+                    if is("vertex") {
+                        expect = Expect::VertexValues(0);
+                    } else if is("endloop") {
+                        if corners.len() < 3 {
+                            return Err(syntax(
+                                line_no,
+                                format!("facet {facets} has {} corners, needs 3", corners.len()),
+                            ));
+                        }
+                        expect = Expect::Endfacet;
+                    } else {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'vertex' or 'endloop', found '{}'", shown()),
+                        ));
+                    }
+                }
+                Expect::VertexValues(i) => {
+                    let v = parse_number(tok, line_no)?;
+                    if !v.is_finite() {
+                        return Err(LoadError::NonFinite {
+                            place: Place::Line(line_no),
+                            triangle: facets,
+                            value: v,
+                        });
+                    }
+                    xyz[i as usize] = v as f64;
+                    expect = if i == 2 {
+                        corners.push(DVec3::from_array(xyz));
+                        Expect::VertexOrEndloop
+                    } else {
+                        Expect::VertexValues(i + 1)
+                    };
+                }
+                Expect::Endfacet => {
+                    if !is("endfacet") {
+                        return Err(syntax(
+                            line_no,
+                            format!("expected 'endfacet', found '{}'", shown()),
+                        ));
+                    }
+                    if corners.len() > 3 {
+                        warnings.push(format!(
+                            "line {line_no}: facet {facets} has {} corners; split into a fan of triangles",
+                            corners.len()
+                        ));
+                    }
+                    for k in 1..corners.len() - 1 {
+                        welder.push([corners[0], corners[k], corners[k + 1]]);
+                    }
+                    facets += 1;
+                    expect = Expect::FacetOrEnd;
+                }
+            }
+        }
+    }
+    match expect {
+        Expect::Solid if solids > 0 => {}
+        Expect::Solid => return Err(syntax(line_no.max(1), "no 'solid' in the file".into())),
+        Expect::FacetOrEnd => warnings.push(format!(
+            "line {line_no}: the file ends without 'endsolid'"
+        )),
+        _ => {
+            return Err(syntax(
+                line_no,
+                format!("the file ends inside facet {facets} (truncated?)"),
+            ))
+        }
+    }
+    let (mesh, collapsed_facets) = welder.finish();
+    let corners_read = 3 * mesh.triangles.len() as u64 + 3 * collapsed_facets;
+    Ok(RawMesh {
+        format: Format::StlAscii,
+        solids,
+        facets_read: facets,
+        corners_read,
+        collapsed_facets,
+        mesh,
+        warnings,
+    })
+}
+
+fn parse_number(tok: &[u8], line: u64) -> Result<f32, LoadError> {
+    std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse::<f32>().ok())
+        .ok_or_else(|| LoadError::Syntax {
+            place: Place::Line(line),
+            message: format!("expected a number, found '{}'", String::from_utf8_lossy(tok)),
+        })
+}
+
+/// Writes `mesh` as a binary STL, with facet normals from the corner order.
+pub fn write_binary(mesh: &Mesh, out: &mut impl Write) -> std::io::Result<()> {
+    let mut header = [b' '; 80];
+    let title = b"binary STL written by moldgate (units: mm)";
+    header[..title.len()].copy_from_slice(title);
+    out.write_all(&header)?;
+    out.write_all(&(mesh.triangles.len() as u32).to_le_bytes())?;
+    let mut rec = [0u8; RECORD as usize];
+    for t in 0..mesh.triangles.len() {
+        let n = mesh.normal(t);
+        let corners = mesh.corners(t);
+        let values = [n]
+            .iter()
+            .chain(corners.iter())
+            .flat_map(|v| v.to_array())
+            .collect::<Vec<_>>();
+        for (i, v) in values.iter().enumerate() {
+            rec[4 * i..4 * i + 4].copy_from_slice(&(*v as f32).to_le_bytes());
+        }
+        out.write_all(&rec)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,156 @@
+//! The parting line for a demolding direction, and the aesthetic gate on it (the paper's
+//! Fig. 5).
+//!
+//! A triangle *faces the core side* when its outward normal has a positive component along
+//! the demolding direction D (n.D > 1e-6). The parting line is made of the edges shared by a
+//! triangle that faces the core side and one that does not. Faces parallel to D (walls
+//! without draft) count as not facing it, so on a part whose walls have no draft the line runs
+//! along the +D end of the band of vertical walls: for a cover whose open side faces +D, the
+//! outer rim of the opening; for a plate, the outline of its +D face. That is where the mould
+//! splits when the whole part sits in the cavity half, as drafted walls would put it. Such
+//! edges form several loops (outline, holes, pockets); the longest loop is the parting line.
+
+use serde::Serialize;
+
+use crate::frame::Frame;
+use crate::math::{nearest_on_segment, DVec3};
+use crate::mesh::{Mesh, Topology};
+
+/// The parting line: connected chains of mesh edges.
+#[derive(Debug, Clone, Default)]
+pub struct PartingLine {
+    /// The edges of the longest loop, as vertex index pairs.
+    pub edges: Vec<[u32; 2]>,
+    /// Total length of those edges in mm.
+    pub length_mm: f64,
+    /// Every edge between the two sides, over all loops.
+    pub edges_all: usize,
+    /// Number of connected loops found.
+    pub loops: usize,
+    /// True when every vertex of the kept loop has exactly two of its edges.
+    pub closed: bool,
+}
+
+/// A gate on the parting line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AestheticGate {
+    /// The point of the parting line nearest the centre of mass.
+    pub point: DVec3,
+    /// Its distance to the centre of mass in mm.
+    pub distance_3d: f64,
+    /// Its distance to the centre of mass in the projection plane.
+    pub distance_2d: f64,
+}
+
+/// Per-triangle flag: faces the core (+D) side.
+fn faces_core(mesh: &Mesh, d: DVec3) -> Vec<bool> {
+    (0..mesh.triangles.len())
+        .map(|t| mesh.normal(t).dot(d) > 1e-6)
+        .collect()
+}
+
+impl PartingLine {
+    /// Extracts the parting line of `mesh` for the frame's demolding direction.
+    pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
+        let up = faces_core(mesh, frame.d);
+        let edges: Vec<[u32; 2]> = topology
+            .edges
+            .iter()
+            .filter(|e| e.uses == 2)
+            .filter(|e| up[e.triangles[0] as usize] != up[e.triangles[1] as usize])
+            .map(|e| [e.a, e.b])
+            .collect();
+        if edges.is_empty() {
+            return PartingLine::default();
+        }
+        // Loops are the connected components of the chosen edges (union-find on vertices).
+        let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
+        fn root(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                let up = parent[parent[x as usize] as usize];
+                parent[x as usize] = up;
+                x = up;
+            }
+            x
+        }
+        for &[a, b] in &edges {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            if ra != rb {
+                parent[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+        let mut length = rustc_hash::FxHashMap::<u32, f64>::default();
+        for &[a, b] in &edges {
+            let r = root(&mut parent, a);
+            *length.entry(r).or_default() +=
+                mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
+        }
+        // The longest loop; ties go to the loop with the smallest root vertex.
+        let (&best, &length_mm) = length
+            .iter()
+            .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
+            .expect("at least one edge");
+        let kept: Vec<[u32; 2]> = edges
+            .iter()
+            .copied()
+            .filter(|&[a, _]| root(&mut parent, a) == best)
+            .collect();
+        let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
+        for &[a, b] in &kept {
+            *degree.entry(a).or_default() += 1;
+            *degree.entry(b).or_default() += 1;
+        }
+        PartingLine {
+            closed: degree.values().all(|&d| d == 2),
+            edges_all: edges.len(),
+            loops: length.len(),
+            edges: kept,
+            length_mm,
+        }
+    }
+
+    /// The point of the line nearest `centre` (the aesthetic gate), or `None` for an empty
+    /// line. Ties go to the first edge in vertex order.
+    pub fn nearest(&self, mesh: &Mesh, frame: &Frame, centre: DVec3) -> Option<AestheticGate> {
+        let mut best: Option<(f64, DVec3)> = None;
+        for &[a, b] in &self.edges {
+            let p = nearest_on_segment(mesh.vertices[a as usize], mesh.vertices[b as usize], centre);
+            let d = p.distance(centre);
+            if best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, p));
+            }
+        }
+        best.map(|(d, p)| AestheticGate {
+            point: p,
+            distance_3d: d,
+            distance_2d: frame.project(p).distance(frame.project(centre)),
+        })
+    }
+}
+
+/// The parting line summary reported in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct PartingSummary {
+    /// Edges of the kept loop.
+    pub edges: usize,
+    /// Its length in mm.
+    pub length_mm: f64,
+    /// Edges of all loops.
+    pub edges_all: usize,
+    /// Loops found.
+    pub loops: usize,
+    /// Whether the kept loop is closed.
+    pub closed: bool,
+}
+
+impl From<&PartingLine> for PartingSummary {
+    fn from(p: &PartingLine) -> Self {
+        PartingSummary {
+            edges: p.edges.len(),
+            length_mm: p.length_mm,
+            edges_all: p.edges_all,
+            loops: p.loops,
+            closed: p.closed,
+        }
+    }
+}

@@ -1,0 +1,333 @@
+//! The JSON report: a versioned contract, kept apart from the computation types.
+//!
+//! Field names and meanings are documented in `docs/json-schema.md`; any change to them
+//! bumps [`SCHEMA_VERSION`].
+
+use serde::Serialize;
+
+use crate::gate::{Analysis, FlatRule, Gate, GateMode, Grid, Nearest, RuleCounts, Spacing, ThicknessRule};
+use crate::material::Material;
+use crate::mesh::MeshStats;
+use crate::parting::{AestheticGate, PartingSummary};
+use crate::CentreKind;
+
+/// Version of the report's schema.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Where the part came from.
+#[derive(Debug, Clone, Serialize)]
+pub struct Input {
+    /// Path of the mesh file, or `None` for a built-in sample.
+    pub path: Option<String>,
+    /// Name of the built-in sample, or `None` for a file.
+    pub sample: Option<String>,
+    /// Size of the file in bytes (0 for a sample).
+    pub bytes: u64,
+}
+
+/// Where the gate radius came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RadiusSource {
+    /// Eq. 8 with the material's parameters.
+    Material,
+    /// Forced by the user.
+    Forced,
+}
+
+/// The options in force.
+#[derive(Debug, Clone, Serialize)]
+pub struct OptionsReport {
+    /// Demolding direction (unit vector).
+    pub demold: [f64; 3],
+    /// Gate radius in mm.
+    pub gate_radius_mm: f64,
+    /// Where it came from.
+    pub gate_radius_source: RadiusSource,
+    /// Grid spacing in mm.
+    pub spacing_mm: f64,
+    /// `auto` or `fixed`.
+    pub spacing_rule: &'static str,
+    /// Grid shift as a fraction of the spacing.
+    pub grid_offset: f64,
+    /// Circle points per node.
+    pub circle_points: usize,
+    /// Centre of mass used.
+    pub centre: CentreKind,
+    /// Distance measure.
+    pub nearest: Nearest,
+    /// Thickness rule.
+    pub thickness_rule: ThicknessRule,
+    /// Flat rule.
+    pub flat_rule: FlatRule,
+    /// Flatness tolerance in mm.
+    pub flat_tolerance_mm: f64,
+    /// Which gate is the answer.
+    pub mode: GateMode,
+}
+
+/// The material and the quantities of Eq. 7-8.
+#[derive(Debug, Clone, Serialize)]
+pub struct MaterialReport {
+    /// Parameters as in Table 1.
+    #[serde(flatten)]
+    pub material: Material,
+    /// Eq. 7, m/s.
+    pub melt_velocity_m_s: f64,
+    /// Eq. 8, mm.
+    pub gate_radius_mm: f64,
+}
+
+/// Centres of mass.
+#[derive(Debug, Clone, Serialize)]
+pub struct CentreReport {
+    /// Eq. 5, the area-weighted mean of facet centroids, mm.
+    pub surface: [f64; 3],
+    /// Centroid of the enclosed volume, or `null` for a mesh enclosing none.
+    pub volume: Option<[f64; 3]>,
+    /// The one the gate was placed by.
+    pub used: [f64; 3],
+    /// Which one that is.
+    pub kind: CentreKind,
+    /// Surface area, mm^2.
+    pub area_mm2: f64,
+    /// Signed enclosed volume, mm^3.
+    pub volume_mm3: f64,
+}
+
+/// The projection frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameReport {
+    /// Demolding direction.
+    pub d: [f64; 3],
+    /// First plane axis.
+    pub u: [f64; 3],
+    /// Second plane axis.
+    pub w: [f64; 3],
+}
+
+/// A gate on the grid.
+#[derive(Debug, Clone, Serialize)]
+pub struct GateReport {
+    /// Surface point, mm.
+    pub point: [f64; 3],
+    /// Outward surface normal.
+    pub normal: [f64; 3],
+    /// Node index.
+    pub node: usize,
+    /// Node column and row.
+    pub node_iu_iw: [usize; 2],
+    /// Node position (u, w), mm.
+    pub node_uw: [f64; 2],
+    /// Triangle hit.
+    pub triangle: u32,
+    /// Wall thickness along D at the node, mm.
+    pub thickness_mm: Option<f64>,
+    /// Smallest thickness under the disc, mm.
+    pub disc_thickness_mm: Option<f64>,
+    /// Circle within the flatness tolerance.
+    pub flat: bool,
+    /// 3D distance to the centre of mass, mm.
+    pub distance_3d_mm: f64,
+    /// Distance in the projection plane, mm.
+    pub distance_2d_mm: f64,
+    /// Nodes equally near.
+    pub ties: usize,
+}
+
+impl From<&Gate> for GateReport {
+    fn from(g: &Gate) -> Self {
+        GateReport {
+            point: g.point.to_array(),
+            normal: g.normal.to_array(),
+            node: g.node,
+            node_iu_iw: [g.node_iu_iw.0, g.node_iu_iw.1],
+            node_uw: g.node_uw.to_array(),
+            triangle: g.triangle,
+            thickness_mm: g.thickness_mm,
+            disc_thickness_mm: g.disc_thickness_mm,
+            flat: g.flat,
+            distance_3d_mm: g.distance_3d,
+            distance_2d_mm: g.distance_2d,
+            ties: g.ties,
+        }
+    }
+}
+
+/// The gate on the parting line.
+#[derive(Debug, Clone, Serialize)]
+pub struct AestheticReport {
+    /// Point, mm.
+    pub point: [f64; 3],
+    /// 3D distance to the centre of mass, mm.
+    pub distance_3d_mm: f64,
+    /// Distance in the projection plane, mm.
+    pub distance_2d_mm: f64,
+}
+
+impl From<&AestheticGate> for AestheticReport {
+    fn from(g: &AestheticGate) -> Self {
+        AestheticReport {
+            point: g.point.to_array(),
+            distance_3d_mm: g.distance_3d,
+            distance_2d_mm: g.distance_2d,
+        }
+    }
+}
+
+/// The answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChosenReport {
+    /// `paper` or `aesthetic`.
+    pub mode: GateMode,
+    /// The gate point, mm.
+    pub point: [f64; 3],
+    /// 3D distance to the centre of mass, mm.
+    pub distance_3d_mm: f64,
+}
+
+/// Seconds per stage.
+#[derive(Debug, Clone, Serialize)]
+pub struct Timings {
+    /// Reading and welding the mesh, with topology.
+    pub load_s: f64,
+    /// Centres of mass.
+    pub centre_s: f64,
+    /// Frame and grid.
+    pub grid_s: f64,
+    /// Ray casting.
+    pub projection_s: f64,
+    /// Rules and selection.
+    pub select_s: f64,
+    /// Parting line.
+    pub parting_s: f64,
+    /// Sum of the above.
+    pub total_s: f64,
+}
+
+/// The whole report of one part.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// moldgate's version.
+    pub moldgate_version: &'static str,
+    /// Where the part came from.
+    pub input: Input,
+    /// Options in force.
+    pub options: OptionsReport,
+    /// Mesh statistics.
+    pub mesh: MeshStats,
+    /// Warnings about the mesh and the analysis.
+    pub warnings: Vec<String>,
+    /// Material and Eq. 7-8.
+    pub material: MaterialReport,
+    /// Centres of mass.
+    pub centre_of_mass: CentreReport,
+    /// Frame.
+    pub frame: FrameReport,
+    /// Grid.
+    pub grid: Grid,
+    /// Nodes passing each rule.
+    pub counts: RuleCounts,
+    /// The answer, or `null` when there is none.
+    pub gate: Option<ChosenReport>,
+    /// Why there is no answer, or `null`.
+    pub no_gate_reason: Option<String>,
+    /// The grid gate by the chosen distance.
+    pub paper_gate: Option<GateReport>,
+    /// The grid gate by the other distance.
+    pub other_rule_gate: Option<GateReport>,
+    /// The parting-line gate.
+    pub aesthetic_gate: Option<AestheticReport>,
+    /// The parting line.
+    pub parting_line: PartingSummary,
+    /// Time per stage.
+    pub timings: Timings,
+}
+
+impl Report {
+    /// Assembles the report of an analysis.
+    pub fn new(
+        input: Input,
+        stats: &MeshStats,
+        mesh_warnings: &[String],
+        material: &Material,
+        radius_source: RadiusSource,
+        analysis: &Analysis,
+        load_s: f64,
+    ) -> Report {
+        let o = &analysis.options;
+        let t = &analysis.times;
+        let chosen = analysis.gate();
+        let c = &analysis.centres;
+        Report {
+            schema_version: SCHEMA_VERSION,
+            moldgate_version: env!("CARGO_PKG_VERSION"),
+            input,
+            options: OptionsReport {
+                demold: analysis.frame.d.to_array(),
+                gate_radius_mm: o.gate_radius_mm,
+                gate_radius_source: radius_source,
+                spacing_mm: analysis.grid.spacing,
+                spacing_rule: match o.spacing {
+                    Spacing::Auto => "auto",
+                    Spacing::Mm(_) => "fixed",
+                },
+                grid_offset: o.grid_offset,
+                circle_points: o.circle_points,
+                centre: o.centre,
+                nearest: o.nearest,
+                thickness_rule: o.thickness_rule,
+                flat_rule: o.flat_rule,
+                flat_tolerance_mm: analysis.flat_tolerance_mm,
+                mode: o.mode,
+            },
+            mesh: stats.clone(),
+            warnings: mesh_warnings
+                .iter()
+                .chain(&analysis.warnings)
+                .cloned()
+                .collect(),
+            material: MaterialReport {
+                material: material.clone(),
+                melt_velocity_m_s: material.melt_velocity_m_s(),
+                gate_radius_mm: material.gate_radius_mm(),
+            },
+            centre_of_mass: CentreReport {
+                surface: c.surface.to_array(),
+                volume: c.volume.map(|v| v.to_array()),
+                used: analysis.centre.to_array(),
+                kind: o.centre,
+                area_mm2: c.area_mm2,
+                volume_mm3: c.volume_mm3,
+            },
+            frame: FrameReport {
+                d: analysis.frame.d.to_array(),
+                u: analysis.frame.u.to_array(),
+                w: analysis.frame.w.to_array(),
+            },
+            grid: analysis.grid,
+            counts: analysis.counts,
+            gate: chosen.as_ref().ok().map(|g| ChosenReport {
+                mode: o.mode,
+                point: g.point().to_array(),
+                distance_3d_mm: g.point().distance(analysis.centre),
+            }),
+            no_gate_reason: chosen.err().map(|e| e.to_string()),
+            paper_gate: analysis.grid_gate.as_ref().map(GateReport::from),
+            other_rule_gate: analysis.other_rule_gate.as_ref().map(GateReport::from),
+            aesthetic_gate: analysis.aesthetic_gate.as_ref().map(AestheticReport::from),
+            parting_line: PartingSummary::from(&analysis.parting),
+            timings: Timings {
+                load_s,
+                centre_s: t.centre_s,
+                grid_s: t.grid_s,
+                projection_s: t.projection_s,
+                select_s: t.select_s,
+                parting_s: t.parting_s,
+                total_s: load_s + t.centre_s + t.grid_s + t.projection_s + t.select_s + t.parting_s,
+            },
+        }
+    }
+}
