@@ -1,14 +1,16 @@
 //! The parting line for a demolding direction, and the aesthetic gate on it (the paper's
 //! Fig. 5).
 //!
-//! A triangle *faces the core side* when its outward normal has a positive component along
-//! the demolding direction D (n.D > 1e-6). The parting line is made of the edges shared by a
-//! triangle that faces the core side and one that does not. Faces parallel to D (walls
-//! without draft) count as not facing it, so on a part whose walls have no draft the line runs
-//! along the +D end of the band of vertical walls: for a cover whose open side faces +D, the
-//! outer rim of the opening; for a plate, the outline of its +D face. That is where the mould
-//! splits when the whole part sits in the cavity half, as drafted walls would put it. Such
-//! edges form several loops (outline, holes, pockets); the longest loop is the parting line.
+//! A triangle *faces the fixed side* when its outward normal points against the demolding
+//! direction D (n.D < -1e-6); every other triangle, including faces parallel to D, belongs to
+//! the moving (+D) half. The parting line is made of the edges shared by a triangle that faces
+//! the fixed side and one that does not. With drafted walls this is the silhouette of the part
+//! seen along D. On walls without draft (a band of faces parallel to D) the line runs along
+//! the -D end of the band: the mould splits where the part's -D face begins, so the +D half
+//! forms every vertical wall, as it does when those walls are drafted towards +D. For a cover
+//! open towards -D that is the outer edge of its rim; for a plate or a tray, the outline of the
+//! face that lies on the -D side. Such edges can form several loops (outline, holes, pockets,
+//! rib ends); the longest loop is the parting line.
 
 use serde::Serialize;
 
@@ -42,22 +44,22 @@ pub struct AestheticGate {
     pub distance_2d: f64,
 }
 
-/// Per-triangle flag: faces the core (+D) side.
-fn faces_core(mesh: &Mesh, d: DVec3) -> Vec<bool> {
+/// Per-triangle flag: faces the fixed (-D) side.
+fn faces_fixed_side(mesh: &Mesh, d: DVec3) -> Vec<bool> {
     (0..mesh.triangles.len())
-        .map(|t| mesh.normal(t).dot(d) > 1e-6)
+        .map(|t| mesh.normal(t).dot(d) < -1e-6)
         .collect()
 }
 
 impl PartingLine {
     /// Extracts the parting line of `mesh` for the frame's demolding direction.
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
-        let up = faces_core(mesh, frame.d);
+        let fixed = faces_fixed_side(mesh, frame.d);
         let edges: Vec<[u32; 2]> = topology
             .edges
             .iter()
             .filter(|e| e.uses == 2)
-            .filter(|e| up[e.triangles[0] as usize] != up[e.triangles[1] as usize])
+            .filter(|e| fixed[e.triangles[0] as usize] != fixed[e.triangles[1] as usize])
             .map(|e| [e.a, e.b])
             .collect();
         if edges.is_empty() {
@@ -152,5 +154,61 @@ impl From<&PartingLine> for PartingSummary {
             loops: p.loops,
             closed: p.closed,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::Direction;
+    use crate::samples::sample;
+
+    fn parting(name: &str, demold: &str) -> (Mesh, PartingLine, Frame) {
+        let mesh = sample(name).unwrap();
+        let frame = Frame::new(demold.parse::<Direction>().unwrap());
+        let line = PartingLine::new(&mesh, &Topology::new(&mesh), &frame);
+        (mesh, line, frame)
+    }
+
+    fn all_on_plane(mesh: &Mesh, line: &PartingLine, z: f64) -> bool {
+        line.edges
+            .iter()
+            .flatten()
+            .all(|&v| mesh.vertices[v as usize].z == z)
+    }
+
+    #[test]
+    fn cover_splits_at_the_outer_edge_of_its_rim() {
+        let (mesh, line, frame) = parting("cover", "+z");
+        assert!((line.length_mm - 400.0).abs() < 1e-9, "{}", line.length_mm);
+        assert!(line.closed);
+        assert!(all_on_plane(&mesh, &line, 0.0));
+        // Nearest rim point to a centre above the middle: the middle of a long side.
+        let gate = line.nearest(&mesh, &frame, DVec3::new(0.0, 0.0, 20.0)).unwrap();
+        assert!((gate.point.x).abs() < 1e-9 && (gate.point.y.abs() - 40.0).abs() < 1e-9);
+        assert!((gate.distance_3d - (1600.0f64 + 400.0).sqrt()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn plate_and_bracket_split_at_their_bottom_outline() {
+        let (mesh, line, _) = parting("plate", "+z");
+        assert!((line.length_mm - 320.0).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 0.0));
+        assert_eq!(line.loops, 2, "outline and hole");
+        let (mesh, line, _) = parting("bracket", "+z");
+        assert!((line.length_mm - 200.0).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 0.0));
+    }
+
+    #[test]
+    fn demolding_the_other_way_moves_the_line_to_the_other_end_of_the_walls() {
+        let (mesh, line, _) = parting("tray", "-z");
+        assert!((line.length_mm - 280.0).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 20.0));
+        let (mesh, line, _) = parting("cap", "+z");
+        // A 96-gon of radius 20 at the rim.
+        let expected = 96.0 * 2.0 * 20.0 * (std::f64::consts::PI / 96.0).sin();
+        assert!((line.length_mm - expected).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 0.0));
     }
 }
