@@ -134,7 +134,8 @@ pub enum OptionsError {
     },
     /// The grid would have more nodes than the limit.
     #[error(
-        "a spacing of {spacing_mm} mm gives a grid of {n_u} x {n_w} = {nodes} nodes, more than the limit of {limit}; use a spacing of at least {min_spacing_mm:.4} mm"
+        "a spacing of {spacing_mm} mm gives a grid of {n_u} x {n_w} = {nodes} nodes, more than the limit of {limit}; use a spacing of at least {} mm",
+        rounded_up(*.min_spacing_mm)
     )]
     GridTooLarge {
         /// Requested spacing.
@@ -164,4 +165,37 @@ pub enum LocateError {
         /// Which rule removed the last nodes, with the counts.
         reason: String,
     },
+}
+
+/// `x` rounded up to four significant digits and written out, so that a suggested minimum is
+/// never below the true one (rounding to nearest could suggest a spacing that is refused).
+fn rounded_up(x: f64) -> String {
+    if !(x.is_finite() && x > 0.0) {
+        return x.to_string();
+    }
+    let decimals = (3 - x.log10().floor() as i32).max(0);
+    let scale = 10f64.powi(decimals);
+    let mut up = (x * scale).ceil() / scale;
+    if up < x {
+        up += 1.0 / scale;
+    }
+    format!("{up:.*}", decimals as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suggested_spacing_is_rounded_up_to_four_significant_digits() {
+        assert_eq!(rounded_up(0.024_999_1), "0.02500");
+        assert_eq!(rounded_up(0.025_000_1), "0.02501");
+        assert_eq!(rounded_up(0.038_753_68), "0.03876");
+        assert_eq!(rounded_up(2.449_1), "2.450");
+        assert_eq!(rounded_up(1234.01), "1235");
+        for x in [1e-7, 3.3e-3, 0.1, 0.7777777, 12.345678, 98765.4321] {
+            let shown: f64 = rounded_up(x).parse().unwrap();
+            assert!(shown >= x && shown <= x * 1.001, "{x} shown as {shown}");
+        }
+    }
 }

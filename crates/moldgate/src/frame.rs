@@ -89,7 +89,11 @@ impl Frame {
             DVec3::Z
         };
         let u = (helper - d * helper.dot(d)).normalize();
-        Frame { d, u, w: d.cross(u) }
+        Frame {
+            d,
+            u,
+            w: d.cross(u),
+        }
     }
 
     /// Coordinates of `p` in the projection plane.
@@ -140,7 +144,11 @@ mod tests {
         assert_eq!((f.u, f.w), (DVec3::X, DVec3::Y));
         let f = Frame::new(Direction::new(DVec3::Y).unwrap());
         assert_eq!((f.u, f.w), (DVec3::X, -DVec3::Z));
-        for v in [DVec3::new(1.0, 2.0, 3.0), DVec3::new(-0.3, 0.0, -5.0), -DVec3::X] {
+        for v in [
+            DVec3::new(1.0, 2.0, 3.0),
+            DVec3::new(-0.3, 0.0, -5.0),
+            -DVec3::X,
+        ] {
             let f = Frame::new(Direction::new(v).unwrap());
             assert!((f.u.cross(f.w) - f.d).length() < 1e-12);
             assert!(f.u.dot(f.d).abs() < 1e-12 && f.w.dot(f.d).abs() < 1e-12);

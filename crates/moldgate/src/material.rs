@@ -130,11 +130,17 @@ mod tests {
         m.mu_opt = 0.0;
         assert!(matches!(
             m.validate(),
-            Err(OptionsError::NonPositiveMaterial { parameter: "mu_opt", .. })
+            Err(OptionsError::NonPositiveMaterial {
+                parameter: "mu_opt",
+                ..
+            })
         ));
         let mut m = Material::builtin("PP").unwrap();
         m.t_wall = 240.0;
-        assert!(matches!(m.validate(), Err(OptionsError::MeltNotAboveWall { .. })));
+        assert!(matches!(
+            m.validate(),
+            Err(OptionsError::MeltNotAboveWall { .. })
+        ));
         let mut m = Material::builtin("PP").unwrap();
         m.n = f64::NAN;
         assert!(m.validate().is_err());

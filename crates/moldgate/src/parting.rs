@@ -12,6 +12,7 @@
 //! face that lies on the -D side. Such edges can form several loops (outline, holes, pockets,
 //! rib ends); the longest loop is the parting line.
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::frame::Frame;
@@ -44,10 +45,15 @@ pub struct AestheticGate {
     pub distance_2d: f64,
 }
 
-/// Per-triangle flag: faces the fixed (-D) side.
+/// Per-triangle flag: faces the fixed (-D) side (n.D < -1e-6 for the unit normal n).
 fn faces_fixed_side(mesh: &Mesh, d: DVec3) -> Vec<bool> {
     (0..mesh.triangles.len())
-        .map(|t| mesh.normal(t).dot(d) < -1e-6)
+        .into_par_iter()
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            let cross = (b - a).cross(c - a);
+            cross.dot(d) < -1e-6 * cross.length()
+        })
         .collect()
 }
 
@@ -55,13 +61,16 @@ impl PartingLine {
     /// Extracts the parting line of `mesh` for the frame's demolding direction.
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
         let fixed = faces_fixed_side(mesh, frame.d);
-        let edges: Vec<[u32; 2]> = topology
-            .edges
-            .iter()
-            .filter(|e| e.uses == 2)
-            .filter(|e| fixed[e.triangles[0] as usize] != fixed[e.triangles[1] as usize])
-            .map(|e| [e.a, e.b])
+        let mut edges: Vec<[u32; 2]> = topology
+            .edge_sides()
+            .filter(|&(t, _, n)| fixed[t as usize] != fixed[n as usize])
+            .map(|(t, k, _)| {
+                let tri = mesh.triangles[t as usize];
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                [a.min(b), a.max(b)]
+            })
             .collect();
+        edges.sort_unstable();
         if edges.is_empty() {
             return PartingLine::default();
         }
@@ -116,7 +125,8 @@ impl PartingLine {
     pub fn nearest(&self, mesh: &Mesh, frame: &Frame, centre: DVec3) -> Option<AestheticGate> {
         let mut best: Option<(f64, DVec3)> = None;
         for &[a, b] in &self.edges {
-            let p = nearest_on_segment(mesh.vertices[a as usize], mesh.vertices[b as usize], centre);
+            let p =
+                nearest_on_segment(mesh.vertices[a as usize], mesh.vertices[b as usize], centre);
             let d = p.distance(centre);
             if best.is_none_or(|(bd, _)| d < bd) {
                 best = Some((d, p));
@@ -184,7 +194,9 @@ mod tests {
         assert!(line.closed);
         assert!(all_on_plane(&mesh, &line, 0.0));
         // Nearest rim point to a centre above the middle: the middle of a long side.
-        let gate = line.nearest(&mesh, &frame, DVec3::new(0.0, 0.0, 20.0)).unwrap();
+        let gate = line
+            .nearest(&mesh, &frame, DVec3::new(0.0, 0.0, 20.0))
+            .unwrap();
         assert!((gate.point.x).abs() < 1e-9 && (gate.point.y.abs() - 40.0).abs() < 1e-9);
         assert!((gate.distance_3d - (1600.0f64 + 400.0).sqrt()).abs() < 1e-9);
     }

@@ -5,7 +5,9 @@
 
 use serde::Serialize;
 
-use crate::gate::{Analysis, FlatRule, Gate, GateMode, Grid, Nearest, RuleCounts, Spacing, ThicknessRule};
+use crate::gate::{
+    Analysis, FlatRule, Gate, GateMode, Grid, Nearest, RuleCounts, Spacing, ThicknessRule,
+};
 use crate::material::Material;
 use crate::mesh::MeshStats;
 use crate::parting::{AestheticGate, PartingSummary};

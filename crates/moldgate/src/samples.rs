@@ -29,7 +29,8 @@ pub const SAMPLES: &[SampleInfo] = &[
     },
     SampleInfo {
         name: "cover",
-        description: "open box 120 x 80 x 30 mm, walls 2 mm, open to -z, two ribs and four hollow bosses",
+        description:
+            "open box 120 x 80 x 30 mm, walls 2 mm, open to -z, two ribs and four hollow bosses",
     },
     SampleInfo {
         name: "cap",
@@ -129,7 +130,11 @@ impl BoxUnion {
             p.dedup();
             p
         });
-        let cells = [planes[0].len() - 1, planes[1].len() - 1, planes[2].len() - 1];
+        let cells = [
+            planes[0].len() - 1,
+            planes[1].len() - 1,
+            planes[2].len() - 1,
+        ];
         let filled = |i: isize, j: isize, k: isize| -> bool {
             let idx = [i, j, k];
             if (0..3).any(|a| idx[a] < 0 || idx[a] >= cells[a] as isize) {

@@ -277,7 +277,10 @@ impl Analysis {
 pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
     let mesh = &part.mesh;
     let r = options.gate_radius_mm;
-    for (option, value) in [("gate radius", r), ("circle points", options.circle_points as f64)] {
+    for (option, value) in [
+        ("gate radius", r),
+        ("circle points", options.circle_points as f64),
+    ] {
         if !(value.is_finite() && value > 0.0) {
             return Err(OptionsError::NonPositive { option, value });
         }
@@ -290,9 +293,8 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
     let centre = match centres.get(options.centre) {
         Some(c) => c,
         None => {
-            warnings.push(
-                "the mesh encloses no volume, so the surface centre of mass is used".into(),
-            );
+            warnings
+                .push("the mesh encloses no volume, so the surface centre of mass is used".into());
             centres.surface
         }
     };
@@ -451,7 +453,10 @@ fn judge(i: usize, centre: &[Hit], circles: &[Vec<Hit>], flat_tol: f64) -> NodeV
         .chain(circles.iter().map(|l| &l[i]))
         .filter_map(Hit::thickness)
         .reduce(f64::min);
-    let flat = circle_on_part && circles.iter().all(|l| (l[i].first - c.first).abs() <= flat_tol);
+    let flat = circle_on_part
+        && circles
+            .iter()
+            .all(|l| (l[i].first - c.first).abs() <= flat_tol);
     NodeVerdict {
         centre_hit: c.is_hit(),
         circle_on_part,

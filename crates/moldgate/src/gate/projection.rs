@@ -75,24 +75,200 @@ pub struct RayLattice {
     pub n_w: usize,
 }
 
-/// Casts every ray of each lattice against the triangles, in parallel over lattices.
+/// Casts every ray of each lattice against the triangles.
 ///
 /// `projected` holds each vertex as (u, w, height). The result has one `Vec<Hit>` per
-/// lattice, indexed `j * n_u + i`.
+/// lattice, indexed `j * n_u + i`. All lattices share one spacing. The lattices are split into one group per thread; each
+/// group walks the triangles once and tests each against all of its lattices, so a
+/// triangle's corners are fetched and oriented once per group rather than once per lattice,
+/// and a cheap test on its bounding box skips the lattices where it covers no ray.
 pub fn cast(projected: &[DVec3], triangles: &[[u32; 3]], lattices: &[RayLattice]) -> Vec<Vec<Hit>> {
-    lattices
-        .par_iter()
-        .map(|lattice| cast_one(projected, triangles, lattice))
-        .collect()
+    let mut hits: Vec<Vec<Hit>> = lattices
+        .iter()
+        .map(|l| vec![Hit::MISS; l.n_u * l.n_w])
+        .collect();
+    if lattices.is_empty() {
+        return hits;
+    }
+    let order = row_order(projected, triangles, &lattices[0]);
+    // One group per thread, and at most 64 lattices a group (a bit mask per triangle).
+    let groups = rayon::current_num_threads()
+        .max(lattices.len().div_ceil(64))
+        .clamp(1, lattices.len());
+    let per_group = lattices.len().div_ceil(groups);
+    hits.par_chunks_mut(per_group)
+        .zip(lattices.par_chunks(per_group))
+        .for_each(|(hits, lattices)| cast_group(projected, triangles, &order, lattices, hits));
+    hits
 }
 
-fn cast_one(projected: &[DVec3], triangles: &[[u32; 3]], lattice: &RayLattice) -> Vec<Hit> {
-    let mut hits = vec![Hit::MISS; lattice.n_u * lattice.n_w];
-    for (t, tri) in triangles.iter().enumerate() {
-        let [a, b, c] = tri.map(|v| projected[v as usize]);
-        draw_triangle(a, b, c, t as u32, lattice, &mut hits);
+/// The triangles that are not seen edge-on, sorted by the lattice row of their lowest
+/// corner (a counting sort). Drawn in this order, the rays a triangle touches were touched
+/// by the triangles just before it, so the hit arrays stay in cache; in file order every
+/// triangle lands somewhere else and each hit costs a miss.
+fn row_order(projected: &[DVec3], triangles: &[[u32; 3]], lattice: &RayLattice) -> Vec<u32> {
+    let rows = lattice.n_w + 2;
+    let inv = 1.0 / lattice.spacing;
+    let row_of = |tri: &[u32; 3]| -> Option<usize> {
+        let [a, b, c] = tri.map(|v| projected[v as usize].truncate());
+        if orient2d(a, b, c) == 0.0 {
+            return None;
+        }
+        let lo = a.y.min(b.y).min(c.y);
+        let row = ((lo - lattice.origin.y) * inv).clamp(-1.0, lattice.n_w as f64) + 1.0;
+        Some(row as usize)
+    };
+    let mut start = vec![0u32; rows + 1];
+    let keys: Vec<u32> = triangles
+        .iter()
+        .map(|tri| match row_of(tri) {
+            Some(row) => {
+                start[row + 1] += 1;
+                row as u32
+            }
+            None => u32::MAX,
+        })
+        .collect();
+    for r in 0..rows {
+        start[r + 1] += start[r];
     }
-    hits
+    let mut order = vec![0u32; start[rows] as usize];
+    for (t, &row) in keys.iter().enumerate() {
+        if row != u32::MAX {
+            order[start[row as usize] as usize] = t as u32;
+            start[row as usize] += 1;
+        }
+    }
+    order
+}
+
+fn cast_group(
+    projected: &[DVec3],
+    triangles: &[[u32; 3]],
+    order: &[u32],
+    lattices: &[RayLattice],
+    hits: &mut [Vec<Hit>],
+) {
+    // Positions are measured in spacings from the first lattice's origin; lattice k's rays
+    // then sit at integers plus its fractional offset (fx[k], fy[k]).
+    let base = lattices[0].origin;
+    let inv = 1.0 / lattices[0].spacing;
+    let fx: Vec<f64> = lattices
+        .iter()
+        .map(|l| fraction((l.origin.x - base.x) * inv))
+        .collect();
+    let fy: Vec<f64> = lattices
+        .iter()
+        .map(|l| fraction((l.origin.y - base.y) * inv))
+        .collect();
+    for &t in order {
+        let [a, b, c] = triangles[t as usize].map(|v| projected[v as usize]);
+        let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
+            continue;
+        };
+        let lo = (triangle.lo - base) * inv;
+        let width = (triangle.hi - triangle.lo) * inv;
+        let (ax, ay) = (fraction(lo.x), fraction(lo.y));
+        // Which lattices the box may cover, as a bit mask: computed without branches, since
+        // the answer is close to random for small triangles and mispredictions would
+        // dominate.
+        let mut mask = 0u64;
+        for k in 0..lattices.len() {
+            let covers = spans_offset(ax, width.x, fx[k]) & spans_offset(ay, width.y, fy[k]);
+            mask |= (covers as u64) << k;
+        }
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            triangle.draw(t, &lattices[k], &mut hits[k]);
+        }
+    }
+}
+
+/// `x - floor(x)`, in [0, 1), without a call to the C library's floor.
+#[inline]
+fn fraction(x: f64) -> f64 {
+    let t = x as i64 as f64; // rounds towards zero (saturating, so it stays finite)
+    let f = x - t;
+    if f < 0.0 {
+        f + 1.0
+    } else {
+        f
+    }
+}
+
+/// A conservative test: whether the interval that starts `start` (in [0, 1)) past an
+/// integer and is `width` long may contain a point `offset` past an integer. Widened by a
+/// millionth of a spacing; [`ProjectedTriangle::draw`] decides exactly.
+#[inline]
+fn spans_offset(start: f64, width: f64, offset: f64) -> bool {
+    const MARGIN: f64 = 1e-6;
+    let gap = offset - start;
+    let gap = gap + f64::from(u8::from(gap < 0.0));
+    (gap <= width + MARGIN) | (gap >= 1.0 - MARGIN)
+}
+
+/// A triangle seen along the demolding direction, counter-clockwise in (u, w).
+struct ProjectedTriangle {
+    p: [DVec2; 3],
+    h: [f64; 3],
+    lo: DVec2,
+    hi: DVec2,
+}
+
+impl ProjectedTriangle {
+    /// `None` for a triangle seen edge-on (zero projected area).
+    #[inline]
+    fn new(a: DVec3, b: DVec3, c: DVec3) -> Option<ProjectedTriangle> {
+        let (pa, mut pb, mut pc) = (a.truncate(), b.truncate(), c.truncate());
+        let (ha, mut hb, mut hc) = (a.z, b.z, c.z);
+        let area2 = orient2d(pa, pb, pc);
+        if area2 == 0.0 || area2.is_nan() {
+            return None;
+        }
+        if area2 < 0.0 {
+            std::mem::swap(&mut pb, &mut pc);
+            std::mem::swap(&mut hb, &mut hc);
+        }
+        Some(ProjectedTriangle {
+            p: [pa, pb, pc],
+            h: [ha, hb, hc],
+            lo: pa.min(pb).min(pc),
+            hi: pa.max(pb).max(pc),
+        })
+    }
+
+    /// Adds this triangle's height to every ray of `lattice` inside it.
+    #[inline]
+    fn draw(&self, t: u32, lattice: &RayLattice, hits: &mut [Hit]) {
+        let [pa, pb, pc] = self.p;
+        let [ha, hb, hc] = self.h;
+        let o = lattice.origin;
+        let Some((i0, i1)) = index_range(o.x, lattice.spacing, lattice.n_u, self.lo.x, self.hi.x)
+        else {
+            return;
+        };
+        let Some((j0, j1)) = index_range(o.y, lattice.spacing, lattice.n_w, self.lo.y, self.hi.y)
+        else {
+            return;
+        };
+        let (own_ab, own_bc, own_ca) = (owns_edge(pa, pb), owns_edge(pb, pc), owns_edge(pc, pa));
+        let inside = |e: f64, owned: bool| e > 0.0 || (e == 0.0 && owned);
+        for j in j0..=j1 {
+            let y = o.y + j as f64 * lattice.spacing;
+            let row = j * lattice.n_u;
+            for i in i0..=i1 {
+                let s = DVec2::new(o.x + i as f64 * lattice.spacing, y);
+                let e_bc = edge_function(pb, pc, s);
+                let e_ca = edge_function(pc, pa, s);
+                let e_ab = edge_function(pa, pb, s);
+                if inside(e_bc, own_bc) && inside(e_ca, own_ca) && inside(e_ab, own_ab) {
+                    let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
+                    hits[row + i].add(height, t);
+                }
+            }
+        }
+    }
 }
 
 /// The edge function of edge p->q at s, evaluated from the edge's lexicographically smaller
@@ -113,12 +289,28 @@ fn owns_edge(p: DVec2, q: DVec2) -> bool {
     q.y < p.y || (q.y == p.y && q.x < p.x)
 }
 
+/// `floor(x)` for a finite `x` of moderate size, without a call to the C library.
+#[inline]
+fn floor_int(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from(t as f64 > x)
+}
+
+/// `ceil(x)` for a finite `x` of moderate size, without a call to the C library.
+#[inline]
+fn ceil_int(x: f64) -> i64 {
+    let t = x as i64;
+    t + i64::from((t as f64) < x)
+}
+
 /// The range of lattice indices whose coordinate `origin + i * spacing` lies in [lo, hi].
 #[inline]
 fn index_range(origin: f64, spacing: f64, n: usize, lo: f64, hi: f64) -> Option<(usize, usize)> {
     let at = |i: i64| origin + i as f64 * spacing;
-    let mut i0 = ((lo - origin) / spacing).ceil().max(0.0) as i64;
-    let mut i1 = ((hi - origin) / spacing).floor().min(n as f64 - 1.0) as i64;
+    // Clamped first, so that the conversions to integers cannot saturate.
+    let top = n as f64;
+    let mut i0 = ceil_int(((lo - origin) / spacing).clamp(-1.0, top)).max(0);
+    let mut i1 = floor_int(((hi - origin) / spacing).clamp(-1.0, top)).min(n as i64 - 1);
     // Division rounds; fix the ends against the exact sample positions.
     if i0 > 0 && at(i0 - 1) >= lo {
         i0 -= 1;
@@ -133,45 +325,6 @@ fn index_range(origin: f64, spacing: f64, n: usize, lo: f64, hi: f64) -> Option<
         i1 -= 1;
     }
     (i0 <= i1 && i1 >= 0 && i0 < n as i64).then_some((i0 as usize, i1 as usize))
-}
-
-#[inline]
-fn draw_triangle(a: DVec3, b: DVec3, c: DVec3, t: u32, lattice: &RayLattice, hits: &mut [Hit]) {
-    let (pa, mut pb, mut pc) = (a.truncate(), b.truncate(), c.truncate());
-    let (ha, mut hb, mut hc) = (a.z, b.z, c.z);
-    let area2 = orient2d(pa, pb, pc);
-    if area2 == 0.0 {
-        return; // seen edge-on
-    }
-    if area2 < 0.0 {
-        std::mem::swap(&mut pb, &mut pc);
-        std::mem::swap(&mut hb, &mut hc);
-    }
-    let lo = pa.min(pb).min(pc);
-    let hi = pa.max(pb).max(pc);
-    let o = lattice.origin;
-    let Some((i0, i1)) = index_range(o.x, lattice.spacing, lattice.n_u, lo.x, hi.x) else {
-        return;
-    };
-    let Some((j0, j1)) = index_range(o.y, lattice.spacing, lattice.n_w, lo.y, hi.y) else {
-        return;
-    };
-    let (own_ab, own_bc, own_ca) = (owns_edge(pa, pb), owns_edge(pb, pc), owns_edge(pc, pa));
-    let inside = |e: f64, owned: bool| e > 0.0 || (e == 0.0 && owned);
-    for j in j0..=j1 {
-        let y = o.y + j as f64 * lattice.spacing;
-        let row = j * lattice.n_u;
-        for i in i0..=i1 {
-            let s = DVec2::new(o.x + i as f64 * lattice.spacing, y);
-            let e_bc = edge_function(pb, pc, s);
-            let e_ca = edge_function(pc, pa, s);
-            let e_ab = edge_function(pa, pb, s);
-            if inside(e_bc, own_bc) && inside(e_ca, own_ca) && inside(e_ab, own_ab) {
-                let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
-                hits[row + i].add(height, t);
-            }
-        }
-    }
 }
 
 #[cfg(test)]

@@ -149,7 +149,13 @@ mod tests {
         let Err(OptionsError::GridTooLarge { min_spacing_mm, .. }) = err else {
             panic!("expected GridTooLarge, got {err:?}");
         };
-        let g = Grid::new(DVec2::ZERO, DVec2::new(100.0, 100.0), min_spacing_mm, 0.0, 1_000_000);
+        let g = Grid::new(
+            DVec2::ZERO,
+            DVec2::new(100.0, 100.0),
+            min_spacing_mm,
+            0.0,
+            1_000_000,
+        );
         assert!(g.is_ok(), "{g:?}");
         assert!(Grid::new(DVec2::ZERO, DVec2::ONE, 0.0, 0.0, 10).is_err());
         assert!(Grid::new(DVec2::ZERO, DVec2::ONE, f64::NAN, 0.0, 10).is_err());

@@ -10,7 +10,6 @@ pub mod units;
 
 use std::io::BufRead;
 
-use rustc_hash::FxHashMap;
 use serde::Serialize;
 
 use crate::error::LoadError;
@@ -264,19 +263,54 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
 ///
 /// Positions are compared by their exact bit patterns (with -0.0 read as 0.0): STL writers
 /// repeat a shared corner's coordinates exactly, and any tolerance would merge real detail.
-#[derive(Debug, Default)]
+/// The index is an open-addressing table of vertex numbers (4 bytes a slot, at most half
+/// full) that compares against the vertex list itself, so it costs a fraction of a map that
+/// stores the keys.
+#[derive(Debug)]
 pub struct Welder {
-    index: FxHashMap<[u64; 3], u32>,
+    slots: Vec<u32>,
+    /// A small direct-mapped cache of recently welded positions: neighbouring facets of a
+    /// file share corners, and a hit here skips the probe of the large table.
+    recent: Vec<([u64; 3], u32)>,
     mesh: Mesh,
     collapsed: u64,
+}
+
+const RECENT: usize = 4096;
+
+const EMPTY: u32 = u32::MAX;
+
+/// Bit patterns of a position, with -0.0 made 0.0.
+#[inline]
+fn position_bits(p: DVec3) -> [u64; 3] {
+    [
+        (p.x + 0.0).to_bits(),
+        (p.y + 0.0).to_bits(),
+        (p.z + 0.0).to_bits(),
+    ]
+}
+
+#[inline]
+fn hash_of(bits: [u64; 3]) -> u64 {
+    let h = bits[0].wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(23)
+        ^ bits[1].wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ bits[2].wrapping_mul(0x1656_67B1_9E37_79F9).rotate_left(41);
+    (h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+}
+
+#[inline]
+fn slot_of(bits: [u64; 3], mask: usize) -> usize {
+    (hash_of(bits) >> 32) as usize & mask
 }
 
 impl Welder {
     /// A welder expecting about `triangles` facets.
     pub fn with_capacity(triangles: usize) -> Welder {
+        // A closed mesh has about half as many vertices as triangles.
         let vertices = triangles / 2 + 16;
         Welder {
-            index: FxHashMap::with_capacity_and_hasher(vertices, Default::default()),
+            slots: vec![EMPTY; (2 * vertices).next_power_of_two()],
+            recent: vec![([u64::MAX; 3], EMPTY); RECENT],
             mesh: Mesh {
                 vertices: Vec::with_capacity(vertices),
                 triangles: Vec::with_capacity(triangles),
@@ -286,17 +320,45 @@ impl Welder {
     }
 
     fn vertex(&mut self, p: DVec3) -> u32 {
-        // Adding 0.0 turns -0.0 into 0.0 so both weld together.
-        let key = [
-            (p.x + 0.0).to_bits(),
-            (p.y + 0.0).to_bits(),
-            (p.z + 0.0).to_bits(),
-        ];
-        let next = self.mesh.vertices.len() as u32;
-        *self.index.entry(key).or_insert_with(|| {
-            self.mesh.vertices.push(p + DVec3::ZERO);
-            next
-        })
+        if 2 * (self.mesh.vertices.len() + 1) > self.slots.len() {
+            self.grow();
+        }
+        let bits = position_bits(p);
+        let hash = hash_of(bits);
+        let cached = hash as usize % RECENT;
+        if self.recent[cached].0 == bits {
+            return self.recent[cached].1;
+        }
+        let mask = self.slots.len() - 1;
+        let mut slot = (hash >> 32) as usize & mask;
+        let v = loop {
+            let v = self.slots[slot];
+            if v == EMPTY {
+                let next = self.mesh.vertices.len() as u32;
+                self.slots[slot] = next;
+                self.mesh.vertices.push(p + DVec3::ZERO);
+                break next;
+            }
+            if position_bits(self.mesh.vertices[v as usize]) == bits {
+                break v;
+            }
+            slot = (slot + 1) & mask;
+        };
+        self.recent[cached] = (bits, v);
+        v
+    }
+
+    fn grow(&mut self) {
+        let size = (2 * self.slots.len()).max(64);
+        self.slots = vec![EMPTY; size];
+        let mask = size - 1;
+        for (v, &p) in self.mesh.vertices.iter().enumerate() {
+            let mut slot = slot_of(position_bits(p), mask);
+            while self.slots[slot] != EMPTY {
+                slot = (slot + 1) & mask;
+            }
+            self.slots[slot] = v as u32;
+        }
     }
 
     /// Adds one facet; a facet whose corners weld to fewer than three vertices is dropped

@@ -143,6 +143,7 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
     let mut line = Vec::new();
     let mut solids = 0u64;
     let mut facets = 0u64;
+    let mut corners_read = 0u64;
     let mut corners: Vec<DVec3> = Vec::with_capacity(3);
     let mut xyz = [0.0f64; 3];
     let mut warnings = Vec::new();
@@ -279,6 +280,7 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                         welder.push([corners[0], corners[k], corners[k + 1]]);
                     }
                     facets += 1;
+                    corners_read += corners.len() as u64;
                     expect = Expect::FacetOrEnd;
                 }
             }
@@ -287,9 +289,9 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
     match expect {
         Expect::Solid if solids > 0 => {}
         Expect::Solid => return Err(syntax(line_no.max(1), "no 'solid' in the file".into())),
-        Expect::FacetOrEnd => warnings.push(format!(
-            "line {line_no}: the file ends without 'endsolid'"
-        )),
+        Expect::FacetOrEnd => {
+            warnings.push(format!("line {line_no}: the file ends without 'endsolid'"))
+        }
         _ => {
             return Err(syntax(
                 line_no,
@@ -298,7 +300,6 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
         }
     }
     let (mesh, collapsed_facets) = welder.finish();
-    let corners_read = 3 * mesh.triangles.len() as u64 + 3 * collapsed_facets;
     Ok(RawMesh {
         format: Format::StlAscii,
         solids,
@@ -316,7 +317,10 @@ fn parse_number(tok: &[u8], line: u64) -> Result<f32, LoadError> {
         .and_then(|s| s.parse::<f32>().ok())
         .ok_or_else(|| LoadError::Syntax {
             place: Place::Line(line),
-            message: format!("expected a number, found '{}'", String::from_utf8_lossy(tok)),
+            message: format!(
+                "expected a number, found '{}'",
+                String::from_utf8_lossy(tok)
+            ),
         })
 }
 
