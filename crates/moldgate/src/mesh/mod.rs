@@ -263,22 +263,32 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
 ///
 /// Positions are compared by their exact bit patterns (with -0.0 read as 0.0): STL writers
 /// repeat a shared corner's coordinates exactly, and any tolerance would merge real detail.
-/// The index is an open-addressing table of vertex numbers (4 bytes a slot, at most half
-/// full) that compares against the vertex list itself, so it costs a fraction of a map that
-/// stores the keys.
+///
+/// Facets are buffered and welded a batch at a time. Each position belongs to one of two
+/// halves by a bit of its hash, and the halves are welded in parallel, each in its own
+/// open-addressing table of vertex numbers (4 bytes a slot, at most half full) compared
+/// against its own vertex list. The result does not depend on the number of threads: the
+/// vertices of the first half come first, each half in order of first appearance.
 #[derive(Debug)]
 pub struct Welder {
-    slots: Vec<u32>,
-    /// A small direct-mapped cache of recently welded positions: neighbouring facets of a
-    /// file share corners, and a hit here skips the probe of the large table.
-    recent: Vec<([u64; 3], u32)>,
-    mesh: Mesh,
+    halves: [WeldTable; 2],
+    pending: Vec<[DVec3; 3]>,
+    hashes: Vec<u64>,
+    ids: [Vec<u32>; 2],
+    /// Triangles with vertex numbers local to their half; the second half's are tagged.
+    triangles: Vec<[u32; 3]>,
     collapsed: u64,
 }
 
-const RECENT: usize = 4096;
-
+/// Facets welded per batch.
+const BATCH: usize = 16 * 1024;
+/// Marks a vertex number of the second half until [`Welder::finish`].
+const SECOND_HALF: u32 = 1 << 31;
+/// The hash bit that picks the half.
+const HALF_BIT: u32 = 31;
 const EMPTY: u32 = u32::MAX;
+/// Entries of the small cache of recently welded positions.
+const RECENT: usize = 4096;
 
 /// Bit patterns of a position, with -0.0 made 0.0.
 #[inline]
@@ -298,48 +308,52 @@ fn hash_of(bits: [u64; 3]) -> u64 {
     (h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9)
 }
 
-#[inline]
-fn slot_of(bits: [u64; 3], mask: usize) -> usize {
-    (hash_of(bits) >> 32) as usize & mask
+/// One half of the welding index.
+#[derive(Debug)]
+struct WeldTable {
+    slots: Vec<u32>,
+    /// A small direct-mapped cache of recent positions: neighbouring facets share corners,
+    /// and a hit skips the probe of the large table.
+    recent: Vec<([u64; 3], u32)>,
+    vertices: Vec<DVec3>,
 }
 
-impl Welder {
-    /// A welder expecting about `triangles` facets.
-    pub fn with_capacity(triangles: usize) -> Welder {
-        // A closed mesh has about half as many vertices as triangles.
-        let vertices = triangles / 2 + 16;
-        Welder {
-            slots: vec![EMPTY; (2 * vertices).next_power_of_two()],
+impl WeldTable {
+    fn with_capacity(vertices: usize) -> WeldTable {
+        WeldTable {
+            slots: vec![EMPTY; (2 * vertices).next_power_of_two().max(64)],
             recent: vec![([u64::MAX; 3], EMPTY); RECENT],
-            mesh: Mesh {
-                vertices: Vec::with_capacity(vertices),
-                triangles: Vec::with_capacity(triangles),
-            },
-            collapsed: 0,
+            vertices: Vec::with_capacity(vertices),
         }
     }
 
-    fn vertex(&mut self, p: DVec3) -> u32 {
-        if 2 * (self.mesh.vertices.len() + 1) > self.slots.len() {
-            self.grow();
-        }
+    #[inline]
+    fn slot(hash: u64, mask: usize) -> usize {
+        (hash >> 32) as usize & mask
+    }
+
+    /// The number of the vertex at `p`, added if new.
+    #[inline]
+    fn vertex(&mut self, p: DVec3, hash: u64) -> u32 {
         let bits = position_bits(p);
-        let hash = hash_of(bits);
         let cached = hash as usize % RECENT;
         if self.recent[cached].0 == bits {
             return self.recent[cached].1;
         }
+        if 2 * (self.vertices.len() + 1) > self.slots.len() {
+            self.grow();
+        }
         let mask = self.slots.len() - 1;
-        let mut slot = (hash >> 32) as usize & mask;
+        let mut slot = Self::slot(hash, mask);
         let v = loop {
             let v = self.slots[slot];
             if v == EMPTY {
-                let next = self.mesh.vertices.len() as u32;
+                let next = self.vertices.len() as u32;
                 self.slots[slot] = next;
-                self.mesh.vertices.push(p + DVec3::ZERO);
+                self.vertices.push(p + DVec3::ZERO);
                 break next;
             }
-            if position_bits(self.mesh.vertices[v as usize]) == bits {
+            if position_bits(self.vertices[v as usize]) == bits {
                 break v;
             }
             slot = (slot + 1) & mask;
@@ -349,11 +363,11 @@ impl Welder {
     }
 
     fn grow(&mut self) {
-        let size = (2 * self.slots.len()).max(64);
+        let size = 2 * self.slots.len();
         self.slots = vec![EMPTY; size];
         let mask = size - 1;
-        for (v, &p) in self.mesh.vertices.iter().enumerate() {
-            let mut slot = slot_of(position_bits(p), mask);
+        for (v, &p) in self.vertices.iter().enumerate() {
+            let mut slot = Self::slot(hash_of(position_bits(p)), mask);
             while self.slots[slot] != EMPTY {
                 slot = (slot + 1) & mask;
             }
@@ -361,21 +375,103 @@ impl Welder {
         }
     }
 
-    /// Adds one facet; a facet whose corners weld to fewer than three vertices is dropped
-    /// and counted.
-    pub fn push(&mut self, corners: [DVec3; 3]) {
-        let a = self.vertex(corners[0]);
-        let b = self.vertex(corners[1]);
-        let c = self.vertex(corners[2]);
-        if a == b || b == c || a == c {
-            self.collapsed += 1;
-        } else {
-            self.mesh.triangles.push([a, b, c]);
+    /// Welds the corners of `facets` whose hash falls in `half`, writing their numbers to
+    /// `ids` (three per facet).
+    fn weld(&mut self, facets: &[[DVec3; 3]], hashes: &[u64], half: u64, ids: &mut Vec<u32>) {
+        ids.clear();
+        ids.resize(hashes.len(), EMPTY);
+        for (c, &hash) in hashes.iter().enumerate() {
+            if (hash >> HALF_BIT) & 1 == half {
+                ids[c] = self.vertex(facets[c / 3][c % 3], hash);
+            }
+        }
+    }
+}
+
+impl Welder {
+    /// A welder expecting about `triangles` facets.
+    pub fn with_capacity(triangles: usize) -> Welder {
+        // A closed mesh has about half as many vertices as triangles, a quarter per half.
+        let per_half = triangles / 4 + 16;
+        Welder {
+            halves: [
+                WeldTable::with_capacity(per_half),
+                WeldTable::with_capacity(per_half),
+            ],
+            pending: Vec::with_capacity(BATCH.min(triangles + 1)),
+            hashes: Vec::new(),
+            ids: [Vec::new(), Vec::new()],
+            triangles: Vec::with_capacity(triangles),
+            collapsed: 0,
         }
     }
 
+    /// Adds one facet; a facet whose corners weld to fewer than three vertices is dropped
+    /// and counted.
+    pub fn push(&mut self, corners: [DVec3; 3]) {
+        self.pending.push(corners);
+        if self.pending.len() >= BATCH {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        if self.pending.is_empty() {
+            return;
+        }
+        let facets = &self.pending;
+        self.hashes.clear();
+        self.hashes.extend(
+            facets
+                .iter()
+                .flat_map(|f| f.iter().map(|&p| hash_of(position_bits(p)))),
+        );
+        let hashes = &self.hashes;
+        let [first, second] = &mut self.halves;
+        let [ids0, ids1] = &mut self.ids;
+        rayon::join(
+            || first.weld(facets, hashes, 0, ids0),
+            || second.weld(facets, hashes, 1, ids1),
+        );
+        for f in 0..facets.len() {
+            let tri: [u32; 3] = std::array::from_fn(|k| {
+                let c = 3 * f + k;
+                if (hashes[c] >> HALF_BIT) & 1 == 0 {
+                    ids0[c]
+                } else {
+                    ids1[c] | SECOND_HALF
+                }
+            });
+            if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
+                self.collapsed += 1;
+            } else {
+                self.triangles.push(tri);
+            }
+        }
+        self.pending.clear();
+    }
+
     /// The welded mesh and the number of dropped facets.
-    pub fn finish(self) -> (Mesh, u64) {
-        (self.mesh, self.collapsed)
+    pub fn finish(mut self) -> (Mesh, u64) {
+        self.flush();
+        let [first, second] = self.halves;
+        let offset = first.vertices.len() as u32;
+        let mut vertices = first.vertices;
+        vertices.extend_from_slice(&second.vertices);
+        let mut triangles = self.triangles;
+        for tri in &mut triangles {
+            for v in tri.iter_mut() {
+                if *v & SECOND_HALF != 0 {
+                    *v = (*v & !SECOND_HALF) + offset;
+                }
+            }
+        }
+        (
+            Mesh {
+                vertices,
+                triangles,
+            },
+            self.collapsed,
+        )
     }
 }
