@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -13,7 +13,7 @@ use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::report::{Input, RadiusSource, Report};
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
-use crate::output::{refuse_input, write_atomic};
+use crate::output::{print_stdout, refuse_input, write_atomic};
 use crate::summary;
 use crate::Failure;
 
@@ -28,7 +28,7 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Locate the gate of a part (an STL file or a built-in sample).
-    Locate(LocateArgs),
+    Locate(Box<LocateArgs>),
     /// Write a built-in sample part as a binary STL.
     Sample(SampleArgs),
     /// List the built-in materials and their gate radii (Eq. 7-8, Table 1).
@@ -73,7 +73,12 @@ pub struct LocateArgs {
     #[arg(long, default_value = "mm", value_name = "mm|cm|m|in")]
     pub units: String,
     /// Demolding direction: +x, -y, ... or x,y,z. Rays come from its + side.
-    #[arg(long, default_value = "+z", allow_hyphen_values = true, value_name = "DIR")]
+    #[arg(
+        long,
+        default_value = "+z",
+        allow_hyphen_values = true,
+        value_name = "DIR"
+    )]
     pub demold: String,
     /// Material: PP, ABS, PC (the paper's Table 1) or one from --materials-file.
     #[arg(long, default_value = "PP")]
@@ -83,7 +88,7 @@ pub struct LocateArgs {
     #[arg(long, value_name = "FILE")]
     pub materials_file: Option<PathBuf>,
     /// Override the material's power-law index n.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub n: Option<f64>,
     /// Override the melt temperature, degrees C.
     #[arg(long, allow_hyphen_values = true)]
@@ -92,13 +97,13 @@ pub struct LocateArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub t_wall: Option<f64>,
     /// Override the optimal shear rate, 1/s.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gamma_opt: Option<f64>,
     /// Override the viscosity at that shear rate, Pa s.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub mu_opt: Option<f64>,
     /// Override the thermal conductivity, W/(m C).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub k: Option<f64>,
     /// Force the gate radius in mm instead of Eq. 8.
     #[arg(long, value_name = "MM", allow_hyphen_values = true)]
@@ -107,7 +112,12 @@ pub struct LocateArgs {
     #[arg(long, value_name = "MM", allow_hyphen_values = true)]
     pub spacing: Option<f64>,
     /// Shift the grid by this fraction of the spacing along both axes.
-    #[arg(long, default_value_t = 0.0, value_name = "F", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "F",
+        allow_hyphen_values = true
+    )]
     pub grid_offset: f64,
     /// Points on each node's circle.
     #[arg(long, default_value_t = 16)]
@@ -168,7 +178,7 @@ fn read_materials(path: &Path) -> Result<BTreeMap<String, Material>, Failure> {
     let mut table: BTreeMap<String, Material> = toml::from_str(&text).map_err(|e| {
         let place = e
             .span()
-            .map(|s| format!("line {}: ", text[..s.start].lines().count().max(1)))
+            .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
             .unwrap_or_default();
         Failure::usage(format!(
             "{}: {place}{}",
@@ -363,24 +373,18 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         &analysis,
         load_s,
     );
-    let json = serde_json::to_string_pretty(&report)
-        .map_err(|e| Failure {
-            code: 1,
-            message: format!("cannot encode the report: {e}"),
-        })?
-        + "\n";
+    let json = serde_json::to_string_pretty(&report).map_err(|e| Failure {
+        code: 1,
+        message: format!("cannot encode the report: {e}"),
+    })? + "\n";
     if let Some(out) = &a.output {
         write_atomic(out, json.as_bytes())?;
     }
-    let mut stdout = std::io::stdout().lock();
-    let printed = if a.json {
-        stdout.write_all(json.as_bytes())
+    if a.json {
+        print_stdout(&json)?;
     } else {
-        stdout.write_all(summary::render(&report).as_bytes())
-    };
-    printed
-        .and_then(|_| stdout.flush())
-        .map_err(|e| Failure::output(format!("stdout: {e}")))?;
+        print_stdout(&summary::render(&report))?;
+    }
     match (&report.gate, &report.no_gate_reason) {
         (None, Some(reason)) => Err(Failure::no_gate(format!(
             "{}: {reason}",
@@ -409,8 +413,7 @@ pub fn run_sample(a: SampleArgs) -> Result<(), Failure> {
         for s in moldgate::samples::SAMPLES {
             out += &format!("{:10} {}\n", s.name, s.description);
         }
-        print!("{out}");
-        return Ok(());
+        return print_stdout(&out);
     }
     let (Some(name), Some(path)) = (a.name, a.output) else {
         return Err(Failure::usage("give a sample name and -o FILE.stl"));
@@ -454,6 +457,5 @@ pub fn run_materials(a: MaterialsArgs) -> Result<(), Failure> {
             m.gate_radius_mm()
         );
     }
-    print!("{out}");
-    Ok(())
+    print_stdout(&out)
 }

@@ -62,17 +62,13 @@ impl Failure {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Locate(a) => args::run_locate(a),
+        Command::Locate(a) => args::run_locate(*a),
         Command::Sample(a) => args::run_sample(a),
         Command::Materials(a) => args::run_materials(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            // A closed stdout (moldgate ... | head) is not an error worth a message.
-            if f.message.contains("Broken pipe") {
-                return ExitCode::SUCCESS;
-            }
             let _ = writeln!(std::io::stderr(), "moldgate: error: {}", f.message);
             ExitCode::from(f.code)
         }

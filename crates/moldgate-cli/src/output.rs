@@ -1,4 +1,4 @@
-//! Writing files whole or not at all, and never over the input.
+//! Writing files whole or not at all, and never over the input; printing results on stdout.
 
 use std::io::Write;
 use std::path::Path;
@@ -24,9 +24,8 @@ pub fn refuse_input(output: &Path, input: Option<&Path>) -> Result<(), Failure> 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
 /// file is either the old one or the complete new one, never a half-written one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
-    let fail = |e: std::io::Error| {
-        Failure::output(format!("{}: cannot write: {e}", path.display()))
-    };
+    let fail =
+        |e: std::io::Error| Failure::output(format!("{}: cannot write: {e}", path.display()));
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -56,4 +55,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
         return Err(fail(e));
     }
     Ok(())
+}
+
+/// Writes `text` on stdout. A reader that has gone away (`moldgate ... | head`) is not an
+/// error: the rest of the output is simply not wanted.
+pub fn print_stdout(text: &str) -> Result<(), Failure> {
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|_| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(Failure::output(format!("stdout: {e}")))
+        }
+        _ => Ok(()),
+    }
 }

@@ -98,7 +98,11 @@ pub fn render(r: &Report) -> String {
             let _ = writeln!(s, "GATE ({:?}): {} mm", g.mode, v3(g.point));
         }
         None => {
-            let _ = writeln!(s, "no gate: {}", r.no_gate_reason.clone().unwrap_or_default());
+            let _ = writeln!(
+                s,
+                "no gate: {}",
+                r.no_gate_reason.clone().unwrap_or_default()
+            );
         }
     }
     for w in &r.warnings {

@@ -47,7 +47,7 @@ impl Hit {
     /// the demolding direction), or `None` when the ray never leaves the solid.
     #[inline]
     pub fn thickness(&self) -> Option<f64> {
-        (self.second > f64::NEG_INFINITY).then(|| self.first - self.second)
+        (self.second > f64::NEG_INFINITY).then_some(self.first - self.second)
     }
 
     #[inline]

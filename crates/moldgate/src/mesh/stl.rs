@@ -157,10 +157,10 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
             break;
         }
         line_no += 1;
-        let mut tokens = line
+        let tokens = line
             .split(|b| b.is_ascii_whitespace())
             .filter(|t| !t.is_empty());
-        while let Some(tok) = tokens.next() {
+        for tok in tokens {
             let is = |word: &str| tok.eq_ignore_ascii_case(word.as_bytes());
             let shown = || String::from_utf8_lossy(tok).into_owned();
             match expect {

@@ -1,0 +1,911 @@
+//! The real `moldgate` binary on small parts: every bad input ends with one line on stderr
+//! that names the file and the place, and the documented exit code; outputs are written whole
+//! or not at all, and never over the input.
+//!
+//! Exit codes (crates/moldgate-cli/src/main.rs and the README): 0 success, 1 internal error,
+//! 2 command line or option value (a bad materials file included), 3 input file missing,
+//! unreadable or malformed, 4 no gate, 5 output.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use serde_json::Value;
+use tempfile::TempDir;
+
+const OK: i32 = 0;
+const USAGE: i32 = 2;
+const INPUT: i32 = 3;
+const NO_GATE: i32 = 4;
+const OUTPUT: i32 = 5;
+
+const SAMPLES: [&str; 5] = ["plate", "cover", "cap", "tray", "bracket"];
+
+// ---------------------------------------------------------------------------------------------
+// Running the binary
+
+/// Runs `moldgate args...` in `dir`.
+fn moldgate(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_moldgate"))
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("the moldgate binary runs")
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Asserts a failure with exit code `code` whose stderr is exactly one line
+/// `moldgate: error: ...` containing every one of `needles`; returns that line.
+#[track_caller]
+fn assert_fails(out: &Output, code: i32, needles: &[&str]) -> String {
+    let err = stderr(out);
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "exit code; stderr: {err}; stdout: {}",
+        stdout(out)
+    );
+    assert!(err.ends_with('\n'), "stderr ends with a newline: {err:?}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "stderr is one line: {err}");
+    let line = lines[0];
+    assert!(line.starts_with("moldgate: error: "), "{line}");
+    for needle in needles {
+        assert!(line.contains(needle), "'{needle}' is not in: {line}");
+    }
+    line.to_string()
+}
+
+/// Asserts success and returns stdout.
+#[track_caller]
+fn assert_ok(out: &Output) -> String {
+    let err = stderr(out);
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert_eq!(out.status.code(), Some(OK), "stderr: {err}");
+    stdout(out)
+}
+
+fn json(out: &Output) -> Value {
+    let text = assert_ok(out);
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {text}"))
+}
+
+fn point(v: &Value) -> [f64; 3] {
+    let a = v.as_array().unwrap_or_else(|| panic!("not a point: {v}"));
+    assert_eq!(a.len(), 3, "{v}");
+    [0, 1, 2].map(|i| a[i].as_f64().expect("a number"))
+}
+
+/// Names of the files in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building parts
+
+type Facet = [[f32; 3]; 3];
+
+/// The 12 facets of the box `min..max`, wound outwards.
+fn box_facets(min: [f32; 3], max: [f32; 3]) -> Vec<Facet> {
+    let p = |i: usize, j: usize, k: usize| {
+        [
+            [min[0], max[0]][i],
+            [min[1], max[1]][j],
+            [min[2], max[2]][k],
+        ]
+    };
+    let quads = [
+        [p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0)],
+        [p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)],
+        [p(0, 0, 0), p(1, 0, 0), p(1, 0, 1), p(0, 0, 1)],
+        [p(0, 1, 0), p(0, 1, 1), p(1, 1, 1), p(1, 1, 0)],
+        [p(0, 0, 0), p(0, 0, 1), p(0, 1, 1), p(0, 1, 0)],
+        [p(1, 0, 0), p(1, 1, 0), p(1, 1, 1), p(1, 0, 1)],
+    ];
+    quads
+        .iter()
+        .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
+        .collect()
+}
+
+/// A binary STL whose header declares `declared` triangles.
+fn binary_declaring(declared: u32, facets: &[Facet]) -> Vec<u8> {
+    let mut bytes = b"solid written by the moldgate CLI tests".to_vec();
+    bytes.resize(80, b' ');
+    bytes.extend_from_slice(&declared.to_le_bytes());
+    for facet in facets {
+        bytes.extend_from_slice(&[0u8; 12]);
+        for v in facet.iter().flatten() {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[0u8; 2]);
+    }
+    bytes
+}
+
+fn binary(facets: &[Facet]) -> Vec<u8> {
+    binary_declaring(facets.len() as u32, facets)
+}
+
+fn ascii(facets: &[Facet]) -> String {
+    let mut s = String::from("solid part\n");
+    for facet in facets {
+        s += "facet normal 0 0 0\n outer loop\n";
+        for [x, y, z] in facet {
+            s += &format!("  vertex {x} {y} {z}\n");
+        }
+        s += " endloop\nendfacet\n";
+    }
+    s + "endsolid part\n"
+}
+
+/// A 40 x 30 x 10 mm block: every default rule finds a gate on it.
+fn block() -> Vec<Facet> {
+    box_facets([0.0; 3], [40.0, 30.0, 10.0])
+}
+
+/// A temporary folder holding `name` with `bytes`.
+fn part(name: &str, bytes: &[u8]) -> (TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    (dir, path)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input files: exit code 3, the file and the place named
+
+#[test]
+fn missing_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = moldgate(dir.path(), &["locate", "no-such-part.stl"]);
+    assert_fails(&out, INPUT, &["no-such-part.stl", "cannot open"]);
+}
+
+#[test]
+fn missing_file_whose_path_mentions_a_broken_pipe_is_still_an_error() {
+    // Regression: main once treated any message containing "Broken pipe" as a closed stdout
+    // and exited 0 in silence.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("Broken pipe")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "Broken pipe/part.stl"]);
+    assert_fails(&out, INPUT, &["Broken pipe/part.stl", "cannot open"]);
+}
+
+#[test]
+fn directory_given_as_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("parts.stl")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "parts.stl"]);
+    assert_fails(&out, INPUT, &["parts.stl", "folder"]);
+}
+
+#[test]
+fn empty_file() {
+    let (dir, _) = part("empty.stl", b"");
+    let out = moldgate(dir.path(), &["locate", "empty.stl"]);
+    assert_fails(&out, INPUT, &["empty.stl", "empty file"]);
+}
+
+#[test]
+fn truncated_binary() {
+    let bytes = binary(&block());
+    // Cut 20 bytes into triangle 5, which starts at byte 84 + 5 x 50 = 334.
+    let (dir, _) = part("cut.stl", &bytes[..84 + 5 * 50 + 20]);
+    let out = moldgate(dir.path(), &["locate", "cut.stl"]);
+    assert_fails(
+        &out,
+        INPUT,
+        &[
+            "cut.stl",
+            "truncated",
+            "12 triangles",
+            "triangle 5",
+            "byte 334",
+        ],
+    );
+}
+
+#[test]
+fn binary_shorter_than_its_header() {
+    // Cut inside the triangle count, whose zero bytes show the file is not text.
+    let bytes = binary(&block());
+    let (dir, _) = part("stub.stl", &bytes[..82]);
+    let out = moldgate(dir.path(), &["locate", "stub.stl"]);
+    assert_fails(&out, INPUT, &["stub.stl", "82 bytes", "84-byte header"]);
+}
+
+#[test]
+fn count_mismatch() {
+    // The header declares 10 triangles, 12 follow: extra data from byte 84 + 500.
+    let (dir, _) = part("long.stl", &binary_declaring(10, &block()));
+    let out = moldgate(dir.path(), &["locate", "long.stl"]);
+    assert_fails(
+        &out,
+        INPUT,
+        &["long.stl", "does not match", "10 triangles", "byte 584"],
+    );
+}
+
+#[test]
+fn ascii_syntax_error() {
+    let text = ascii(&block()).replacen("endloop", "endlop", 1);
+    // The first bad keyword closes the first facet: line 1 solid, 2 facet, 3 outer loop,
+    // 4-6 vertices, 7 endloop.
+    let (dir, _) = part("typo.stl", text.as_bytes());
+    let out = moldgate(dir.path(), &["locate", "typo.stl"]);
+    assert_fails(&out, INPUT, &["typo.stl", "line 7", "'endlop'"]);
+}
+
+#[test]
+fn ascii_file_cut_inside_a_facet() {
+    let text = ascii(&block());
+    let cut: String = text.lines().take(12).map(|l| format!("{l}\n")).collect();
+    let (dir, _) = part("cut.stl", cut.as_bytes());
+    let out = moldgate(dir.path(), &["locate", "cut.stl"]);
+    assert_fails(&out, INPUT, &["cut.stl", "line 12", "facet 1"]);
+}
+
+#[test]
+fn binary_nan_coordinate() {
+    let mut bytes = binary(&block());
+    // Triangle 3, corner 1, y: 84 + 3 x 50 + 12 (normal) + 12 + 4.
+    let at = 84 + 3 * 50 + 12 + 12 + 4;
+    bytes[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    let (dir, _) = part("nan.stl", &bytes);
+    let out = moldgate(dir.path(), &["locate", "nan.stl"]);
+    assert_fails(
+        &out,
+        INPUT,
+        &["nan.stl", &format!("byte {at}"), "triangle 3", "NaN"],
+    );
+}
+
+#[test]
+fn ascii_infinite_coordinate() {
+    let text = ascii(&block());
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    // Line 13 is the last vertex of facet 1 (each facet takes 7 lines after `solid`).
+    assert!(lines[12].trim_start().starts_with("vertex"));
+    lines[12] = "  vertex 0 -inf 0".into();
+    let (dir, _) = part("inf.stl", (lines.join("\n") + "\n").as_bytes());
+    let out = moldgate(dir.path(), &["locate", "inf.stl"]);
+    assert_fails(&out, INPUT, &["inf.stl", "line 13", "triangle 1", "-inf"]);
+}
+
+#[test]
+fn mesh_without_area() {
+    let flat: Vec<Facet> = (0..6)
+        .map(|i| {
+            let y = i as f32;
+            [[0.0, y, 0.0], [1.0, y, 0.0], [2.0, y, 0.0]]
+        })
+        .collect();
+    let (dir, _) = part("flat.stl", &binary(&flat));
+    let out = moldgate(dir.path(), &["locate", "flat.stl"]);
+    assert_fails(&out, INPUT, &["flat.stl", "non-zero area", "6 facets"]);
+}
+
+#[test]
+fn bad_input_is_reported_before_anything_is_written() {
+    let (dir, _) = part("empty.stl", b"");
+    let out = moldgate(dir.path(), &["locate", "empty.stl", "-o", "report.json"]);
+    assert_fails(&out, INPUT, &["empty.stl"]);
+    assert_eq!(listing(dir.path()), ["empty.stl"]);
+    assert!(out.stdout.is_empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad options: exit code 2, the option named
+
+#[test]
+fn zero_demolding_vector() {
+    let out = moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "plate", "--demold", "0,0,0"],
+    );
+    assert_fails(&out, USAGE, &["--demold", "non-zero", "(0, 0, 0)"]);
+}
+
+#[test]
+fn unreadable_demolding_direction() {
+    for text in ["up", "1,2", "x,y,z", "1,2,3,4", "+w", ""] {
+        let out = moldgate(
+            &std::env::temp_dir(),
+            &["locate", "--sample", "plate", "--demold", text],
+        );
+        assert_fails(
+            &out,
+            USAGE,
+            &[
+                "--demold",
+                &format!("cannot read demolding direction '{text}'"),
+            ],
+        );
+    }
+}
+
+#[test]
+fn non_positive_material_parameters() {
+    for (flag, value, parameter) in [
+        ("--n", "0", "n must be"),
+        ("--n", "-0.3", "n must be"),
+        ("--k", "-1", "k must be"),
+        ("--k", "0", "k must be"),
+        ("--gamma-opt", "0", "gamma_opt must be"),
+        ("--mu-opt", "-9.88", "mu_opt must be"),
+        ("--mu-opt", "nan", "mu_opt must be"),
+        ("--t-melt", "inf", "t_melt must be"),
+    ] {
+        let out = moldgate(
+            &std::env::temp_dir(),
+            &["locate", "--sample", "plate", flag, value],
+        );
+        assert_fails(&out, USAGE, &["material 'PP (modified)'", parameter]);
+    }
+}
+
+#[test]
+fn melt_not_above_the_wall() {
+    for args in [
+        &["--t-melt", "40"][..],
+        &["--t-melt", "100", "--t-wall", "200"],
+        &["--t-wall", "230"],
+        &["--t-melt", "-20", "--t-wall", "-10"],
+    ] {
+        let mut all = vec!["locate", "--sample", "plate"];
+        all.extend_from_slice(args);
+        let out = moldgate(&std::env::temp_dir(), &all);
+        assert_fails(&out, USAGE, &["melt temperature", "must be above the wall"]);
+    }
+}
+
+#[test]
+fn non_positive_lengths_and_counts() {
+    for (args, says) in [
+        (
+            &["--gate-radius", "0"][..],
+            "--gate-radius must be a positive",
+        ),
+        (
+            &["--gate-radius", "-1.5"],
+            "--gate-radius must be a positive",
+        ),
+        (&["--spacing", "0"], "--spacing must be a positive"),
+        (&["--spacing", "-2"], "--spacing must be a positive"),
+        (
+            &["--circle-points", "2"],
+            "--circle-points must be at least 3",
+        ),
+        (
+            &["--flat-tol", "-0.1"],
+            "--flat-tol must be zero or positive",
+        ),
+        (&["--grid-offset", "inf"], "--grid-offset must be a finite"),
+        (&["--max-nodes", "0"], "--max-nodes must be positive"),
+        (&["--units", "furlong"], "--units: unknown unit 'furlong'"),
+    ] {
+        let mut all = vec!["locate", "--sample", "plate"];
+        all.extend_from_slice(args);
+        let out = moldgate(&std::env::temp_dir(), &all);
+        assert_fails(&out, USAGE, &[says]);
+    }
+}
+
+#[test]
+fn spacing_too_fine_suggests_a_spacing_that_works() {
+    let out = moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "plate", "--spacing", "1e-6"],
+    );
+    let line = assert_fails(&out, USAGE, &["spacing", "more than the limit of 4000000"]);
+    let suggested = suggested_spacing(&line);
+    assert!(suggested > 0.03 && suggested < 0.05, "{line}");
+}
+
+/// The spacing in "... use a spacing of at least X mm".
+fn suggested_spacing(line: &str) -> f64 {
+    let (_, tail) = line
+        .split_once("use a spacing of at least ")
+        .unwrap_or_else(|| panic!("no suggestion in: {line}"));
+    tail.trim_end_matches(" mm")
+        .parse()
+        .unwrap_or_else(|e| panic!("{e}: {line}"))
+}
+
+#[test]
+fn suggested_minimum_spacing_is_accepted() {
+    // Regression: the minimum was printed rounded to nearest, so on a 1 x 0.6 mm part with
+    // --max-nodes 1024 it suggested 0.0250 mm, which gives 41 x 25 = 1025 nodes.
+    let facets = box_facets([0.0; 3], [1.0, 0.6, 0.3]);
+    let (dir, _) = part("small.stl", &binary(&facets));
+    for max_nodes in ["1024", "1577", "500", "3001"] {
+        let out = moldgate(
+            dir.path(),
+            &[
+                "locate",
+                "small.stl",
+                "--spacing",
+                "1e-4",
+                "--max-nodes",
+                max_nodes,
+            ],
+        );
+        let line = assert_fails(&out, USAGE, &["a spacing of 0.0001 mm", "at least"]);
+        let suggested = suggested_spacing(&line);
+        let again = moldgate(
+            dir.path(),
+            &[
+                "locate",
+                "small.stl",
+                "--spacing",
+                &suggested.to_string(),
+                "--max-nodes",
+                max_nodes,
+                "--thickness-rule",
+                "ignore",
+                "--gate-radius",
+                "0.05",
+                "--json",
+            ],
+        );
+        let report = json(&again);
+        let nodes = report["counts"]["nodes"].as_u64().unwrap();
+        assert!(nodes <= max_nodes.parse().unwrap(), "{nodes} nodes");
+    }
+}
+
+#[test]
+fn unknown_sample() {
+    let out = moldgate(&std::env::temp_dir(), &["locate", "--sample", "teapot"]);
+    let line = assert_fails(&out, USAGE, &["unknown sample 'teapot'"]);
+    for name in SAMPLES {
+        assert!(line.contains(name), "{line}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = moldgate(dir.path(), &["sample", "teapot", "-o", "teapot.stl"]);
+    assert_fails(&out, USAGE, &["unknown sample 'teapot'"]);
+    assert!(listing(dir.path()).is_empty());
+}
+
+#[test]
+fn unknown_material() {
+    let out = moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "plate", "--material", "PEEK"],
+    );
+    assert_fails(&out, USAGE, &["unknown material 'PEEK'", "PP, ABS, PC"]);
+}
+
+const MY_PP: &str =
+    "[MyPP]\nn = 0.3\nt_melt = 230\nt_wall = 50\ngamma_opt = 10000\nmu_opt = 9.88\nk = 0.15\n";
+
+#[test]
+fn unknown_material_lists_the_user_materials_too() {
+    let (dir, _) = part("materials.toml", MY_PP.as_bytes());
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--materials-file",
+            "materials.toml",
+            "--material",
+            "PEEK",
+        ],
+    );
+    assert_fails(&out, USAGE, &["unknown material 'PEEK'", "MyPP"]);
+}
+
+#[test]
+fn materials_file_is_used() {
+    let (dir, _) = part("materials.toml", MY_PP.as_bytes());
+    let args = [
+        "locate",
+        "--sample",
+        "plate",
+        "--materials-file",
+        "materials.toml",
+        "--material",
+        "mypp",
+        "--json",
+    ];
+    let report = json(&moldgate(dir.path(), &args));
+    assert_eq!(report["material"]["name"], "MyPP");
+    assert_eq!(report["material"]["n"], 0.3);
+    let listed = assert_ok(&moldgate(
+        dir.path(),
+        &["materials", "--materials-file", "materials.toml"],
+    ));
+    assert!(listed.lines().any(|l| l.starts_with("MyPP ")), "{listed}");
+}
+
+/// A materials file holds option values, so the README lists a bad one under code 2.
+#[test]
+fn malformed_materials_file_names_the_file_and_line() {
+    let unknown_field = format!("{MY_PP}colour = 1\n");
+    let cases = [
+        // A key without a value on line 3.
+        (
+            "[MyPP]\nn = 0.3\ngarbage\nt_wall = 50\n",
+            "line 3",
+            "no value",
+        ),
+        // An extra '=' on line 3.
+        ("[MyPP]\nn = 0.3\nt_melt = = 230\n", "line 3", "="),
+        // Regression: an error at the start of line 8 was reported on line 7.
+        (unknown_field.as_str(), "line 8", "unknown field `colour`"),
+        // A value of the wrong type on line 2.
+        ("[MyPP]\nn = \"thick\"\n", "line 2", ""),
+    ];
+    for (text, line, says) in cases {
+        let (dir, _) = part("materials.toml", text.as_bytes());
+        for args in [
+            &[
+                "locate",
+                "--sample",
+                "plate",
+                "--materials-file",
+                "materials.toml",
+            ][..],
+            &["materials", "--materials-file", "materials.toml"],
+        ] {
+            let out = moldgate(dir.path(), args);
+            assert_fails(&out, USAGE, &["materials.toml: ", line, says]);
+        }
+    }
+}
+
+#[test]
+fn materials_file_with_an_invalid_value() {
+    let text = MY_PP.replace("k = 0.15", "k = -0.15");
+    let (dir, _) = part("materials.toml", text.as_bytes());
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--materials-file",
+            "materials.toml",
+        ],
+    );
+    assert_fails(
+        &out,
+        USAGE,
+        &["materials.toml", "material 'MyPP'", "k must be"],
+    );
+}
+
+#[test]
+fn missing_materials_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--materials-file",
+            "none.toml",
+        ],
+    );
+    // A file that is not there is a missing input file, whatever it holds.
+    assert_fails(&out, INPUT, &["none.toml", "cannot read"]);
+}
+
+#[test]
+fn clap_usage_errors_exit_with_code_2() {
+    // Missing or conflicting arguments are clap's to report (with a usage line), but the
+    // exit code is still the documented one and nothing panics.
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        &["locate"][..],
+        &["locate", "a.stl", "--sample", "plate"],
+        &["locate", "--sample", "plate", "--n", "thick"],
+        &["locate", "--sample", "plate", "--centre", "middle"],
+        &["sample", "plate"],
+        &["frobnicate"],
+    ] {
+        let out = moldgate(dir.path(), args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(USAGE), "{args:?}: {err}");
+        assert!(err.contains("error"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// No gate: exit code 4 with the reason
+
+#[test]
+fn no_node_qualifies_on_a_thin_plate_with_a_large_gate() {
+    let plate = box_facets([0.0; 3], [100.0, 60.0, 0.5]);
+    let (dir, _) = part("thin.stl", &binary(&plate));
+    let out = moldgate(dir.path(), &["locate", "thin.stl", "--gate-radius", "5"]);
+    assert_fails(
+        &out,
+        NO_GATE,
+        &[
+            "thin.stl: no node qualifies for a gate",
+            "0 of those have walls thicker than 5.000 mm",
+        ],
+    );
+    // The summary still goes to stdout, saying why.
+    assert!(stdout(&out).contains("no gate: "), "{}", stdout(&out));
+
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "thin.stl",
+            "--gate-radius",
+            "5",
+            "--json",
+            "-o",
+            "r.json",
+        ],
+    );
+    assert_fails(&out, NO_GATE, &["thin.stl"]);
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(report["gate"].is_null());
+    assert!(report["no_gate_reason"]
+        .as_str()
+        .unwrap()
+        .contains("no node qualifies"));
+    assert_eq!(report["counts"]["qualifying"], 0);
+    let written: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+    assert_eq!(written["no_gate_reason"], report["no_gate_reason"]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Output safety
+
+#[test]
+fn output_over_the_input_is_refused() {
+    let bytes = binary(&block());
+    let (dir, path) = part("part.stl", &bytes);
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    for output in ["part.stl", "./part.stl", "sub/../part.stl"] {
+        let out = moldgate(dir.path(), &["locate", "part.stl", "-o", output]);
+        assert_fails(&out, OUTPUT, &[output, "refusing to write", "input"]);
+        assert_eq!(std::fs::read(&path).unwrap(), bytes, "-o {output}");
+        assert!(out.stdout.is_empty());
+    }
+    assert_eq!(listing(dir.path()), ["part.stl", "sub"]);
+}
+
+#[test]
+fn output_into_a_missing_folder_fails_and_leaves_nothing() {
+    let (dir, _) = part("part.stl", &binary(&block()));
+    let out = moldgate(
+        dir.path(),
+        &["locate", "part.stl", "-o", "no/such/folder/report.json"],
+    );
+    assert_fails(
+        &out,
+        OUTPUT,
+        &["no/such/folder/report.json", "cannot write"],
+    );
+    assert_eq!(listing(dir.path()), ["part.stl"]);
+    assert!(!dir.path().join("no").exists());
+
+    let out = moldgate(dir.path(), &["sample", "plate", "-o", "missing/plate.stl"]);
+    assert_fails(&out, OUTPUT, &["missing/plate.stl", "cannot write"]);
+    assert_eq!(listing(dir.path()), ["part.stl"]);
+}
+
+#[test]
+fn output_onto_a_folder_fails() {
+    let (dir, _) = part("part.stl", &binary(&block()));
+    std::fs::create_dir(dir.path().join("report.json")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "report.json"]);
+    assert_fails(&out, OUTPUT, &["report.json", "folder"]);
+    assert_eq!(listing(dir.path()), ["part.stl", "report.json"]);
+    assert!(listing(&dir.path().join("report.json")).is_empty());
+}
+
+#[test]
+fn output_is_written_whole_as_json_without_temporary_files() {
+    let (dir, _) = part("part.stl", &binary(&block()));
+    // An older, longer report in the way is replaced whole.
+    std::fs::write(dir.path().join("out.json"), "x".repeat(100_000)).unwrap();
+    let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
+    let summary = assert_ok(&out);
+    assert!(summary.contains("GATE (Paper)"), "{summary}");
+    assert_eq!(listing(dir.path()), ["out.json", "part.stl"]);
+
+    let text = std::fs::read_to_string(dir.path().join("out.json")).unwrap();
+    let report: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(report["schema_version"], 1);
+    assert_eq!(report["input"]["path"], "part.stl");
+    assert_eq!(report["input"]["bytes"], 84 + 12 * 50);
+    assert_eq!(report["mesh"]["format"], "stl_binary");
+    assert_eq!(report["mesh"]["vertices"], 8);
+    assert_eq!(report["gate"]["mode"], "paper");
+    let gate = point(&report["gate"]["point"]);
+    assert_eq!(gate, point(&report["paper_gate"]["point"]));
+    // The gate is on the top face of the 40 x 30 x 10 block, under the centre.
+    assert!((gate[2] - 10.0).abs() < 1e-9, "{gate:?}");
+    assert!(
+        (gate[0] - 20.0).abs() <= 1.0 && (gate[1] - 15.0).abs() <= 1.0,
+        "{gate:?}"
+    );
+    assert_eq!(point(&report["paper_gate"]["normal"]), [0.0, 0.0, 1.0]);
+    assert!(report["no_gate_reason"].is_null());
+    let distance = report["gate"]["distance_3d_mm"].as_f64().unwrap();
+    assert!((distance - 5.0).abs() <= 1.0, "{distance}");
+}
+
+#[test]
+fn json_on_stdout_matches_the_summary() {
+    let (dir, _) = part("part.stl", ascii(&block()).as_bytes());
+    let report = json(&moldgate(dir.path(), &["locate", "part.stl", "--json"]));
+    assert_eq!(report["schema_version"], 1);
+    assert_eq!(report["mesh"]["format"], "stl_ascii");
+    assert_eq!(report["mesh"]["units"], "mm");
+    assert_eq!(
+        report["options"]["demold"],
+        serde_json::json!([0.0, 0.0, 1.0])
+    );
+    assert_eq!(report["material"]["name"], "PP");
+    assert!(report["warnings"].as_array().unwrap().is_empty());
+    let gate = point(&report["gate"]["point"]);
+
+    let summary = assert_ok(&moldgate(dir.path(), &["locate", "part.stl"]));
+    let shown = format!(
+        "GATE (Paper): ({:.3}, {:.3}, {:.3}) mm",
+        gate[0], gate[1], gate[2]
+    );
+    assert!(summary.contains(&shown), "{shown} not in {summary}");
+}
+
+#[test]
+fn units_metres_scale_the_part_and_millimetres_warn() {
+    // The 40 x 30 x 10 mm block written in metres.
+    let facets = box_facets([0.0; 3], [0.04, 0.03, 0.01]);
+    let (dir, _) = part("metres.stl", &binary(&facets));
+    let report = json(&moldgate(
+        dir.path(),
+        &["locate", "metres.stl", "--units", "m", "--json"],
+    ));
+    assert_eq!(report["mesh"]["units"], "m");
+    let max = point(&report["mesh"]["bounds_max"]);
+    for (got, want) in max.iter().zip([40.0, 30.0, 10.0]) {
+        assert!((got - want).abs() < 1e-4, "{max:?}");
+    }
+    assert!(report["gate"].is_object());
+
+    let out = moldgate(dir.path(), &["locate", "metres.stl", "--json"]);
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let warnings = report["warnings"].to_string();
+    assert!(warnings.contains("--units m"), "{warnings}");
+}
+
+#[test]
+fn a_written_sample_gives_the_same_gate_as_the_built_in_one() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in SAMPLES {
+        let file = format!("{name}.stl");
+        let out = moldgate(dir.path(), &["sample", name, "-o", &file]);
+        assert_ok(&out);
+        assert!(stderr(&out).contains(&format!("wrote {file}")));
+        let from_file = json(&moldgate(dir.path(), &["locate", &file, "--json"]));
+        let built_in = json(&moldgate(
+            dir.path(),
+            &["locate", "--sample", name, "--json"],
+        ));
+        assert_eq!(from_file["mesh"]["format"], "stl_binary");
+        assert_eq!(built_in["mesh"]["format"], "generated");
+        assert_eq!(
+            from_file["mesh"]["triangles"],
+            built_in["mesh"]["triangles"]
+        );
+        assert_eq!(
+            from_file["paper_gate"]["node"], built_in["paper_gate"]["node"],
+            "{name}"
+        );
+        // The file stores f32 coordinates, so points agree to f32 precision.
+        let a = point(&from_file["gate"]["point"]);
+        let b = point(&built_in["gate"]["point"]);
+        for k in 0..3 {
+            assert!((a[k] - b[k]).abs() < 1e-4, "{name}: {a:?} vs {b:?}");
+        }
+    }
+    let mut expected: Vec<String> = SAMPLES.iter().map(|n| format!("{n}.stl")).collect();
+    expected.sort();
+    assert_eq!(listing(dir.path()), expected, "no temporary files are left");
+}
+
+#[test]
+fn sample_list_names_every_sample() {
+    let listed = assert_ok(&moldgate(&std::env::temp_dir(), &["sample", "--list"]));
+    let names: Vec<&str> = listed
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert_eq!(names, SAMPLES);
+}
+
+#[test]
+fn materials_lists_the_built_in_materials() {
+    let listed = assert_ok(&moldgate(&std::env::temp_dir(), &["materials"]));
+    let names: Vec<&str> = listed
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert_eq!(names, ["PP", "ABS", "PC"]);
+    // The last column is Eq. 8's gate radius: Table 1 prints 1.4, 1.9 and 1.5 mm.
+    let radii: Vec<f64> = listed
+        .lines()
+        .skip(1)
+        .map(|l| l.split_whitespace().last().unwrap().parse().unwrap())
+        .collect();
+    for (r, printed) in radii.iter().zip([1.4, 1.9, 1.5]) {
+        assert!(((r * 10.0).round() / 10.0 - printed).abs() < 1e-12, "{r}");
+    }
+}
+
+#[test]
+fn aesthetic_mode_gives_the_parting_line_gate() {
+    let report = json(&moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "cover", "--aesthetic", "--json"],
+    ));
+    assert_eq!(report["options"]["mode"], "aesthetic");
+    assert_eq!(report["gate"]["mode"], "aesthetic");
+    let gate = point(&report["gate"]["point"]);
+    assert_eq!(gate, point(&report["aesthetic_gate"]["point"]));
+    assert_ne!(gate, point(&report["paper_gate"]["point"]));
+    // The cover is open to -z: its parting line is the rim at z = 0.
+    assert!(gate[2].abs() < 1e-9, "{gate:?}");
+
+    let summary = assert_ok(&moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "cover", "--aesthetic"],
+    ));
+    assert!(summary.contains("GATE (Aesthetic)"), "{summary}");
+}
+
+#[test]
+fn a_closed_stdout_is_not_a_crash() {
+    // Regression: `moldgate materials | head -0` panicked in print!. The reader is closed
+    // before the child writes (it has to start first), so its write fails with a broken pipe.
+    for args in [
+        &["materials"][..],
+        &["sample", "--list"],
+        &["locate", "--sample", "tray"],
+        &["locate", "--sample", "tray", "--json"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_moldgate"))
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = stderr(&out);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_eq!(out.status.code(), Some(OK), "{args:?}: {err}");
+        assert!(err.is_empty(), "{args:?}: {err}");
+    }
+}
