@@ -60,11 +60,43 @@ impl Failure {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            return ExitCode::from(2);
+        }
+        Err(e) => {
+            // Clap's message, on one line: its first line, less clap's own prefix.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid command line");
+            let first = first.trim_start_matches("error: ");
+            let _ = writeln!(
+                std::io::stderr(),
+                "moldgate: error: {first} (see moldgate --help)"
+            );
+            return ExitCode::from(2);
+        }
+    };
+    // A panic is a bug: report it on one line with exit code 1, not Rust's 101.
+    std::panic::set_hook(Box::new(|info| {
+        let _ = writeln!(
+            std::io::stderr(),
+            "moldgate: error: internal error, please report it: {info}"
+        );
+    }));
+    let result = std::panic::catch_unwind(|| match cli.command {
         Command::Locate(a) => args::run_locate(*a),
         Command::Sample(a) => args::run_sample(a),
         Command::Materials(a) => args::run_materials(a),
+    });
+    let Ok(result) = result else {
+        return ExitCode::from(1);
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -396,7 +396,17 @@ fn non_positive_lengths_and_counts() {
             "--flat-tol must be zero or positive",
         ),
         (&["--grid-offset", "inf"], "--grid-offset must be a finite"),
-        (&["--max-nodes", "0"], "--max-nodes must be positive"),
+        (&["--max-nodes", "0"], "--max-nodes must be between 1 and"),
+        // Clap's own errors are one line too.
+        (&["--n", "abc"], "invalid value 'abc' for '--n"),
+        (
+            &["--no-such-option"],
+            "unexpected argument '--no-such-option'",
+        ),
+        (
+            &["--max-nodes", "18446744073709551615", "--spacing", "1e-6"],
+            "--max-nodes must be between 1 and",
+        ),
         (&["--units", "furlong"], "--units: unknown unit 'furlong'"),
     ] {
         let mut all = vec!["locate", "--sample", "plate"];

@@ -80,7 +80,7 @@ pub enum LoadError {
         /// 0-based triangle index.
         triangle: u64,
         /// The offending value as read.
-        value: f32,
+        value: f64,
     },
     /// A mesh whose facets all have zero area.
     #[error("no facet has a non-zero area ({facets} facets read)")]

@@ -15,11 +15,13 @@ impl Direction {
 
     /// Normalises `v`; a zero or non-finite vector is an error.
     pub fn new(v: DVec3) -> Result<Direction, OptionsError> {
-        let len = v.length();
-        if !(len.is_finite() && len > 0.0) {
+        // Scaled by its largest component first, so that neither huge nor tiny components
+        // overflow or underflow when squared.
+        let largest = v.abs().max_element();
+        if !(v.is_finite() && largest > 0.0) {
             return Err(OptionsError::ZeroDirection(v.x, v.y, v.z));
         }
-        Ok(Direction(v / len))
+        Ok(Direction((v / largest).normalize()))
     }
 
     /// The unit vector.
@@ -118,6 +120,16 @@ impl Frame {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn huge_and_tiny_vectors_normalise() {
+        for v in [DVec3::new(1e308, 1e308, 0.0), DVec3::new(1e-320, 0.0, 0.0)] {
+            let d = Direction::new(v).unwrap().vector();
+            assert!((d.length() - 1.0).abs() < 1e-15, "{v}");
+        }
+        assert!(Direction::new(DVec3::ZERO).is_err());
+        assert!(Direction::new(DVec3::new(f64::NAN, 0.0, 1.0)).is_err());
+    }
 
     #[test]
     fn parses_axes_and_vectors() {

@@ -99,7 +99,7 @@ fn read_binary(mut reader: impl Read, declared: u64) -> Result<RawMesh, LoadErro
                         return Err(LoadError::NonFinite {
                             place: Place::Byte(HEADER + RECORD * triangle + at as u64),
                             triangle,
-                            value: v,
+                            value: v as f64,
                         });
                     }
                     *c = v as f64;
@@ -255,7 +255,7 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                             value: v,
                         });
                     }
-                    xyz[i as usize] = v as f64;
+                    xyz[i as usize] = v;
                     expect = if i == 2 {
                         corners.push(DVec3::from_array(xyz));
                         Expect::VertexOrEndloop
@@ -311,10 +311,11 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
     })
 }
 
-fn parse_number(tok: &[u8], line: u64) -> Result<f32, LoadError> {
+/// Reads an ASCII number in f64, the precision of the text (a binary STL holds f32).
+fn parse_number(tok: &[u8], line: u64) -> Result<f64, LoadError> {
     std::str::from_utf8(tok)
         .ok()
-        .and_then(|s| s.parse::<f32>().ok())
+        .and_then(|s| s.parse::<f64>().ok())
         .ok_or_else(|| LoadError::Syntax {
             place: Place::Line(line),
             message: format!(
