@@ -1,0 +1,717 @@
+//! The shared real parts, checked against independent geometry and against the stored results
+//! of the Python reference implementation; and a spacing-halving stability check on those
+//! parts and on the built-in samples.
+//!
+//! The parts are not in this repository. They are looked for at `$MOLDGATE_PARTS`, else at
+//! `<workspace>/../shared/data/parts`; the reference results at `$MOLDGATE_REFERENCE`, else at
+//! `<workspace>/../shared/reference/results`. A test whose data is missing says so on stdout
+//! and stderr and passes without checking anything.
+//!
+//! Every check runs on every part before a test fails, and the failure lists each part at
+//! fault with its numbers. Run with `--nocapture` to see the per-part tables.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use moldgate::gate::{Gate, Spacing, ThicknessRule};
+use moldgate::math::{DVec2, DVec3};
+use moldgate::mesh::{self, LoadedMesh, Mesh, Units};
+use moldgate::{locate, Analysis, Direction, Frame, LocateOptions};
+use rayon::prelude::*;
+use serde_json::Value;
+
+/// A shared part: its file and its natural demolding direction from the folder's
+/// `SOURCES.md`, sign included (the rays come from the +D side).
+struct Part {
+    file: &'static str,
+    demold: &'static str,
+}
+
+const PARTS: [Part; 18] = [
+    Part::new("comma2_injection_molded_mount.stl", "+x"),
+    Part::new("comma_ram_connector_cap.stl", "-z"),
+    Part::new("deskhop_case_bottom.stl", "+z"),
+    Part::new("esp32s3box_bottom_housing_352k.stl", "+y"),
+    Part::new("esp32s3box_top_housing.stl", "-y"),
+    Part::new("framework_desktop_blank_tile.stl", "-z"),
+    Part::new("framework_desktop_top_cover_121k.stl", "-x"),
+    Part::new("framework_expansion_card_shell.stl", "+y"),
+    Part::new("prusa_heatbed_cable_cover_clip_ascii.stl", "+z"),
+    Part::new("prusa_lcd_knob.stl", "+z"),
+    Part::new("prusa_psu_cover_mk3_ascii.stl", "+z"),
+    Part::new("prusa_raspberry_cover_ascii_open.stl", "+z"),
+    Part::new("sc64_shell_back.stl", "-z"),
+    Part::new("screwcap_oralb_75ml_ascii.stl", "+z"),
+    Part::new("trimesh_ADIS16480_meters_ascii.STL", "+y"),
+    Part::new("trimesh_featuretype_inches.STL", "+z"),
+    Part::new("watchy_yatari_bottom.stl", "-z"),
+    Part::new("watchy_yatari_top.stl", "+z"),
+];
+
+/// Parts where the paper's wall-thickness rule leaves no gate with the default options.
+/// The raspberry cover is a vented lid whose plate is 1 mm thick, under R_gate = 1.43 mm for
+/// PP; the test confirms the thin wall by casting rays itself.
+const NO_GATE_BY_THICKNESS: &[&str] = &["prusa_raspberry_cover_ascii_open"];
+
+/// The bound of the halving check: the gates found with spacings h and h/2 lie within this
+/// many h of each other in the projection plane.
+const HALVING_BOUND: f64 = 1.5;
+
+/// Parts known to break [`HALVING_BOUND`], with what was measured when they were listed.
+///
+/// comma2 along +x (h = 0.615 mm): the part is nearly mirror-symmetric about z = 0 (the
+/// centre of mass is at z = -0.003 mm), and the qualifying surface nearest the centre is a
+/// faceted round on either side of that plane, at z = +1.6 to +1.8 and at z = -1.5 to -1.8.
+/// The grid's phase decides which side wins: with h the gate is at (3.03, 5.78, +1.84),
+/// 1.968 mm from the centre; with h/2 it is at (3.31, 5.63, -1.54), 1.792 mm away, 3.38 mm
+/// = 5.5 h in the plane from the first. Shifting the grid at h by 0.1 to 0.9 spacings makes
+/// it alternate between the two sides too (1.786 to 1.968 mm). This is the nearest-point rule
+/// meeting a symmetric part, not a defect: the finer gate is nearer the centre of mass, which
+/// is what the test asserts for listed parts instead of the bound.
+const HALVING_EXCEPTIONS: &[&str] = &["comma2_injection_molded_mount"];
+
+impl Part {
+    const fn new(file: &'static str, demold: &'static str) -> Part {
+        Part { file, demold }
+    }
+
+    fn stem(&self) -> &'static str {
+        self.file.rsplit_once('.').map_or(self.file, |(s, _)| s)
+    }
+
+    /// The unit, from the file name as the reference reads it.
+    fn units(&self) -> Units {
+        if self.file.contains("meters") {
+            Units::M
+        } else if self.file.contains("inches") {
+            Units::In
+        } else {
+            Units::Mm
+        }
+    }
+
+    fn direction(&self) -> Direction {
+        self.demold.parse().expect("valid direction")
+    }
+}
+
+fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn data_dir(var: &str, default: &str) -> Result<PathBuf, String> {
+    let dir = std::env::var_os(var)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join(default));
+    if dir.is_dir() {
+        Ok(dir)
+    } else {
+        Err(format!("{} not found (set {var})", dir.display()))
+    }
+}
+
+fn skip(test: &str, why: &str) {
+    eprintln!("{test}: skipped: {why}");
+    println!("{test}: skipped: {why}");
+}
+
+fn load(dir: &Path, part: &Part) -> Result<LoadedMesh, String> {
+    let path = dir.join(part.file);
+    let file = File::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let len = file.metadata().map_err(|e| e.to_string())?.len();
+    mesh::read_stl(BufReader::new(file), len, part.units())
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Every shared part, loaded once for all the tests of this binary, or why they are absent.
+fn shared_parts() -> Result<&'static [Result<LoadedMesh, String>], String> {
+    static PARTS_LOADED: OnceLock<Result<Vec<Result<LoadedMesh, String>>, String>> =
+        OnceLock::new();
+    PARTS_LOADED
+        .get_or_init(|| {
+            let dir = data_dir("MOLDGATE_PARTS", "../shared/data/parts")?;
+            Ok(PARTS.par_iter().map(|p| load(&dir, p)).collect())
+        })
+        .as_deref()
+        .map_err(Clone::clone)
+}
+
+/// The loaded part, for tests other than the loading test (which reports load failures).
+fn loaded(parts: &[Result<LoadedMesh, String>], i: usize) -> &LoadedMesh {
+    parts[i].as_ref().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The reference's stored run `tag` (`default` or `offset037`) of a part.
+fn reference(dir: &Path, part: &Part, tag: &str) -> Value {
+    let path = dir.join(format!("{}.{tag}.json", part.stem()));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn number(v: &Value) -> f64 {
+    v.as_f64()
+        .unwrap_or_else(|| panic!("expected a number, found {v}"))
+}
+
+fn vec2(v: &Value) -> DVec2 {
+    DVec2::new(number(&v[0]), number(&v[1]))
+}
+
+fn vec3(v: &Value) -> DVec3 {
+    DVec3::new(number(&v[0]), number(&v[1]), number(&v[2]))
+}
+
+fn size_mm(part: &LoadedMesh) -> f64 {
+    part.mesh.bounds().diagonal()
+}
+
+/// Prints each part's lines on the test's own thread (rayon's threads may belong to another
+/// test's output capture) and returns the failures.
+fn print_lines(per_part: Vec<(Vec<String>, Vec<String>)>) -> Vec<String> {
+    let mut failures = Vec::new();
+    for (lines, f) in per_part {
+        for line in lines {
+            println!("{line}");
+        }
+        failures.extend(f);
+    }
+    failures
+}
+
+/// Panics with every failure, one per line, when there is any.
+fn report(test: &str, failures: &[String]) {
+    assert!(
+        failures.is_empty(),
+        "{test}: {} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+/// `x <= tol`, false for NaN, so that a NaN is reported as a failure.
+fn within(x: f64, tol: f64) -> bool {
+    x <= tol
+}
+
+/// Pushes a failure when `|a - b| > tol` (vectors: the length of the difference).
+macro_rules! check_close {
+    ($failures:expr, $a:expr, $b:expr, $tol:expr, $($what:tt)+) => {{
+        let (a, b, tol) = ($a, $b, $tol);
+        let diff = (a - b).length();
+        if !within(diff, tol) {
+            $failures.push(format!(
+                "{}: {a:?} vs {b:?}, off by {diff:.3e} > {tol:.3e}",
+                format!($($what)+)
+            ));
+        }
+    }};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Independent geometry: brute force over every triangle, with no use of the library's
+// rasteriser.
+
+/// The point of triangle (a, b, c) nearest `p` (Ericson, *Real-Time Collision Detection*,
+/// 5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+fn distance_to_triangle(mesh: &Mesh, t: usize, p: DVec3) -> f64 {
+    let [a, b, c] = mesh.corners(t);
+    closest_on_triangle(p, a, b, c).distance(p)
+}
+
+/// Distance from `p` to the nearest triangle of the mesh.
+fn distance_to_surface(mesh: &Mesh, p: DVec3) -> f64 {
+    (0..mesh.triangles.len())
+        .map(|t| distance_to_triangle(mesh, t, p))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Heights along `d` of every crossing of the line through `q` (in the frame's plane) with
+/// the mesh, highest first. Möller-Trumbore on closed triangles (barycentric >= -1e-9, as the
+/// reference does); triangles seen edge-on are skipped.
+fn crossings(mesh: &Mesh, frame: &Frame, q: DVec2) -> Vec<f64> {
+    let origin = frame.u * q.x + frame.w * q.y;
+    let dir = -frame.d;
+    let mut heights = Vec::new();
+    for t in 0..mesh.triangles.len() {
+        let [a, b, c] = mesh.corners(t);
+        let (e1, e2) = (b - a, c - a);
+        let pv = dir.cross(e2);
+        let det = e1.dot(pv);
+        if det.abs() <= 1e-12 * e1.length() * e2.length() {
+            continue;
+        }
+        let inv = 1.0 / det;
+        let s = origin - a;
+        let bu = s.dot(pv) * inv;
+        let qv = s.cross(e1);
+        let bv = dir.dot(qv) * inv;
+        const EPS: f64 = 1e-9;
+        if bu >= -EPS && bv >= -EPS && bu + bv <= 1.0 + EPS {
+            // The ray is origin + t dir, so the height along d is -t.
+            heights.push(-e2.dot(qv) * inv);
+        }
+    }
+    heights.sort_by(|x, y| y.total_cmp(x));
+    heights
+}
+
+/// The gate's circle points (Eq. 6) in the projection plane: k points of radius r around the
+/// node, starting on +u.
+fn circle(node: DVec2, r: f64, k: usize) -> impl Iterator<Item = DVec2> {
+    (0..k).map(move |i| {
+        let theta = std::f64::consts::TAU * i as f64 / k as f64;
+        node + DVec2::new(theta.cos(), theta.sin()) * r
+    })
+}
+
+/// Checks a grid gate against the mesh by brute force: it lies on the surface, it is the first
+/// hit of its node's ray, and every circle point's ray meets the part.
+fn check_gate_geometry(
+    failures: &mut Vec<String>,
+    name: &str,
+    part: &LoadedMesh,
+    analysis: &Analysis,
+    gate: &Gate,
+) {
+    let mesh = &part.mesh;
+    let tol = 1e-9 * size_mm(part);
+    let frame = &analysis.frame;
+    let on_surface = distance_to_surface(mesh, gate.point);
+    if !within(on_surface, tol) {
+        failures.push(format!(
+            "{name}: gate {:?} is {on_surface:.3e} mm from the surface",
+            gate.point
+        ));
+    }
+    let to_own = distance_to_triangle(mesh, gate.triangle as usize, gate.point);
+    if !within(to_own, tol) {
+        failures.push(format!(
+            "{name}: gate is {to_own:.3e} mm from its triangle {}",
+            gate.triangle
+        ));
+    }
+    check_close!(
+        failures,
+        frame.project(gate.point),
+        gate.node_uw,
+        tol,
+        "{name}: gate point projected vs its node"
+    );
+    match crossings(mesh, frame, gate.node_uw).first() {
+        Some(&top) if (frame.height(gate.point) - top).abs() <= tol => {}
+        Some(&top) => failures.push(format!(
+            "{name}: gate height {} is not the first hit {top} of its ray",
+            frame.height(gate.point)
+        )),
+        None => failures.push(format!("{name}: the gate's own ray misses the part")),
+    }
+    let r = analysis.options.gate_radius_mm;
+    let k = analysis.options.circle_points;
+    let missed: Vec<usize> = circle(gate.node_uw, r, k)
+        .enumerate()
+        .filter(|(_, q)| crossings(mesh, frame, *q).is_empty())
+        .map(|(i, _)| i)
+        .collect();
+    if !missed.is_empty() {
+        failures.push(format!(
+            "{name}: circle points {missed:?} of the gate at {:?} miss the part",
+            gate.node_uw
+        ));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tests.
+
+/// Every part loads in its unit, with the reference's facet count and projected box.
+#[test]
+fn every_shared_part_loads_with_its_units() {
+    const TEST: &str = "every_shared_part_loads_with_its_units";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    let reference_dir = data_dir("MOLDGATE_REFERENCE", "../shared/reference/results");
+    let mut failures = Vec::new();
+    for (part, loaded) in PARTS.iter().zip(parts) {
+        let name = part.stem();
+        let lm = match loaded {
+            Ok(lm) => lm,
+            Err(e) => {
+                failures.push(format!("{name}: does not load: {e}"));
+                continue;
+            }
+        };
+        let size = size_mm(lm);
+        if lm.stats.units != part.units() {
+            failures.push(format!("{name}: read as {}", lm.stats.units));
+        }
+        // A moulded part is millimetres to decimetres across; a wrong unit is off by 25 or 1000.
+        if !(5.0..=300.0).contains(&size) {
+            failures.push(format!("{name}: {size:.4} mm across; wrong unit?"));
+        }
+        if lm.warnings.iter().any(|w| w.contains("--units")) {
+            failures.push(format!("{name}: unit warning {:?}", lm.warnings));
+        }
+        let Ok(dir) = &reference_dir else { continue };
+        let r = reference(dir, part, "offset037");
+        let s = part.units().mm_per_unit();
+        if lm.stats.facets_read != r["triangles"].as_u64().unwrap_or(0) {
+            failures.push(format!(
+                "{name}: {} facets read, the reference has {}",
+                lm.stats.facets_read, r["triangles"]
+            ));
+        }
+        // The reference's frame is moldgate's, and its projected box, scaled to mm, is ours.
+        let frame = Frame::new(part.direction());
+        check_close!(failures, frame.d, vec3(&r["grid"]["D"]), 1e-12, "{name}: D");
+        check_close!(failures, frame.u, vec3(&r["grid"]["u"]), 1e-12, "{name}: u");
+        check_close!(failures, frame.w, vec3(&r["grid"]["w"]), 1e-12, "{name}: w");
+        let (lo, hi) = lm.mesh.vertices.iter().fold(
+            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(frame.project(p)), hi.max(frame.project(p))),
+        );
+        let tol = 1e-6 * size;
+        check_close!(
+            failures,
+            lo,
+            vec2(&r["grid"]["box_lo"]) * s,
+            tol,
+            "{name}: box low"
+        );
+        check_close!(
+            failures,
+            hi,
+            vec2(&r["grid"]["box_hi"]) * s,
+            tol,
+            "{name}: box high"
+        );
+    }
+    if let Err(why) = reference_dir {
+        skip(TEST, &format!("reference comparisons: {why}"));
+    }
+    report(TEST, &failures);
+}
+
+/// With the natural direction and default options, the gate lies on the surface and its whole
+/// circle lands on the part, as brute-force rays see it.
+#[test]
+fn default_gate_is_on_the_surface_with_its_circle_on_the_part() {
+    const TEST: &str = "default_gate_is_on_the_surface_with_its_circle_on_the_part";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    let per_part: Vec<(Vec<String>, Vec<String>)> = (0..PARTS.len())
+        .into_par_iter()
+        .map(|i| {
+            let (part, lm) = (&PARTS[i], loaded(parts, i));
+            let name = part.stem();
+            let (mut lines, mut failures) = (Vec::new(), Vec::new());
+            let options = LocateOptions {
+                direction: part.direction(),
+                ..LocateOptions::default()
+            };
+            let analysis = locate(lm, &options).expect("valid options");
+            let expect_gate = !NO_GATE_BY_THICKNESS.contains(&name);
+            match (&analysis.grid_gate, expect_gate) {
+                (Some(gate), true) => {
+                    check_gate_geometry(&mut failures, name, lm, &analysis, gate);
+                    lines.push(format!(
+                        "{name:38} gate {:?}, {:.3} mm from the centre",
+                        gate.point, gate.distance_3d
+                    ));
+                }
+                (Some(gate), false) => failures.push(format!(
+                    "{name}: expected no gate (walls thinner than R), found {:?}; update NO_GATE_BY_THICKNESS",
+                    gate.point
+                )),
+                (None, true) => failures.push(format!(
+                    "{name}: no gate: {}",
+                    analysis.why_no_candidate()
+                )),
+                (None, false) => {
+                    // The thickness rule removed every candidate; without it there is a gate,
+                    // on the surface, with its circle on the part, on a wall thinner than R.
+                    let c = analysis.counts;
+                    if !(c.circle_on_part > 0 && c.thicker_than_radius + c.thickness_unknown == 0)
+                    {
+                        failures.push(format!("{name}: no gate, but not by thickness: {c:?}"));
+                    }
+                    let ignore = LocateOptions {
+                        thickness_rule: ThicknessRule::Ignore,
+                        ..options.clone()
+                    };
+                    let analysis = locate(lm, &ignore).expect("valid options");
+                    match &analysis.grid_gate {
+                        Some(gate) => {
+                            check_gate_geometry(&mut failures, name, lm, &analysis, gate);
+                            let hits = crossings(&lm.mesh, &analysis.frame, gate.node_uw);
+                            let wall = hits.first().zip(hits.get(1)).map(|(a, b)| a - b);
+                            let r = options.gate_radius_mm;
+                            if !wall.is_some_and(|w| w < r) {
+                                failures.push(format!(
+                                    "{name}: wall at the thickness-ignoring gate is {wall:?}, not under R = {r}"
+                                ));
+                            }
+                            lines.push(format!(
+                                "{name:38} no gate by the thickness rule; ignoring it: {:?}, wall {wall:?} mm",
+                                gate.point
+                            ));
+                        }
+                        None => failures.push(format!(
+                            "{name}: no gate even ignoring thickness: {}",
+                            analysis.why_no_candidate()
+                        )),
+                    }
+                }
+            }
+            (lines, failures)
+        })
+        .collect();
+    report(TEST, &print_lines(per_part));
+}
+
+/// The area-weighted centre of mass (Eq. 5) matches the reference's, and on the reference's
+/// offset grid, with the thickness rule off as in the reference, the gate is within one
+/// spacing of the reference's 3D-rule gate.
+#[test]
+fn centre_and_offset_grid_gate_match_the_reference() {
+    const TEST: &str = "centre_and_offset_grid_gate_match_the_reference";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    let dir = match data_dir("MOLDGATE_REFERENCE", "../shared/reference/results") {
+        Ok(d) => d,
+        Err(why) => return skip(TEST, &why),
+    };
+    let per_part: Vec<(Vec<String>, Vec<String>)> = (0..PARTS.len())
+        .into_par_iter()
+        .map(|i| {
+            let (part, lm) = (&PARTS[i], loaded(parts, i));
+            let name = part.stem();
+            let (mut lines, mut failures) = (Vec::new(), Vec::new());
+            let r = reference(&dir, part, "offset037");
+            let s = part.units().mm_per_unit();
+            let size = size_mm(lm);
+            let spacing = number(&r["grid"]["spacing"]) * s;
+            let options = LocateOptions {
+                direction: part.direction(),
+                spacing: Spacing::Mm(spacing),
+                grid_offset: number(&r["grid"]["offset"]),
+                thickness_rule: ThicknessRule::Ignore,
+                ..LocateOptions::default()
+            };
+            let analysis = locate(lm, &options).expect("valid options");
+            check_close!(
+                failures,
+                analysis.centres.surface,
+                vec3(&r["centre_of_mass"]["area_weighted"]) * s,
+                1e-6 * size,
+                "{name}: area-weighted centre"
+            );
+            // `gate` holds the reference's aesthetic gate (its runs used --aesthetic); the
+            // paper's gate is `gate_3d_rule`.
+            let theirs = vec3(&r["gate_3d_rule"]["point"]) * s;
+            match &analysis.grid_gate {
+                Some(ours) => {
+                    let d = ours.point.distance(theirs);
+                    let (n_ours, n_theirs) = (
+                        analysis.counts.circle_on_part as f64,
+                        number(&r["counts"]["candidates"]),
+                    );
+                    lines.push(format!(
+                        "{name:38} gate {:.3} spacings from the reference's; candidates {n_ours} / {n_theirs}",
+                        d / spacing
+                    ));
+                    if !within(d, spacing) {
+                        failures.push(format!(
+                            "{name}: gate {:?} is {d:.4} mm = {:.2} spacings from the reference's {theirs:?}",
+                            ours.point,
+                            d / spacing
+                        ));
+                    }
+                    // Rays never lie on an edge on this grid, so the edge conventions agree
+                    // and the counts differ only where the grids do (see the comparison doc).
+                    if !within((n_ours - n_theirs).abs(), 0.005 * n_theirs) {
+                        failures.push(format!(
+                            "{name}: {n_ours} candidates, the reference has {n_theirs}"
+                        ));
+                    }
+                }
+                None => failures.push(format!(
+                    "{name}: no gate: {}",
+                    analysis.why_no_candidate()
+                )),
+            }
+            (lines, failures)
+        })
+        .collect();
+    report(TEST, &print_lines(per_part));
+}
+
+/// One part's gates with spacings h and h/2, compared.
+struct Halving {
+    name: String,
+    spacing: f64,
+    plane_shift: f64,
+    shift_3d: f64,
+    coarse_distance: f64,
+    fine_distance: f64,
+}
+
+fn halving(name: &str, part: &LoadedMesh, options: LocateOptions) -> Result<Halving, String> {
+    let coarse = locate(part, &options).expect("valid options");
+    let h = coarse.grid.spacing;
+    let fine = locate(
+        part,
+        &LocateOptions {
+            spacing: Spacing::Mm(h / 2.0),
+            ..options
+        },
+    )
+    .expect("valid options");
+    match (&coarse.grid_gate, &fine.grid_gate) {
+        (Some(a), Some(b)) => Ok(Halving {
+            name: name.to_string(),
+            spacing: h,
+            plane_shift: a.node_uw.distance(b.node_uw),
+            shift_3d: a.point.distance(b.point),
+            coarse_distance: a.distance_3d,
+            fine_distance: b.distance_3d,
+        }),
+        (a, b) => Err(format!(
+            "{name}: gate with h = {h}: {}, with h/2: {}",
+            a.is_some(),
+            b.is_some()
+        )),
+    }
+}
+
+/// Checks each part's halving against [`HALVING_BOUND`] (or, for a listed exception, that the
+/// finer gate is nearer the centre of mass) and prints the table.
+fn check_halvings(test: &str, results: Vec<Result<Halving, String>>, failures: &mut Vec<String>) {
+    println!("{test}: gate shift from spacing h to h/2, bound {HALVING_BOUND} h in the plane");
+    for result in results {
+        let h = match result {
+            Ok(h) => h,
+            Err(e) => {
+                failures.push(e);
+                continue;
+            }
+        };
+        let listed = HALVING_EXCEPTIONS.contains(&h.name.as_str());
+        println!(
+            "{:38} h = {:.4} mm: shift {:.3} h in the plane, {:.3} h in 3D; distance to the centre {:.4} -> {:.4} mm{}",
+            h.name,
+            h.spacing,
+            h.plane_shift / h.spacing,
+            h.shift_3d / h.spacing,
+            h.coarse_distance,
+            h.fine_distance,
+            if listed { " (listed exception)" } else { "" }
+        );
+        if listed {
+            if !within(h.fine_distance, h.coarse_distance) {
+                failures.push(format!(
+                    "{}: listed exception, but the finer gate is farther from the centre: {:.4} -> {:.4} mm",
+                    h.name, h.coarse_distance, h.fine_distance
+                ));
+            }
+        } else if !within(h.plane_shift, HALVING_BOUND * h.spacing) {
+            failures.push(format!(
+                "{}: halving h = {:.4} mm moves the gate {:.4} mm = {:.2} h in the plane ({:.2} h in 3D), distance to the centre {:.4} -> {:.4} mm",
+                h.name,
+                h.spacing,
+                h.plane_shift,
+                h.plane_shift / h.spacing,
+                h.shift_3d / h.spacing,
+                h.coarse_distance,
+                h.fine_distance
+            ));
+        }
+    }
+}
+
+/// Halving the default spacing moves the gate by at most [`HALVING_BOUND`] spacings in the
+/// projection plane, on every shared part along its natural direction, with default options
+/// (the thickness rule off for the parts of [`NO_GATE_BY_THICKNESS`]).
+#[test]
+fn halving_the_spacing_barely_moves_the_gate_on_the_shared_parts() {
+    const TEST: &str = "halving_the_spacing_barely_moves_the_gate_on_the_shared_parts";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    let results: Vec<Result<Halving, String>> = (0..PARTS.len())
+        .into_par_iter()
+        .map(|i| {
+            let name = PARTS[i].stem();
+            let options = LocateOptions {
+                direction: PARTS[i].direction(),
+                // A part without a gate under the thickness rule is checked without it.
+                thickness_rule: if NO_GATE_BY_THICKNESS.contains(&name) {
+                    ThicknessRule::Ignore
+                } else {
+                    ThicknessRule::Require
+                },
+                ..LocateOptions::default()
+            };
+            halving(name, loaded(parts, i), options)
+        })
+        .collect();
+    let mut failures = Vec::new();
+    check_halvings(TEST, results, &mut failures);
+    report(TEST, &failures);
+}
+
+/// The same on the built-in samples, along +z (the default direction).
+#[test]
+fn halving_the_spacing_barely_moves_the_gate_on_the_samples() {
+    const TEST: &str = "halving_the_spacing_barely_moves_the_gate_on_the_samples";
+    let results: Vec<Result<Halving, String>> = moldgate::samples::SAMPLES
+        .par_iter()
+        .map(|s| {
+            let part = mesh::from_generated(moldgate::samples::sample(s.name).expect("sample"));
+            halving(s.name, &part, LocateOptions::default())
+        })
+        .collect();
+    let mut failures = Vec::new();
+    check_halvings(TEST, results, &mut failures);
+    report(TEST, &failures);
+}
