@@ -329,7 +329,10 @@ pub fn load_file(path: &Path, units: Units) -> Result<LoadedMesh, Failure> {
         .metadata()
         .map_err(|e| fail(&format_args!("cannot read: {e}")))?
         .len();
-    mesh::read_stl(BufReader::with_capacity(1 << 16, file), len, units).map_err(|e| fail(&e))
+    drop(file);
+    // Opened once per reading thread for large binary files.
+    let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
+    mesh::read_stl_reopen(open, len, units).map_err(|e| fail(&e))
 }
 
 /// The largest grid the command line accepts. With 16 circle points a node costs 17 rays of

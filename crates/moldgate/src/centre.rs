@@ -1,6 +1,7 @@
 //! Centres of mass: the paper's surface superposition (Eq. 3-5) and the volumetric centre of
 //! the enclosed solid (divergence theorem).
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::math::DVec3;
@@ -36,21 +37,36 @@ impl Centres {
         // Moments are taken about the box centre so that the volume sums do not cancel
         // catastrophically on parts far from the origin.
         let origin = mesh.bounds().centre();
-        let mut area = 0.0;
-        let mut area_moment = DVec3::ZERO;
-        let mut volume = 0.0;
-        let mut volume_moment = DVec3::ZERO;
-        for t in 0..mesh.triangles.len() {
-            let [a, b, c] = mesh.corners(t).map(|p| p - origin);
-            let cross = (b - a).cross(c - a);
-            let a_f = 0.5 * cross.length(); // Eq. 3
-            let c_f = (a + b + c) / 3.0; // Eq. 4
-            area += a_f;
-            area_moment += c_f * a_f;
-            // Signed tetrahedron (origin, a, b, c): volume a.(b x c)/6, centroid (a+b+c)/4.
-            let v = a.dot(b.cross(c)) / 6.0;
-            volume += v;
-            volume_moment += (a + b + c) * (v / 4.0);
+        // Partial sums over fixed runs of triangles, in parallel, added in run order: the
+        // result does not depend on the number of threads.
+        const RUN: usize = 8192;
+        let partial: Vec<(f64, DVec3, f64, DVec3)> = (0..mesh.triangles.len().div_ceil(RUN))
+            .into_par_iter()
+            .map(|r| {
+                let mut sums = (0.0, DVec3::ZERO, 0.0, DVec3::ZERO);
+                for t in r * RUN..((r + 1) * RUN).min(mesh.triangles.len()) {
+                    let [a, b, c] = mesh.corners(t).map(|p| p - origin);
+                    let cross = (b - a).cross(c - a);
+                    let a_f = 0.5 * cross.length(); // Eq. 3
+                    let c_f = (a + b + c) / 3.0; // Eq. 4
+                    sums.0 += a_f;
+                    sums.1 += c_f * a_f;
+                    // Signed tetrahedron (origin, a, b, c): volume a.(b x c)/6, centroid
+                    // (a+b+c)/4.
+                    let v = a.dot(b.cross(c)) / 6.0;
+                    sums.2 += v;
+                    sums.3 += (a + b + c) * (v / 4.0);
+                }
+                sums
+            })
+            .collect();
+        let (mut area, mut area_moment, mut volume, mut volume_moment) =
+            (0.0, DVec3::ZERO, 0.0, DVec3::ZERO);
+        for p in partial {
+            area += p.0;
+            area_moment += p.1;
+            volume += p.2;
+            volume_moment += p.3;
         }
         let size = mesh.bounds().diagonal();
         let volume_centre = if volume.abs() > 1e-9 * size * size * size {

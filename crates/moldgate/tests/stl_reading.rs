@@ -943,3 +943,64 @@ fn corrupted_files_load_or_are_refused_without_panic() {
         }
     }
 }
+
+/// A height-field sheet of `n` x `n` cells (2 n^2 facets), enough to take the parallel path.
+fn sheet(n: usize) -> Vec<Facet> {
+    let z = |i: usize, j: usize| ((i * 7 + j * 13) % 5) as f32 * 0.25;
+    let p = |i: usize, j: usize| [i as f32, j as f32, z(i, j)];
+    let mut facets = Vec::with_capacity(2 * n * n);
+    for i in 0..n {
+        for j in 0..n {
+            facets.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+            facets.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+        }
+    }
+    facets
+}
+
+fn read_file_reopen(path: &std::path::Path) -> Result<LoadedMesh, LoadError> {
+    let len = std::fs::metadata(path).unwrap().len();
+    let open = || std::fs::File::open(path).map(std::io::BufReader::new);
+    moldgate::mesh::read_stl_reopen(open, len, Units::Mm)
+}
+
+#[test]
+fn reading_a_large_binary_file_on_several_threads_gives_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sheet.stl");
+    let bytes = binary(b"sheet", &sheet(150)); // 45,000 facets
+    std::fs::write(&path, &bytes).unwrap();
+    let one = read_mm(&bytes);
+    let many = read_file_reopen(&path).unwrap();
+    assert_eq!(one.mesh.vertices, many.mesh.vertices);
+    assert_eq!(one.mesh.triangles, many.mesh.triangles);
+    assert_eq!(one.stats.vertices, 151 * 151);
+    assert_eq!(one.stats.open_edges, many.stats.open_edges);
+    assert_eq!(one.stats.bodies, 1);
+}
+
+#[test]
+fn errors_on_the_parallel_path_name_the_same_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sheet.stl");
+    let facets = sheet(150);
+    let mut bytes = binary(b"sheet", &facets);
+    // A NaN late in the file, in the last run of records.
+    let at = coordinate_offset(44_000, 2, 1);
+    bytes[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    match read_file_reopen(&path).unwrap_err() {
+        LoadError::NonFinite {
+            place: Place::Byte(b),
+            triangle: 44_000,
+            ..
+        } => assert_eq!(b, at as u64),
+        other => panic!("{other:?}"),
+    }
+    // Truncated: the size rule fails, so the one-thread reader reports it.
+    std::fs::write(&path, &bytes[..bytes.len() - 10]).unwrap();
+    assert!(matches!(
+        read_file_reopen(&path).unwrap_err(),
+        LoadError::Truncated { .. }
+    ));
+}

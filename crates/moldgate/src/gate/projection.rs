@@ -90,7 +90,6 @@ pub fn cast(projected: &[DVec3], triangles: &[[u32; 3]], lattices: &[RayLattice]
     if lattices.is_empty() {
         return hits;
     }
-    let order = row_order(projected, triangles, &lattices[0]);
     // One group per thread, and at most 64 lattices a group (a bit mask per triangle).
     let groups = rayon::current_num_threads()
         .max(lattices.len().div_ceil(64))
@@ -98,54 +97,13 @@ pub fn cast(projected: &[DVec3], triangles: &[[u32; 3]], lattices: &[RayLattice]
     let per_group = lattices.len().div_ceil(groups);
     hits.par_chunks_mut(per_group)
         .zip(lattices.par_chunks(per_group))
-        .for_each(|(hits, lattices)| cast_group(projected, triangles, &order, lattices, hits));
+        .for_each(|(hits, lattices)| cast_group(projected, triangles, lattices, hits));
     hits
-}
-
-/// The triangles that are not seen edge-on, sorted by the lattice row of their lowest
-/// corner (a counting sort). Drawn in this order, the rays a triangle touches were touched
-/// by the triangles just before it, so the hit arrays stay in cache; in file order every
-/// triangle lands somewhere else and each hit costs a miss.
-fn row_order(projected: &[DVec3], triangles: &[[u32; 3]], lattice: &RayLattice) -> Vec<u32> {
-    let rows = lattice.n_w + 2;
-    let inv = 1.0 / lattice.spacing;
-    let row_of = |tri: &[u32; 3]| -> Option<usize> {
-        let [a, b, c] = tri.map(|v| projected[v as usize].truncate());
-        if orient2d(a, b, c) == 0.0 {
-            return None;
-        }
-        let lo = a.y.min(b.y).min(c.y);
-        let row = ((lo - lattice.origin.y) * inv).clamp(-1.0, lattice.n_w as f64) + 1.0;
-        Some(row as usize)
-    };
-    let mut start = vec![0u32; rows + 1];
-    let keys: Vec<u32> = triangles
-        .iter()
-        .map(|tri| match row_of(tri) {
-            Some(row) => {
-                start[row + 1] += 1;
-                row as u32
-            }
-            None => u32::MAX,
-        })
-        .collect();
-    for r in 0..rows {
-        start[r + 1] += start[r];
-    }
-    let mut order = vec![0u32; start[rows] as usize];
-    for (t, &row) in keys.iter().enumerate() {
-        if row != u32::MAX {
-            order[start[row as usize] as usize] = t as u32;
-            start[row as usize] += 1;
-        }
-    }
-    order
 }
 
 fn cast_group(
     projected: &[DVec3],
     triangles: &[[u32; 3]],
-    order: &[u32],
     lattices: &[RayLattice],
     hits: &mut [Vec<Hit>],
 ) {
@@ -161,8 +119,10 @@ fn cast_group(
         .iter()
         .map(|l| fraction((l.origin.y - base.y) * inv))
         .collect();
-    for &t in order {
-        let [a, b, c] = triangles[t as usize].map(|v| projected[v as usize]);
+    // File order: neighbouring triangles share vertices, so the corner reads stay in cache.
+    for (t, tri) in triangles.iter().enumerate() {
+        let t = t as u32;
+        let [a, b, c] = tri.map(|v| projected[v as usize]);
         let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
             continue;
         };

@@ -141,6 +141,18 @@ pub fn read_stl(reader: impl BufRead, len: u64, units: Units) -> Result<LoadedMe
     finish(raw, units)
 }
 
+/// Reads an STL of `len` bytes from a source that `open` can open more than once, such as
+/// a file: large binary files are then read and welded on several threads. The result is
+/// the same as [`read_stl`]'s.
+pub fn read_stl_reopen<R, F>(open: F, len: u64, units: Units) -> Result<LoadedMesh, LoadError>
+where
+    R: BufRead + std::io::Seek,
+    F: Fn() -> std::io::Result<R> + Sync,
+{
+    let raw = stl::read_reopen(open, len)?;
+    finish(raw, units)
+}
+
 /// Builds a [`LoadedMesh`] from generated geometry in millimetres.
 pub fn from_generated(mesh: Mesh) -> LoadedMesh {
     let facets = mesh.triangles.len() as u64;
@@ -263,32 +275,22 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
 ///
 /// Positions are compared by their exact bit patterns (with -0.0 read as 0.0): STL writers
 /// repeat a shared corner's coordinates exactly, and any tolerance would merge real detail.
-///
-/// Facets are buffered and welded a batch at a time. Each position belongs to one of two
-/// halves by a bit of its hash, and the halves are welded in parallel, each in its own
-/// open-addressing table of vertex numbers (4 bytes a slot, at most half full) compared
-/// against its own vertex list. The result does not depend on the number of threads: the
-/// vertices of the first half come first, each half in order of first appearance.
+/// The index is an open-addressing table of vertex numbers (4 bytes a slot, at most half
+/// full) that compares against the vertex list itself, so it costs a fraction of a map that
+/// stores the keys.
 #[derive(Debug)]
 pub struct Welder {
-    halves: [WeldTable; 2],
-    pending: Vec<[DVec3; 3]>,
-    hashes: Vec<u64>,
-    ids: [Vec<u32>; 2],
-    /// Triangles with vertex numbers local to their half; the second half's are tagged.
-    triangles: Vec<[u32; 3]>,
+    slots: Vec<u32>,
+    /// A small direct-mapped cache of recently welded positions: neighbouring facets of a
+    /// file share corners, and a hit here skips the probe of the large table.
+    recent: Vec<([u64; 3], u32)>,
+    mesh: Mesh,
     collapsed: u64,
 }
 
-/// Facets welded per batch.
-const BATCH: usize = 16 * 1024;
-/// Marks a vertex number of the second half until [`Welder::finish`].
-const SECOND_HALF: u32 = 1 << 31;
-/// The hash bit that picks the half.
-const HALF_BIT: u32 = 31;
-const EMPTY: u32 = u32::MAX;
-/// Entries of the small cache of recently welded positions.
 const RECENT: usize = 4096;
+
+const EMPTY: u32 = u32::MAX;
 
 /// Bit patterns of a position, with -0.0 made 0.0.
 #[inline]
@@ -308,52 +310,48 @@ fn hash_of(bits: [u64; 3]) -> u64 {
     (h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9)
 }
 
-/// One half of the welding index.
-#[derive(Debug)]
-struct WeldTable {
-    slots: Vec<u32>,
-    /// A small direct-mapped cache of recent positions: neighbouring facets share corners,
-    /// and a hit skips the probe of the large table.
-    recent: Vec<([u64; 3], u32)>,
-    vertices: Vec<DVec3>,
+#[inline]
+fn slot_of(bits: [u64; 3], mask: usize) -> usize {
+    (hash_of(bits) >> 32) as usize & mask
 }
 
-impl WeldTable {
-    fn with_capacity(vertices: usize) -> WeldTable {
-        WeldTable {
-            slots: vec![EMPTY; (2 * vertices).next_power_of_two().max(64)],
+impl Welder {
+    /// A welder expecting about `triangles` facets.
+    pub fn with_capacity(triangles: usize) -> Welder {
+        // A closed mesh has about half as many vertices as triangles.
+        let vertices = triangles / 2 + 16;
+        Welder {
+            slots: vec![EMPTY; (2 * vertices).next_power_of_two()],
             recent: vec![([u64::MAX; 3], EMPTY); RECENT],
-            vertices: Vec::with_capacity(vertices),
+            mesh: Mesh {
+                vertices: Vec::with_capacity(vertices),
+                triangles: Vec::with_capacity(triangles),
+            },
+            collapsed: 0,
         }
     }
 
-    #[inline]
-    fn slot(hash: u64, mask: usize) -> usize {
-        (hash >> 32) as usize & mask
-    }
-
-    /// The number of the vertex at `p`, added if new.
-    #[inline]
-    fn vertex(&mut self, p: DVec3, hash: u64) -> u32 {
+    fn vertex(&mut self, p: DVec3) -> u32 {
+        if 2 * (self.mesh.vertices.len() + 1) > self.slots.len() {
+            self.grow();
+        }
         let bits = position_bits(p);
+        let hash = hash_of(bits);
         let cached = hash as usize % RECENT;
         if self.recent[cached].0 == bits {
             return self.recent[cached].1;
         }
-        if 2 * (self.vertices.len() + 1) > self.slots.len() {
-            self.grow();
-        }
         let mask = self.slots.len() - 1;
-        let mut slot = Self::slot(hash, mask);
+        let mut slot = (hash >> 32) as usize & mask;
         let v = loop {
             let v = self.slots[slot];
             if v == EMPTY {
-                let next = self.vertices.len() as u32;
+                let next = self.mesh.vertices.len() as u32;
                 self.slots[slot] = next;
-                self.vertices.push(p + DVec3::ZERO);
+                self.mesh.vertices.push(p + DVec3::ZERO);
                 break next;
             }
-            if position_bits(self.vertices[v as usize]) == bits {
+            if position_bits(self.mesh.vertices[v as usize]) == bits {
                 break v;
             }
             slot = (slot + 1) & mask;
@@ -363,11 +361,11 @@ impl WeldTable {
     }
 
     fn grow(&mut self) {
-        let size = 2 * self.slots.len();
+        let size = (2 * self.slots.len()).max(64);
         self.slots = vec![EMPTY; size];
         let mask = size - 1;
-        for (v, &p) in self.vertices.iter().enumerate() {
-            let mut slot = Self::slot(hash_of(position_bits(p)), mask);
+        for (v, &p) in self.mesh.vertices.iter().enumerate() {
+            let mut slot = slot_of(position_bits(p), mask);
             while self.slots[slot] != EMPTY {
                 slot = (slot + 1) & mask;
             }
@@ -375,103 +373,41 @@ impl WeldTable {
         }
     }
 
-    /// Welds the corners of `facets` whose hash falls in `half`, writing their numbers to
-    /// `ids` (three per facet).
-    fn weld(&mut self, facets: &[[DVec3; 3]], hashes: &[u64], half: u64, ids: &mut Vec<u32>) {
-        ids.clear();
-        ids.resize(hashes.len(), EMPTY);
-        for (c, &hash) in hashes.iter().enumerate() {
-            if (hash >> HALF_BIT) & 1 == half {
-                ids[c] = self.vertex(facets[c / 3][c % 3], hash);
-            }
-        }
-    }
-}
-
-impl Welder {
-    /// A welder expecting about `triangles` facets.
-    pub fn with_capacity(triangles: usize) -> Welder {
-        // A closed mesh has about half as many vertices as triangles, a quarter per half.
-        let per_half = triangles / 4 + 16;
-        Welder {
-            halves: [
-                WeldTable::with_capacity(per_half),
-                WeldTable::with_capacity(per_half),
-            ],
-            pending: Vec::with_capacity(BATCH.min(triangles + 1)),
-            hashes: Vec::new(),
-            ids: [Vec::new(), Vec::new()],
-            triangles: Vec::with_capacity(triangles),
-            collapsed: 0,
-        }
-    }
-
     /// Adds one facet; a facet whose corners weld to fewer than three vertices is dropped
     /// and counted.
     pub fn push(&mut self, corners: [DVec3; 3]) {
-        self.pending.push(corners);
-        if self.pending.len() >= BATCH {
-            self.flush();
+        let a = self.vertex(corners[0]);
+        let b = self.vertex(corners[1]);
+        let c = self.vertex(corners[2]);
+        if a == b || b == c || a == c {
+            self.collapsed += 1;
+        } else {
+            self.mesh.triangles.push([a, b, c]);
         }
     }
 
-    fn flush(&mut self) {
-        if self.pending.is_empty() {
-            return;
-        }
-        let facets = &self.pending;
-        self.hashes.clear();
-        self.hashes.extend(
-            facets
+    /// Adds the facets welded by `other`, after this welder's, as if they had been pushed
+    /// here: `other`'s vertices are looked up (new ones appended in their order) and its
+    /// triangles renumbered.
+    pub fn append(&mut self, other: Welder) {
+        let renumber: Vec<u32> = other
+            .mesh
+            .vertices
+            .iter()
+            .map(|&p| self.vertex(p))
+            .collect();
+        self.mesh.triangles.extend(
+            other
+                .mesh
+                .triangles
                 .iter()
-                .flat_map(|f| f.iter().map(|&p| hash_of(position_bits(p)))),
+                .map(|tri| tri.map(|v| renumber[v as usize])),
         );
-        let hashes = &self.hashes;
-        let [first, second] = &mut self.halves;
-        let [ids0, ids1] = &mut self.ids;
-        rayon::join(
-            || first.weld(facets, hashes, 0, ids0),
-            || second.weld(facets, hashes, 1, ids1),
-        );
-        for f in 0..facets.len() {
-            let tri: [u32; 3] = std::array::from_fn(|k| {
-                let c = 3 * f + k;
-                if (hashes[c] >> HALF_BIT) & 1 == 0 {
-                    ids0[c]
-                } else {
-                    ids1[c] | SECOND_HALF
-                }
-            });
-            if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
-                self.collapsed += 1;
-            } else {
-                self.triangles.push(tri);
-            }
-        }
-        self.pending.clear();
+        self.collapsed += other.collapsed;
     }
 
     /// The welded mesh and the number of dropped facets.
-    pub fn finish(mut self) -> (Mesh, u64) {
-        self.flush();
-        let [first, second] = self.halves;
-        let offset = first.vertices.len() as u32;
-        let mut vertices = first.vertices;
-        vertices.extend_from_slice(&second.vertices);
-        let mut triangles = self.triangles;
-        for tri in &mut triangles {
-            for v in tri.iter_mut() {
-                if *v & SECOND_HALF != 0 {
-                    *v = (*v & !SECOND_HALF) + offset;
-                }
-            }
-        }
-        (
-            Mesh {
-                vertices,
-                triangles,
-            },
-            self.collapsed,
-        )
+    pub fn finish(self) -> (Mesh, u64) {
+        (self.mesh, self.collapsed)
     }
 }

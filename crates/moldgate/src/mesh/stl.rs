@@ -10,7 +10,9 @@
 //! than three corners (split into a fan), a missing final `endsolid` (with a warning). The
 //! facet normal is ignored; orientation comes from the corner order.
 
-use std::io::{BufRead, Read, Write};
+use std::io::{BufRead, Read, Seek, SeekFrom, Write};
+
+use rayon::prelude::*;
 
 use super::{Format, Mesh, RawMesh, Welder};
 use crate::error::{LoadError, Place};
@@ -80,11 +82,35 @@ fn read_binary(mut reader: impl Read, declared: u64) -> Result<RawMesh, LoadErro
     let mut header = [0u8; HEADER as usize];
     reader.read_exact(&mut header)?;
     let mut welder = Welder::with_capacity(declared as usize);
+    weld_records(reader, 0..declared, &mut welder)?;
+    Ok(binary_mesh(welder, declared))
+}
+
+fn binary_mesh(welder: Welder, declared: u64) -> RawMesh {
+    let (mesh, collapsed_facets) = welder.finish();
+    RawMesh {
+        format: Format::StlBinary,
+        solids: 1,
+        facets_read: declared,
+        corners_read: 3 * declared,
+        collapsed_facets,
+        mesh,
+        warnings: Vec::new(),
+    }
+}
+
+/// Reads the binary records `range` from `reader`, which is positioned at the first of them,
+/// into `welder`.
+fn weld_records(
+    mut reader: impl Read,
+    range: std::ops::Range<u64>,
+    welder: &mut Welder,
+) -> Result<(), LoadError> {
     const CHUNK: usize = 4096;
     let mut buf = vec![0u8; CHUNK * RECORD as usize];
-    let mut done = 0u64;
-    while done < declared {
-        let count = (declared - done).min(CHUNK as u64) as usize;
+    let mut done = range.start;
+    while done < range.end {
+        let count = (range.end - done).min(CHUNK as u64) as usize;
         let bytes = &mut buf[..count * RECORD as usize];
         reader.read_exact(bytes)?;
         for (i, rec) in bytes.chunks_exact(RECORD as usize).enumerate() {
@@ -110,16 +136,57 @@ fn read_binary(mut reader: impl Read, declared: u64) -> Result<RawMesh, LoadErro
         }
         done += count as u64;
     }
-    let (mesh, collapsed_facets) = welder.finish();
-    Ok(RawMesh {
-        format: Format::StlBinary,
-        solids: 1,
-        facets_read: declared,
-        corners_read: 3 * declared,
-        collapsed_facets,
-        mesh,
-        warnings: Vec::new(),
-    })
+    Ok(())
+}
+
+/// Binary files with fewer triangles than this are read on one thread.
+const PARALLEL_MIN_TRIANGLES: u64 = 32 * 1024;
+
+/// Reads an STL of `len` bytes from a source that `open` can open several times (a file).
+///
+/// A large binary file is split into as many runs of consecutive records as there are
+/// threads; each run is read through its own handle and welded on its own, then the runs are
+/// merged in order. Vertices are numbered by first appearance in the file, as the
+/// single-threaded reader numbers them, so the result is the same. Anything else is read by
+/// [`read`] through one handle.
+pub fn read_reopen<R, F>(open: F, len: u64) -> Result<RawMesh, LoadError>
+where
+    R: BufRead + Seek,
+    F: Fn() -> std::io::Result<R> + Sync,
+{
+    let mut first = open()?;
+    let mut head = [0u8; HEADER as usize];
+    let declared = match first.read_exact(&mut head) {
+        Ok(()) => Some(u32::from_le_bytes([head[80], head[81], head[82], head[83]]) as u64),
+        Err(_) => None,
+    };
+    first.seek(SeekFrom::Start(0))?;
+    let runs = rayon::current_num_threads().min(8) as u64;
+    let Some(n) = declared.filter(|&n| {
+        let expected = HEADER + RECORD * n;
+        n >= PARALLEL_MIN_TRIANGLES && runs > 1 && len >= expected && len - expected <= 2
+    }) else {
+        return read(first, len);
+    };
+    drop(first);
+    let per_run = n.div_ceil(runs);
+    let welded: Vec<Result<Welder, LoadError>> = (0..runs)
+        .into_par_iter()
+        .map(|r| {
+            let range = (r * per_run).min(n)..((r + 1) * per_run).min(n);
+            let mut reader = open()?;
+            reader.seek(SeekFrom::Start(HEADER + RECORD * range.start))?;
+            let mut welder = Welder::with_capacity((range.end - range.start) as usize);
+            weld_records(reader, range, &mut welder)?;
+            Ok(welder)
+        })
+        .collect();
+    let mut welded = welded.into_iter();
+    let mut whole = welded.next().expect("at least one run")?;
+    for run in welded {
+        whole.append(run?);
+    }
+    Ok(binary_mesh(whole, n))
 }
 
 /// What the ASCII parser expects next.

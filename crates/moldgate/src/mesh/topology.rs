@@ -4,6 +4,10 @@
 //! three edges (4 bytes per edge side), which is all that the parting line and the counts
 //! need, at a fifth of the memory of an edge list.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use rayon::prelude::*;
+
 use super::Mesh;
 
 /// Marks a missing neighbour: the edge is open (used by one triangle only).
@@ -50,11 +54,16 @@ impl Topology {
     /// non-manifold edges are left out.
     pub fn edge_sides(&self) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
         let all = &self.neighbours;
+        // Without non-manifold edges every neighbour relation is mutual; with them, a
+        // triangle's neighbour may point on to a third one, and such pairs are left out.
+        let check = self.non_manifold_edges > 0;
         all.iter().enumerate().flat_map(move |(t, across)| {
             (0..3).filter_map(move |k| {
                 let n = across[k];
-                (n != NO_TRIANGLE && n > t as u32 && all[n as usize].contains(&(t as u32)))
-                    .then_some((t as u32, k, n))
+                (n != NO_TRIANGLE
+                    && n > t as u32
+                    && (!check || all[n as usize].contains(&(t as u32))))
+                .then_some((t as u32, k, n))
             })
         })
     }
@@ -80,44 +89,76 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
     for i in 0..nv {
         start[i + 1] += start[i];
     }
-    let mut sides = vec![0u32; 3 * tris.len()];
+    // (far vertex, side) per side, grouped by near vertex.
+    let mut sides = vec![0u64; 3 * tris.len()];
     {
         let mut fill = start.clone();
         for side in 0..3 * tris.len() as u32 {
-            let lo = ends(side).0 as usize;
-            sides[fill[lo] as usize] = side;
-            fill[lo] += 1;
+            let (lo, hi) = ends(side);
+            sides[fill[lo as usize] as usize] = (u64::from(hi) << 32) | u64::from(side);
+            fill[lo as usize] += 1;
         }
     }
-    let mut neighbours = vec![[NO_TRIANGLE; 3]; tris.len()];
-    let (mut edges, mut open, mut non_manifold) = (0u64, 0u64, 0u64);
-    for v in 0..nv {
-        let bucket = &mut sides[start[v] as usize..start[v + 1] as usize];
-        // Group by the far vertex; sides in triangle order within a group.
-        bucket.sort_unstable_by_key(|&side| (ends(side).1, side));
-        let mut i = 0;
-        while i < bucket.len() {
-            let far = ends(bucket[i]).1;
-            let mut j = i + 1;
-            while j < bucket.len() && ends(bucket[j]).1 == far {
-                j += 1;
-            }
-            edges += 1;
-            match j - i {
-                1 => open += 1,
-                2 => {}
-                _ => non_manifold += 1,
-            }
-            if j - i > 1 {
-                for m in i..j {
-                    let side = bucket[m];
-                    let next = bucket[if m + 1 < j { m + 1 } else { i }];
-                    neighbours[(side / 3) as usize][(side % 3) as usize] = next / 3;
+    // Each side is written once, by the thread that owns its near vertex; relaxed atomic
+    // stores let the threads share the table without locks.
+    let across: Vec<AtomicU32> = (0..3 * tris.len())
+        .map(|_| AtomicU32::new(NO_TRIANGLE))
+        .collect();
+    let side_of = |key: u64| key as u32;
+    // Vertices in blocks, the blocks in parallel; each block's sides are a disjoint slice.
+    const BLOCK: usize = 16 * 1024;
+    let mut blocks: Vec<(usize, &mut [u64])> = Vec::with_capacity(nv / BLOCK + 1);
+    let mut rest: &mut [u64] = &mut sides;
+    let mut v0 = 0;
+    while v0 < nv {
+        let v1 = (v0 + BLOCK).min(nv);
+        let (block, tail) = rest.split_at_mut((start[v1] - start[v0]) as usize);
+        blocks.push((v0, block));
+        rest = tail;
+        v0 = v1;
+    }
+    let counts = blocks
+        .into_par_iter()
+        .map(|(v0, block)| {
+            let base = start[v0] as usize;
+            let (mut edges, mut open, mut non_manifold) = (0u64, 0u64, 0u64);
+            let v1 = (v0 + BLOCK).min(nv);
+            for v in v0..v1 {
+                let bucket = &mut block[start[v] as usize - base..start[v + 1] as usize - base];
+                // Grouped by the far vertex; sides in triangle order within a group.
+                bucket.sort_unstable();
+                let mut i = 0;
+                while i < bucket.len() {
+                    let far = bucket[i] >> 32;
+                    let mut j = i + 1;
+                    while j < bucket.len() && bucket[j] >> 32 == far {
+                        j += 1;
+                    }
+                    edges += 1;
+                    match j - i {
+                        1 => open += 1,
+                        2 => {}
+                        _ => non_manifold += 1,
+                    }
+                    if j - i > 1 {
+                        for m in i..j {
+                            let side = side_of(bucket[m]);
+                            let next = side_of(bucket[if m + 1 < j { m + 1 } else { i }]);
+                            across[side as usize].store(next / 3, Ordering::Relaxed);
+                        }
+                    }
+                    i = j;
                 }
             }
-            i = j;
-        }
-    }
+            (edges, open, non_manifold)
+        })
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+    let (edges, open, non_manifold) = counts;
+    drop(sides);
+    let neighbours: Vec<[u32; 3]> = across
+        .chunks_exact(3)
+        .map(|c| std::array::from_fn(|k| c[k].load(Ordering::Relaxed)))
+        .collect();
     (neighbours, edges, open, non_manifold)
 }
 
