@@ -33,7 +33,12 @@ fn bench_real(c: &mut Criterion) {
     let load = || mesh::read_stl(&bytes[..], bytes.len() as u64, Units::Mm).unwrap();
     let mut group = c.benchmark_group("esp32_bottom_352k");
     group.sample_size(20);
-    group.bench_function("load", |b| b.iter(load));
+    group.bench_function("load_from_memory_one_thread", |b| b.iter(load));
+    let len = bytes.len() as u64;
+    let open = || std::fs::File::open(&path).map(std::io::BufReader::new);
+    group.bench_function("load_from_file", |b| {
+        b.iter(|| mesh::read_stl_reopen(open, len, Units::Mm).unwrap())
+    });
     let part = load();
     let options = LocateOptions {
         direction: "+y".parse().unwrap(),

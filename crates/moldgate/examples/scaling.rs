@@ -28,7 +28,11 @@ fn main() {
         (args[0].clone(), bytes, args[1].parse().expect("demold"))
     } else if default_part.exists() {
         let bytes = std::fs::read(&default_part).expect("read the part");
-        ("esp32s3box_bottom_housing_352k".into(), bytes, "+y".parse().unwrap())
+        (
+            "esp32s3box_bottom_housing_352k".into(),
+            bytes,
+            "+y".parse().unwrap(),
+        )
     } else {
         let mut bytes = Vec::new();
         let mesh = moldgate::samples::sample("cover").unwrap();
