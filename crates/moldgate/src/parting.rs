@@ -17,6 +17,7 @@ use serde::Serialize;
 
 use crate::frame::Frame;
 use crate::math::{nearest_on_segment, DVec3};
+use crate::mesh::topology::root;
 use crate::mesh::{Mesh, Topology};
 
 /// The parting line: connected chains of mesh edges.
@@ -76,14 +77,6 @@ impl PartingLine {
         }
         // Loops are the connected components of the chosen edges (union-find on vertices).
         let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
-        fn root(parent: &mut [u32], mut x: u32) -> u32 {
-            while parent[x as usize] != x {
-                let up = parent[parent[x as usize] as usize];
-                parent[x as usize] = up;
-                x = up;
-            }
-            x
-        }
         for &[a, b] in &edges {
             let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
             if ra != rb {

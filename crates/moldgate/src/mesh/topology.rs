@@ -162,17 +162,20 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
     (neighbours, edges, open, non_manifold)
 }
 
+/// The representative of `x` in a union-find forest stored as parent links, halving the
+/// path on the way up.
+pub(crate) fn root(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        let up = parent[parent[x as usize] as usize];
+        parent[x as usize] = up;
+        x = up;
+    }
+    x
+}
+
 /// Union-find over vertices: triangles sharing a vertex are in the same body.
 fn bodies(mesh: &Mesh) -> (u64, Vec<u32>) {
     let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
-    fn root(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let up = parent[parent[x as usize] as usize];
-            parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
     for tri in &mesh.triangles {
         let mut r0 = root(&mut parent, tri[0]);
         for &v in &tri[1..] {
