@@ -25,8 +25,12 @@ pub fn render(r: &Report) -> String {
     let m = &r.mesh;
     let _ = writeln!(
         s,
-        "{name}: {:?} in {}, {} triangles, {} vertices, {} {}, {}",
-        m.format,
+        "{name}: {} in {}, {} triangles, {} vertices, {} {}, {}",
+        match m.format {
+            moldgate::mesh::Format::StlBinary => "binary STL",
+            moldgate::mesh::Format::StlAscii => "ASCII STL",
+            moldgate::mesh::Format::Generated => "generated",
+        },
         m.units,
         m.triangles,
         m.vertices,
@@ -63,8 +67,11 @@ pub fn render(r: &Report) -> String {
     );
     let _ = writeln!(
         s,
-        "centre of mass ({:?}): {}",
-        r.centre_of_mass.kind,
+        "centre of mass ({}): {}",
+        match r.centre_of_mass.kind {
+            moldgate::CentreKind::Surface => "surface, Eq. 5",
+            moldgate::CentreKind::Volume => "volume",
+        },
         v3(r.centre_of_mass.used)
     );
     let c = &r.counts;
@@ -95,7 +102,11 @@ pub fn render(r: &Report) -> String {
     }
     match &r.gate {
         Some(g) => {
-            let _ = writeln!(s, "GATE ({:?}): {} mm", g.mode, v3(g.point));
+            let mode = match g.mode {
+                moldgate::GateMode::Paper => "paper",
+                moldgate::GateMode::Aesthetic => "aesthetic",
+            };
+            let _ = writeln!(s, "GATE ({mode}): {} mm", v3(g.point));
         }
         None => {
             let _ = writeln!(

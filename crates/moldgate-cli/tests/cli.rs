@@ -738,7 +738,7 @@ fn output_is_written_whole_as_json_without_temporary_files() {
     std::fs::write(dir.path().join("out.json"), "x".repeat(100_000)).unwrap();
     let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
     let summary = assert_ok(&out);
-    assert!(summary.contains("GATE (Paper)"), "{summary}");
+    assert!(summary.contains("GATE (paper)"), "{summary}");
     assert_eq!(listing(dir.path()), ["out.json", "part.stl"]);
 
     let text = std::fs::read_to_string(dir.path().join("out.json")).unwrap();
@@ -780,7 +780,7 @@ fn json_on_stdout_matches_the_summary() {
 
     let summary = assert_ok(&moldgate(dir.path(), &["locate", "part.stl"]));
     let shown = format!(
-        "GATE (Paper): ({:.3}, {:.3}, {:.3}) mm",
+        "GATE (paper): ({:.3}, {:.3}, {:.3}) mm",
         gate[0], gate[1], gate[2]
     );
     assert!(summary.contains(&shown), "{shown} not in {summary}");
@@ -891,7 +891,7 @@ fn aesthetic_mode_gives_the_parting_line_gate() {
         &std::env::temp_dir(),
         &["locate", "--sample", "cover", "--aesthetic"],
     ));
-    assert!(summary.contains("GATE (Aesthetic)"), "{summary}");
+    assert!(summary.contains("GATE (aesthetic)"), "{summary}");
 }
 
 #[test]
