@@ -204,25 +204,30 @@ impl ProjectedTriangle {
         let [pa, pb, pc] = self.p;
         let [ha, hb, hc] = self.h;
         let o = lattice.origin;
-        let Some((i0, i1)) = index_range(o.x, lattice.spacing, lattice.n_u, self.lo.x, self.hi.x)
+        let inv = 1.0 / lattice.spacing;
+        let Some((i0, i1)) =
+            index_range(o.x, lattice.spacing, inv, lattice.n_u, self.lo.x, self.hi.x)
         else {
             return;
         };
-        let Some((j0, j1)) = index_range(o.y, lattice.spacing, lattice.n_w, self.lo.y, self.hi.y)
+        let Some((j0, j1)) =
+            index_range(o.y, lattice.spacing, inv, lattice.n_w, self.lo.y, self.hi.y)
         else {
             return;
         };
-        let (own_ab, own_bc, own_ca) = (owns_edge(pa, pb), owns_edge(pb, pc), owns_edge(pc, pa));
-        let inside = |e: f64, owned: bool| e > 0.0 || (e == 0.0 && owned);
+        let (bc, ca, ab) = (
+            EdgeFn::new(pb, pc),
+            EdgeFn::new(pc, pa),
+            EdgeFn::new(pa, pb),
+        );
+        let inside = |e: f64, edge: &EdgeFn| e > 0.0 || (e == 0.0 && edge.owned);
         for j in j0..=j1 {
             let y = o.y + j as f64 * lattice.spacing;
             let row = j * lattice.n_u;
             for i in i0..=i1 {
                 let s = DVec2::new(o.x + i as f64 * lattice.spacing, y);
-                let e_bc = edge_function(pb, pc, s);
-                let e_ca = edge_function(pc, pa, s);
-                let e_ab = edge_function(pa, pb, s);
-                if inside(e_bc, own_bc) && inside(e_ca, own_ca) && inside(e_ab, own_ab) {
+                let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
+                if inside(e_bc, &bc) && inside(e_ca, &ca) && inside(e_ab, &ab) {
                     let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
                     hits[row + i].add(height, t);
                 }
@@ -231,14 +236,38 @@ impl ProjectedTriangle {
     }
 }
 
-/// The edge function of edge p->q at s, evaluated from the edge's lexicographically smaller
-/// end so that the two triangles sharing the edge get bit-identical magnitudes.
-#[inline]
-fn edge_function(p: DVec2, q: DVec2, s: DVec2) -> f64 {
-    if (p.x, p.y) < (q.x, q.y) {
-        orient2d(p, q, s)
-    } else {
-        -orient2d(q, p, s)
+/// The edge function of a triangle's edge p->q, set up once per triangle and lattice.
+///
+/// It is evaluated from the edge's lexicographically smaller end, so that the two triangles
+/// sharing the edge get bit-identical magnitudes: `orient2d(p, q, s)` when p is the smaller
+/// end, `-orient2d(q, p, s)` otherwise, with the same floating-point operations.
+struct EdgeFn {
+    from: DVec2,
+    along: DVec2,
+    sign: f64,
+    /// Whether the triangle owns the rays exactly on this edge (the top-left rule).
+    owned: bool,
+}
+
+impl EdgeFn {
+    #[inline]
+    fn new(p: DVec2, q: DVec2) -> EdgeFn {
+        let (from, to, sign) = if (p.x, p.y) < (q.x, q.y) {
+            (p, q, 1.0)
+        } else {
+            (q, p, -1.0)
+        };
+        EdgeFn {
+            from,
+            along: to - from,
+            sign,
+            owned: owns_edge(p, q),
+        }
+    }
+
+    #[inline]
+    fn at(&self, s: DVec2) -> f64 {
+        self.sign * (self.along.x * (s.y - self.from.y) - self.along.y * (s.x - self.from.x))
     }
 }
 
@@ -265,13 +294,21 @@ fn ceil_int(x: f64) -> i64 {
 
 /// The range of lattice indices whose coordinate `origin + i * spacing` lies in [lo, hi].
 #[inline]
-fn index_range(origin: f64, spacing: f64, n: usize, lo: f64, hi: f64) -> Option<(usize, usize)> {
+fn index_range(
+    origin: f64,
+    spacing: f64,
+    inv_spacing: f64,
+    n: usize,
+    lo: f64,
+    hi: f64,
+) -> Option<(usize, usize)> {
     let at = |i: i64| origin + i as f64 * spacing;
     // Clamped first, so that the conversions to integers cannot saturate.
     let top = n as f64;
-    let mut i0 = ceil_int(((lo - origin) / spacing).clamp(-1.0, top)).max(0);
-    let mut i1 = floor_int(((hi - origin) / spacing).clamp(-1.0, top)).min(n as i64 - 1);
-    // Division rounds; fix the ends against the exact sample positions.
+    let mut i0 = ceil_int(((lo - origin) * inv_spacing).clamp(-1.0, top)).max(0);
+    let mut i1 = floor_int(((hi - origin) * inv_spacing).clamp(-1.0, top)).min(n as i64 - 1);
+    // The product rounds, so each end may be one off; fix them against the exact sample
+    // positions.
     if i0 > 0 && at(i0 - 1) >= lo {
         i0 -= 1;
     }
@@ -290,6 +327,37 @@ fn index_range(origin: f64, spacing: f64, n: usize, lo: f64, hi: f64) -> Option<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The edge function written out directly, as the reference for [`EdgeFn`].
+    fn edge_function(p: DVec2, q: DVec2, s: DVec2) -> f64 {
+        if (p.x, p.y) < (q.x, q.y) {
+            orient2d(p, q, s)
+        } else {
+            -orient2d(q, p, s)
+        }
+    }
+
+    #[test]
+    fn hoisted_edge_functions_are_bit_identical_and_antisymmetric() {
+        // A small deterministic generator: no dependency needed.
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 200.0 - 100.0
+        };
+        for _ in 0..10_000 {
+            let (p, q, s) = (
+                DVec2::new(next(), next()),
+                DVec2::new(next(), next()),
+                DVec2::new(next(), next()),
+            );
+            let e = EdgeFn::new(p, q).at(s);
+            assert_eq!(e.to_bits(), edge_function(p, q, s).to_bits());
+            assert_eq!(e, -EdgeFn::new(q, p).at(s));
+        }
+    }
 
     fn lattice(n: usize, spacing: f64) -> RayLattice {
         RayLattice {
@@ -348,15 +416,24 @@ mod tests {
 
     #[test]
     fn index_range_is_exact_at_sample_positions() {
-        assert_eq!(index_range(0.0, 0.25, 100, 0.75, 0.75), Some((3, 3)));
+        assert_eq!(
+            index_range(0.0, 0.25, 1.0 / 0.25, 100, 0.75, 0.75),
+            Some((3, 3))
+        );
         // 3 * 0.1 rounds above 0.3: the sample is not in [0.3, 0.3], but it is in its own
         // position's range.
-        assert_eq!(index_range(0.0, 0.1, 100, 0.3, 0.3), None);
+        assert_eq!(index_range(0.0, 0.1, 1.0 / 0.1, 100, 0.3, 0.3), None);
         let at3 = 3.0 * 0.1;
-        assert_eq!(index_range(0.0, 0.1, 100, at3, at3), Some((3, 3)));
-        assert_eq!(index_range(0.0, 0.1, 100, 0.31, 0.39), None);
-        assert_eq!(index_range(0.0, 1.0, 10, -5.0, 50.0), Some((0, 9)));
-        assert_eq!(index_range(0.0, 1.0, 10, 10.5, 50.0), None);
-        assert_eq!(index_range(0.0, 1.0, 10, -5.0, -0.5), None);
+        assert_eq!(
+            index_range(0.0, 0.1, 1.0 / 0.1, 100, at3, at3),
+            Some((3, 3))
+        );
+        assert_eq!(index_range(0.0, 0.1, 1.0 / 0.1, 100, 0.31, 0.39), None);
+        assert_eq!(
+            index_range(0.0, 1.0, 1.0 / 1.0, 10, -5.0, 50.0),
+            Some((0, 9))
+        );
+        assert_eq!(index_range(0.0, 1.0, 1.0 / 1.0, 10, 10.5, 50.0), None);
+        assert_eq!(index_range(0.0, 1.0, 1.0 / 1.0, 10, -5.0, -0.5), None);
     }
 }
