@@ -318,8 +318,9 @@ fn slot_of(bits: [u64; 3], mask: usize) -> usize {
 impl Welder {
     /// A welder expecting about `triangles` facets.
     pub fn with_capacity(triangles: usize) -> Welder {
-        // A closed mesh has about half as many vertices as triangles.
-        let vertices = triangles / 2 + 16;
+        // A closed mesh has about half as many vertices as triangles; a sixteenth more keeps
+        // slightly open or fragmented meshes from reallocating.
+        let vertices = triangles / 2 + triangles / 16 + 16;
         Welder {
             slots: vec![EMPTY; (2 * vertices).next_power_of_two()],
             recent: vec![([u64::MAX; 3], EMPTY); RECENT],

@@ -176,7 +176,10 @@ where
             let range = (r * per_run).min(n)..((r + 1) * per_run).min(n);
             let mut reader = open()?;
             reader.seek(SeekFrom::Start(HEADER + RECORD * range.start))?;
-            let mut welder = Welder::with_capacity((range.end - range.start) as usize);
+            // The first run's welder receives the others: room for the whole file, so that
+            // merging never reallocates (capacity that is never written costs no memory).
+            let expected = if r == 0 { n } else { range.end - range.start };
+            let mut welder = Welder::with_capacity(expected as usize);
             weld_records(reader, range, &mut welder)?;
             Ok(welder)
         })
