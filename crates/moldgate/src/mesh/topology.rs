@@ -74,36 +74,65 @@ type EdgeTable = (Vec<[u32; 3]>, u64, u64, u64);
 fn neighbours(mesh: &Mesh) -> EdgeTable {
     let tris = &mesh.triangles;
     let nv = mesh.vertices.len();
-    let ends = |side: u32| -> (u32, u32) {
-        let (t, k) = ((side / 3) as usize, (side % 3) as usize);
-        let (a, b) = (tris[t][k], tris[t][(k + 1) % 3]);
-        (a.min(b), a.max(b))
-    };
-    // Each edge side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill.
-    let mut start = vec![0u32; nv + 1];
-    for tri in tris {
-        for k in 0..3 {
-            start[tri[k].min(tri[(k + 1) % 3]) as usize + 1] += 1;
-        }
-    }
-    for i in 0..nv {
-        start[i + 1] += start[i];
-    }
-    // (far vertex, side) per side, grouped by near vertex.
-    let mut sides = vec![0u64; 3 * tris.len()];
-    {
-        let mut fill = start.clone();
-        for side in 0..3 * tris.len() as u32 {
-            let (lo, hi) = ends(side);
-            sides[fill[lo as usize] as usize] = (u64::from(hi) << 32) | u64::from(side);
-            fill[lo as usize] += 1;
-        }
-    }
     // Each side is written once, by the thread that owns its near vertex; relaxed atomic
     // stores let the threads share the table without locks.
     let across: Vec<AtomicU32> = (0..3 * tris.len())
         .map(|_| AtomicU32::new(NO_TRIANGLE))
         .collect();
+    // The near vertices in two halves, one after the other, so that the sorted sides of only
+    // half the mesh are held at a time (they are the peak of the memory profile).
+    let mut counts = (0, 0, 0);
+    for (lo, hi) in [(0, nv / 2), (nv / 2, nv)] {
+        let c = link_sides(tris, lo as u32..hi as u32, &across);
+        counts = (counts.0 + c.0, counts.1 + c.1, counts.2 + c.2);
+    }
+    let (edges, open, non_manifold) = counts;
+    let neighbours: Vec<[u32; 3]> = across
+        .chunks_exact(3)
+        .map(|c| std::array::from_fn(|k| c[k].load(Ordering::Relaxed)))
+        .collect();
+    (neighbours, edges, open, non_manifold)
+}
+
+/// Links the sides whose smaller vertex lies in `near` to the next triangle around the same
+/// edge, in `across`; returns the (edges, open, non-manifold) counts of those edges.
+fn link_sides(
+    tris: &[[u32; 3]],
+    near: std::ops::Range<u32>,
+    across: &[AtomicU32],
+) -> (u64, u64, u64) {
+    let ends = |side: u32| -> (u32, u32) {
+        let (t, k) = ((side / 3) as usize, (side % 3) as usize);
+        let (a, b) = (tris[t][k], tris[t][(k + 1) % 3]);
+        (a.min(b), a.max(b))
+    };
+    let nv = (near.end - near.start) as usize;
+    // Each side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill.
+    let mut start = vec![0u32; nv + 1];
+    for tri in tris {
+        for k in 0..3 {
+            let lo = tri[k].min(tri[(k + 1) % 3]);
+            if near.contains(&lo) {
+                start[(lo - near.start) as usize + 1] += 1;
+            }
+        }
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    // (far vertex << 32 | side) per side, grouped by near vertex.
+    let mut sides = vec![0u64; start[nv] as usize];
+    {
+        let mut fill = start.clone();
+        for side in 0..3 * tris.len() as u32 {
+            let (lo, hi) = ends(side);
+            if near.contains(&lo) {
+                let at = &mut fill[(lo - near.start) as usize];
+                sides[*at as usize] = (u64::from(hi) << 32) | u64::from(side);
+                *at += 1;
+            }
+        }
+    }
     let side_of = |key: u64| key as u32;
     // Vertices in blocks, the blocks in parallel; each block's sides are a disjoint slice.
     const BLOCK: usize = 16 * 1024;
@@ -117,7 +146,7 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
         rest = tail;
         v0 = v1;
     }
-    let counts = blocks
+    blocks
         .into_par_iter()
         .map(|(v0, block)| {
             let base = start[v0] as usize;
@@ -152,14 +181,7 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
             }
             (edges, open, non_manifold)
         })
-        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
-    let (edges, open, non_manifold) = counts;
-    drop(sides);
-    let neighbours: Vec<[u32; 3]> = across
-        .chunks_exact(3)
-        .map(|c| std::array::from_fn(|k| c[k].load(Ordering::Relaxed)))
-        .collect();
-    (neighbours, edges, open, non_manifold)
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2))
 }
 
 /// The representative of `x` in a union-find forest stored as parent links, halving the
