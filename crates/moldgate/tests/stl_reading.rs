@@ -732,13 +732,9 @@ fn two_separate_cubes_are_two_bodies() {
         "{:?}",
         part.warnings
     );
-    let first = part.topology.body_of_triangle[0];
-    assert!(part.topology.body_of_triangle[..12]
-        .iter()
-        .all(|&b| b == first));
-    assert!(part.topology.body_of_triangle[12..]
-        .iter()
-        .all(|&b| b != first));
+    let body = moldgate::mesh::topology::body_of_triangle(&part.mesh);
+    assert!(body[..12].iter().all(|&b| b == body[0]));
+    assert!(body[12..].iter().all(|&b| b != body[0]));
 }
 
 #[test]

@@ -302,18 +302,18 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
 
     let t = Instant::now();
     let frame = Frame::new(options.direction);
-    let projected: Vec<DVec3> = mesh
+    let (lo, hi) = mesh
         .vertices
         .par_iter()
-        .map(|&p| {
-            let q = frame.project(p);
-            DVec3::new(q.x, q.y, frame.height(p))
-        })
-        .collect();
-    let (lo, hi) = projected.iter().fold(
-        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(p.truncate()), hi.max(p.truncate())),
-    );
+        .map(|&p| frame.project(p))
+        .fold(
+            || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |(lo, hi), q| (lo.min(q), hi.max(q)),
+        )
+        .reduce(
+            || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
     let spacing = match options.spacing {
         Spacing::Auto => auto_spacing(hi - lo, r),
         Spacing::Mm(h) => h,
@@ -348,8 +348,7 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
     times.grid_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let hits = projection::cast(&projected, &mesh.triangles, &lattices);
-    drop(projected);
+    let hits = projection::cast(&mesh.vertices, &frame, &mesh.triangles, &lattices);
     times.projection_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();

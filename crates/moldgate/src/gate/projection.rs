@@ -16,6 +16,7 @@
 
 use rayon::prelude::*;
 
+use crate::frame::Frame;
 use crate::math::{orient2d, DVec2, DVec3};
 
 /// The two highest hits of one ray; heights are along the demolding direction.
@@ -77,12 +78,19 @@ pub struct RayLattice {
 
 /// Casts every ray of each lattice against the triangles.
 ///
-/// `projected` holds each vertex as (u, w, height). The result has one `Vec<Hit>` per
+/// Vertices are projected as they are read, to (u, w, height) in `frame`: the same
+/// arithmetic for every use of a vertex, so shared edges stay bit-identical, and no copy of
+/// the vertices is held (it would be the largest array of the stage). The result has one `Vec<Hit>` per
 /// lattice, indexed `j * n_u + i`. All lattices share one spacing. The lattices are split into one group per thread; each
 /// group walks the triangles once and tests each against all of its lattices, so a
 /// triangle's corners are fetched and oriented once per group rather than once per lattice,
 /// and a cheap test on its bounding box skips the lattices where it covers no ray.
-pub fn cast(projected: &[DVec3], triangles: &[[u32; 3]], lattices: &[RayLattice]) -> Vec<Vec<Hit>> {
+pub fn cast(
+    vertices: &[DVec3],
+    frame: &Frame,
+    triangles: &[[u32; 3]],
+    lattices: &[RayLattice],
+) -> Vec<Vec<Hit>> {
     let mut hits: Vec<Vec<Hit>> = lattices
         .iter()
         .map(|l| vec![Hit::MISS; l.n_u * l.n_w])
@@ -97,12 +105,13 @@ pub fn cast(projected: &[DVec3], triangles: &[[u32; 3]], lattices: &[RayLattice]
     let per_group = lattices.len().div_ceil(groups);
     hits.par_chunks_mut(per_group)
         .zip(lattices.par_chunks(per_group))
-        .for_each(|(hits, lattices)| cast_group(projected, triangles, lattices, hits));
+        .for_each(|(hits, lattices)| cast_group(vertices, frame, triangles, lattices, hits));
     hits
 }
 
 fn cast_group(
-    projected: &[DVec3],
+    vertices: &[DVec3],
+    frame: &Frame,
     triangles: &[[u32; 3]],
     lattices: &[RayLattice],
     hits: &mut [Vec<Hit>],
@@ -122,7 +131,7 @@ fn cast_group(
     // File order: neighbouring triangles share vertices, so the corner reads stay in cache.
     for (t, tri) in triangles.iter().enumerate() {
         let t = t as u32;
-        let [a, b, c] = tri.map(|v| projected[v as usize]);
+        let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
         let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
             continue;
         };
@@ -143,6 +152,13 @@ fn cast_group(
             triangle.draw(t, &lattices[k], &mut hits[k]);
         }
     }
+}
+
+/// A vertex as (u, w, height along d).
+#[inline]
+pub fn uwh(frame: &Frame, p: DVec3) -> DVec3 {
+    let q = frame.project(p);
+    DVec3::new(q.x, q.y, frame.height(p))
 }
 
 /// `x - floor(x)`, in [0, 1), without a call to the C library's floor.
@@ -385,7 +401,12 @@ mod tests {
         // Top (counter-clockwise) and bottom (clockwise seen from above) of a slab, split
         // along opposite diagonals so the shared edges differ.
         let tris = [[0, 1, 2], [0, 2, 3], [5, 4, 7], [5, 7, 6]];
-        let hits = &cast(&v, &tris, &[lattice(9, 0.5)])[0];
+        let hits = &cast(
+            &v,
+            &Frame::new(crate::frame::Direction::PLUS_Z),
+            &tris,
+            &[lattice(9, 0.5)],
+        )[0];
         let mut count = 0;
         for (k, h) in hits.iter().enumerate() {
             let (i, j) = (k % 9, k / 9);
@@ -405,7 +426,12 @@ mod tests {
             DVec3::new(10.0, -1.0, 11.0),
             DVec3::new(-1.0, 10.0, 22.0),
         ];
-        let hits = &cast(&v, &[[0, 1, 2]], &[lattice(5, 1.0)])[0];
+        let hits = &cast(
+            &v,
+            &Frame::new(crate::frame::Direction::PLUS_Z),
+            &[[0, 1, 2]],
+            &[lattice(5, 1.0)],
+        )[0];
         for (k, h) in hits.iter().enumerate() {
             let (x, y) = ((k % 5) as f64, (k / 5) as f64);
             let z = (x + 1.0) + 2.0 * (y + 1.0);

@@ -27,25 +27,23 @@ pub struct Topology {
     pub open_edges: u64,
     /// Edges with more than two triangles.
     pub non_manifold_edges: u64,
-    /// Number of bodies: sets of triangles linked through shared vertices.
+    /// Number of bodies: sets of triangles linked through shared vertices (see
+    /// [`body_of_triangle`] for which triangle is in which).
     pub bodies: u64,
-    /// The body of each triangle, numbered from 0 in order of first appearance.
-    pub body_of_triangle: Vec<u32>,
 }
 
 impl Topology {
     /// Builds the neighbour table (edges grouped under their smaller vertex, no global
     /// sort) and, in parallel with it, the bodies.
     pub fn new(mesh: &Mesh) -> Topology {
-        let ((neighbours, edges, open_edges, non_manifold_edges), (bodies, body_of_triangle)) =
-            rayon::join(|| neighbours(mesh), || bodies(mesh));
+        let ((neighbours, edges, open_edges, non_manifold_edges), bodies) =
+            rayon::join(|| neighbours(mesh), || body_count(mesh));
         Topology {
             neighbours,
             edges,
             open_edges,
             non_manifold_edges,
             bodies,
-            body_of_triangle,
         }
     }
 
@@ -195,8 +193,8 @@ pub(crate) fn root(parent: &mut [u32], mut x: u32) -> u32 {
     x
 }
 
-/// Union-find over vertices: triangles sharing a vertex are in the same body.
-fn bodies(mesh: &Mesh) -> (u64, Vec<u32>) {
+/// Union-find over vertices: the parent links after joining the corners of every triangle.
+fn joined_vertices(mesh: &Mesh) -> Vec<u32> {
     let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
     for tri in &mesh.triangles {
         let mut r0 = root(&mut parent, tri[0]);
@@ -209,10 +207,29 @@ fn bodies(mesh: &Mesh) -> (u64, Vec<u32>) {
             }
         }
     }
+    parent
+}
+
+/// The number of bodies: sets of triangles linked through shared vertices.
+fn body_count(mesh: &Mesh) -> u64 {
+    let mut parent = joined_vertices(mesh);
+    let mut seen = vec![false; mesh.vertices.len()];
+    let mut count = 0;
+    for tri in &mesh.triangles {
+        let r = root(&mut parent, tri[0]) as usize;
+        count += u64::from(!seen[r]);
+        seen[r] = true;
+    }
+    count
+}
+
+/// The body of each triangle, numbered from 0 in order of first appearance (computed on
+/// demand: the analysis needs only the count, in [`Topology::bodies`]).
+pub fn body_of_triangle(mesh: &Mesh) -> Vec<u32> {
+    let mut parent = joined_vertices(mesh);
     let mut label = vec![u32::MAX; mesh.vertices.len()];
     let mut count = 0u32;
-    let body_of_triangle = mesh
-        .triangles
+    mesh.triangles
         .iter()
         .map(|tri| {
             let r = root(&mut parent, tri[0]) as usize;
@@ -222,8 +239,7 @@ fn bodies(mesh: &Mesh) -> (u64, Vec<u32>) {
             }
             label[r]
         })
-        .collect();
-    (count as u64, body_of_triangle)
+        .collect()
 }
 
 #[cfg(test)]
