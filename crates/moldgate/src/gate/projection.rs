@@ -236,14 +236,14 @@ impl ProjectedTriangle {
             EdgeFn::new(pc, pa),
             EdgeFn::new(pa, pb),
         );
-        let inside = |e: f64, edge: &EdgeFn| e > 0.0 || (e == 0.0 && edge.owned);
+        let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
         for j in j0..=j1 {
             let y = o.y + j as f64 * lattice.spacing;
             let row = j * lattice.n_u;
             for i in i0..=i1 {
                 let s = DVec2::new(o.x + i as f64 * lattice.spacing, y);
                 let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
-                if inside(e_bc, &bc) && inside(e_ca, &ca) && inside(e_ab, &ab) {
+                if inside(e_bc, &bc) & inside(e_ca, &ca) & inside(e_ab, &ab) {
                     let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
                     hits[row + i].add(height, t);
                 }
@@ -266,17 +266,18 @@ struct EdgeFn {
 }
 
 impl EdgeFn {
+    /// Without branches: which end is smaller is a coin toss from one triangle to the next,
+    /// and mispredicted branches would cost more than the arithmetic.
     #[inline]
     fn new(p: DVec2, q: DVec2) -> EdgeFn {
-        let (from, to, sign) = if (p.x, p.y) < (q.x, q.y) {
-            (p, q, 1.0)
-        } else {
-            (q, p, -1.0)
-        };
+        let p_first = (p.x < q.x) | ((p.x == q.x) & (p.y < q.y));
+        let mask = glam::BVec2::splat(p_first);
+        let from = DVec2::select(mask, p, q);
+        let to = DVec2::select(mask, q, p);
         EdgeFn {
             from,
             along: to - from,
-            sign,
+            sign: f64::from(u8::from(p_first)) * 2.0 - 1.0,
             owned: owns_edge(p, q),
         }
     }
@@ -291,7 +292,7 @@ impl EdgeFn {
 /// (left edges go down, top edges go left, with w pointing up).
 #[inline]
 fn owns_edge(p: DVec2, q: DVec2) -> bool {
-    q.y < p.y || (q.y == p.y && q.x < p.x)
+    (q.y < p.y) | ((q.y == p.y) & (q.x < p.x))
 }
 
 /// `floor(x)` for a finite `x` of moderate size, without a call to the C library.
