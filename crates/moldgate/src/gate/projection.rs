@@ -78,13 +78,14 @@ pub struct RayLattice {
 
 /// Casts every ray of each lattice against the triangles.
 ///
-/// Vertices are projected as they are read, to (u, w, height) in `frame`: the same
+/// The result has one `Vec<Hit>` per lattice, indexed `j * n_u + i`; all lattices share one
+/// spacing. Vertices are projected as they are read, to (u, w, height) in `frame`: the same
 /// arithmetic for every use of a vertex, so shared edges stay bit-identical, and no copy of
-/// the vertices is held (it would be the largest array of the stage). The result has one `Vec<Hit>` per
-/// lattice, indexed `j * n_u + i`. All lattices share one spacing. The lattices are split into one group per thread; each
-/// group walks the triangles once and tests each against all of its lattices, so a
-/// triangle's corners are fetched and oriented once per group rather than once per lattice,
-/// and a cheap test on its bounding box skips the lattices where it covers no ray.
+/// the vertices is held (it would be the largest array of the stage). The lattices are split
+/// into one group per thread; each group walks the triangles once and tests each against all
+/// of its lattices, so a triangle's corners are fetched and oriented once per group rather
+/// than once per lattice, and a cheap test on its bounding box skips the lattices where it
+/// covers no ray.
 pub fn cast(
     vertices: &[DVec3],
     frame: &Frame,
