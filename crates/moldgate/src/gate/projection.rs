@@ -238,10 +238,25 @@ impl ProjectedTriangle {
             EdgeFn::new(pa, pb),
         );
         let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
+        let wide = i1 - i0 > 2;
         for j in j0..=j1 {
             let y = o.y + j as f64 * lattice.spacing;
             let row = j * lattice.n_u;
-            for i in i0..=i1 {
+            // On a wide triangle, only the columns near the row's span inside it are tested:
+            // long thin triangles would otherwise test every ray of their bounding box.
+            let (from, to) = if wide {
+                match [&bc, &ca, &ab]
+                    .iter()
+                    .try_fold((i0 as f64, i1 as f64), |span, e| {
+                        e.row_span(y, o.x, inv, span)
+                    }) {
+                    Some((a, b)) => ((a as usize).max(i0), (b as usize).min(i1)),
+                    None => continue,
+                }
+            } else {
+                (i0, i1)
+            };
+            for i in from..=to {
                 let s = DVec2::new(o.x + i as f64 * lattice.spacing, y);
                 let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
                 if inside(e_bc, &bc) & inside(e_ca, &ca) & inside(e_ab, &ab) {
@@ -281,6 +296,29 @@ impl EdgeFn {
             sign: f64::from(u8::from(p_first)) * 2.0 - 1.0,
             owned: owns_edge(p, q),
         }
+    }
+
+    /// Narrows the column span `(a, b)` of a row at height `y` to the columns where this
+    /// edge function may be non-negative, widened by one column on each side so that
+    /// rounding in the division cannot drop a ray the exact test would keep. `None` when no
+    /// column can be inside.
+    #[inline]
+    fn row_span(&self, y: f64, origin_x: f64, inv: f64, (a, b): (f64, f64)) -> Option<(f64, f64)> {
+        // e(x) = c + slope * x along the row.
+        let slope = -self.sign * self.along.y;
+        let c = self.sign * (self.along.x * (y - self.from.y) + self.along.y * self.from.x);
+        let (a, b) = if slope > 0.0 {
+            let x = -c / slope;
+            (a.max(((x - origin_x) * inv).floor() - 1.0), b)
+        } else if slope < 0.0 {
+            let x = -c / slope;
+            (a, b.min(((x - origin_x) * inv).ceil() + 1.0))
+        } else if c < 0.0 {
+            return None;
+        } else {
+            (a, b)
+        };
+        (a <= b).then_some((a.max(0.0), b))
     }
 
     #[inline]
@@ -352,6 +390,51 @@ mod tests {
             orient2d(p, q, s)
         } else {
             -orient2d(q, p, s)
+        }
+    }
+
+    #[test]
+    fn row_spans_keep_every_ray_of_long_thin_triangles() {
+        // Slivers at many angles over a lattice whose rays they graze: drawing with row spans
+        // must give exactly the hits of testing every ray of the bounding box.
+        let l = RayLattice {
+            origin: DVec2::new(-0.3, 0.2),
+            spacing: 0.1,
+            n_u: 120,
+            n_w: 90,
+        };
+        for k in 0..200 {
+            let a = k as f64 * 0.0317;
+            let dir = DVec2::new(a.cos(), a.sin());
+            let normal = DVec2::new(-dir.y, dir.x) * (0.001 + 0.002 * (k % 7) as f64);
+            let start = DVec2::new(0.4 + 0.01 * (k % 13) as f64, 4.1);
+            let (p, q, r) = (start - dir * 5.0, start + dir * 6.0, start + normal);
+            let Some(tri) = ProjectedTriangle::new(p.extend(1.0), q.extend(2.0), r.extend(3.0))
+            else {
+                continue;
+            };
+            let mut drawn = vec![Hit::MISS; l.n_u * l.n_w];
+            tri.draw(k, &l, &mut drawn);
+            let mut every = vec![Hit::MISS; l.n_u * l.n_w];
+            let [pa, pb, pc] = tri.p;
+            let edges = [
+                EdgeFn::new(pb, pc),
+                EdgeFn::new(pc, pa),
+                EdgeFn::new(pa, pb),
+            ];
+            for j in 0..l.n_w {
+                for i in 0..l.n_u {
+                    let s = l.origin + DVec2::new(i as f64, j as f64) * l.spacing;
+                    let e = edges.each_ref().map(|edge| edge.at(s));
+                    let inside = (0..3).all(|m| e[m] > 0.0 || (e[m] == 0.0 && edges[m].owned));
+                    if inside {
+                        let h = (e[0] * tri.h[0] + e[1] * tri.h[1] + e[2] * tri.h[2])
+                            / (e[0] + e[1] + e[2]);
+                        every[j * l.n_u + i].add(h, k);
+                    }
+                }
+            }
+            assert_eq!(drawn, every, "sliver {k}");
         }
     }
 
