@@ -222,14 +222,10 @@ impl ProjectedTriangle {
         let [ha, hb, hc] = self.h;
         let o = lattice.origin;
         let inv = 1.0 / lattice.spacing;
-        let Some((i0, i1)) =
-            index_range(o.x, lattice.spacing, inv, lattice.n_u, self.lo.x, self.hi.x)
-        else {
+        let Some((i0, i1)) = index_range(o.x, inv, lattice.n_u, self.lo.x, self.hi.x) else {
             return;
         };
-        let Some((j0, j1)) =
-            index_range(o.y, lattice.spacing, inv, lattice.n_w, self.lo.y, self.hi.y)
-        else {
+        let Some((j0, j1)) = index_range(o.y, inv, lattice.n_w, self.lo.y, self.hi.y) else {
             return;
         };
         let (bc, ca, ab) = (
@@ -348,36 +344,23 @@ fn ceil_int(x: f64) -> i64 {
     t + i64::from((t as f64) < x)
 }
 
-/// The range of lattice indices whose coordinate `origin + i * spacing` lies in [lo, hi].
+/// A range of lattice indices that holds every index whose coordinate `origin + i *
+/// spacing` lies in [lo, hi], and at most the neighbours within a billionth of a spacing:
+/// a superset is enough, since the exact edge test decides each ray.
 #[inline]
 fn index_range(
     origin: f64,
-    spacing: f64,
     inv_spacing: f64,
     n: usize,
     lo: f64,
     hi: f64,
 ) -> Option<(usize, usize)> {
-    let at = |i: i64| origin + i as f64 * spacing;
+    const SLACK: f64 = 1e-9;
     // Clamped first, so that the conversions to integers cannot saturate.
     let top = n as f64;
-    let mut i0 = ceil_int(((lo - origin) * inv_spacing).clamp(-1.0, top)).max(0);
-    let mut i1 = floor_int(((hi - origin) * inv_spacing).clamp(-1.0, top)).min(n as i64 - 1);
-    // The product rounds, so each end may be one off; fix them against the exact sample
-    // positions.
-    if i0 > 0 && at(i0 - 1) >= lo {
-        i0 -= 1;
-    }
-    if at(i0) < lo {
-        i0 += 1;
-    }
-    if i1 + 1 < n as i64 && at(i1 + 1) <= hi {
-        i1 += 1;
-    }
-    if i1 >= 0 && at(i1) > hi {
-        i1 -= 1;
-    }
-    (i0 <= i1 && i1 >= 0 && i0 < n as i64).then_some((i0 as usize, i1 as usize))
+    let i0 = ceil_int(((lo - origin) * inv_spacing - SLACK).clamp(-1.0, top)).max(0);
+    let i1 = floor_int(((hi - origin) * inv_spacing + SLACK).clamp(-1.0, top)).min(n as i64 - 1);
+    (i0 <= i1).then_some((i0 as usize, i1 as usize))
 }
 
 #[cfg(test)]
@@ -526,25 +509,32 @@ mod tests {
     }
 
     #[test]
-    fn index_range_is_exact_at_sample_positions() {
+    fn index_range_holds_every_sample_in_the_interval() {
+        assert_eq!(index_range(0.0, 4.0, 100, 0.75, 0.75), Some((3, 3)));
+        // 3 * 0.1 rounds above 0.3; within the slack, sample 3 is kept for the exact test.
+        assert_eq!(index_range(0.0, 10.0, 100, 0.3, 0.3), Some((3, 3)));
         assert_eq!(
-            index_range(0.0, 0.25, 1.0 / 0.25, 100, 0.75, 0.75),
+            index_range(0.0, 10.0, 100, 3.0 * 0.1, 3.0 * 0.1),
             Some((3, 3))
         );
-        // 3 * 0.1 rounds above 0.3: the sample is not in [0.3, 0.3], but it is in its own
-        // position's range.
-        assert_eq!(index_range(0.0, 0.1, 1.0 / 0.1, 100, 0.3, 0.3), None);
-        let at3 = 3.0 * 0.1;
-        assert_eq!(
-            index_range(0.0, 0.1, 1.0 / 0.1, 100, at3, at3),
-            Some((3, 3))
-        );
-        assert_eq!(index_range(0.0, 0.1, 1.0 / 0.1, 100, 0.31, 0.39), None);
-        assert_eq!(
-            index_range(0.0, 1.0, 1.0 / 1.0, 10, -5.0, 50.0),
-            Some((0, 9))
-        );
-        assert_eq!(index_range(0.0, 1.0, 1.0 / 1.0, 10, 10.5, 50.0), None);
-        assert_eq!(index_range(0.0, 1.0, 1.0 / 1.0, 10, -5.0, -0.5), None);
+        assert_eq!(index_range(0.0, 10.0, 100, 0.31, 0.39), None);
+        assert_eq!(index_range(0.0, 1.0, 10, -5.0, 50.0), Some((0, 9)));
+        assert_eq!(index_range(0.0, 1.0, 10, 10.5, 50.0), None);
+        assert_eq!(index_range(0.0, 1.0, 10, -5.0, -0.5), None);
+        // Every sample of a random interval is in its range.
+        for k in 0..1000 {
+            let (lo, hi) = (k as f64 * 0.0137 - 1.0, k as f64 * 0.0137 - 1.0 + 0.05);
+            let (origin, spacing) = (-0.31, 0.0123);
+            let inside: Vec<usize> = (0..200)
+                .filter(|&i| {
+                    let x = origin + i as f64 * spacing;
+                    lo <= x && x <= hi
+                })
+                .collect();
+            if let (Some(&first), Some(&last)) = (inside.first(), inside.last()) {
+                let (a, b) = index_range(origin, 1.0 / spacing, 200, lo, hi).unwrap();
+                assert!(a <= first && last <= b && b - a <= last - first + 2, "{k}");
+            }
+        }
     }
 }
