@@ -99,17 +99,16 @@ fn link_sides(
     near: std::ops::Range<u32>,
     across: &[AtomicU32],
 ) -> (u64, u64, u64) {
-    let ends = |side: u32| -> (u32, u32) {
-        let (t, k) = ((side / 3) as usize, (side % 3) as usize);
-        let (a, b) = (tris[t][k], tris[t][(k + 1) % 3]);
-        (a.min(b), a.max(b))
+    // The three sides of a triangle as (smaller vertex, larger vertex).
+    let ends = |tri: &[u32; 3]| -> [(u32, u32); 3] {
+        let [a, b, c] = *tri;
+        [(a.min(b), a.max(b)), (b.min(c), b.max(c)), (c.min(a), c.max(a))]
     };
     let nv = (near.end - near.start) as usize;
     // Each side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill.
     let mut start = vec![0u32; nv + 1];
     for tri in tris {
-        for k in 0..3 {
-            let lo = tri[k].min(tri[(k + 1) % 3]);
+        for (lo, _) in ends(tri) {
             if near.contains(&lo) {
                 start[(lo - near.start) as usize + 1] += 1;
             }
@@ -122,12 +121,14 @@ fn link_sides(
     let mut sides = vec![0u64; start[nv] as usize];
     {
         let mut fill = start.clone();
-        for side in 0..3 * tris.len() as u32 {
-            let (lo, hi) = ends(side);
-            if near.contains(&lo) {
-                let at = &mut fill[(lo - near.start) as usize];
-                sides[*at as usize] = (u64::from(hi) << 32) | u64::from(side);
-                *at += 1;
+        for (t, tri) in tris.iter().enumerate() {
+            for (k, (lo, hi)) in ends(tri).into_iter().enumerate() {
+                if near.contains(&lo) {
+                    let side = 3 * t as u64 + k as u64;
+                    let at = &mut fill[(lo - near.start) as usize];
+                    sides[*at as usize] = (u64::from(hi) << 32) | side;
+                    *at += 1;
+                }
             }
         }
     }
