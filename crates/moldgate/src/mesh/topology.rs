@@ -102,7 +102,11 @@ fn link_sides(
     // The three sides of a triangle as (smaller vertex, larger vertex).
     let ends = |tri: &[u32; 3]| -> [(u32, u32); 3] {
         let [a, b, c] = *tri;
-        [(a.min(b), a.max(b)), (b.min(c), b.max(c)), (c.min(a), c.max(a))]
+        [
+            (a.min(b), a.max(b)),
+            (b.min(c), b.max(c)),
+            (c.min(a), c.max(a)),
+        ]
     };
     let nv = (near.end - near.start) as usize;
     // Each side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill.
