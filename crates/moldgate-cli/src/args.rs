@@ -318,8 +318,8 @@ fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, Radius
     Ok((options, source))
 }
 
-/// Reads a mesh file; every failure names the file.
-pub fn load_file(path: &Path, units: Units) -> Result<LoadedMesh, Failure> {
+/// Reads a mesh file and gives its size in bytes; every failure names the file.
+pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
     let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
     if path.is_dir() {
         return Err(fail(&"is a folder, not a mesh file"));
@@ -332,7 +332,8 @@ pub fn load_file(path: &Path, units: Units) -> Result<LoadedMesh, Failure> {
     drop(file);
     // Opened once per reading thread for large binary files.
     let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
-    mesh::read_stl_reopen(open, len, units).map_err(|e| fail(&e))
+    let part = mesh::read_stl_reopen(open, len, units).map_err(|e| fail(&e))?;
+    Ok((part, len))
 }
 
 /// The largest grid the command line accepts. With 16 circle points a node costs 17 rays of
@@ -353,8 +354,7 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     let t = Instant::now();
     let (part, input) = match (&a.file, &a.sample) {
         (Some(path), _) => {
-            let part = load_file(path, units)?;
-            let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            let (part, bytes) = load_file(path, units)?;
             let input = Input {
                 path: Some(path.display().to_string()),
                 sample: None,

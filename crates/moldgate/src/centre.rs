@@ -36,7 +36,8 @@ impl Centres {
     pub fn of(mesh: &Mesh) -> Centres {
         // Moments are taken about the box centre so that the volume sums do not cancel
         // catastrophically on parts far from the origin.
-        let origin = mesh.bounds().centre();
+        let bounds = mesh.bounds();
+        let origin = bounds.centre();
         // Partial sums over fixed runs of triangles, in parallel, added in run order: the
         // result does not depend on the number of threads.
         const RUN: usize = 8192;
@@ -68,7 +69,7 @@ impl Centres {
             volume += p.2;
             volume_moment += p.3;
         }
-        let size = mesh.bounds().diagonal();
+        let size = bounds.diagonal();
         let volume_centre = if volume.abs() > 1e-9 * size * size * size {
             Some(origin + volume_moment / volume)
         } else {

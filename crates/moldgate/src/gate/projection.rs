@@ -157,7 +157,7 @@ fn cast_group(
 
 /// A vertex as (u, w, height along d).
 #[inline]
-pub fn uwh(frame: &Frame, p: DVec3) -> DVec3 {
+fn uwh(frame: &Frame, p: DVec3) -> DVec3 {
     let q = frame.project(p);
     DVec3::new(q.x, q.y, frame.height(p))
 }
