@@ -42,6 +42,7 @@ pub mod mesh;
 pub mod parting;
 pub mod report;
 pub mod samples;
+pub mod scene;
 
 pub use centre::{CentreKind, Centres};
 pub use error::{LoadError, LocateError, OptionsError};

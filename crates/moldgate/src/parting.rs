@@ -113,6 +113,38 @@ impl PartingLine {
         }
     }
 
+    /// The kept loop as polylines of points, for drawing: edges chained end to end (a
+    /// closed loop repeats its first point at the end; a vertex where more than two edges
+    /// meet starts a new polyline).
+    pub fn polylines(&self, mesh: &Mesh) -> Vec<Vec<DVec3>> {
+        let mut at = rustc_hash::FxHashMap::<u32, Vec<usize>>::default();
+        for (i, &[a, b]) in self.edges.iter().enumerate() {
+            at.entry(a).or_default().push(i);
+            at.entry(b).or_default().push(i);
+        }
+        let mut used = vec![false; self.edges.len()];
+        let mut lines = Vec::new();
+        for start in 0..self.edges.len() {
+            if used[start] {
+                continue;
+            }
+            used[start] = true;
+            let [a, mut v] = self.edges[start];
+            let mut line = vec![a, v];
+            while let Some(&next) = at[&v].iter().find(|&&e| !used[e]) {
+                if at[&v].len() != 2 {
+                    break;
+                }
+                used[next] = true;
+                let [p, q] = self.edges[next];
+                v = if p == v { q } else { p };
+                line.push(v);
+            }
+            lines.push(line.iter().map(|&i| mesh.vertices[i as usize]).collect());
+        }
+        lines
+    }
+
     /// The point of the line nearest `centre` (the aesthetic gate), or `None` for an empty
     /// line. Ties go to the first edge in vertex order.
     pub fn nearest(&self, mesh: &Mesh, frame: &Frame, centre: DVec3) -> Option<AestheticGate> {
@@ -178,6 +210,18 @@ mod tests {
             .iter()
             .flatten()
             .all(|&v| mesh.vertices[v as usize].z == z)
+    }
+
+    #[test]
+    fn closed_loop_chains_into_one_polyline_of_the_loop_length() {
+        let (mesh, line, _) = parting("cover", "+z");
+        let lines = line.polylines(&mesh);
+        assert_eq!(lines.len(), 1);
+        let l = &lines[0];
+        assert_eq!(l.first(), l.last(), "a closed loop ends where it starts");
+        assert_eq!(l.len(), line.edges.len() + 1);
+        let length: f64 = l.windows(2).map(|p| p[0].distance(p[1])).sum();
+        assert!((length - line.length_mm).abs() < 1e-9, "{length}");
     }
 
     #[test]

@@ -197,6 +197,9 @@ pub struct Analysis {
     pub flat_tolerance_mm: f64,
     /// Nodes passing each rule.
     pub counts: RuleCounts,
+    /// Surface points (first hit of the node's ray) of every qualifying node, in node
+    /// order.
+    pub qualifying_points: Vec<DVec3>,
     /// The nearest qualifying node, if any.
     pub grid_gate: Option<Gate>,
     /// The qualifying node nearest by the other measure (2D when the rule is 3D and back),
@@ -381,6 +384,10 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
     };
     let pool: Vec<usize> = (0..grid.len()).filter(|&i| qualifies(&nodes[i])).collect();
     counts.qualifying = pool.len();
+    let qualifying_points = pool
+        .iter()
+        .map(|&i| frame.point(grid.node(i), centre_hits[i].first))
+        .collect();
     let pick = |rule: Nearest| {
         nearest_node(&pool, &grid, &frame, centre, centre_hits, rule).map(|(i, ties)| {
             let hit = centre_hits[i];
@@ -427,6 +434,7 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
         grid,
         flat_tolerance_mm,
         counts,
+        qualifying_points,
         grid_gate,
         other_rule_gate,
         parting,

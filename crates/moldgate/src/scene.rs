@@ -1,0 +1,111 @@
+//! What a picture or a 3D file shows: the part, a colour field on it, the gates, the centre
+//! of mass, the parting line and the qualifying region. Built once from an analysis and
+//! handed to the writers (PNG, glTF), so they all show the same thing.
+
+use crate::frame::Frame;
+use crate::gate::{Analysis, ChosenGate};
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+
+/// A scalar per vertex, shown as colours.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    /// What the values are, for the colour bar ("height along D", "fill order").
+    pub name: String,
+    /// Their unit ("mm", "MPa", "" for none).
+    pub unit: String,
+    /// One value per mesh vertex; NaN where unknown (drawn grey).
+    pub per_vertex: Vec<f32>,
+}
+
+/// A gate marker: a disc of radius `radius_mm` on the surface at `point`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Marker {
+    /// Position on the surface, mm.
+    pub point: DVec3,
+    /// Outward surface normal there (unit; zero when unknown).
+    pub normal: DVec3,
+    /// Disc radius, mm (the gate radius R_gate).
+    pub radius_mm: f64,
+}
+
+/// Everything a view of one analysis shows.
+#[derive(Debug, Clone)]
+pub struct Scene<'a> {
+    /// The part, mm.
+    pub mesh: &'a Mesh,
+    /// Demolding frame (d, u, w).
+    pub frame: Frame,
+    /// Colour field on the part.
+    pub field: Field,
+    /// The chosen gate and any further gates (several-gate runs), first is the main one.
+    pub gates: Vec<Marker>,
+    /// The centre of mass the gate was placed by.
+    pub centre: DVec3,
+    /// The parting line as polylines of 3D points.
+    pub parting: Vec<Vec<DVec3>>,
+    /// Surface points of the nodes that qualify as gate positions.
+    pub qualifying: Vec<DVec3>,
+    /// First title line (file or sample name).
+    pub title: String,
+    /// Second title line (material, gate coordinates).
+    pub subtitle: String,
+}
+
+impl<'a> Scene<'a> {
+    /// The scene of an analysis, coloured by height along the demolding direction (the
+    /// field to use until a better one is set with [`Scene::with_field`]).
+    pub fn new(mesh: &'a Mesh, analysis: &Analysis, title: impl Into<String>) -> Scene<'a> {
+        let frame = analysis.frame;
+        let per_vertex = mesh
+            .vertices
+            .iter()
+            .map(|&p| frame.height(p) as f32)
+            .collect();
+        let r = analysis.options.gate_radius_mm;
+        let gates = analysis
+            .gate()
+            .ok()
+            .map(|g| Marker {
+                point: g.point(),
+                normal: match g {
+                    ChosenGate::Paper(g) => g.normal,
+                    ChosenGate::Aesthetic(_) => DVec3::ZERO,
+                },
+                radius_mm: r,
+            })
+            .into_iter()
+            .collect();
+        let subtitle = match analysis.gate() {
+            Ok(g) => {
+                let p = g.point();
+                format!(
+                    "gate ({:.2}, {:.2}, {:.2}) mm, R = {:.2} mm",
+                    p.x, p.y, p.z, r
+                )
+            }
+            Err(_) => "no gate".to_string(),
+        };
+        Scene {
+            mesh,
+            frame,
+            field: Field {
+                name: "height along D".into(),
+                unit: "mm".into(),
+                per_vertex,
+            },
+            gates,
+            centre: analysis.centre,
+            parting: analysis.parting.polylines(mesh),
+            qualifying: analysis.qualifying_points.clone(),
+            title: title.into(),
+            subtitle,
+        }
+    }
+
+    /// The same scene coloured by another field.
+    pub fn with_field(mut self, field: Field) -> Scene<'a> {
+        self.field = field;
+        self
+    }
+}
