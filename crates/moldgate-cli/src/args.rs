@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+use moldgate::flow;
 use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
 use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::report::{Input, RadiusSource, Report};
@@ -59,6 +60,22 @@ pub enum ThicknessArg {
     Require,
     /// Measure and report thickness but do not filter on it.
     Ignore,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum StrategyArg {
+    /// The paper's gate: the qualifying node nearest the centre of mass.
+    Paper,
+    /// The qualifying node that minimises the fill objective.
+    Balanced,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ObjectiveArg {
+    /// The largest flow length.
+    Length,
+    /// The largest flow resistance (fill order).
+    Resistance,
 }
 
 #[derive(Debug, Args)]
@@ -143,6 +160,24 @@ pub struct LocateArgs {
     /// Largest grid accepted, in nodes.
     #[arg(long, default_value_t = 4_000_000)]
     pub max_nodes: usize,
+    /// Analyse the fill: flow length, fill order, Eq. 1 pressure, last places to fill, weld
+    /// lines, and the balanced gate for comparison.
+    #[arg(long)]
+    pub fill: bool,
+    /// Which gate is the answer: the paper's, or the candidate that minimises the fill
+    /// objective (implies --fill).
+    #[arg(long, value_enum, default_value = "paper")]
+    pub strategy: StrategyArg,
+    /// What the balanced gate and several gates minimise.
+    #[arg(long, value_enum, default_value = "length")]
+    pub objective: ObjectiveArg,
+    /// Number of gates that together minimise the worst flow (implies --fill).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub gates: usize,
+    /// Side of the flow-analysis cells, mm [default: a third of the nominal wall, at most
+    /// 1/200 of the part's diagonal].
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub cell: Option<f64>,
     /// Print the JSON report on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -341,9 +376,43 @@ pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure
 /// nodes), and a bound that keeps an absurd `--max-nodes` from reaching the allocator.
 const MAX_NODES_LIMIT: usize = 20_000_000;
 
+/// The fill analysis's options, or `None` when it was not asked for.
+fn fill_options(a: &LocateArgs) -> Result<Option<flow::FillOptions>, Failure> {
+    if a.gates == 0 {
+        return Err(Failure::usage("--gates must be at least 1"));
+    }
+    if let Some(h) = a.cell {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(Failure::usage(format!(
+                "--cell must be a positive number, got {h}"
+            )));
+        }
+    }
+    let wanted = a.fill || a.strategy == StrategyArg::Balanced || a.gates > 1;
+    if !wanted {
+        return Ok(None);
+    }
+    Ok(Some(flow::FillOptions {
+        flow: flow::FlowOptions {
+            cell_mm: a.cell,
+            ..flow::FlowOptions::default()
+        },
+        strategy: match a.strategy {
+            StrategyArg::Paper => flow::Strategy::Paper,
+            StrategyArg::Balanced => flow::Strategy::Balanced,
+        },
+        objective: match a.objective {
+            ObjectiveArg::Length => flow::Objective::Length,
+            ObjectiveArg::Resistance => flow::Objective::Resistance,
+        },
+        gates: a.gates,
+    }))
+}
+
 pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     let material = material(&a)?;
     let (options, radius_source) = options(&a, &material)?;
+    let fill_options = fill_options(&a)?;
     let units: Units = a
         .units
         .parse()
@@ -375,7 +444,21 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     };
     let load_s = t.elapsed().as_secs_f64();
     let analysis = locate(&part, &options).map_err(|e| Failure::usage(e.to_string()))?;
-    let report = Report::new(
+    let fill = fill_options
+        .map(|o| {
+            if analysis.gate().is_err() {
+                return Ok(None);
+            }
+            flow::analyse(&part.mesh, &analysis, &material, None, &o)
+                .map(Some)
+                .map_err(|e| match e {
+                    flow::FillError::TooFewCandidates { .. } => Failure::no_gate(e.to_string()),
+                    _ => Failure::usage(e.to_string()),
+                })
+        })
+        .transpose()?
+        .flatten();
+    let mut report = Report::new(
         input,
         &part.stats,
         &part.warnings,
@@ -384,6 +467,9 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         &analysis,
         load_s,
     );
+    if let Some(fill) = fill {
+        report = report.with_fill(fill, analysis.centre);
+    }
     let json = serde_json::to_string_pretty(&report).map_err(|e| Failure {
         code: 1,
         message: format!("cannot encode the report: {e}"),

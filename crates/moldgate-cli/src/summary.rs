@@ -13,6 +13,101 @@ fn mm(x: Option<f64>) -> String {
         .unwrap_or_else(|| "unknown (open mesh)".into())
 }
 
+/// One line of a gate's fill.
+fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
+    let limit = match g.flow_ratio_limit {
+        Some(m) if g.exceeds_flow_ratio => format!(" EXCEEDS the material's {m:.0}"),
+        Some(m) => format!(" (limit {m:.0})"),
+        None => String::new(),
+    };
+    let _ = writeln!(
+        s,
+        "  {label} {}: L_max {:.1} mm (mean {:.1}), L/t {:.0}{limit}, pressure {:.1} MPa (Eq. 1), fill order max {:.1}",
+        v3(g.gate),
+        g.l_max_mm,
+        g.l_mean_mm,
+        g.flow_ratio,
+        g.pressure_mpa,
+        g.fill_max
+    );
+}
+
+/// The fill analysis in a few lines.
+fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis) {
+    let _ = writeln!(
+        s,
+        "fill: {} cells of {:.3} mm, nominal wall {:.2} mm ({}), {} {}",
+        f.cells,
+        f.cell_mm,
+        f.nominal_wall_mm,
+        match f.wall_source {
+            moldgate::flow::WallSource::Measured => "measured",
+            moldgate::flow::WallSource::VolumeOverArea => "2V/A estimate",
+        },
+        f.bodies,
+        if f.bodies == 1 { "body" } else { "bodies" }
+    );
+    if let Some(p) = &f.paper {
+        fill_line(s, "paper gate   ", p);
+        for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
+            let _ = writeln!(
+                s,
+                "    last to fill #{}: {} at {:.1} mm",
+                i + 1,
+                v3(q.point),
+                q.flow_length_mm
+            );
+        }
+        for w in p.weld_lines.iter().take(3) {
+            let _ = writeln!(
+                s,
+                "    fronts meet ({:.0} deg) near {}, {:.1} mm from the gate",
+                w.meeting_angle_deg,
+                v3(w.point),
+                w.flow_length_mm
+            );
+        }
+    }
+    match &f.balanced {
+        Some(b) => {
+            fill_line(s, "balanced gate", &b.fill);
+            let _ = writeln!(
+                s,
+                "    minimises {} by {:.1} % ({} field runs{})",
+                match f.objective {
+                    moldgate::flow::Objective::Length => "L_max",
+                    moldgate::flow::Objective::Resistance => "the fill-order maximum",
+                },
+                b.improvement_pct,
+                b.search.runs,
+                if b.search.proven { ", optimal" } else { ", not proven optimal" }
+            );
+        }
+        None => {
+            let _ = writeln!(s, "  balanced gate: the paper gate is already the best");
+        }
+    }
+    if let Some(m) = &f.several {
+        let _ = writeln!(
+            s,
+            "  {} gates: L_max {:.1} mm, balance {:.2} (smallest share / largest)",
+            m.gates.len(),
+            m.l_max_mm,
+            m.balance
+        );
+        for (i, g) in m.gates.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "    gate {}: {} fills {:.1} % of the volume, L_max {:.1} mm",
+                i + 1,
+                v3(g.point),
+                100.0 * g.volume_share,
+                g.l_max_mm
+            );
+        }
+    }
+}
+
 /// Renders the report as a few lines of text.
 pub fn render(r: &Report) -> String {
     let mut s = String::new();
@@ -100,11 +195,15 @@ pub fn render(r: &Report) -> String {
             g.distance_3d_mm
         );
     }
+    if let Some(f) = &r.fill {
+        fill(&mut s, f);
+    }
     match &r.gate {
         Some(g) => {
-            let mode = match g.mode {
-                moldgate::GateMode::Paper => "paper",
-                moldgate::GateMode::Aesthetic => "aesthetic",
+            let mode = match (g.strategy, g.mode) {
+                (moldgate::flow::Strategy::Balanced, _) => "balanced",
+                (_, moldgate::GateMode::Paper) => "paper",
+                (_, moldgate::GateMode::Aesthetic) => "aesthetic",
             };
             let _ = writeln!(s, "GATE ({mode}): {} mm", v3(g.point));
         }

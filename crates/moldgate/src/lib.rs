@@ -34,6 +34,7 @@
 
 pub mod centre;
 pub mod error;
+pub mod flow;
 pub mod frame;
 pub mod gate;
 pub mod material;

@@ -24,6 +24,11 @@ pub struct Material {
     pub mu_opt: f64,
     /// Thermal conductivity k in W/(m C).
     pub k: f64,
+    /// Largest flow-length-to-wall-thickness ratio L/t the melt fills reliably
+    /// (dimensionless), or `None` when unknown. Not in the paper; the built-in values are
+    /// the usual design-guide figures (PP 250, ABS 175, PC 125).
+    #[serde(default)]
+    pub max_flow_ratio: Option<f64>,
 }
 
 /// The built-in materials: the paper's Table 1 (cases 1, 3 and 5).
@@ -32,11 +37,11 @@ pub const BUILTIN: [&str; 3] = ["PP", "ABS", "PC"];
 impl Material {
     /// A material of the paper's Table 1 by name (any case), or `None`.
     pub fn builtin(name: &str) -> Option<Material> {
-        let (n, t_melt, t_wall, gamma_opt, mu_opt, k) = match name.to_ascii_uppercase().as_str() {
-            "PP" => (0.2718, 230.0, 50.0, 10_000.0, 9.88, 0.15),
+        let (n, t_melt, t_wall, gamma_opt, mu_opt, k, ratio) = match name.to_ascii_uppercase().as_str() {
+            "PP" => (0.2718, 230.0, 50.0, 10_000.0, 9.88, 0.15, 250.0),
             // Table 1 gives mu = 30.93 for case 3 and 30.96 for case 4; both round to 1.9 mm.
-            "ABS" => (0.2354, 230.0, 50.0, 5_000.0, 30.93, 0.18),
-            "PC" => (0.1869, 305.0, 95.0, 8_000.0, 42.85, 0.24),
+            "ABS" => (0.2354, 230.0, 50.0, 5_000.0, 30.93, 0.18, 175.0),
+            "PC" => (0.1869, 305.0, 95.0, 8_000.0, 42.85, 0.24, 125.0),
             _ => return None,
         };
         Some(Material {
@@ -47,6 +52,7 @@ impl Material {
             gamma_opt,
             mu_opt,
             k,
+            max_flow_ratio: Some(ratio),
         })
     }
 
@@ -72,6 +78,15 @@ impl Material {
                 return Err(OptionsError::NonPositiveMaterial {
                     material: self.name.clone(),
                     parameter,
+                    value,
+                });
+            }
+        }
+        if let Some(value) = self.max_flow_ratio {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(OptionsError::NonPositiveMaterial {
+                    material: self.name.clone(),
+                    parameter: "max_flow_ratio",
                     value,
                 });
             }

@@ -5,6 +5,7 @@
 
 use serde::Serialize;
 
+use crate::flow::{FillAnalysis, Strategy};
 use crate::gate::{
     Analysis, FlatRule, Gate, GateMode, Grid, Nearest, RuleCounts, Spacing, ThicknessRule,
 };
@@ -182,6 +183,8 @@ impl From<&AestheticGate> for AestheticReport {
 pub struct ChosenReport {
     /// `paper` or `aesthetic`.
     pub mode: GateMode,
+    /// `paper` (the method's gate) or `balanced` (the fill analysis's gate).
+    pub strategy: Strategy,
     /// The gate point, mm.
     pub point: [f64; 3],
     /// 3D distance to the centre of mass, mm.
@@ -246,6 +249,9 @@ pub struct Report {
     pub parting_line: PartingSummary,
     /// Time per stage.
     pub timings: Timings,
+    /// The fill analysis (flow length, fill order, pressure, balanced and several gates), or
+    /// `null` when it was not asked for.
+    pub fill: Option<FillAnalysis>,
 }
 
 impl Report {
@@ -313,6 +319,7 @@ impl Report {
             counts: analysis.counts,
             gate: chosen.as_ref().ok().map(|g| ChosenReport {
                 mode: o.mode,
+                strategy: Strategy::Paper,
                 point: g.point().to_array(),
                 distance_3d_mm: g.point().distance(analysis.centre),
             }),
@@ -330,6 +337,26 @@ impl Report {
                 parting_s: t.parting_s,
                 total_s: load_s + t.centre_s + t.grid_s + t.projection_s + t.select_s + t.parting_s,
             },
+            fill: None,
         }
+    }
+
+    /// Adds the fill analysis; with the balanced strategy its gate becomes the answer.
+    pub fn with_fill(mut self, fill: FillAnalysis, centre: crate::math::DVec3) -> Report {
+        if let (Strategy::Balanced, Some(b), Some(gate)) =
+            (fill.strategy, &fill.balanced, &mut self.gate)
+        {
+            let p = crate::math::DVec3::from_array(b.fill.gate);
+            gate.strategy = Strategy::Balanced;
+            gate.point = b.fill.gate;
+            gate.distance_3d_mm = p.distance(centre);
+        }
+        self.timings.total_s += fill.times.voxels_s
+            + fill.times.paper_s
+            + fill.times.balanced_s
+            + fill.times.several_s;
+        self.warnings.extend(fill.warnings.iter().cloned());
+        self.fill = Some(fill);
+        self
     }
 }

@@ -1,0 +1,189 @@
+//! Shortest flow paths through the solid cells: the arrival field of a melt front.
+//!
+//! The field T solves the eikonal equation |grad T| = c(x) (c is the cost of a millimetre
+//! of path at x: 1 for flow length, the flow resistance for fill order) by first-order fast
+//! marching (Sethian) over the six face neighbours, as the front is accepted in order of T.
+//! Each cell also takes the best straight step from any of its 26 neighbours,
+//! T(u) + |u - v| (c(u) + c(v)) / 2, so that walls one cell thick, whose cells touch only at
+//! edges or corners, still pass the melt. Fast marching alone would stop at such a wall;
+//! the straight steps alone (Dijkstra on the 26-neighbour graph) overestimate lengths by up
+//! to 8 % in directions between the axes and diagonals, and that error does not shrink as
+//! cells get smaller. The first-order error of fast marching does.
+//!
+//! Cells of a source are seeded with their exact straight distance to the source point
+//! (within 1.5 cells), which removes most of fast marching's error near a point source.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use crate::math::DVec3;
+
+use super::voxel::{neighbour_offsets, Voxels};
+
+/// A source of the melt: a point, seeded into the cells around it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Source {
+    /// The point, mm.
+    pub point: DVec3,
+    /// The cell that holds it (see [`Voxels::cell_near`]).
+    pub cell: u32,
+}
+
+/// An arrival field: T per solid cell (`f64::INFINITY` where the melt does not reach), and
+/// for fields with several sources, which source reached each cell first.
+#[derive(Debug, Clone)]
+pub struct Field {
+    /// Arrival value per cell: mm of path, weighted by the cost.
+    pub t: Vec<f64>,
+    /// Index of the source whose front arrived first, per cell (`u32::MAX` if unreached).
+    pub source: Vec<u32>,
+}
+
+/// A heap entry: the value rounded up to f32 in the high half (the bits of a non-negative
+/// f32 order like the number), the cell in the low half. Entries pop in order of value, then
+/// of cell, so the march is deterministic; the exact value stays in the field.
+#[inline]
+fn key(t: f64, cell: u32) -> Reverse<u64> {
+    let mut f = t as f32;
+    if (f as f64) < t {
+        f = f32::from_bits(f.to_bits() + 1);
+    }
+    Reverse(((f.to_bits() as u64) << 32) | cell as u64)
+}
+
+/// Marches the fronts of `sources` through `voxels`. `cost` gives the cost per mm of each
+/// cell (`None`: 1 everywhere, the flow length).
+pub fn march(voxels: &Voxels, sources: &[Source], cost: Option<&[f32]>) -> Field {
+    let n = voxels.len();
+    let h = voxels.h;
+    let c = |i: u32| cost.map_or(1.0, |c| c[i as usize] as f64);
+    let mut t = vec![f64::INFINITY; n];
+    let mut source = vec![u32::MAX; n];
+    let mut known = vec![false; n];
+    let mut heap = BinaryHeap::new();
+    let offsets = neighbour_offsets();
+
+    // Seeds: the source cell and its neighbours within 1.5 cells of the point, at their
+    // straight distance times the mean cost.
+    for (s, src) in sources.iter().enumerate() {
+        let mut seed = |cell: u32| {
+            let d = voxels.centre(cell).distance(src.point);
+            if d <= 1.5 * h {
+                let v = d * 0.5 * (c(src.cell) + c(cell));
+                if v < t[cell as usize] {
+                    t[cell as usize] = v;
+                    source[cell as usize] = s as u32;
+                    heap.push(key(v, cell));
+                }
+            }
+        };
+        seed(src.cell);
+        for &(o, _) in &offsets {
+            if let Some(nb) = voxels.neighbour(src.cell, o) {
+                seed(nb);
+            }
+        }
+        // The source cell itself is always seeded, even if the point is off its centre.
+        if t[src.cell as usize].is_infinite() {
+            let v = voxels.centre(src.cell).distance(src.point) * c(src.cell);
+            t[src.cell as usize] = v;
+            source[src.cell as usize] = s as u32;
+            heap.push(key(v, src.cell));
+        }
+    }
+
+    // Dense strides of the 26 steps and, for the face steps, of the six face neighbours.
+    let steps: Vec<(isize, f64)> = offsets
+        .iter()
+        .map(|&(o, len)| (voxels.stride(o), len * h))
+        .collect();
+    let axes = [
+        voxels.stride([1, 0, 0]),
+        voxels.stride([0, 1, 0]),
+        voxels.stride([0, 0, 1]),
+    ];
+    while let Some(Reverse(entry)) = heap.pop() {
+        let v = entry as u32;
+        if known[v as usize] {
+            continue;
+        }
+        let tv = t[v as usize];
+        known[v as usize] = true;
+        let cv = c(v);
+        for &(stride, step) in &steps {
+            let Some(u) = voxels.neighbour_at(v, stride) else {
+                continue;
+            };
+            if known[u as usize] {
+                continue;
+            }
+            let cu = c(u);
+            // Straight step from v.
+            let mut best = tv + step * 0.5 * (cv + cu);
+            // Fast-marching update of u from its known face neighbours.
+            if step == h {
+                let mut a = [f64::INFINITY; 3];
+                for (k, &axis) in axes.iter().enumerate() {
+                    for s in [-axis, axis] {
+                        if let Some(w) = voxels.neighbour_at(u, s) {
+                            if known[w as usize] {
+                                a[k] = a[k].min(t[w as usize]);
+                            }
+                        }
+                    }
+                }
+                best = best.min(eikonal(a, h * cu));
+            }
+            if best < t[u as usize] {
+                t[u as usize] = best;
+                source[u as usize] = source[v as usize];
+                heap.push(key(best, u));
+            }
+        }
+    }
+    Field { t, source }
+}
+
+/// The first-order upwind solution of sum_k (T - a_k)^2 = f^2 over the finite a_k, using as
+/// many of the smallest as keep T above them.
+fn eikonal(mut a: [f64; 3], f: f64) -> f64 {
+    a.sort_by(f64::total_cmp);
+    if a[0].is_infinite() {
+        return f64::INFINITY;
+    }
+    let mut t = a[0] + f;
+    if a[1] < t {
+        let d = a[0] - a[1];
+        let disc = 2.0 * f * f - d * d;
+        if disc >= 0.0 {
+            t = 0.5 * (a[0] + a[1] + disc.sqrt());
+        }
+        if a[2] < t {
+            let s = a[0] + a[1] + a[2];
+            let q = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+            let disc = s * s - 3.0 * (q - f * f);
+            if disc >= 0.0 {
+                t = (s + disc.sqrt()) / 3.0;
+            }
+        }
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eikonal_matches_the_one_two_and_three_dimensional_closed_forms() {
+        let inf = f64::INFINITY;
+        assert_eq!(eikonal([inf, inf, inf], 1.0), inf);
+        assert_eq!(eikonal([2.0, inf, inf], 1.0), 3.0);
+        // Two equal neighbours: T - a = f / sqrt 2.
+        assert!((eikonal([0.0, 0.0, inf], 1.0) - 0.5f64.sqrt()).abs() < 1e-12);
+        // Three equal: f / sqrt 3.
+        assert!((eikonal([0.0, 0.0, 0.0], 1.0) - (1.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        // A far second neighbour is ignored.
+        assert_eq!(eikonal([0.0, 5.0, inf], 1.0), 1.0);
+    }
+}
