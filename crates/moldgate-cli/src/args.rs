@@ -174,8 +174,8 @@ pub struct LocateArgs {
     /// Number of gates that together minimise the worst flow (implies --fill).
     #[arg(long, default_value_t = 1, value_name = "K")]
     pub gates: usize,
-    /// Side of the flow-analysis cells, mm [default: a third of the nominal wall, at most
-    /// 1/200 of the part's diagonal].
+    /// Side of the flow-analysis cells, mm [default: half the nominal wall, at most 1/120
+    /// of the part's diagonal].
     #[arg(long, value_name = "MM", allow_hyphen_values = true)]
     pub cell: Option<f64>,
     /// Print the JSON report on stdout instead of the summary.

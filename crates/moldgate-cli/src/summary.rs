@@ -69,6 +69,13 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis) {
         }
     }
     match &f.balanced {
+        Some(b) if b.is_paper_gate => {
+            let _ = writeln!(
+                s,
+                "  balanced gate: the paper gate (no candidate does better, {} field runs)",
+                b.search.runs
+            );
+        }
         Some(b) => {
             fill_line(s, "balanced gate", &b.fill);
             let _ = writeln!(
@@ -80,11 +87,18 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis) {
                 },
                 b.improvement_pct,
                 b.search.runs,
-                if b.search.proven { ", optimal" } else { ", not proven optimal" }
+                if b.search.proven {
+                    ", optimal"
+                } else {
+                    ", not proven optimal"
+                }
             );
         }
         None => {
-            let _ = writeln!(s, "  balanced gate: the paper gate is already the best");
+            let _ = writeln!(
+                s,
+                "  balanced gate: no qualifying candidate feeds the gate's body"
+            );
         }
     }
     if let Some(m) = &f.several {

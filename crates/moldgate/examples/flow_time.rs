@@ -17,7 +17,11 @@ fn main() {
     let analysis = locate(&part, &options).unwrap();
     let pp = Material::builtin("PP").unwrap();
     let c = moldgate::Centres::of(&part.mesh);
-    let nominal = if c.volume_mm3 > 0.0 { 2.0 * c.volume_mm3 / c.area_mm2 } else { 1.0 };
+    let nominal = if c.volume_mm3 > 0.0 {
+        2.0 * c.volume_mm3 / c.area_mm2
+    } else {
+        1.0
+    };
     let h = args.get(4).map_or_else(
         || flow::cell_size(&part.mesh, nominal, &flow::FlowOptions::default()),
         |s| s.parse().unwrap(),
@@ -35,8 +39,16 @@ fn main() {
     let t = Instant::now();
     let src = domain.source(gate).unwrap();
     let f = flow::march(&domain.voxels, &[src], None);
-    println!("one march {:.1} ms, L_max {:.2}", t.elapsed().as_secs_f64() * 1e3, flow::argmax(&f.t).1);
+    println!(
+        "one march {:.1} ms, L_max {:.2}",
+        t.elapsed().as_secs_f64() * 1e3,
+        flow::argmax(&f.t).1
+    );
     let t = Instant::now();
     let (fill, _) = flow::fill_from(&domain, gate, &pp).unwrap();
-    println!("fill_from {:.1} ms: {:?}", t.elapsed().as_secs_f64() * 1e3, fill);
+    println!(
+        "fill_from {:.1} ms: {:?}",
+        t.elapsed().as_secs_f64() * 1e3,
+        fill
+    );
 }

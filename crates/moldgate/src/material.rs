@@ -37,13 +37,14 @@ pub const BUILTIN: [&str; 3] = ["PP", "ABS", "PC"];
 impl Material {
     /// A material of the paper's Table 1 by name (any case), or `None`.
     pub fn builtin(name: &str) -> Option<Material> {
-        let (n, t_melt, t_wall, gamma_opt, mu_opt, k, ratio) = match name.to_ascii_uppercase().as_str() {
-            "PP" => (0.2718, 230.0, 50.0, 10_000.0, 9.88, 0.15, 250.0),
-            // Table 1 gives mu = 30.93 for case 3 and 30.96 for case 4; both round to 1.9 mm.
-            "ABS" => (0.2354, 230.0, 50.0, 5_000.0, 30.93, 0.18, 175.0),
-            "PC" => (0.1869, 305.0, 95.0, 8_000.0, 42.85, 0.24, 125.0),
-            _ => return None,
-        };
+        let (n, t_melt, t_wall, gamma_opt, mu_opt, k, ratio) =
+            match name.to_ascii_uppercase().as_str() {
+                "PP" => (0.2718, 230.0, 50.0, 10_000.0, 9.88, 0.15, 250.0),
+                // Table 1 gives mu = 30.93 for case 3 and 30.96 for case 4; both round to 1.9 mm.
+                "ABS" => (0.2354, 230.0, 50.0, 5_000.0, 30.93, 0.18, 175.0),
+                "PC" => (0.1869, 305.0, 95.0, 8_000.0, 42.85, 0.24, 125.0),
+                _ => return None,
+            };
         Some(Material {
             name: name.to_ascii_uppercase(),
             n,

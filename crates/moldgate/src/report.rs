@@ -351,10 +351,8 @@ impl Report {
             gate.point = b.fill.gate;
             gate.distance_3d_mm = p.distance(centre);
         }
-        self.timings.total_s += fill.times.voxels_s
-            + fill.times.paper_s
-            + fill.times.balanced_s
-            + fill.times.several_s;
+        self.timings.total_s +=
+            fill.times.voxels_s + fill.times.paper_s + fill.times.balanced_s + fill.times.several_s;
         self.warnings.extend(fill.warnings.iter().cloned());
         self.fill = Some(fill);
         self

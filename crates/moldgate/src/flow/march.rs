@@ -92,43 +92,45 @@ pub fn march(voxels: &Voxels, sources: &[Source], cost: Option<&[f32]>) -> Field
         }
     }
 
-    // Dense strides of the 26 steps and, for the face steps, of the six face neighbours.
-    let steps: Vec<(isize, f64)> = offsets
-        .iter()
-        .map(|&(o, len)| (voxels.stride(o), len * h))
-        .collect();
-    let axes = [
-        voxels.stride([1, 0, 0]),
-        voxels.stride([0, 1, 0]),
-        voxels.stride([0, 0, 1]),
-    ];
+    // Step lengths of the 26 neighbours, and for each face neighbour (axis k, side), the
+    // positions in the table of the two face neighbours of a cell along each axis.
+    let step: Vec<f64> = offsets.iter().map(|&(_, len)| len * h).collect();
+    let face_pair: [[usize; 2]; 3] = std::array::from_fn(|k| {
+        let find = |sgn: i32| {
+            offsets
+                .iter()
+                .position(|&(o, _)| (0..3).all(|j| o[j] == if j == k { sgn } else { 0 }))
+                .expect("face neighbour")
+        };
+        [find(-1), find(1)]
+    });
+    let table = &voxels.table;
     while let Some(Reverse(entry)) = heap.pop() {
         let v = entry as u32;
         if known[v as usize] {
             continue;
         }
-        let tv = t[v as usize];
         known[v as usize] = true;
+        let tv = t[v as usize];
         let cv = c(v);
-        for &(stride, step) in &steps {
-            let Some(u) = voxels.neighbour_at(v, stride) else {
-                continue;
-            };
-            if known[u as usize] {
+        let sv = source[v as usize];
+        let row = &table[v as usize];
+        for (k, &u) in row.iter().enumerate() {
+            if u == u32::MAX || known[u as usize] {
                 continue;
             }
             let cu = c(u);
             // Straight step from v.
-            let mut best = tv + step * 0.5 * (cv + cu);
+            let mut best = tv + step[k] * 0.5 * (cv + cu);
             // Fast-marching update of u from its known face neighbours.
-            if step == h {
+            if step[k] == h {
+                let ru = &table[u as usize];
                 let mut a = [f64::INFINITY; 3];
-                for (k, &axis) in axes.iter().enumerate() {
-                    for s in [-axis, axis] {
-                        if let Some(w) = voxels.neighbour_at(u, s) {
-                            if known[w as usize] {
-                                a[k] = a[k].min(t[w as usize]);
-                            }
+                for (axis, pair) in face_pair.iter().enumerate() {
+                    for &slot in pair {
+                        let w = ru[slot];
+                        if w != u32::MAX && known[w as usize] {
+                            a[axis] = a[axis].min(t[w as usize]);
                         }
                     }
                 }
@@ -136,7 +138,7 @@ pub fn march(voxels: &Voxels, sources: &[Source], cost: Option<&[f32]>) -> Field
             }
             if best < t[u as usize] {
                 t[u as usize] = best;
-                source[u as usize] = source[v as usize];
+                source[u as usize] = sv;
                 heap.push(key(best, u));
             }
         }

@@ -28,10 +28,11 @@ pub mod voxel;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::math::DVec3;
 use crate::material::Material;
+use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use march::{march, Field, Source};
 pub use voxel::Voxels;
@@ -65,13 +66,14 @@ impl Default for FlowOptions {
     }
 }
 
-/// The cell side: a third of the nominal wall (so a wall is at least three cells across),
-/// at most 1/200 of the part's diagonal, and no finer than `max_cells` allows.
+/// The cell side: half the nominal wall (a wall is two cells across, and the surface cells
+/// add about one more), at most 1/120 of the part's diagonal, and no finer than `max_cells`
+/// allows.
 pub fn cell_size(mesh: &Mesh, nominal_wall_mm: f64, options: &FlowOptions) -> f64 {
     let bounds = mesh.bounds();
     let h = options
         .cell_mm
-        .unwrap_or_else(|| (nominal_wall_mm / 3.0).min(bounds.diagonal() / 200.0));
+        .unwrap_or_else(|| (nominal_wall_mm / 2.0).min(bounds.diagonal() / 120.0));
     // The grid's cell count falls as h^-3.
     let n = Voxels::cells_for(&bounds, h);
     if n > options.max_cells {
@@ -307,7 +309,11 @@ fn last_to_fill(v: &Voxels, order: &[f64], length: &[f64], count: usize) -> Vec<
                 })
         })
         .collect();
-    maxima.sort_by(|&a, &b| order[b as usize].total_cmp(&order[a as usize]).then(a.cmp(&b)));
+    maxima.sort_by(|&a, &b| {
+        order[b as usize]
+            .total_cmp(&order[a as usize])
+            .then(a.cmp(&b))
+    });
     let spread = 0.1 * argmax(length).1;
     let mut out: Vec<PointValue> = Vec::new();
     for c in maxima {
@@ -377,7 +383,7 @@ fn weld_lines(v: &Voxels, t: &[f64]) -> Vec<WeldLine> {
                 let cos = dc.dot(dn);
                 if cos < cos_limit && dc.dot(towards) > 0.0 && dn.dot(-towards) > 0.0 {
                     let a = cos.clamp(-1.0, 1.0).acos().to_degrees();
-                    if !(angle[c as usize] >= a) {
+                    if angle[c as usize].is_nan() || angle[c as usize] < a {
                         angle[c as usize] = a;
                     }
                 }
@@ -432,7 +438,11 @@ fn weld_lines(v: &Voxels, t: &[f64]) -> Vec<WeldLine> {
                 / members.len() as f64,
         });
     }
-    groups.sort_by(|a, b| b.cells.cmp(&a.cells).then(a.point[0].total_cmp(&b.point[0])));
+    groups.sort_by(|a, b| {
+        b.cells
+            .cmp(&a.cells)
+            .then(a.point[0].total_cmp(&b.point[0]))
+    });
     groups.truncate(8);
     groups
 }
@@ -479,29 +489,42 @@ pub fn balanced_gate(
     }
     let start = march(v, &[first], cost);
     let mut runs = 1;
-    let mut far = argmax(&start.t).0;
+    let mut far = far_points(v, &start.t, FAR_POINTS);
     let mut bound = vec![0.0f64; candidates.len()];
-    let max_runs = 60;
+    let max_runs = 80;
     loop {
-        let from_far = march(
-            v,
-            &[Source {
-                point: v.centre(far),
-                cell: far,
-            }],
-            cost,
-        );
-        runs += 1;
-        for &i in &pool {
-            bound[i] = bound[i].max(from_far.t[candidates[i].cell as usize]);
+        // Runs from the new far points, in parallel; each raises the bounds.
+        let fields: Vec<Field> = far
+            .par_iter()
+            .map(|&f| {
+                march(
+                    v,
+                    &[Source {
+                        point: v.centre(f),
+                        cell: f,
+                    }],
+                    cost,
+                )
+            })
+            .collect();
+        runs += fields.len();
+        for field in &fields {
+            for &i in &pool {
+                bound[i] = bound[i].max(field.t[candidates[i].cell as usize]);
+            }
         }
         let &best = pool
             .iter()
             .min_by(|&&a, &&b| bound[a].total_cmp(&bound[b]).then(a.cmp(&b)))
             .expect("non-empty pool");
-        let field = march(v, &[candidates[best]], cost);
+        // Seeded at the cell centre, like the far points, so that the runs are symmetric.
+        let centred = Source {
+            point: v.centre(candidates[best].cell),
+            cell: candidates[best].cell,
+        };
+        let field = march(v, &[centred], cost);
         runs += 1;
-        let (next_far, value) = argmax(&field.t);
+        let value = argmax(&field.t).1;
         let proven = value <= bound[best] + tolerance;
         if proven || runs >= max_runs {
             return Some(Balanced {
@@ -512,8 +535,34 @@ pub fn balanced_gate(
                 proven,
             });
         }
-        far = next_far;
+        far = far_points(v, &field.t, FAR_POINTS);
     }
+}
+
+/// Far points taken from each run of the balanced search.
+const FAR_POINTS: usize = 2;
+
+/// The cell of the largest value, then other local maxima of `t` within 5 % of it and at
+/// least a quarter of it away from those already taken, up to `count`.
+fn far_points(v: &Voxels, t: &[f64], count: usize) -> Vec<u32> {
+    let (top, max) = argmax(t);
+    let mut out = vec![top];
+    if count > 1 {
+        let mut near_max: Vec<u32> = (0..v.len() as u32)
+            .filter(|&c| t[c as usize].is_finite() && t[c as usize] >= 0.95 * max)
+            .collect();
+        near_max.sort_by(|&a, &b| t[b as usize].total_cmp(&t[a as usize]).then(a.cmp(&b)));
+        for c in near_max {
+            if out.len() == count {
+                break;
+            }
+            let p = v.centre(c);
+            if out.iter().all(|&o| v.centre(o).distance(p) >= 0.25 * max) {
+                out.push(c);
+            }
+        }
+    }
+    out
 }
 
 /// One gate of a several-gate layout.
@@ -545,8 +594,9 @@ pub struct MultiGate {
 /// Places `k` gates among `candidates` (same body as `first`, which starts the layout):
 /// farthest-point seeding (each new gate is the candidate nearest, along the flow, to the
 /// point the current gates reach last; a 2-approximation of the k-centre optimum), then
-/// rounds of local improvement in which each gate moves to the candidate that minimises the
-/// worst value over its own share, kept only while the overall worst value falls.
+/// rounds of local improvement in which each gate moves to the centre of its own share (the
+/// candidate nearest to both ends of the share's longest path), kept only while the
+/// overall worst value falls.
 pub fn several_gates(
     domain: &Domain,
     candidates: &[Source],
@@ -591,50 +641,54 @@ pub fn several_gates(
         field = march(v, &sources, cost);
         runs += 1;
     }
-    // Local improvement: each gate to the 1-centre of its share (by sampling the share's
-    // farthest cells), kept while the overall worst value falls.
+    // Local improvement: each gate to the centre of its share, kept while the overall worst
+    // value falls.
     let mut worst = argmax(&field.t).1;
-    for _round in 0..2 {
+    for _round in 0..8 {
         let mut improved = false;
         for g in 0..k {
             let share: Vec<u32> = (0..v.len() as u32)
                 .filter(|&c| field.source[c as usize] == g as u32)
                 .collect();
-            // Candidates inside the share (it must keep a candidate to move to).
-            let local: Vec<usize> = pool
-                .iter()
-                .copied()
-                .filter(|&i| {
-                    field.source[candidates[i].cell as usize] == g as u32 && !chosen.contains(&i)
-                        || i == chosen[g]
-                })
-                .collect();
-            if local.len() < 2 || share.is_empty() {
+            if share.is_empty() {
                 continue;
             }
-            // The share's worst cell, and the candidate nearest to balancing it: the one
-            // minimising the larger of its distances to the gate's farthest cell and to the
-            // gate itself is a cheap 1-centre step.
-            let (far, _) = share
+            // The share's two ends: its cell farthest from the gate, x1, and its cell
+            // farthest from x1, x2. The candidate nearest to both (least of the larger
+            // distance) is the centre of the share's longest path.
+            let x1 = share
                 .iter()
-                .map(|&c| (c, field.t[c as usize]))
-                .fold((share[0], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
-            let from_far = march(
-                v,
-                &[Source {
-                    point: v.centre(far),
-                    cell: far,
-                }],
-                cost,
-            );
-            let from_gate = march(v, &[candidates[chosen[g]]], cost);
+                .copied()
+                .max_by(|&a, &b| {
+                    field.t[a as usize]
+                        .total_cmp(&field.t[b as usize])
+                        .then(b.cmp(&a))
+                })
+                .expect("non-empty");
+            let at = |c: u32| Source {
+                point: v.centre(c),
+                cell: c,
+            };
+            let from_x1 = march(v, &[at(x1)], cost);
+            let x2 = share
+                .iter()
+                .copied()
+                .filter(|&c| from_x1.t[c as usize].is_finite())
+                .max_by(|&a, &b| {
+                    from_x1.t[a as usize]
+                        .total_cmp(&from_x1.t[b as usize])
+                        .then(b.cmp(&a))
+                })
+                .unwrap_or(x1);
+            let from_x2 = march(v, &[at(x2)], cost);
             runs += 2;
-            let &try_c = local
+            let &try_c = pool
                 .iter()
+                .filter(|&&i| i == chosen[g] || !chosen.contains(&i))
                 .min_by(|&&a, &&b| {
                     let f = |i: usize| {
                         let c = candidates[i].cell as usize;
-                        from_far.t[c].max(from_gate.t[c])
+                        from_x1.t[c].max(from_x2.t[c])
                     };
                     f(a).total_cmp(&f(b)).then(a.cmp(&b))
                 })
@@ -648,7 +702,12 @@ pub fn several_gates(
             let trial_field = march(v, &sources, cost);
             runs += 1;
             let trial_worst = argmax(&trial_field.t).1;
-            if trial_worst < worst - 1e-9 {
+            // Keep the move when the overall worst value does not grow and the sum of the
+            // shares' worst values falls (a gate may improve its share while another
+            // share still sets the overall worst).
+            if trial_worst <= worst + 1e-9
+                && share_sum(&trial_field, k) < share_sum(&field, k) - 1e-9
+            {
                 worst = trial_worst;
                 chosen = trial;
                 field = trial_field;
@@ -682,13 +741,28 @@ pub fn several_gates(
         .collect();
     let shares: Vec<f64> = gates.iter().map(|g| g.volume_share).collect();
     let balance = shares.iter().copied().fold(f64::INFINITY, f64::min)
-        / shares.iter().copied().fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+        / shares
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE);
     Some(MultiGate {
         gates,
         l_max_mm: worst,
         balance,
         runs,
     })
+}
+
+/// The sum over the `k` shares of a multi-source field of their largest values.
+fn share_sum(field: &Field, k: usize) -> f64 {
+    let mut worst = vec![0.0f64; k];
+    for (t, &s) in field.t.iter().zip(&field.source) {
+        if t.is_finite() && (s as usize) < k {
+            worst[s as usize] = worst[s as usize].max(*t);
+        }
+    }
+    worst.iter().sum()
 }
 
 /// Seconds per stage of the fill analysis.
@@ -742,6 +816,9 @@ pub struct BalancedFill {
     pub search: Balanced,
     /// Reduction of the objective from the paper gate, percent (>= 0).
     pub improvement_pct: f64,
+    /// True when no candidate beats the paper gate by more than the discretisation, so the
+    /// balanced gate is the paper gate.
+    pub is_paper_gate: bool,
 }
 
 /// Where the wall thickness of the cells came from.
@@ -801,7 +878,9 @@ pub enum FillError {
     #[error("the gate at ({0:.3}, {1:.3}, {2:.3}) is not on the voxelised part")]
     GateOffPart(f64, f64, f64),
     /// More gates than candidates.
-    #[error("{asked} gates asked for, but only {available} qualifying candidates feed the gate's body")]
+    #[error(
+        "{asked} gates asked for, but only {available} qualifying candidates feed the gate's body"
+    )]
     TooFewCandidates {
         /// Gates asked for.
         asked: usize,
@@ -890,33 +969,39 @@ pub fn analyse(
         Objective::Length => f.l_max_mm,
         Objective::Resistance => f.fill_max,
     };
-    let balanced = match balanced_gate(&domain, &candidates, options.objective, first, 0.5 * h) {
-        Some(search) => {
+    let balanced =
+        balanced_gate(&domain, &candidates, options.objective, first, 0.5 * h).map(|search| {
             let point = candidates[search.candidate].point;
             let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
-            // Keep the balanced gate only if it does not do worse than the paper gate (the
-            // aesthetic gate is not a grid candidate and may be better than every one).
-            if objective_value(&fill) > objective_value(&paper) {
-                None
+            if objective_value(&fill) >= objective_value(&paper) {
+                // Within the discretisation the paper gate is as good (it is a candidate
+                // itself unless it is the aesthetic gate): keep it, so the balanced gate
+                // never does worse than the paper gate.
+                let search = Balanced {
+                    value: objective_value(&paper),
+                    ..search
+                };
+                let fill = BalancedFill {
+                    fill: paper.clone(),
+                    search,
+                    improvement_pct: 0.0,
+                    is_paper_gate: true,
+                };
+                (fill, None)
             } else {
                 let improvement_pct =
                     100.0 * (1.0 - objective_value(&fill) / objective_value(&paper));
-                Some((
-                    BalancedFill {
-                        fill,
-                        search,
-                        improvement_pct: improvement_pct.max(0.0),
-                    },
-                    fields,
-                ))
+                let fill = BalancedFill {
+                    fill,
+                    search,
+                    improvement_pct,
+                    is_paper_gate: false,
+                };
+                (fill, Some(fields))
             }
-        }
-        None => None,
-    };
+        });
     if balanced.is_none() {
-        warnings.push(
-            "no qualifying candidate in the gate's body does better than the paper gate".into(),
-        );
+        warnings.push("no qualifying candidate feeds the gate's body".into());
     }
     times.balanced_s = seconds(t);
 
@@ -932,15 +1017,22 @@ pub fn analyse(
         };
         let available = candidates
             .iter()
-            .filter(|s| domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize])
+            .filter(|s| {
+                domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
+            })
             .count();
         Some(
-            several_gates(&domain, &candidates, options.objective, start, options.gates).ok_or(
-                FillError::TooFewCandidates {
-                    asked: options.gates,
-                    available,
-                },
-            )?,
+            several_gates(
+                &domain,
+                &candidates,
+                options.objective,
+                start,
+                options.gates,
+            )
+            .ok_or(FillError::TooFewCandidates {
+                asked: options.gates,
+                available,
+            })?,
         )
     } else {
         None
@@ -948,7 +1040,7 @@ pub fn analyse(
     times.several_s = seconds(t);
 
     let (answer, fields) = match (&options.strategy, &balanced) {
-        (Strategy::Balanced, Some((b, f))) => (DVec3::from_array(b.fill.gate), f),
+        (Strategy::Balanced, Some((b, Some(f)))) => (DVec3::from_array(b.fill.gate), f),
         _ => (gate, &paper_fields),
     };
     let fill_order_per_vertex = per_vertex(&domain, mesh, &fields.fill.t);

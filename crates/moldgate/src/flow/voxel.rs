@@ -38,6 +38,8 @@ pub struct Voxels {
     pub cells: Vec<[u32; 3]>,
     /// Dense index of each solid cell.
     dense: Vec<u32>,
+    /// The 26 neighbours of each solid cell (see [`Voxels::neighbour_table`]).
+    pub(crate) table: Vec<[u32; 26]>,
     /// For each solid cell, a triangle that passes through it or, for interior cells, the
     /// triangle of the nearest surface cell (by breadth-first steps).
     pub triangle: Vec<u32>,
@@ -98,7 +100,8 @@ impl Voxels {
                     let mut last = usize::MAX;
                     for i in 0..=n {
                         for j in 0..=n - i {
-                            let p = a + (b - a) * (i as f64 / n as f64)
+                            let p = a
+                                + (b - a) * (i as f64 / n as f64)
                                 + (c - a) * (j as f64 / n as f64);
                             let cell = cell_of(p);
                             if cell != last {
@@ -146,10 +149,12 @@ impl Voxels {
             index,
             cells,
             dense,
+            table: Vec::new(),
             triangle,
             interior_cells,
             open_columns,
         };
+        voxels.table = voxels.neighbour_table();
         voxels.spread_triangles();
         voxels
     }
@@ -199,10 +204,7 @@ impl Voxels {
                     let j1 = (((hi.y - origin.y) / h).floor() as isize).min(ny as isize - 1);
                     for j in j0 as isize..=j1 {
                         for i in i0 as isize..=i1 {
-                            let c = DVec2::new(
-                                origin.x + i as f64 * h,
-                                origin.y + j as f64 * h,
-                            );
+                            let c = DVec2::new(origin.x + i as f64 * h, origin.y + j as f64 * h);
                             let w0 = orient2d(q[1], q[2], c);
                             let w1 = orient2d(q[2], q[0], c);
                             let w2 = orient2d(q[0], q[1], c);
@@ -278,6 +280,19 @@ impl Voxels {
             }
             frontier = next;
         }
+    }
+
+    /// The 26 neighbours of every solid cell, in [`neighbour_offsets`] order (`u32::MAX`
+    /// where the neighbour is not solid).
+    pub fn neighbour_table(&self) -> Vec<[u32; 26]> {
+        let strides: Vec<isize> = neighbour_offsets()
+            .iter()
+            .map(|&(o, _)| self.stride(o))
+            .collect();
+        self.dense
+            .par_iter()
+            .map(|&d| std::array::from_fn(|k| self.index[(d as isize + strides[k]) as usize]))
+            .collect()
     }
 
     /// Number of solid cells.
@@ -392,7 +407,10 @@ mod tests {
         // 100 x 60 x 3 with an r8 hole: 18000 - pi 64 3 mm^3.
         let volume = 100.0 * 60.0 * 3.0 - std::f64::consts::PI * 64.0 * 3.0;
         let interior = v.interior_cells as f64 * h * h * h;
-        assert!((interior - volume).abs() / volume < 0.02, "{interior} vs {volume}");
+        assert!(
+            (interior - volume).abs() / volume < 0.02,
+            "{interior} vs {volume}"
+        );
         // Surface cells add at most one layer around.
         let all = v.len() as f64 * h * h * h;
         assert!(all > interior && all < volume + 2.0 * 12960.0 * h, "{all}");
