@@ -160,6 +160,13 @@ pub struct LocateArgs {
     /// Largest grid accepted, in nodes.
     #[arg(long, default_value_t = 4_000_000)]
     pub max_nodes: usize,
+    /// A region no gate may reach into: box:x0,y0,z0,x1,y1,z1 or sphere:x,y,z,r (mm);
+    /// repeat for several.
+    #[arg(long, value_name = "REGION", allow_hyphen_values = true)]
+    pub keep_out: Vec<String>,
+    /// The visible side: no gate on faces turned towards this direction (+x, -y, x,y,z).
+    #[arg(long, value_name = "DIR", allow_hyphen_values = true)]
+    pub cosmetic: Option<String>,
     /// Analyse the fill: flow length, fill order, Eq. 1 pressure, last places to fill, weld
     /// lines, and the balanced gate for comparison.
     #[arg(long)]
@@ -349,6 +356,18 @@ fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, Radius
             GateMode::Paper
         },
         max_nodes: a.max_nodes,
+        keep_out: a
+            .keep_out
+            .iter()
+            .map(|k| k.parse())
+            .collect::<Result<_, moldgate::OptionsError>>()
+            .map_err(|e| Failure::usage(format!("--keep-out: {e}")))?,
+        cosmetic: a
+            .cosmetic
+            .as_deref()
+            .map(str::parse)
+            .transpose()
+            .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--cosmetic: {e}")))?,
     };
     Ok((options, source))
 }

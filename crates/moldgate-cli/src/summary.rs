@@ -189,6 +189,13 @@ pub fn render(r: &Report) -> String {
         "nodes: {} -> {} hit -> {} with the whole circle on the part -> {} thicker than R ({} unknown); {} flat; {} qualify",
         c.nodes, c.centre_hits, c.circle_on_part, c.thicker_than_radius, c.thickness_unknown, c.flat, c.qualifying
     );
+    if c.kept_out + c.cosmetic > 0 {
+        let _ = writeln!(
+            s,
+            "keep-out: {} nodes removed by the regions, {} on cosmetic faces",
+            c.kept_out, c.cosmetic
+        );
+    }
     if let Some(g) = &r.paper_gate {
         let _ = writeln!(
             s,

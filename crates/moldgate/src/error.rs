@@ -124,6 +124,9 @@ pub enum OptionsError {
         /// Mould wall temperature in degrees Celsius.
         t_wall: f64,
     },
+    /// A keep-out region that cannot be read.
+    #[error("cannot read keep-out region '{0}': expected box:x0,y0,z0,x1,y1,z1 or sphere:x,y,z,r (mm, r > 0)")]
+    BadRegion(String),
     /// A length or count option that must be positive is not.
     #[error("{option} must be a positive finite number, got {value}")]
     NonPositive {

@@ -37,6 +37,7 @@ pub mod error;
 pub mod flow;
 pub mod frame;
 pub mod gate;
+pub mod keepout;
 pub mod material;
 pub mod math;
 pub mod mesh;

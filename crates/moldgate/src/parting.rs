@@ -148,13 +148,40 @@ impl PartingLine {
     /// The point of the line nearest `centre` (the aesthetic gate), or `None` for an empty
     /// line. Ties go to the first edge in vertex order.
     pub fn nearest(&self, mesh: &Mesh, frame: &Frame, centre: DVec3) -> Option<AestheticGate> {
+        self.nearest_allowed(mesh, frame, centre, 1.0, |_| true)
+    }
+
+    /// The point of the line nearest `centre` among the points `allowed` accepts. Where an
+    /// edge's nearest point is refused, the edge is sampled every `step` mm and the allowed
+    /// samples compete instead.
+    pub fn nearest_allowed(
+        &self,
+        mesh: &Mesh,
+        frame: &Frame,
+        centre: DVec3,
+        step: f64,
+        allowed: impl Fn(DVec3) -> bool,
+    ) -> Option<AestheticGate> {
         let mut best: Option<(f64, DVec3)> = None;
-        for &[a, b] in &self.edges {
-            let p =
-                nearest_on_segment(mesh.vertices[a as usize], mesh.vertices[b as usize], centre);
+        let mut consider = |p: DVec3| {
             let d = p.distance(centre);
             if best.is_none_or(|(bd, _)| d < bd) {
                 best = Some((d, p));
+            }
+        };
+        for &[a, b] in &self.edges {
+            let (va, vb) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
+            let p = nearest_on_segment(va, vb, centre);
+            if allowed(p) {
+                consider(p);
+                continue;
+            }
+            let n = ((va.distance(vb) / step.max(1e-6)).ceil() as usize).clamp(1, 100_000);
+            for k in 0..=n {
+                let q = va.lerp(vb, k as f64 / n as f64);
+                if allowed(q) {
+                    consider(q);
+                }
             }
         }
         best.map(|(d, p)| AestheticGate {

@@ -67,6 +67,10 @@ pub struct OptionsReport {
     pub flat_tolerance_mm: f64,
     /// Which gate is the answer.
     pub mode: GateMode,
+    /// Keep-out regions.
+    pub keep_out: Vec<crate::keepout::Region>,
+    /// Cosmetic direction (unit vector), or `null`.
+    pub cosmetic: Option<[f64; 3]>,
 }
 
 /// The material and the quantities of Eq. 7-8.
@@ -290,6 +294,8 @@ impl Report {
                 flat_rule: o.flat_rule,
                 flat_tolerance_mm: analysis.flat_tolerance_mm,
                 mode: o.mode,
+                keep_out: o.keep_out.clone(),
+                cosmetic: o.cosmetic.map(|c| c.vector().to_array()),
             },
             mesh: stats.clone(),
             warnings: mesh_warnings

@@ -12,6 +12,7 @@ use serde::Serialize;
 use crate::centre::{CentreKind, Centres};
 use crate::error::{LocateError, OptionsError};
 use crate::frame::{Direction, Frame};
+use crate::keepout::Region;
 use crate::math::{DVec2, DVec3};
 use crate::mesh::LoadedMesh;
 use crate::parting::{AestheticGate, PartingLine};
@@ -93,6 +94,11 @@ pub struct LocateOptions {
     pub mode: GateMode,
     /// Largest grid accepted, in nodes. Default 4 000 000.
     pub max_nodes: usize,
+    /// Regions no gate disc may reach into. Default none.
+    pub keep_out: Vec<Region>,
+    /// A visible direction: candidates on faces turned towards it are forbidden. Default
+    /// none.
+    pub cosmetic: Option<Direction>,
 }
 
 impl Default for LocateOptions {
@@ -112,6 +118,8 @@ impl Default for LocateOptions {
             flat_tolerance_mm: None,
             mode: GateMode::Paper,
             max_nodes: 4_000_000,
+            keep_out: Vec::new(),
+            cosmetic: None,
         }
     }
 }
@@ -132,6 +140,11 @@ pub struct RuleCounts {
     pub thickness_unknown: usize,
     /// Of the circle-on-part nodes, those whose circle lies within the flatness tolerance.
     pub flat: usize,
+    /// Nodes that pass the paper's rules but whose gate disc reaches into a keep-out region.
+    pub kept_out: usize,
+    /// Nodes that pass the paper's rules but sit on a face turned towards the cosmetic
+    /// direction (counted only if not already kept out).
+    pub cosmetic: usize,
     /// Nodes that pass every rule in force: the pool the gate is chosen from.
     pub qualifying: usize,
 }
@@ -246,7 +259,11 @@ impl Analysis {
                 }),
             GateMode::Aesthetic => self.aesthetic_gate.map(ChosenGate::Aesthetic).ok_or_else(|| {
                 LocateError::NoCandidate {
-                    reason: "the part has no parting line for this demolding direction (no edge between a face towards +D and one away from it)".into(),
+                    reason: if self.parting.edges.is_empty() {
+                        "the part has no parting line for this demolding direction (no edge between a face towards +D and one away from it)".into()
+                    } else {
+                        "the keep-out regions cover the whole parting line".into()
+                    },
                 }
             }),
         }
@@ -268,6 +285,12 @@ impl Analysis {
         }
         if self.options.flat_rule == FlatRule::Require {
             s += &format!("; {} are flat", c.flat);
+        }
+        if c.kept_out > 0 {
+            s += &format!("; {} are kept out by the keep-out regions", c.kept_out);
+        }
+        if c.cosmetic > 0 {
+            s += &format!("; {} lie on cosmetic faces", c.cosmetic);
         }
         s + " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)"
     }
@@ -382,7 +405,28 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
                 || v.disc_thickness.is_none_or(|th| th > r))
             && (options.flat_rule == FlatRule::Report || v.flat)
     };
-    let pool: Vec<usize> = (0..grid.len()).filter(|&i| qualifies(&nodes[i])).collect();
+    let oriented_normal = |t: u32| {
+        let n = mesh.normal(t as usize);
+        if n.dot(frame.d) < 0.0 {
+            -n
+        } else {
+            n
+        }
+    };
+    let mut pool = Vec::new();
+    for i in (0..grid.len()).filter(|&i| qualifies(&nodes[i])) {
+        let hit = centre_hits[i];
+        let p = frame.point(grid.node(i), hit.first);
+        if options.keep_out.iter().any(|k| k.touches(p, r)) {
+            counts.kept_out += 1;
+        } else if options.cosmetic.is_some_and(|c| {
+            oriented_normal(hit.triangle).dot(c.vector()) > crate::keepout::COSMETIC_COS
+        }) {
+            counts.cosmetic += 1;
+        } else {
+            pool.push(i);
+        }
+    }
     counts.qualifying = pool.len();
     let qualifying_points = pool
         .iter()
@@ -393,11 +437,8 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
             let hit = centre_hits[i];
             let node_uw = grid.node(i);
             let point = frame.point(node_uw, hit.first);
-            let mut normal = mesh.normal(hit.triangle as usize);
-            if normal.dot(frame.d) < 0.0 {
-                // The ray met the triangle from its back: the winding is inverted.
-                normal = -normal;
-            }
+            // A ray that met the triangle from its back means the winding is inverted.
+            let normal = oriented_normal(hit.triangle);
             Gate {
                 node: i,
                 node_iu_iw: grid.coords(i),
@@ -423,7 +464,11 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
 
     let t = Instant::now();
     let parting = PartingLine::new(mesh, &part.topology, &frame);
-    let aesthetic_gate = parting.nearest(mesh, &frame, centre);
+    // Keep-out regions apply to the parting-line gate too (cosmetic faces do not: the line
+    // is the boundary between the two halves).
+    let aesthetic_gate = parting.nearest_allowed(mesh, &frame, centre, 0.25 * r, |p| {
+        !options.keep_out.iter().any(|k| k.touches(p, r))
+    });
     times.parting_s = t.elapsed().as_secs_f64();
 
     Ok(Analysis {

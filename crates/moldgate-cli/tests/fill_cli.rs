@@ -1,0 +1,197 @@
+//! The fill analysis, keep-out regions and cosmetic faces from the command line.
+
+use std::process::{Command, Output, Stdio};
+
+use serde_json::Value;
+
+fn moldgate(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_moldgate"))
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("the moldgate binary runs")
+}
+
+fn json(args: &[&str]) -> Value {
+    let out = moldgate(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
+
+/// Runs a command that must fail with `code` and one line on stderr containing `needle`.
+fn fails(args: &[&str], code: i32, needle: &str) {
+    let out = moldgate(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("moldgate: error: ") && err.contains(needle),
+        "{err}"
+    );
+}
+
+fn point(v: &Value) -> [f64; 3] {
+    [0, 1, 2].map(|i| v[i].as_f64().unwrap())
+}
+
+#[test]
+fn fill_reports_both_gates_and_the_balanced_one_never_does_worse() {
+    let r = json(&["locate", "--sample", "bracket", "--fill", "--json"]);
+    let f = &r["fill"];
+    let paper = &f["paper"];
+    let balanced = &f["balanced"]["fill"];
+    for g in [paper, balanced] {
+        for key in [
+            "l_max_mm",
+            "l_mean_mm",
+            "flow_ratio",
+            "pressure_mpa",
+            "fill_max",
+        ] {
+            assert!(g[key].as_f64().unwrap() > 0.0, "{key}: {g}");
+        }
+        assert!(!g["last_to_fill"].as_array().unwrap().is_empty());
+    }
+    assert!(balanced["l_max_mm"].as_f64() <= paper["l_max_mm"].as_f64());
+    assert_eq!(r["gate"]["strategy"], "paper");
+    assert_eq!(point(&r["gate"]["point"]), point(&paper["gate"]));
+    // Without --fill there is no fill analysis.
+    let r = json(&["locate", "--sample", "bracket", "--json"]);
+    assert!(r["fill"].is_null());
+}
+
+#[test]
+fn balanced_strategy_makes_the_balanced_gate_the_answer() {
+    let r = json(&[
+        "locate",
+        "--sample",
+        "bracket",
+        "--strategy",
+        "balanced",
+        "--json",
+    ]);
+    assert_eq!(r["gate"]["strategy"], "balanced");
+    assert_eq!(
+        point(&r["gate"]["point"]),
+        point(&r["fill"]["balanced"]["fill"]["gate"])
+    );
+    let text = String::from_utf8(
+        moldgate(&["locate", "--sample", "bracket", "--strategy", "balanced"]).stdout,
+    )
+    .unwrap();
+    assert!(
+        text.contains("GATE (balanced)") || text.contains("balanced gate: the paper gate"),
+        "{text}"
+    );
+}
+
+#[test]
+fn several_gates_share_the_volume() {
+    let r = json(&["locate", "--sample", "tray", "--gates", "2", "--json"]);
+    let m = &r["fill"]["several"];
+    let gates = m["gates"].as_array().unwrap();
+    assert_eq!(gates.len(), 2);
+    let shares: f64 = gates
+        .iter()
+        .map(|g| g["volume_share"].as_f64().unwrap())
+        .sum();
+    assert!((shares - 1.0).abs() < 1e-9, "{shares}");
+    assert!(m["l_max_mm"].as_f64() <= r["fill"]["paper"]["l_max_mm"].as_f64());
+}
+
+#[test]
+fn keep_out_and_cosmetic_move_or_refuse_the_gate() {
+    let free = json(&["locate", "--sample", "plate", "--json"]);
+    let g = point(&free["gate"]["point"]);
+    let sphere = format!("sphere:{},{},{},5", g[0], g[1], g[2]);
+    let moved = json(&[
+        "locate",
+        "--sample",
+        "plate",
+        "--keep-out",
+        &sphere,
+        "--json",
+    ]);
+    let m = point(&moved["gate"]["point"]);
+    let d = ((m[0] - g[0]).powi(2) + (m[1] - g[1]).powi(2) + (m[2] - g[2]).powi(2)).sqrt();
+    let r = moved["options"]["gate_radius_mm"].as_f64().unwrap();
+    assert!(d >= 5.0 + r, "{d}");
+    assert!(moved["counts"]["kept_out"].as_u64().unwrap() > 0);
+    fails(
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--keep-out",
+            "box:-1e3,-1e3,-1e3,1e3,1e3,1e3",
+        ],
+        4,
+        "kept out by the keep-out regions",
+    );
+    fails(
+        &["locate", "--sample", "plate", "--cosmetic", "+z"],
+        4,
+        "cosmetic faces",
+    );
+    // The plate's +Z top is the only face seen from +Z; a cosmetic bottom changes nothing.
+    let bottom = json(&["locate", "--sample", "plate", "--cosmetic", "-z", "--json"]);
+    assert_eq!(point(&bottom["gate"]["point"]), g);
+}
+
+#[test]
+fn bad_fill_options_are_refused_with_one_line() {
+    fails(
+        &["locate", "--sample", "plate", "--gates", "0"],
+        2,
+        "--gates",
+    );
+    fails(
+        &["locate", "--sample", "plate", "--fill", "--cell", "-1"],
+        2,
+        "--cell",
+    );
+    fails(
+        &["locate", "--sample", "plate", "--keep-out", "box:1,2,3"],
+        2,
+        "--keep-out",
+    );
+    fails(
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--keep-out",
+            "sphere:0,0,0,0",
+        ],
+        2,
+        "--keep-out",
+    );
+    fails(
+        &["locate", "--sample", "plate", "--cosmetic", "0,0,0"],
+        2,
+        "--cosmetic",
+    );
+    fails(
+        &["locate", "--sample", "plate", "--strategy", "best"],
+        2,
+        "strategy",
+    );
+    // More gates than qualifying candidates.
+    fails(
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--spacing",
+            "40",
+            "--gates",
+            "50",
+        ],
+        4,
+        "gates asked for",
+    );
+}

@@ -1,0 +1,113 @@
+//! Places no gate may go: keep-out boxes and spheres, and cosmetic faces (faces that face a
+//! visible direction).
+//!
+//! A candidate is kept out when its gate disc (radius R_gate around the node's surface point)
+//! reaches into a region: the point lies within R_gate of a box, or within r + R_gate of a
+//! sphere's centre. A cosmetic direction C forbids candidates whose surface normal leans
+//! towards C (n.C > 0.01, i.e. faces turned towards C by more than about half a degree);
+//! faces parallel to C stay allowed.
+
+use std::str::FromStr;
+
+use serde::Serialize;
+
+use crate::error::OptionsError;
+use crate::math::DVec3;
+
+/// A keep-out region, in mm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "shape", rename_all = "lowercase")]
+pub enum Region {
+    /// An axis-aligned box between two corners.
+    Box {
+        /// Smaller corner.
+        min: [f64; 3],
+        /// Larger corner.
+        max: [f64; 3],
+    },
+    /// A ball.
+    Sphere {
+        /// Centre.
+        centre: [f64; 3],
+        /// Radius.
+        radius: f64,
+    },
+}
+
+impl Region {
+    /// True when a disc of radius `r` at `p` reaches into the region (distance from `p` to
+    /// the region below `r`, or `p` inside).
+    pub fn touches(&self, p: DVec3, r: f64) -> bool {
+        match *self {
+            Region::Box { min, max } => {
+                let q = p.clamp(DVec3::from_array(min), DVec3::from_array(max));
+                q.distance(p) < r || q == p
+            }
+            Region::Sphere { centre, radius } => DVec3::from_array(centre).distance(p) < radius + r,
+        }
+    }
+}
+
+impl FromStr for Region {
+    type Err = OptionsError;
+
+    /// Reads `box:x0,y0,z0,x1,y1,z1` (any two opposite corners) or `sphere:x,y,z,r`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let bad = || OptionsError::BadRegion(s.to_string());
+        let (shape, numbers) = s.split_once(':').ok_or_else(bad)?;
+        let v: Vec<f64> = numbers
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad())?;
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(bad());
+        }
+        match (shape.trim().to_ascii_lowercase().as_str(), v.as_slice()) {
+            ("box", &[x0, y0, z0, x1, y1, z1]) => Ok(Region::Box {
+                min: [x0.min(x1), y0.min(y1), z0.min(z1)],
+                max: [x0.max(x1), y0.max(y1), z0.max(z1)],
+            }),
+            ("sphere", &[x, y, z, r]) if r > 0.0 => Ok(Region::Sphere {
+                centre: [x, y, z],
+                radius: r,
+            }),
+            _ => Err(bad()),
+        }
+    }
+}
+
+/// The threshold of n.C above which a face counts as facing the cosmetic direction.
+pub const COSMETIC_COS: f64 = 0.01;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn regions_parse_and_reach_by_the_gate_radius() {
+        let b: Region = "box:10,0,0,0,10,10".parse().unwrap();
+        assert_eq!(
+            b,
+            Region::Box {
+                min: [0.0; 3],
+                max: [10.0; 3]
+            }
+        );
+        assert!(b.touches(DVec3::new(5.0, 5.0, 5.0), 1.0));
+        assert!(b.touches(DVec3::new(10.5, 5.0, 5.0), 1.0));
+        assert!(!b.touches(DVec3::new(11.5, 5.0, 5.0), 1.0));
+        let s: Region = "Sphere: 0, 0, 0, 2".parse().unwrap();
+        assert!(s.touches(DVec3::new(2.9, 0.0, 0.0), 1.0));
+        assert!(!s.touches(DVec3::new(3.1, 0.0, 0.0), 1.0));
+        for bad in [
+            "box:1,2,3",
+            "sphere:0,0,0,-1",
+            "cone:1,2,3,4",
+            "box:1,2,3,4,5,nan",
+            "sphere",
+        ] {
+            assert!(bad.parse::<Region>().is_err(), "{bad}");
+        }
+    }
+}
