@@ -715,3 +715,125 @@ fn halving_the_spacing_barely_moves_the_gate_on_the_samples() {
     check_halvings(TEST, results, &mut failures);
     report(TEST, &failures);
 }
+
+#[test]
+fn balanced_gate_never_does_worse_than_the_paper_gate_on_the_shared_parts() {
+    const TEST: &str = "balanced_gate_never_does_worse_than_the_paper_gate_on_the_shared_parts";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    let pp = moldgate::Material::builtin("PP").unwrap();
+    // One part at a time: the fill analysis is parallel inside.
+    let per_part: Vec<(Vec<String>, Vec<String>)> = (0..PARTS.len())
+        .map(|i| {
+            let (part, lm) = (&PARTS[i], loaded(parts, i));
+            let name = part.stem();
+            let (mut lines, mut failures) = (Vec::new(), Vec::new());
+            let options = LocateOptions {
+                direction: part.direction(),
+                thickness_rule: moldgate::gate::ThicknessRule::Ignore,
+                ..LocateOptions::default()
+            };
+            let analysis = locate(lm, &options).expect("valid options");
+            let fill = moldgate::flow::analyse(
+                &lm.mesh,
+                &analysis,
+                &pp,
+                None,
+                &moldgate::flow::FillOptions::default(),
+            );
+            match fill {
+                Ok(f) => {
+                    let p = f.paper.as_ref().unwrap();
+                    let b = &f.balanced.as_ref().unwrap().fill;
+                    lines.push(format!(
+                        "{name:38} {} cells: L_max paper {:.2}, balanced {:.2} mm",
+                        f.cells, p.l_max_mm, b.l_max_mm
+                    ));
+                    if !within(b.l_max_mm, p.l_max_mm) {
+                        failures.push(format!(
+                            "{name}: balanced L_max {} above the paper gate's {}",
+                            b.l_max_mm, p.l_max_mm
+                        ));
+                    }
+                    for (what, x) in [("L_max", p.l_max_mm), ("pressure", p.pressure_mpa)] {
+                        if !(x.is_finite() && x > 0.0) {
+                            failures.push(format!("{name}: {what} {x}"));
+                        }
+                    }
+                }
+                Err(e) => failures.push(format!("{name}: {e}")),
+            }
+            (lines, failures)
+        })
+        .collect();
+    report(TEST, &print_lines(per_part));
+}
+
+#[test]
+fn balanced_gate_equals_brute_force_on_the_small_shared_parts() {
+    const TEST: &str = "balanced_gate_equals_brute_force_on_the_small_shared_parts";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    use moldgate::flow::{argmax, balanced_gate, march, Domain, Objective, Source};
+    let pp = moldgate::Material::builtin("PP").unwrap();
+    let mut failures = Vec::new();
+    for file in [
+        "prusa_heatbed_cable_cover_clip_ascii.stl",
+        "framework_expansion_card_shell.stl",
+        "comma2_injection_molded_mount.stl",
+    ] {
+        let i = PARTS.iter().position(|p| p.file == file).unwrap();
+        let (part, lm) = (&PARTS[i], loaded(parts, i));
+        let mesh = &lm.mesh;
+        let size = mesh.bounds().diagonal();
+        // A coarse grid keeps the brute force to about a hundred runs.
+        let options = LocateOptions {
+            direction: part.direction(),
+            spacing: moldgate::gate::Spacing::Mm(size / 25.0),
+            thickness_rule: moldgate::gate::ThicknessRule::Ignore,
+            ..LocateOptions::default()
+        };
+        let analysis = locate(lm, &options).expect("valid options");
+        let h = size / 100.0;
+        let domain = Domain::new(mesh, h, None, h * 2.0, &pp);
+        let candidates: Vec<Source> = analysis
+            .qualifying_points
+            .iter()
+            .filter_map(|&p| domain.source(p))
+            .collect();
+        let first = domain.source(analysis.gate().unwrap().point()).unwrap();
+        let fast = balanced_gate(&domain, &candidates, Objective::Length, first, 0.5 * h).unwrap();
+        let body = domain.body[first.cell as usize];
+        let best = candidates
+            .iter()
+            .filter(|c| domain.body[c.cell as usize] == body)
+            .map(|c| {
+                let centred = Source {
+                    point: domain.voxels.centre(c.cell),
+                    cell: c.cell,
+                };
+                argmax(&march(&domain.voxels, &[centred], None).t).1
+            })
+            .fold(f64::INFINITY, f64::min);
+        println!(
+            "{:38} balanced {:.3} mm in {} runs, brute force {best:.3} over {} candidates",
+            part.stem(),
+            fast.value,
+            fast.runs,
+            candidates.len()
+        );
+        if !(fast.proven && within(fast.value, best + 0.5 * h)) {
+            failures.push(format!(
+                "{}: balanced {} (proven {}), brute force {best}",
+                part.stem(),
+                fast.value,
+                fast.proven
+            ));
+        }
+    }
+    report(TEST, &failures);
+}
