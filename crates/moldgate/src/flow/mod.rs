@@ -469,8 +469,10 @@ pub struct Balanced {
 /// d(c, x) for every candidate c at once, and max over the far points found so far is a
 /// lower bound of each candidate's true worst value. The candidate with the least bound is
 /// run; if its worst value equals its bound (within `tolerance`), no other candidate can do
-/// better and the search stops; else its farthest point joins the far points. Candidates
-/// outside the body of `first` are not considered.
+/// better and the search stops; else its farthest points join the far points. Candidates
+/// outside the body of `first` are not considered. After 40 runs the search stops unproven
+/// with the best candidate it evaluated and the bound it reached (round parts, whose far
+/// points are spread around a rim, need many far points).
 pub fn balanced_gate(
     domain: &Domain,
     candidates: &[Source],
@@ -491,7 +493,8 @@ pub fn balanced_gate(
     let mut runs = 1;
     let mut far = far_points(v, &start.t, FAR_POINTS);
     let mut bound = vec![0.0f64; candidates.len()];
-    let max_runs = 80;
+    let max_runs = 40;
+    let mut seen: Option<(f64, usize)> = None;
     loop {
         // Runs from the new far points, in parallel; each raises the bounds.
         let fields: Vec<Field> = far
@@ -525,10 +528,20 @@ pub fn balanced_gate(
         let field = march(v, &[centred], cost);
         runs += 1;
         let value = argmax(&field.t).1;
+        if seen.is_none_or(|(v, _)| value < v) {
+            seen = Some((value, best));
+        }
         let proven = value <= bound[best] + tolerance;
         if proven || runs >= max_runs {
+            // Unproven: the best candidate evaluated so far, with the bound that every
+            // candidate is known to reach.
+            let (value, candidate) = if proven {
+                (value, best)
+            } else {
+                seen.expect("one run")
+            };
             return Some(Balanced {
-                candidate: best,
+                candidate,
                 value,
                 lower_bound: bound[best],
                 runs,
@@ -540,7 +553,7 @@ pub fn balanced_gate(
 }
 
 /// Far points taken from each run of the balanced search.
-const FAR_POINTS: usize = 2;
+const FAR_POINTS: usize = 6;
 
 /// The cell of the largest value, then other local maxima of `t` within 5 % of it and at
 /// least a quarter of it away from those already taken, up to `count`.
@@ -557,7 +570,7 @@ fn far_points(v: &Voxels, t: &[f64], count: usize) -> Vec<u32> {
                 break;
             }
             let p = v.centre(c);
-            if out.iter().all(|&o| v.centre(o).distance(p) >= 0.25 * max) {
+            if out.iter().all(|&o| v.centre(o).distance(p) >= 0.15 * max) {
                 out.push(c);
             }
         }
@@ -969,37 +982,35 @@ pub fn analyse(
         Objective::Length => f.l_max_mm,
         Objective::Resistance => f.fill_max,
     };
-    let balanced =
-        balanced_gate(&domain, &candidates, options.objective, first, 0.5 * h).map(|search| {
-            let point = candidates[search.candidate].point;
-            let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
-            if objective_value(&fill) >= objective_value(&paper) {
-                // Within the discretisation the paper gate is as good (it is a candidate
-                // itself unless it is the aesthetic gate): keep it, so the balanced gate
-                // never does worse than the paper gate.
-                let search = Balanced {
-                    value: objective_value(&paper),
-                    ..search
-                };
-                let fill = BalancedFill {
-                    fill: paper.clone(),
-                    search,
-                    improvement_pct: 0.0,
-                    is_paper_gate: true,
-                };
-                (fill, None)
-            } else {
-                let improvement_pct =
-                    100.0 * (1.0 - objective_value(&fill) / objective_value(&paper));
-                let fill = BalancedFill {
-                    fill,
-                    search,
-                    improvement_pct,
-                    is_paper_gate: false,
-                };
-                (fill, Some(fields))
-            }
-        });
+    let balanced = balanced_gate(&domain, &candidates, options.objective, first, h).map(|search| {
+        let point = candidates[search.candidate].point;
+        let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
+        if objective_value(&fill) >= objective_value(&paper) {
+            // Within the discretisation the paper gate is as good (it is a candidate
+            // itself unless it is the aesthetic gate): keep it, so the balanced gate
+            // never does worse than the paper gate.
+            let search = Balanced {
+                value: objective_value(&paper),
+                ..search
+            };
+            let fill = BalancedFill {
+                fill: paper.clone(),
+                search,
+                improvement_pct: 0.0,
+                is_paper_gate: true,
+            };
+            (fill, None)
+        } else {
+            let improvement_pct = 100.0 * (1.0 - objective_value(&fill) / objective_value(&paper));
+            let fill = BalancedFill {
+                fill,
+                search,
+                improvement_pct,
+                is_paper_gate: false,
+            };
+            (fill, Some(fields))
+        }
+    });
     if balanced.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
