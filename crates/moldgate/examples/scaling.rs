@@ -15,9 +15,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use moldgate::gate::quadrature::Spacing;
-use moldgate::math::DVec3;
 use moldgate::mesh::{self, Units};
-use moldgate::{locate, Direction, LocateOptions, Mesh};
+use moldgate::{locate, Direction, LocateOptions};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -62,7 +61,7 @@ fn main() {
     let mut mesh = base.mesh.clone();
     for level in 0..3 {
         if level > 0 {
-            mesh = subdivide(&mesh);
+            mesh = mesh.subdivided();
         }
         let mut stl = Vec::new();
         mesh.write_stl(&mut stl).unwrap();
@@ -109,27 +108,4 @@ fn row(stl: &[u8], direction: Direction, spacing: Spacing, repeats: usize) {
         "| {triangles} | {nodes} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
         ms[0], ms[1], ms[2], ms[3], ms[4], ms[5], ms[6]
     );
-}
-
-/// Splits every triangle into four at its edge midpoints (the same surface).
-fn subdivide(mesh: &Mesh) -> Mesh {
-    let mut vertices = mesh.vertices.clone();
-    let mut midpoints = rustc_hash::FxHashMap::default();
-    let mut midpoint = |a: u32, b: u32, vertices: &mut Vec<DVec3>| -> u32 {
-        *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
-            vertices.push((vertices[a as usize] + vertices[b as usize]) * 0.5);
-            (vertices.len() - 1) as u32
-        })
-    };
-    let mut triangles = Vec::with_capacity(4 * mesh.triangles.len());
-    for &[a, b, c] in &mesh.triangles {
-        let ab = midpoint(a, b, &mut vertices);
-        let bc = midpoint(b, c, &mut vertices);
-        let ca = midpoint(c, a, &mut vertices);
-        triangles.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-    }
-    Mesh {
-        vertices,
-        triangles,
-    }
 }

@@ -50,6 +50,30 @@ impl Mesh {
         Aabb::of_points(&self.vertices)
     }
 
+    /// The same surface with every triangle split into four at its edge midpoints (shared
+    /// midpoints are one vertex), for scaling measurements.
+    pub fn subdivided(&self) -> Mesh {
+        let mut vertices = self.vertices.clone();
+        let mut midpoints = rustc_hash::FxHashMap::default();
+        let mut midpoint = |a: u32, b: u32, vertices: &mut Vec<DVec3>| -> u32 {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                vertices.push((vertices[a as usize] + vertices[b as usize]) * 0.5);
+                (vertices.len() - 1) as u32
+            })
+        };
+        let mut triangles = Vec::with_capacity(4 * self.triangles.len());
+        for &[a, b, c] in &self.triangles {
+            let ab = midpoint(a, b, &mut vertices);
+            let bc = midpoint(b, c, &mut vertices);
+            let ca = midpoint(c, a, &mut vertices);
+            triangles.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+
     /// Multiplies every coordinate by `factor` (a unit conversion).
     pub fn scale(&mut self, factor: f64) {
         if factor != 1.0 {
