@@ -33,11 +33,11 @@ use crate::Failure;
 pub struct BatchArgs {
     /// Write one JSON report per part into this existing folder, named after the input file
     /// (`part.stl` gives `part.json`).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", conflicts_with = "sample")]
     pub out_dir: Option<PathBuf>,
     /// Write one line per part to this file: JSON Lines if it ends in .jsonl or .ndjson, CSV
     /// if it ends in .csv.
-    #[arg(long, value_name = "FILE.jsonl|FILE.csv")]
+    #[arg(long, value_name = "FILE.jsonl|FILE.csv", conflicts_with = "sample")]
     pub summary: Option<PathBuf>,
     /// TOML file listing parts, each with an optional unit and demolding direction of its own:
     /// `[[part]]` tables with `file` (relative to the manifest), `units`, `demold`.

@@ -461,6 +461,23 @@ fn one_thread_and_two_give_the_same_outputs() {
 }
 
 #[test]
+fn batch_outputs_do_not_go_with_a_sample() {
+    let dir = tempfile::tempdir().unwrap();
+    for flag in ["--out-dir", "--summary", "--manifest"] {
+        let out = moldgate(dir.path(), &["locate", "--sample", "cover", flag, "x.csv"]);
+        assert_fails(&out, USAGE, &["--sample"]);
+    }
+    // --jobs and --quiet are fine with one part.
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate", "--sample", "cover", "--jobs", "1", "--quiet", "--json",
+        ],
+    );
+    assert_code(&out, OK);
+}
+
+#[test]
 fn zero_jobs_is_a_usage_error() {
     let dir = mixed_folder();
     let out = moldgate(dir.path(), &["locate", "parts", "--jobs", "0"]);
