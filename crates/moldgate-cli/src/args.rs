@@ -80,9 +80,14 @@ pub enum ObjectiveArg {
 
 #[derive(Debug, Args)]
 pub struct LocateArgs {
-    /// The part: a binary or ASCII STL file.
-    #[arg(required_unless_present = "sample", conflicts_with = "sample")]
-    pub file: Option<PathBuf>,
+    /// The part: a binary or ASCII STL file. Several files or folders run them all (see
+    /// --out-dir, --summary).
+    #[arg(
+        required_unless_present_any = ["sample", "manifest"],
+        conflicts_with = "sample",
+        value_name = "FILE|FOLDER"
+    )]
+    pub files: Vec<PathBuf>,
     /// Use a built-in sample part instead of a file (see `moldgate sample --list`).
     #[arg(long, value_name = "NAME")]
     pub sample: Option<String>,
@@ -191,6 +196,9 @@ pub struct LocateArgs {
     /// Write the JSON report to this file (written whole or not at all).
     #[arg(short, long, value_name = "FILE.json")]
     pub output: Option<PathBuf>,
+    /// Several parts at once.
+    #[command(flatten)]
+    pub batch: crate::batch::BatchArgs,
 }
 
 #[derive(Debug, Args)]
@@ -428,67 +436,68 @@ fn fill_options(a: &LocateArgs) -> Result<Option<flow::FillOptions>, Failure> {
     }))
 }
 
-pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
-    let material = material(&a)?;
-    let (options, radius_source) = options(&a, &material)?;
-    let fill_options = fill_options(&a)?;
+/// The validated options of `locate`, the same for every part of a run.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// The material (Table 1, a user file, overrides).
+    pub material: Material,
+    /// The library's options.
+    pub options: LocateOptions,
+    /// Whether R comes from the material or `--gate-radius`.
+    pub radius_source: RadiusSource,
+    /// The fill analysis, when asked for.
+    pub fill: Option<flow::FillOptions>,
+    /// The unit of the files.
+    pub units: Units,
+}
+
+/// Validates the raw arguments of `locate` once into [`Settings`].
+pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
+    let material = material(a)?;
+    let (options, radius_source) = options(a, &material)?;
+    let fill = fill_options(a)?;
     let units: Units = a
         .units
         .parse()
         .map_err(|e: String| Failure::usage(format!("--units: {e}")))?;
-    if let Some(out) = &a.output {
-        refuse_input(out, a.file.as_deref())?;
+    Ok(Settings {
+        material,
+        options,
+        radius_source,
+        fill,
+        units,
+    })
+}
+
+/// Where a part comes from.
+#[derive(Debug, Clone, Copy)]
+pub enum Source<'a> {
+    /// A mesh file.
+    File(&'a Path),
+    /// A built-in sample, by name.
+    Sample(&'a str),
+}
+
+pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
+    if crate::batch::wanted(&a) {
+        return crate::batch::run(a);
     }
-    let t = Instant::now();
-    let (part, input) = match (&a.file, &a.sample) {
-        (Some(path), _) => {
-            let (part, bytes) = load_file(path, units)?;
-            let input = Input {
-                path: Some(path.display().to_string()),
-                sample: None,
-                bytes,
-            };
-            (part, input)
-        }
-        (None, Some(name)) => {
-            let m = moldgate::samples::sample(name).ok_or_else(|| unknown_sample(name))?;
-            let input = Input {
-                path: None,
-                sample: Some(name.clone()),
-                bytes: 0,
-            };
-            (mesh::from_generated(m), input)
-        }
+    crate::batch::with_jobs(a.batch.jobs, || locate_one(a))
+}
+
+/// `locate` on one file or sample.
+fn locate_one(a: LocateArgs) -> Result<(), Failure> {
+    let settings = settings(&a)?;
+    let file = a.files.first();
+    if let Some(out) = &a.output {
+        refuse_input(out, file.map(PathBuf::as_path))?;
+    }
+    let source = match (file, &a.sample) {
+        (Some(path), _) => Source::File(path),
+        (None, Some(name)) => Source::Sample(name),
         (None, None) => return Err(Failure::usage("give a mesh file or --sample NAME")),
     };
-    let load_s = t.elapsed().as_secs_f64();
-    let analysis = locate(&part, &options).map_err(|e| Failure::usage(e.to_string()))?;
-    let fill = fill_options
-        .map(|o| {
-            if analysis.gate().is_err() {
-                return Ok(None);
-            }
-            flow::analyse(&part.mesh, &analysis, &material, None, &o)
-                .map(Some)
-                .map_err(|e| match e {
-                    flow::FillError::TooFewCandidates { .. } => Failure::no_gate(e.to_string()),
-                    _ => Failure::usage(e.to_string()),
-                })
-        })
-        .transpose()?
-        .flatten();
-    let mut report = Report::new(
-        input,
-        &part.stats,
-        &part.warnings,
-        &material,
-        radius_source,
-        &analysis,
-        load_s,
-    );
-    if let Some(fill) = fill {
-        report = report.with_fill(fill, analysis.centre);
-    }
+    let report = analyse(source, &settings)?;
     let json = serde_json::to_string_pretty(&report).map_err(|e| Failure {
         code: 1,
         message: format!("cannot encode the report: {e}"),
@@ -513,6 +522,70 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         ))),
         _ => Ok(()),
     }
+}
+
+/// Loads and analyses one part. A part without a gate is a report (its `gate` is `None` and
+/// `no_gate_reason` says why); the error is for a part that could not be analysed at all.
+pub fn analyse(source: Source, s: &Settings) -> Result<Report, Failure> {
+    let Settings {
+        material,
+        options,
+        radius_source,
+        fill: fill_options,
+        units,
+    } = s;
+    let radius_source = *radius_source;
+    let t = Instant::now();
+    let (part, input) = match source {
+        Source::File(path) => {
+            let (part, bytes) = load_file(path, *units)?;
+            let input = Input {
+                path: Some(path.display().to_string()),
+                sample: None,
+                bytes,
+            };
+            (part, input)
+        }
+        Source::Sample(name) => {
+            let m = moldgate::samples::sample(name).ok_or_else(|| unknown_sample(name))?;
+            let input = Input {
+                path: None,
+                sample: Some(name.to_string()),
+                bytes: 0,
+            };
+            (mesh::from_generated(m), input)
+        }
+    };
+    let load_s = t.elapsed().as_secs_f64();
+    let analysis = locate(&part, options).map_err(|e| Failure::usage(e.to_string()))?;
+    let fill = fill_options
+        .as_ref()
+        .map(|o| {
+            if analysis.gate().is_err() {
+                return Ok(None);
+            }
+            flow::analyse(&part.mesh, &analysis, material, None, o)
+                .map(Some)
+                .map_err(|e| match e {
+                    flow::FillError::TooFewCandidates { .. } => Failure::no_gate(e.to_string()),
+                    _ => Failure::usage(e.to_string()),
+                })
+        })
+        .transpose()?
+        .flatten();
+    let mut report = Report::new(
+        input,
+        &part.stats,
+        &part.warnings,
+        material,
+        radius_source,
+        &analysis,
+        load_s,
+    );
+    if let Some(fill) = fill {
+        report = report.with_fill(fill, analysis.centre);
+    }
+    Ok(report)
 }
 
 fn unknown_sample(name: &str) -> Failure {

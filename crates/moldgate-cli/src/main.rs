@@ -6,7 +6,9 @@
 //! 5 output cannot be written.
 
 mod args;
+mod batch;
 mod output;
+mod progress;
 mod summary;
 
 use std::io::Write;
@@ -101,7 +103,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            let _ = writeln!(std::io::stderr(), "moldgate: error: {}", f.message);
+            // An empty message: the lines were printed already (a batch's end report).
+            if !f.message.is_empty() {
+                let _ = writeln!(std::io::stderr(), "moldgate: error: {}", f.message);
+            }
             ExitCode::from(f.code)
         }
     }

@@ -1,0 +1,733 @@
+//! `moldgate locate` on many parts at once: several files, folders, or a manifest.
+//!
+//! Every part is analysed with the same options (the manifest may give a part its own unit
+//! and demolding direction), on a rayon pool of `--jobs` threads shared by the parts and by
+//! the library's own parallel stages. Results are put back in input order before anything is
+//! printed, so the output does not depend on which part finished first. A bad part does not
+//! stop the others: it is a row with its status and reason, one line on stderr at the end,
+//! and a non-zero exit code (see [`exit_code`]).
+//!
+//! Outputs are checked before any work (the folders exist and can be written, no output is an
+//! input), then each is written whole or not at all with [`write_atomic`].
+
+use std::collections::{BTreeMap, HashSet};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use moldgate::mesh::Units;
+use moldgate::report::Report;
+use moldgate::Direction;
+
+use crate::args::{analyse, settings, LocateArgs, Settings, Source};
+use crate::output::{print_stdout, write_atomic};
+use crate::progress::Progress;
+use crate::Failure;
+
+/// Options of `locate` for several parts.
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// Write one JSON report per part into this existing folder, named after the input file
+    /// (`part.stl` gives `part.json`).
+    #[arg(long, value_name = "DIR", conflicts_with = "sample")]
+    pub out_dir: Option<PathBuf>,
+    /// Write one line per part to this file: JSON Lines if it ends in .jsonl or .ndjson, CSV
+    /// if it ends in .csv.
+    #[arg(long, value_name = "FILE.jsonl|FILE.csv", conflicts_with = "sample")]
+    pub summary: Option<PathBuf>,
+    /// TOML file listing parts, each with an optional unit and demolding direction of its own:
+    /// `[[part]]` tables with `file` (relative to the manifest), `units`, `demold`.
+    #[arg(long, value_name = "FILE.toml", conflicts_with = "sample")]
+    pub manifest: Option<PathBuf>,
+    /// Threads for the whole run, parts and their inner stages together [default: all cores].
+    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
+    /// No progress bar and no closing count.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// How parts share the threads (for measurement; `parts` was the faster).
+    #[arg(long, value_enum, default_value = "parts", hide = true)]
+    pub schedule: Schedule,
+}
+
+/// How the parts of a batch share the pool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Schedule {
+    /// Several parts at once, each with the library's inner parallelism on the same pool.
+    Parts,
+    /// One part after the other, each using the whole pool inside.
+    OneByOne,
+}
+
+/// Whether the command line asks for batch mode: several inputs, a folder, a manifest, or an
+/// output that only batch mode writes. One plain file keeps the single-part behaviour.
+pub fn wanted(a: &LocateArgs) -> bool {
+    let b = &a.batch;
+    a.files.len() > 1
+        || a.files.iter().any(|f| f.is_dir())
+        || b.manifest.is_some()
+        || b.out_dir.is_some()
+        || b.summary.is_some()
+}
+
+/// Runs `f` on a pool of `jobs` threads, or on rayon's default pool (all cores).
+pub fn with_jobs<T: Send>(
+    jobs: Option<u16>,
+    f: impl FnOnce() -> Result<T, Failure> + Send,
+) -> Result<T, Failure> {
+    match jobs {
+        None => f(),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(usize::from(n))
+            .build()
+            .map_err(|e| Failure {
+                code: 1,
+                message: format!("cannot start {n} threads: {e}"),
+            })?
+            .install(f),
+    }
+}
+
+/// One part to analyse.
+#[derive(Debug)]
+struct Part {
+    path: PathBuf,
+    settings: Settings,
+    /// The demolding direction as written (command line or manifest).
+    demold: String,
+}
+
+/// What came of one part.
+struct Outcome {
+    /// The report, when the part could be analysed (with or without a gate).
+    report: Option<Report>,
+    /// Why the part is not a success, or `None`.
+    failure: Option<Failure>,
+    /// Seconds to load and analyse the part.
+    time_s: f64,
+}
+
+/// The format of `--summary`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SummaryFormat {
+    JsonLines,
+    Csv,
+}
+
+/// `locate` in batch mode.
+pub fn run(a: LocateArgs) -> Result<(), Failure> {
+    let b = &a.batch;
+    if a.output.is_some() {
+        return Err(Failure::usage(
+            "-o writes the report of one part; for several use --out-dir DIR or --summary FILE",
+        ));
+    }
+    let base = settings(&a)?;
+    let summary_format = b.summary.as_deref().map(summary_format).transpose()?;
+    let mut parts = Vec::new();
+    for path in expand(&a.files)? {
+        parts.push(Part {
+            path,
+            settings: base.clone(),
+            demold: a.demold.clone(),
+        });
+    }
+    if let Some(m) = &b.manifest {
+        parts.extend(read_manifest(m, &base, &a.demold)?);
+    }
+    if parts.is_empty() {
+        let m = b.manifest.as_deref().unwrap_or(Path::new("manifest"));
+        return Err(Failure::usage(format!(
+            "{}: lists no part ([[part]] tables with file = \"...\")",
+            m.display()
+        )));
+    }
+    let outputs = check_outputs(&parts, b.out_dir.as_deref(), b.summary.as_deref())?;
+
+    let progress = Progress::start(parts.len(), !b.quiet);
+    let one = |(part, out): (&Part, &Option<PathBuf>)| {
+        let outcome = run_part(part, out.as_deref());
+        progress.tick();
+        outcome
+    };
+    let outcomes: Vec<Outcome> = with_jobs(b.jobs, || {
+        Ok(match b.schedule {
+            Schedule::Parts => parts.par_iter().zip(&outputs).map(one).collect(),
+            Schedule::OneByOne => parts.iter().zip(&outputs).map(one).collect(),
+        })
+    })?;
+    progress.finish();
+
+    let rows: Vec<Row> = parts
+        .iter()
+        .zip(&outcomes)
+        .map(|(p, o)| Row::new(p, o))
+        .collect();
+    let mut failures: Vec<Failure> = Vec::new();
+    if let (Some(path), Some(format)) = (&b.summary, summary_format) {
+        let text = match format {
+            SummaryFormat::JsonLines => json_lines(&rows)?,
+            SummaryFormat::Csv => csv(&rows),
+        };
+        if let Err(f) = write_atomic(path, text.as_bytes()) {
+            failures.push(f);
+        }
+    }
+    if a.json {
+        print_stdout(&json_lines(&rows)?)?;
+    } else {
+        print_stdout(&table(&rows, b.quiet))?;
+    }
+    // The end report: one line per failed part, in input order.
+    for row in &rows {
+        if let Some(reason) = &row.error {
+            eprintln!("moldgate: error: {}: {reason}", row.file);
+        }
+    }
+    for f in &failures {
+        eprintln!("moldgate: error: {}", f.message);
+    }
+    let codes = outcomes
+        .iter()
+        .filter_map(|o| o.failure.as_ref().map(|f| f.code))
+        .chain(failures.iter().map(|f| f.code));
+    match exit_code(codes) {
+        0 => Ok(()),
+        // The lines are printed; main prints nothing for an empty message.
+        code => Err(Failure {
+            code,
+            message: String::new(),
+        }),
+    }
+}
+
+/// The exit code of a batch from the codes of its failed parts: the most serious one, in the
+/// order internal error (1), output (5), input (3), option (2), no gate (4); 0 when every
+/// part has a gate.
+pub fn exit_code(codes: impl IntoIterator<Item = u8>) -> u8 {
+    const SEVERITY: [u8; 5] = [1, 5, 3, 2, 4];
+    codes
+        .into_iter()
+        .filter(|&c| c != 0)
+        .min_by_key(|c| SEVERITY.iter().position(|s| s == c).unwrap_or(0))
+        .unwrap_or(0)
+}
+
+/// Analyses one part and writes its report; a panic is this part's internal error.
+fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
+    let t = Instant::now();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        analyse(Source::File(&part.path), &part.settings)
+    }))
+    .unwrap_or_else(|_| {
+        Err(Failure {
+            code: 1,
+            message: "internal error, please report it (see the panic message above)".into(),
+        })
+    });
+    let time_s = t.elapsed().as_secs_f64();
+    let report = match result {
+        Ok(r) => r,
+        Err(f) => {
+            return Outcome {
+                report: None,
+                failure: Some(f),
+                time_s,
+            }
+        }
+    };
+    let mut failure = report
+        .no_gate_reason
+        .as_ref()
+        .filter(|_| report.gate.is_none())
+        .map(|reason| Failure::no_gate(reason.clone()));
+    if let Some(out) = out {
+        let written = serde_json::to_string_pretty(&report)
+            .map_err(|e| Failure {
+                code: 1,
+                message: format!("cannot encode the report: {e}"),
+            })
+            .and_then(|json| write_atomic(out, (json + "\n").as_bytes()));
+        if let Err(f) = written {
+            failure = Some(f);
+        }
+    }
+    Outcome {
+        report: Some(report),
+        failure,
+        time_s,
+    }
+}
+
+/// The summary's format from its extension.
+fn summary_format(path: &Path) -> Result<SummaryFormat, Failure> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "jsonl" | "ndjson" => Ok(SummaryFormat::JsonLines),
+        "csv" => Ok(SummaryFormat::Csv),
+        _ => Err(Failure::usage(format!(
+            "--summary {}: the name must end in .jsonl, .ndjson or .csv",
+            path.display()
+        ))),
+    }
+}
+
+/// Whether a file name ends in `.stl`, in any case.
+fn is_stl(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("stl"))
+}
+
+/// The inputs in order: each file as given; each folder's `.stl` files (any case, not in
+/// subfolders) sorted by name. A folder that cannot be listed or holds no STL file is an
+/// error of the command line, found before any work.
+fn expand(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
+    let mut out = Vec::new();
+    for input in inputs {
+        if !input.is_dir() {
+            out.push(input.clone());
+            continue;
+        }
+        let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", input.display()));
+        let mut found: Vec<PathBuf> = std::fs::read_dir(input)
+            .map_err(|e| fail(&format_args!("cannot list the folder: {e}")))?
+            .filter_map(|entry| entry.ok().map(|e| e.path()))
+            .filter(|p| is_stl(p) && p.is_file())
+            .collect();
+        if found.is_empty() {
+            return Err(fail(&"is a folder holding no .stl file"));
+        }
+        found.sort();
+        out.extend(found);
+    }
+    Ok(out)
+}
+
+/// One `[[part]]` table of a manifest.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Entry {
+    /// The mesh file, relative to the manifest's folder.
+    file: PathBuf,
+    /// Its unit [default: `--units`].
+    units: Option<String>,
+    /// Its demolding direction [default: `--demold`].
+    demold: Option<String>,
+}
+
+/// A manifest file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    #[serde(default)]
+    part: Vec<Entry>,
+}
+
+/// Reads a manifest: its parts in order, each with the shared settings and its own unit and
+/// direction. Syntax errors and bad values are errors of the command line (exit code 2), with
+/// the line or the part named.
+fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::input(format!("{}: cannot read: {e}", path.display())))?;
+    let manifest: Manifest = toml::from_str(&text).map_err(|e| {
+        let place = e
+            .span()
+            .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
+            .unwrap_or_default();
+        Failure::usage(format!(
+            "{}: {place}{}",
+            path.display(),
+            e.message().trim_end_matches('.')
+        ))
+    })?;
+    let folder = path.parent().unwrap_or(Path::new(""));
+    let mut parts = Vec::with_capacity(manifest.part.len());
+    for (i, entry) in manifest.part.into_iter().enumerate() {
+        let fail = |what: String| {
+            Failure::usage(format!(
+                "{}: part {} ({}): {what}",
+                path.display(),
+                i + 1,
+                entry.file.display()
+            ))
+        };
+        let mut settings = base.clone();
+        if let Some(u) = &entry.units {
+            settings.units = u
+                .parse::<Units>()
+                .map_err(|e| fail(format!("units: {e}")))?;
+        }
+        if let Some(d) = &entry.demold {
+            settings.options.direction = d
+                .parse::<Direction>()
+                .map_err(|e| fail(format!("demold: {e}")))?;
+        }
+        parts.push(Part {
+            path: folder.join(&entry.file),
+            settings,
+            demold: entry.demold.unwrap_or_else(|| demold.to_string()),
+        });
+    }
+    Ok(parts)
+}
+
+/// Checks every output before any work: the folders exist and can be written, no two parts
+/// write the same report, and no output is an input. Gives each part's report path.
+fn check_outputs(
+    parts: &[Part],
+    out_dir: Option<&Path>,
+    summary: Option<&Path>,
+) -> Result<Vec<Option<PathBuf>>, Failure> {
+    let same_file = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_path_buf());
+    let inputs: HashSet<PathBuf> = parts.iter().map(|p| same_file(&p.path)).collect();
+    let refuse = |out: &Path| {
+        if inputs.contains(&same_file(out)) {
+            Err(Failure::output(format!(
+                "{}: refusing to write the output over an input file",
+                out.display()
+            )))
+        } else {
+            Ok(())
+        }
+    };
+    if let Some(summary) = summary {
+        if summary.is_dir() {
+            return Err(Failure::output(format!(
+                "{}: is a folder, not a file",
+                summary.display()
+            )));
+        }
+        let folder = match summary.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        writable_folder(folder, summary)?;
+        refuse(summary)?;
+    }
+    let Some(dir) = out_dir else {
+        return Ok(vec![None; parts.len()]);
+    };
+    writable_folder(dir, dir)?;
+    // Two parts named alike (in two folders, or `a.stl` and `a.STL`) would write one file.
+    let mut taken: BTreeMap<String, &Path> = BTreeMap::new();
+    let mut outputs = Vec::with_capacity(parts.len());
+    for part in parts {
+        let stem = part
+            .path
+            .file_stem()
+            .ok_or_else(|| Failure::usage(format!("{}: not a file name", part.path.display())))?
+            .to_string_lossy()
+            .into_owned();
+        if let Some(first) = taken.insert(stem.to_lowercase(), &part.path) {
+            return Err(Failure::usage(format!(
+                "{} and {} would both write {}.json in {}; run them separately",
+                first.display(),
+                part.path.display(),
+                stem,
+                dir.display()
+            )));
+        }
+        let out = dir.join(format!("{stem}.json"));
+        refuse(&out)?;
+        outputs.push(Some(out));
+    }
+    Ok(outputs)
+}
+
+/// Fails unless `folder` exists and a file can be created in it (`what` names the output in
+/// the message).
+fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
+    let fail = |e: &dyn std::fmt::Display| Failure::output(format!("{}: {e}", what.display()));
+    if !folder.exists() {
+        return Err(fail(&format_args!(
+            "cannot write: the folder {} does not exist",
+            folder.display()
+        )));
+    }
+    if !folder.is_dir() {
+        return Err(fail(&format_args!("{} is not a folder", folder.display())));
+    }
+    let probe = folder.join(format!(".moldgate-probe.{}.tmp", std::process::id()));
+    std::fs::File::create(&probe).map_err(|e| fail(&format_args!("cannot write: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// One line of the summary.
+#[derive(Debug, Serialize)]
+struct Row {
+    /// The input file as given.
+    file: String,
+    /// `ok`, `no_gate`, `input_error`, `option_error`, `output_error` or `internal_error`.
+    status: &'static str,
+    /// The part's own exit code, as `moldgate locate FILE` would give.
+    exit_code: u8,
+    /// Unit the file was read in.
+    units: String,
+    /// Demolding direction as given.
+    demold: String,
+    /// Triangles after welding.
+    triangles: Option<u64>,
+    /// The gate, mm.
+    gate_x_mm: Option<f64>,
+    /// The gate, mm.
+    gate_y_mm: Option<f64>,
+    /// The gate, mm.
+    gate_z_mm: Option<f64>,
+    /// 3D distance from the gate to the centre of mass, mm.
+    distance_mm: Option<f64>,
+    /// R_gate, mm.
+    gate_radius_mm: Option<f64>,
+    /// Grid nodes.
+    nodes: Option<usize>,
+    /// Nodes whose disc lies on the part.
+    circle_on_part: Option<usize>,
+    /// Nodes passing every rule.
+    qualifying: Option<usize>,
+    /// Seconds to load and analyse the part (varies from run to run).
+    time_s: f64,
+    /// Why the part failed, or null.
+    error: Option<String>,
+}
+
+impl Row {
+    fn new(part: &Part, o: &Outcome) -> Row {
+        let file = part.path.display().to_string();
+        let r = o.report.as_ref();
+        let gate = r.and_then(|r| r.gate.as_ref());
+        let code = o.failure.as_ref().map_or(0, |f| f.code);
+        // Messages of the loader start with the path; the row has it in `file` already.
+        let error = o.failure.as_ref().map(|f| {
+            f.message
+                .strip_prefix(&format!("{file}: "))
+                .unwrap_or(&f.message)
+                .to_string()
+        });
+        Row {
+            status: match code {
+                0 => "ok",
+                2 => "option_error",
+                3 => "input_error",
+                4 => "no_gate",
+                5 => "output_error",
+                _ => "internal_error",
+            },
+            exit_code: code,
+            units: part.settings.units.to_string(),
+            demold: part.demold.clone(),
+            triangles: r.map(|r| r.mesh.triangles),
+            gate_x_mm: gate.map(|g| g.point[0]),
+            gate_y_mm: gate.map(|g| g.point[1]),
+            gate_z_mm: gate.map(|g| g.point[2]),
+            distance_mm: gate.map(|g| g.distance_3d_mm),
+            gate_radius_mm: r.map(|r| r.options.gate_radius_mm),
+            nodes: r.map(|r| r.counts.nodes),
+            circle_on_part: r.map(|r| r.counts.circle_on_part),
+            qualifying: r.map(|r| r.counts.qualifying),
+            time_s: (o.time_s * 1e4).round() / 1e4,
+            error,
+            file,
+        }
+    }
+}
+
+/// The rows as JSON Lines.
+fn json_lines(rows: &[Row]) -> Result<String, Failure> {
+    let mut out = String::new();
+    for row in rows {
+        out += &serde_json::to_string(row).map_err(|e| Failure {
+            code: 1,
+            message: format!("cannot encode the summary: {e}"),
+        })?;
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// The CSV header, in the order of [`Row`]'s fields.
+const CSV_HEADER: &str = "file,status,exit_code,units,demold,triangles,gate_x_mm,gate_y_mm,\
+gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,time_s,error";
+
+/// The rows as CSV (RFC 4180: fields with a comma, quote or line break are quoted, quotes
+/// doubled); a missing value is an empty field.
+fn csv(rows: &[Row]) -> String {
+    fn field(out: &mut String, s: &str) {
+        if s.contains([',', '"', '\n', '\r']) {
+            out.push('"');
+            out.push_str(&s.replace('"', "\"\""));
+            out.push('"');
+        } else {
+            out.push_str(s);
+        }
+    }
+    fn opt<T: ToString>(v: Option<T>) -> String {
+        v.map(|v| v.to_string()).unwrap_or_default()
+    }
+    let mut out = String::from(CSV_HEADER);
+    out += "\r\n";
+    for r in rows {
+        let fields = [
+            r.file.clone(),
+            r.status.to_string(),
+            r.exit_code.to_string(),
+            r.units.clone(),
+            r.demold.clone(),
+            opt(r.triangles),
+            opt(r.gate_x_mm),
+            opt(r.gate_y_mm),
+            opt(r.gate_z_mm),
+            opt(r.distance_mm),
+            opt(r.gate_radius_mm),
+            opt(r.nodes),
+            opt(r.circle_on_part),
+            opt(r.qualifying),
+            r.time_s.to_string(),
+            r.error.clone().unwrap_or_default(),
+        ];
+        for (i, f) in fields.iter().enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            field(&mut out, f);
+        }
+        out += "\r\n";
+    }
+    out
+}
+
+/// The human table, and a closing count unless `quiet`.
+fn table(rows: &[Row], quiet: bool) -> String {
+    let width = rows
+        .iter()
+        .map(|r| r.file.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(4);
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7}",
+        "part", "status", "triangles", "gate x, y, z (mm)", "dist mm", "R mm", "time s"
+    );
+    let dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
+    for r in rows {
+        let gate = match (r.gate_x_mm, r.gate_y_mm, r.gate_z_mm) {
+            (Some(x), Some(y), Some(z)) => Some(format!("{x:.3}, {y:.3}, {z:.3}")),
+            _ => None,
+        };
+        let _ = writeln!(
+            out,
+            "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}",
+            r.file,
+            r.status.replace('_', " "),
+            dash(r.triangles.map(|t| t.to_string())),
+            dash(gate),
+            dash(r.distance_mm.map(|d| format!("{d:.3}"))),
+            dash(r.gate_radius_mm.map(|d| format!("{d:.3}"))),
+            r.time_s,
+        );
+    }
+    if !quiet {
+        let ok = rows.iter().filter(|r| r.exit_code == 0).count();
+        let no_gate = rows.iter().filter(|r| r.exit_code == 4).count();
+        let failed = rows.len() - ok - no_gate;
+        let _ = writeln!(
+            out,
+            "{} parts: {ok} with a gate, {no_gate} without, {failed} failed",
+            rows.len()
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_code_takes_the_most_serious() {
+        assert_eq!(exit_code([]), 0);
+        assert_eq!(exit_code([0, 0]), 0);
+        assert_eq!(exit_code([4, 4]), 4);
+        assert_eq!(exit_code([4, 2]), 2);
+        assert_eq!(exit_code([4, 3, 2]), 3);
+        assert_eq!(exit_code([3, 5, 4]), 5);
+        assert_eq!(exit_code([5, 1, 3]), 1);
+    }
+
+    #[test]
+    fn summary_format_by_extension() {
+        let f = |s: &str| summary_format(Path::new(s)).ok();
+        assert_eq!(f("a.jsonl"), Some(SummaryFormat::JsonLines));
+        assert_eq!(f("a.NDJSON"), Some(SummaryFormat::JsonLines));
+        assert_eq!(f("dir/a.Csv"), Some(SummaryFormat::Csv));
+        assert_eq!(f("a.json"), None);
+        assert_eq!(f("a"), None);
+    }
+
+    #[test]
+    fn csv_quotes_what_needs_it() {
+        let row = Row {
+            file: "a, \"b\".stl".into(),
+            status: "input_error",
+            exit_code: 3,
+            units: "mm".into(),
+            demold: "0,0,1".into(),
+            triangles: None,
+            gate_x_mm: None,
+            gate_y_mm: None,
+            gate_z_mm: None,
+            distance_mm: None,
+            gate_radius_mm: None,
+            nodes: None,
+            circle_on_part: None,
+            qualifying: None,
+            time_s: 0.5,
+            error: Some("line 3: bad\nthing".into()),
+        };
+        let text = csv(&[row]);
+        let lines: Vec<&str> = text.split("\r\n").collect();
+        assert_eq!(lines[0], CSV_HEADER);
+        assert_eq!(
+            lines[1],
+            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,0.5,\"line 3: bad\nthing\""
+        );
+    }
+
+    #[test]
+    fn csv_header_matches_the_row_fields() {
+        // The JSON keys of a row, in order, are the CSV header.
+        let row = Row {
+            file: String::new(),
+            status: "ok",
+            exit_code: 0,
+            units: String::new(),
+            demold: String::new(),
+            triangles: None,
+            gate_x_mm: None,
+            gate_y_mm: None,
+            gate_z_mm: None,
+            distance_mm: None,
+            gate_radius_mm: None,
+            nodes: None,
+            circle_on_part: None,
+            qualifying: None,
+            time_s: 0.0,
+            error: None,
+        };
+        let json = serde_json::to_string(&row).unwrap();
+        let keys: Vec<String> = json
+            .trim_matches(['{', '}'])
+            .split(',')
+            .map(|kv| kv.split(':').next().unwrap().trim_matches('"').to_string())
+            .collect();
+        assert_eq!(keys.join(","), CSV_HEADER);
+    }
+}
