@@ -33,9 +33,11 @@
 #![deny(missing_docs)]
 
 pub mod centre;
+pub mod colormap;
 pub mod error;
 pub mod frame;
 pub mod gate;
+pub mod gltf;
 pub mod material;
 pub mod math;
 pub mod mesh;
