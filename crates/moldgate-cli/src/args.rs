@@ -149,6 +149,10 @@ pub struct LocateArgs {
     /// Write the JSON report to this file (written whole or not at all).
     #[arg(short, long, value_name = "FILE.json")]
     pub output: Option<PathBuf>,
+    /// Write the part, gate, centre of mass and parting line as binary glTF (written whole
+    /// or not at all; millimetres scaled to metres, demolding direction up).
+    #[arg(long, value_name = "FILE.glb")]
+    pub glb: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -351,6 +355,9 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     if let Some(out) = &a.output {
         refuse_input(out, a.file.as_deref())?;
     }
+    if let Some(glb) = &a.glb {
+        crate::glb::check_path(glb, a.file.as_deref(), a.output.as_deref())?;
+    }
     let t = Instant::now();
     let (part, input) = match (&a.file, &a.sample) {
         (Some(path), _) => {
@@ -390,6 +397,18 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     })? + "\n";
     if let Some(out) = &a.output {
         write_atomic(out, json.as_bytes())?;
+    }
+    if let Some(path) = &a.glb {
+        let title = match (&a.file, &a.sample) {
+            (Some(f), _) => f
+                .file_name()
+                .unwrap_or(f.as_os_str())
+                .to_string_lossy()
+                .into_owned(),
+            (None, Some(s)) => format!("sample {s}"),
+            (None, None) => String::new(),
+        };
+        crate::glb::write(path, &part.mesh, &analysis, &title)?;
     }
     if a.json {
         print_stdout(&json)?;

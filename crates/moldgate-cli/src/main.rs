@@ -6,6 +6,7 @@
 //! 5 output cannot be written.
 
 mod args;
+mod glb;
 mod output;
 mod summary;
 
