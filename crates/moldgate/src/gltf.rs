@@ -42,7 +42,7 @@
 
 use std::f64::consts::TAU;
 
-use rustc_hash::FxHashMap;
+use rayon::prelude::*;
 use serde_json::{json, Value};
 
 use crate::colormap::{self, Range};
@@ -191,11 +191,33 @@ struct Geometry {
 }
 
 /// The part with crease-split normals and field colours (see the module documentation).
+///
+/// Vertices are made vertex by vertex: the corners around a mesh vertex that get the same
+/// normal share one glTF vertex, so the output is in mesh-vertex order and needs no hashing.
+/// Runs of vertices are done in parallel and joined in order, so the result does not
+/// depend on the number of threads.
 fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry {
     let n_vertices = mesh.vertices.len();
-    let normals: Vec<DVec3> = (0..mesh.triangles.len()).map(|t| mesh.normal(t)).collect();
+    let n_triangles = mesh.triangles.len();
+    let normals: Vec<DVec3> = (0..n_triangles)
+        .into_par_iter()
+        .map(|t| mesh.normal(t))
+        .collect();
+    // The angle of every corner (corner 3t + k is corner k of triangle t), the weight of its
+    // face's normal in the vertex normal.
+    let angles: Vec<[f64; 3]> = (0..n_triangles)
+        .into_par_iter()
+        .map(|t| {
+            let p = mesh.corners(t);
+            [0, 1, 2].map(|k| {
+                let a = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                let b = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                a.dot(b).clamp(-1.0, 1.0).acos()
+            })
+        })
+        .collect();
 
-    // Triangles around each vertex, with the corner's angle: offsets then entries.
+    // The corners around each vertex: offsets, then corner numbers.
     let mut start = vec![0u32; n_vertices + 1];
     for tri in &mesh.triangles {
         for &v in tri {
@@ -206,66 +228,94 @@ fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
-    let mut around = vec![(0u32, 0.0f64); 3 * mesh.triangles.len()];
+    let mut around = vec![0u32; 3 * n_triangles];
     for (t, tri) in mesh.triangles.iter().enumerate() {
-        let p = mesh.corners(t);
-        for k in 0..3 {
-            let a = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-            let b = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-            let angle = a.dot(b).clamp(-1.0, 1.0).acos();
-            let v = tri[k] as usize;
-            around[fill[v] as usize] = (t as u32, angle);
-            fill[v] += 1;
+        for (k, &v) in tri.iter().enumerate() {
+            around[fill[v as usize] as usize] = (3 * t + k) as u32;
+            fill[v as usize] += 1;
         }
     }
+    drop(fill);
 
     let range = Range::of(field);
-    let colour_of = |v: usize| -> [f32; 3] {
-        let c = match (field.get(v), range) {
-            (Some(&x), Some(r)) if x.is_finite() => colormap::colour(r.t(x)),
-            _ => colormap::NAN_GREY,
+    let weighted = |c: u32| normals[c as usize / 3] * angles[c as usize / 3][c as usize % 3];
+    // One run of vertices: its glTF vertices, and the run-local vertex of each corner.
+    let run = |vertices: std::ops::Range<usize>| {
+        let mut g = Geometry {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            colours: Vec::new(),
+            indices: Vec::new(),
         };
-        c.map(colormap::srgb_to_linear)
+        let mut corners: Vec<(u32, u32)> = Vec::new();
+        // The normals already given a glTF vertex of the current mesh vertex.
+        let mut made: Vec<([f32; 3], u32)> = Vec::new();
+        for v in vertices {
+            let ring = &around[start[v] as usize..start[v + 1] as usize];
+            if ring.is_empty() {
+                continue;
+            }
+            let colour = match (field.get(v), range) {
+                (Some(&x), Some(r)) if x.is_finite() => colormap::colour(r.t(x)),
+                _ => colormap::NAN_GREY,
+            }
+            .map(colormap::srgb_to_linear);
+            made.clear();
+            for &corner in ring {
+                let own = normals[corner as usize / 3];
+                let smooth: DVec3 = ring
+                    .iter()
+                    .filter(|&&c| normals[c as usize / 3].dot(own) >= CREASE_COS)
+                    .map(|&c| weighted(c))
+                    .sum();
+                // A triangle without area has no normal of its own: it takes its vertex's
+                // mean, or the demolding direction where even that vanishes.
+                let n = smooth
+                    .try_normalize()
+                    .or_else(|| {
+                        ring.iter()
+                            .map(|&c| weighted(c))
+                            .sum::<DVec3>()
+                            .try_normalize()
+                    })
+                    .unwrap_or(fallback_normal);
+                let n = f32s(n);
+                let index = match made.iter().find(|(m, _)| *m == n) {
+                    Some(&(_, i)) => i,
+                    None => {
+                        let i = g.positions.len() as u32;
+                        g.positions.push(f32s(mesh.vertices[v]));
+                        g.normals.push(n);
+                        g.colours.push(colour);
+                        made.push((n, i));
+                        i
+                    }
+                };
+                corners.push((corner, index));
+            }
+        }
+        (g, corners)
     };
+    const RUN: usize = 16_384;
+    let runs: Vec<_> = (0..n_vertices.div_ceil(RUN))
+        .into_par_iter()
+        .map(|r| run(r * RUN..((r + 1) * RUN).min(n_vertices)))
+        .collect();
 
     let mut out = Geometry {
         positions: Vec::with_capacity(n_vertices),
         normals: Vec::with_capacity(n_vertices),
         colours: Vec::with_capacity(n_vertices),
-        indices: Vec::with_capacity(3 * mesh.triangles.len()),
+        indices: vec![0; 3 * n_triangles],
     };
-    let mut seen: FxHashMap<(u32, [u32; 3]), u32> = FxHashMap::default();
-    seen.reserve(n_vertices);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        let own = normals[t];
-        for &v in tri {
-            let ring = &around[start[v as usize] as usize..start[v as usize + 1] as usize];
-            let smooth: DVec3 = ring
-                .iter()
-                .filter(|&&(s, _)| normals[s as usize].dot(own) >= CREASE_COS)
-                .map(|&(s, angle)| normals[s as usize] * angle)
-                .sum();
-            // A triangle without area has no normal of its own: it takes its vertex's mean,
-            // or the demolding direction where even that vanishes.
-            let n = smooth
-                .try_normalize()
-                .or_else(|| {
-                    ring.iter()
-                        .map(|&(s, angle)| normals[s as usize] * angle)
-                        .sum::<DVec3>()
-                        .try_normalize()
-                })
-                .unwrap_or(fallback_normal);
-            let n = f32s(n);
-            let key = (v, n.map(f32::to_bits));
-            let index = *seen.entry(key).or_insert_with(|| {
-                out.positions.push(f32s(mesh.vertices[v as usize]));
-                out.normals.push(n);
-                out.colours.push(colour_of(v as usize));
-                (out.positions.len() - 1) as u32
-            });
-            out.indices.push(index);
+    for (g, corners) in runs {
+        let offset = out.positions.len() as u32;
+        for (corner, local) in corners {
+            out.indices[corner as usize] = offset + local;
         }
+        out.positions.extend(g.positions);
+        out.normals.extend(g.normals);
+        out.colours.extend(g.colours);
     }
     out
 }
@@ -410,7 +460,10 @@ impl Document {
 
     /// A SCALAR unsigned-int index accessor.
     fn indices(&mut self, data: &[u32]) -> usize {
-        let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+        let mut bytes = Vec::with_capacity(4 * data.len());
+        for x in data {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
         let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
         self.accessors.push(json!({
             "bufferView": view,
@@ -674,6 +727,52 @@ mod tests {
                 let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
                 let n = (b - a).cross(c - a);
                 assert!(n.dot((a + b + c) / 3.0 - middle) > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn part_geometry_is_the_same_on_any_number_of_threads() {
+        // A wavy height field of 180 x 180 vertices: more than one run of vertices, smooth
+        // normals almost everywhere.
+        let n = 180u32;
+        let vertices = (0..n * n)
+            .map(|i| {
+                let (x, y) = ((i % n) as f64, (i / n) as f64);
+                DVec3::new(x, y, 3.0 * (x / 9.0).sin() * (y / 13.0).cos())
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let i = y * n + x;
+                triangles.push([i, i + 1, i + n + 1]);
+                triangles.push([i, i + n + 1, i + n]);
+            }
+        }
+        let mesh = Mesh {
+            vertices,
+            triangles,
+        };
+        let field: Vec<f32> = mesh.vertices.iter().map(|p| p.z as f32).collect();
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| part_geometry(&mesh, &field, DVec3::Z))
+        };
+        let (one, three) = (on(1), on(3));
+        assert_eq!(one.positions, three.positions);
+        assert_eq!(one.normals, three.normals);
+        assert_eq!(one.colours, three.colours);
+        assert_eq!(one.indices, three.indices);
+        // Smooth: one glTF vertex per mesh vertex, every corner on its own vertex.
+        assert_eq!(one.positions.len(), mesh.vertices.len());
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let i = one.indices[3 * t + k] as usize;
+                assert_eq!(one.positions[i], f32s(mesh.vertices[tri[k] as usize]));
             }
         }
     }
