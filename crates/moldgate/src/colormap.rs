@@ -119,7 +119,7 @@ mod tests {
     fn ends_and_quarters_are_viridis() {
         // The published 8-bit viridis colours at 0, 1/4, 1/2, 3/4 and 1 (#440154, #3b528b,
         // #21918c, #5ec962, #fde725), within one step.
-        let expected = [
+        let expected: [(f32, [u8; 3]); 5] = [
             (0.0, [0x44, 0x01, 0x54]),
             (0.25, [0x3b, 0x52, 0x8b]),
             (0.5, [0x21, 0x91, 0x8c]),

@@ -770,9 +770,9 @@ mod tests {
         // Smooth: one glTF vertex per mesh vertex, every corner on its own vertex.
         assert_eq!(one.positions.len(), mesh.vertices.len());
         for (t, tri) in mesh.triangles.iter().enumerate() {
-            for k in 0..3 {
+            for (k, &v) in tri.iter().enumerate() {
                 let i = one.indices[3 * t + k] as usize;
-                assert_eq!(one.positions[i], f32s(mesh.vertices[tri[k] as usize]));
+                assert_eq!(one.positions[i], f32s(mesh.vertices[v as usize]));
             }
         }
     }
