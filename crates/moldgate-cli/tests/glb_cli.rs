@@ -181,22 +181,39 @@ fn glb_and_json_report_cannot_share_a_file() {
 #[test]
 fn glb_into_a_folder_without_write_permission_fails_and_leaves_nothing() {
     use std::os::unix::fs::PermissionsExt;
+    let test = "glb_into_a_folder_without_write_permission";
     let dir = folder_with_part();
+    let mode = |p: &Path, m: u32| std::fs::set_permissions(p, std::fs::Permissions::from_mode(m));
     let locked = dir.path().join("locked");
     std::fs::create_dir(&locked).unwrap();
-    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
-    // A superuser writes anyway: then there is nothing to test.
-    if std::fs::write(locked.join("probe"), b"").is_ok() {
-        let why = "the folder's permissions do not stop this user (running as root?)";
-        eprintln!("glb_into_a_folder_without_write_permission: skipped: {why}");
-        println!("glb_into_a_folder_without_write_permission: skipped: {why}");
-        return;
-    }
-    let out = moldgate(
-        dir.path(),
-        &["locate", "part.stl", "--glb", "locked/part.glb"],
-    );
-    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+    mode(&locked, 0o555).unwrap();
+    let args = ["locate", "part.stl", "--glb", "locked/part.glb"];
+    // Permissions do not stop the superuser: then run the binary as `nobody` through
+    // setpriv, with the part readable to it.
+    let out = if std::fs::write(locked.join("probe"), b"").is_err() {
+        moldgate(dir.path(), &args)
+    } else {
+        std::fs::remove_file(locked.join("probe")).unwrap();
+        mode(dir.path(), 0o755).unwrap();
+        mode(&dir.path().join("part.stl"), 0o644).unwrap();
+        let run = Command::new("setpriv")
+            .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(env!("CARGO_BIN_EXE_moldgate"))
+            .args(args)
+            .current_dir(dir.path())
+            .stdin(Stdio::null())
+            .output();
+        match run {
+            Ok(out) if !String::from_utf8_lossy(&out.stderr).contains("setpriv") => out,
+            _ => {
+                let why = "running as root, and setpriv cannot drop to user nobody";
+                eprintln!("{test}: skipped: {why}");
+                println!("{test}: skipped: {why}");
+                return;
+            }
+        }
+    };
+    mode(&locked, 0o755).unwrap();
     assert_fails(&out, OUTPUT, &["locked/part.glb", "cannot write"]);
     assert!(listing(&locked).is_empty());
 }
