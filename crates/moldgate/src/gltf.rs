@@ -15,7 +15,7 @@
 //! | `qualifying nodes` | POINTS at the surface points of the nodes that qualify | orange, unlit |
 //!
 //! Nodes with nothing to show (no gate, an empty parting line, no qualifying node) are left
-//! out.
+//! out, and so are the materials nothing uses.
 //!
 //! # Units and axes
 //!
@@ -78,12 +78,50 @@ const MODE_POINTS: u32 = 0;
 const MODE_LINES: u32 = 1;
 const MODE_TRIANGLES: u32 = 4;
 
-/// Marker colours (sRGB) and the names of the materials, in material order.
-const PART: usize = 0;
-const GATE: usize = 1;
-const CENTRE: usize = 2;
-const PARTING: usize = 3;
-const QUALIFYING: usize = 4;
+/// The look of each kind of object: one material each, written only when used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Look {
+    Part,
+    Gate,
+    Centre,
+    Parting,
+    Qualifying,
+}
+
+impl Look {
+    /// The glTF material: lit for surfaces, unlit (`KHR_materials_unlit`, with the same
+    /// base colour as the fallback) for lines and points. Colours are sRGB, stored linear.
+    fn material(self) -> Value {
+        let (name, srgb, unlit) = match self {
+            Look::Part => ("part (vertex colours)", [255, 255, 255], false),
+            Look::Gate => ("gate", [220, 20, 40], false),
+            Look::Centre => ("centre of mass", [230, 0, 230], false),
+            Look::Parting => ("parting line", [255, 255, 255], true),
+            Look::Qualifying => ("qualifying nodes", [255, 140, 0], true),
+        };
+        let [r, g, b] = srgb.map(colormap::srgb_to_linear);
+        let mut m = json!({
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [r, g, b, 1.0],
+                "metallicFactor": 0.0,
+                "roughnessFactor": if unlit { 1.0 } else { 0.7 },
+            },
+        });
+        if unlit {
+            m["extensions"] = json!({ "KHR_materials_unlit": {} });
+        }
+        // The part may be open or inconsistently wound: show both sides.
+        if self == Look::Part {
+            m["doubleSided"] = json!(true);
+        }
+        m
+    }
+
+    fn unlit(self) -> bool {
+        matches!(self, Look::Parting | Look::Qualifying)
+    }
+}
 
 /// The GLB bytes of `scene`.
 pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
@@ -93,7 +131,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     let mesh = scene.mesh;
     if !mesh.triangles.is_empty() {
         let part = part_geometry(mesh, &scene.field.per_vertex, scene.frame.d);
-        let m = doc.triangles("part", &part, PART);
+        let m = doc.triangles("part", &part, Look::Part);
         children.push(doc.node("part", m));
     }
 
@@ -115,7 +153,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         };
         let solid = cylinder(g.point, axis, g.radius_mm, 0.5 * g.radius_mm);
         let name = format!("gate {}", i + 1);
-        let m = doc.triangles(&name, &solid, GATE);
+        let m = doc.triangles(&name, &solid, Look::Gate);
         children.push(doc.node(&name, m));
     }
 
@@ -127,7 +165,11 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         .unwrap_or(0.0);
     let size = radius.max(0.01 * diagonal);
     if scene.centre.is_finite() && size > 0.0 {
-        let m = doc.triangles("centre of mass", &octahedron(scene.centre, size), CENTRE);
+        let m = doc.triangles(
+            "centre of mass",
+            &octahedron(scene.centre, size),
+            Look::Centre,
+        );
         children.push(doc.node("centre of mass", m));
     }
 
@@ -139,7 +181,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         .flat_map(|w| [f32s(w[0]), f32s(w[1])])
         .collect();
     if !segments.is_empty() {
-        let m = doc.lines_or_points("parting line", &segments, MODE_LINES, PARTING);
+        let m = doc.lines_or_points("parting line", &segments, MODE_LINES, Look::Parting);
         children.push(doc.node("parting line", m));
     }
 
@@ -150,7 +192,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         .map(|&p| f32s(p))
         .collect();
     if !points.is_empty() {
-        let m = doc.lines_or_points("qualifying nodes", &points, MODE_POINTS, QUALIFYING);
+        let m = doc.lines_or_points("qualifying nodes", &points, MODE_POINTS, Look::Qualifying);
         children.push(doc.node("qualifying nodes", m));
     }
 
@@ -409,6 +451,8 @@ struct Document {
     accessors: Vec<Value>,
     meshes: Vec<Value>,
     nodes: Vec<Value>,
+    /// The materials used, in material order.
+    looks: Vec<Look>,
 }
 
 impl Document {
@@ -475,7 +519,8 @@ impl Document {
     }
 
     /// A mesh of indexed triangles; returns the mesh index.
-    fn triangles(&mut self, name: &str, g: &Geometry, material: usize) -> usize {
+    fn triangles(&mut self, name: &str, g: &Geometry, look: Look) -> usize {
+        let material = self.material(look);
         let mut attributes = json!({
             "POSITION": self.vec3(&g.positions, true),
             "NORMAL": self.vec3(&g.normals, false),
@@ -496,7 +541,8 @@ impl Document {
     }
 
     /// A mesh of unindexed lines (pairs of points) or points.
-    fn lines_or_points(&mut self, name: &str, p: &[[f32; 3]], mode: u32, material: usize) -> usize {
+    fn lines_or_points(&mut self, name: &str, p: &[[f32; 3]], mode: u32, look: Look) -> usize {
+        let material = self.material(look);
         let position = self.vec3(p, true);
         self.mesh(
             name,
@@ -506,6 +552,17 @@ impl Document {
                 "mode": mode,
             }),
         )
+    }
+
+    /// The index of the material of `look`, added on first use.
+    fn material(&mut self, look: Look) -> usize {
+        match self.looks.iter().position(|&l| l == look) {
+            Some(i) => i,
+            None => {
+                self.looks.push(look);
+                self.looks.len() - 1
+            }
+        }
     }
 
     fn mesh(&mut self, name: &str, primitive: Value) -> usize {
@@ -563,21 +620,24 @@ impl Document {
                     },
                 },
             },
-            "extensionsUsed": ["KHR_materials_unlit"],
             "scene": 0,
             "scenes": [{ "name": scene.title, "nodes": [root] }],
             "nodes": self.nodes,
-            "materials": materials(),
             "accessors": self.accessors,
             "bufferViews": self.views,
         });
+        // glTF forbids empty arrays: each is written only when it has something.
         if !self.meshes.is_empty() {
             document["meshes"] = json!(self.meshes);
+            let materials: Vec<Value> = self.looks.iter().map(|l| l.material()).collect();
+            document["materials"] = json!(materials);
+        }
+        if self.looks.iter().any(|l| l.unlit()) {
+            document["extensionsUsed"] = json!(["KHR_materials_unlit"]);
         }
         if !bin.is_empty() {
             document["buffers"] = json!([{ "byteLength": bin.len() }]);
         } else {
-            // glTF forbids empty arrays: drop what a scene without geometry leaves empty.
             let o = document.as_object_mut().expect("an object");
             o.remove("accessors");
             o.remove("bufferViews");
@@ -609,45 +669,6 @@ impl Document {
         }
         Ok(out)
     }
-}
-
-/// The materials, indexed by `PART`, `GATE`, `CENTRE`, `PARTING` and `QUALIFYING`.
-fn materials() -> Value {
-    let linear = |c: [u8; 3]| {
-        let [r, g, b] = c.map(colormap::srgb_to_linear);
-        [r, g, b, 1.0]
-    };
-    let lit = |name: &str, c: [u8; 3], double: bool| {
-        json!({
-            "name": name,
-            "pbrMetallicRoughness": {
-                "baseColorFactor": linear(c),
-                "metallicFactor": 0.0,
-                "roughnessFactor": 0.7,
-            },
-            "doubleSided": double,
-        })
-    };
-    let unlit = |name: &str, c: [u8; 3]| {
-        json!({
-            "name": name,
-            "pbrMetallicRoughness": {
-                "baseColorFactor": linear(c),
-                "metallicFactor": 0.0,
-                "roughnessFactor": 1.0,
-            },
-            "extensions": { "KHR_materials_unlit": {} },
-        })
-    };
-    let m = [
-        (PART, lit("part (vertex colours)", [255, 255, 255], true)),
-        (GATE, lit("gate", [220, 20, 40], false)),
-        (CENTRE, lit("centre of mass", [230, 0, 230], false)),
-        (PARTING, unlit("parting line", [255, 255, 255])),
-        (QUALIFYING, unlit("qualifying nodes", [255, 140, 0])),
-    ];
-    debug_assert!(m.iter().enumerate().all(|(i, (k, _))| i == *k));
-    Value::Array(m.into_iter().map(|(_, v)| v).collect())
 }
 
 /// A number for the JSON extras; JSON has no NaN, so an unknown value is null.
