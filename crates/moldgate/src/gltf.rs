@@ -292,6 +292,9 @@ fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry
         let mut corners: Vec<(u32, u32)> = Vec::new();
         // The normals already given a glTF vertex of the current mesh vertex.
         let mut made: Vec<([f32; 3], u32)> = Vec::new();
+        // The vertex given to each face normal met so far around the current mesh vertex.
+        let mut by_face: Vec<(DVec3, u32)> = Vec::new();
+        let mut faces: Vec<(DVec3, DVec3)> = Vec::new();
         for v in vertices {
             let ring = &around[start[v] as usize..start[v + 1] as usize];
             if ring.is_empty() {
@@ -302,24 +305,28 @@ fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry
                 _ => colormap::NAN_GREY,
             }
             .map(colormap::srgb_to_linear);
+            // The normal and the angle-weighted normal of each face around the vertex.
+            faces.clear();
+            faces.extend(ring.iter().map(|&c| (normals[c as usize / 3], weighted(c))));
             made.clear();
-            for &corner in ring {
-                let own = normals[corner as usize / 3];
-                let smooth: DVec3 = ring
+            by_face.clear();
+            for (&corner, &(own, _)) in ring.iter().zip(&faces) {
+                // Corners of faces with the very same normal (a flat region) get the same
+                // vertex without summing again.
+                if let Some(&(_, i)) = by_face.iter().find(|(f, _)| *f == own) {
+                    corners.push((corner, i));
+                    continue;
+                }
+                let smooth: DVec3 = faces
                     .iter()
-                    .filter(|&&c| normals[c as usize / 3].dot(own) >= CREASE_COS)
-                    .map(|&c| weighted(c))
+                    .filter(|(n, _)| n.dot(own) >= CREASE_COS)
+                    .map(|&(_, w)| w)
                     .sum();
                 // A triangle without area has no normal of its own: it takes its vertex's
                 // mean, or the demolding direction where even that vanishes.
                 let n = smooth
                     .try_normalize()
-                    .or_else(|| {
-                        ring.iter()
-                            .map(|&c| weighted(c))
-                            .sum::<DVec3>()
-                            .try_normalize()
-                    })
+                    .or_else(|| faces.iter().map(|&(_, w)| w).sum::<DVec3>().try_normalize())
                     .unwrap_or(fallback_normal);
                 let n = f32s(n);
                 let index = match made.iter().find(|(m, _)| *m == n) {
@@ -333,6 +340,7 @@ fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry
                         i
                     }
                 };
+                by_face.push((own, index));
                 corners.push((corner, index));
             }
         }
