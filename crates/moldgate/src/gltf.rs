@@ -351,6 +351,8 @@ fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry
         .into_par_iter()
         .map(|r| run(r * RUN..((r + 1) * RUN).min(n_vertices)))
         .collect();
+    // The per-face tables are no longer needed: free them before the output is assembled.
+    drop((normals, angles, start, around));
 
     let mut out = Geometry {
         positions: Vec::with_capacity(n_vertices),
@@ -464,29 +466,28 @@ struct Document {
 }
 
 impl Document {
-    /// Appends `bytes` as a buffer view (4-byte aligned) and returns its index.
-    fn view(&mut self, bytes: &[u8], target: u32) -> usize {
+    /// Appends 4-byte words (little-endian numbers) as a buffer view (4-byte aligned) and returns its index.
+    fn view(&mut self, words: impl ExactSizeIterator<Item = [u8; 4]>, target: u32) -> usize {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
         self.views.push(json!({
             "buffer": 0,
             "byteOffset": self.bin.len(),
-            "byteLength": bytes.len(),
+            "byteLength": 4 * words.len(),
             "target": target,
         }));
-        self.bin.extend_from_slice(bytes);
+        self.bin.reserve(4 * words.len());
+        for w in words {
+            self.bin.extend_from_slice(&w);
+        }
         self.views.len() - 1
     }
 
     /// A VEC3 float accessor; `bounds` adds the min and max the spec requires of POSITION.
     fn vec3(&mut self, data: &[[f32; 3]], bounds: bool) -> usize {
-        let bytes: Vec<u8> = data
-            .iter()
-            .flatten()
-            .flat_map(|x| x.to_le_bytes())
-            .collect();
-        let view = self.view(&bytes, ARRAY_BUFFER);
+        let words = data.as_flattened().iter().map(|x| x.to_le_bytes());
+        let view = self.view(words, ARRAY_BUFFER);
         let mut a = json!({
             "bufferView": view,
             "componentType": FLOAT,
@@ -512,11 +513,8 @@ impl Document {
 
     /// A SCALAR unsigned-int index accessor.
     fn indices(&mut self, data: &[u32]) -> usize {
-        let mut bytes = Vec::with_capacity(4 * data.len());
-        for x in data {
-            bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
+        let words = data.iter().map(|x| x.to_le_bytes());
+        let view = self.view(words, ELEMENT_ARRAY_BUFFER);
         self.accessors.push(json!({
             "bufferView": view,
             "componentType": UNSIGNED_INT,
