@@ -12,6 +12,7 @@ use moldgate::flow;
 use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
 use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::report::{Input, RadiusSource, Report};
+use moldgate::scene::{Field, Marker, Scene};
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
 use crate::output::{print_stdout, refuse_input, write_atomic};
@@ -199,6 +200,10 @@ pub struct LocateArgs {
     /// Several parts at once.
     #[command(flatten)]
     pub batch: crate::batch::BatchArgs,
+    /// Write the part, gate, centre of mass and parting line as binary glTF (written whole
+    /// or not at all; millimetres scaled to metres, demolding direction up).
+    #[arg(long, value_name = "FILE.glb")]
+    pub glb: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -492,18 +497,38 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
     if let Some(out) = &a.output {
         refuse_input(out, file.map(PathBuf::as_path))?;
     }
+    if let Some(glb) = &a.glb {
+        crate::glb::check_path(glb, file.map(PathBuf::as_path), a.output.as_deref())?;
+    }
     let source = match (file, &a.sample) {
         (Some(path), _) => Source::File(path),
         (None, Some(name)) => Source::Sample(name),
         (None, None) => return Err(Failure::usage("give a mesh file or --sample NAME")),
     };
-    let report = analyse(source, &settings)?;
+    let Analysed {
+        report,
+        part,
+        analysis,
+        fill_order,
+    } = analyse(source, &settings)?;
     let json = serde_json::to_string_pretty(&report).map_err(|e| Failure {
         code: 1,
         message: format!("cannot encode the report: {e}"),
     })? + "\n";
     if let Some(out) = &a.output {
         write_atomic(out, json.as_bytes())?;
+    }
+    if let Some(path) = &a.glb {
+        let title = match source {
+            Source::File(f) => f
+                .file_name()
+                .unwrap_or(f.as_os_str())
+                .to_string_lossy()
+                .into_owned(),
+            Source::Sample(s) => format!("sample {s}"),
+        };
+        let scene = scene_of(&part, &analysis, &report, fill_order, title);
+        crate::glb::write(path, &scene)?;
     }
     if a.json {
         print_stdout(&json)?;
@@ -524,9 +549,59 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
     }
 }
 
+/// The scene pictures and 3D files show: coloured by the fill order when the fill was
+/// analysed, with the report's answer (the balanced gate under `--strategy balanced`) and
+/// every gate of a several-gate layout.
+fn scene_of<'a>(
+    part: &'a LoadedMesh,
+    analysis: &moldgate::Analysis,
+    report: &Report,
+    fill_order: Option<Field>,
+    title: String,
+) -> Scene<'a> {
+    let mut scene = Scene::new(&part.mesh, analysis, title);
+    if let Some(f) = fill_order {
+        scene = scene.with_field(f);
+    }
+    let r = analysis.options.gate_radius_mm;
+    if let (Some(g), Some(first)) = (&report.gate, scene.gates.first_mut()) {
+        if g.strategy == flow::Strategy::Balanced {
+            *first = Marker {
+                point: moldgate::math::DVec3::from_array(g.point),
+                normal: moldgate::math::DVec3::ZERO,
+                radius_mm: r,
+            };
+        }
+    }
+    if let Some(several) = report.fill.as_ref().and_then(|f| f.several.as_ref()) {
+        scene.gates = several
+            .gates
+            .iter()
+            .map(|g| Marker {
+                point: moldgate::math::DVec3::from_array(g.point),
+                normal: moldgate::math::DVec3::ZERO,
+                radius_mm: r,
+            })
+            .collect();
+    }
+    scene
+}
+
+/// One analysed part: its report, and what pictures and 3D files are drawn from.
+pub struct Analysed {
+    /// The report.
+    pub report: Report,
+    /// The part.
+    pub part: LoadedMesh,
+    /// The gate analysis.
+    pub analysis: moldgate::Analysis,
+    /// The fill order of the answer's gate per vertex, when the fill was analysed.
+    pub fill_order: Option<Field>,
+}
+
 /// Loads and analyses one part. A part without a gate is a report (its `gate` is `None` and
 /// `no_gate_reason` says why); the error is for a part that could not be analysed at all.
-pub fn analyse(source: Source, s: &Settings) -> Result<Report, Failure> {
+pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
     let Settings {
         material,
         options,
@@ -582,10 +657,21 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Report, Failure> {
         &analysis,
         load_s,
     );
-    if let Some(fill) = fill {
+    let mut fill_order = None;
+    if let Some(mut fill) = fill {
+        fill_order = Some(Field {
+            name: "fill order (0 gate, 1 last)".into(),
+            unit: String::new(),
+            per_vertex: std::mem::take(&mut fill.fill_order_per_vertex),
+        });
         report = report.with_fill(fill, analysis.centre);
     }
-    Ok(report)
+    Ok(Analysed {
+        report,
+        part,
+        analysis,
+        fill_order,
+    })
 }
 
 fn unknown_sample(name: &str) -> Failure {

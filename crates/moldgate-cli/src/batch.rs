@@ -221,7 +221,7 @@ pub fn exit_code(codes: impl IntoIterator<Item = u8>) -> u8 {
 fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
     let t = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        analyse(Source::File(&part.path), &part.settings)
+        analyse(Source::File(&part.path), &part.settings).map(|a| a.report)
     }))
     .unwrap_or_else(|_| {
         Err(Failure {

@@ -7,6 +7,7 @@
 
 mod args;
 mod batch;
+mod glb;
 mod output;
 mod progress;
 mod summary;

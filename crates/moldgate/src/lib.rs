@@ -33,10 +33,12 @@
 #![deny(missing_docs)]
 
 pub mod centre;
+pub mod colormap;
 pub mod error;
 pub mod flow;
 pub mod frame;
 pub mod gate;
+pub mod gltf;
 pub mod keepout;
 pub mod material;
 pub mod math;

@@ -1,0 +1,47 @@
+//! `--glb FILE.glb`: the analysis as a binary glTF file, written whole or not at all.
+
+use std::path::Path;
+
+use moldgate::scene::Scene;
+
+use crate::output::{refuse_input, write_atomic};
+use crate::Failure;
+
+/// Refuses a `--glb` path that names the input or the same file as `-o`.
+pub fn check_path(glb: &Path, input: Option<&Path>, report: Option<&Path>) -> Result<(), Failure> {
+    refuse_input(glb, input)?;
+    if report.is_some_and(|r| same_file(glb, r)) {
+        return Err(Failure::usage(format!(
+            "--glb and -o name the same file: {}",
+            glb.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Whether two paths name the same file, whether or not it exists yet: their folders are
+/// compared after resolving links and `..`.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let resolved = |p: &Path| {
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    };
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => match (resolved(a), resolved(b)) {
+            (Some(x), Some(y)) => x == y,
+            _ => a == b,
+        },
+    }
+}
+
+/// Writes `scene` to `path` as GLB (see `moldgate::gltf` for what the file holds, its units
+/// and axes).
+pub fn write(path: &Path, scene: &Scene) -> Result<(), Failure> {
+    let bytes = moldgate::gltf::glb(scene)
+        .map_err(|e| Failure::output(format!("{}: {e}", path.display())))?;
+    write_atomic(path, &bytes)
+}
