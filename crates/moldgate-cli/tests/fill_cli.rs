@@ -180,6 +180,8 @@ fn bad_fill_options_are_refused_with_one_line() {
         2,
         "strategy",
     );
+    // A 3D view is of one part.
+    fails(&["locate", "a.stl", "b.stl", "--glb", "x.glb"], 2, "--glb");
     // More gates than qualifying candidates.
     fails(
         &[
