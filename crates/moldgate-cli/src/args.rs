@@ -13,7 +13,7 @@ use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::report::{Input, RadiusSource, Report};
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
-use crate::output::{print_stdout, refuse_input, write_atomic};
+use crate::output::{print_stdout, write_atomic};
 use crate::summary;
 use crate::Failure;
 
@@ -149,6 +149,15 @@ pub struct LocateArgs {
     /// Write the JSON report to this file (written whole or not at all).
     #[arg(short, long, value_name = "FILE.json")]
     pub output: Option<PathBuf>,
+    /// Write a picture of the analysis to this PNG file (1600x900: the view along D and an
+    /// isometric view, coloured, with the gate, centre of mass, parting line and qualifying
+    /// region).
+    #[arg(long, value_name = "FILE.png")]
+    pub png: Option<PathBuf>,
+    /// Write a self-contained HTML report (summary, picture, warnings, glossary, full JSON)
+    /// to this file.
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -348,9 +357,7 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         .units
         .parse()
         .map_err(|e: String| Failure::usage(format!("--units: {e}")))?;
-    if let Some(out) = &a.output {
-        refuse_input(out, a.file.as_deref())?;
-    }
+    crate::pictures::check_outputs(&a)?;
     let t = Instant::now();
     let (part, input) = match (&a.file, &a.sample) {
         (Some(path), _) => {
@@ -391,6 +398,7 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     if let Some(out) = &a.output {
         write_atomic(out, json.as_bytes())?;
     }
+    crate::pictures::write(&a, &part, &analysis, &report, &json, &material)?;
     if a.json {
         print_stdout(&json)?;
     } else {

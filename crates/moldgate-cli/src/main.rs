@@ -6,7 +6,9 @@
 //! 5 output cannot be written.
 
 mod args;
+mod html;
 mod output;
+mod pictures;
 mod summary;
 
 use std::io::Write;
