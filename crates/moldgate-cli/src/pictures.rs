@@ -55,7 +55,9 @@ fn same_file(a: &Path, b: &Path) -> bool {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
-        dir.canonicalize().ok().map(|d| d.join(p.file_name().unwrap_or_default()))
+        dir.canonicalize()
+            .ok()
+            .map(|d| d.join(p.file_name().unwrap_or_default()))
     };
     match (full(a), full(b)) {
         (Some(x), Some(y)) => x == y,

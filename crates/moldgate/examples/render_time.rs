@@ -18,7 +18,10 @@ fn main() {
         .unwrap_or_else(|| "+z".into())
         .parse()
         .expect("a direction");
-    let runs: usize = args.next().map(|s| s.parse().expect("a count")).unwrap_or(5);
+    let runs: usize = args
+        .next()
+        .map(|s| s.parse().expect("a count"))
+        .unwrap_or(5);
     let loaded = match moldgate::samples::sample(&part) {
         Some(m) => mesh::from_generated(m),
         None => {

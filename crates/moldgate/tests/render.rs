@@ -35,7 +35,10 @@ fn decode(bytes: &[u8]) -> (u32, u32, Vec<[u8; 3]>) {
 
 fn at(image: &(u32, u32, Vec<[u8; 3]>), x: f64, y: f64) -> [u8; 3] {
     let (w, h, px) = image;
-    assert!(x >= 0.0 && y >= 0.0 && x < *w as f64 && y < *h as f64, "({x}, {y}) is outside");
+    assert!(
+        x >= 0.0 && y >= 0.0 && x < *w as f64 && y < *h as f64,
+        "({x}, {y}) is outside"
+    );
     px[y as usize * *w as usize + x as usize]
 }
 
@@ -64,7 +67,10 @@ fn the_gate_pixel_has_the_gate_colour_in_both_views_and_the_image_is_not_uniform
         assert!(colours.len() > 200, "{name}: {} colours", colours.len());
         // The gate colour is used by the gate marks only: a small share of the picture.
         let gate_pixels = image.2.iter().filter(|&&c| c == GATE_COLOUR).count();
-        assert!(gate_pixels > 10 && gate_pixels < 20_000, "{name}: {gate_pixels}");
+        assert!(
+            gate_pixels > 10 && gate_pixels < 20_000,
+            "{name}: {gate_pixels}"
+        );
     }
 }
 
@@ -145,8 +151,14 @@ fn the_field_colours_the_part_where_the_values_are() {
     let p = view.camera.to_pixel(plate);
     let wall = patch(&image, w.x, w.y);
     let base = patch(&image, p.x, p.y);
-    assert!(wall[1] > 150 && wall[2] < 120, "wall top is yellow: {wall:?}");
-    assert!(base[1] < 90 && base[2] > 60, "plate top is dark blue-purple: {base:?}");
+    assert!(
+        wall[1] > 150 && wall[2] < 120,
+        "wall top is yellow: {wall:?}"
+    );
+    assert!(
+        base[1] < 90 && base[2] > 60,
+        "plate top is dark blue-purple: {base:?}"
+    );
 
     // A field of NaN (unknown everywhere) draws the part grey and still draws the gate.
     let unknown = scene.clone().with_field(Field {

@@ -2,9 +2,9 @@
 //! scene's field, with the gate, the centre of mass, the parting line and the qualifying
 //! region drawn over it, a colour bar, scale bars, orientation axes and a title.
 //!
-//! The part is drawn by our own z-buffer ([`raster`]) at 2x2 samples per pixel; overlays
-//! and the PNG encoding are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped
-//! in `fonts/`. Everything runs in a fixed order (the two views on two threads, each drawn
+//! The part is drawn by our own z-buffer (`raster.rs`) at 2x2 samples per pixel; overlays
+//! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/`, and the
+//! PNG is encoded by the `png` crate. Everything runs in a fixed order (the two views on two threads, each drawn
 //! by one), so the same scene gives the same bytes.
 //!
 //! ```
@@ -25,8 +25,8 @@ use crate::math::{DVec2, DVec3};
 use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
-pub use raster::{Camera, PixelRect};
 use raster::{rasterise, Layer};
+pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -190,14 +190,15 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         })
         .collect();
     let draw = |v: &View| {
-        let light = (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75)
-            .normalize();
+        let light =
+            (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75).normalize();
         rasterise(mesh, &t, &v.camera, v.panel, SAMPLES, light)
     };
     let (a, b) = rayon::join(|| draw(&views[0]), || draw(&views[1]));
     let layers = [a, b];
 
-    let mut canvas = Canvas::new(width, height, WHITE).ok_or(RenderError::Size { width, height })?;
+    let mut canvas =
+        Canvas::new(width, height, WHITE).ok_or(RenderError::Size { width, height })?;
     let diagonal = bounds_diagonal(scene);
     for (view, layer) in views.iter().zip(&layers) {
         let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
@@ -416,8 +417,7 @@ fn draw_overlays(
                 let b = p.lerp(q, (i + 1) as f64 / pieces as f64);
                 let mid = (a + b) * 0.5;
                 let m = cam.to_pixel(mid);
-                let visible =
-                    !depth_test || layer.visible(m.x, m.y, cam.depth(mid), tolerance);
+                let visible = !depth_test || layer.visible(m.x, m.y, cam.depth(mid), tolerance);
                 let pa = cam.to_pixel(a);
                 let pb = cam.to_pixel(b);
                 if visible != run_visible && !run.is_empty() {
@@ -511,13 +511,7 @@ fn draw_overlays(
 
 /// The qualifying nodes as a hatched region with a dark edge: each node covers a square of
 /// the grid spacing around it, so the nodes join into the region they stand for.
-fn draw_qualifying(
-    canvas: &mut Canvas,
-    scene: &Scene,
-    view: &View,
-    layer: &Layer,
-    tolerance: f64,
-) {
+fn draw_qualifying(canvas: &mut Canvas, scene: &Scene, view: &View, layer: &Layer, tolerance: f64) {
     if scene.qualifying.is_empty() {
         return;
     }
@@ -556,11 +550,8 @@ fn draw_qualifying(
             let (cx, cy) = ((rect.x as usize + x) as i32, (rect.y as usize + y) as i32);
             if edge {
                 canvas.blend(cx, cy, BLACK, 0.85);
-            } else {
-                match hatch(x, y) {
-                    Some(c) => canvas.blend(cx, cy, c.0, c.1),
-                    None => {}
-                }
+            } else if let Some((c, a)) = hatch(x, y) {
+                canvas.blend(cx, cy, c, a);
             }
         }
     }
@@ -656,9 +647,14 @@ fn nice_below(x: f64) -> f64 {
         .unwrap_or(p)
 }
 
-/// A number with as many decimals as `step` needs.
+/// A number with as many decimals as `step` needs (at most 6).
 fn format_step(v: f64, step: f64) -> String {
-    let decimals = (-step.abs().log10().floor()).clamp(0.0, 6.0) as usize;
+    let decimals = (0..6)
+        .find(|&d| {
+            let scaled = step.abs() * 10f64.powi(d as i32);
+            (scaled - scaled.round()).abs() < 1e-6 * scaled.max(1.0)
+        })
+        .unwrap_or(6);
     let s = format!("{v:.decimals$}");
     if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
         s[1..].to_string()
@@ -724,8 +720,20 @@ fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
                 canvas.fill_circle(cx, cy, 1.8 * k, colour);
             } else {
                 let d = r * 0.7;
-                canvas.stroke_polyline(&[[cx - d, cy - d], [cx + d, cy + d]], false, colour, width * 0.7, None);
-                canvas.stroke_polyline(&[[cx - d, cy + d], [cx + d, cy - d]], false, colour, width * 0.7, None);
+                canvas.stroke_polyline(
+                    &[[cx - d, cy - d], [cx + d, cy + d]],
+                    false,
+                    colour,
+                    width * 0.7,
+                    None,
+                );
+                canvas.stroke_polyline(
+                    &[[cx - d, cy + d], [cx + d, cy - d]],
+                    false,
+                    colour,
+                    width * 0.7,
+                    None,
+                );
             }
             canvas.text(cx + r + 3.0 * k, cy + 5.0 * k, name, &label, Align::Left);
             continue;
@@ -738,8 +746,14 @@ fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
         canvas.fill_polygon(
             &[
                 [ex + ux * head * 0.6, ey + uy * head * 0.6],
-                [ex - ux * head * 0.5 - uy * head * 0.45, ey - uy * head * 0.5 + ux * head * 0.45],
-                [ex - ux * head * 0.5 + uy * head * 0.45, ey - uy * head * 0.5 - ux * head * 0.45],
+                [
+                    ex - ux * head * 0.5 - uy * head * 0.45,
+                    ey - uy * head * 0.5 + ux * head * 0.45,
+                ],
+                [
+                    ex - ux * head * 0.5 + uy * head * 0.45,
+                    ey - uy * head * 0.5 - ux * head * 0.45,
+                ],
             ],
             colour,
             255,
@@ -877,7 +891,13 @@ fn draw_side_bar(
         draw(canvas, cy(*y));
         let lines = wrap(text, &label, layout.side_w - 36.0 * k);
         for (i, line) in lines.iter().enumerate() {
-            canvas.text(tx, cy(*y) + 5.0 * k + i as f32 * 17.0 * k, line, &label, Align::Left);
+            canvas.text(
+                tx,
+                cy(*y) + 5.0 * k + i as f32 * 17.0 * k,
+                line,
+                &label,
+                Align::Left,
+            );
         }
         *y += row + (lines.len().max(1) - 1) as f32 * 17.0 * k;
     };
@@ -903,10 +923,7 @@ fn draw_side_bar(
         let pts = [[sx - 13.0 * k, cy], [sx + 13.0 * k, cy]];
         c.stroke_polyline(&pts, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
     });
-    let qualifying = format!(
-        "qualifying region ({} grid nodes)",
-        scene.qualifying.len()
-    );
+    let qualifying = format!("qualifying region ({} grid nodes)", scene.qualifying.len());
     item(canvas, &mut y, &qualifying, &|c, cy| {
         let (w, h) = ((26.0 * k) as i32, (18.0 * k) as i32);
         let (x0, y0) = ((sx - 13.0 * k) as i32, (cy - 9.0 * k) as i32);
@@ -923,16 +940,21 @@ fn draw_side_bar(
             }
         }
     });
-    item(canvas, &mut y, "scale bars: mm in the picture plane", &|c, cy| {
-        let t = 5.0 * k;
-        let pts = [
-            [sx - 13.0 * k, cy - t],
-            [sx - 13.0 * k, cy],
-            [sx + 13.0 * k, cy],
-            [sx + 13.0 * k, cy - t],
-        ];
-        c.stroke_polyline(&pts, false, INK, 2.0 * k, None);
-    });
+    item(
+        canvas,
+        &mut y,
+        "scale bars: mm in the picture plane",
+        &|c, cy| {
+            let t = 5.0 * k;
+            let pts = [
+                [sx - 13.0 * k, cy - t],
+                [sx - 13.0 * k, cy],
+                [sx + 13.0 * k, cy],
+                [sx + 13.0 * k, cy - t],
+            ];
+            c.stroke_polyline(&pts, false, INK, 2.0 * k, None);
+        },
+    );
 }
 
 fn capitalised(s: &str) -> String {
