@@ -457,9 +457,14 @@ fn draw_overlays(
     }
     draw_centre_symbol(canvas, c.x as f32, c.y as f32, reach, k);
     canvas.text(
-        c.x as f32 - 8.0 * k,
-        c.y as f32 + reach + 14.0 * k,
-        "centre of mass",
+        c.x as f32 - reach - 6.0 * k,
+        c.y as f32 + 18.0 * k,
+        if layer.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
+            "centre of mass"
+        } else {
+            // It lies inside the part or behind it: say so, the cross is drawn over it.
+            "centre of mass (hidden)"
+        },
         &TextStyle::new(13.0 * k, INK).halo(WHITE),
         Align::Right,
     );
