@@ -204,6 +204,15 @@ pub struct LocateArgs {
     /// or not at all; millimetres scaled to metres, demolding direction up).
     #[arg(long, value_name = "FILE.glb")]
     pub glb: Option<PathBuf>,
+    /// Write a picture of the analysis to this PNG file (1600x900: the view along D and an
+    /// isometric view, coloured, with the gate, centre of mass, parting line and qualifying
+    /// region).
+    #[arg(long, value_name = "FILE.png")]
+    pub png: Option<PathBuf>,
+    /// Write a self-contained HTML report (summary, picture, warnings, glossary, full JSON)
+    /// to this file.
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -500,6 +509,7 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
     if let Some(glb) = &a.glb {
         crate::glb::check_path(glb, file.map(PathBuf::as_path), a.output.as_deref())?;
     }
+    crate::pictures::check_outputs(&a)?;
     let source = match (file, &a.sample) {
         (Some(path), _) => Source::File(path),
         (None, Some(name)) => Source::Sample(name),
@@ -519,16 +529,13 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
         write_atomic(out, json.as_bytes())?;
     }
     if let Some(path) = &a.glb {
-        let title = match source {
-            Source::File(f) => f
-                .file_name()
-                .unwrap_or(f.as_os_str())
-                .to_string_lossy()
-                .into_owned(),
-            Source::Sample(s) => format!("sample {s}"),
-        };
-        let scene = scene_of(&part, &analysis, &report, fill_order, title);
+        let title = title_of(source);
+        let scene = scene_of(&part, &analysis, &report, fill_order.clone(), title);
         crate::glb::write(path, &scene)?;
+    }
+    if a.png.is_some() || a.report.is_some() {
+        let scene = scene_of(&part, &analysis, &report, fill_order, title_of(source));
+        crate::pictures::write(&a, scene, &report, &json, &settings.material)?;
     }
     if a.json {
         print_stdout(&json)?;
@@ -546,6 +553,18 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
                 .unwrap_or_default()
         ))),
         _ => Ok(()),
+    }
+}
+
+/// The title of a picture or 3D file: the file's name, or the sample's.
+fn title_of(source: Source) -> String {
+    match source {
+        Source::File(f) => f
+            .file_name()
+            .unwrap_or(f.as_os_str())
+            .to_string_lossy()
+            .into_owned(),
+        Source::Sample(s) => format!("sample '{s}'"),
     }
 }
 
@@ -571,6 +590,10 @@ fn scene_of<'a>(
                 normal: moldgate::math::DVec3::ZERO,
                 radius_mm: r,
             };
+            scene.subtitle = format!(
+                "balanced gate ({:.2}, {:.2}, {:.2}) mm, R = {r:.2} mm",
+                g.point[0], g.point[1], g.point[2]
+            );
         }
     }
     if let Some(several) = report.fill.as_ref().and_then(|f| f.several.as_ref()) {

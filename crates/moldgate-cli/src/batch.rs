@@ -126,10 +126,16 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
             "-o writes the report of one part; for several use --out-dir DIR or --summary FILE",
         ));
     }
-    if a.glb.is_some() {
-        return Err(Failure::usage(
-            "--glb writes the 3D view of one part; run it on each part separately",
-        ));
+    for (flag, given) in [
+        ("--glb", a.glb.is_some()),
+        ("--png", a.png.is_some()),
+        ("--report", a.report.is_some()),
+    ] {
+        if given {
+            return Err(Failure::usage(format!(
+                "{flag} draws one part; run it on each part separately"
+            )));
+        }
     }
     let base = settings(&a)?;
     let summary_format = b.summary.as_deref().map(summary_format).transpose()?;

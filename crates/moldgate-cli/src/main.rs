@@ -8,7 +8,9 @@
 mod args;
 mod batch;
 mod glb;
+mod html;
 mod output;
+mod pictures;
 mod progress;
 mod summary;
 

@@ -124,7 +124,7 @@ fn glb_is_written_whole_beside_the_json() {
     );
     assert_ok(&out);
     let json = glb_json(&std::fs::read(dir.path().join("tray.glb")).unwrap());
-    assert_eq!(json["asset"]["extras"]["title"], "sample tray");
+    assert_eq!(json["asset"]["extras"]["title"], "sample 'tray'");
     assert_eq!(
         json["asset"]["extras"]["demolding_direction"],
         serde_json::json!([-1.0, 0.0, 0.0])

@@ -44,6 +44,7 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod parting;
+pub mod render;
 pub mod report;
 pub mod samples;
 pub mod scene;

@@ -46,6 +46,9 @@ pub struct Scene<'a> {
     pub parting: Vec<Vec<DVec3>>,
     /// Surface points of the nodes that qualify as gate positions.
     pub qualifying: Vec<DVec3>,
+    /// Distance between neighbouring grid nodes, mm (each qualifying point stands for a
+    /// square of this side).
+    pub grid_spacing_mm: f64,
     /// First title line (file or sample name).
     pub title: String,
     /// Second title line (material, gate coordinates).
@@ -98,6 +101,7 @@ impl<'a> Scene<'a> {
             centre: analysis.centre,
             parting: analysis.parting.polylines(mesh),
             qualifying: analysis.qualifying_points.clone(),
+            grid_spacing_mm: analysis.grid.spacing,
             title: title.into(),
             subtitle,
         }

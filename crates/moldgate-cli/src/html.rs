@@ -1,0 +1,406 @@
+//! The HTML report: one self-contained page (no scripts, no fetches) with the answer, a
+//! summary table, the picture as a data URI, the warnings, a glossary and the full JSON.
+
+use std::fmt::Write;
+
+use moldgate::report::{RadiusSource, Report};
+
+/// Escapes text for HTML element content and attribute values.
+pub fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// Standard base64 (RFC 4648, with padding).
+pub fn base64(bytes: &[u8]) -> String {
+    const TABLE: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            chunk.get(1).copied().unwrap_or(0),
+            chunk.get(2).copied().unwrap_or(0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(TABLE[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+fn v3(p: [f64; 3]) -> String {
+    format!("({:.3}, {:.3}, {:.3})", p[0], p[1], p[2])
+}
+
+/// The name of the part as the report shows it.
+pub fn part_name(r: &Report) -> String {
+    r.input
+        .path
+        .clone()
+        .or(r.input.sample.as_ref().map(|n| format!("sample '{n}'")))
+        .unwrap_or_default()
+}
+
+const STYLE: &str = "
+body { font-family: 'DejaVu Sans', 'Segoe UI', Helvetica, Arial, sans-serif; margin: 24px auto;
+       max-width: 1650px; padding: 0 16px; color: #1a1a20; line-height: 1.4; }
+h1 { font-size: 1.6em; margin-bottom: 0.2em; }
+h2 { font-size: 1.2em; margin-top: 1.6em; border-bottom: 1px solid #ccd; }
+.answer { font-size: 1.2em; padding: 10px 14px; background: #f3f5f9; border-left: 5px solid #e6192d; }
+.nogate { border-left-color: #888; }
+img { max-width: 100%; height: auto; border: 1px solid #ccd; }
+table { border-collapse: collapse; }
+td, th { text-align: left; padding: 3px 12px 3px 0; vertical-align: top; }
+th { font-weight: 600; white-space: nowrap; }
+td.n { text-align: right; font-variant-numeric: tabular-nums; }
+tr + tr td, tr + tr th { border-top: 1px solid #eef; }
+dt { font-weight: 600; margin-top: 0.5em; }
+dd { margin-left: 1.5em; }
+pre { background: #f6f7f9; padding: 12px; overflow: auto; font-size: 0.85em; }
+.warn li { color: #8a4b00; }
+.muted { color: #667; }
+";
+
+/// The page. `png` is the picture (omitted when `None`); `json` is the full JSON report.
+pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
+    let name = part_name(r);
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <title>moldgate: {}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
+        escape(&name)
+    );
+    let _ = writeln!(h, "<h1>Injection gate of {}</h1>", escape(&name));
+    let _ = writeln!(
+        h,
+        "<p class=\"muted\">moldgate {}, report schema {}; method of Mercado-Colmenero, \
+         Torres-Alba and Martin-Doñate (gate nearest the centre of mass among the grid nodes \
+         whose gate disc lies whole on the part).</p>",
+        escape(r.moldgate_version),
+        r.schema_version
+    );
+    match &r.gate {
+        Some(g) => {
+            let _ = writeln!(
+                h,
+                "<p class=\"answer\" id=\"answer\">Gate at <b id=\"gate\">{} mm</b>, radius \
+                 R = {:.3} mm, {:.3} mm from the centre of mass ({} gate).</p>",
+                v3(g.point),
+                r.options.gate_radius_mm,
+                g.distance_3d_mm,
+                match g.mode {
+                    moldgate::GateMode::Paper => "grid",
+                    moldgate::GateMode::Aesthetic => "parting-line",
+                }
+            );
+        }
+        None => {
+            let _ = writeln!(
+                h,
+                "<p class=\"answer nogate\" id=\"answer\">No gate: {}</p>",
+                escape(r.no_gate_reason.as_deref().unwrap_or("no node qualifies"))
+            );
+        }
+    }
+    if let Some(png) = png {
+        let _ = writeln!(
+            h,
+            "<p><img alt=\"The part seen along the demolding direction and in an isometric \
+             view, coloured by the field named on the colour bar, with the gate, the centre of \
+             mass, the parting line and the qualifying region\" \
+             src=\"data:image/png;base64,{}\"></p>",
+            base64(png)
+        );
+    }
+
+    summary_table(&mut h, r);
+    counts_table(&mut h, r);
+
+    let _ = writeln!(h, "<h2>Warnings</h2>");
+    if r.warnings.is_empty() {
+        let _ = writeln!(h, "<p>None.</p>");
+    } else {
+        let _ = writeln!(h, "<ul class=\"warn\">");
+        for w in &r.warnings {
+            let _ = writeln!(h, "<li>{}</li>", escape(w));
+        }
+        let _ = writeln!(h, "</ul>");
+    }
+
+    timings_table(&mut h, r);
+    let _ = writeln!(h, "{GLOSSARY}");
+    let _ = writeln!(
+        h,
+        "<h2>Full JSON report</h2>\n<details><summary>Show the JSON (the same as \
+         <code>moldgate locate --json</code>; fields in docs/json-schema.md)</summary>\n\
+         <pre>{}</pre></details>",
+        escape(json)
+    );
+    h.push_str("</body>\n</html>\n");
+    h
+}
+
+fn row(h: &mut String, key: &str, value: &str) {
+    let _ = writeln!(h, "<tr><th>{}</th><td>{}</td></tr>", escape(key), value);
+}
+
+fn summary_table(h: &mut String, r: &Report) {
+    let _ = writeln!(h, "<h2>Summary</h2>\n<table>");
+    let m = &r.mesh;
+    let o = &r.options;
+    row(
+        h,
+        "Part",
+        &format!(
+            "{}: {} triangles, {} vertices, {} {}, {}",
+            escape(&part_name(r)),
+            m.triangles,
+            m.vertices,
+            m.bodies,
+            if m.bodies == 1 { "body" } else { "bodies" },
+            if m.is_closed() {
+                "closed".to_string()
+            } else {
+                format!(
+                    "{} open and {} non-manifold edges",
+                    m.open_edges, m.non_manifold_edges
+                )
+            }
+        ),
+    );
+    row(
+        h,
+        "Size",
+        &format!(
+            "{} to {} mm (read in {})",
+            v3(m.bounds_min),
+            v3(m.bounds_max),
+            m.units
+        ),
+    );
+    row(h, "Demolding direction D", &v3(o.demold));
+    row(
+        h,
+        "Material",
+        &format!(
+            "{}: melt velocity {:.4} m/s (Eq. 7)",
+            escape(&r.material.material.name),
+            r.material.melt_velocity_m_s
+        ),
+    );
+    row(
+        h,
+        "Gate radius R",
+        &format!(
+            "{:.4} mm ({})",
+            o.gate_radius_mm,
+            match o.gate_radius_source {
+                RadiusSource::Material => "Eq. 8 from the material",
+                RadiusSource::Forced => "forced with --gate-radius",
+            }
+        ),
+    );
+    let c = &r.centre_of_mass;
+    row(
+        h,
+        "Centre of mass",
+        &format!(
+            "{} mm ({})",
+            v3(c.used),
+            match c.kind {
+                moldgate::CentreKind::Surface => "surface, Eq. 5",
+                moldgate::CentreKind::Volume => "enclosed volume",
+            }
+        ),
+    );
+    match &r.gate {
+        Some(g) => row(
+            h,
+            "Gate",
+            &format!(
+                "{} mm, {:.3} mm from the centre of mass",
+                v3(g.point),
+                g.distance_3d_mm
+            ),
+        ),
+        None => row(
+            h,
+            "Gate",
+            &format!(
+                "none: {}",
+                escape(r.no_gate_reason.as_deref().unwrap_or_default())
+            ),
+        ),
+    }
+    if let Some(g) = &r.paper_gate {
+        let wall = |x: Option<f64>| {
+            x.map(|v| format!("{v:.3} mm"))
+                .unwrap_or_else(|| "unknown (open mesh)".into())
+        };
+        row(
+            h,
+            "Grid gate",
+            &format!(
+                "{} mm, normal {}, wall {} (thinnest under the disc {}), {}",
+                v3(g.point),
+                v3(g.normal),
+                wall(g.thickness_mm),
+                wall(g.disc_thickness_mm),
+                if g.flat { "flat" } else { "not flat" }
+            ),
+        );
+    }
+    if let Some(g) = &r.aesthetic_gate {
+        row(
+            h,
+            "Parting-line gate",
+            &format!(
+                "{} mm, {:.3} mm from the centre of mass",
+                v3(g.point),
+                g.distance_3d_mm
+            ),
+        );
+    }
+    row(
+        h,
+        "Grid",
+        &format!(
+            "{} x {} nodes, spacing {:.4} mm ({})",
+            r.grid.n_u, r.grid.n_w, o.spacing_mm, o.spacing_rule
+        ),
+    );
+    let p = &r.parting_line;
+    row(
+        h,
+        "Parting line",
+        &format!(
+            "{:.1} mm, {} edges, {} ({} loops found)",
+            p.length_mm,
+            p.edges,
+            if p.closed { "closed" } else { "open" },
+            p.loops
+        ),
+    );
+    let _ = writeln!(h, "</table>");
+}
+
+fn counts_table(h: &mut String, r: &Report) {
+    let c = &r.counts;
+    let _ = writeln!(
+        h,
+        "<h2>Grid nodes through the rules</h2>\n<table>\n<tr><th>Rule</th><th>Nodes</th></tr>"
+    );
+    let rows = [
+        ("Nodes of the grid", c.nodes),
+        ("Ray of the node hits the part", c.centre_hits),
+        ("Whole gate circle on the part", c.circle_on_part),
+        ("... and wall thicker than R", c.thicker_than_radius),
+        ("... of which wall thickness unknown", c.thickness_unknown),
+        ("... and circle flat", c.flat),
+        ("Qualifying (every rule in force)", c.qualifying),
+    ];
+    for (name, n) in rows {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td class=\"n\">{n}</td></tr>",
+            escape(name)
+        );
+    }
+    let _ = writeln!(h, "</table>");
+}
+
+fn timings_table(h: &mut String, r: &Report) {
+    let t = &r.timings;
+    let _ = writeln!(h, "<h2>Timings</h2>\n<table>");
+    for (name, s) in [
+        ("Reading the mesh", t.load_s),
+        ("Centre of mass", t.centre_s),
+        ("Grid", t.grid_s),
+        ("Rays", t.projection_s),
+        ("Rules and choice", t.select_s),
+        ("Parting line", t.parting_s),
+        ("Total", t.total_s),
+    ] {
+        let _ = writeln!(
+            h,
+            "<tr><td>{name}</td><td class=\"n\">{:.1} ms</td></tr>",
+            s * 1e3
+        );
+    }
+    let _ = writeln!(h, "</table>");
+}
+
+const GLOSSARY: &str = "<h2>What the numbers mean</h2>
+<dl>
+<dt>Demolding direction D</dt><dd>The direction the mould opens along. Rays are cast from its
++ side along -D; the gate goes on the +D side. The picture's first view looks along -D.</dd>
+<dt>Centre of mass</dt><dd>The surface centre of mass (Eq. 3-5: facet centroids weighted by
+area), or the centroid of the enclosed volume with <code>--centre volume</code>. The gate is
+placed as near to it as the rules allow, so the melt has about the same way to go in every
+direction.</dd>
+<dt>Gate radius R</dt><dd>Radius of the gate from the material (Eq. 7 gives the melt velocity,
+Eq. 8 the radius that gives the optimal shear rate), or forced by the user. All lengths are
+millimetres.</dd>
+<dt>Grid, spacing</dt><dd>Nodes laid over the part as seen along D; each node is a candidate
+gate. The spacing is the distance between neighbouring nodes.</dd>
+<dt>Whole gate circle on the part</dt><dd>The node's ray and the rays of points on a circle of
+radius R around it all hit the part, so a gate of that size fits there.</dd>
+<dt>Wall thicker than R</dt><dd>The wall thickness along D under the disc exceeds R (the paper's
+rule that the gate not be larger than the wall). Unknown on open meshes, where the ray never
+leaves the part; such nodes pass.</dd>
+<dt>Flat</dt><dd>The circle's points lie within the flatness tolerance along D.</dd>
+<dt>Qualifying nodes</dt><dd>Nodes that pass every rule in force; the hatched region of the
+picture. The gate is the qualifying node nearest the centre of mass.</dd>
+<dt>Distance from the centre of mass</dt><dd>3D distance from the gate point to the centre of
+mass (or in the plane across D with <code>--nearest 2d</code>).</dd>
+<dt>Parting line</dt><dd>Where the part's faces turn from facing +D to facing -D: the line
+where the mould halves meet. Aesthetic parts (<code>--aesthetic</code>) take the gate on it.</dd>
+<dt>Colour of the part</dt><dd>The field named on the colour bar, in the unit shown there
+(height along D until a flow or thickness analysis provides another field).</dd>
+</dl>";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc_4648_vectors() {
+        for (plain, coded) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(base64(plain.as_bytes()), coded);
+        }
+        assert_eq!(base64(&[0xff, 0xfe, 0xfd]), "//79");
+    }
+
+    #[test]
+    fn escaping_leaves_no_markup() {
+        assert_eq!(
+            escape("<a href=\"x\">R & 'b'</a>"),
+            "&lt;a href=&quot;x&quot;&gt;R &amp; &#39;b&#39;&lt;/a&gt;"
+        );
+    }
+}

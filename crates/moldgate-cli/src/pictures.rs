@@ -1,0 +1,109 @@
+//! `locate --png` and `--report`: the picture and the HTML report of an analysis.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use moldgate::render::{RenderError, RenderOptions};
+use moldgate::report::Report;
+use moldgate::scene::Scene;
+use moldgate::Material;
+
+use crate::args::LocateArgs;
+use crate::html;
+use crate::output::{refuse_input, write_atomic};
+use crate::Failure;
+
+/// Checks every output path before any work: none is the input, no two are the same file,
+/// and each one's folder exists.
+pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
+    let outputs: Vec<(&str, &PathBuf)> = [
+        ("--output", a.output.as_ref()),
+        ("--glb", a.glb.as_ref()),
+        ("--png", a.png.as_ref()),
+        ("--report", a.report.as_ref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.map(|p| (flag, p)))
+    .collect();
+    for (i, (flag, path)) in outputs.iter().enumerate() {
+        refuse_input(path, a.files.first().map(PathBuf::as_path))?;
+        if let Some((other, _)) = outputs[..i].iter().find(|(_, q)| same_file(q, path)) {
+            return Err(Failure::usage(format!(
+                "{other} and {flag} name the same file {}",
+                path.display()
+            )));
+        }
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            return Err(Failure::output(format!(
+                "{}: cannot write: folder {} does not exist",
+                path.display(),
+                dir.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    let full = |p: &Path| {
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        dir.canonicalize()
+            .ok()
+            .map(|d| d.join(p.file_name().unwrap_or_default()))
+    };
+    match (full(a), full(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
+    }
+}
+
+/// Draws the picture and writes `--png` and `--report` when asked for.
+pub fn write(
+    a: &LocateArgs,
+    mut scene: Scene,
+    report: &Report,
+    json: &str,
+    material: &Material,
+) -> Result<(), Failure> {
+    if a.png.is_none() && a.report.is_none() {
+        return Ok(());
+    }
+    let t = Instant::now();
+    let d = report.options.demold;
+    scene.subtitle = format!(
+        "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
+        material.name, scene.subtitle, d[0], d[1], d[2]
+    );
+    let options = RenderOptions::default();
+    let png = moldgate::render::png(&scene, &options).map_err(|e| match e {
+        RenderError::EmptyMesh => Failure::input(format!("cannot draw the part: {e}")),
+        e => Failure {
+            code: 1,
+            message: format!("cannot draw the part: {e}"),
+        },
+    })?;
+    let render_s = t.elapsed().as_secs_f64();
+    if let Some(path) = &a.png {
+        write_atomic(path, &png)?;
+        eprintln!(
+            "wrote {} ({}x{} pixels, drawn in {:.0} ms)",
+            path.display(),
+            options.width,
+            options.height,
+            render_s * 1e3
+        );
+    }
+    if let Some(path) = &a.report {
+        let page = html::page(report, json, Some(&png));
+        write_atomic(path, page.as_bytes())?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,1027 @@
+//! Pictures of an analysis without a GPU: a PNG with two views of the part, coloured by the
+//! scene's field, with the gate, the centre of mass, the parting line and the qualifying
+//! region drawn over it, a colour bar, scale bars, orientation axes and a title.
+//!
+//! The part is drawn by our own z-buffer (`raster.rs`) at 2x2 samples per pixel; overlays
+//! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/`, and the
+//! PNG is encoded by the `png` crate. Everything runs in a fixed order (the two views on two threads, each drawn
+//! by one), so the same scene gives the same bytes.
+//!
+//! ```
+//! use moldgate::render::{png, RenderOptions};
+//! use moldgate::scene::Scene;
+//!
+//! let part = moldgate::mesh::from_generated(moldgate::samples::sample("cover").unwrap());
+//! let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+//! let scene = Scene::new(&part.mesh, &analysis, "cover");
+//! let bytes = png(&scene, &RenderOptions::default()).unwrap();
+//! assert_eq!(&bytes[1..4], b"PNG");
+//! ```
+
+mod canvas;
+mod raster;
+
+use crate::math::{DVec2, DVec3};
+use crate::scene::Scene;
+
+use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
+use raster::{rasterise, Layer};
+pub use raster::{Camera, PixelRect};
+
+/// Size of the picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderOptions {
+    /// Width in pixels (default 1600; at least [`MIN_SIZE`]`.0`, at most [`MAX_SIDE`]).
+    pub width: u32,
+    /// Height in pixels (default 900; at least [`MIN_SIZE`]`.1`, at most [`MAX_SIDE`]).
+    pub height: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 1600,
+            height: 900,
+        }
+    }
+}
+
+/// The smallest picture that still has room for the labels, (width, height) pixels.
+pub const MIN_SIZE: (u32, u32) = (800, 450);
+/// The largest width or height accepted, pixels.
+pub const MAX_SIDE: u32 = 8192;
+
+/// Why a picture could not be made.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RenderError {
+    /// The requested size is out of range.
+    #[error(
+        "picture size {width}x{height} is out of range ({}x{} to {MAX_SIDE}x{MAX_SIDE})",
+        MIN_SIZE.0,
+        MIN_SIZE.1
+    )]
+    Size {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+    },
+    /// The mesh has no triangles.
+    #[error("the part has no triangles to draw")]
+    EmptyMesh,
+    /// The field does not have one value per vertex.
+    #[error("the field '{name}' has {got} values for {expected} vertices")]
+    FieldLength {
+        /// Field name.
+        name: String,
+        /// Number of vertices.
+        expected: usize,
+        /// Number of values.
+        got: usize,
+    },
+    /// The PNG encoder failed.
+    #[error("cannot encode the PNG: {0}")]
+    Encode(String),
+}
+
+/// Colour of the gate disc; no colour of the colour map, the outlines or the other
+/// overlays is this one.
+pub const GATE_COLOUR: [u8; 3] = [230, 25, 45];
+/// Colour of samples with no field value.
+pub const NO_VALUE_COLOUR: [u8; 3] = [165, 165, 165];
+/// Background of the views.
+pub const VIEW_BACKGROUND: [u8; 3] = [244, 245, 248];
+
+const WHITE: Rgb = [255, 255, 255];
+const BLACK: Rgb = [0, 0, 0];
+const INK: Rgb = [25, 25, 30];
+const GREY: Rgb = [110, 110, 118];
+const FRAME: Rgb = [196, 198, 206];
+
+/// Which way a view looks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewKind {
+    /// Along -D onto the +D side, where the gate is: u to the right, w up.
+    AlongDemold,
+    /// Isometric, D up.
+    Isometric,
+}
+
+/// One panel of the picture and its camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    /// Which view.
+    pub kind: ViewKind,
+    /// The panel's rectangle in the picture.
+    pub panel: PixelRect,
+    /// The camera: [`Camera::to_pixel`] gives where a point of the part is drawn.
+    pub camera: Camera,
+}
+
+/// A drawn picture, before encoding.
+pub struct Picture {
+    canvas: Canvas,
+    /// The two views, along D first.
+    pub views: Vec<View>,
+}
+
+impl Picture {
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.canvas.width()
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.canvas.height()
+    }
+
+    /// Colour of pixel (x, y); `None` outside the picture.
+    pub fn pixel(&self, x: u32, y: u32) -> Option<[u8; 3]> {
+        (x < self.width() && y < self.height()).then(|| self.canvas.get(x, y))
+    }
+
+    /// The PNG file: 8-bit RGBA, no time stamp or text chunks.
+    pub fn png(&self) -> Result<Vec<u8>, RenderError> {
+        self.canvas.encode_png().map_err(RenderError::Encode)
+    }
+}
+
+/// Draws the scene and encodes it as a PNG.
+pub fn png(scene: &Scene, options: &RenderOptions) -> Result<Vec<u8>, RenderError> {
+    render(scene, options)?.png()
+}
+
+/// Draws the scene.
+pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderError> {
+    let (width, height) = (options.width, options.height);
+    if width < MIN_SIZE.0 || height < MIN_SIZE.1 || width > MAX_SIDE || height > MAX_SIDE {
+        return Err(RenderError::Size { width, height });
+    }
+    let mesh = scene.mesh;
+    if mesh.triangles.is_empty() {
+        return Err(RenderError::EmptyMesh);
+    }
+    if scene.field.per_vertex.len() != mesh.vertices.len() {
+        return Err(RenderError::FieldLength {
+            name: scene.field.name.clone(),
+            expected: mesh.vertices.len(),
+            got: scene.field.per_vertex.len(),
+        });
+    }
+    let k = (width as f32 / 1600.0).min(height as f32 / 900.0);
+    let layout = Layout::new(width, height, k);
+    let range = FieldRange::of(&scene.field.per_vertex);
+    let t: Vec<f32> = scene
+        .field
+        .per_vertex
+        .iter()
+        .map(|&v| range.unit(v))
+        .collect();
+    let lut = Lut::viridis();
+
+    let views: Vec<View> = [ViewKind::AlongDemold, ViewKind::Isometric]
+        .into_iter()
+        .zip(layout.panels)
+        .map(|(kind, panel)| View {
+            kind,
+            panel,
+            camera: fit_camera(scene, kind, layout.plot_area(panel)),
+        })
+        .collect();
+    let draw = |v: &View| {
+        let light =
+            (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75).normalize();
+        rasterise(mesh, &t, &v.camera, v.panel, SAMPLES, light)
+    };
+    let (a, b) = rayon::join(|| draw(&views[0]), || draw(&views[1]));
+    let layers = [a, b];
+
+    let mut canvas =
+        Canvas::new(width, height, WHITE).ok_or(RenderError::Size { width, height })?;
+    let diagonal = bounds_diagonal(scene);
+    for (view, layer) in views.iter().zip(&layers) {
+        let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
+        let crease = (6.0 * sample_mm).max(0.003 * diagonal) as f32;
+        layer.resolve(&mut canvas, |t| lut.colour(t), VIEW_BACKGROUND, crease);
+        let tolerance = (4.0 * sample_mm).max(0.005 * diagonal);
+        draw_overlays(&mut canvas, scene, view, layer, tolerance, k);
+        canvas.stroke_rect(
+            view.panel.x as f32 + 0.5,
+            view.panel.y as f32 + 0.5,
+            view.panel.w as f32 - 1.0,
+            view.panel.h as f32 - 1.0,
+            FRAME,
+            1.0,
+        );
+    }
+    draw_title(&mut canvas, scene, &layout, k);
+    draw_side_bar(&mut canvas, scene, &layout, &range, &lut, k);
+    Ok(Picture { canvas, views })
+}
+
+/// Samples per pixel along each axis in the z-buffer (anti-aliasing of the part's edges).
+const SAMPLES: u32 = 2;
+
+/// Where everything goes.
+struct Layout {
+    k: f32,
+    title_h: f32,
+    panels: [PixelRect; 2],
+    side_x: f32,
+    side_w: f32,
+}
+
+impl Layout {
+    fn new(width: u32, height: u32, k: f32) -> Layout {
+        let margin = (16.0 * k).round();
+        let title_h = (74.0 * k).round();
+        let side_w = (250.0 * k).round();
+        let panels_w = width as f32 - side_w - 3.0 * margin;
+        let panel_w = ((panels_w - margin) / 2.0).floor();
+        let panel_h = (height as f32 - title_h - margin).floor();
+        let panel = |i: usize| PixelRect {
+            x: (margin + i as f32 * (panel_w + margin)) as u32,
+            y: title_h as u32,
+            w: panel_w as u32,
+            h: panel_h as u32,
+        };
+        Layout {
+            k,
+            title_h,
+            panels: [panel(0), panel(1)],
+            side_x: width as f32 - side_w - margin,
+            side_w,
+        }
+    }
+
+    /// The part of a panel the part is fitted into: below the caption, above the scale bar.
+    fn plot_area(&self, p: PixelRect) -> [f64; 4] {
+        let k = self.k as f64;
+        let (left, top, right, bottom) = (24.0 * k, 64.0 * k, 24.0 * k, 70.0 * k);
+        [
+            p.x as f64 + left,
+            p.y as f64 + top,
+            (p.w as f64 - left - right).max(10.0),
+            (p.h as f64 - top - bottom).max(10.0),
+        ]
+    }
+}
+
+/// The camera axes of a view: (right, up, toward the viewer), right x up = toward.
+fn axes(scene: &Scene, kind: ViewKind) -> (DVec3, DVec3, DVec3) {
+    let f = scene.frame;
+    match kind {
+        // The frame has u x w = d, so u right and w up look along -d without mirroring.
+        ViewKind::AlongDemold => (f.u, f.w, f.d),
+        ViewKind::Isometric => {
+            let toward = (f.u - f.w + f.d).normalize();
+            let up = (f.d - toward * f.d.dot(toward)).normalize();
+            (up.cross(toward), up, toward)
+        }
+    }
+}
+
+/// The camera of a view, fitting the part and the gate discs into `area` (x, y, w, h).
+fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
+    let (right, up, toward) = axes(scene, kind);
+    let mut lo = DVec2::splat(f64::INFINITY);
+    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    let mut grow = |p: DVec3| {
+        let q = DVec2::new(p.dot(right), p.dot(up));
+        lo = lo.min(q);
+        hi = hi.max(q);
+    };
+    scene.mesh.vertices.iter().for_each(|&p| grow(p));
+    for g in &scene.gates {
+        grow(g.point + right * g.radius_mm);
+        grow(g.point - right * g.radius_mm);
+        grow(g.point + up * g.radius_mm);
+        grow(g.point - up * g.radius_mm);
+    }
+    let span = (hi - lo).max(DVec2::splat(1e-9));
+    let scale = (area[2] / span.x).min(area[3] / span.y);
+    Camera {
+        right,
+        up,
+        toward,
+        centre: (lo + hi) * 0.5,
+        scale,
+        origin: DVec2::new(area[0] + area[2] * 0.5, area[1] + area[3] * 0.5),
+    }
+}
+
+fn bounds_diagonal(scene: &Scene) -> f64 {
+    let b = crate::math::Aabb::of_points(&scene.mesh.vertices);
+    (b.max - b.min).length()
+}
+
+/// The finite values of the field: their range, and how values map to 0..=1.
+#[derive(Debug, Clone, Copy)]
+struct FieldRange {
+    /// `None` when no value is finite.
+    min_max: Option<(f32, f32)>,
+    /// Some values are NaN (drawn grey).
+    has_missing: bool,
+}
+
+impl FieldRange {
+    fn of(values: &[f32]) -> FieldRange {
+        let mut min_max: Option<(f32, f32)> = None;
+        let mut has_missing = false;
+        for &v in values {
+            if v.is_finite() {
+                min_max = Some(match min_max {
+                    None => (v, v),
+                    Some((a, b)) => (a.min(v), b.max(v)),
+                });
+            } else {
+                has_missing = true;
+            }
+        }
+        FieldRange {
+            min_max,
+            has_missing,
+        }
+    }
+
+    /// Colour-map coordinate of `v` (NaN for a missing value; 0.5 for a constant field).
+    fn unit(&self, v: f32) -> f32 {
+        match self.min_max {
+            Some((a, b)) if v.is_finite() => {
+                if b > a {
+                    ((v - a) / (b - a)).clamp(0.0, 1.0)
+                } else {
+                    0.5
+                }
+            }
+            _ => f32::NAN,
+        }
+    }
+}
+
+/// Viridis in 256 steps: perceptually even, readable in grey and by most colour-blind
+/// readers, and free of the gate's red.
+struct Lut([[f32; 3]; 256]);
+
+impl Lut {
+    fn viridis() -> Lut {
+        let mut table = [[0.0; 3]; 256];
+        for (i, e) in table.iter_mut().enumerate() {
+            let c = colorous::VIRIDIS.eval_rational(i, 256);
+            *e = [c.r as f32, c.g as f32, c.b as f32];
+        }
+        Lut(table)
+    }
+
+    fn colour(&self, t: f32) -> [f32; 3] {
+        if t.is_nan() {
+            NO_VALUE_COLOUR.map(|c| c as f32)
+        } else {
+            self.0[(t.clamp(0.0, 1.0) * 255.0).round() as usize]
+        }
+    }
+
+    fn rgb(&self, t: f32) -> Rgb {
+        self.colour(t).map(|c| c.round() as u8)
+    }
+}
+
+/// The qualifying region, the parting line, the centre of mass, the gate, the scale bar,
+/// the axes and the caption of one view.
+fn draw_overlays(
+    canvas: &mut Canvas,
+    scene: &Scene,
+    view: &View,
+    layer: &Layer,
+    tolerance: f64,
+    k: f32,
+) {
+    let cam = &view.camera;
+    draw_qualifying(canvas, scene, view, layer, tolerance);
+
+    // Parting line: seen along D it is the outline of the part, so all of it is shown; in
+    // the other view the parts behind the part are dashed.
+    let depth_test = view.kind != ViewKind::AlongDemold;
+    let mut hidden: Vec<Vec<[f32; 2]>> = Vec::new();
+    let mut shown: Vec<Vec<[f32; 2]>> = Vec::new();
+    for line in &scene.parting {
+        let mut run: Vec<[f32; 2]> = Vec::new();
+        let mut run_visible = true;
+        for pair in line.windows(2) {
+            let (p, q) = (pair[0], pair[1]);
+            let length_px = (cam.to_pixel(q) - cam.to_pixel(p)).length();
+            let pieces = (length_px / 3.0).ceil().clamp(1.0, 10_000.0) as usize;
+            for i in 0..pieces {
+                let a = p.lerp(q, i as f64 / pieces as f64);
+                let b = p.lerp(q, (i + 1) as f64 / pieces as f64);
+                let mid = (a + b) * 0.5;
+                let m = cam.to_pixel(mid);
+                let visible = !depth_test || layer.visible(m.x, m.y, cam.depth(mid), tolerance);
+                let pa = cam.to_pixel(a);
+                let pb = cam.to_pixel(b);
+                if visible != run_visible && !run.is_empty() {
+                    let done = std::mem::take(&mut run);
+                    if run_visible { &mut shown } else { &mut hidden }.push(done);
+                }
+                if run.is_empty() {
+                    run.push([pa.x as f32, pa.y as f32]);
+                }
+                run.push([pb.x as f32, pb.y as f32]);
+                run_visible = visible;
+            }
+        }
+        if !run.is_empty() {
+            if run_visible { &mut shown } else { &mut hidden }.push(run);
+        }
+    }
+    for line in &hidden {
+        canvas.stroke_polyline(line, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
+    }
+    for line in &shown {
+        canvas.stroke_polyline(line, false, BLACK, 4.5 * k, None);
+    }
+    for line in &shown {
+        canvas.stroke_polyline(line, false, WHITE, 2.0 * k, None);
+    }
+
+    // Centre of mass under the gate: its cross reaches beyond the disc, so both show when
+    // the gate lies right above it.
+    let c = cam.to_pixel(scene.centre);
+    let mut reach = 13.0 * k;
+    for g in &scene.gates {
+        let r = gate_outline(cam, g).1;
+        if (cam.to_pixel(g.point) - c).length() < (r + reach) as f64 {
+            reach = reach.max(r + 10.0 * k);
+        }
+    }
+    draw_centre_symbol(canvas, c.x as f32, c.y as f32, reach, k);
+    canvas.text(
+        c.x as f32 - reach - 6.0 * k,
+        c.y as f32 + 18.0 * k,
+        if layer.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
+            "centre of mass"
+        } else {
+            // It lies inside the part or behind it: say so, the cross is drawn over it.
+            "centre of mass (hidden)"
+        },
+        &TextStyle::new(13.0 * k, INK).halo(WHITE),
+        Align::Right,
+    );
+
+    for (i, g) in scene.gates.iter().enumerate() {
+        let (outline, r) = gate_outline(cam, g);
+        let p = cam.to_pixel(g.point);
+        draw_gate(canvas, &outline, p.x as f32, p.y as f32, r, k);
+        let label = if scene.gates.len() > 1 {
+            format!("gate {}", i + 1)
+        } else {
+            "gate".to_string()
+        };
+        canvas.text(
+            p.x as f32 + r + 12.0 * k,
+            p.y as f32 - r - 8.0 * k,
+            &label,
+            &TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE),
+            Align::Left,
+        );
+    }
+
+    draw_scale_bar(canvas, view, k);
+    draw_axes(canvas, scene, view, k);
+    let (title, note) = match view.kind {
+        ViewKind::AlongDemold => (
+            "Along the demolding direction D",
+            "looking at the +D side (gate side), D towards you",
+        ),
+        ViewKind::Isometric => ("Isometric view", "D points up"),
+    };
+    let x = view.panel.x as f32 + 12.0 * k;
+    let y = view.panel.y as f32;
+    canvas.text(
+        x,
+        y + 24.0 * k,
+        title,
+        &TextStyle::new(17.0 * k, INK).bold(),
+        Align::Left,
+    );
+    canvas.text(
+        x,
+        y + 45.0 * k,
+        note,
+        &TextStyle::new(14.0 * k, GREY),
+        Align::Left,
+    );
+}
+
+/// The qualifying nodes as a hatched region with a dark edge: each node covers a square of
+/// the grid spacing around it, so the nodes join into the region they stand for.
+fn draw_qualifying(canvas: &mut Canvas, scene: &Scene, view: &View, layer: &Layer, tolerance: f64) {
+    if scene.qualifying.is_empty() {
+        return;
+    }
+    let cam = &view.camera;
+    let rect = view.panel;
+    let (w, h) = (rect.w as usize, rect.h as usize);
+    let mut mask = vec![false; w * h];
+    let half = (scene.grid_spacing_mm * cam.scale * 0.5).max(0.6);
+    for &p in &scene.qualifying {
+        let q = cam.to_pixel(p);
+        if !layer.visible(q.x, q.y, cam.depth(p), tolerance) {
+            continue;
+        }
+        let (x, y) = (q.x - rect.x as f64, q.y - rect.y as f64);
+        let x0 = (x - half).round().max(0.0) as usize;
+        let x1 = ((x + half).round() as usize).min(w);
+        let y0 = (y - half).round().max(0.0) as usize;
+        let y1 = ((y + half).round() as usize).min(h);
+        for row in y0..y1 {
+            mask[row * w + x0.min(x1)..row * w + x1].fill(true);
+        }
+    }
+    for y in 0..h {
+        for x in 0..w {
+            if !mask[y * w + x] {
+                continue;
+            }
+            let edge = x == 0
+                || y == 0
+                || x + 1 == w
+                || y + 1 == h
+                || !mask[y * w + x - 1]
+                || !mask[y * w + x + 1]
+                || !mask[(y - 1) * w + x]
+                || !mask[(y + 1) * w + x];
+            let (cx, cy) = ((rect.x as usize + x) as i32, (rect.y as usize + y) as i32);
+            if edge {
+                canvas.blend(cx, cy, BLACK, 0.85);
+            } else if let Some((c, a)) = hatch(x, y) {
+                canvas.blend(cx, cy, c, a);
+            }
+        }
+    }
+}
+
+/// The hatch of the qualifying region at pixel (x, y): a white stripe with a dark edge, so
+/// it shows on every colour of the map.
+fn hatch(x: usize, y: usize) -> Option<(Rgb, f32)> {
+    match (x + y) % 9 {
+        0 => Some((WHITE, 0.8)),
+        1 => Some((BLACK, 0.35)),
+        _ => None,
+    }
+}
+
+/// The gate disc as seen by the camera: points of the circle of radius R around the gate
+/// in the plane of its normal (D when the normal is unknown), and its largest radius in
+/// pixels. A disc smaller than 3 pixels is drawn at 3 pixels so it stays visible.
+fn gate_outline(cam: &Camera, g: &crate::scene::Marker) -> (Vec<[f32; 2]>, f32) {
+    let n = if g.normal.length_squared() > 0.5 {
+        g.normal.normalize()
+    } else {
+        cam.toward
+    };
+    let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let e1 = n.cross(helper).normalize();
+    let e2 = n.cross(e1);
+    let c = cam.to_pixel(g.point);
+    let mut pts: Vec<DVec2> = (0..64)
+        .map(|i| {
+            let a = i as f64 / 64.0 * std::f64::consts::TAU;
+            cam.to_pixel(g.point + (e1 * a.cos() + e2 * a.sin()) * g.radius_mm)
+        })
+        .collect();
+    let r = pts.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
+    let min_r = 3.0;
+    if r < min_r {
+        let stretch = if r > 1e-9 { min_r / r } else { 0.0 };
+        for (i, p) in pts.iter_mut().enumerate() {
+            *p = if stretch > 0.0 {
+                c + (*p - c) * stretch
+            } else {
+                let a = i as f64 / 64.0 * std::f64::consts::TAU;
+                c + DVec2::new(a.cos(), a.sin()) * min_r
+            };
+        }
+    }
+    (
+        pts.iter().map(|p| [p.x as f32, p.y as f32]).collect(),
+        r.max(min_r) as f32,
+    )
+}
+
+fn draw_gate(canvas: &mut Canvas, outline: &[[f32; 2]], x: f32, y: f32, r: f32, k: f32) {
+    canvas.stroke_polyline(outline, true, BLACK, 4.5 * k.max(0.7), None);
+    canvas.stroke_polyline(outline, true, WHITE, 2.5 * k.max(0.7), None);
+    canvas.fill_polygon(outline, GATE_COLOUR, 255);
+    if r < 10.0 * k {
+        // A small gate gets a ring around it so the eye finds it.
+        canvas.stroke_circle(x, y, r + 9.0 * k, WHITE, 4.0 * k);
+        canvas.stroke_circle(x, y, r + 9.0 * k, GATE_COLOUR, 2.2 * k);
+    }
+}
+
+/// A cross with an open middle and a small ring: the centre of mass.
+fn draw_centre_symbol(canvas: &mut Canvas, x: f32, y: f32, reach: f32, k: f32) {
+    let inner = 4.0 * k;
+    let arms = [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)];
+    for (colour, width) in [(WHITE, 4.5 * k), (BLACK, 2.0 * k)] {
+        for (dx, dy) in arms {
+            canvas.stroke_polyline(
+                &[
+                    [x + dx * inner, y + dy * inner],
+                    [x + dx * reach, y + dy * reach],
+                ],
+                false,
+                colour,
+                width,
+                None,
+            );
+        }
+        canvas.stroke_circle(x, y, 7.0 * k, colour, width * 0.8);
+    }
+}
+
+/// A "nice" number near `x`: 1, 2 or 5 times a power of ten, not above `x`.
+fn nice_below(x: f64) -> f64 {
+    let p = 10f64.powf(x.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * p)
+        .find(|&v| v <= x)
+        .unwrap_or(p)
+}
+
+/// A number with as many decimals as `step` needs (at most 6).
+fn format_step(v: f64, step: f64) -> String {
+    let decimals = (0..6)
+        .find(|&d| {
+            let scaled = step.abs() * 10f64.powi(d as i32);
+            (scaled - scaled.round()).abs() < 1e-6 * scaled.max(1.0)
+        })
+        .unwrap_or(6);
+    let s = format!("{v:.decimals$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
+}
+
+fn draw_scale_bar(canvas: &mut Canvas, view: &View, k: f32) {
+    let cam = &view.camera;
+    let p = view.panel;
+    let target_px = p.w as f64 * 0.22;
+    let length_mm = nice_below(target_px / cam.scale);
+    let length_px = (length_mm * cam.scale) as f32;
+    let x0 = p.x as f32 + 20.0 * k;
+    let y = (p.y + p.h) as f32 - 22.0 * k;
+    let tick = 6.0 * k;
+    let pts = [
+        [x0, y - tick],
+        [x0, y],
+        [x0 + length_px, y],
+        [x0 + length_px, y - tick],
+    ];
+    canvas.stroke_polyline(&pts, false, INK, 2.2 * k, None);
+    canvas.text(
+        x0 + length_px / 2.0,
+        y - 9.0 * k,
+        &format!("{} mm", format_step(length_mm, length_mm)),
+        &TextStyle::new(14.0 * k, INK),
+        Align::Centre,
+    );
+}
+
+/// World axes X, Y, Z and the demolding direction D, as seen by the view.
+fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
+    let cam = &view.camera;
+    let p = view.panel;
+    let length = 34.0 * k;
+    let ox = (p.x + p.w) as f32 - 62.0 * k;
+    let oy = (p.y + p.h) as f32 - 62.0 * k;
+    // Axes along the line of sight are drawn as symbols in a row left of the arrows.
+    let mut symbol_x = ox - 58.0 * k;
+    let axes = [
+        ("X", DVec3::X, GREY),
+        ("Y", DVec3::Y, GREY),
+        ("Z", DVec3::Z, GREY),
+        ("D", scene.frame.d, INK),
+    ];
+    let label = TextStyle::new(13.0 * k, INK).bold().halo(VIEW_BACKGROUND);
+    for (name, a, colour) in axes {
+        let sx = a.dot(cam.right) as f32;
+        let sy = -a.dot(cam.up) as f32;
+        let along = (sx * sx + sy * sy).sqrt();
+        let width = if name == "D" { 2.4 * k } else { 1.6 * k };
+        if along < 0.2 {
+            // Nearly along the line of sight: a circle with a dot (towards the viewer) or
+            // a cross (away).
+            let (cx, cy) = (symbol_x, oy);
+            symbol_x -= 40.0 * k;
+            let r = 6.0 * k;
+            canvas.stroke_circle(cx, cy, r, colour, width * 0.8);
+            if a.dot(cam.toward) > 0.0 {
+                canvas.fill_circle(cx, cy, 1.8 * k, colour);
+            } else {
+                let d = r * 0.7;
+                canvas.stroke_polyline(
+                    &[[cx - d, cy - d], [cx + d, cy + d]],
+                    false,
+                    colour,
+                    width * 0.7,
+                    None,
+                );
+                canvas.stroke_polyline(
+                    &[[cx - d, cy + d], [cx + d, cy - d]],
+                    false,
+                    colour,
+                    width * 0.7,
+                    None,
+                );
+            }
+            canvas.text(cx + r + 3.0 * k, cy + 5.0 * k, name, &label, Align::Left);
+            continue;
+        }
+        let (ex, ey) = (ox + sx * length, oy + sy * length);
+        canvas.stroke_polyline(&[[ox, oy], [ex, ey]], false, colour, width, None);
+        // Arrow head.
+        let (ux, uy) = (sx / along, sy / along);
+        let head = 7.0 * k;
+        canvas.fill_polygon(
+            &[
+                [ex + ux * head * 0.6, ey + uy * head * 0.6],
+                [
+                    ex - ux * head * 0.5 - uy * head * 0.45,
+                    ey - uy * head * 0.5 + ux * head * 0.45,
+                ],
+                [
+                    ex - ux * head * 0.5 + uy * head * 0.45,
+                    ey - uy * head * 0.5 - ux * head * 0.45,
+                ],
+            ],
+            colour,
+            255,
+        );
+        canvas.text(
+            ex + ux * 12.0 * k,
+            ey + uy * 12.0 * k + 5.0 * k,
+            name,
+            &label,
+            Align::Centre,
+        );
+    }
+}
+
+fn draw_title(canvas: &mut Canvas, scene: &Scene, layout: &Layout, k: f32) {
+    let x = 16.0 * k;
+    let width = canvas.width() as f32 - 2.0 * x;
+    let title = TextStyle::new(24.0 * k, INK).bold();
+    let sub = TextStyle::new(16.0 * k, INK);
+    let first = wrap(&scene.title, &title, width);
+    canvas.text(
+        x,
+        32.0 * k,
+        first.first().map(String::as_str).unwrap_or(""),
+        &title,
+        Align::Left,
+    );
+    let second = wrap(&scene.subtitle, &sub, width);
+    canvas.text(
+        x,
+        layout.title_h - 16.0 * k,
+        second.first().map(String::as_str).unwrap_or(""),
+        &sub,
+        Align::Left,
+    );
+}
+
+/// The colour bar with its ticks, name and unit, and the legend of the overlays.
+fn draw_side_bar(
+    canvas: &mut Canvas,
+    scene: &Scene,
+    layout: &Layout,
+    range: &FieldRange,
+    lut: &Lut,
+    k: f32,
+) {
+    let x = layout.side_x;
+    let mut y = layout.title_h + 24.0 * k;
+    let head = TextStyle::new(16.0 * k, INK).bold();
+    let name = if scene.field.unit.is_empty() {
+        scene.field.name.clone()
+    } else {
+        format!("{} ({})", scene.field.name, scene.field.unit)
+    };
+    let name = capitalised(&name);
+    for line in wrap(&name, &head, layout.side_w) {
+        canvas.text(x, y, &line, &head, Align::Left);
+        y += 21.0 * k;
+    }
+    y += 6.0 * k;
+    let bar_w = 28.0 * k;
+    let bar_h = 300.0 * k;
+    let label = TextStyle::new(14.0 * k, INK);
+    match range.min_max {
+        None => {
+            canvas.text(x, y + 14.0 * k, "no values", &label, Align::Left);
+            y += 30.0 * k;
+        }
+        Some((lo, hi)) => {
+            let rows = bar_h.round() as u32;
+            for i in 0..rows {
+                // Top of the bar is the largest value.
+                let t = 1.0 - (i as f32 + 0.5) / rows as f32;
+                let c = if hi > lo { lut.rgb(t) } else { lut.rgb(0.5) };
+                canvas.fill_rect(x, y + i as f32, bar_w, 1.0, c, 255);
+            }
+            canvas.stroke_rect(x, y, bar_w, bar_h, INK, 1.0);
+            let (lo, hi) = (lo as f64, hi as f64);
+            let ticks: Vec<(f64, f64)> = if hi > lo {
+                let step = nice_below((hi - lo) / 4.0);
+                let first = (lo / step).ceil() * step;
+                let mut v = first;
+                let mut out = Vec::new();
+                while v <= hi + step * 1e-9 && out.len() < 20 {
+                    out.push((v, step));
+                    v += step;
+                }
+                out
+            } else {
+                vec![(lo, lo.abs().max(1e-3) / 100.0)]
+            };
+            for (v, step) in ticks {
+                let f = if hi > lo { (v - lo) / (hi - lo) } else { 0.5 };
+                let ty = y + bar_h * (1.0 - f as f32);
+                canvas.stroke_polyline(
+                    &[[x + bar_w, ty], [x + bar_w + 6.0 * k, ty]],
+                    false,
+                    INK,
+                    1.4 * k,
+                    None,
+                );
+                canvas.text(
+                    x + bar_w + 10.0 * k,
+                    ty + 5.0 * k,
+                    &format_step(v, step),
+                    &label,
+                    Align::Left,
+                );
+            }
+            y += bar_h + 14.0 * k;
+        }
+    }
+    if range.has_missing {
+        canvas.fill_rect(x, y, bar_w, 14.0 * k, NO_VALUE_COLOUR, 255);
+        canvas.text(
+            x + bar_w + 10.0 * k,
+            y + 12.0 * k,
+            "no value",
+            &label,
+            Align::Left,
+        );
+        y += 24.0 * k;
+    }
+
+    // Legend.
+    y += 20.0 * k;
+    canvas.text(x, y, "Legend", &head, Align::Left);
+    y += 14.0 * k;
+    let row = 30.0 * k;
+    let sx = x + 14.0 * k; // swatch centre
+    let tx = x + 36.0 * k;
+    let cy = |y: f32| y + row / 2.0;
+
+    let item = |canvas: &mut Canvas, y: &mut f32, text: &str, draw: &dyn Fn(&mut Canvas, f32)| {
+        draw(canvas, cy(*y));
+        let lines = wrap(text, &label, layout.side_w - 36.0 * k);
+        for (i, line) in lines.iter().enumerate() {
+            canvas.text(
+                tx,
+                cy(*y) + 5.0 * k + i as f32 * 17.0 * k,
+                line,
+                &label,
+                Align::Left,
+            );
+        }
+        *y += row + (lines.len().max(1) - 1) as f32 * 17.0 * k;
+    };
+    let gate_text = match scene.gates.first() {
+        Some(g) => format!("gate, disc of R = {:.2} mm", g.radius_mm),
+        None => "no gate".to_string(),
+    };
+    item(canvas, &mut y, &gate_text, &|c, cy| {
+        let r = 8.0 * k;
+        c.stroke_circle(sx, cy, r, BLACK, 4.5 * k);
+        c.stroke_circle(sx, cy, r, WHITE, 2.5 * k);
+        c.fill_circle(sx, cy, r, GATE_COLOUR);
+    });
+    item(canvas, &mut y, "centre of mass", &|c, cy| {
+        draw_centre_symbol(c, sx, cy, 12.0 * k, k);
+    });
+    item(canvas, &mut y, "parting line", &|c, cy| {
+        let pts = [[sx - 13.0 * k, cy], [sx + 13.0 * k, cy]];
+        c.stroke_polyline(&pts, false, BLACK, 4.5 * k, None);
+        c.stroke_polyline(&pts, false, WHITE, 2.0 * k, None);
+    });
+    item(canvas, &mut y, "parting line, hidden", &|c, cy| {
+        let pts = [[sx - 13.0 * k, cy], [sx + 13.0 * k, cy]];
+        c.stroke_polyline(&pts, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
+    });
+    let qualifying = format!("qualifying region ({} grid nodes)", scene.qualifying.len());
+    item(canvas, &mut y, &qualifying, &|c, cy| {
+        let (w, h) = ((26.0 * k) as i32, (18.0 * k) as i32);
+        let (x0, y0) = ((sx - 13.0 * k) as i32, (cy - 9.0 * k) as i32);
+        c.fill_rect(x0 as f32, y0 as f32, w as f32, h as f32, lut.rgb(0.75), 255);
+        for yy in 0..h {
+            for xx in 0..w {
+                let edge = xx == 0 || yy == 0 || xx + 1 == w || yy + 1 == h;
+                let (px, py) = (x0 + xx, y0 + yy);
+                if edge {
+                    c.blend(px, py, BLACK, 0.85);
+                } else if let Some((col, a)) = hatch(xx as usize, yy as usize) {
+                    c.blend(px, py, col, a);
+                }
+            }
+        }
+    });
+    item(
+        canvas,
+        &mut y,
+        "scale bars: mm in the picture plane",
+        &|c, cy| {
+            let t = 5.0 * k;
+            let pts = [
+                [sx - 13.0 * k, cy - t],
+                [sx - 13.0 * k, cy],
+                [sx + 13.0 * k, cy],
+                [sx + 13.0 * k, cy - t],
+            ];
+            c.stroke_polyline(&pts, false, INK, 2.0 * k, None);
+        },
+    );
+}
+
+fn capitalised(s: &str) -> String {
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_uppercase().chain(c).collect(),
+        None => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nice_numbers() {
+        assert_eq!(nice_below(7.3), 5.0);
+        assert_eq!(nice_below(3.0), 2.0);
+        assert_eq!(nice_below(1.0), 1.0);
+        assert!((nice_below(0.072) - 0.05).abs() < 1e-12);
+        assert_eq!(nice_below(260.0), 200.0);
+        assert_eq!(format_step(20.0, 20.0), "20");
+        assert_eq!(format_step(0.05, 0.05), "0.05");
+        assert_eq!(format_step(-0.0, 0.5), "0.0");
+        assert_eq!(format_step(12.5, 2.5), "12.5");
+    }
+
+    #[test]
+    fn field_range_maps_to_unit_interval_and_keeps_missing_values() {
+        let r = FieldRange::of(&[2.0, f32::NAN, 4.0, 3.0]);
+        assert_eq!(r.min_max, Some((2.0, 4.0)));
+        assert!(r.has_missing);
+        assert_eq!(r.unit(3.0), 0.5);
+        assert!(r.unit(f32::NAN).is_nan());
+        let constant = FieldRange::of(&[1.0, 1.0]);
+        assert_eq!(constant.unit(1.0), 0.5);
+        assert!(FieldRange::of(&[f32::NAN]).min_max.is_none());
+    }
+
+    #[test]
+    fn the_gate_colour_is_not_in_the_colour_map() {
+        let lut = Lut::viridis();
+        for e in lut.0 {
+            let d: f32 = e
+                .iter()
+                .zip(GATE_COLOUR)
+                .map(|(a, b)| (a - b as f32).abs())
+                .sum();
+            assert!(d > 150.0, "{e:?}");
+        }
+    }
+
+    #[test]
+    fn isometric_axes_are_right_handed_with_d_up() {
+        let part = crate::mesh::from_generated(crate::samples::sample("plate").unwrap());
+        let analysis = crate::locate(&part, &crate::LocateOptions::default()).unwrap();
+        let scene = Scene::new(&part.mesh, &analysis, "plate");
+        for kind in [ViewKind::AlongDemold, ViewKind::Isometric] {
+            let (r, u, t) = axes(&scene, kind);
+            assert!((r.cross(u) - t).length() < 1e-12, "{kind:?}");
+            assert!(u.dot(scene.frame.d) > 0.5 || kind == ViewKind::AlongDemold);
+            assert!(t.dot(scene.frame.d) > 0.0, "{kind:?} sees the +D side");
+        }
+    }
+}

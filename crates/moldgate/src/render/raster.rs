@@ -1,0 +1,318 @@
+//! The z-buffer: orthographic cameras and triangles drawn with a depth test, per-vertex field
+//! values interpolated across each triangle and Lambert shading per facet.
+
+use crate::math::{DVec2, DVec3};
+use crate::mesh::Mesh;
+
+use super::canvas::{Canvas, Rgb};
+
+/// An orthographic camera mapping millimetres to pixels of the canvas.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Screen right, unit.
+    pub right: DVec3,
+    /// Screen up, unit.
+    pub up: DVec3,
+    /// Towards the viewer (the view looks along `-toward`); right x up = toward.
+    pub toward: DVec3,
+    /// (right, up) coordinates, mm, shown at `origin`.
+    pub centre: DVec2,
+    /// Pixels per millimetre.
+    pub scale: f64,
+    /// Canvas pixel where `centre` is drawn.
+    pub origin: DVec2,
+}
+
+impl Camera {
+    /// Canvas position of `p` (x right, y down), pixels.
+    #[inline]
+    pub fn to_pixel(&self, p: DVec3) -> DVec2 {
+        DVec2::new(
+            self.origin.x + (p.dot(self.right) - self.centre.x) * self.scale,
+            self.origin.y - (p.dot(self.up) - self.centre.y) * self.scale,
+        )
+    }
+
+    /// Distance towards the viewer, mm (larger is nearer).
+    #[inline]
+    pub fn depth(&self, p: DVec3) -> f64 {
+        p.dot(self.toward)
+    }
+}
+
+/// An integer rectangle of the canvas.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PixelRect {
+    /// Left column.
+    pub x: u32,
+    /// Top row.
+    pub y: u32,
+    /// Width.
+    pub w: u32,
+    /// Height.
+    pub h: u32,
+}
+
+/// What the z-buffer holds for one panel, at `ss` samples per pixel along each axis.
+pub struct Layer {
+    pub rect: PixelRect,
+    pub ss: u32,
+    w: usize,
+    h: usize,
+    /// Depth of the nearest surface (mm), `-inf` where the part is absent.
+    depth: Vec<f32>,
+    /// Colour-map coordinate 0..=1 (NaN: no value).
+    t: Vec<f32>,
+    /// Lambert factor.
+    shade: Vec<f32>,
+}
+
+const EMPTY: f32 = f32::NEG_INFINITY;
+
+/// Draws the mesh into a z-buffer covering `rect` of the canvas. `t` is the colour-map
+/// coordinate per vertex; `light` is the unit direction towards the light.
+pub fn rasterise(
+    mesh: &Mesh,
+    t: &[f32],
+    camera: &Camera,
+    rect: PixelRect,
+    ss: u32,
+    light: DVec3,
+) -> Layer {
+    let (w, h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
+    let mut layer = Layer {
+        rect,
+        ss,
+        w,
+        h,
+        depth: vec![EMPTY; w * h],
+        t: vec![f32::NAN; w * h],
+        shade: vec![0.0; w * h],
+    };
+    let s = ss as f64;
+    // Vertices in sample coordinates (pixel centres at +0.5) and depth.
+    let projected: Vec<[f32; 3]> = mesh
+        .vertices
+        .iter()
+        .map(|&p| {
+            let q = camera.to_pixel(p);
+            [
+                ((q.x - rect.x as f64) * s) as f32,
+                ((q.y - rect.y as f64) * s) as f32,
+                camera.depth(p) as f32,
+            ]
+        })
+        .collect();
+    for tri in &mesh.triangles {
+        let [ia, ib, ic] = tri.map(|i| i as usize);
+        let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        if area.abs() < 1e-12 || !area.is_finite() {
+            continue; // seen edge-on, or degenerate
+        }
+        let min_x = a[0].min(b[0]).min(c[0]).floor().max(0.0);
+        let max_x = a[0].max(b[0]).max(c[0]).ceil().min(w as f32 - 1.0);
+        let min_y = a[1].min(b[1]).min(c[1]).floor().max(0.0);
+        let max_y = a[1].max(b[1]).max(c[1]).ceil().min(h as f32 - 1.0);
+        if min_x > max_x || min_y > max_y {
+            continue;
+        }
+        // Lambert: the facet normal against the light, both sides lit (meshes are not
+        // always consistently oriented).
+        let [pa, pb, pc] = [ia, ib, ic].map(|i| mesh.vertices[i]);
+        let n = (pb - pa).cross(pc - pa).normalize_or_zero();
+        let shade = (AMBIENT + DIFFUSE * n.dot(light).abs()) as f32;
+        let inv = 1.0 / area;
+        let (ta, tb, tc) = (t[ia], t[ib], t[ic]);
+        // Barycentric weights from edge functions, normalised by the signed area so either
+        // winding works; stepped along each row.
+        let dwa = -(c[1] - b[1]) * inv;
+        let dwb = -(a[1] - c[1]) * inv;
+        let (dz_a, dz_b) = (a[2] - c[2], b[2] - c[2]);
+        let (dt_a, dt_b) = (ta - tc, tb - tc);
+        for y in min_y as usize..=max_y as usize {
+            let py = y as f32 + 0.5;
+            let px = min_x + 0.5;
+            let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
+            let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
+            let row = y * w;
+            let mut entered = false;
+            for x in min_x as usize..=max_x as usize {
+                // A sliver of overlap rather than a crack where two triangles meet: samples
+                // on a shared edge would otherwise be missed by both when rounding goes
+                // against them (the depth test settles the overlap).
+                let inside = wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK;
+                if inside {
+                    entered = true;
+                    let z = c[2] + wa * dz_a + wb * dz_b;
+                    let i = row + x;
+                    if z > layer.depth[i] {
+                        layer.depth[i] = z;
+                        layer.t[i] = tc + wa * dt_a + wb * dt_b;
+                        layer.shade[i] = shade;
+                    }
+                } else if entered {
+                    break; // a triangle's row is one run of samples
+                }
+                wa += dwa;
+                wb += dwb;
+            }
+        }
+    }
+    layer
+}
+
+/// Tolerance of the inside test, in barycentric units.
+const EDGE_SLACK: f32 = 1e-4;
+
+/// Light kept on faces turned away from the light.
+const AMBIENT: f64 = 0.32;
+/// Light added on faces turned to it.
+const DIFFUSE: f64 = 0.68;
+
+impl Layer {
+    /// Depth at canvas position (x, y) pixels: the sample under it, `None` off the part.
+    pub fn depth_at(&self, x: f64, y: f64) -> Option<f32> {
+        let sx = ((x - self.rect.x as f64) * self.ss as f64).floor();
+        let sy = ((y - self.rect.y as f64) * self.ss as f64).floor();
+        if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
+            return None;
+        }
+        let d = self.depth[sy as usize * self.w + sx as usize];
+        (d > EMPTY).then_some(d)
+    }
+
+    /// Whether a point at canvas (x, y) with depth `depth` is in front of, or within
+    /// `tolerance` mm of, the surface drawn there.
+    pub fn visible(&self, x: f64, y: f64, depth: f64, tolerance: f64) -> bool {
+        match self.depth_at(x, y) {
+            Some(d) => depth + tolerance >= d as f64,
+            None => true,
+        }
+    }
+
+    /// Colours the samples (`colour_of(t)` times the shade; an outline where the depth
+    /// jumps by more than `crease_mm` or the part ends), averages each pixel's samples and
+    /// writes them over `background` into the canvas.
+    pub fn resolve(
+        &self,
+        canvas: &mut Canvas,
+        colour_of: impl Fn(f32) -> [f32; 3],
+        background: Rgb,
+        crease_mm: f32,
+    ) {
+        let (w, h) = (self.w, self.h);
+        let outline = |i: usize, x: usize, y: usize| -> bool {
+            let d = self.depth[i];
+            let near = |j: usize| {
+                let e = self.depth[j];
+                e == EMPTY || (e - d).abs() > crease_mm
+            };
+            (x > 0 && near(i - 1))
+                || (x + 1 < w && near(i + 1))
+                || (y > 0 && near(i - w))
+                || (y + 1 < h && near(i + w))
+        };
+        let bg = background.map(|c| c as f32);
+        let ss = self.ss as usize;
+        let n = (ss * ss) as f32;
+        for py in 0..self.rect.h as usize {
+            for px in 0..self.rect.w as usize {
+                let mut sum = [0.0f32; 3];
+                for sy in py * ss..(py + 1) * ss {
+                    for sx in px * ss..(px + 1) * ss {
+                        let i = sy * w + sx;
+                        let c = if self.depth[i] == EMPTY {
+                            bg
+                        } else {
+                            let base = colour_of(self.t[i]);
+                            let k = if outline(i, sx, sy) {
+                                OUTLINE_FACTOR
+                            } else {
+                                self.shade[i]
+                            };
+                            base.map(|v| v * k)
+                        };
+                        for k in 0..3 {
+                            sum[k] += c[k];
+                        }
+                    }
+                }
+                let colour = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
+                canvas.set(self.rect.x + px as u32, self.rect.y + py as u32, colour);
+            }
+        }
+    }
+}
+
+/// Brightness of outline samples.
+const OUTLINE_FACTOR: f32 = 0.22;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square_camera() -> Camera {
+        Camera {
+            right: DVec3::X,
+            up: DVec3::Y,
+            toward: DVec3::Z,
+            centre: DVec2::ZERO,
+            scale: 10.0,
+            origin: DVec2::new(50.0, 50.0),
+        }
+    }
+
+    #[test]
+    fn camera_maps_right_and_up_to_screen_right_and_up() {
+        let c = square_camera();
+        assert_eq!(c.to_pixel(DVec3::ZERO), DVec2::new(50.0, 50.0));
+        assert_eq!(c.to_pixel(DVec3::X), DVec2::new(60.0, 50.0));
+        assert_eq!(c.to_pixel(DVec3::Y), DVec2::new(50.0, 40.0));
+        assert_eq!(c.depth(DVec3::new(1.0, 2.0, 3.0)), 3.0);
+    }
+
+    /// Two overlapping squares at different heights: the nearer one wins wherever they
+    /// overlap, whatever the drawing order, and the covered area matches the closed form.
+    #[test]
+    fn depth_test_keeps_the_nearer_surface_and_area_is_exact() {
+        let mut mesh = Mesh {
+            vertices: vec![],
+            triangles: vec![],
+        };
+        let mut square = |x0: f64, y0: f64, size: f64, z: f64| {
+            let b = mesh.vertices.len() as u32;
+            for (x, y) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+                mesh.vertices
+                    .push(DVec3::new(x0 + x * size, y0 + y * size, z));
+            }
+            mesh.triangles.push([b, b + 1, b + 2]);
+            mesh.triangles.push([b, b + 2, b + 3]);
+        };
+        square(-3.0, -3.0, 4.0, 1.0); // lower, drawn first
+        square(-1.0, -1.0, 4.0, 2.0); // higher
+        let t: Vec<f32> = mesh
+            .vertices
+            .iter()
+            .map(|p| if p.z > 1.5 { 1.0 } else { 0.0 })
+            .collect();
+        let rect = PixelRect {
+            x: 0,
+            y: 0,
+            w: 100,
+            h: 100,
+        };
+        let layer = rasterise(&mesh, &t, &square_camera(), rect, 2, DVec3::Z);
+        let covered = layer.depth.iter().filter(|&&d| d > EMPTY).count();
+        // Union of two 40x40-pixel squares overlapping by 20x20, at 2x2 samples per pixel.
+        assert_eq!(covered, 4 * (1600 + 1600 - 400));
+        let high = layer.depth.iter().filter(|&&d| d == 2.0).count();
+        assert_eq!(high, 4 * 1600);
+        // In the overlap the value is the higher square's.
+        assert_eq!(layer.depth_at(55.0, 45.0), Some(2.0));
+        assert_eq!(layer.depth_at(25.0, 75.0), Some(1.0));
+        assert_eq!(layer.depth_at(95.0, 95.0), None);
+        assert!(layer.visible(55.0, 45.0, 2.0, 0.0));
+        assert!(!layer.visible(55.0, 45.0, 1.5, 0.1));
+    }
+}
