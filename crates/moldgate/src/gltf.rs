@@ -719,6 +719,7 @@ mod tests {
                     qualifying: vec![],
                     title: String::new(),
                     subtitle: String::new(),
+                    grid_spacing_mm: 1.0,
                 };
                 rotation_to_y_up(&scene)
             };

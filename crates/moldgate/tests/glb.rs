@@ -333,6 +333,7 @@ fn cube_has_sharp_edges() {
         qualifying: vec![],
         title: "cube".into(),
         subtitle: String::new(),
+        grid_spacing_mm: 1.0,
     };
     let bytes = glb(&scene).unwrap();
     let g = check_round_trip(&scene, &bytes);
@@ -397,6 +398,7 @@ fn empty_scene_is_still_a_glb() {
         qualifying: vec![],
         title: "empty".into(),
         subtitle: String::new(),
+        grid_spacing_mm: 1.0,
     };
     let g = read_glb(&glb(&scene).unwrap());
     assert!(g.bin.is_empty());
@@ -581,6 +583,7 @@ fn khronos_validator_accepts_our_files() {
         qualifying: vec![],
         title: "empty".into(),
         subtitle: String::new(),
+        grid_spacing_mm: 1.0,
     };
     validate(&script, dir.path(), "empty", &glb(&scene).unwrap());
 
