@@ -40,6 +40,7 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod parting;
+pub mod raycast;
 pub mod report;
 pub mod samples;
 pub mod scene;
