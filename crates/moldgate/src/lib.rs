@@ -44,6 +44,7 @@ pub mod raycast;
 pub mod report;
 pub mod samples;
 pub mod scene;
+pub mod thickness;
 
 pub use centre::{CentreKind, Centres};
 pub use error::{LoadError, LocateError, OptionsError};

@@ -172,7 +172,7 @@ impl Bvh {
                 }
             })
             .collect();
-        let nodes = if items.is_empty() {
+        let mut nodes = if items.is_empty() {
             vec![Node {
                 min: [f32::INFINITY; 3],
                 link: 0,
@@ -182,6 +182,21 @@ impl Bvh {
         } else {
             build(&mut items, 0)
         };
+        // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
+        // must not be lost to the rounding of the slab test, and the edge slack of the
+        // triangle test reaches slightly beyond a triangle's own box.
+        let reach = nodes[0]
+            .min
+            .iter()
+            .chain(&nodes[0].max)
+            .fold(0f32, |m, v| if v.is_finite() { m.max(v.abs()) } else { m });
+        let pad = 2.0 * EDGE_TOLERANCE * reach;
+        for n in &mut nodes {
+            for k in 0..3 {
+                n.min[k] -= pad;
+                n.max[k] += pad;
+            }
+        }
         let ids: Vec<u32> = items.iter().map(|i| i.id).collect();
         let tris = ids
             .iter()
@@ -231,6 +246,13 @@ impl Bvh {
             None
         });
         found
+    }
+
+    /// Calls `f` with every hit of `ray` within its limits, in no particular order, until `f`
+    /// returns `false`.
+    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit) -> bool) {
+        let limit = ray.max_distance;
+        self.traverse(ray, |hit| f(hit).then_some(limit));
     }
 
     /// Walks the tree nearest box first. `on_hit` gets every hit nearer than the current
@@ -368,6 +390,62 @@ impl Bvh {
             triangle,
             distance: (best2 as f64).sqrt(),
         })
+    }
+}
+
+/// How many points of a facet are tested: the centroid only, or a lattice fine enough that
+/// no sample is farther apart than a spacing.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Sampling {
+    /// One point per facet, its centroid (the default).
+    #[default]
+    Centroid,
+    /// A facet whose longest edge is L gets k x k points with k = ceil(L / spacing), at most
+    /// [`MAX_SUBDIVISION`] x [`MAX_SUBDIVISION`]: the centroids of the k^2 equal triangles of
+    /// its regular subdivision. Spacing in mm.
+    Spacing(f64),
+}
+
+/// Largest k of [`Sampling::Spacing`] (so at most 64 points per facet).
+pub const MAX_SUBDIVISION: usize = 8;
+
+impl Sampling {
+    /// Subdivision k of a facet with these corners (1 for the centroid alone).
+    pub fn subdivision(self, [a, b, c]: [DVec3; 3]) -> usize {
+        match self {
+            Sampling::Centroid => 1,
+            Sampling::Spacing(h) => {
+                let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                let k = (longest / h).ceil();
+                if k.is_finite() && k >= 1.0 {
+                    (k as usize).min(MAX_SUBDIVISION)
+                } else {
+                    1
+                }
+            }
+        }
+    }
+
+    /// Calls `f` with each sample point of the facet; the points are the centroids of equal
+    /// triangles, so each stands for the same share of the facet's area.
+    pub fn for_each(self, corners: [DVec3; 3], mut f: impl FnMut(DVec3)) {
+        let [a, b, c] = corners;
+        let k = self.subdivision(corners);
+        if k == 1 {
+            f((a + b + c) / 3.0);
+            return;
+        }
+        let (ab, ac) = ((b - a) / k as f64, (c - a) / k as f64);
+        for i in 0..k {
+            for j in 0..k - i {
+                // The triangle with corners (i, j), (i+1, j), (i, j+1) in steps along ab, ac.
+                f(a + ab * (i as f64 + 1.0 / 3.0) + ac * (j as f64 + 1.0 / 3.0));
+                if i + j + 2 <= k {
+                    // Its upside-down neighbour (i+1, j), (i, j+1), (i+1, j+1).
+                    f(a + ab * (i as f64 + 2.0 / 3.0) + ac * (j as f64 + 2.0 / 3.0));
+                }
+            }
+        }
     }
 }
 
@@ -732,6 +810,28 @@ mod tests {
     }
 
     #[test]
+    fn sampling_covers_the_facet_evenly() {
+        let corners = [DVec3::ZERO, DVec3::new(6.0, 0.0, 0.0), DVec3::new(0.0, 3.0, 0.0)];
+        let mut points = Vec::new();
+        Sampling::Centroid.for_each(corners, |p| points.push(p));
+        assert_eq!(points, vec![DVec3::new(2.0, 1.0, 0.0)]);
+        points.clear();
+        // Longest edge sqrt(45) = 6.71 mm, so k = 4 and 16 points.
+        Sampling::Spacing(2.0).for_each(corners, |p| points.push(p));
+        assert_eq!(points.len(), 16);
+        let mean = points.iter().sum::<DVec3>() / 16.0;
+        assert!((mean - DVec3::new(2.0, 1.0, 0.0)).length() < 1e-12, "{mean}");
+        for p in &points {
+            assert!(p.x > 0.0 && p.y > 0.0 && p.x / 6.0 + p.y / 3.0 < 1.0, "{p}");
+        }
+        let mut unique = points.clone();
+        unique.dedup();
+        assert_eq!(unique.len(), 16);
+        assert_eq!(Sampling::Spacing(1e-9).subdivision(corners), MAX_SUBDIVISION);
+        assert_eq!(Sampling::Spacing(f64::NAN).subdivision(corners), 1);
+    }
+
+    #[test]
     fn empty_and_non_finite_inputs_give_nothing() {
         let bvh = Bvh::new(&Mesh::default());
         assert!(bvh.is_empty());
@@ -742,5 +842,27 @@ mod tests {
             .is_none());
         assert!(bvh.nearest_within(DVec3::ZERO, f64::NAN).is_none());
         assert!(bvh.nearest_within(DVec3::ZERO, -1.0).is_none());
+    }
+}
+impl Bvh {
+    /// Debug statistics: nodes, leaves, largest leaf, depth.
+    #[doc(hidden)]
+    pub fn shape(&self) -> (usize, usize, u32, usize) {
+        let mut leaves = 0;
+        let mut largest = 0;
+        let mut depth = 0;
+        let mut stack = vec![(0usize, 1usize)];
+        while let Some((i, d)) = stack.pop() {
+            depth = depth.max(d);
+            let n = &self.nodes[i];
+            if n.count > 0 {
+                leaves += 1;
+                largest = largest.max(n.count);
+            } else {
+                stack.push((i + 1, d + 1));
+                stack.push((n.link as usize, d + 1));
+            }
+        }
+        (self.nodes.len(), leaves, largest, depth)
     }
 }
