@@ -45,6 +45,7 @@ pub mod report;
 pub mod samples;
 pub mod scene;
 pub mod thickness;
+pub mod undercut;
 
 pub use centre::{CentreKind, Centres};
 pub use error::{LoadError, LocateError, OptionsError};
