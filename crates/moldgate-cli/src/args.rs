@@ -10,7 +10,10 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
 use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::raycast::{Bvh, Sampling};
 use moldgate::report::{Input, RadiusSource, Report};
+use moldgate::thickness::{wall_thickness_with, ThicknessOptions};
+use moldgate::undercut::auto_direction_with;
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
 use crate::output::{print_stdout, refuse_input, write_atomic};
@@ -72,7 +75,8 @@ pub struct LocateArgs {
     /// Length unit of the file.
     #[arg(long, default_value = "mm", value_name = "mm|cm|m|in")]
     pub units: String,
-    /// Demolding direction: +x, -y, ... or x,y,z. Rays come from its + side.
+    /// Demolding direction: +x, -y, ... or x,y,z. Rays come from its + side. `auto` picks
+    /// the axis or principal axis with the least undercut area.
     #[arg(
         long,
         default_value = "+z",
@@ -143,6 +147,10 @@ pub struct LocateArgs {
     /// Largest grid accepted, in nodes.
     #[arg(long, default_value_t = 4_000_000)]
     pub max_nodes: usize,
+    /// Also measure the wall thickness everywhere (rays along the inverted normals) and
+    /// report min / nominal / max and the value at the gate.
+    #[arg(long)]
+    pub wall_thickness: bool,
     /// Print the JSON report on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -241,10 +249,14 @@ fn material(a: &LocateArgs) -> Result<Material, Failure> {
 
 /// Validates the raw arguments into library options, once.
 fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, RadiusSource), Failure> {
-    let direction: Direction = a
-        .demold
-        .parse()
-        .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--demold: {e}")))?;
+    // `auto` needs the mesh: resolved in `run_locate` once it is loaded.
+    let direction: Direction = if is_auto(&a.demold) {
+        Direction::default()
+    } else {
+        a.demold
+            .parse()
+            .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--demold: {e}")))?
+    };
     let positive = |name: &str, v: f64| {
         if v.is_finite() && v > 0.0 {
             Ok(v)
@@ -341,9 +353,13 @@ pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure
 /// nodes), and a bound that keeps an absurd `--max-nodes` from reaching the allocator.
 const MAX_NODES_LIMIT: usize = 20_000_000;
 
+fn is_auto(demold: &str) -> bool {
+    demold.trim().eq_ignore_ascii_case("auto")
+}
+
 pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
     let material = material(&a)?;
-    let (options, radius_source) = options(&a, &material)?;
+    let (mut options, radius_source) = options(&a, &material)?;
     let units: Units = a
         .units
         .parse()
@@ -374,8 +390,20 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         (None, None) => return Err(Failure::usage("give a mesh file or --sample NAME")),
     };
     let load_s = t.elapsed().as_secs_f64();
+    // One ray-casting tree serves the automatic direction and the wall thickness.
+    let bvh = (is_auto(&a.demold) || a.wall_thickness).then(|| Bvh::new(&part.mesh));
+    let auto = match &bvh {
+        Some(bvh) if is_auto(&a.demold) => {
+            let auto = auto_direction_with(&part.mesh, bvh, Sampling::Centroid).map_err(|e| {
+                Failure::input(format!("{}: --demold auto: {e}", input_name(&input)))
+            })?;
+            options.direction = auto.direction();
+            Some(auto)
+        }
+        _ => None,
+    };
     let analysis = locate(&part, &options).map_err(|e| Failure::usage(e.to_string()))?;
-    let report = Report::new(
+    let mut report = Report::new(
         input,
         &part.stats,
         &part.warnings,
@@ -384,6 +412,14 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         &analysis,
         load_s,
     );
+    if let Some(auto) = auto {
+        report = report.with_demold_auto(auto);
+    }
+    if let (Some(bvh), true) = (&bvh, a.wall_thickness) {
+        let t = Instant::now();
+        let w = wall_thickness_with(&part.mesh, bvh, &ThicknessOptions::default());
+        report = report.with_wall_thickness(&w, t.elapsed().as_secs_f64());
+    }
     let json = serde_json::to_string_pretty(&report).map_err(|e| Failure {
         code: 1,
         message: format!("cannot encode the report: {e}"),
@@ -408,6 +444,14 @@ pub fn run_locate(a: LocateArgs) -> Result<(), Failure> {
         ))),
         _ => Ok(()),
     }
+}
+
+fn input_name(input: &Input) -> String {
+    input
+        .path
+        .clone()
+        .or(input.sample.clone())
+        .unwrap_or_default()
 }
 
 fn unknown_sample(name: &str) -> Failure {

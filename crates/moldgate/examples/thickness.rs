@@ -1,4 +1,4 @@
-//! Wall thickness and the automatic demolding direction of one part, with the time of each
+//! Wall thickness of one part, with and without the cross-width check, and the time of each
 //! step (best of N runs in one process).
 //!
 //! `cargo run --release -p moldgate --example thickness -- PART.stl [UNITS] [RUNS]`
@@ -40,8 +40,11 @@ fn main() {
     let m = &part.mesh;
     println!("{path}: {} triangles", m.triangles.len());
     let (bvh, build) = best_of(runs, || Bvh::new(m));
-    println!("bvh build               {build:8.1} ms {:?}", bvh.shape());
-    for (name, cross_check) in [("rays + cross check", CrossCheck::On), ("rays only", CrossCheck::Off)] {
+    println!("bvh build               {build:8.1} ms");
+    for (name, cross_check) in [
+        ("rays + cross check", CrossCheck::On),
+        ("rays only", CrossCheck::Off),
+    ] {
         let options = ThicknessOptions {
             cross_check,
             ..ThicknessOptions::default()

@@ -17,6 +17,8 @@
 //! plane) and triangles without area are never hit. A ray may skip one triangle (the one it
 //! starts on) and ignores hits nearer than its `min_distance`.
 
+use std::cmp::Ordering;
+
 use glam::Vec3;
 use rayon::join;
 
@@ -185,11 +187,13 @@ impl Bvh {
         // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
         // must not be lost to the rounding of the slab test, and the edge slack of the
         // triangle test reaches slightly beyond a triangle's own box.
-        let reach = nodes[0]
-            .min
-            .iter()
-            .chain(&nodes[0].max)
-            .fold(0f32, |m, v| if v.is_finite() { m.max(v.abs()) } else { m });
+        let reach = nodes[0].min.iter().chain(&nodes[0].max).fold(0f32, |m, v| {
+            if v.is_finite() {
+                m.max(v.abs())
+            } else {
+                m
+            }
+        });
         let pad = 2.0 * EDGE_TOLERANCE * reach;
         for n in &mut nodes {
             for k in 0..3 {
@@ -481,7 +485,7 @@ fn intersect(tri: &Tri, o: Vec3, d: Vec3) -> Option<f32> {
     let det = tri.ab.dot(p);
     // Relative test: edge-on (or area-less) triangles are never hit.
     let scale = tri.ab.length() * tri.ac.length();
-    if !(det.abs() > 1e-7 * scale) {
+    if det.abs().partial_cmp(&(1e-7 * scale)) != Some(Ordering::Greater) {
         return None;
     }
     let inv = 1.0 / det;
@@ -605,7 +609,7 @@ fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> Option<usize>
     let extent = centres.max - centres.min;
     let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
     for axis in 0..3 {
-        if !(extent[axis] > 0.0) {
+        if extent[axis].partial_cmp(&0.0) != Some(Ordering::Greater) {
             continue;
         }
         let lo = centres.min[axis];
@@ -811,7 +815,11 @@ mod tests {
 
     #[test]
     fn sampling_covers_the_facet_evenly() {
-        let corners = [DVec3::ZERO, DVec3::new(6.0, 0.0, 0.0), DVec3::new(0.0, 3.0, 0.0)];
+        let corners = [
+            DVec3::ZERO,
+            DVec3::new(6.0, 0.0, 0.0),
+            DVec3::new(0.0, 3.0, 0.0),
+        ];
         let mut points = Vec::new();
         Sampling::Centroid.for_each(corners, |p| points.push(p));
         assert_eq!(points, vec![DVec3::new(2.0, 1.0, 0.0)]);
@@ -820,14 +828,20 @@ mod tests {
         Sampling::Spacing(2.0).for_each(corners, |p| points.push(p));
         assert_eq!(points.len(), 16);
         let mean = points.iter().sum::<DVec3>() / 16.0;
-        assert!((mean - DVec3::new(2.0, 1.0, 0.0)).length() < 1e-12, "{mean}");
+        assert!(
+            (mean - DVec3::new(2.0, 1.0, 0.0)).length() < 1e-12,
+            "{mean}"
+        );
         for p in &points {
             assert!(p.x > 0.0 && p.y > 0.0 && p.x / 6.0 + p.y / 3.0 < 1.0, "{p}");
         }
         let mut unique = points.clone();
         unique.dedup();
         assert_eq!(unique.len(), 16);
-        assert_eq!(Sampling::Spacing(1e-9).subdivision(corners), MAX_SUBDIVISION);
+        assert_eq!(
+            Sampling::Spacing(1e-9).subdivision(corners),
+            MAX_SUBDIVISION
+        );
         assert_eq!(Sampling::Spacing(f64::NAN).subdivision(corners), 1);
     }
 
@@ -842,27 +856,5 @@ mod tests {
             .is_none());
         assert!(bvh.nearest_within(DVec3::ZERO, f64::NAN).is_none());
         assert!(bvh.nearest_within(DVec3::ZERO, -1.0).is_none());
-    }
-}
-impl Bvh {
-    /// Debug statistics: nodes, leaves, largest leaf, depth.
-    #[doc(hidden)]
-    pub fn shape(&self) -> (usize, usize, u32, usize) {
-        let mut leaves = 0;
-        let mut largest = 0;
-        let mut depth = 0;
-        let mut stack = vec![(0usize, 1usize)];
-        while let Some((i, d)) = stack.pop() {
-            depth = depth.max(d);
-            let n = &self.nodes[i];
-            if n.count > 0 {
-                leaves += 1;
-                largest = largest.max(n.count);
-            } else {
-                stack.push((i + 1, d + 1));
-                stack.push((n.link as usize, d + 1));
-            }
-        }
-        (self.nodes.len(), leaves, largest, depth)
     }
 }

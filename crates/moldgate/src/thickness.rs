@@ -42,6 +42,8 @@
 //! and the **nominal** thickness, the area-weighted median (half of the known area is
 //! thinner). The unknown share is the area of unknown facets over the whole area.
 
+use std::cmp::Ordering;
+
 use rayon::prelude::*;
 
 use crate::math::DVec3;
@@ -154,7 +156,7 @@ pub fn wall_thickness_with(mesh: &Mesh, bvh: &Bvh, options: &ThicknessOptions) -
             let [a, b, c] = corners;
             let cross = (b - a).cross(c - a);
             let area = 0.5 * cross.length();
-            if !(area > min_area) || !cross.is_finite() {
+            if area.partial_cmp(&min_area) != Some(Ordering::Greater) || !cross.is_finite() {
                 return f32::NAN;
             }
             let n = cross / (2.0 * area);

@@ -37,6 +37,8 @@
 //! A part with some undercut is normal (a thread, a snap hook), so the choice is made and
 //! the caller warns with its area; only a mesh with no facet of area cannot be evaluated.
 
+use std::cmp::Ordering;
+
 use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
@@ -203,14 +205,15 @@ pub fn auto_direction_with(
             } else {
                 along.signum()
             };
-            let dir = line * sign;
-            let (lo, hi) = mesh
-                .vertices
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                    let h = v.dot(dir);
-                    (lo.min(h), hi.max(h))
-                });
+            // Adding 0 turns the -0 components of a negated axis into +0.
+            let dir = line * sign + DVec3::ZERO;
+            let (lo, hi) =
+                mesh.vertices
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        let h = v.dot(dir);
+                        (lo.min(h), hi.max(h))
+                    });
             let direction = Direction::new(dir).expect("unit line");
             Candidate {
                 direction: direction.vector().to_array(),
@@ -234,6 +237,7 @@ pub fn auto_direction_with(
 
 /// Principal axes of the surface: unit eigenvectors of the area-weighted covariance of its
 /// points, by decreasing spread, each with its largest component positive.
+#[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
 pub fn principal_axes(mesh: &Mesh) -> Vec<DVec3> {
     let mut area = 0.0;
     let mut first = DVec3::ZERO;
@@ -255,7 +259,7 @@ pub fn principal_axes(mesh: &Mesh) -> Vec<DVec3> {
             }
         }
     }
-    if !(area > 0.0) {
+    if area.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return Vec::new();
     }
     let mean = first / area;
@@ -290,6 +294,7 @@ pub fn principal_axes(mesh: &Mesh) -> Vec<DVec3> {
         .collect()
 }
 
+#[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
 /// Eigenvalues and eigenvectors (columns) of a symmetric 3 x 3 matrix by cyclic Jacobi
 /// rotations.
 fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
@@ -297,7 +302,7 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
     for _ in 0..50 {
         let off = a[0][1].powi(2) + a[0][2].powi(2) + a[1][2].powi(2);
         let scale = a[0][0].powi(2) + a[1][1].powi(2) + a[2][2].powi(2);
-        if !(off > 1e-30 * scale) {
+        if off.partial_cmp(&(1e-30 * scale)) != Some(Ordering::Greater) {
             break;
         }
         for (p, q) in [(0, 1), (0, 2), (1, 2)] {
@@ -337,11 +342,7 @@ mod tests {
     #[test]
     fn jacobi_diagonalises_a_known_matrix() {
         // Eigenvalues 1, 2, 4 along rotated axes.
-        let r = [
-            [0.6, -0.8, 0.0],
-            [0.8, 0.6, 0.0],
-            [0.0, 0.0, 1.0],
-        ];
+        let r = [[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]];
         let d = [1.0, 2.0, 4.0];
         let mut m = [[0.0; 3]; 3];
         for i in 0..3 {

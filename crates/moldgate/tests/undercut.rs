@@ -92,7 +92,10 @@ fn plate_opens_along_its_thickness() {
     let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
     let c = auto.candidate();
     assert_eq!(c.undercut.area_mm2, 0.0);
-    assert!(DVec3::from_array(c.direction).dot(DVec3::Z).abs() > 1.0 - 1e-12, "{auto:#?}");
+    assert!(
+        DVec3::from_array(c.direction).dot(DVec3::Z).abs() > 1.0 - 1e-12,
+        "{auto:#?}"
+    );
     let x = &auto.tried[0];
     assert!(x.undercut.area_mm2 > 0.0, "hole walls facing x: {x:?}");
 }
@@ -110,13 +113,24 @@ fn principal_axes_of_a_rotated_slab() {
     }
     let axes = principal_axes(&mesh);
     assert_eq!(axes.len(), 3);
-    assert!((axes[0] - DVec3::new(c, s, 0.0)).length() < 1e-9, "{axes:?}");
-    assert!(axes[1].dot(DVec3::new(-s, c, 0.0)).abs() > 1.0 - 1e-9, "{axes:?}");
+    assert!(
+        (axes[0] - DVec3::new(c, s, 0.0)).length() < 1e-9,
+        "{axes:?}"
+    );
+    assert!(
+        axes[1].dot(DVec3::new(-s, c, 0.0)).abs() > 1.0 - 1e-9,
+        "{axes:?}"
+    );
     assert!((axes[2] - DVec3::Z).length() < 1e-9, "{axes:?}");
     let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
     // z (an axis) and the third principal axis coincide: tried once.
     assert_eq!(auto.tried.len(), 5, "{auto:#?}");
-    assert!(DVec3::from_array(auto.candidate().direction).dot(DVec3::Z).abs() > 1.0 - 1e-12);
+    assert!(
+        DVec3::from_array(auto.candidate().direction)
+            .dot(DVec3::Z)
+            .abs()
+            > 1.0 - 1e-12
+    );
 }
 
 #[test]
