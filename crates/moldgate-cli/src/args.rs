@@ -11,8 +11,11 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use moldgate::flow;
 use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
 use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::raycast::{Bvh, Sampling};
 use moldgate::report::{Input, RadiusSource, Report};
 use moldgate::scene::{Field, Marker, Scene};
+use moldgate::thickness::{wall_thickness_with, ThicknessOptions};
+use moldgate::undercut::auto_direction_with;
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
 use crate::output::{print_stdout, refuse_input, write_atomic};
@@ -95,7 +98,8 @@ pub struct LocateArgs {
     /// Length unit of the file.
     #[arg(long, default_value = "mm", value_name = "mm|cm|m|in")]
     pub units: String,
-    /// Demolding direction: +x, -y, ... or x,y,z. Rays come from its + side.
+    /// Demolding direction: +x, -y, ... or x,y,z. Rays come from its + side. `auto` picks
+    /// the axis or principal axis with the least undercut area.
     #[arg(
         long,
         default_value = "+z",
@@ -191,6 +195,10 @@ pub struct LocateArgs {
     /// of the part's diagonal].
     #[arg(long, value_name = "MM", allow_hyphen_values = true)]
     pub cell: Option<f64>,
+    /// Also measure the wall thickness everywhere (rays along the inverted normals) and
+    /// report min / nominal / max and the value at the gate.
+    #[arg(long)]
+    pub wall_thickness: bool,
     /// Print the JSON report on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -305,10 +313,14 @@ fn material(a: &LocateArgs) -> Result<Material, Failure> {
 
 /// Validates the raw arguments into library options, once.
 fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, RadiusSource), Failure> {
-    let direction: Direction = a
-        .demold
-        .parse()
-        .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--demold: {e}")))?;
+    // `auto` needs the mesh: resolved in `run_locate` once it is loaded.
+    let direction: Direction = if is_auto(&a.demold) {
+        Direction::default()
+    } else {
+        a.demold
+            .parse()
+            .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--demold: {e}")))?
+    };
     let positive = |name: &str, v: f64| {
         if v.is_finite() && v > 0.0 {
             Ok(v)
@@ -463,6 +475,14 @@ pub struct Settings {
     pub fill: Option<flow::FillOptions>,
     /// The unit of the files.
     pub units: Units,
+    /// `--demold auto`: the direction is chosen per part once it is loaded.
+    pub auto_demold: bool,
+    /// `--wall-thickness`: measure and report the wall everywhere.
+    pub wall_thickness: bool,
+}
+
+fn is_auto(demold: &str) -> bool {
+    demold.trim().eq_ignore_ascii_case("auto")
 }
 
 /// Validates the raw arguments of `locate` once into [`Settings`].
@@ -480,6 +500,8 @@ pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
         radius_source,
         fill,
         units,
+        auto_demold: is_auto(&a.demold),
+        wall_thickness: a.wall_thickness,
     })
 }
 
@@ -631,6 +653,8 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
         radius_source,
         fill: fill_options,
         units,
+        auto_demold,
+        wall_thickness,
     } = s;
     let radius_source = *radius_source;
     let t = Instant::now();
@@ -655,14 +679,45 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
         }
     };
     let load_s = t.elapsed().as_secs_f64();
-    let analysis = locate(&part, options).map_err(|e| Failure::usage(e.to_string()))?;
+    // One ray-casting tree serves the automatic direction and the wall thickness (which the
+    // fill analysis uses for its flow resistance).
+    let wants_wall = *wall_thickness || fill_options.is_some();
+    let bvh = (*auto_demold || wants_wall).then(|| Bvh::new(&part.mesh));
+    let mut options = options.clone();
+    let auto = match &bvh {
+        Some(bvh) if *auto_demold => {
+            let auto = auto_direction_with(&part.mesh, bvh, Sampling::Centroid).map_err(|e| {
+                Failure::input(format!("{}: --demold auto: {e}", input_name(&input)))
+            })?;
+            options.direction = auto.direction();
+            Some(auto)
+        }
+        _ => None,
+    };
+    let analysis = locate(&part, &options).map_err(|e| Failure::usage(e.to_string()))?;
+    // The full wall map only when asked for; the fill analysis measures its own samples.
+    let wall = match (&bvh, *wall_thickness) {
+        (Some(bvh), true) => {
+            let t = Instant::now();
+            let w = wall_thickness_with(&part.mesh, bvh, &ThicknessOptions::default());
+            Some((w, t.elapsed().as_secs_f64()))
+        }
+        _ => None,
+    };
     let fill = fill_options
         .as_ref()
         .map(|o| {
             if analysis.gate().is_err() {
                 return Ok(None);
             }
-            flow::analyse(&part.mesh, &analysis, material, None, o)
+            let walls = match (&wall, &bvh) {
+                (Some((w, _)), _) if w.nominal_mm.is_some() => {
+                    flow::Walls::Given(&w.per_triangle, w.nominal_mm.unwrap_or_default())
+                }
+                (_, Some(bvh)) => flow::Walls::Measure(bvh),
+                _ => flow::Walls::Estimate,
+            };
+            flow::analyse(&part.mesh, &analysis, material, walls, o)
                 .map(Some)
                 .map_err(|e| match e {
                     flow::FillError::TooFewCandidates { .. } => Failure::no_gate(e.to_string()),
@@ -680,6 +735,12 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
         &analysis,
         load_s,
     );
+    if let Some(auto) = auto {
+        report = report.with_demold_auto(auto);
+    }
+    if let Some((w, time_s)) = &wall {
+        report = report.with_wall_thickness(w, *time_s);
+    }
     let mut fill_order = None;
     if let Some(mut fill) = fill {
         fill_order = Some(Field {
@@ -695,6 +756,14 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
         analysis,
         fill_order,
     })
+}
+
+fn input_name(input: &Input) -> String {
+    input
+        .path
+        .clone()
+        .or(input.sample.clone())
+        .unwrap_or_default()
 }
 
 fn unknown_sample(name: &str) -> Failure {

@@ -236,6 +236,29 @@ pub fn render(r: &Report) -> String {
             );
         }
     }
+    if let Some(auto) = &r.demold_auto {
+        let tried: Vec<String> = auto
+            .tried
+            .iter()
+            .map(|c| format!("{} {:.1} mm^2", v3(c.direction), c.undercut.area_mm2))
+            .collect();
+        let _ = writeln!(
+            s,
+            "demold auto: undercut of each direction tried: {}",
+            tried.join(", ")
+        );
+    }
+    if let Some(w) = &r.wall_thickness {
+        let _ = writeln!(
+            s,
+            "wall thickness: min {}, nominal {}, max {}, at the gate {} ({:.1} % of the area unknown)",
+            mm(w.min_mm),
+            mm(w.nominal_mm),
+            mm(w.max_mm),
+            mm(w.at_gate_mm),
+            100.0 * w.unknown_area_share
+        );
+    }
     for w in &r.warnings {
         let _ = writeln!(s, "warning: {w}");
     }

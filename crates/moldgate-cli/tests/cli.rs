@@ -919,3 +919,77 @@ fn a_closed_stdout_is_not_a_crash() {
         assert!(err.is_empty(), "{args:?}: {err}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// --demold auto and --wall-thickness
+
+#[test]
+fn demold_auto_picks_the_open_side_and_reports_every_direction() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = json(&moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "cover",
+            "--demold",
+            "auto",
+            "--wall-thickness",
+            "--json",
+        ],
+    ));
+    assert_eq!(point(&r["options"]["demold"]), [0.0, 0.0, -1.0]);
+    let auto = &r["demold_auto"];
+    let tried = auto["tried"].as_array().unwrap();
+    assert!(tried.len() >= 3);
+    let chosen = &tried[auto["chosen"].as_u64().unwrap() as usize];
+    assert_eq!(chosen["area_mm2"].as_f64(), Some(0.0));
+    assert!(tried.iter().any(|c| c["area_mm2"].as_f64().unwrap() > 0.0));
+    let w = &r["wall_thickness"];
+    assert!(
+        (w["nominal_mm"].as_f64().unwrap() - 2.0).abs() < 1e-3,
+        "{w}"
+    );
+    assert!(w["at_gate_mm"].as_f64().is_some(), "{w}");
+    // Without the options, neither field is in the report.
+    let r = json(&moldgate(
+        dir.path(),
+        &["locate", "--sample", "cover", "--json"],
+    ));
+    assert!(r.get("demold_auto").is_none() && r.get("wall_thickness").is_none());
+}
+
+#[test]
+fn demold_auto_warns_when_every_direction_has_undercuts() {
+    // A block with a side pocket open on +x and a through slot along x: along x the slot's
+    // walls slide, but a second pocket open on +y makes every axis have some undercut.
+    let mut facets = Vec::new();
+    let mut part = moldgate::samples::BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [40.0, 40.0, 20.0]);
+    part.subtract([30.0, 10.0, 7.0], [40.0, 30.0, 13.0]);
+    part.subtract([10.0, 30.0, 7.0], [30.0, 40.0, 13.0]);
+    part.subtract([0.0, 15.0, 2.0], [20.0, 25.0, 4.0]);
+    let mesh = part.mesh();
+    for t in 0..mesh.triangles.len() {
+        facets.push(mesh.corners(t).map(|v| v.as_vec3().to_array()));
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("undercut.stl"), binary(&facets)).unwrap();
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "undercut.stl",
+            "--demold",
+            "auto",
+            "--thickness-rule",
+            "ignore",
+        ],
+    );
+    let text = assert_ok(&out);
+    assert!(text.contains("no direction without undercuts"), "{text}");
+    assert!(
+        text.contains("demold auto: undercut of each direction tried"),
+        "{text}"
+    );
+}

@@ -5,8 +5,9 @@
 use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use moldgate::flow::{self, FillOptions, FlowOptions};
+use moldgate::flow::{self, FillOptions, FlowOptions, Walls};
 use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::raycast::Bvh;
 use moldgate::{locate, Analysis, LocateOptions, Material};
 
 fn parts_dir() -> Option<PathBuf> {
@@ -33,7 +34,16 @@ fn bench_sample(c: &mut Criterion) {
     let mut group = c.benchmark_group("fill_sample_cover");
     group.sample_size(10);
     group.bench_function("analyse", |b| {
-        b.iter(|| flow::analyse(&part.mesh, &analysis, &pp, None, &FillOptions::default()).unwrap())
+        b.iter(|| {
+            flow::analyse(
+                &part.mesh,
+                &analysis,
+                &pp,
+                Walls::Estimate,
+                &FillOptions::default(),
+            )
+            .unwrap()
+        })
     });
     group.finish();
 }
@@ -50,8 +60,31 @@ fn bench_real(c: &mut Criterion) {
     let pp = Material::builtin("PP").unwrap();
     let mut group = c.benchmark_group("fill_esp32_bottom_352k");
     group.sample_size(10);
-    group.bench_function("analyse_default", |b| {
-        b.iter(|| flow::analyse(&part.mesh, &analysis, &pp, None, &FillOptions::default()).unwrap())
+    // The figure: wall thickness (tree and rays), flow fields and balanced gate.
+    group.bench_function("thickness_flow_balanced", |b| {
+        b.iter(|| {
+            let bvh = Bvh::new(&part.mesh);
+            flow::analyse(
+                &part.mesh,
+                &analysis,
+                &pp,
+                Walls::Measure(&bvh),
+                &FillOptions::default(),
+            )
+            .unwrap()
+        })
+    });
+    group.bench_function("flow_balanced_uniform_wall", |b| {
+        b.iter(|| {
+            flow::analyse(
+                &part.mesh,
+                &analysis,
+                &pp,
+                Walls::Estimate,
+                &FillOptions::default(),
+            )
+            .unwrap()
+        })
     });
     // Resolution: the default cell here is 0.69 mm; halving it multiplies the cells by 8.
     for cell in [1.0, 0.69, 0.5, 0.35] {
@@ -63,7 +96,7 @@ fn bench_real(c: &mut Criterion) {
             ..FillOptions::default()
         };
         group.bench_function(format!("analyse_cell_{cell}mm"), |b| {
-            b.iter(|| flow::analyse(&part.mesh, &analysis, &pp, None, &options).unwrap())
+            b.iter(|| flow::analyse(&part.mesh, &analysis, &pp, Walls::Estimate, &options).unwrap())
         });
     }
     group.finish();

@@ -5,6 +5,9 @@ use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use moldgate::mesh::{self, Units};
+use moldgate::raycast::{Bvh, Sampling};
+use moldgate::thickness::{wall_thickness_with, CrossCheck, ThicknessOptions};
+use moldgate::undercut::auto_direction_with;
 use moldgate::{locate, LocateOptions};
 
 fn parts_dir() -> Option<PathBuf> {
@@ -45,6 +48,21 @@ fn bench_real(c: &mut Criterion) {
         ..LocateOptions::default()
     };
     group.bench_function("locate", |b| b.iter(|| locate(&part, &options).unwrap()));
+    group.bench_function("bvh_build", |b| b.iter(|| Bvh::new(&part.mesh)));
+    let bvh = Bvh::new(&part.mesh);
+    group.bench_function("wall_thickness", |b| {
+        b.iter(|| wall_thickness_with(&part.mesh, &bvh, &ThicknessOptions::default()))
+    });
+    let rays_only = ThicknessOptions {
+        cross_check: CrossCheck::Off,
+        ..ThicknessOptions::default()
+    };
+    group.bench_function("wall_thickness_rays_only", |b| {
+        b.iter(|| wall_thickness_with(&part.mesh, &bvh, &rays_only))
+    });
+    group.bench_function("demold_auto", |b| {
+        b.iter(|| auto_direction_with(&part.mesh, &bvh, Sampling::Centroid).unwrap())
+    });
     group.finish();
 }
 

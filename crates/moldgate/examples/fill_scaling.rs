@@ -14,8 +14,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use moldgate::flow::{self, FillOptions, FlowOptions};
+use moldgate::flow::{self, FillOptions, FlowOptions, Walls};
 use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::raycast::Bvh;
 use moldgate::{locate, Direction, LocateOptions, Material};
 
 fn main() {
@@ -43,8 +44,8 @@ fn main() {
         "Part: {name}; {} threads; best of {repeats}; times in ms.\n",
         rayon::current_num_threads()
     );
-    println!("| triangles | cell mm | cells | voxels | paper gate fields | balanced search | total | marches |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| triangles | cell mm | cells | wall (tree + rays) | voxels | paper gate fields | balanced search | total | marches |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let default_cell = row(&part, direction, None, repeats);
     let mut mesh = part.mesh.clone();
     for _ in 0..2 {
@@ -74,16 +75,25 @@ fn row(part: &LoadedMesh, direction: Direction, cell: Option<f64>, repeats: usiz
         },
         ..FillOptions::default()
     };
-    let mut best = [f64::INFINITY; 4];
+    let mut best = [f64::INFINITY; 5];
     let mut last = None;
     for _ in 0..repeats {
         let t = Instant::now();
-        let f = flow::analyse(&part.mesh, &analysis, &pp, None, &fill_options).expect("fill");
+        let bvh = Bvh::new(&part.mesh);
+        let tree = t.elapsed().as_secs_f64();
+        let f = flow::analyse(
+            &part.mesh,
+            &analysis,
+            &pp,
+            Walls::Measure(&bvh),
+            &fill_options,
+        )
+        .expect("fill");
         let total = t.elapsed().as_secs_f64();
         let s = f.times;
-        for (b, v) in best
-            .iter_mut()
-            .zip([s.voxels_s, s.paper_s, s.balanced_s, total])
+        for (b, v) in
+            best.iter_mut()
+                .zip([tree + s.wall_s, s.voxels_s, s.paper_s, s.balanced_s, total])
         {
             *b = b.min(v);
         }
@@ -92,7 +102,7 @@ fn row(part: &LoadedMesh, direction: Direction, cell: Option<f64>, repeats: usiz
     let f = last.expect("one run");
     let ms = best.map(|s| s * 1e3);
     println!(
-        "| {} | {:.3} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
+        "| {} | {:.3} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
         part.mesh.triangles.len(),
         f.cell_mm,
         f.cells,
@@ -100,6 +110,7 @@ fn row(part: &LoadedMesh, direction: Direction, cell: Option<f64>, repeats: usiz
         ms[1],
         ms[2],
         ms[3],
+        ms[4],
         3 + f.balanced.as_ref().map_or(0, |b| b.search.runs + 3)
     );
     f.cell_mm

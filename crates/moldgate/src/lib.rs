@@ -44,10 +44,13 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod parting;
+pub mod raycast;
 pub mod render;
 pub mod report;
 pub mod samples;
 pub mod scene;
+pub mod thickness;
+pub mod undercut;
 
 pub use centre::{CentreKind, Centres};
 pub use error::{LoadError, LocateError, OptionsError};

@@ -12,6 +12,8 @@ use crate::gate::{
 use crate::material::Material;
 use crate::mesh::MeshStats;
 use crate::parting::{AestheticGate, PartingSummary};
+use crate::thickness::WallThickness;
+use crate::undercut::AutoDemold;
 use crate::CentreKind;
 
 /// Version of the report's schema.
@@ -256,9 +258,68 @@ pub struct Report {
     /// The fill analysis (flow length, fill order, pressure, balanced and several gates), or
     /// `null` when it was not asked for.
     pub fill: Option<FillAnalysis>,
+    /// Wall thickness of the part everywhere (present when it was computed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_thickness: Option<WallThicknessReport>,
+    /// The directions tried by `--demold auto` (present when it was used).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub demold_auto: Option<AutoDemold>,
+}
+
+/// Statistics of [`crate::thickness::WallThickness`] and the value at the gate.
+#[derive(Debug, Clone, Serialize)]
+pub struct WallThicknessReport {
+    /// Smallest known thickness, mm.
+    pub min_mm: Option<f64>,
+    /// Area-weighted median, mm.
+    pub nominal_mm: Option<f64>,
+    /// Largest known thickness, mm.
+    pub max_mm: Option<f64>,
+    /// Share of the area where it is unknown (0 to 1).
+    pub unknown_area_share: f64,
+    /// Thickness of the triangle the paper gate lies on, mm (`null` without a gate or where
+    /// unknown). The along-D value is `paper_gate.thickness_mm`.
+    pub at_gate_mm: Option<f64>,
+    /// Seconds spent.
+    pub time_s: f64,
 }
 
 impl Report {
+    /// Adds the wall thickness, with its value at the paper gate's triangle.
+    pub fn with_wall_thickness(mut self, w: &WallThickness, time_s: f64) -> Report {
+        let at_gate_mm = self
+            .paper_gate
+            .as_ref()
+            .and_then(|g| w.at_triangle(g.triangle as usize));
+        self.wall_thickness = Some(WallThicknessReport {
+            min_mm: w.min_mm,
+            nominal_mm: w.nominal_mm,
+            max_mm: w.max_mm,
+            unknown_area_share: w.unknown_area_share,
+            at_gate_mm,
+            time_s,
+        });
+        self
+    }
+
+    /// Adds the directions tried by the automatic demolding choice; a chosen direction with
+    /// undercuts adds a warning with its area.
+    pub fn with_demold_auto(mut self, auto: AutoDemold) -> Report {
+        let c = auto.candidate();
+        if c.undercut.area_mm2 > 0.0 {
+            self.warnings.push(format!(
+                "--demold auto: no direction without undercuts; chose ({:.4}, {:.4}, {:.4}) with the least, {:.1} mm^2 ({:.2} % of the area)",
+                c.direction[0],
+                c.direction[1],
+                c.direction[2],
+                c.undercut.area_mm2,
+                100.0 * c.undercut.share
+            ));
+        }
+        self.demold_auto = Some(auto);
+        self
+    }
+
     /// Assembles the report of an analysis.
     pub fn new(
         input: Input,
@@ -344,6 +405,8 @@ impl Report {
                 total_s: load_s + t.centre_s + t.grid_s + t.projection_s + t.select_s + t.parting_s,
             },
             fill: None,
+            wall_thickness: None,
+            demold_auto: None,
         }
     }
 

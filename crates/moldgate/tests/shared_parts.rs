@@ -736,11 +736,12 @@ fn balanced_gate_never_does_worse_than_the_paper_gate_on_the_shared_parts() {
                 ..LocateOptions::default()
             };
             let analysis = locate(lm, &options).expect("valid options");
+            let bvh = moldgate::raycast::Bvh::new(&lm.mesh);
             let fill = moldgate::flow::analyse(
                 &lm.mesh,
                 &analysis,
                 &pp,
-                None,
+                moldgate::flow::Walls::Measure(&bvh),
                 &moldgate::flow::FillOptions::default(),
             );
             match fill {

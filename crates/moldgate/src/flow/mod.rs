@@ -34,6 +34,7 @@ use serde::Serialize;
 use crate::material::Material;
 use crate::math::DVec3;
 use crate::mesh::Mesh;
+use crate::raycast::Bvh;
 pub use march::{march, Field, Source};
 pub use voxel::Voxels;
 
@@ -116,7 +117,22 @@ impl Domain {
         nominal_wall_mm: f64,
         material: &Material,
     ) -> Domain {
-        let voxels = Voxels::new(mesh, h);
+        Domain::from_voxels(
+            Voxels::new(mesh, h),
+            triangle_wall_mm,
+            nominal_wall_mm,
+            material,
+        )
+    }
+
+    /// [`Domain::new`] on cells already made.
+    pub fn from_voxels(
+        voxels: Voxels,
+        triangle_wall_mm: Option<&[f32]>,
+        nominal_wall_mm: f64,
+        material: &Material,
+    ) -> Domain {
+        let h = voxels.h;
         let (body, bodies) = voxels.components();
         let lo = h.min(nominal_wall_mm);
         let wall_mm: Vec<f32> = voxels
@@ -200,6 +216,8 @@ pub struct GateFill {
     pub body: u32,
     /// Share of all solid cells it reaches (below 1 when the part has several bodies).
     pub reached_share: f64,
+    /// Wall thickness at the gate (of its cell), mm.
+    pub wall_mm: f64,
     /// Largest flow length, mm.
     pub l_max_mm: f64,
     /// Mean flow length over the volume it reaches, mm.
@@ -270,6 +288,7 @@ pub fn fill_from(
         gate: point.to_array(),
         body: domain.body[src.cell as usize],
         reached_share: reached.len() as f64 / v.len() as f64,
+        wall_mm: domain.wall_mm[src.cell as usize] as f64,
         l_max_mm: l_max,
         l_mean_mm: l_mean,
         farthest: v.centre(far).to_array(),
@@ -781,8 +800,10 @@ fn share_sum(field: &Field, k: usize) -> f64 {
 /// Seconds per stage of the fill analysis.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct FlowTimes {
-    /// Voxelising and the cost fields.
+    /// Voxelising and the cost fields (without the wall measurement).
     pub voxels_s: f64,
+    /// Measuring the wall thickness (one ray per surface cell).
+    pub wall_s: f64,
     /// Fields from the paper gate.
     pub paper_s: f64,
     /// Balanced-gate search and its fields.
@@ -857,6 +878,8 @@ pub struct FillAnalysis {
     pub nominal_wall_mm: f64,
     /// Where the cell walls came from.
     pub wall_source: WallSource,
+    /// The wall thickness measured for the analysis (with [`Walls::Measure`]).
+    pub wall: Option<WallSummary>,
     /// What the balanced gate minimises.
     pub objective: Objective,
     /// Which gate is the answer.
@@ -905,6 +928,39 @@ pub enum FillError {
     Option(String),
 }
 
+/// Where the fill analysis takes the wall thickness from.
+#[derive(Debug, Clone, Copy)]
+pub enum Walls<'a> {
+    /// Measure it with this tree: one ray per surface cell, from the centroid of a triangle
+    /// through the cell along its inverted normal ([`crate::thickness`]'s rule).
+    Measure(&'a Bvh),
+    /// Given per triangle (NaN where unknown), with the nominal wall.
+    Given(&'a [f32], f64),
+    /// A uniform wall of 2 V / A.
+    Estimate,
+}
+
+/// The wall thickness seen by the fill analysis, over its samples (one per surface cell).
+#[derive(Debug, Clone, Serialize)]
+pub struct WallSummary {
+    /// Samples measured (surface cells).
+    pub samples: usize,
+    /// Smallest known value, mm.
+    pub min_mm: Option<f64>,
+    /// 5th percentile, mm (robust to slivers at small features).
+    pub p05_mm: Option<f64>,
+    /// The nominal wall: median of the samples (each stands for one cell of surface), mm.
+    pub nominal_mm: Option<f64>,
+    /// 95th percentile, mm.
+    pub p95_mm: Option<f64>,
+    /// Largest known value, mm (corners, where a chord runs up a wall, read high).
+    pub max_mm: Option<f64>,
+    /// Share of samples with no known value (rays leaving an open mesh).
+    pub unknown_share: f64,
+    /// Seconds spent measuring.
+    pub time_s: f64,
+}
+
 /// Runs the fill analysis of a located part: fields from the paper gate, the balanced gate
 /// (always computed, so the report can compare), and several gates when asked for.
 /// `triangle_wall_mm` is the measured wall per triangle when available.
@@ -912,7 +968,7 @@ pub fn analyse(
     mesh: &Mesh,
     analysis: &crate::gate::Analysis,
     material: &Material,
-    triangle_wall_mm: Option<(&[f32], f64)>,
+    walls: Walls,
     options: &FillOptions,
 ) -> Result<FillAnalysis, FillError> {
     let gate = analysis
@@ -930,27 +986,63 @@ pub fn analyse(
     let mut times = FlowTimes::default();
     let t = Instant::now();
     let c = &analysis.centres;
-    let (walls, nominal, wall_source) = match triangle_wall_mm {
-        Some((w, nominal)) if nominal.is_finite() && nominal > 0.0 => {
-            (Some(w), nominal, WallSource::Measured)
-        }
-        _ => {
-            let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
-                2.0 * c.volume_mm3 / c.area_mm2
-            } else {
-                mesh.bounds().diagonal() / 100.0
-            };
-            (None, estimate, WallSource::VolumeOverArea)
-        }
+    let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
+        2.0 * c.volume_mm3 / c.area_mm2
+    } else {
+        mesh.bounds().diagonal() / 100.0
     };
-    let h = cell_size(mesh, nominal, &options.flow);
+    let h = cell_size(
+        mesh,
+        match walls {
+            Walls::Given(_, n) if n.is_finite() && n > 0.0 => n,
+            _ => estimate,
+        },
+        &options.flow,
+    );
+    let voxels = Voxels::new(mesh, h);
+    let mut measured = None;
+    let (per_triangle, nominal, wall_source, wall) = match walls {
+        Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
+            (Some(w.to_vec()), n, WallSource::Measured, None)
+        }
+        Walls::Measure(bvh) => {
+            let t = Instant::now();
+            let mut owners: Vec<u32> = voxels
+                .triangle
+                .iter()
+                .zip(&voxels.surface)
+                .filter(|(_, &s)| s)
+                .map(|(&t, _)| t)
+                .collect();
+            owners.sort_unstable();
+            owners.dedup();
+            let w = crate::thickness::wall_thickness_of(
+                mesh,
+                bvh,
+                &crate::thickness::ThicknessOptions::default(),
+                &owners,
+            );
+            let summary = summarise_walls(&voxels, &w, seconds(t));
+            let nominal = summary.nominal_mm.unwrap_or(estimate);
+            measured = Some(w);
+            let source = if summary.nominal_mm.is_some() {
+                WallSource::Measured
+            } else {
+                WallSource::VolumeOverArea
+            };
+            (None, nominal, source, Some(summary))
+        }
+        _ => (None, estimate, WallSource::VolumeOverArea, None),
+    };
+    let triangle_walls = per_triangle.as_deref().or(measured.as_deref());
     if h > 0.5 * nominal {
         warnings.push(format!(
             "flow cells of {h:.3} mm are coarser than half the nominal wall ({nominal:.3} mm): flow lengths are rough"
         ));
     }
-    let domain = Domain::new(mesh, h, walls, nominal, material);
-    times.voxels_s = seconds(t);
+    let domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
+    times.wall_s = wall.as_ref().map_or(0.0, |w| w.time_s);
+    times.voxels_s = seconds(t) - times.wall_s;
     if domain.bodies > 1 {
         warnings.push(format!(
             "the part has {} separate bodies; a gate fills only its own body",
@@ -1061,6 +1153,7 @@ pub fn analyse(
         bodies: domain.bodies,
         nominal_wall_mm: nominal,
         wall_source,
+        wall,
         objective: options.objective,
         strategy: options.strategy,
         pressure_mpa_per_mm: pressure_factor_mpa_per_mm(material, nominal),
@@ -1072,6 +1165,41 @@ pub fn analyse(
         fill_order_per_vertex,
         answer: Some(answer),
     })
+}
+
+/// Statistics of the surface cells' walls: each surface cell is one sample, the value of its
+/// triangle.
+fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSummary {
+    let mut values: Vec<f32> = Vec::new();
+    let mut samples = 0;
+    for (&t, &s) in voxels.triangle.iter().zip(&voxels.surface) {
+        if s {
+            samples += 1;
+            let v = per_triangle[t as usize];
+            if v.is_finite() {
+                values.push(v);
+            }
+        }
+    }
+    values.sort_by(f32::total_cmp);
+    let q = |f: f64| -> Option<f64> {
+        (!values.is_empty())
+            .then(|| values[((values.len() - 1) as f64 * f).round() as usize] as f64)
+    };
+    WallSummary {
+        samples,
+        min_mm: q(0.0),
+        p05_mm: q(0.05),
+        nominal_mm: q(0.5),
+        p95_mm: q(0.95),
+        max_mm: q(1.0),
+        unknown_share: if samples == 0 {
+            1.0
+        } else {
+            1.0 - values.len() as f64 / samples as f64
+        },
+        time_s,
+    }
 }
 
 fn nearest_candidate(candidates: &[Source], p: DVec3) -> Option<usize> {

@@ -43,6 +43,8 @@ pub struct Voxels {
     /// For each solid cell, a triangle that passes through it or, for interior cells, the
     /// triangle of the nearest surface cell (by breadth-first steps).
     pub triangle: Vec<u32>,
+    /// Whether the surface passes through each solid cell.
+    pub surface: Vec<bool>,
     /// Cells whose centre is inside the surface (the rest are surface cells only).
     pub interior_cells: usize,
     /// Columns whose crossings did not close (open mesh), filled with surface cells only.
@@ -128,6 +130,7 @@ impl Voxels {
         let mut cells = Vec::new();
         let mut dense = Vec::new();
         let mut triangle = Vec::new();
+        let mut surface_flags = Vec::new();
         let mut interior_cells = 0;
         for (i, slot) in index.iter_mut().enumerate() {
             let surface = owner[i] != EMPTY;
@@ -139,6 +142,7 @@ impl Voxels {
                 cells.push([x as u32, y as u32, z as u32]);
                 dense.push(i as u32);
                 triangle.push(owner[i]);
+                surface_flags.push(surface);
                 interior_cells += inside[i] as usize;
             }
         }
@@ -151,6 +155,7 @@ impl Voxels {
             dense,
             table: Vec::new(),
             triangle,
+            surface: surface_flags,
             interior_cells,
             open_columns,
         };

@@ -1,0 +1,860 @@
+//! Rays in any direction through a mesh: a bounding volume hierarchy (BVH) over its triangles.
+//!
+//! The projection of [`crate::gate`] casts only rays parallel to D and draws triangles into
+//! them instead; the rays here go anywhere (along a facet's inverted normal for the wall
+//! thickness, along ±D from every facet for undercuts), so they need a tree of boxes.
+//!
+//! The tree is built once per mesh with a binned surface-area heuristic (12 bins per axis,
+//! leaves of at most 4 triangles; the top levels are built on both threads). Boxes and
+//! triangles are stored in `f32`, relative to the centre of the mesh's box, to halve the
+//! memory read per ray; queries take and return `f64`. The tree knows only boxes and triangle
+//! numbers: what a hit means (wall, undercut) is the caller's business.
+//!
+//! **Robustness rules.** A triangle is hit when the ray crosses it with barycentric
+//! coordinates within [`EDGE_TOLERANCE`] of its closed outline, so a ray through an edge
+//! shared by two triangles never slips between them (it may hit both, at the same distance,
+//! which is harmless for a first hit). Triangles seen edge-on (the ray parallel to their
+//! plane) and triangles without area are never hit. A ray may skip one triangle (the one it
+//! starts on) and ignores hits nearer than its `min_distance`.
+
+use std::cmp::Ordering;
+
+use glam::Vec3;
+use rayon::join;
+
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+
+/// Slack on barycentric coordinates when testing a hit: a ray through a shared edge hits at
+/// least one of the two triangles despite `f32` rounding.
+pub const EDGE_TOLERANCE: f32 = 1e-5;
+
+/// Most triangles in a leaf.
+const LEAF_SIZE: usize = 4;
+/// Bins per axis of the surface-area heuristic.
+const BINS: usize = 12;
+/// Subtrees with more triangles than this are built on another thread (the top levels only).
+const PARALLEL_MIN: usize = 16_384;
+
+/// A ray: where it starts, where it goes, the part of it that counts, and a triangle to skip.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Start point, mm.
+    pub origin: DVec3,
+    /// Unit direction.
+    pub direction: DVec3,
+    /// Hits nearer than this are ignored, mm (default 0).
+    pub min_distance: f64,
+    /// Hits farther than this are ignored, mm (default infinity).
+    pub max_distance: f64,
+    /// A triangle never hit, usually the one the ray starts on (default none).
+    pub skip: Option<u32>,
+}
+
+impl Ray {
+    /// The ray from `origin` along the unit vector `direction`, with no limits.
+    pub fn new(origin: DVec3, direction: DVec3) -> Ray {
+        Ray {
+            origin,
+            direction,
+            min_distance: 0.0,
+            max_distance: f64::INFINITY,
+            skip: None,
+        }
+    }
+
+    /// This ray, ignoring hits outside `min_distance..=max_distance`.
+    pub fn within(self, min_distance: f64, max_distance: f64) -> Ray {
+        Ray {
+            min_distance,
+            max_distance,
+            ..self
+        }
+    }
+
+    /// This ray, never hitting `triangle`.
+    pub fn skipping(self, triangle: u32) -> Ray {
+        Ray {
+            skip: Some(triangle),
+            ..self
+        }
+    }
+}
+
+/// The first triangle a ray hits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Index of the triangle in the mesh.
+    pub triangle: u32,
+    /// Distance from the ray's origin along its direction, mm.
+    pub distance: f64,
+}
+
+/// One node of the tree: a box and either two children or a run of triangles.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    min: [f32; 3],
+    /// Interior: index of the second child (the first follows the node). Leaf: first
+    /// triangle in leaf order.
+    link: u32,
+    max: [f32; 3],
+    /// Triangles in the leaf; 0 for an interior node.
+    count: u32,
+}
+
+/// A triangle in leaf order: a corner and the two edges from it, relative to the tree's
+/// origin.
+#[derive(Debug, Clone, Copy)]
+struct Tri {
+    a: Vec3,
+    ab: Vec3,
+    ac: Vec3,
+}
+
+/// A bounding volume hierarchy over the triangles of a mesh.
+#[derive(Debug, Clone)]
+pub struct Bvh {
+    origin: DVec3,
+    nodes: Vec<Node>,
+    tris: Vec<Tri>,
+    /// Mesh index of each triangle in leaf order.
+    ids: Vec<u32>,
+}
+
+/// Per-triangle box and centroid during the build.
+#[derive(Clone, Copy)]
+struct Item {
+    min: Vec3,
+    max: Vec3,
+    centre: Vec3,
+    id: u32,
+}
+
+#[derive(Clone, Copy)]
+struct Bounds {
+    min: Vec3,
+    max: Vec3,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+    fn grow(&mut self, min: Vec3, max: Vec3) {
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+    }
+    fn half_area(&self) -> f32 {
+        let d = (self.max - self.min).max(Vec3::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+}
+
+impl Bvh {
+    /// Builds the tree over every triangle of `mesh`.
+    pub fn new(mesh: &Mesh) -> Bvh {
+        let origin = mesh.bounds().centre();
+        let origin = if origin.is_finite() {
+            origin
+        } else {
+            DVec3::ZERO
+        };
+        let local = |v: DVec3| (v - origin).as_vec3();
+        let mut items: Vec<Item> = (0..mesh.triangles.len())
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t).map(local);
+                let min = a.min(b).min(c);
+                let max = a.max(b).max(c);
+                Item {
+                    min,
+                    max,
+                    centre: (min + max) * 0.5,
+                    id: t as u32,
+                }
+            })
+            .collect();
+        let mut nodes = if items.is_empty() {
+            vec![Node {
+                min: [f32::INFINITY; 3],
+                link: 0,
+                max: [f32::NEG_INFINITY; 3],
+                count: 0,
+            }]
+        } else {
+            build(&mut items, 0)
+        };
+        // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
+        // must not be lost to the rounding of the slab test, and the edge slack of the
+        // triangle test reaches slightly beyond a triangle's own box.
+        let reach = nodes[0].min.iter().chain(&nodes[0].max).fold(0f32, |m, v| {
+            if v.is_finite() {
+                m.max(v.abs())
+            } else {
+                m
+            }
+        });
+        let pad = 2.0 * EDGE_TOLERANCE * reach;
+        for n in &mut nodes {
+            for k in 0..3 {
+                n.min[k] -= pad;
+                n.max[k] += pad;
+            }
+        }
+        let ids: Vec<u32> = items.iter().map(|i| i.id).collect();
+        let tris = ids
+            .iter()
+            .map(|&t| {
+                let [a, b, c] = mesh.corners(t as usize).map(local);
+                Tri {
+                    a,
+                    ab: b - a,
+                    ac: c - a,
+                }
+            })
+            .collect();
+        Bvh {
+            origin,
+            nodes,
+            tris,
+            ids,
+        }
+    }
+
+    /// Number of triangles in the tree.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Whether the tree holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// The nearest hit of `ray`, or `None` when it hits nothing within its limits.
+    pub fn first_hit(&self, ray: &Ray) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        self.traverse(ray, |hit| {
+            best = Some(hit);
+            // Shorten the ray: only nearer hits matter from now on.
+            Some(hit.distance)
+        });
+        best
+    }
+
+    /// Whether `ray` hits anything within its limits (stops at the first hit found).
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        let mut found = false;
+        self.traverse(ray, |_| {
+            found = true;
+            None
+        });
+        found
+    }
+
+    /// Calls `f` with every hit of `ray` within its limits, in no particular order, until `f`
+    /// returns `false`.
+    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit) -> bool) {
+        let limit = ray.max_distance;
+        self.traverse(ray, |hit| f(hit).then_some(limit));
+    }
+
+    /// Walks the tree nearest box first. `on_hit` gets every hit nearer than the current
+    /// limit and returns the new limit, or `None` to stop.
+    fn traverse(&self, ray: &Ray, mut on_hit: impl FnMut(Hit) -> Option<f64>) {
+        if self.ids.is_empty()
+            || !(ray.origin.is_finite() && ray.direction.is_finite())
+            || ray.min_distance > ray.max_distance
+        {
+            return;
+        }
+        let o = (ray.origin - self.origin).as_vec3();
+        let d = ray.direction.as_vec3();
+        // Zero components become +0 so that their inverse is +infinity (see `slab`).
+        let inv = Vec3::ONE / Vec3::select(d.cmpeq(Vec3::ZERO), Vec3::ZERO, d);
+        let t_min = ray.min_distance as f32;
+        let mut t_max = ray.max_distance.min(f32::MAX as f64) as f32;
+        let mut stack = [0u32; 64];
+        let mut top = 0usize;
+        let mut node = 0usize;
+        if slab(&self.nodes[0], o, inv, t_max).is_none() {
+            return;
+        }
+        loop {
+            let n = &self.nodes[node];
+            if n.count > 0 {
+                let first = n.link as usize;
+                for i in first..first + n.count as usize {
+                    let id = self.ids[i];
+                    if ray.skip == Some(id) {
+                        continue;
+                    }
+                    if let Some(t) = intersect(&self.tris[i], o, d) {
+                        if t >= t_min && t <= t_max {
+                            match on_hit(Hit {
+                                triangle: id,
+                                distance: t as f64,
+                            }) {
+                                Some(limit) => t_max = limit as f32,
+                                None => return,
+                            }
+                        }
+                    }
+                }
+            } else {
+                let left = node + 1;
+                let right = n.link as usize;
+                let tl = slab(&self.nodes[left], o, inv, t_max);
+                let tr = slab(&self.nodes[right], o, inv, t_max);
+                match (tl, tr) {
+                    (Some(a), Some(b)) => {
+                        let (near, far) = if a <= b { (left, right) } else { (right, left) };
+                        if top < stack.len() {
+                            stack[top] = far as u32;
+                            top += 1;
+                        }
+                        node = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = left;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = right;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            // Pop the next box, skipping those now beyond the shortened ray.
+            loop {
+                if top == 0 {
+                    return;
+                }
+                top -= 1;
+                let candidate = stack[top] as usize;
+                if slab(&self.nodes[candidate], o, inv, t_max).is_some() {
+                    node = candidate;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// The triangle nearest to `p` among those nearer than `radius`, with its distance; `None`
+    /// when no triangle comes within `radius`.
+    pub fn nearest_within(&self, p: DVec3, radius: f64) -> Option<Hit> {
+        if self.ids.is_empty() || !p.is_finite() || radius.is_nan() || radius <= 0.0 {
+            return None;
+        }
+        let q = (p - self.origin).as_vec3();
+        let r = radius.min(f32::MAX as f64) as f32;
+        let mut best2 = r * r;
+        let mut best: Option<u32> = None;
+        let mut stack = [0u32; 64];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let node = &self.nodes[index as usize];
+            if box_distance2(node, q) >= best2 {
+                continue;
+            }
+            if node.count > 0 {
+                let first = node.link as usize;
+                for i in first..first + node.count as usize {
+                    let d2 = closest_on_triangle(&self.tris[i], q).distance_squared(q);
+                    if d2 < best2 {
+                        best2 = d2;
+                        best = Some(self.ids[i]);
+                    }
+                }
+            } else {
+                // The first child follows its parent.
+                let left = index + 1;
+                let right = node.link;
+                let dl = box_distance2(&self.nodes[left as usize], q);
+                let dr = box_distance2(&self.nodes[right as usize], q);
+                // Push the farther child first so the nearer is searched first.
+                let order = if dl <= dr {
+                    [right, left]
+                } else {
+                    [left, right]
+                };
+                for c in order {
+                    if top < stack.len() {
+                        stack[top] = c;
+                        top += 1;
+                    }
+                }
+            }
+        }
+        best.map(|triangle| Hit {
+            triangle,
+            distance: (best2 as f64).sqrt(),
+        })
+    }
+}
+
+/// How many points of a facet are tested: the centroid only, or a lattice fine enough that
+/// no sample is farther apart than a spacing.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Sampling {
+    /// One point per facet, its centroid (the default).
+    #[default]
+    Centroid,
+    /// A facet whose longest edge is L gets k x k points with k = ceil(L / spacing), at most
+    /// [`MAX_SUBDIVISION`] x [`MAX_SUBDIVISION`]: the centroids of the k^2 equal triangles of
+    /// its regular subdivision. Spacing in mm.
+    Spacing(f64),
+}
+
+/// Largest k of [`Sampling::Spacing`] (so at most 64 points per facet).
+pub const MAX_SUBDIVISION: usize = 8;
+
+impl Sampling {
+    /// Subdivision k of a facet with these corners (1 for the centroid alone).
+    pub fn subdivision(self, [a, b, c]: [DVec3; 3]) -> usize {
+        match self {
+            Sampling::Centroid => 1,
+            Sampling::Spacing(h) => {
+                let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                let k = (longest / h).ceil();
+                if k.is_finite() && k >= 1.0 {
+                    (k as usize).min(MAX_SUBDIVISION)
+                } else {
+                    1
+                }
+            }
+        }
+    }
+
+    /// Calls `f` with each sample point of the facet; the points are the centroids of equal
+    /// triangles, so each stands for the same share of the facet's area.
+    pub fn for_each(self, corners: [DVec3; 3], mut f: impl FnMut(DVec3)) {
+        let [a, b, c] = corners;
+        let k = self.subdivision(corners);
+        if k == 1 {
+            f((a + b + c) / 3.0);
+            return;
+        }
+        let (ab, ac) = ((b - a) / k as f64, (c - a) / k as f64);
+        for i in 0..k {
+            for j in 0..k - i {
+                // The triangle with corners (i, j), (i+1, j), (i, j+1) in steps along ab, ac.
+                f(a + ab * (i as f64 + 1.0 / 3.0) + ac * (j as f64 + 1.0 / 3.0));
+                if i + j + 2 <= k {
+                    // Its upside-down neighbour (i+1, j), (i, j+1), (i+1, j+1).
+                    f(a + ab * (i as f64 + 2.0 / 3.0) + ac * (j as f64 + 2.0 / 3.0));
+                }
+            }
+        }
+    }
+}
+
+/// Squared distance from `q` to the node's box (0 inside).
+#[inline]
+fn box_distance2(n: &Node, q: Vec3) -> f32 {
+    let min = Vec3::from_array(n.min);
+    let max = Vec3::from_array(n.max);
+    let d = (min - q).max(q - max).max(Vec3::ZERO);
+    d.length_squared()
+}
+
+/// Entry distance of the ray into the node's box, if it enters before `t_max`.
+#[inline]
+fn slab(n: &Node, o: Vec3, inv: Vec3, t_max: f32) -> Option<f32> {
+    let t1 = (Vec3::from_array(n.min) - o) * inv;
+    let t2 = (Vec3::from_array(n.max) - o) * inv;
+    // A ray parallel to an axis has inv = +infinity there; starting exactly in the plane of
+    // a box face gives 0 x infinity = NaN, which means "inside that slab": the lower bound
+    // (from min) becomes -infinity and the upper (from max) +infinity.
+    let t1 = Vec3::select(t1.is_nan_mask(), Vec3::NEG_INFINITY, t1);
+    let t2 = Vec3::select(t2.is_nan_mask(), Vec3::INFINITY, t2);
+    let near = t1.min(t2).max_element().max(0.0);
+    let far = t1.max(t2).min_element().min(t_max);
+    (near <= far).then_some(near)
+}
+
+/// Möller-Trumbore with the barycentric slack of [`EDGE_TOLERANCE`]; the distance along the
+/// ray, or `None` when the ray misses or runs parallel to the triangle.
+#[inline]
+fn intersect(tri: &Tri, o: Vec3, d: Vec3) -> Option<f32> {
+    let p = d.cross(tri.ac);
+    let det = tri.ab.dot(p);
+    // Relative test: edge-on (or area-less) triangles are never hit.
+    let scale = tri.ab.length() * tri.ac.length();
+    if det.abs().partial_cmp(&(1e-7 * scale)) != Some(Ordering::Greater) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - tri.a;
+    let u = s.dot(p) * inv;
+    if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
+        return None;
+    }
+    let q = s.cross(tri.ab);
+    let v = d.dot(q) * inv;
+    if v < -EDGE_TOLERANCE || u + v > 1.0 + EDGE_TOLERANCE {
+        return None;
+    }
+    Some(tri.ac.dot(q) * inv)
+}
+
+/// The point of the triangle nearest to `p` (Ericson, *Real-Time Collision Detection*, 5.1.5).
+fn closest_on_triangle(tri: &Tri, p: Vec3) -> Vec3 {
+    let (a, ab, ac) = (tri.a, tri.ab, tri.ac);
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = ap - ab;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return a + ab;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = ap - ac;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return a + ac;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return a + ab + (ac - ab) * w;
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // An area-less triangle: its nearest corner is good enough.
+        return [a, a + ab, a + ac]
+            .into_iter()
+            .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+            .unwrap_or(a);
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    a + ab * v + ac * w
+}
+
+/// Builds the subtree over `items` (reordered in place into leaf order); node links are
+/// relative to the returned vector, triangle links relative to `first`.
+fn build(items: &mut [Item], first: usize) -> Vec<Node> {
+    let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
+    build_into(items, first, &mut nodes);
+    nodes
+}
+
+fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>) {
+    let mut bounds = Bounds::EMPTY;
+    let mut centres = Bounds::EMPTY;
+    for it in items.iter() {
+        bounds.grow(it.min, it.max);
+        centres.grow(it.centre, it.centre);
+    }
+    let me = nodes.len();
+    nodes.push(Node {
+        min: bounds.min.to_array(),
+        link: first as u32,
+        max: bounds.max.to_array(),
+        count: items.len() as u32,
+    });
+    if items.len() <= LEAF_SIZE {
+        return;
+    }
+    let Some(mid) = split(items, &bounds, &centres) else {
+        return; // Every centre in one place: a (large) leaf is the only way.
+    };
+    let (left, right) = items.split_at_mut(mid);
+    nodes[me].count = 0;
+    if left.len() + right.len() > PARALLEL_MIN {
+        let (l, r) = join(|| build(left, first), || build(right, first + mid));
+        let base = nodes.len();
+        append(nodes, l, base);
+        nodes[me].link = nodes.len() as u32;
+        let base = nodes.len();
+        append(nodes, r, base);
+    } else {
+        build_into(left, first, nodes);
+        nodes[me].link = nodes.len() as u32;
+        build_into(right, first + mid, nodes);
+    }
+}
+
+/// Appends a subtree built on its own, moving its interior links by `base`.
+fn append(nodes: &mut Vec<Node>, sub: Vec<Node>, base: usize) {
+    nodes.extend(sub.into_iter().map(|mut n| {
+        if n.count == 0 {
+            n.link += base as u32;
+        }
+        n
+    }));
+}
+
+/// Partitions `items` by the cheapest binned surface-area split; the size of the first part,
+/// or `None` when no split beats a leaf and the leaf is small enough, or no split exists.
+fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> Option<usize> {
+    let extent = centres.max - centres.min;
+    let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
+    for axis in 0..3 {
+        if extent[axis].partial_cmp(&0.0) != Some(Ordering::Greater) {
+            continue;
+        }
+        let lo = centres.min[axis];
+        let scale = BINS as f32 / extent[axis];
+        let bin_of = |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
+        let mut boxes = [Bounds::EMPTY; BINS];
+        let mut counts = [0usize; BINS];
+        for it in items.iter() {
+            let b = bin_of(it.centre[axis]);
+            boxes[b].grow(it.min, it.max);
+            counts[b] += 1;
+        }
+        // Sweep from the right, then from the left, to price every plane between bins.
+        let mut right_area = [0f32; BINS];
+        let mut acc = Bounds::EMPTY;
+        let mut n = 0;
+        let mut right_count = [0usize; BINS];
+        for b in (1..BINS).rev() {
+            acc.grow(boxes[b].min, boxes[b].max);
+            n += counts[b];
+            right_area[b] = acc.half_area();
+            right_count[b] = n;
+        }
+        let mut acc = Bounds::EMPTY;
+        let mut n = 0;
+        for b in 0..BINS - 1 {
+            acc.grow(boxes[b].min, boxes[b].max);
+            n += counts[b];
+            let (nl, nr) = (n, right_count[b + 1]);
+            if nl == 0 || nr == 0 {
+                continue;
+            }
+            let cost = acc.half_area() * nl as f32 + right_area[b + 1] * nr as f32;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                let plane = lo + (b + 1) as f32 / scale;
+                best = Some((cost, axis, plane));
+            }
+        }
+    }
+    let Some((cost, axis, plane)) = best else {
+        // Centres all equal: halve the list so that leaves stay small.
+        return (items.len() > LEAF_SIZE).then_some(items.len() / 2);
+    };
+    let leaf_cost = bounds.half_area() * items.len() as f32;
+    if cost >= leaf_cost && items.len() <= 4 * LEAF_SIZE {
+        return None;
+    }
+    // Partition in place by the chosen plane, with the binning's own arithmetic.
+    let lo = centres.min[axis];
+    let scale = BINS as f32 / extent[axis];
+    let cut = (((plane - lo) * scale).round()) as usize;
+    let mut i = 0;
+    let mut j = items.len();
+    while i < j {
+        let b = (((items[i].centre[axis] - lo) * scale) as usize).min(BINS - 1);
+        if b < cut {
+            i += 1;
+        } else {
+            j -= 1;
+            items.swap(i, j);
+        }
+    }
+    (i > 0 && i < items.len()).then_some(i)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::samples;
+
+    /// Every triangle by brute force, in f64: the oracle for the tree.
+    fn brute_first_hit(mesh: &Mesh, ray: &Ray) -> Option<f64> {
+        let mut best: Option<f64> = None;
+        for t in 0..mesh.triangles.len() {
+            if ray.skip == Some(t as u32) {
+                continue;
+            }
+            let [a, b, c] = mesh.corners(t);
+            let (e1, e2) = (b - a, c - a);
+            let p = ray.direction.cross(e2);
+            let det = e1.dot(p);
+            if det.abs() < 1e-12 * e1.length() * e2.length() {
+                continue;
+            }
+            let s = ray.origin - a;
+            let u = s.dot(p) / det;
+            let q = s.cross(e1);
+            let v = ray.direction.dot(q) / det;
+            if u < 0.0 || v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            let d = e2.dot(q) / det;
+            if d >= ray.min_distance && d <= ray.max_distance && best.is_none_or(|b| d < b) {
+                best = Some(d);
+            }
+        }
+        best
+    }
+
+    /// A tiny deterministic generator (xorshift), so the test needs no dependency.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn unit(&mut self) -> DVec3 {
+            loop {
+                let v = DVec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
+                let l = v.length();
+                if l > 0.1 && l <= 1.0 {
+                    return v / l;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn seeded_random_rays_match_brute_force() {
+        for name in ["cover", "cap", "plate", "bracket"] {
+            let mesh = samples::sample(name).unwrap();
+            let bvh = Bvh::new(&mesh);
+            assert_eq!(bvh.len(), mesh.triangles.len());
+            let b = mesh.bounds();
+            let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+            let mut hits = 0;
+            for _ in 0..2000 {
+                let o = b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let ray = Ray::new(o, rng.unit());
+                let want = brute_first_hit(&mesh, &ray);
+                let got = bvh.first_hit(&ray).map(|h| h.distance);
+                match (want, got) {
+                    (Some(w), Some(g)) => {
+                        hits += 1;
+                        assert!((w - g).abs() < 1e-3, "{name}: {w} vs {g} for {ray:?}");
+                    }
+                    (None, None) => {}
+                    // The tree's edge slack may catch a ray the exact test lets through a
+                    // crack-free edge; it may not invent or lose a hit otherwise.
+                    _ => panic!("{name}: brute {want:?}, tree {got:?} for {ray:?}"),
+                }
+                assert_eq!(bvh.any_hit(&ray), got.is_some());
+            }
+            assert!(hits > 500, "{name}: only {hits} hits, test too weak");
+        }
+    }
+
+    #[test]
+    fn limits_and_skip_are_honoured() {
+        // Plate 3 mm thick (z from 0 to 3): straight down from above.
+        let mesh = samples::sample("plate").unwrap();
+        let bvh = Bvh::new(&mesh);
+        let down = Ray::new(DVec3::new(-30.0, 10.0, 10.0), -DVec3::Z);
+        let top = bvh.first_hit(&down).unwrap();
+        assert!((top.distance - 7.0).abs() < 1e-4, "{top:?}");
+        let below = bvh.first_hit(&down.skipping(top.triangle)).unwrap();
+        assert!((below.distance - 10.0).abs() < 1e-4, "{below:?}");
+        assert!(bvh.first_hit(&down.within(0.0, 6.9)).is_none());
+        let far = bvh.first_hit(&down.within(7.5, 100.0)).unwrap();
+        assert!((far.distance - 10.0).abs() < 1e-4);
+        // Through the hole at (20, 0): nothing.
+        assert!(!bvh.any_hit(&Ray::new(DVec3::new(20.0, 0.0, 10.0), -DVec3::Z)));
+    }
+
+    #[test]
+    fn rays_through_shared_edges_and_vertices_are_not_lost() {
+        // The bracket's faces are split into triangles along diagonals; aim at the diagonals
+        // and at the vertices of the 60 x 40 base from below.
+        let mesh = samples::sample("bracket").unwrap();
+        let bvh = Bvh::new(&mesh);
+        for &(x, y) in &[
+            (5.0, 0.0),
+            (30.0, 20.0),
+            (5.0, 40.0),
+            (60.0, 40.0),
+            (32.5, 20.0),
+        ] {
+            let ray = Ray::new(DVec3::new(x, y, -5.0), DVec3::Z);
+            let h = bvh.first_hit(&ray);
+            assert!(
+                h.is_some_and(|h| (h.distance - 5.0).abs() < 1e-4),
+                "{x},{y}: {h:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn nearest_matches_closed_forms() {
+        let mesh = samples::sample("tray").unwrap(); // 80 x 60 x 20, pocket floor at z = 4
+        let bvh = Bvh::new(&mesh);
+        let h = bvh.nearest_within(DVec3::new(0.0, 0.0, 1.0), 10.0).unwrap();
+        assert!((h.distance - 1.0).abs() < 1e-5, "{h:?}");
+        let h = bvh.nearest_within(DVec3::new(0.0, 0.0, 9.0), 10.0).unwrap();
+        assert!((h.distance - 5.0).abs() < 1e-5, "{h:?}");
+        // Outside a corner: distance to the corner point (40, 30, 20).
+        let p = DVec3::new(43.0, 34.0, 20.0);
+        let h = bvh.nearest_within(p, 10.0).unwrap();
+        assert!((h.distance - 5.0).abs() < 1e-5, "{h:?}");
+        assert!(bvh.nearest_within(p, 4.9).is_none());
+    }
+
+    #[test]
+    fn sampling_covers_the_facet_evenly() {
+        let corners = [
+            DVec3::ZERO,
+            DVec3::new(6.0, 0.0, 0.0),
+            DVec3::new(0.0, 3.0, 0.0),
+        ];
+        let mut points = Vec::new();
+        Sampling::Centroid.for_each(corners, |p| points.push(p));
+        assert_eq!(points, vec![DVec3::new(2.0, 1.0, 0.0)]);
+        points.clear();
+        // Longest edge sqrt(45) = 6.71 mm, so k = 4 and 16 points.
+        Sampling::Spacing(2.0).for_each(corners, |p| points.push(p));
+        assert_eq!(points.len(), 16);
+        let mean = points.iter().sum::<DVec3>() / 16.0;
+        assert!(
+            (mean - DVec3::new(2.0, 1.0, 0.0)).length() < 1e-12,
+            "{mean}"
+        );
+        for p in &points {
+            assert!(p.x > 0.0 && p.y > 0.0 && p.x / 6.0 + p.y / 3.0 < 1.0, "{p}");
+        }
+        let mut unique = points.clone();
+        unique.dedup();
+        assert_eq!(unique.len(), 16);
+        assert_eq!(
+            Sampling::Spacing(1e-9).subdivision(corners),
+            MAX_SUBDIVISION
+        );
+        assert_eq!(Sampling::Spacing(f64::NAN).subdivision(corners), 1);
+    }
+
+    #[test]
+    fn empty_and_non_finite_inputs_give_nothing() {
+        let bvh = Bvh::new(&Mesh::default());
+        assert!(bvh.is_empty());
+        assert!(bvh.first_hit(&Ray::new(DVec3::ZERO, DVec3::Z)).is_none());
+        let bvh = Bvh::new(&samples::sample("plate").unwrap());
+        assert!(bvh
+            .first_hit(&Ray::new(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Z))
+            .is_none());
+        assert!(bvh.nearest_within(DVec3::ZERO, f64::NAN).is_none());
+        assert!(bvh.nearest_within(DVec3::ZERO, -1.0).is_none());
+    }
+}

@@ -1,0 +1,386 @@
+//! Wall thickness of the part everywhere: one value per triangle, by rays along the inverted
+//! normal, with a cross-width check for rays that run along a wall instead of across it.
+//!
+//! The paper's rule "R below the wall thickness" (measured along D at the gate node, in
+//! [`crate::gate`]) and the designers' rule "gate into the thickest section" both read it.
+//!
+//! # The rule, per facet
+//!
+//! 1. A facet without area (area below 1e-12 of the squared box diagonal, or a normal that is
+//!    not finite) is **unknown** (NaN) and weighs nothing in the statistics.
+//! 2. From each sample point p of the facet (its centroid by default, see [`Sampling`]) a ray
+//!    goes along the inverted normal -n, skipping the facet itself and every hit nearer than
+//!    `1e-6` of the box diagonal (so a sliver's neighbours, met at distance ~0 by round-off,
+//!    never give a zero thickness). The **opposite wall** is the first triangle hit, and it
+//!    counts only if the ray leaves the solid there: its normal points along the ray
+//!    (n_hit · -n > 0). The thickness is the distance to it. A ray through an edge meets two
+//!    triangles at the same distance (within 1e-6 of the diagonal): it leaves if either does.
+//! 3. If that ray hits nothing, or first meets a triangle facing it (it was outside the solid:
+//!    the facet's normal is inverted), the same test is made along +n; a wall found that way
+//!    means the facet is flipped and its thickness is measured the other way. (The facets
+//!    across from a flipped facet see a wall facing them and are unknown, unless their own
+//!    +n ray finds a consistent wall.)
+//! 4. Otherwise the sample is **unknown**: on an open mesh a ray that leaves through the hole
+//!    gives NaN, never infinity or the distance to some far surface.
+//! 5. **Cross-width check.** On the narrow edge face of a plate the ray runs along the plate
+//!    and measures its length, not its wall. So for a chord of length t, the surface point q
+//!    nearest the chord's midpoint m is found; if it is nearer than t/2 (by more than 0.1 %),
+//!    the chord may run along a wall, and the solid is measured across it at the midpoint and
+//!    at the quarter points (a midpoint at a T-junction of two walls is wide every way). At
+//!    each point m, the width is measured along the direction e from m to its nearest surface q
+//!    (made perpendicular to the chord) and along the direction perpendicular to both: two
+//!    rays each, ±e, to the walls where they leave the solid. If the smaller of those two
+//!    widths is smaller than t, it is the thickness; if any cross ray leaves
+//!    through a hole, the sample is unknown. Near a convex edge the nearest point is the edge
+//!    face, but across the chord the solid is wide, so the facet keeps its thickness across
+//!    the wall (a ball-based thickness would drop to ~0 there); when q is within the 1e-6
+//!    diagonal of m (the chord runs in a face, as from a sliver along an edge), the chord is
+//!    kept as it is.
+//! 6. The facet's value is the mean of its known samples (NaN if none is known).
+//!
+//! The statistics ([`WallThickness`]) are over facets with a known value: minimum, maximum,
+//! and the **nominal** thickness, the area-weighted median (half of the known area is
+//! thinner). The unknown share is the area of unknown facets over the whole area.
+
+use std::cmp::Ordering;
+
+use rayon::prelude::*;
+
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+pub use crate::raycast::Sampling;
+use crate::raycast::{Bvh, Ray};
+
+/// Options of [`wall_thickness`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThicknessOptions {
+    /// Which points of each facet cast rays (default: the centroid only).
+    pub sampling: Sampling,
+    /// Whether rays that run along a wall are replaced by the width across it (rule 5 of the
+    /// module; default on).
+    pub cross_check: CrossCheck,
+}
+
+impl Default for ThicknessOptions {
+    fn default() -> Self {
+        ThicknessOptions {
+            sampling: Sampling::Centroid,
+            cross_check: CrossCheck::On,
+        }
+    }
+}
+
+/// Rule 5 of the module: the cross-width check.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CrossCheck {
+    /// Check every chord (the default).
+    #[default]
+    On,
+    /// The raw ray length along the inverted normal.
+    Off,
+}
+
+/// The wall thickness of every triangle, and its statistics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallThickness {
+    /// Thickness of each triangle in mm, in the mesh's order; NaN where unknown (a ray that
+    /// leaves an open mesh, a facet without area).
+    pub per_triangle: Vec<f32>,
+    /// Smallest known thickness, mm (`None` when no facet is known).
+    pub min_mm: Option<f64>,
+    /// Area-weighted median of the known thicknesses, mm.
+    pub nominal_mm: Option<f64>,
+    /// Largest known thickness, mm.
+    pub max_mm: Option<f64>,
+    /// Area of the unknown facets over the whole area (0 to 1).
+    pub unknown_area_share: f64,
+}
+
+impl WallThickness {
+    /// Thickness of triangle `t` in mm, or `None` when unknown or out of range.
+    pub fn at_triangle(&self, t: usize) -> Option<f64> {
+        self.per_triangle
+            .get(t)
+            .map(|&v| v as f64)
+            .filter(|v| v.is_finite())
+    }
+
+    /// Thickness at each vertex, for colouring: the area-weighted mean of the known values of
+    /// the triangles around it; NaN where none is known.
+    pub fn per_vertex(&self, mesh: &Mesh) -> Vec<f32> {
+        let mut sum = vec![0f64; mesh.vertices.len()];
+        let mut weight = vec![0f64; mesh.vertices.len()];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let Some(v) = self.at_triangle(t) else {
+                continue;
+            };
+            let area = area(mesh.corners(t));
+            for &i in tri {
+                sum[i as usize] += v * area;
+                weight[i as usize] += area;
+            }
+        }
+        sum.iter()
+            .zip(&weight)
+            .map(|(s, w)| if *w > 0.0 { (s / w) as f32 } else { f32::NAN })
+            .collect()
+    }
+}
+
+fn area([a, b, c]: [DVec3; 3]) -> f64 {
+    0.5 * (b - a).cross(c - a).length()
+}
+
+/// The wall thickness of every triangle of `mesh` (see the module for the rule). Builds its
+/// own ray-casting tree; use [`wall_thickness_with`] to share one.
+pub fn wall_thickness(mesh: &Mesh, options: &ThicknessOptions) -> WallThickness {
+    wall_thickness_with(mesh, &Bvh::new(mesh), options)
+}
+
+/// [`wall_thickness`] with a tree already built over `mesh`.
+pub fn wall_thickness_with(mesh: &Mesh, bvh: &Bvh, options: &ThicknessOptions) -> WallThickness {
+    let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+    summarise(mesh, wall_thickness_of(mesh, bvh, options, &all))
+}
+
+/// The thickness of the listed triangles only (NaN for the others), in the mesh's order:
+/// for analyses that sample the surface, such as one triangle per flow cell.
+pub fn wall_thickness_of(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    options: &ThicknessOptions,
+    triangles: &[u32],
+) -> Vec<f32> {
+    let diagonal = mesh.bounds().diagonal();
+    let diagonal = if diagonal.is_finite() { diagonal } else { 0.0 };
+    let probe = Probe {
+        bvh,
+        mesh,
+        min_hit: 1e-6 * diagonal,
+        options: *options,
+    };
+    let min_area = 1e-12 * diagonal * diagonal;
+    let values: Vec<f32> = triangles
+        .par_iter()
+        .with_min_len(256)
+        .map(|&t| {
+            let t = t as usize;
+            let corners = mesh.corners(t);
+            let [a, b, c] = corners;
+            let cross = (b - a).cross(c - a);
+            let area = 0.5 * cross.length();
+            if area.partial_cmp(&min_area) != Some(Ordering::Greater) || !cross.is_finite() {
+                return f32::NAN;
+            }
+            let n = cross / (2.0 * area);
+            let (mut sum, mut known) = (0.0, 0u32);
+            options.sampling.for_each(corners, |p| {
+                if let Some(v) = probe.sample(t as u32, p, n) {
+                    sum += v;
+                    known += 1;
+                }
+            });
+            if known == 0 {
+                f32::NAN
+            } else {
+                (sum / known as f64) as f32
+            }
+        })
+        .collect();
+    let mut per_triangle = vec![f32::NAN; mesh.triangles.len()];
+    for (&t, v) in triangles.iter().zip(values) {
+        if let Some(slot) = per_triangle.get_mut(t as usize) {
+            *slot = v;
+        }
+    }
+    per_triangle
+}
+
+/// What one sample needs.
+struct Probe<'a> {
+    bvh: &'a Bvh,
+    mesh: &'a Mesh,
+    min_hit: f64,
+    options: ThicknessOptions,
+}
+
+impl Probe<'_> {
+    /// Thickness at point `p` of triangle `t` with unit outward normal `n` (rules 2 to 5).
+    fn sample(&self, t: u32, p: DVec3, n: DVec3) -> Option<f64> {
+        let (dir, chord) = [-n, n]
+            .into_iter()
+            .find_map(|dir| self.exit(p, dir, Some(t)).map(|len| (dir, len)))?;
+        if self.options.cross_check == CrossCheck::Off {
+            return Some(chord);
+        }
+        let mut width = chord;
+        for (k, at) in [0.5, 0.25, 0.75].into_iter().enumerate() {
+            let m = p + dir * (at * chord);
+            // The largest ball around m inside the chord's ends; the nearest surface inside it
+            // (by more than 0.1 %) says the chord may run along a wall. Only the midpoint
+            // decides whether to look at all.
+            let reach = chord * at.min(1.0 - at) * (1.0 - 1e-3);
+            let Some(near) = self.bvh.nearest_within(m, reach) else {
+                if k == 0 {
+                    return Some(chord);
+                }
+                continue;
+            };
+            if near.distance <= self.min_hit {
+                // The chord runs in a face (a sliver at a convex edge): the ray is across
+                // the wall, and the face beside it is not a wall to measure.
+                if k == 0 {
+                    return Some(chord);
+                }
+                continue;
+            }
+            width = width.min(self.cross_width(m, dir, near.triangle)?);
+        }
+        Some(width)
+    }
+
+    /// The smallest width of the solid through `m` across the chord direction `dir`: along the
+    /// direction to the nearest point of `triangle` (made perpendicular to the chord) and along
+    /// the direction perpendicular to both (a chord beside a hole has its nearest surface in
+    /// the hole but its wall the other way). `None` when a cross ray leaves through a hole.
+    fn cross_width(&self, m: DVec3, dir: DVec3, triangle: u32) -> Option<f64> {
+        // The tree gives the nearest triangle, not its nearest point: found again in f64.
+        let q = nearest_on_triangle(self.mesh.corners(triangle as usize), m);
+        let e = q - m;
+        let e = (e - dir * e.dot(dir)).normalize_or_zero();
+        if e == DVec3::ZERO {
+            return Some(f64::INFINITY);
+        }
+        let mut width = f64::INFINITY;
+        for e in [e, dir.cross(e)] {
+            let w = self.exit(m, e, None)? + self.exit(m, -e, None)?;
+            width = width.min(w);
+        }
+        Some(width)
+    }
+
+    /// Distance from `p` along `dir` to where the ray leaves the solid: the first hit, if its
+    /// triangle faces along the ray.
+    fn exit(&self, p: DVec3, dir: DVec3, skip: Option<u32>) -> Option<f64> {
+        self.exit_from(p, dir, skip, self.min_hit)
+    }
+
+    /// [`Probe::exit`] ignoring hits nearer than `min_hit`.
+    fn exit_from(&self, p: DVec3, dir: DVec3, skip: Option<u32>, min_hit: f64) -> Option<f64> {
+        let mut ray = Ray::new(p, dir).within(min_hit, f64::INFINITY);
+        ray.skip = skip;
+        let hit = self.bvh.first_hit(&ray)?;
+        let leaves = |t: u32| self.mesh.normal(t as usize).dot(dir) > 0.0;
+        if leaves(hit.triangle) {
+            return Some(hit.distance);
+        }
+        // A ray through an edge meets both triangles at one distance, in no fixed order: it
+        // leaves the solid if any of the triangles there faces along it.
+        let tie = self.min_hit.max(1e-6 * hit.distance);
+        let mut found = false;
+        let at = ray.within(hit.distance - tie, hit.distance + tie);
+        self.bvh.for_each_hit(&at, |h| {
+            found = leaves(h.triangle);
+            !found
+        });
+        found.then_some(hit.distance)
+    }
+}
+
+/// The point of triangle `[a, b, c]` nearest to `p`, by projection onto its plane and, when
+/// that falls outside, onto its nearest edge.
+fn nearest_on_triangle([a, b, c]: [DVec3; 3], p: DVec3) -> DVec3 {
+    let n = (b - a).cross(c - a);
+    let len2 = n.length_squared();
+    if len2 > 0.0 {
+        let q = p - n * ((p - a).dot(n) / len2);
+        let inside = [(a, b), (b, c), (c, a)]
+            .iter()
+            .all(|&(u, v)| (v - u).cross(q - u).dot(n) >= 0.0);
+        if inside {
+            return q;
+        }
+    }
+    [(a, b), (b, c), (c, a)]
+        .into_iter()
+        .map(|(u, v)| crate::math::nearest_on_segment(u, v, p))
+        .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+        .unwrap_or(a)
+}
+
+/// Minimum, area-weighted median, maximum and unknown share of per-triangle values.
+fn summarise(mesh: &Mesh, per_triangle: Vec<f32>) -> WallThickness {
+    let mut known: Vec<(f32, f64)> = Vec::with_capacity(per_triangle.len());
+    let (mut total, mut unknown) = (0.0, 0.0);
+    for (t, &v) in per_triangle.iter().enumerate() {
+        let a = area(mesh.corners(t));
+        total += a;
+        if v.is_finite() {
+            known.push((v, a));
+        } else {
+            unknown += a;
+        }
+    }
+    known.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let known_area: f64 = known.iter().map(|k| k.1).sum();
+    let mut nominal = None;
+    let mut acc = 0.0;
+    for &(v, a) in &known {
+        acc += a;
+        if acc >= 0.5 * known_area {
+            nominal = Some(v as f64);
+            break;
+        }
+    }
+    WallThickness {
+        min_mm: known.first().map(|k| k.0 as f64),
+        nominal_mm: nominal,
+        max_mm: known.last().map(|k| k.0 as f64),
+        unknown_area_share: if total > 0.0 { unknown / total } else { 1.0 },
+        per_triangle,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nearest_on_triangle_matches_closed_forms() {
+        let t = [DVec3::ZERO, DVec3::X * 4.0, DVec3::Y * 4.0];
+        let p = DVec3::new(1.0, 1.0, 5.0);
+        assert_eq!(nearest_on_triangle(t, p), DVec3::new(1.0, 1.0, 0.0));
+        let p = DVec3::new(-2.0, 1.0, 0.0);
+        assert_eq!(nearest_on_triangle(t, p), DVec3::new(0.0, 1.0, 0.0));
+        let p = DVec3::new(4.0, 4.0, 0.0);
+        assert!((nearest_on_triangle(t, p) - DVec3::new(2.0, 2.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn median_is_area_weighted() {
+        // Two triangles of area 1 (thickness 5) and one of area 4 (thickness 1).
+        let mesh = Mesh {
+            vertices: vec![
+                DVec3::ZERO,
+                DVec3::X * 2.0,
+                DVec3::Y,
+                DVec3::new(10.0, 0.0, 0.0),
+                DVec3::new(14.0, 0.0, 0.0),
+                DVec3::new(10.0, 2.0, 0.0),
+                DVec3::new(20.0, 0.0, 0.0),
+                DVec3::new(22.0, 0.0, 0.0),
+                DVec3::new(20.0, 1.0, 0.0),
+            ],
+            triangles: vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]],
+        };
+        let w = summarise(&mesh, vec![5.0, 1.0, 5.0]);
+        assert_eq!(w.nominal_mm, Some(1.0));
+        assert_eq!((w.min_mm, w.max_mm), (Some(1.0), Some(5.0)));
+        let w = summarise(&mesh, vec![5.0, f32::NAN, 5.0]);
+        assert_eq!(w.nominal_mm, Some(5.0));
+        assert!((w.unknown_area_share - 4.0 / 6.0).abs() < 1e-12);
+        let w = summarise(&mesh, vec![f32::NAN; 3]);
+        assert_eq!((w.min_mm, w.nominal_mm, w.max_mm), (None, None, None));
+        assert_eq!(w.unknown_area_share, 1.0);
+    }
+}

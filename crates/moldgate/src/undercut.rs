@@ -1,0 +1,367 @@
+//! Undercuts of a two-half mould, and the automatic choice of the demolding direction.
+//!
+//! # The undercut rule, for a direction D
+//!
+//! A two-half mould opens along D: one half moves towards +D, the other towards -D.
+//!
+//! - A facet **facing +D** (n · D > [`PARALLEL_TOLERANCE`]) is moulded by the +D half, so
+//!   the space along +D from its surface must be free: from each sample point (the centroid,
+//!   or a lattice, see [`Sampling`]) a ray goes along +D, skipping the facet itself and any
+//!   hit nearer than 1e-6 of the box diagonal. A sample whose ray hits any triangle is
+//!   **blocked**.
+//! - A facet **facing -D** is tested the same way along -D.
+//! - A facet **parallel to D** (|n · D| <= the tolerance: walls without draft) is never an
+//!   undercut: it slides along the mould. Facets without area count for nothing.
+//!
+//! The undercut area is the sum over facets of area x (blocked samples / samples). D and -D
+//! give the same area (the same facets are tested along the same rays), so each line is
+//! evaluated once.
+//!
+//! # The automatic direction
+//!
+//! [`auto_direction`] tries the three axis lines and the three principal axes of the surface
+//! (the eigenvectors of the area-weighted covariance of its points, Eq. 3-5's weights; a
+//! principal axis within 1e-6 rad of an axis or of another candidate is dropped). It picks the
+//! line with the least undercut area; lines within 1e-9 of the total area of each other are a
+//! tie, broken by the smallest extent of the part along the line (the shallowest draw: a
+//! plate opens along its thickness), then by the order tried (x, y, z, then principal axes
+//! by decreasing spread).
+//!
+//! **Sign.** D and -D mould alike, so the sign follows the project's convention (the shared
+//! parts' `SOURCES.md`): D points to the open or core side, which is the side away from the
+//! bulk of the material. It is the sign for which the box centre lies ahead of the volume
+//! centroid along D (the surface centroid for a mesh that encloses no volume): a cover
+//! whose top is at +z and opening at -z gets -z. When the two are within 1e-6 of the
+//! diagonal of each other, the sign with a positive largest component is taken.
+//!
+//! A part with some undercut is normal (a thread, a snap hook), so the choice is made and
+//! the caller warns with its area; only a mesh with no facet of area cannot be evaluated.
+
+use std::cmp::Ordering;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::centre::Centres;
+use crate::frame::Direction;
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+pub use crate::raycast::Sampling;
+use crate::raycast::{Bvh, Ray};
+
+/// |n · D| at or below which a facet is parallel to D (about 0.06 degrees of draft).
+pub const PARALLEL_TOLERANCE: f64 = 1e-3;
+
+/// Why no direction could be evaluated.
+#[derive(Debug, Clone, Error, PartialEq)]
+pub enum DemoldError {
+    /// The mesh has no facet with area (or no finite one).
+    #[error("no facet with area: no demolding direction can be evaluated")]
+    NothingToEvaluate,
+}
+
+/// The undercut of one demolding line.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Undercut {
+    /// Undercut area, mm^2.
+    pub area_mm2: f64,
+    /// Undercut area over the whole surface area (0 to 1).
+    pub share: f64,
+}
+
+/// Undercut area of the part for a mould opening along `d` (and -`d`, which is the same).
+pub fn undercut(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling) -> Undercut {
+    let d = d.vector();
+    let diagonal = mesh.bounds().diagonal();
+    let min_hit = if diagonal.is_finite() {
+        1e-6 * diagonal
+    } else {
+        0.0
+    };
+    let (total, blocked) = (0..mesh.triangles.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|t| {
+            let corners = mesh.corners(t);
+            let [a, b, c] = corners;
+            let cross = (b - a).cross(c - a);
+            let area = 0.5 * cross.length();
+            if !(area.is_finite() && area > 0.0) {
+                return (0.0, 0.0);
+            }
+            let facing = (cross / (2.0 * area)).dot(d);
+            if facing.abs() <= PARALLEL_TOLERANCE {
+                return (area, 0.0);
+            }
+            let dir = if facing > 0.0 { d } else { -d };
+            let (mut samples, mut hits) = (0u32, 0u32);
+            sampling.for_each(corners, |p| {
+                samples += 1;
+                let ray = Ray::new(p, dir)
+                    .within(min_hit, f64::INFINITY)
+                    .skipping(t as u32);
+                if bvh.any_hit(&ray) {
+                    hits += 1;
+                }
+            });
+            (area, area * hits as f64 / samples.max(1) as f64)
+        })
+        .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+    Undercut {
+        area_mm2: blocked,
+        share: if total > 0.0 { blocked / total } else { 0.0 },
+    }
+}
+
+/// Where a candidate line came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CandidateKind {
+    /// A world axis.
+    Axis,
+    /// A principal axis of the surface.
+    Principal,
+}
+
+/// One direction tried by [`auto_direction`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Candidate {
+    /// The direction, signed by the module's rule.
+    pub direction: [f64; 3],
+    /// Axis or principal axis.
+    pub kind: CandidateKind,
+    /// Its undercut.
+    #[serde(flatten)]
+    pub undercut: Undercut,
+    /// Extent of the part along it, mm (the tie-break).
+    pub extent_mm: f64,
+}
+
+/// The result of [`auto_direction`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AutoDemold {
+    /// Index of the chosen candidate in `tried`.
+    pub chosen: usize,
+    /// Every candidate, in the order tried.
+    pub tried: Vec<Candidate>,
+}
+
+impl AutoDemold {
+    /// The chosen candidate.
+    pub fn candidate(&self) -> &Candidate {
+        &self.tried[self.chosen]
+    }
+
+    /// The chosen direction.
+    pub fn direction(&self) -> Direction {
+        Direction::new(DVec3::from_array(self.candidate().direction))
+            .expect("candidates are unit vectors")
+    }
+}
+
+/// Tries the axis lines and the principal axes and picks the one with the least undercut
+/// area (see the module for the rule, the tie-break and the sign).
+pub fn auto_direction(mesh: &Mesh, sampling: Sampling) -> Result<AutoDemold, DemoldError> {
+    auto_direction_with(mesh, &Bvh::new(mesh), sampling)
+}
+
+/// [`auto_direction`] with a tree already built over `mesh`.
+pub fn auto_direction_with(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    sampling: Sampling,
+) -> Result<AutoDemold, DemoldError> {
+    let centres = Centres::of(mesh);
+    if !(centres.area_mm2.is_finite() && centres.area_mm2 > 0.0) {
+        return Err(DemoldError::NothingToEvaluate);
+    }
+    let bounds = mesh.bounds();
+    let bulk = centres.volume.unwrap_or(centres.surface);
+    let ahead = bounds.centre() - bulk;
+    let mut lines: Vec<(DVec3, CandidateKind)> = vec![
+        (DVec3::X, CandidateKind::Axis),
+        (DVec3::Y, CandidateKind::Axis),
+        (DVec3::Z, CandidateKind::Axis),
+    ];
+    for axis in principal_axes(mesh) {
+        if lines.iter().all(|(l, _)| l.dot(axis).abs() < 1.0 - 1e-12) {
+            lines.push((axis, CandidateKind::Principal));
+        }
+    }
+    let tried: Vec<Candidate> = lines
+        .into_iter()
+        .map(|(line, kind)| {
+            let along = ahead.dot(line);
+            let sign = if along.abs() <= 1e-6 * bounds.diagonal() {
+                let largest = if line.x.abs() >= line.y.abs() && line.x.abs() >= line.z.abs() {
+                    line.x
+                } else if line.y.abs() >= line.z.abs() {
+                    line.y
+                } else {
+                    line.z
+                };
+                largest.signum()
+            } else {
+                along.signum()
+            };
+            // Adding 0 turns the -0 components of a negated axis into +0.
+            let dir = line * sign + DVec3::ZERO;
+            let (lo, hi) =
+                mesh.vertices
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        let h = v.dot(dir);
+                        (lo.min(h), hi.max(h))
+                    });
+            let direction = Direction::new(dir).expect("unit line");
+            Candidate {
+                direction: direction.vector().to_array(),
+                kind,
+                undercut: undercut(mesh, bvh, direction, sampling),
+                extent_mm: hi - lo,
+            }
+        })
+        .collect();
+    let tie = 1e-9 * centres.area_mm2;
+    let mut chosen = 0;
+    for (i, c) in tried.iter().enumerate().skip(1) {
+        let best = &tried[chosen];
+        let (a, b) = (c.undercut.area_mm2, best.undercut.area_mm2);
+        if a < b - tie || (a <= b + tie && c.extent_mm < best.extent_mm * (1.0 - 1e-9)) {
+            chosen = i;
+        }
+    }
+    Ok(AutoDemold { chosen, tried })
+}
+
+/// Principal axes of the surface: unit eigenvectors of the area-weighted covariance of its
+/// points, by decreasing spread, each with its largest component positive.
+#[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
+pub fn principal_axes(mesh: &Mesh) -> Vec<DVec3> {
+    let mut area = 0.0;
+    let mut first = DVec3::ZERO;
+    let mut second = [[0.0f64; 3]; 3];
+    let origin = mesh.bounds().centre();
+    for t in 0..mesh.triangles.len() {
+        let [a, b, c] = mesh.corners(t).map(|v| v - origin);
+        let w = 0.5 * (b - a).cross(c - a).length();
+        if !w.is_finite() || w == 0.0 {
+            continue;
+        }
+        let s = a + b + c;
+        area += w;
+        first += s * (w / 3.0);
+        // The second moment of a uniform triangle: (a a' + b b' + c c' + s s') / 12.
+        for i in 0..3 {
+            for j in 0..3 {
+                second[i][j] += w / 12.0 * (a[i] * a[j] + b[i] * b[j] + c[i] * c[j] + s[i] * s[j]);
+            }
+        }
+    }
+    if area.partial_cmp(&0.0) != Some(Ordering::Greater) {
+        return Vec::new();
+    }
+    let mean = first / area;
+    let mut cov = [[0.0f64; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            cov[i][j] = second[i][j] / area - mean[i] * mean[j];
+        }
+    }
+    let (values, vectors) = jacobi_eigen(cov);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&i, &j| values[j].total_cmp(&values[i]));
+    order
+        .iter()
+        .map(|&k| {
+            let v = DVec3::new(vectors[0][k], vectors[1][k], vectors[2][k]).normalize_or_zero();
+            let a = v.abs();
+            let largest = if a.x >= a.y && a.x >= a.z {
+                v.x
+            } else if a.y >= a.z {
+                v.y
+            } else {
+                v.z
+            };
+            if largest < 0.0 {
+                -v
+            } else {
+                v
+            }
+        })
+        .filter(|v| v.is_finite() && *v != DVec3::ZERO)
+        .collect()
+}
+
+#[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
+/// Eigenvalues and eigenvectors (columns) of a symmetric 3 x 3 matrix by cyclic Jacobi
+/// rotations.
+fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..50 {
+        let off = a[0][1].powi(2) + a[0][2].powi(2) + a[1][2].powi(2);
+        let scale = a[0][0].powi(2) + a[1][1].powi(2) + a[2][2].powi(2);
+        if off.partial_cmp(&(1e-30 * scale)) != Some(Ordering::Greater) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // A <- J' A J with the rotation J in the (p, q) plane.
+            for k in 0..3 {
+                let (akp, akq) = (a[k][p], a[k][q]);
+                a[k][p] = c * akp - s * akq;
+                a[k][q] = s * akp + c * akq;
+            }
+            for k in 0..3 {
+                let (apk, aqk) = (a[p][k], a[q][k]);
+                a[p][k] = c * apk - s * aqk;
+                a[q][k] = s * apk + c * aqk;
+            }
+            for row in v.iter_mut() {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2]], v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jacobi_diagonalises_a_known_matrix() {
+        // Eigenvalues 1, 2, 4 along rotated axes.
+        let r = [[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]];
+        let d = [1.0, 2.0, 4.0];
+        let mut m = [[0.0; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] = (0..3).map(|k| r[i][k] * d[k] * r[j][k]).sum();
+            }
+        }
+        let (values, vectors) = jacobi_eigen(m);
+        for k in 0..3 {
+            let v = [vectors[0][k], vectors[1][k], vectors[2][k]];
+            for i in 0..3 {
+                let mv: f64 = (0..3).map(|j| m[i][j] * v[j]).sum();
+                assert!((mv - values[k] * v[i]).abs() < 1e-12);
+            }
+        }
+        let mut sorted = values;
+        sorted.sort_by(f64::total_cmp);
+        for (s, d) in sorted.iter().zip(d) {
+            assert!((s - d).abs() < 1e-12);
+        }
+    }
+}

@@ -1,0 +1,140 @@
+//! Undercut areas and the automatic demolding direction against closed forms.
+
+use moldgate::math::DVec3;
+use moldgate::raycast::{Bvh, Sampling};
+use moldgate::samples::{self, BoxUnion};
+use moldgate::undercut::{auto_direction, principal_axes, undercut, CandidateKind};
+use moldgate::Direction;
+
+fn dir(s: &str) -> Direction {
+    s.parse().unwrap()
+}
+
+#[test]
+fn cover_opens_along_z_without_undercut_but_not_along_x() {
+    let mesh = samples::sample("cover").unwrap();
+    let bvh = Bvh::new(&mesh);
+    for d in ["+z", "-z"] {
+        let u = undercut(&mesh, &bvh, dir(d), Sampling::Centroid);
+        assert_eq!(u.area_mm2, 0.0, "{d}: {u:?}");
+    }
+    let x = undercut(&mesh, &bvh, dir("+x"), Sampling::Centroid);
+    let minus_x = undercut(&mesh, &bvh, dir("-x"), Sampling::Centroid);
+    assert_eq!(x, minus_x, "D and -D mould alike");
+    // Along x the inner faces of the walls at x = +-58 (76 x 28 mm each) face into the part
+    // and are blocked, and so are most of the ribs' and bosses' x-facing faces.
+    assert!(x.area_mm2 >= 2.0 * 76.0 * 28.0, "{x:?}");
+    let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    let chosen = auto.candidate();
+    // The cover is open to -z: D points to the open side.
+    assert_eq!(chosen.direction, [0.0, 0.0, -1.0], "{auto:#?}");
+    assert_eq!(chosen.undercut.area_mm2, 0.0);
+    assert!(auto.tried.len() >= 3);
+    assert!(auto.tried.iter().all(|c| c.kind == CandidateKind::Axis
+        || auto.tried[..3].iter().all(|a| {
+            DVec3::from_array(a.direction)
+                .dot(DVec3::from_array(c.direction))
+                .abs()
+                < 1.0 - 1e-12
+        })));
+}
+
+#[test]
+fn a_box_with_a_side_pocket_has_exactly_the_pocket_as_undercut_along_z() {
+    // A 40 x 40 x 20 block with a side pocket 10 deep (x from 30 to 40), 20 wide (y 10..30),
+    // 6 high (z 7..13), open on the +x side. Along z, the pocket's floor (facing +z) and its
+    // ceiling (facing -z) are blocked: 2 x 10 x 20 mm^2. Along x it opens freely.
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [40.0, 40.0, 20.0]);
+    part.subtract([30.0, 10.0, 7.0], [40.0, 30.0, 13.0]);
+    let mesh = part.mesh();
+    let bvh = Bvh::new(&mesh);
+    let u = undercut(&mesh, &bvh, dir("+z"), Sampling::Centroid);
+    assert!((u.area_mm2 - 400.0).abs() < 1e-9, "{u:?}");
+    // Block 6400, less the pocket's mouth (20 x 6), plus its floor, ceiling (10 x 20 each),
+    // sides (10 x 6 each) and back (20 x 6).
+    let total = 6400.0 - 120.0 + 400.0 + 120.0 + 120.0;
+    assert!((u.share - 400.0 / total).abs() < 1e-12, "{u:?}");
+    // Along y the pocket's side walls are blocked: 2 x 10 x 6.
+    let u = undercut(&mesh, &bvh, dir("y"), Sampling::Centroid);
+    assert!((u.area_mm2 - 120.0).abs() < 1e-9, "{u:?}");
+    let u = undercut(&mesh, &bvh, dir("x"), Sampling::Centroid);
+    assert_eq!(u.area_mm2, 0.0);
+    let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    // The material is at low x (the pocket removes some at high x): D points to +x.
+    assert_eq!(auto.candidate().direction, [1.0, 0.0, 0.0], "{auto:#?}");
+}
+
+#[test]
+fn partly_shadowed_facets_count_by_their_samples() {
+    // A 20 x 20 x 2 plate with a 10 x 20 x 2 overhang bridge above its x < 10 half, joined
+    // by a post: the plate's top under the bridge is an undercut along z. The plate's top
+    // is one big face split in cells at x = 10 by the grid of box planes, so sampling
+    // matters only where a facet is partly under the bridge.
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [20.0, 20.0, 2.0]);
+    part.add([0.0, 0.0, 2.0], [2.0, 20.0, 6.0]);
+    part.add([0.0, 0.0, 6.0], [10.0, 20.0, 8.0]);
+    let mesh = part.mesh();
+    let bvh = Bvh::new(&mesh);
+    let coarse = undercut(&mesh, &bvh, dir("z"), Sampling::Centroid);
+    let fine = undercut(&mesh, &bvh, dir("z"), Sampling::Spacing(0.5));
+    // Plate top under the bridge (x 2..10) and bridge underside (x 2..10): 2 x 8 x 20.
+    assert!((coarse.area_mm2 - 320.0).abs() < 1e-9, "{coarse:?}");
+    assert!((fine.area_mm2 - 320.0).abs() < 1e-9, "{fine:?}");
+}
+
+#[test]
+fn plate_opens_along_its_thickness() {
+    // Every axis line of the plate has its hole's walls as undercut except z; z also has
+    // the smallest extent.
+    let mesh = samples::sample("plate").unwrap();
+    let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    let c = auto.candidate();
+    assert_eq!(c.undercut.area_mm2, 0.0);
+    assert!(
+        DVec3::from_array(c.direction).dot(DVec3::Z).abs() > 1.0 - 1e-12,
+        "{auto:#?}"
+    );
+    let x = &auto.tried[0];
+    assert!(x.undercut.area_mm2 > 0.0, "hole walls facing x: {x:?}");
+}
+
+#[test]
+fn principal_axes_of_a_rotated_slab() {
+    // A 40 x 10 x 2 slab rotated by 30 degrees about z: its principal axes are the rotated
+    // x (largest spread), the rotated y, then z.
+    let mut part = BoxUnion::default();
+    part.add([-20.0, -5.0, -1.0], [20.0, 5.0, 1.0]);
+    let mut mesh = part.mesh();
+    let (s, c) = 30f64.to_radians().sin_cos();
+    for v in &mut mesh.vertices {
+        *v = DVec3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z);
+    }
+    let axes = principal_axes(&mesh);
+    assert_eq!(axes.len(), 3);
+    assert!(
+        (axes[0] - DVec3::new(c, s, 0.0)).length() < 1e-9,
+        "{axes:?}"
+    );
+    assert!(
+        axes[1].dot(DVec3::new(-s, c, 0.0)).abs() > 1.0 - 1e-9,
+        "{axes:?}"
+    );
+    assert!((axes[2] - DVec3::Z).length() < 1e-9, "{axes:?}");
+    let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    // z (an axis) and the third principal axis coincide: tried once.
+    assert_eq!(auto.tried.len(), 5, "{auto:#?}");
+    assert!(
+        DVec3::from_array(auto.candidate().direction)
+            .dot(DVec3::Z)
+            .abs()
+            > 1.0 - 1e-12
+    );
+}
+
+#[test]
+fn nothing_to_evaluate_is_an_error() {
+    let mesh = moldgate::Mesh::default();
+    assert!(auto_direction(&mesh, Sampling::Centroid).is_err());
+}
