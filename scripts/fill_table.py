@@ -4,8 +4,9 @@
 Runs `moldgate locate PART --demold D --units U --fill --json` on every shared part (natural
 demolding direction from ../shared/data/parts/SOURCES.md, PP, default options otherwise)
 and prints a Markdown table: flow length L_max, L/t, Eq. 1 pressure for both gates, the
-improvement, the field runs of the balanced search and the fill-analysis time (voxels,
-paper-gate fields and balanced search, from the report's own timings; best of --runs).
+improvement, the field runs of the balanced search and the fill-analysis time (ray tree,
+wall thickness, voxels, paper-gate fields and balanced search, from the report's own
+timings; best of --runs).
 
     cargo build --release -p moldgate-cli
     python3 scripts/fill_table.py [--runs 3] [--objective length|resistance]
@@ -61,7 +62,7 @@ def main():
                 break
             report = json.loads(out.stdout)
             t = report["fill"]["times"]
-            s = t["voxels_s"] + t["paper_s"] + t["balanced_s"]
+            s = t["tree_s"] + t["wall_s"] + t["voxels_s"] + t["paper_s"] + t["balanced_s"]
             best = s if best is None else min(best, s)
         if report is None:
             print(f"| {stem} | | | no gate: {reason[:80]} | | | | | | | | |")

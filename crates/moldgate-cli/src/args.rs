@@ -682,7 +682,9 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
     // One ray-casting tree serves the automatic direction and the wall thickness (which the
     // fill analysis uses for its flow resistance).
     let wants_wall = *wall_thickness || fill_options.is_some();
+    let t = Instant::now();
     let bvh = (*auto_demold || wants_wall).then(|| Bvh::new(&part.mesh));
+    let tree_s = t.elapsed().as_secs_f64();
     let mut options = options.clone();
     let auto = match &bvh {
         Some(bvh) if *auto_demold => {
@@ -718,7 +720,10 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
                 _ => flow::Walls::Estimate,
             };
             flow::analyse(&part.mesh, &analysis, material, walls, o)
-                .map(Some)
+                .map(|mut f| {
+                    f.times.tree_s = tree_s;
+                    Some(f)
+                })
                 .map_err(|e| match e {
                     flow::FillError::TooFewCandidates { .. } => Failure::no_gate(e.to_string()),
                     _ => Failure::usage(e.to_string()),

@@ -420,8 +420,9 @@ impl Report {
             gate.point = b.fill.gate;
             gate.distance_3d_mm = p.distance(centre);
         }
+        let t = &fill.times;
         self.timings.total_s +=
-            fill.times.voxels_s + fill.times.paper_s + fill.times.balanced_s + fill.times.several_s;
+            t.tree_s + t.wall_s + t.voxels_s + t.paper_s + t.balanced_s + t.several_s;
         self.warnings.extend(fill.warnings.iter().cloned());
         self.fill = Some(fill);
         self

@@ -804,6 +804,9 @@ pub struct FlowTimes {
     pub voxels_s: f64,
     /// Measuring the wall thickness (one ray per surface cell).
     pub wall_s: f64,
+    /// Building the ray-casting tree the wall is measured with (set by the caller, which
+    /// may share the tree with other analyses; 0 when not measured).
+    pub tree_s: f64,
     /// Fields from the paper gate.
     pub paper_s: f64,
     /// Balanced-gate search and its fields.
