@@ -58,14 +58,14 @@ def main():
             out = subprocess.run(cmd, capture_output=True, text=True)
             if out.returncode != 0:
                 report = None
-                reason = out.stderr.strip().splitlines()[-1] if out.stderr.strip() else f"exit {out.returncode}"
+                reason = f"no gate (exit {out.returncode})"
                 break
             report = json.loads(out.stdout)
             t = report["fill"]["times"]
             s = t["tree_s"] + t["wall_s"] + t["voxels_s"] + t["paper_s"] + t["balanced_s"]
             best = s if best is None else min(best, s)
         if report is None:
-            print(f"| {stem} | | | no gate: {reason[:80]} | | | | | | | | |")
+            print(f"| {stem} | | | {reason} | | | | | | | | |")
             continue
         f = report["fill"]
         p, b = f["paper"], f["balanced"]
