@@ -26,7 +26,9 @@ pub struct Material {
     pub k: f64,
     /// Largest flow-length-to-wall-thickness ratio L/t the melt fills reliably
     /// (dimensionless), or `None` when unknown. Not in the paper; the built-in values are
-    /// the usual design-guide figures (PP 250, ABS 175, PC 125).
+    /// the usual design-guide figures (PP 250, ABS 175, PC 125), inside the typical ranges
+    /// PP 250-300, ABS 150-200, PC 100-150 given by Plastwise's flow-path guide
+    /// (<https://plastwise.com/en/tools/flow-path>).
     #[serde(default)]
     pub max_flow_ratio: Option<f64>,
 }

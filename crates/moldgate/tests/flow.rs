@@ -250,3 +250,46 @@ fn two_gates_on_a_bar_sit_near_its_quarter_points_and_share_it_evenly() {
     // More gates than candidates is refused.
     assert!(several_gates(&domain, &cands[..3], Objective::Length, 0, 4).is_none());
 }
+
+#[test]
+fn a_gate_fills_only_its_own_body_and_says_so() {
+    // Two plates 10 mm apart: separate bodies.
+    let two = boxes(&[
+        ([0.0, 0.0, 0.0], [40.0, 20.0, 3.0], true),
+        ([50.0, 0.0, 0.0], [90.0, 20.0, 3.0], true),
+    ]);
+    let domain = Domain::new(&two, 0.5, None, 3.0, &pp());
+    assert_eq!(domain.bodies, 2);
+    let (fill, fields) = flow::fill_from(&domain, DVec3::new(20.0, 10.0, 3.0), &pp()).unwrap();
+    // Half the cells, none of the other plate.
+    assert!(
+        (fill.reached_share - 0.5).abs() < 0.02,
+        "{}",
+        fill.reached_share
+    );
+    assert!(length_at(&domain, &fields.length, DVec3::new(70.0, 10.0, 1.5)).is_infinite());
+    // The farthest point is a corner of the gate's own plate.
+    assert!(fill.farthest[0] < 41.0, "{:?}", fill.farthest);
+    // The whole analysis warns and names the body.
+    let part = moldgate::mesh::from_generated(two.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    let f = flow::analyse(
+        &two,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(f.bodies, 2);
+    assert!(
+        f.warnings.iter().any(|w| w.contains("2 separate bodies")),
+        "{:?}",
+        f.warnings
+    );
+    assert!(
+        f.warnings.iter().any(|w| w.contains("feeds body")),
+        "{:?}",
+        f.warnings
+    );
+}
