@@ -22,8 +22,9 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     };
     let _ = writeln!(
         s,
-        "  {label} {}: L_max {:.1} mm (mean {:.1}), L/t {:.0}{limit}, pressure {:.1} MPa (Eq. 1), fill order max {:.1}",
+        "  {label} {}: wall {:.2} mm, L_max {:.1} mm (mean {:.1}), L/t {:.0}{limit}, pressure {:.1} MPa (Eq. 1), fill order max {:.1}",
         v3(g.gate),
+        g.wall_mm,
         g.l_max_mm,
         g.l_mean_mm,
         g.flow_ratio,
@@ -47,6 +48,19 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis) {
         f.bodies,
         if f.bodies == 1 { "body" } else { "bodies" }
     );
+    if let Some(w) = &f.wall {
+        let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
+        let _ = writeln!(
+            s,
+            "  wall at {} surface samples: min {}, 5 % {}, median {}, 95 % {}, max {} mm",
+            w.samples,
+            mm(w.min_mm),
+            mm(w.p05_mm),
+            mm(w.nominal_mm),
+            mm(w.p95_mm),
+            mm(w.max_mm)
+        );
+    }
     if let Some(p) = &f.paper {
         fill_line(s, "paper gate   ", p);
         for (i, q) in p.last_to_fill.iter().enumerate().take(3) {

@@ -1038,9 +1038,12 @@ pub fn analyse(
         _ => (None, estimate, WallSource::VolumeOverArea, None),
     };
     let triangle_walls = per_triangle.as_deref().or(measured.as_deref());
-    if h > 0.5 * nominal {
+    // The cell size is set from an estimate of the wall before it is measured; warn only
+    // when the measured wall is less than 1.5 cells across.
+    if h > nominal / 1.5 {
         warnings.push(format!(
-            "flow cells of {h:.3} mm are coarser than half the nominal wall ({nominal:.3} mm): flow lengths are rough"
+            "flow cells of {h:.3} mm are coarse for the nominal wall of {nominal:.3} mm (under 1.5 cells across): flow lengths are rough; try --cell {:.3}",
+            nominal / 2.0
         ));
     }
     let domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
