@@ -243,11 +243,12 @@ pub struct MaterialsArgs {
     pub materials_file: Option<PathBuf>,
 }
 
-/// Reads a TOML file of user materials.
-fn read_materials(path: &Path) -> Result<BTreeMap<String, Material>, Failure> {
+/// Reads and parses a TOML file: an unreadable file is an input error (exit 3), a syntax
+/// error or a bad value an error of the command line (exit 2) naming the line.
+pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Failure> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Failure::input(format!("{}: cannot read: {e}", path.display())))?;
-    let mut table: BTreeMap<String, Material> = toml::from_str(&text).map_err(|e| {
+    toml::from_str(&text).map_err(|e| {
         let place = e
             .span()
             .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
@@ -257,7 +258,12 @@ fn read_materials(path: &Path) -> Result<BTreeMap<String, Material>, Failure> {
             path.display(),
             e.message().trim_end_matches('.')
         ))
-    })?;
+    })
+}
+
+/// Reads a TOML file of user materials.
+fn read_materials(path: &Path) -> Result<BTreeMap<String, Material>, Failure> {
+    let mut table: BTreeMap<String, Material> = read_toml(path)?;
     for (name, m) in table.iter_mut() {
         m.name = name.clone();
         m.validate()

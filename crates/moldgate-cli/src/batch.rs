@@ -345,19 +345,7 @@ struct Manifest {
 /// direction. Syntax errors and bad values are errors of the command line (exit code 2), with
 /// the line or the part named.
 fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>, Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Failure::input(format!("{}: cannot read: {e}", path.display())))?;
-    let manifest: Manifest = toml::from_str(&text).map_err(|e| {
-        let place = e
-            .span()
-            .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
-            .unwrap_or_default();
-        Failure::usage(format!(
-            "{}: {place}{}",
-            path.display(),
-            e.message().trim_end_matches('.')
-        ))
-    })?;
+    let manifest: Manifest = crate::args::read_toml(path)?;
     let folder = path.parent().unwrap_or(Path::new(""));
     let mut parts = Vec::with_capacity(manifest.part.len());
     for (i, entry) in manifest.part.into_iter().enumerate() {
