@@ -424,8 +424,12 @@ pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure
     let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
     let part = match crate::formats::mesh_kind(path) {
         MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
-        MeshKind::Obj => open().map_err(Into::into).and_then(|r| mesh::read_obj(r, units)),
-        MeshKind::Ply => open().map_err(Into::into).and_then(|r| mesh::read_ply(r, units)),
+        MeshKind::Obj => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_obj(r, units)),
+        MeshKind::Ply => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_ply(r, units)),
     }
     .map_err(|e| fail(&e))?;
     Ok((part, len))

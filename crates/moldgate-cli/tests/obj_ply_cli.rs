@@ -183,21 +183,17 @@ fn batch_folders_take_obj_and_ply() {
 
 /// A small valid OBJ (a tetrahedron), one statement a line.
 const TETRA_OBJ: [&str; 8] = [
-    "v 0 0 0",
-    "v 10 0 0",
-    "v 0 10 0",
-    "v 0 0 10",
-    "f 1 3 2",
-    "f 1 2 4",
-    "f 2 3 4",
-    "f 1 4 3",
+    "v 0 0 0", "v 10 0 0", "v 0 10 0", "v 0 0 10", "f 1 3 2", "f 1 2 4", "f 2 3 4", "f 1 4 3",
 ];
 
 #[test]
 fn every_malformed_obj_names_its_line() {
     let dir = TempDir::new().unwrap();
     write(dir.path(), "good.obj", TETRA_OBJ.join("\n"));
-    assert_eq!(moldgate(dir.path(), &["locate", "good.obj"]).status.code(), Some(OK));
+    assert_eq!(
+        moldgate(dir.path(), &["locate", "good.obj"]).status.code(),
+        Some(OK)
+    );
     for (name, row, bad, what) in [
         ("number.obj", 1, "v 10 zero 0", "expected a number"),
         ("range.obj", 5, "f 1 2 5", "out of range"),
@@ -231,7 +227,10 @@ fn every_malformed_ascii_ply_names_its_line() {
     let dir = TempDir::new().unwrap();
     let good = ply_ascii(&tetra());
     write(dir.path(), "good.ply", &good);
-    assert_eq!(moldgate(dir.path(), &["locate", "good.ply"]).status.code(), Some(OK));
+    assert_eq!(
+        moldgate(dir.path(), &["locate", "good.ply"]).status.code(),
+        Some(OK)
+    );
     let lines: Vec<&str> = good.lines().collect();
     // Lines 1-9 are the header, 10-13 the vertices, 14-17 the faces.
     for (name, line, bad, what) in [
@@ -271,7 +270,10 @@ fn every_malformed_binary_ply_names_its_byte() {
     let mesh = tetra();
     let good = ply_binary(&mesh);
     write(dir.path(), "good.ply", &good);
-    assert_eq!(moldgate(dir.path(), &["locate", "good.ply"]).status.code(), Some(OK));
+    assert_eq!(
+        moldgate(dir.path(), &["locate", "good.ply"]).status.code(),
+        Some(OK)
+    );
     let body = ply_header("binary_little_endian", &mesh).len();
     // Vertices take 12 bytes each, faces 13 (a count byte and three u32).
     let face = |f: usize| body + 4 * 12 + 13 * f;
@@ -281,10 +283,25 @@ fn every_malformed_binary_ply_names_its_byte() {
         b
     };
     for (name, bytes, at, what) in [
-        ("range.ply", edit(face(2) + 5, &9u32.to_le_bytes()), face(2) + 5, "out of range"),
+        (
+            "range.ply",
+            edit(face(2) + 5, &9u32.to_le_bytes()),
+            face(2) + 5,
+            "out of range",
+        ),
         ("corners.ply", edit(face(1), &[2]), face(1), "2 corners"),
-        ("nan.ply", edit(body + 12 + 4, &f32::NAN.to_le_bytes()), body + 16, "non-finite"),
-        ("cut.ply", good[..face(3) + 6].to_vec(), face(3) + 5, "ends inside face 3"),
+        (
+            "nan.ply",
+            edit(body + 12 + 4, &f32::NAN.to_le_bytes()),
+            body + 16,
+            "non-finite",
+        ),
+        (
+            "cut.ply",
+            good[..face(3) + 6].to_vec(),
+            face(3) + 5,
+            "ends inside face 3",
+        ),
     ] {
         write(dir.path(), name, bytes);
         let out = moldgate(dir.path(), &["locate", name]);

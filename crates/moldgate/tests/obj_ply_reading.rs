@@ -143,7 +143,10 @@ fn every_sample_gives_the_same_mesh_stats_and_gate_in_every_format() {
         let stl_gate = locate(&stl, &LocateOptions::default()).unwrap();
         let files = [
             (Format::Obj, read_obj(&obj(&stl.mesh)[..], Units::Mm)),
-            (Format::PlyAscii, read_ply(&ply(&stl.mesh, Ply::Ascii)[..], Units::Mm)),
+            (
+                Format::PlyAscii,
+                read_ply(&ply(&stl.mesh, Ply::Ascii)[..], Units::Mm),
+            ),
             (
                 Format::PlyBinaryLittleEndian,
                 read_ply(&ply(&stl.mesh, Ply::Little)[..], Units::Mm),
@@ -188,7 +191,10 @@ fn units_scale_obj_and_ply_like_stl() {
         assert_eq!(part.mesh.vertices, stl.mesh.vertices);
         assert_eq!(part.stats.units, Units::In);
         assert_eq!(part.warnings, stl.warnings);
-        assert!((part.stats.area_mm2 - mm.stats.area_mm2 * 25.4 * 25.4).abs() < 1e-6 * part.stats.area_mm2);
+        assert!(
+            (part.stats.area_mm2 - mm.stats.area_mm2 * 25.4 * 25.4).abs()
+                < 1e-6 * part.stats.area_mm2
+        );
     }
 }
 
@@ -204,7 +210,11 @@ fn polygons_are_fanned_and_degenerate_facets_counted_like_stl() {
     assert_eq!(part.stats.vertices, 8);
     assert!(part.stats.is_closed());
     assert!((part.stats.area_mm2 - 6.0).abs() < 1e-12);
-    assert!(part.warnings.iter().any(|w| w.contains("1 degenerate")), "{:?}", part.warnings);
+    assert!(
+        part.warnings.iter().any(|w| w.contains("1 degenerate")),
+        "{:?}",
+        part.warnings
+    );
 }
 
 fn place_of(e: LoadError) -> Place {
@@ -231,11 +241,21 @@ fn malformed_files_name_the_place() {
         let mut edited = lines.clone();
         edited[first_face + 3] = &bad;
         let err = read_obj(edited.join("\n").as_bytes(), Units::Mm).unwrap_err();
-        assert!(err.to_string().starts_with(&format!("line {}: ", first_face + 4)), "{bad}: {err}");
+        assert!(
+            err.to_string()
+                .starts_with(&format!("line {}: ", first_face + 4)),
+            "{bad}: {err}"
+        );
     }
     // An empty OBJ or one without faces has nothing to analyse.
-    assert!(matches!(read_obj(&b""[..], Units::Mm), Err(LoadError::NoArea { facets: 0 })));
-    assert!(matches!(read_ply(&b""[..], Units::Mm), Err(LoadError::Empty)));
+    assert!(matches!(
+        read_obj(&b""[..], Units::Mm),
+        Err(LoadError::NoArea { facets: 0 })
+    ));
+    assert!(matches!(
+        read_ply(&b""[..], Units::Mm),
+        Err(LoadError::Empty)
+    ));
     // Binary PLY cut inside the faces names a byte within the body.
     let bytes = ply(&cube.mesh, Ply::Big);
     let cut = bytes.len() - 30;

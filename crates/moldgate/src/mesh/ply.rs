@@ -161,7 +161,10 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                         let place = body.place();
                         let n = body.value(count, &what)?;
                         if n < 0.0 {
-                            return Err(syntax(place, format!("{what} has a negative list length")));
+                            return Err(syntax(
+                                place,
+                                format!("{what} has a negative list length"),
+                            ));
                         }
                         let n = n as u64;
                         if role != Role::Corners {
@@ -234,9 +237,7 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
 
 /// Reads the header up to and including `end_header`: the encoding, the elements, the
 /// number of header lines and of header bytes.
-fn read_header(
-    reader: &mut impl BufRead,
-) -> Result<(Encoding, Vec<Element>, u64, u64), LoadError> {
+fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64, u64), LoadError> {
     let mut line = Vec::new();
     let mut line_no = 0u64;
     let mut bytes = 0u64;
@@ -257,13 +258,16 @@ fn read_header(
         bytes += n as u64;
         line_no += 1;
         let place = Place::Line(line_no);
-        let text = std::str::from_utf8(&line)
-            .map_err(|_| syntax(place, "the PLY header is not text"))?;
+        let text =
+            std::str::from_utf8(&line).map_err(|_| syntax(place, "the PLY header is not text"))?;
         let mut words = text.split_ascii_whitespace();
         let keyword = words.next().unwrap_or("");
         if line_no == 1 {
             if keyword != "ply" || words.next().is_some() {
-                return Err(syntax(place, "not a PLY file: the first line must be 'ply'"));
+                return Err(syntax(
+                    place,
+                    "not a PLY file: the first line must be 'ply'",
+                ));
             }
             continue;
         }
@@ -304,10 +308,16 @@ fn read_header(
                     return Err(syntax(place, "expected 'element NAME COUNT'"));
                 };
                 let count: u64 = count.parse().map_err(|_| {
-                    syntax(place, format!("element count '{count}' is not a whole number"))
+                    syntax(
+                        place,
+                        format!("element count '{count}' is not a whole number"),
+                    )
                 })?;
                 if name == "vertex" && count > u64::from(u32::MAX) {
-                    return Err(syntax(place, format!("{count} vertices are more than 2^32")));
+                    return Err(syntax(
+                        place,
+                        format!("{count} vertices are more than 2^32"),
+                    ));
                 }
                 elements.push(Element {
                     name: name.to_string(),
@@ -385,10 +395,7 @@ fn read_header(
         if !vertex.properties.iter().any(|p| p.2 == Role::Axis(axis)) {
             return Err(syntax(
                 place,
-                format!(
-                    "element vertex has no property {}",
-                    ["x", "y", "z"][axis]
-                ),
+                format!("element vertex has no property {}", ["x", "y", "z"][axis]),
             ));
         }
     }
@@ -496,7 +503,9 @@ impl<R: BufRead> Body<R> {
                 let start = rest
                     .iter()
                     .position(|b| !b.is_ascii_whitespace())
-                    .ok_or_else(|| syntax(place, format!("too few values on the line of {what}")))?;
+                    .ok_or_else(|| {
+                        syntax(place, format!("too few values on the line of {what}"))
+                    })?;
                 let len = rest[start..]
                     .iter()
                     .position(|b| b.is_ascii_whitespace())
@@ -512,11 +521,17 @@ impl<R: BufRead> Body<R> {
                         .ok_or_else(|| {
                             syntax(
                                 place,
-                                format!("{what}: expected an integer of type {ty:?}, found '{}'", shown(tok)),
+                                format!(
+                                    "{what}: expected an integer of type {ty:?}, found '{}'",
+                                    shown(tok)
+                                ),
                             )
                         }),
                     None => text.and_then(|s| s.parse::<f64>().ok()).ok_or_else(|| {
-                        syntax(place, format!("{what}: expected a number, found '{}'", shown(tok)))
+                        syntax(
+                            place,
+                            format!("{what}: expected a number, found '{}'", shown(tok)),
+                        )
                     }),
                 }
             }
@@ -614,7 +629,14 @@ mod tests {
 
     #[test]
     fn ascii_errors_name_their_line() {
-        let good = ["0 0 0 9", "1 0 0 9", "1 1 0 9", "0 1 0 9", "4 0 1 2 3", "0 1"];
+        let good = [
+            "0 0 0 9",
+            "1 0 0 9",
+            "1 1 0 9",
+            "0 1 0 9",
+            "4 0 1 2 3",
+            "0 1",
+        ];
         // Line 15 is the first body line.
         for (row, bad, line) in [
             (1, "1 x 0 9", 16),
@@ -633,7 +655,10 @@ mod tests {
             assert_eq!(place_of(err), Place::Line(line), "{bad:?}");
         }
         let short = format!("{HEADER}0 0 0 9\n");
-        assert_eq!(place_of(read(short.as_bytes()).unwrap_err()), Place::Line(15));
+        assert_eq!(
+            place_of(read(short.as_bytes()).unwrap_err()),
+            Place::Line(15)
+        );
     }
 
     #[test]
@@ -644,8 +669,14 @@ mod tests {
             ("ply\nformat ascii 2.0\n", 2),
             ("ply\nformat ascii 1.0\nproperty float x\n", 3),
             ("ply\nformat ascii 1.0\nelement vertex many\n", 3),
-            ("ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\n", 4),
-            ("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n", 5),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\n",
+                4,
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n",
+                5,
+            ),
             ("ply\nformat ascii 1.0\nelement vertex 1\n", 3),
         ] {
             let err = read(header.as_bytes()).unwrap_err();
@@ -678,7 +709,10 @@ mod tests {
         let mut bad = data.clone();
         let at = (body + 81) as usize;
         bad[at..at + 4].copy_from_slice(&3u32.to_be_bytes());
-        assert_eq!(place_of(read(&bad[..]).unwrap_err()), Place::Byte(body + 81));
+        assert_eq!(
+            place_of(read(&bad[..]).unwrap_err()),
+            Place::Byte(body + 81)
+        );
         // Cut inside the face's second index.
         let cut = &data[..(body + 72 + 1 + 6) as usize];
         assert_eq!(place_of(read(cut).unwrap_err()), Place::Byte(body + 77));
@@ -686,7 +720,10 @@ mod tests {
         let mut nan = data.clone();
         let at = (body + 32) as usize;
         nan[at..at + 8].copy_from_slice(&f64::NAN.to_be_bytes());
-        assert_eq!(place_of(read(&nan[..]).unwrap_err()), Place::Byte(body + 32));
+        assert_eq!(
+            place_of(read(&nan[..]).unwrap_err()),
+            Place::Byte(body + 32)
+        );
         // Extra bytes are a warning.
         let mut long = data.clone();
         long.extend([0u8; 5]);
