@@ -313,6 +313,9 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                         format!("element count '{count}' is not a whole number"),
                     )
                 })?;
+                if (name == "vertex" || name == "face") && elements.iter().any(|e| e.name == name) {
+                    return Err(syntax(place, format!("element {name} is declared twice")));
+                }
                 if name == "vertex" && count > u64::from(u32::MAX) {
                     return Err(syntax(
                         place,
@@ -678,6 +681,10 @@ mod tests {
                 5,
             ),
             ("ply\nformat ascii 1.0\nelement vertex 1\n", 3),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nelement vertex 2\n",
+                4,
+            ),
         ] {
             let err = read(header.as_bytes()).unwrap_err();
             assert_eq!(place_of(err), Place::Line(line), "{header:?}");
