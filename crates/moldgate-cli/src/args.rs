@@ -18,6 +18,7 @@ use moldgate::thickness::{wall_thickness_with, ThicknessOptions};
 use moldgate::undercut::auto_direction_with;
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
+use crate::formats::MeshKind;
 use crate::output::{print_stdout, refuse_input, write_atomic};
 use crate::summary;
 use crate::Failure;
@@ -32,7 +33,7 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Locate the gate of a part (an STL file or a built-in sample).
+    /// Locate the gate of a part (an STL, OBJ or PLY file, or a built-in sample).
     Locate(Box<LocateArgs>),
     /// Write a built-in sample part as a binary STL.
     Sample(SampleArgs),
@@ -84,7 +85,8 @@ pub enum ObjectiveArg {
 
 #[derive(Debug, Args)]
 pub struct LocateArgs {
-    /// The part: a binary or ASCII STL file. Several files or folders run them all (see
+    /// The part: an STL (binary or ASCII), OBJ or PLY file, read by its extension (.stl,
+    /// .obj, .ply in any case; STL for any other). Several files or folders run them all (see
     /// --out-dir, --summary).
     #[arg(
         required_unless_present_any = ["sample", "manifest"],
@@ -426,7 +428,16 @@ pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure
     drop(file);
     // Opened once per reading thread for large binary files.
     let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
-    let part = mesh::read_stl_reopen(open, len, units).map_err(|e| fail(&e))?;
+    let part = match crate::formats::mesh_kind(path) {
+        MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
+        MeshKind::Obj => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_obj(r, units)),
+        MeshKind::Ply => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_ply(r, units)),
+    }
+    .map_err(|e| fail(&e))?;
     Ok((part, len))
 }
 

@@ -290,14 +290,9 @@ fn summary_format(path: &Path) -> Result<SummaryFormat, Failure> {
     }
 }
 
-/// Whether a file name ends in `.stl`, in any case.
-fn is_stl(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("stl"))
-}
-
-/// The inputs in order: each file as given; each folder's `.stl` files (any case, not in
-/// subfolders) sorted by name. A folder that cannot be listed or holds no STL file is an
+/// The inputs in order: each file as given; each folder's `.stl`, `.obj` and `.ply` files
+/// (any case, not in subfolders) sorted by name. A folder that cannot be listed or holds no
+/// mesh file is an
 /// error of the command line, found before any work.
 fn expand(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
     let mut out = Vec::new();
@@ -310,10 +305,10 @@ fn expand(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
         let mut found: Vec<PathBuf> = std::fs::read_dir(input)
             .map_err(|e| fail(&format_args!("cannot list the folder: {e}")))?
             .filter_map(|entry| entry.ok().map(|e| e.path()))
-            .filter(|p| is_stl(p) && p.is_file())
+            .filter(|p| crate::formats::is_mesh_file(p) && p.is_file())
             .collect();
         if found.is_empty() {
-            return Err(fail(&"is a folder holding no .stl file"));
+            return Err(fail(&"is a folder holding no .stl, .obj or .ply file"));
         }
         found.sort();
         out.extend(found);

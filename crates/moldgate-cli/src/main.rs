@@ -7,6 +7,7 @@
 
 mod args;
 mod batch;
+mod formats;
 mod glb;
 mod html;
 mod output;

@@ -152,6 +152,10 @@ pub fn render(r: &Report) -> String {
         match m.format {
             moldgate::mesh::Format::StlBinary => "binary STL",
             moldgate::mesh::Format::StlAscii => "ASCII STL",
+            moldgate::mesh::Format::Obj => "OBJ",
+            moldgate::mesh::Format::PlyAscii => "ASCII PLY",
+            moldgate::mesh::Format::PlyBinaryLittleEndian => "binary PLY (little-endian)",
+            moldgate::mesh::Format::PlyBinaryBigEndian => "binary PLY (big-endian)",
             moldgate::mesh::Format::Generated => "generated",
         },
         m.units,

@@ -539,7 +539,7 @@ fn a_folder_without_stl_files_is_an_input_error() {
     std::fs::create_dir(dir.path().join("empty")).unwrap();
     std::fs::write(dir.path().join("empty/readme.txt"), b"x").unwrap();
     let out = moldgate(dir.path(), &["locate", "empty"]);
-    assert_fails(&out, INPUT, &["empty", "no .stl file"]);
+    assert_fails(&out, INPUT, &["empty", "no .stl, .obj or .ply file"]);
 }
 
 #[test]

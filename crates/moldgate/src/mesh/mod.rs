@@ -4,6 +4,8 @@
 //! byte offset or triangle). Defects that do not stop the work (degenerate facets, open edges,
 //! several bodies) are counted in [`MeshStats`] beside the mesh.
 
+pub mod obj;
+pub mod ply;
 pub mod stl;
 pub mod topology;
 pub mod units;
@@ -97,6 +99,14 @@ pub enum Format {
     StlBinary,
     /// ASCII STL.
     StlAscii,
+    /// Wavefront OBJ.
+    Obj,
+    /// ASCII PLY.
+    PlyAscii,
+    /// Binary little-endian PLY.
+    PlyBinaryLittleEndian,
+    /// Binary big-endian PLY.
+    PlyBinaryBigEndian,
     /// Made by moldgate's own code (a sample part).
     Generated,
 }
@@ -108,7 +118,7 @@ pub struct MeshStats {
     pub format: Format,
     /// The unit the file was read in.
     pub units: Units,
-    /// Facets in the file.
+    /// Facets in the file (for OBJ and PLY, triangles after fanning the polygons).
     pub facets_read: u64,
     /// Solids (`solid ... endsolid` blocks) in an ASCII STL; 1 otherwise.
     pub solids: u64,
@@ -175,6 +185,19 @@ where
 {
     let raw = stl::read_reopen(open, len)?;
     finish(raw, units)
+}
+
+/// Reads a Wavefront OBJ from `reader`, converting it to millimetres. Polygons are fanned
+/// into triangles, and the triangles are welded like an STL's facets, so the same part saved
+/// as STL and OBJ loads to the same mesh and stats (format aside).
+pub fn read_obj(reader: impl BufRead, units: Units) -> Result<LoadedMesh, LoadError> {
+    finish(obj::read(reader)?, units)
+}
+
+/// Reads a PLY (ASCII or binary, format 1.0) from `reader`, converting it to millimetres.
+/// Polygons are fanned into triangles, and the triangles are welded like an STL's facets.
+pub fn read_ply(reader: impl BufRead, units: Units) -> Result<LoadedMesh, LoadError> {
+    finish(ply::read(reader)?, units)
 }
 
 /// Builds a [`LoadedMesh`] from generated geometry in millimetres.

@@ -1,0 +1,254 @@
+//! Wavefront OBJ reader: vertex positions and polygonal faces.
+//!
+//! Read: `v x y z [w]` (extra numbers such as vertex colours are ignored) and `f` with
+//! corners `i`, `i/j`, `i/j/k` or `i//k`, where `i` is 1-based or negative (relative to the
+//! vertices defined so far). Polygons are fanned into triangles from their first corner.
+//! Comments (`#`), and the statements that do not change the surface (`vt`, `vn`, `vp`, `o`,
+//! `g`, `s`, `usemtl`, `mtllib`, lines, points and the free-form statements) are skipped.
+//! Every error names its 1-based line.
+//!
+//! The triangles go through the same [`Welder`] as an STL's facets, so a part saved as OBJ
+//! and as STL gives the same mesh, vertex numbers and counts.
+
+use std::io::BufRead;
+
+use super::{Format, RawMesh, Welder};
+use crate::error::{LoadError, Place};
+use crate::math::DVec3;
+
+/// Statements that do not change the triangle surface.
+const SKIPPED: &[&[u8]] = &[
+    b"vt",
+    b"vn",
+    b"vp",
+    b"o",
+    b"g",
+    b"s",
+    b"usemtl",
+    b"mtllib",
+    b"l",
+    b"p",
+    b"mg",
+    b"cstype",
+    b"deg",
+    b"bmat",
+    b"step",
+    b"curv",
+    b"curv2",
+    b"surf",
+    b"parm",
+    b"trim",
+    b"hole",
+    b"scrv",
+    b"sp",
+    b"end",
+    b"con",
+    b"bevel",
+    b"c_interp",
+    b"d_interp",
+    b"lod",
+    b"maplib",
+    b"usemap",
+    b"shadow_obj",
+    b"trace_obj",
+    b"ctech",
+    b"stech",
+    b"call",
+    b"csh",
+];
+
+/// Reads an OBJ from `reader` into a welded mesh in file units.
+pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
+    let mut welder = Welder::with_capacity(1024);
+    let mut positions: Vec<DVec3> = Vec::new();
+    let mut corners: Vec<usize> = Vec::new();
+    let mut facets = 0u64;
+    let mut line = Vec::new();
+    let mut line_no = 0u64;
+    let syntax = |line: u64, message: String| LoadError::Syntax {
+        place: Place::Line(line),
+        message,
+    };
+    loop {
+        line.clear();
+        if reader.read_until(b'\n', &mut line)? == 0 {
+            break;
+        }
+        line_no += 1;
+        let content = match line.iter().position(|&b| b == b'#') {
+            Some(hash) => &line[..hash],
+            None => &line[..],
+        };
+        let mut tokens = content
+            .split(|b| b.is_ascii_whitespace())
+            .filter(|t| !t.is_empty());
+        let Some(keyword) = tokens.next() else {
+            continue;
+        };
+        match keyword {
+            b"v" => {
+                let mut xyz = [0.0f64; 3];
+                for (axis, value) in xyz.iter_mut().enumerate() {
+                    let tok = tokens.next().ok_or_else(|| {
+                        syntax(
+                            line_no,
+                            format!("vertex has {axis} coordinates, expected x y z"),
+                        )
+                    })?;
+                    *value = number(tok, line_no)?;
+                }
+                // An optional w, or per-vertex colours: numbers we do not use.
+                for tok in tokens {
+                    number(tok, line_no)?;
+                }
+                positions.push(DVec3::from_array(xyz));
+            }
+            b"f" => {
+                corners.clear();
+                for tok in tokens {
+                    corners.push(corner(tok, positions.len(), line_no)?);
+                }
+                if corners.len() < 3 {
+                    return Err(syntax(
+                        line_no,
+                        format!(
+                            "face has {} corners, a face needs at least 3",
+                            corners.len()
+                        ),
+                    ));
+                }
+                // A fan from the first corner: (0, k, k + 1).
+                for k in 1..corners.len() - 1 {
+                    welder.push([
+                        positions[corners[0]],
+                        positions[corners[k]],
+                        positions[corners[k + 1]],
+                    ]);
+                    facets += 1;
+                }
+            }
+            other if SKIPPED.contains(&other) => {}
+            other => {
+                return Err(syntax(
+                    line_no,
+                    format!(
+                        "unknown OBJ statement '{}'",
+                        String::from_utf8_lossy(&other[..other.len().min(40)])
+                    ),
+                ));
+            }
+        }
+    }
+    let (mesh, collapsed_facets) = welder.finish();
+    Ok(RawMesh {
+        format: Format::Obj,
+        solids: 1,
+        facets_read: facets,
+        corners_read: 3 * facets,
+        collapsed_facets,
+        mesh,
+        warnings: Vec::new(),
+    })
+}
+
+/// A finite coordinate.
+fn number(tok: &[u8], line: u64) -> Result<f64, LoadError> {
+    let shown = || String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
+    let value = std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+        .ok_or_else(|| LoadError::Syntax {
+            place: Place::Line(line),
+            message: format!("expected a number, found '{}'", shown()),
+        })?;
+    if !value.is_finite() {
+        return Err(LoadError::Syntax {
+            place: Place::Line(line),
+            message: format!("coordinate '{}' is not finite", shown()),
+        });
+    }
+    Ok(value)
+}
+
+/// The 0-based vertex of a face corner `i`, `i/j`, `i/j/k` or `i//k`, given the number of
+/// vertices defined before this line.
+fn corner(tok: &[u8], defined: usize, line: u64) -> Result<usize, LoadError> {
+    let syntax = |message: String| LoadError::Syntax {
+        place: Place::Line(line),
+        message,
+    };
+    let shown = || String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
+    let index = tok.split(|&b| b == b'/').next().unwrap_or_default();
+    let i: i64 = std::str::from_utf8(index)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .ok_or_else(|| syntax(format!("expected a vertex index, found '{}'", shown())))?;
+    let resolved = match i {
+        0 => return Err(syntax("vertex index 0 (indices start at 1)".to_string())),
+        i if i > 0 => i - 1,
+        i => defined as i64 + i,
+    };
+    if resolved < 0 || resolved >= defined as i64 {
+        return Err(syntax(format!(
+            "vertex index {i} is out of range: {defined} vertices are defined before this line"
+        )));
+    }
+    Ok(resolved as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read_str(text: &str) -> Result<RawMesh, LoadError> {
+        read(text.as_bytes())
+    }
+
+    fn line_of(err: LoadError) -> u64 {
+        match err {
+            LoadError::Syntax {
+                place: Place::Line(n),
+                ..
+            } => n,
+            other => panic!("expected a syntax error with a line, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn quad_with_every_corner_form_is_two_triangles() {
+        let raw = read_str(
+            "# a square\nmtllib a.mtl\no sq\nv 0 0 0\nv 1 0 0 1.0\nv 1 1 0\nv 0 1 0\n\
+             vt 0 0\nvn 0 0 1\ng top\nusemtl red\ns off\nf 1 2/1 3/1/1 4//1\n",
+        )
+        .unwrap();
+        assert_eq!(raw.facets_read, 2);
+        assert_eq!(raw.mesh.vertices.len(), 4);
+        assert_eq!(raw.mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn negative_indices_count_back_from_the_last_vertex() {
+        let raw = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n").unwrap();
+        assert_eq!(raw.mesh.triangles, vec![[0, 1, 2]]);
+        assert_eq!(raw.mesh.vertices[1], DVec3::X);
+    }
+
+    #[test]
+    fn errors_name_their_line() {
+        let base = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        for (bad, line) in [
+            ("v 1 x 0\n", 4),
+            ("v 1 2\n", 4),
+            ("v nan 0 0\n", 4),
+            ("f 1 2 4\n", 4),
+            ("f 0 1 2\n", 4),
+            ("f -4 1 2\n", 4),
+            ("f 1 2\n", 4),
+            ("\n\nf 1 a 2\n", 6),
+            ("bogus 1\n", 4),
+        ] {
+            let err = read_str(&format!("{base}{bad}")).unwrap_err();
+            assert_eq!(line_of(err), line, "{bad:?}");
+        }
+    }
+}
