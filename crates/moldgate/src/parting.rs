@@ -63,7 +63,7 @@ impl PartingLine {
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
         let fixed = faces_fixed_side(mesh, frame.d);
         let mut edges: Vec<[u32; 2]> = topology
-            .par_edge_sides()
+            .edge_sides()
             .filter(|&(t, _, n)| fixed[t as usize] != fixed[n as usize])
             .map(|(t, k, _)| {
                 let tri = mesh.triangles[t as usize];

@@ -222,28 +222,22 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         mut warnings,
     } = raw;
     mesh.scale(units.mm_per_unit());
-    // The area (summed in file order) runs beside the edge table, which is the longer.
-    let ((area, zero_area), topology) = rayon::join(
-        || {
-            let mut area = 0.0;
-            let mut zero_area = 0u64;
-            for t in 0..mesh.triangles.len() {
-                let [a, b, c] = mesh.corners(t);
-                let a2 = (b - a).cross(c - a).length();
-                if a2 == 0.0 {
-                    zero_area += 1;
-                }
-                area += 0.5 * a2;
-            }
-            (area, zero_area)
-        },
-        || Topology::new(&mesh),
-    );
+    let mut area = 0.0;
+    let mut zero_area = 0u64;
+    for t in 0..mesh.triangles.len() {
+        let [a, b, c] = mesh.corners(t);
+        let a2 = (b - a).cross(c - a).length();
+        if a2 == 0.0 {
+            zero_area += 1;
+        }
+        area += 0.5 * a2;
+    }
     if area <= 0.0 {
         return Err(LoadError::NoArea {
             facets: facets_read,
         });
     }
+    let topology = Topology::new(&mesh);
     let bounds = mesh.bounds();
     if collapsed_facets > 0 {
         warnings.push(format!(

@@ -65,24 +65,6 @@ impl Topology {
             })
         })
     }
-
-    /// The sides of [`Topology::edge_sides`], in the same order, computed in parallel.
-    pub fn par_edge_sides(&self) -> impl ParallelIterator<Item = (u32, usize, u32)> + '_ {
-        let all = &self.neighbours;
-        let check = self.non_manifold_edges > 0;
-        all.par_iter()
-            .enumerate()
-            .with_min_len(4096)
-            .flat_map_iter(move |(t, across)| {
-                (0..3).filter_map(move |k| {
-                    let n = across[k];
-                    (n != NO_TRIANGLE
-                        && n > t as u32
-                        && (!check || all[n as usize].contains(&(t as u32))))
-                    .then_some((t as u32, k, n))
-                })
-            })
-    }
 }
 
 type EdgeTable = (Vec<[u32; 3]>, u64, u64, u64);
@@ -274,23 +256,6 @@ mod tests {
         Mesh {
             vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
             triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
-        }
-    }
-
-    #[test]
-    fn parallel_edge_sides_match_the_sequential_ones() {
-        // A sample part large enough to be split across threads, and one with a
-        // non-manifold edge (a third triangle on a tetrahedron's edge).
-        let part = crate::samples::sample("cover").expect("sample");
-        let mut fin = tetrahedron();
-        fin.vertices.push(DVec3::new(-1.0, -1.0, 0.0));
-        fin.triangles.push([0, 1, 4]);
-        for mesh in [part.subdivided().subdivided(), fin] {
-            let topology = Topology::new(&mesh);
-            let sequential: Vec<_> = topology.edge_sides().collect();
-            let parallel: Vec<_> = topology.par_edge_sides().collect();
-            assert!(!sequential.is_empty());
-            assert_eq!(parallel, sequential);
         }
     }
 
