@@ -207,7 +207,7 @@ impl OffsetBuckets {
     fn covering(&self, start: f64, width: f64) -> u64 {
         const MARGIN: f64 = 1e-6;
         // Also true for NaN: every lattice, and the exact test decides.
-        if !(width + 2.0 * MARGIN < 1.0) {
+        if width.is_nan() || width + 2.0 * MARGIN >= 1.0 {
             return self.all;
         }
         let (scale, n) = (BUCKETS as f64, BUCKETS as i64);
