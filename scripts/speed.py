@@ -124,6 +124,9 @@ def main():
         f"max {max(t) * 1e3:.1f} ms over {args.runs} runs; peak RSS {rss / 1024:.1f} MiB"
     )
 
+    if args.reference_runs < 1:
+        print("reference: skipped (--reference-runs 0)")
+        return
     ref = os.path.join(SHARED, "reference", "gate_ref.py")
     theirs = [sys.executable, ref, args.part, "--engine", "trimesh", "--no-flow", "--dir"]
     theirs += [str(c) for c in direction_vector(args.demold)]

@@ -129,6 +129,7 @@ fn cast_group(
         .iter()
         .map(|l| fraction((l.origin.y - base.y) * inv))
         .collect();
+    let (cover_x, cover_y) = (OffsetBuckets::new(&fx), OffsetBuckets::new(&fy));
     // File order: neighbouring triangles share vertices, so the corner reads stay in cache.
     for (t, tri) in triangles.iter().enumerate() {
         let t = t as u32;
@@ -138,15 +139,10 @@ fn cast_group(
         };
         let lo = (triangle.lo - base) * inv;
         let width = (triangle.hi - triangle.lo) * inv;
-        let (ax, ay) = (fraction(lo.x), fraction(lo.y));
-        // Which lattices the box may cover, as a bit mask: computed without branches, since
-        // the answer is close to random for small triangles and mispredictions would
-        // dominate.
-        let mut mask = 0u64;
-        for k in 0..lattices.len() {
-            let covers = spans_offset(ax, width.x, fx[k]) & spans_offset(ay, width.y, fy[k]);
-            mask |= (covers as u64) << k;
-        }
+        // Which lattices the box may cover, as a bit mask, from two table look-ups per axis
+        // instead of a test per lattice.
+        let mut mask =
+            cover_x.covering(fraction(lo.x), width.x) & cover_y.covering(fraction(lo.y), width.y);
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
             mask &= mask - 1;
@@ -174,15 +170,64 @@ fn fraction(x: f64) -> f64 {
     }
 }
 
-/// A conservative test: whether the interval that starts `start` (in [0, 1)) past an
-/// integer and is `width` long may contain a point `offset` past an integer. Widened by a
-/// millionth of a spacing; [`ProjectedTriangle::draw`] decides exactly.
-#[inline]
-fn spans_offset(start: f64, width: f64, offset: f64) -> bool {
-    const MARGIN: f64 = 1e-6;
-    let gap = offset - start;
-    let gap = gap + f64::from(u8::from(gap < 0.0));
-    (gap <= width + MARGIN) | (gap >= 1.0 - MARGIN)
+/// Buckets of [0, 1) per spacing for the lattice offsets along one axis.
+const BUCKETS: usize = 256;
+
+/// The lattice offsets along one axis (each in [0, 1) spacings), sorted into [`BUCKETS`]
+/// equal buckets, to find the lattices an interval may cover with two look-ups.
+struct OffsetBuckets {
+    /// `below[b]`: the lattices whose offset lies in a bucket below `b`, as a bit mask.
+    below: [u64; BUCKETS + 1],
+    /// Every lattice of the group.
+    all: u64,
+}
+
+impl OffsetBuckets {
+    fn new(offsets: &[f64]) -> OffsetBuckets {
+        debug_assert!(offsets.len() <= 64);
+        let mut below = [0u64; BUCKETS + 1];
+        for (k, &f) in offsets.iter().enumerate() {
+            // Exact: BUCKETS is a power of two and f is in [0, 1).
+            let b = ((f * BUCKETS as f64) as usize).min(BUCKETS - 1);
+            for m in &mut below[b + 1..] {
+                *m |= 1 << k;
+            }
+        }
+        OffsetBuckets {
+            below,
+            all: below[BUCKETS],
+        }
+    }
+
+    /// A conservative test: the lattices whose offset may lie in the interval that starts
+    /// `start` (in [0, 1)) past an integer and is `width` long, taken modulo 1. Widened by a
+    /// millionth of a spacing and rounded out to whole buckets; [`ProjectedTriangle::draw`]
+    /// decides exactly.
+    #[inline]
+    fn covering(&self, start: f64, width: f64) -> u64 {
+        const MARGIN: f64 = 1e-6;
+        // Also true for NaN: every lattice, and the exact test decides.
+        if width.is_nan() || width + 2.0 * MARGIN >= 1.0 {
+            return self.all;
+        }
+        let (scale, n) = (BUCKETS as f64, BUCKETS as i64);
+        // start - MARGIN > -1 and start + width + MARGIN < 2, so both shifted values are
+        // positive and the conversions round down. (Rounding in the shift can only lift a
+        // bound by a bucket when it lies within 1e-13 of the bucket's edge, far inside the
+        // margin.)
+        let first = ((start - MARGIN) * scale + scale) as i64 - n;
+        let last = ((start + width + MARGIN) * scale + scale) as i64 - n;
+        let (lo, hi) = (first.rem_euclid(n) as usize, last.rem_euclid(n) as usize);
+        let upto = self.below[hi + 1];
+        let from = !self.below[lo];
+        // The buckets lo..=hi, or lo..B and 0..=hi when the interval wraps past 1 (or covers
+        // every bucket).
+        if hi < lo || last - first >= n {
+            (upto | from) & self.all
+        } else {
+            upto & from
+        }
+    }
 }
 
 /// A triangle seen along the demolding direction, counter-clockwise in (u, w).
@@ -419,6 +464,54 @@ mod tests {
             }
             assert_eq!(drawn, every, "sliver {k}");
         }
+    }
+
+    #[test]
+    fn offset_buckets_hold_every_covered_lattice_and_little_more() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // Offsets on and next to bucket edges as well as random ones.
+        let mut offsets: Vec<f64> = (0..40).map(|_| next()).collect();
+        offsets.extend([
+            0.0,
+            0.5,
+            0.25,
+            1.0 - 1e-12,
+            3.0 / 256.0,
+            3.0 / 256.0 - 1e-12,
+        ]);
+        let buckets = OffsetBuckets::new(&offsets);
+        assert_eq!(buckets.all, (1u64 << offsets.len()) - 1);
+        // Distance from a to b going up, modulo 1.
+        let ahead = |a: f64, b: f64| (b - a).rem_euclid(1.0);
+        for case in 0..20_000 {
+            let start = if case % 5 == 0 {
+                offsets[case % offsets.len()]
+            } else {
+                next()
+            };
+            let width = match case % 4 {
+                0 => 0.0,
+                1 => next() * 0.05,
+                2 => next(),
+                _ => next() * 3.0,
+            };
+            let mask = buckets.covering(start, width);
+            for (k, &f) in offsets.iter().enumerate() {
+                let inside = width >= 1.0 || ahead(start, f) <= width;
+                let near = width + 2.0 / 256.0 + 2e-6 >= 1.0
+                    || ahead(start - 1.0 / 256.0 - 1e-6, f) <= width + 2.0 / 256.0 + 2e-6;
+                let got = mask >> k & 1 == 1;
+                assert!(!inside || got, "case {case}: lattice {k} at {f} lost");
+                assert!(near || !got, "case {case}: lattice {k} at {f} far away");
+            }
+        }
+        assert_eq!(buckets.covering(0.3, f64::NAN), buckets.all);
     }
 
     #[test]

@@ -379,6 +379,7 @@ impl Welder {
         }
     }
 
+    #[inline(always)]
     fn vertex(&mut self, p: DVec3) -> u32 {
         if 2 * (self.mesh.vertices.len() + 1) > self.slots.len() {
             self.grow();
