@@ -65,12 +65,6 @@ impl Failure {
     }
 }
 
-// mimalloc keeps freed pages for the next allocation instead of returning them to the
-// system: the stages allocate and free tables of megabytes each, and glibc's allocator maps
-// each anew, paying a page fault per 4 KiB.
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
