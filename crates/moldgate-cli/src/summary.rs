@@ -34,7 +34,7 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
 }
 
 /// The fill analysis in a few lines.
-fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis) {
+fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     let _ = writeln!(
         s,
         "fill: {} cells of {:.3} mm, nominal wall {:.2} mm ({}), {} {}",
@@ -62,7 +62,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis) {
         );
     }
     if let Some(p) = &f.paper {
-        fill_line(s, "paper gate   ", p);
+        fill_line(s, label, p);
         for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
             let _ = writeln!(
                 s,
@@ -235,7 +235,11 @@ pub fn render(r: &Report) -> String {
         );
     }
     if let Some(f) = &r.fill {
-        fill(&mut s, f);
+        let label = match r.options.mode {
+            moldgate::GateMode::Paper => "paper gate   ",
+            moldgate::GateMode::Aesthetic => "aesthetic gate",
+        };
+        fill(&mut s, f, label);
     }
     match &r.gate {
         Some(g) => {
