@@ -1223,7 +1223,7 @@ fn nearest_candidate(candidates: &[Source], p: DVec3) -> Option<usize> {
 fn per_vertex(domain: &Domain, mesh: &Mesh, t: &[f64]) -> Vec<f32> {
     let max = argmax(t).1.max(f64::MIN_POSITIVE);
     mesh.vertices
-        .iter()
+        .par_iter()
         .map(|&p| {
             domain
                 .voxels

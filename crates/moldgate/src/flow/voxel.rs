@@ -345,6 +345,15 @@ impl Voxels {
     /// cell centre within two cells; `None` when there is none.
     pub fn cell_near(&self, p: DVec3) -> Option<u32> {
         let q = ((p - self.origin) / self.h + 0.5).floor();
+        if q.cmpge(DVec3::ZERO).all() {
+            let (x, y, z) = (q.x as usize, q.y as usize, q.z as usize);
+            if x < self.dims[0] && y < self.dims[1] && z < self.dims[2] {
+                let i = self.index[(z * self.dims[1] + y) * self.dims[0] + x];
+                if i != EMPTY {
+                    return Some(i);
+                }
+            }
+        }
         let mut best: Option<(f64, u32)> = None;
         for dz in -2..=2i64 {
             for dy in -2..=2i64 {
