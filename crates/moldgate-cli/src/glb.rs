@@ -4,7 +4,7 @@ use std::path::Path;
 
 use moldgate::scene::Scene;
 
-use crate::output::{refuse_input, write_atomic};
+use crate::output::{refuse_input, same_file, write_atomic};
 use crate::Failure;
 
 /// Refuses a `--glb` path that names the input or the same file as `-o`.
@@ -17,25 +17,6 @@ pub fn check_path(glb: &Path, input: Option<&Path>, report: Option<&Path>) -> Re
         )));
     }
     Ok(())
-}
-
-/// Whether two paths name the same file, whether or not it exists yet: their folders are
-/// compared after resolving links and `..`.
-fn same_file(a: &Path, b: &Path) -> bool {
-    let resolved = |p: &Path| {
-        let dir = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        Some(dir.canonicalize().ok()?.join(p.file_name()?))
-    };
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(x), Ok(y)) => x == y,
-        _ => match (resolved(a), resolved(b)) {
-            (Some(x), Some(y)) => x == y,
-            _ => a == b,
-        },
-    }
 }
 
 /// Writes `scene` to `path` as GLB (see `moldgate::gltf` for what the file holds, its units

@@ -10,7 +10,7 @@ use moldgate::Material;
 
 use crate::args::LocateArgs;
 use crate::html;
-use crate::output::{refuse_input, write_atomic};
+use crate::output::{refuse_input, same_file, write_atomic};
 use crate::Failure;
 
 /// Checks every output path before any work: none is the input, no two are the same file,
@@ -46,22 +46,6 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
-}
-
-fn same_file(a: &Path, b: &Path) -> bool {
-    let full = |p: &Path| {
-        let dir = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        dir.canonicalize()
-            .ok()
-            .map(|d| d.join(p.file_name().unwrap_or_default()))
-    };
-    match (full(a), full(b)) {
-        (Some(x), Some(y)) => x == y,
-        _ => a == b,
-    }
 }
 
 /// Draws the picture and writes `--png` and `--report` when asked for.

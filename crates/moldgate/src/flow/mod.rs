@@ -499,6 +499,20 @@ pub fn balanced_gate(
     first: Source,
     tolerance: f64,
 ) -> Option<Balanced> {
+    let start = march(&domain.voxels, &[first], domain.cost(objective));
+    balanced_gate_from(domain, candidates, objective, first, &start, tolerance)
+}
+
+/// [`balanced_gate`] with the field of `first` for the objective already marched (the fill
+/// analysis has it from the first gate's fill); it counts as the search's first run.
+pub fn balanced_gate_from(
+    domain: &Domain,
+    candidates: &[Source],
+    objective: Objective,
+    first: Source,
+    start: &Field,
+    tolerance: f64,
+) -> Option<Balanced> {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[first.cell as usize];
@@ -508,7 +522,6 @@ pub fn balanced_gate(
     if pool.is_empty() {
         return None;
     }
-    let start = march(v, &[first], cost);
     let mut runs = 1;
     let mut far = far_points(v, &start.t, FAR_POINTS);
     let mut bound = vec![0.0f64; candidates.len()];
@@ -1080,35 +1093,41 @@ pub fn analyse(
         Objective::Length => f.l_max_mm,
         Objective::Resistance => f.fill_max,
     };
-    let balanced = balanced_gate(&domain, &candidates, options.objective, first, h).map(|search| {
-        let point = candidates[search.candidate].point;
-        let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
-        if objective_value(&fill) >= objective_value(&paper) {
-            // Within the discretisation the paper gate is as good (it is a candidate
-            // itself unless it is the aesthetic gate): keep it, so the balanced gate
-            // never does worse than the paper gate.
-            let search = Balanced {
-                value: objective_value(&paper),
-                ..search
-            };
-            let fill = BalancedFill {
-                fill: paper.clone(),
-                search,
-                improvement_pct: 0.0,
-                is_paper_gate: true,
-            };
-            (fill, None)
-        } else {
-            let improvement_pct = 100.0 * (1.0 - objective_value(&fill) / objective_value(&paper));
-            let fill = BalancedFill {
-                fill,
-                search,
-                improvement_pct,
-                is_paper_gate: false,
-            };
-            (fill, Some(fields))
-        }
-    });
+    let start = match options.objective {
+        Objective::Length => &paper_fields.length,
+        Objective::Resistance => &paper_fields.fill,
+    };
+    let balanced = balanced_gate_from(&domain, &candidates, options.objective, first, start, h)
+        .map(|search| {
+            let point = candidates[search.candidate].point;
+            let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
+            if objective_value(&fill) >= objective_value(&paper) {
+                // Within the discretisation the paper gate is as good (it is a candidate
+                // itself unless it is the aesthetic gate): keep it, so the balanced gate
+                // never does worse than the paper gate.
+                let search = Balanced {
+                    value: objective_value(&paper),
+                    ..search
+                };
+                let fill = BalancedFill {
+                    fill: paper.clone(),
+                    search,
+                    improvement_pct: 0.0,
+                    is_paper_gate: true,
+                };
+                (fill, None)
+            } else {
+                let improvement_pct =
+                    100.0 * (1.0 - objective_value(&fill) / objective_value(&paper));
+                let fill = BalancedFill {
+                    fill,
+                    search,
+                    improvement_pct,
+                    is_paper_gate: false,
+                };
+                (fill, Some(fields))
+            }
+        });
     if balanced.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
