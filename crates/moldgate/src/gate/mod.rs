@@ -16,7 +16,7 @@ use crate::keepout::Region;
 use crate::math::{DVec2, DVec3};
 use crate::mesh::LoadedMesh;
 use crate::parting::{AestheticGate, PartingLine};
-use projection::{Hit, RayLattice};
+use projection::{Hit, Projection, RayLattice};
 pub use quadrature::{auto_spacing, Grid, Spacing};
 
 /// How "nearest the centre of mass" is measured.
@@ -352,36 +352,41 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
             value: flat_tolerance_mm,
         });
     }
-    // Lattice 0 holds the nodes; lattice k >= 1 the k-th circle point of every node (Eq. 6),
-    // which is the node lattice shifted by R (cos theta_k, sin theta_k).
+    // The node lattice, and for each circle point k the node lattice shifted by
+    // R (cos theta_k, sin theta_k) (Eq. 6).
     let k = options.circle_points;
-    let lattices: Vec<RayLattice> = (0..=k)
+    let node_lattice = RayLattice {
+        origin: DVec2::from_array(grid.first),
+        spacing,
+        n_u: grid.n_u,
+        n_w: grid.n_w,
+    };
+    let circle_lattices: Vec<RayLattice> = (0..k)
         .map(|i| {
-            let shift = if i == 0 {
-                DVec2::ZERO
-            } else {
-                let theta = std::f64::consts::TAU * (i - 1) as f64 / k as f64;
-                DVec2::new(theta.cos(), theta.sin()) * r
-            };
+            let theta = std::f64::consts::TAU * i as f64 / k as f64;
             RayLattice {
-                origin: DVec2::from_array(grid.first) + shift,
-                spacing,
-                n_u: grid.n_u,
-                n_w: grid.n_w,
+                origin: node_lattice.origin + DVec2::new(theta.cos(), theta.sin()) * r,
+                ..node_lattice
             }
         })
         .collect();
     times.grid_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let hits = projection::cast(&mesh.vertices, &frame, &mesh.triangles, &lattices);
+    let hits = projection::cast(
+        &mesh.vertices,
+        &frame,
+        &mesh.triangles,
+        &node_lattice,
+        &circle_lattices,
+    );
     times.projection_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let (centre_hits, circles) = hits.split_first().expect("lattice 0 exists");
+    let centre_hits = &hits.nodes;
     let nodes: Vec<NodeVerdict> = (0..grid.len())
         .into_par_iter()
-        .map(|i| judge(i, centre_hits, circles, flat_tolerance_mm))
+        .map(|i| judge(i, &hits, flat_tolerance_mm))
         .collect();
     let mut counts = RuleCounts {
         nodes: grid.len(),
@@ -498,17 +503,19 @@ struct NodeVerdict {
     flat: bool,
 }
 
-fn judge(i: usize, centre: &[Hit], circles: &[Vec<Hit>], flat_tol: f64) -> NodeVerdict {
-    let c = centre[i];
-    let circle_on_part = c.is_hit() && circles.iter().all(|l| l[i].is_hit());
-    let disc_thickness = std::iter::once(&c)
-        .chain(circles.iter().map(|l| &l[i]))
-        .filter_map(Hit::thickness)
+fn judge(i: usize, hits: &Projection, flat_tol: f64) -> NodeVerdict {
+    let c = hits.nodes[i];
+    let circle = |k: usize| hits.circle(k, i);
+    let circles = 0..hits.circle_count();
+    let circle_on_part = c.is_hit() && circles.clone().all(|k| circle(k).is_some());
+    let disc_thickness = std::iter::once(c.thickness())
+        .chain(circles.clone().map(|k| circle(k).and_then(|p| p.thickness)))
+        .flatten()
         .reduce(f64::min);
     let flat = circle_on_part
         && circles
-            .iter()
-            .all(|l| (l[i].first - c.first).abs() <= flat_tol);
+            .clone()
+            .all(|k| circle(k).is_some_and(|p| (p.height - c.first).abs() <= flat_tol));
     NodeVerdict {
         centre_hit: c.is_hit(),
         circle_on_part,

@@ -76,77 +76,266 @@ pub struct RayLattice {
     pub n_w: usize,
 }
 
-/// Casts every ray of each lattice against the triangles.
+/// The two highest hits of a circle point's ray, in single precision relative to the
+/// projection's base height: the circle rule needs only whether the ray met the part, the
+/// height (against a flatness tolerance of a tenth of R) and the wall (against R). f32 keeps
+/// them to a tenth of a micrometre on a part a metre deep, the precision of a binary STL's
+/// own coordinates, in a third of the memory of a [`Hit`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CircleHit {
+    first: f32,
+    second: f32,
+}
+
+/// A circle point's ray where it met the part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CirclePoint {
+    /// Height of the first hit along the demolding direction.
+    pub height: f64,
+    /// Distance from the first hit to the second, or `None` when the ray never leaves the
+    /// solid.
+    pub thickness: Option<f64>,
+}
+
+/// How a ray keeps its hits: added one by one, and two partial records of the same ray
+/// merged as if their triangles had been added in turn.
+trait Record: Copy + Send {
+    const MISS: Self;
+    fn add(&mut self, height: f64, triangle: u32, base: f64);
+    fn merge(&mut self, later: &Self);
+}
+
+impl Record for Hit {
+    const MISS: Hit = Hit::MISS;
+
+    #[inline]
+    fn add(&mut self, height: f64, triangle: u32, _base: f64) {
+        Hit::add(self, height, triangle);
+    }
+
+    /// Strict comparisons keep the earlier triangle on a tie, as adding in order would.
+    #[inline]
+    fn merge(&mut self, later: &Hit) {
+        Hit::add(self, later.first, later.triangle);
+        // Below the merged first, so it can only become the second.
+        Hit::add(self, later.second, later.triangle);
+    }
+}
+
+impl Record for CircleHit {
+    const MISS: CircleHit = CircleHit {
+        first: f32::NEG_INFINITY,
+        second: f32::NEG_INFINITY,
+    };
+
+    #[inline]
+    fn add(&mut self, height: f64, _triangle: u32, base: f64) {
+        let h = (height - base) as f32;
+        if h > self.first {
+            self.second = self.first;
+            self.first = h;
+        } else if h > self.second {
+            self.second = h;
+        }
+    }
+
+    #[inline]
+    fn merge(&mut self, later: &CircleHit) {
+        for h in [later.first, later.second] {
+            if h > self.first {
+                self.second = self.first;
+                self.first = h;
+            } else if h > self.second {
+                self.second = h;
+            }
+        }
+    }
+}
+
+/// What the rays of the node lattice and of the circle lattices met.
+#[derive(Debug, Clone)]
+pub struct Projection {
+    /// The node lattice's hits, indexed `j * n_u + i`.
+    pub nodes: Vec<Hit>,
+    /// Per circle lattice, its rays' hits, indexed as the nodes.
+    circles: Vec<Vec<CircleHit>>,
+    /// The height the circle hits are measured from.
+    base: f64,
+}
+
+impl Projection {
+    /// Circle lattice `k`'s ray `i` where it met the part, or `None` on a miss.
+    #[inline]
+    pub fn circle(&self, k: usize, i: usize) -> Option<CirclePoint> {
+        let h = self.circles[k][i];
+        (h.first > f32::NEG_INFINITY).then(|| CirclePoint {
+            height: self.base + f64::from(h.first),
+            thickness: (h.second > f32::NEG_INFINITY)
+                .then(|| f64::from(h.first) - f64::from(h.second)),
+        })
+    }
+
+    /// The number of circle lattices.
+    pub fn circle_count(&self) -> usize {
+        self.circles.len()
+    }
+}
+
+/// At most this many runs of triangles are drawn apart and merged; each holds its own copy
+/// of every lattice's hits.
+const MAX_RUNS: usize = 4;
+
+/// Casts every ray of the node lattice and of the circle lattices against the triangles.
 ///
-/// The result has one `Vec<Hit>` per lattice, indexed `j * n_u + i`; all lattices share one
-/// spacing. Vertices are projected as they are read, to (u, w, height) in `frame`: the same
-/// arithmetic for every use of a vertex, so shared edges stay bit-identical, and no copy of
-/// the vertices is held (it would be the largest array of the stage). The lattices are split
-/// into one group per thread; each group walks the triangles once and tests each against all
-/// of its lattices, so a triangle's corners are fetched and oriented once per group rather
-/// than once per lattice, and a cheap test on its bounding box skips the lattices where it
-/// covers no ray.
+/// All lattices share one spacing. Vertices are projected as they are read, to (u, w,
+/// height) in `frame`: the same arithmetic for every use of a vertex, so shared edges stay
+/// bit-identical, and no copy of the vertices is held (it would be the largest array of the
+/// stage).
+///
+/// The triangles are split into runs of consecutive triangles, one per thread (at most
+/// [`MAX_RUNS`]), each drawn into its own hits and merged afterwards in triangle order, so
+/// the result is the same as one pass's. Within a run a triangle's corners are fetched and
+/// oriented once and tested against every lattice: a cheap test on its bounding box skips
+/// the lattices where it covers no ray. Where threads outnumber runs, the circle lattices
+/// are also split into groups, one task per run and group.
 pub fn cast(
     vertices: &[DVec3],
     frame: &Frame,
     triangles: &[[u32; 3]],
-    lattices: &[RayLattice],
-) -> Vec<Vec<Hit>> {
-    let mut hits: Vec<Vec<Hit>> = lattices
-        .iter()
-        .map(|l| vec![Hit::MISS; l.n_u * l.n_w])
+    nodes: &RayLattice,
+    circles: &[RayLattice],
+) -> Projection {
+    let base = vertices.first().map_or(0.0, |&p| frame.height(p));
+    let threads = rayon::current_num_threads().max(1);
+    let runs = threads.min(MAX_RUNS).min(triangles.len()).max(1);
+    // Up to 63 circle lattices a group beside the node lattice (a 64-bit mask per triangle).
+    let groups = (threads / runs)
+        .max(circles.len().div_ceil(63))
+        .clamp(1, circles.len().max(1));
+    let per_group = circles.len().div_ceil(groups).max(1);
+    let per_run = triangles.len().div_ceil(runs).max(1);
+    let mut hits: Vec<(Vec<Hit>, Vec<Vec<CircleHit>>)> = (0..runs)
+        .map(|_| {
+            (
+                vec![Hit::MISS; nodes.n_u * nodes.n_w],
+                circles
+                    .iter()
+                    .map(|l| vec![CircleHit::MISS; l.n_u * l.n_w])
+                    .collect(),
+            )
+        })
         .collect();
-    if lattices.is_empty() {
-        return hits;
+    // One task per run and group; the node lattice goes with each run's first group.
+    let mut tasks = Vec::with_capacity(runs * groups);
+    for (r, (node_hits, circle_hits)) in hits.iter_mut().enumerate() {
+        let lo = (r * per_run).min(triangles.len());
+        let hi = ((r + 1) * per_run).min(triangles.len());
+        let mut node_hits = Some(node_hits);
+        let mut g = 0;
+        let mut rest: &mut [Vec<CircleHit>] = circle_hits;
+        loop {
+            let take = per_group.min(rest.len());
+            let (group, tail) = rest.split_at_mut(take);
+            rest = tail;
+            let lattices = &circles[g * per_group..g * per_group + take];
+            tasks.push((lo, hi, node_hits.take(), lattices, group));
+            g += 1;
+            if rest.is_empty() {
+                break;
+            }
+        }
     }
-    // One group per thread, and at most 64 lattices a group (a bit mask per triangle).
-    let groups = rayon::current_num_threads()
-        .max(lattices.len().div_ceil(64))
-        .clamp(1, lattices.len());
-    let per_group = lattices.len().div_ceil(groups);
-    hits.par_chunks_mut(per_group)
-        .zip(lattices.par_chunks(per_group))
-        .for_each(|(hits, lattices)| cast_group(vertices, frame, triangles, lattices, hits));
-    hits
+    tasks
+        .into_par_iter()
+        .for_each(|(lo, hi, node_hits, lattices, group)| {
+            let node = node_hits.map(|h| (nodes, &mut h[..]));
+            draw_run(
+                vertices,
+                frame,
+                &triangles[lo..hi],
+                lo as u32,
+                node,
+                (lattices, group),
+                base,
+            );
+        });
+    let mut runs = hits.into_iter();
+    let (mut node_hits, mut circle_hits) = runs.next().expect("at least one run");
+    for (later_nodes, later_circles) in runs {
+        rayon::join(
+            || merge(&mut node_hits, &later_nodes),
+            || {
+                circle_hits
+                    .par_iter_mut()
+                    .zip(&later_circles)
+                    .for_each(|(h, later)| merge(h, later))
+            },
+        );
+    }
+    Projection {
+        nodes: node_hits,
+        circles: circle_hits,
+        base,
+    }
 }
 
-fn cast_group(
+fn merge<R: Record>(hits: &mut [R], later: &[R]) {
+    for (h, l) in hits.iter_mut().zip(later) {
+        h.merge(l);
+    }
+}
+
+/// Draws `triangles`, numbered from `first_triangle`, into the node lattice (when given)
+/// and the circle lattices of one group.
+fn draw_run(
     vertices: &[DVec3],
     frame: &Frame,
     triangles: &[[u32; 3]],
-    lattices: &[RayLattice],
-    hits: &mut [Vec<Hit>],
+    first_triangle: u32,
+    mut node: Option<(&RayLattice, &mut [Hit])>,
+    (circles, circle_hits): (&[RayLattice], &mut [Vec<CircleHit>]),
+    base: f64,
 ) {
+    // Bit 0 of a mask is the node lattice, bit k the (k-1)-th circle lattice of the group.
+    let lattices: Vec<Option<&RayLattice>> = std::iter::once(node.as_ref().map(|n| n.0))
+        .chain(circles.iter().map(Some))
+        .collect();
+    let Some(first) = lattices.iter().flatten().next() else {
+        return;
+    };
     // Positions are measured in spacings from the first lattice's origin; lattice k's rays
-    // then sit at integers plus its fractional offset (fx[k], fy[k]).
-    let base = lattices[0].origin;
-    let inv = 1.0 / lattices[0].spacing;
-    let fx: Vec<f64> = lattices
-        .iter()
-        .map(|l| fraction((l.origin.x - base.x) * inv))
-        .collect();
-    let fy: Vec<f64> = lattices
-        .iter()
-        .map(|l| fraction((l.origin.y - base.y) * inv))
-        .collect();
+    // then sit at integers plus its fractional offset (fx[k], fy[k]). An absent node lattice
+    // gets an offset all the same; its bit is cleared below.
+    let origin = first.origin;
+    let inv = 1.0 / first.spacing;
+    let offset = |l: &Option<&RayLattice>, axis: fn(DVec2) -> f64| {
+        l.map_or(0.0, |l| fraction(axis(l.origin - origin) * inv))
+    };
+    let fx: Vec<f64> = lattices.iter().map(|l| offset(l, |v| v.x)).collect();
+    let fy: Vec<f64> = lattices.iter().map(|l| offset(l, |v| v.y)).collect();
     let (cover_x, cover_y) = (OffsetBuckets::new(&fx), OffsetBuckets::new(&fy));
+    let present = if node.is_some() { u64::MAX } else { !1 };
     // File order: neighbouring triangles share vertices, so the corner reads stay in cache.
     for (t, tri) in triangles.iter().enumerate() {
-        let t = t as u32;
+        let t = first_triangle + t as u32;
         let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
         let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
             continue;
         };
-        let lo = (triangle.lo - base) * inv;
+        let lo = (triangle.lo - origin) * inv;
         let width = (triangle.hi - triangle.lo) * inv;
         // Which lattices the box may cover, as a bit mask, from two table look-ups per axis
         // instead of a test per lattice.
-        let mut mask =
-            cover_x.covering(fraction(lo.x), width.x) & cover_y.covering(fraction(lo.y), width.y);
+        let mut mask = cover_x.covering(fraction(lo.x), width.x)
+            & cover_y.covering(fraction(lo.y), width.y)
+            & present;
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            triangle.draw(t, &lattices[k], &mut hits[k]);
+            match (k, &mut node) {
+                (0, Some((lattice, hits))) => triangle.draw(t, lattice, hits, base),
+                _ => triangle.draw(t, &circles[k - 1], &mut circle_hits[k - 1], base),
+            }
         }
     }
 }
@@ -262,7 +451,7 @@ impl ProjectedTriangle {
 
     /// Adds this triangle's height to every ray of `lattice` inside it.
     #[inline]
-    fn draw(&self, t: u32, lattice: &RayLattice, hits: &mut [Hit]) {
+    fn draw<R: Record>(&self, t: u32, lattice: &RayLattice, hits: &mut [R], base: f64) {
         let [pa, pb, pc] = self.p;
         let [ha, hb, hc] = self.h;
         let o = lattice.origin;
@@ -302,7 +491,7 @@ impl ProjectedTriangle {
                 let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
                 if inside(e_bc, &bc) & inside(e_ca, &ca) & inside(e_ab, &ab) {
                     let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
-                    hits[row + i].add(height, t);
+                    hits[row + i].add(height, t, base);
                 }
             }
         }
@@ -442,7 +631,7 @@ mod tests {
                 continue;
             };
             let mut drawn = vec![Hit::MISS; l.n_u * l.n_w];
-            tri.draw(k, &l, &mut drawn);
+            tri.draw(k, &l, &mut drawn, 0.0);
             let mut every = vec![Hit::MISS; l.n_u * l.n_w];
             let [pa, pb, pc] = tri.p;
             let edges = [
@@ -566,8 +755,10 @@ mod tests {
             &v,
             &Frame::new(crate::frame::Direction::PLUS_Z),
             &tris,
-            &[lattice(9, 0.5)],
-        )[0];
+            &lattice(9, 0.5),
+            &[],
+        )
+        .nodes;
         let mut count = 0;
         for (k, h) in hits.iter().enumerate() {
             let (i, j) = (k % 9, k / 9);
@@ -591,8 +782,10 @@ mod tests {
             &v,
             &Frame::new(crate::frame::Direction::PLUS_Z),
             &[[0, 1, 2]],
-            &[lattice(5, 1.0)],
-        )[0];
+            &lattice(5, 1.0),
+            &[],
+        )
+        .nodes;
         for (k, h) in hits.iter().enumerate() {
             let (x, y) = ((k % 5) as f64, (k / 5) as f64);
             let z = (x + 1.0) + 2.0 * (y + 1.0);

@@ -4,7 +4,7 @@
 //! three edges (4 bytes per edge side), which is all that the parting line and the counts
 //! need, at a fifth of the memory of an edge list.
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use rayon::prelude::*;
 
@@ -16,11 +16,9 @@ pub const NO_TRIANGLE: u32 = u32::MAX;
 /// Neighbours, edge counts and connected bodies of a mesh.
 #[derive(Debug, Clone, Default)]
 pub struct Topology {
-    /// For triangle t and k in 0..3, the triangle across the edge from corner k to corner
-    /// k + 1, or [`NO_TRIANGLE`] on an open edge. On a non-manifold edge (more than two
-    /// triangles), each triangle records the next one around the edge in index order, the
-    /// last one the first.
-    pub neighbours: Vec<[u32; 3]>,
+    /// At 3 t + k: the triangle across the edge of triangle t from corner k to corner k + 1
+    /// (see [`Topology::neighbours`]).
+    across: Vec<u32>,
     /// Distinct undirected edges.
     pub edges: u64,
     /// Edges with one triangle.
@@ -36,10 +34,10 @@ impl Topology {
     /// Builds the neighbour table (edges grouped under their smaller vertex, no global
     /// sort) and, in parallel with it, the bodies.
     pub fn new(mesh: &Mesh) -> Topology {
-        let ((neighbours, edges, open_edges, non_manifold_edges), bodies) =
+        let ((across, edges, open_edges, non_manifold_edges), bodies) =
             rayon::join(|| neighbours(mesh), || body_count(mesh));
         Topology {
-            neighbours,
+            across,
             edges,
             open_edges,
             non_manifold_edges,
@@ -47,27 +45,39 @@ impl Topology {
         }
     }
 
+    /// For k in 0..3, the triangle across the edge of triangle `t` from corner k to corner
+    /// k + 1, or [`NO_TRIANGLE`] on an open edge. On a non-manifold edge (more than two
+    /// triangles), each triangle records the next one around the edge in index order, the
+    /// last one the first.
+    #[inline]
+    pub fn neighbours(&self, t: usize) -> [u32; 3] {
+        [
+            self.across[3 * t],
+            self.across[3 * t + 1],
+            self.across[3 * t + 2],
+        ]
+    }
+
     /// Every edge between exactly two triangles once, as (t, k, n): triangle t, its edge from
     /// corner k to corner k + 1, and the triangle n across it, with t < n. Open and
     /// non-manifold edges are left out.
     pub fn edge_sides(&self) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
-        let all = &self.neighbours;
         // Without non-manifold edges every neighbour relation is mutual; with them, a
         // triangle's neighbour may point on to a third one, and such pairs are left out.
         let check = self.non_manifold_edges > 0;
-        all.iter().enumerate().flat_map(move |(t, across)| {
+        (0..self.across.len() / 3).flat_map(move |t| {
             (0..3).filter_map(move |k| {
-                let n = across[k];
+                let n = self.across[3 * t + k];
                 (n != NO_TRIANGLE
                     && n > t as u32
-                    && (!check || all[n as usize].contains(&(t as u32))))
+                    && (!check || self.neighbours(n as usize).contains(&(t as u32))))
                 .then_some((t as u32, k, n))
             })
         })
     }
 }
 
-type EdgeTable = (Vec<[u32; 3]>, u64, u64, u64);
+type EdgeTable = (Vec<u32>, u64, u64, u64);
 
 fn neighbours(mesh: &Mesh) -> EdgeTable {
     let tris = &mesh.triangles;
@@ -78,27 +88,30 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
         .map(|_| AtomicU32::new(NO_TRIANGLE))
         .collect();
     // The near vertices in two halves, one after the other, so that the sorted sides of only
-    // half the mesh are held at a time (they are the peak of the memory profile).
+    // half the mesh are held at a time (they are the peak of the memory profile). Both halves
+    // use one buffer: its capacity covers every side, but only the pages written are memory.
+    let mut buffer = Vec::with_capacity(3 * tris.len());
     let mut counts = (0, 0, 0);
     for (lo, hi) in [(0, nv / 2), (nv / 2, nv)] {
-        let c = link_sides(tris, lo as u32..hi as u32, &across);
+        let c;
+        (c, buffer) = link_sides(tris, lo as u32..hi as u32, &across, buffer);
         counts = (counts.0 + c.0, counts.1 + c.1, counts.2 + c.2);
     }
     let (edges, open, non_manifold) = counts;
-    let neighbours: Vec<[u32; 3]> = across
-        .chunks_exact(3)
-        .map(|c| std::array::from_fn(|k| c[k].load(Ordering::Relaxed)))
-        .collect();
-    (neighbours, edges, open, non_manifold)
+    // Collected in place: the table becomes plain numbers without a copy.
+    let across = across.into_iter().map(AtomicU32::into_inner).collect();
+    (across, edges, open, non_manifold)
 }
 
 /// Links the sides whose smaller vertex lies in `near` to the next triangle around the same
-/// edge, in `across`; returns the (edges, open, non-manifold) counts of those edges.
+/// edge, in `across`; returns the (edges, open, non-manifold) counts of those edges, and
+/// `filed`, the buffer the sides were sorted in, for the next call.
 fn link_sides(
     tris: &[[u32; 3]],
     near: std::ops::Range<u32>,
     across: &[AtomicU32],
-) -> (u64, u64, u64) {
+    mut filed: Vec<AtomicU64>,
+) -> ((u64, u64, u64), Vec<AtomicU64>) {
     // The three sides of a triangle as (smaller vertex, larger vertex).
     let ends = |tri: &[u32; 3]| -> [(u32, u32); 3] {
         let [a, b, c] = *tri;
@@ -109,33 +122,62 @@ fn link_sides(
         ]
     };
     let nv = (near.end - near.start) as usize;
-    // Each side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill.
-    let mut start = vec![0u32; nv + 1];
-    for tri in tris {
-        for (lo, _) in ends(tri) {
-            if near.contains(&lo) {
-                start[(lo - near.start) as usize + 1] += 1;
-            }
-        }
-    }
-    for i in 0..nv {
-        start[i + 1] += start[i];
-    }
-    // (far vertex << 32 | side) per side, grouped by near vertex.
-    let mut sides = vec![0u64; start[nv] as usize];
-    {
-        let mut fill = start.clone();
-        for (t, tri) in tris.iter().enumerate() {
-            for (k, (lo, hi)) in ends(tri).into_iter().enumerate() {
-                if near.contains(&lo) {
-                    let side = 3 * t as u64 + k as u64;
-                    let at = &mut fill[(lo - near.start) as usize];
-                    sides[*at as usize] = (u64::from(hi) << 32) | side;
-                    *at += 1;
+    // Each side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill. The
+    // triangles are split into one run per thread, each counted and filed on its own; a run's
+    // sides follow the previous run's at every vertex, so each bucket lists its sides in
+    // triangle order, as one pass would.
+    let per_run = tris.len().div_ceil(rayon::current_num_threads()).max(1);
+    let mut slots: Vec<Vec<u32>> = tris
+        .par_chunks(per_run)
+        .map(|run| {
+            let mut count = vec![0u32; nv];
+            for tri in run {
+                for (lo, _) in ends(tri) {
+                    if near.contains(&lo) {
+                        count[(lo - near.start) as usize] += 1;
+                    }
                 }
             }
+            count
+        })
+        .collect();
+    // start[v]: the first slot of vertex v; each run's count becomes its first slot at v.
+    let mut start = vec![0u32; nv + 1];
+    let mut next = 0u32;
+    for v in 0..nv {
+        start[v] = next;
+        for run in &mut slots {
+            let n = run[v];
+            run[v] = next;
+            next += n;
         }
     }
+    start[nv] = next;
+    // (far vertex << 32 | side) per side, grouped by near vertex. Each slot is written by
+    // one run only; relaxed atomic stores let the runs share the table without locks.
+    filed.clear();
+    filed.extend((0..next).map(|_| AtomicU64::new(0)));
+    tris.par_chunks(per_run)
+        .zip(slots.par_iter_mut())
+        .enumerate()
+        .for_each(|(r, (run, slot))| {
+            for (i, tri) in run.iter().enumerate() {
+                let t = (r * per_run + i) as u64;
+                for (k, (lo, hi)) in ends(tri).into_iter().enumerate() {
+                    if near.contains(&lo) {
+                        let at = &mut slot[(lo - near.start) as usize];
+                        filed[*at as usize].store(
+                            (u64::from(hi) << 32) | (3 * t + k as u64),
+                            Ordering::Relaxed,
+                        );
+                        *at += 1;
+                    }
+                }
+            }
+        });
+    drop(slots);
+    // The same memory, now owned plainly (the conversions collect in place).
+    let mut sides: Vec<u64> = filed.into_iter().map(AtomicU64::into_inner).collect();
     let side_of = |key: u64| key as u32;
     // Vertices in blocks, the blocks in parallel; each block's sides are a disjoint slice.
     const BLOCK: usize = 16 * 1024;
@@ -149,7 +191,7 @@ fn link_sides(
         rest = tail;
         v0 = v1;
     }
-    blocks
+    let counts = blocks
         .into_par_iter()
         .map(|(v0, block)| {
             let base = start[v0] as usize;
@@ -184,7 +226,8 @@ fn link_sides(
             }
             (edges, open, non_manifold)
         })
-        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2))
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+    (counts, sides.into_iter().map(AtomicU64::new).collect())
 }
 
 /// The representative of `x` in a union-find forest stored as parent links, halving the
@@ -267,10 +310,87 @@ mod tests {
         assert_eq!(topology.non_manifold_edges, 0);
         assert_eq!(topology.bodies, 1);
         assert_eq!(topology.edge_sides().count(), 6);
-        for (t, across) in topology.neighbours.iter().enumerate() {
-            for &n in across {
-                assert!(topology.neighbours[n as usize].contains(&(t as u32)));
+        for t in 0..4 {
+            for n in topology.neighbours(t) {
+                assert!(topology.neighbours(n as usize).contains(&(t as u32)));
             }
+        }
+    }
+
+    /// Every edge's triangles from a map keyed by the edge, the plain way.
+    fn brute_force(mesh: &Mesh) -> (Vec<[u32; 3]>, u64, u64, u64) {
+        let key = |a: u32, b: u32| (a.min(b), a.max(b));
+        let mut on_edge: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for k in 0..3 {
+                on_edge
+                    .entry(key(tri[k], tri[(k + 1) % 3]))
+                    .or_default()
+                    .push(t as u32);
+            }
+        }
+        let neighbours = mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                std::array::from_fn(|k| {
+                    let group = &on_edge[&key(tri[k], tri[(k + 1) % 3])];
+                    let at = group.iter().position(|&s| s == t as u32).unwrap();
+                    match group.len() {
+                        1 => NO_TRIANGLE,
+                        n => group[(at + 1) % n],
+                    }
+                })
+            })
+            .collect();
+        let sizes = || on_edge.values().map(Vec::len);
+        (
+            neighbours,
+            on_edge.len() as u64,
+            sizes().filter(|&n| n == 1).count() as u64,
+            sizes().filter(|&n| n > 2).count() as u64,
+        )
+    }
+
+    #[test]
+    fn neighbours_match_a_map_of_edges_on_ragged_meshes() {
+        // Random triangles over few vertices: open, shared and heavily non-manifold edges,
+        // busy vertices, and more triangles than one block of the parallel search.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % u64::from(n)) as u32
+        };
+        for vertices in [4u32, 12, 60, 3000] {
+            let mut triangles = Vec::new();
+            while triangles.len() < 20_000 {
+                let tri = [next(vertices), next(vertices), next(vertices)];
+                if tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2] {
+                    triangles.push(tri);
+                }
+            }
+            let mesh = Mesh {
+                vertices: vec![DVec3::ZERO; vertices as usize],
+                triangles,
+            };
+            let (neighbours, edges, open, non_manifold) = brute_force(&mesh);
+            let topology = Topology::new(&mesh);
+            let found: Vec<[u32; 3]> = (0..neighbours.len())
+                .map(|t| topology.neighbours(t))
+                .collect();
+            assert_eq!(found, neighbours, "{vertices} vertices");
+            assert_eq!(
+                (
+                    topology.edges,
+                    topology.open_edges,
+                    topology.non_manifold_edges
+                ),
+                (edges, open, non_manifold),
+                "{vertices} vertices"
+            );
         }
     }
 
