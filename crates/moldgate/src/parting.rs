@@ -62,13 +62,21 @@ impl PartingLine {
     /// Extracts the parting line of `mesh` for the frame's demolding direction.
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
         let fixed = faces_fixed_side(mesh, frame.d);
-        let mut edges: Vec<[u32; 2]> = topology
-            .edge_sides()
-            .filter(|&(t, _, n)| fixed[t as usize] != fixed[n as usize])
-            .map(|(t, k, _)| {
-                let tri = mesh.triangles[t as usize];
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                [a.min(b), a.max(b)]
+        // Blocks of triangles in parallel; the edges are sorted below, so their order here
+        // does not matter.
+        const BLOCK: usize = 16 * 1024;
+        let mut edges: Vec<[u32; 2]> = (0..mesh.triangles.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .flat_map_iter(|b| {
+                let block = b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len());
+                topology
+                    .edge_sides_of(block)
+                    .filter(|&(t, _, n)| fixed[t as usize] != fixed[n as usize])
+                    .map(|(t, k, _)| {
+                        let tri = mesh.triangles[t as usize];
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        [a.min(b), a.max(b)]
+                    })
             })
             .collect();
         edges.sort_unstable();

@@ -146,7 +146,10 @@ fn slab_thickness_along_a_tilted_direction_is_t_over_cos() {
         // The circle points' hits are kept in f32 (relative to a vertex's height): on a part
         // 3 mm deep that is good to a few 1e-7 mm.
         let disc = gate.disc_thickness_mm.unwrap();
-        assert!((disc - expected).abs() < 1e-6, "{d}: disc {disc} vs {expected}");
+        assert!(
+            (disc - expected).abs() < 1e-6,
+            "{d}: disc {disc} vs {expected}"
+        );
         assert!((gate.point.z - 3.0).abs() < 1e-9, "gate on the top face");
     }
 }

@@ -976,6 +976,38 @@ fn reading_a_large_binary_file_on_several_threads_gives_the_same_mesh() {
 }
 
 #[test]
+fn runs_joined_on_many_threads_number_vertices_as_one_reader_does() {
+    // Facets shuffled, so that a vertex first met in one run turns up again in any later
+    // one, plus a few collapsed facets; read by five runs.
+    let mut facets = sheet(150);
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    for i in (1..facets.len()).rev() {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        facets.swap(i, (seed % (i as u64 + 1)) as usize);
+    }
+    for i in [10, 20_000, 44_999] {
+        facets[i][1] = facets[i][0];
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("shuffled.stl");
+    let bytes = binary(b"shuffled", &facets);
+    std::fs::write(&path, &bytes).unwrap();
+    let one = read_mm(&bytes);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(5)
+        .build()
+        .unwrap();
+    let many = pool.install(|| read_file_reopen(&path)).unwrap();
+    assert_eq!(one.mesh.vertices, many.mesh.vertices);
+    assert_eq!(one.mesh.triangles, many.mesh.triangles);
+    assert_eq!(one.stats.collapsed_facets, 3);
+    assert_eq!(many.stats.collapsed_facets, 3);
+    assert_eq!(many.stats.vertices, 151 * 151);
+}
+
+#[test]
 fn errors_on_the_parallel_path_name_the_same_place() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("sheet.stl");

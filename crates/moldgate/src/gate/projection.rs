@@ -214,7 +214,9 @@ pub fn cast(
         .clamp(1, circles.len().max(1));
     let per_group = circles.len().div_ceil(groups).max(1);
     let per_run = triangles.len().div_ceil(runs).max(1);
+    // Made in parallel: first touching this memory is a good part of the stage's cost.
     let mut hits: Vec<(Vec<Hit>, Vec<Vec<CircleHit>>)> = (0..runs)
+        .into_par_iter()
         .map(|_| {
             (
                 vec![Hit::MISS; nodes.n_u * nodes.n_w],
@@ -329,12 +331,19 @@ fn draw_run(
         let mut mask = cover_x.covering(fraction(lo.x), width.x)
             & cover_y.covering(fraction(lo.y), width.y)
             & present;
+        if mask == 0 {
+            continue;
+        }
+        let edges = triangle.edges();
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
             mask &= mask - 1;
             match (k, &mut node) {
-                (0, Some((lattice, hits))) => triangle.draw(t, lattice, hits, base),
-                _ => triangle.draw(t, &circles[k - 1], &mut circle_hits[k - 1], base),
+                (0, Some((lattice, hits))) => triangle.draw(&edges, t, lattice, hits, base),
+                _ => {
+                    let (lattice, hits) = (&circles[k - 1], &mut circle_hits[k - 1]);
+                    triangle.draw(&edges, t, lattice, hits, base)
+                }
             }
         }
     }
@@ -449,10 +458,29 @@ impl ProjectedTriangle {
         })
     }
 
-    /// Adds this triangle's height to every ray of `lattice` inside it.
+    /// The edge functions of the edges opposite a, b and c, set up once for every lattice
+    /// the triangle is drawn into.
     #[inline]
-    fn draw<R: Record>(&self, t: u32, lattice: &RayLattice, hits: &mut [R], base: f64) {
+    fn edges(&self) -> [EdgeFn; 3] {
         let [pa, pb, pc] = self.p;
+        [
+            EdgeFn::new(pb, pc),
+            EdgeFn::new(pc, pa),
+            EdgeFn::new(pa, pb),
+        ]
+    }
+
+    /// Adds this triangle's height to every ray of `lattice` inside it; `edges` are its
+    /// [`ProjectedTriangle::edges`].
+    #[inline]
+    fn draw<R: Record>(
+        &self,
+        [bc, ca, ab]: &[EdgeFn; 3],
+        t: u32,
+        lattice: &RayLattice,
+        hits: &mut [R],
+        base: f64,
+    ) {
         let [ha, hb, hc] = self.h;
         let o = lattice.origin;
         let inv = 1.0 / lattice.spacing;
@@ -462,11 +490,6 @@ impl ProjectedTriangle {
         let Some((j0, j1)) = index_range(o.y, inv, lattice.n_w, self.lo.y, self.hi.y) else {
             return;
         };
-        let (bc, ca, ab) = (
-            EdgeFn::new(pb, pc),
-            EdgeFn::new(pc, pa),
-            EdgeFn::new(pa, pb),
-        );
         let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
         let wide = i1 - i0 > 2;
         for j in j0..=j1 {
@@ -475,7 +498,7 @@ impl ProjectedTriangle {
             // On a wide triangle, only the columns near the row's span inside it are tested:
             // long thin triangles would otherwise test every ray of their bounding box.
             let (from, to) = if wide {
-                match [&bc, &ca, &ab]
+                match [bc, ca, ab]
                     .iter()
                     .try_fold((i0 as f64, i1 as f64), |span, e| {
                         e.row_span(y, o.x, inv, span)
@@ -489,7 +512,7 @@ impl ProjectedTriangle {
             for i in from..=to {
                 let s = DVec2::new(o.x + i as f64 * lattice.spacing, y);
                 let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
-                if inside(e_bc, &bc) & inside(e_ca, &ca) & inside(e_ab, &ab) {
+                if inside(e_bc, bc) & inside(e_ca, ca) & inside(e_ab, ab) {
                     let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
                     hits[row + i].add(height, t, base);
                 }
@@ -631,7 +654,7 @@ mod tests {
                 continue;
             };
             let mut drawn = vec![Hit::MISS; l.n_u * l.n_w];
-            tri.draw(k, &l, &mut drawn, 0.0);
+            tri.draw(&tri.edges(), k, &l, &mut drawn, 0.0);
             let mut every = vec![Hit::MISS; l.n_u * l.n_w];
             let [pa, pb, pc] = tri.p;
             let edges = [

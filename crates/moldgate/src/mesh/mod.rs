@@ -12,6 +12,7 @@ pub mod units;
 
 use std::io::BufRead;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::LoadError;
@@ -245,16 +246,26 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         mut warnings,
     } = raw;
     mesh.scale(units.mm_per_unit());
-    let mut area = 0.0;
-    let mut zero_area = 0u64;
-    for t in 0..mesh.triangles.len() {
-        let [a, b, c] = mesh.corners(t);
-        let a2 = (b - a).cross(c - a).length();
-        if a2 == 0.0 {
-            zero_area += 1;
-        }
-        area += 0.5 * a2;
-    }
+    // Summed in fixed blocks, in parallel, and the blocks' sums in order: the same area
+    // whatever the number of threads.
+    const BLOCK: usize = 16 * 1024;
+    let blocks: Vec<(f64, u64)> = mesh
+        .triangles
+        .par_chunks(BLOCK)
+        .enumerate()
+        .map(|(b, block)| {
+            let (mut area, mut zero_area) = (0.0, 0u64);
+            for t in b * BLOCK..b * BLOCK + block.len() {
+                let [a, b, c] = mesh.corners(t);
+                let a2 = (b - a).cross(c - a).length();
+                zero_area += u64::from(a2 == 0.0);
+                area += 0.5 * a2;
+            }
+            (area, zero_area)
+        })
+        .collect();
+    let area: f64 = blocks.iter().map(|b| b.0).sum();
+    let zero_area: u64 = blocks.iter().map(|b| b.1).sum();
     if area <= 0.0 {
         return Err(LoadError::NoArea {
             facets: facets_read,
@@ -365,17 +376,40 @@ fn slot_of(bits: [u64; 3], mask: usize) -> usize {
 impl Welder {
     /// A welder expecting about `triangles` facets.
     pub fn with_capacity(triangles: usize) -> Welder {
+        Welder::for_run(triangles, triangles)
+    }
+
+    /// A welder for a run of about `triangles` facets whose triangle list has room for
+    /// `room` (the whole file's, for the run that [`Welder::join`] extends).
+    pub fn for_run(triangles: usize, room: usize) -> Welder {
         // A closed mesh has about half as many vertices as triangles; a sixteenth more keeps
         // slightly open or fragmented meshes from reallocating.
-        let vertices = triangles / 2 + triangles / 16 + 16;
+        let vertices = |t: usize| t / 2 + t / 16 + 16;
         Welder {
-            slots: vec![EMPTY; (2 * vertices).next_power_of_two()],
+            slots: vec![EMPTY; (2 * vertices(triangles)).next_power_of_two()],
             recent: vec![([u64::MAX; 3], EMPTY); RECENT],
             mesh: Mesh {
-                vertices: Vec::with_capacity(vertices),
-                triangles: Vec::with_capacity(triangles),
+                vertices: Vec::with_capacity(vertices(room)),
+                triangles: Vec::with_capacity(room.max(triangles)),
             },
             collapsed: 0,
+        }
+    }
+
+    /// The vertex at `p`, if welded here; the table is only read.
+    fn find(&self, p: DVec3) -> Option<u32> {
+        let bits = position_bits(p);
+        let mask = self.slots.len() - 1;
+        let mut slot = slot_of(bits, mask);
+        loop {
+            let v = self.slots[slot];
+            if v == EMPTY {
+                return None;
+            }
+            if position_bits(self.mesh.vertices[v as usize]) == bits {
+                return Some(v);
+            }
+            slot = (slot + 1) & mask;
         }
     }
 
@@ -435,24 +469,78 @@ impl Welder {
         }
     }
 
-    /// Adds the facets welded by `other`, after this welder's, as if they had been pushed
-    /// here: `other`'s vertices are looked up (new ones appended in their order) and its
-    /// triangles renumbered.
-    pub fn append(&mut self, other: Welder) {
-        let renumber: Vec<u32> = other
-            .mesh
-            .vertices
-            .iter()
-            .map(|&p| self.vertex(p))
+    /// Joins welders that welded consecutive runs of one file, in file order, into the mesh
+    /// one welder would have made of the whole file: vertices numbered by first appearance,
+    /// triangles in order. Also returns the number of dropped facets.
+    ///
+    /// Each later run's vertices are looked up in the tables of the runs before it, in
+    /// parallel (the tables are only read); the earliest run that holds a vertex numbers it.
+    /// Only the numbering of each run's new vertices is sequential: a count.
+    pub fn join(runs: Vec<Welder>) -> (Mesh, u64) {
+        let mut runs = runs.into_iter();
+        let Some(mut whole) = runs.next() else {
+            return (Mesh::default(), 0);
+        };
+        let later: Vec<Welder> = runs.collect();
+        const NEW: u64 = u64::MAX;
+        // found[i][l]: (earlier run << 32 | its vertex) for vertex l of run i + 1, or NEW.
+        let found: Vec<Vec<u64>> = later
+            .par_iter()
+            .enumerate()
+            .map(|(i, run)| {
+                run.mesh
+                    .vertices
+                    .par_iter()
+                    .map(|&p| {
+                        std::iter::once(&whole)
+                            .chain(&later[..i])
+                            .enumerate()
+                            .find_map(|(j, earlier)| {
+                                earlier.find(p).map(|v| (j as u64) << 32 | u64::from(v))
+                            })
+                            .unwrap_or(NEW)
+                    })
+                    .collect()
+            })
             .collect();
-        self.mesh.triangles.extend(
-            other
-                .mesh
-                .triangles
+        // number[i][l]: the number of vertex l of run i + 1 in the whole mesh. A vertex found
+        // in an earlier run is new there, so that run has numbered it already.
+        let mut next = whole.mesh.vertices.len() as u32;
+        let mut number: Vec<Vec<u32>> = Vec::with_capacity(later.len());
+        for found in &found {
+            let numbered = found
                 .iter()
-                .map(|tri| tri.map(|v| renumber[v as usize])),
-        );
-        self.collapsed += other.collapsed;
+                .map(|&f| match f {
+                    NEW => {
+                        next += 1;
+                        next - 1
+                    }
+                    _ => match (f >> 32) as usize {
+                        0 => f as u32,
+                        j => number[j - 1][f as u32 as usize],
+                    },
+                })
+                .collect();
+            number.push(numbered);
+        }
+        for ((run, found), number) in later.iter().zip(&found).zip(&number) {
+            whole.mesh.vertices.extend(
+                run.mesh
+                    .vertices
+                    .iter()
+                    .zip(found)
+                    .filter(|(_, &f)| f == NEW)
+                    .map(|(&p, _)| p),
+            );
+            whole.mesh.triangles.par_extend(
+                run.mesh
+                    .triangles
+                    .par_iter()
+                    .map(|tri| tri.map(|v| number[v as usize])),
+            );
+            whole.collapsed += run.collapsed;
+        }
+        whole.finish()
     }
 
     /// The welded mesh and the number of dropped facets.

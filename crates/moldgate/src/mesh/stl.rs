@@ -176,20 +176,25 @@ where
             let range = (r * per_run).min(n)..((r + 1) * per_run).min(n);
             let mut reader = open()?;
             reader.seek(SeekFrom::Start(HEADER + RECORD * range.start))?;
-            // The first run's welder receives the others: room for the whole file, so that
-            // merging never reallocates (capacity that is never written costs no memory).
-            let expected = if r == 0 { n } else { range.end - range.start };
-            let mut welder = Welder::with_capacity(expected as usize);
+            // The first run's triangle list has room for the whole file: the others are
+            // joined to it without reallocating (room never written costs no memory).
+            let room = if r == 0 { n } else { 0 };
+            let mut welder = Welder::for_run((range.end - range.start) as usize, room as usize);
             weld_records(reader, range, &mut welder)?;
             Ok(welder)
         })
         .collect();
-    let mut welded = welded.into_iter();
-    let mut whole = welded.next().expect("at least one run")?;
-    for run in welded {
-        whole.append(run?);
-    }
-    Ok(binary_mesh(whole, n))
+    let runs = welded.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let (mesh, collapsed_facets) = Welder::join(runs);
+    Ok(RawMesh {
+        format: Format::StlBinary,
+        solids: 1,
+        facets_read: n,
+        corners_read: 3 * n,
+        collapsed_facets,
+        mesh,
+        warnings: Vec::new(),
+    })
 }
 
 /// What the ASCII parser expects next.

@@ -62,10 +62,19 @@ impl Topology {
     /// corner k to corner k + 1, and the triangle n across it, with t < n. Open and
     /// non-manifold edges are left out.
     pub fn edge_sides(&self) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
+        self.edge_sides_of(0..self.across.len() / 3)
+    }
+
+    /// [`Topology::edge_sides`] of the triangles in `triangles` only (t in the range, n
+    /// anywhere), so that blocks of triangles can be walked in parallel.
+    pub fn edge_sides_of(
+        &self,
+        triangles: std::ops::Range<usize>,
+    ) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
         // Without non-manifold edges every neighbour relation is mutual; with them, a
         // triangle's neighbour may point on to a third one, and such pairs are left out.
         let check = self.non_manifold_edges > 0;
-        (0..self.across.len() / 3).flat_map(move |t| {
+        triangles.flat_map(move |t| {
             (0..3).filter_map(move |k| {
                 let n = self.across[3 * t + k];
                 (n != NO_TRIANGLE
@@ -85,6 +94,7 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
     // Each side is written once, by the thread that owns its near vertex; relaxed atomic
     // stores let the threads share the table without locks.
     let across: Vec<AtomicU32> = (0..3 * tris.len())
+        .into_par_iter()
         .map(|_| AtomicU32::new(NO_TRIANGLE))
         .collect();
     // The near vertices in two halves, one after the other, so that the sorted sides of only
@@ -156,7 +166,7 @@ fn link_sides(
     // (far vertex << 32 | side) per side, grouped by near vertex. Each slot is written by
     // one run only; relaxed atomic stores let the runs share the table without locks.
     filed.clear();
-    filed.extend((0..next).map(|_| AtomicU64::new(0)));
+    filed.par_extend((0..next).into_par_iter().map(|_| AtomicU64::new(0)));
     tris.par_chunks(per_run)
         .zip(slots.par_iter_mut())
         .enumerate()
