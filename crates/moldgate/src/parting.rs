@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use crate::frame::Frame;
 use crate::math::{nearest_on_segment, DVec3};
-use crate::mesh::topology::root;
+use crate::mesh::topology::{root, NO_TRIANGLE};
 use crate::mesh::{Mesh, Topology};
 
 /// The parting line: connected chains of mesh edges.
@@ -62,24 +62,34 @@ impl PartingLine {
     /// Extracts the parting line of `mesh` for the frame's demolding direction.
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
         let fixed = faces_fixed_side(mesh, frame.d);
-        // Blocks of triangles in parallel; the edges are sorted below, so their order here
-        // does not matter.
+        // Each edge between the sides is found from its triangle that faces the fixed side,
+        // in blocks of triangles in parallel (the edges are sorted below). As in
+        // [`Topology::edge_sides`], a pair that is not each other's neighbour (on a
+        // non-manifold edge) is left out.
         const BLOCK: usize = 16 * 1024;
+        let check = topology.non_manifold_edges > 0;
         let mut edges: Vec<[u32; 2]> = (0..mesh.triangles.len().div_ceil(BLOCK))
             .into_par_iter()
             .flat_map_iter(|b| {
                 let block = b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len());
-                topology
-                    .edge_sides_of(block)
-                    .filter(|&(t, _, n)| fixed[t as usize] != fixed[n as usize])
-                    .map(|(t, k, _)| {
-                        let tri = mesh.triangles[t as usize];
-                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                        [a.min(b), a.max(b)]
+                let fixed = &fixed;
+                block.filter(|&t| fixed[t]).flat_map(move |t| {
+                    let across = topology.neighbours(t);
+                    (0..3).filter_map(move |k| {
+                        let n = across[k] as usize;
+                        (across[k] != NO_TRIANGLE
+                            && !fixed[n]
+                            && (!check || topology.neighbours(n).contains(&(t as u32))))
+                        .then(|| {
+                            let tri = mesh.triangles[t];
+                            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                            [a.min(b), a.max(b)]
+                        })
                     })
+                })
             })
             .collect();
-        edges.sort_unstable();
+        edges.par_sort_unstable();
         if edges.is_empty() {
             return PartingLine::default();
         }

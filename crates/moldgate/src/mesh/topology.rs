@@ -62,19 +62,10 @@ impl Topology {
     /// corner k to corner k + 1, and the triangle n across it, with t < n. Open and
     /// non-manifold edges are left out.
     pub fn edge_sides(&self) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
-        self.edge_sides_of(0..self.across.len() / 3)
-    }
-
-    /// [`Topology::edge_sides`] of the triangles in `triangles` only (t in the range, n
-    /// anywhere), so that blocks of triangles can be walked in parallel.
-    pub fn edge_sides_of(
-        &self,
-        triangles: std::ops::Range<usize>,
-    ) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
         // Without non-manifold edges every neighbour relation is mutual; with them, a
         // triangle's neighbour may point on to a third one, and such pairs are left out.
         let check = self.non_manifold_edges > 0;
-        triangles.flat_map(move |t| {
+        (0..self.across.len() / 3).flat_map(move |t| {
             (0..3).filter_map(move |k| {
                 let n = self.across[3 * t + k];
                 (n != NO_TRIANGLE
