@@ -389,7 +389,7 @@ impl Welder {
             slots: vec![EMPTY; (2 * vertices(triangles)).next_power_of_two()],
             recent: vec![([u64::MAX; 3], EMPTY); RECENT],
             mesh: Mesh {
-                vertices: Vec::with_capacity(vertices(room)),
+                vertices: Vec::with_capacity(vertices(room.max(triangles))),
                 triangles: Vec::with_capacity(room.max(triangles)),
             },
             collapsed: 0,

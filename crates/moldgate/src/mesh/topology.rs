@@ -90,8 +90,8 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
         .collect();
     // The near vertices in two halves, one after the other, so that the sorted sides of only
     // half the mesh are held at a time (they are the peak of the memory profile). Both halves
-    // use one buffer: its capacity covers every side, but only the pages written are memory.
-    let mut buffer = Vec::with_capacity(3 * tris.len());
+    // use one buffer, grown to the larger half.
+    let mut buffer = Vec::new();
     let mut counts = (0, 0, 0);
     for (lo, hi) in [(0, nv / 2), (nv / 2, nv)] {
         let c;
@@ -157,6 +157,7 @@ fn link_sides(
     // (far vertex << 32 | side) per side, grouped by near vertex. Each slot is written by
     // one run only; relaxed atomic stores let the runs share the table without locks.
     filed.clear();
+    filed.reserve_exact(next as usize);
     filed.par_extend((0..next).into_par_iter().map(|_| AtomicU64::new(0)));
     tris.par_chunks(per_run)
         .zip(slots.par_iter_mut())
