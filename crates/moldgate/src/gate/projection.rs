@@ -14,6 +14,8 @@
 //! On an outline edge, where both triangles fold onto the same side, a grazing ray belongs to
 //! both or to neither; triangles seen exactly edge-on (zero projected area) are skipped.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use rayon::prelude::*;
 
 use crate::frame::Frame;
@@ -51,9 +53,11 @@ impl Hit {
         (self.second > f64::NEG_INFINITY).then_some(self.first - self.second)
     }
 
+    /// Keeps the two highest heights; of several triangles at the highest, the one with the
+    /// lowest index, so the result does not depend on the order the triangles come in.
     #[inline]
     fn add(&mut self, height: f64, triangle: u32) {
-        if height > self.first {
+        if height > self.first || (height == self.first && triangle < self.triangle) {
             self.second = self.first;
             self.first = height;
             self.triangle = triangle;
@@ -98,7 +102,7 @@ pub struct CirclePoint {
 }
 
 /// How a ray keeps its hits: added one by one, and two partial records of the same ray
-/// merged as if their triangles had been added in turn.
+/// merged; the result depends on the set of triangles only, not on their order.
 trait Record: Copy + Send {
     const MISS: Self;
     fn add(&mut self, height: f64, triangle: u32, base: f64);
@@ -113,12 +117,13 @@ impl Record for Hit {
         Hit::add(self, height, triangle);
     }
 
-    /// Strict comparisons keep the earlier triangle on a tie, as adding in order would.
     #[inline]
     fn merge(&mut self, later: &Hit) {
         Hit::add(self, later.first, later.triangle);
-        // Below the merged first, so it can only become the second.
-        Hit::add(self, later.second, later.triangle);
+        // Not above the merged first, so it can only become the second.
+        if later.second > self.second {
+            self.second = later.second;
+        }
     }
 }
 
@@ -181,9 +186,12 @@ impl Projection {
     }
 }
 
-/// At most this many runs of triangles are drawn apart and merged; each holds its own copy
-/// of every lattice's hits.
+/// At most this many sets of hits are drawn apart and merged; each holds its own copy of
+/// every lattice's hits.
 const MAX_RUNS: usize = 4;
+
+/// Triangles in a block of the projection's work queue.
+const BLOCK: usize = 4096;
 
 /// Casts every ray of the node lattice and of the circle lattices against the triangles.
 ///
@@ -192,12 +200,15 @@ const MAX_RUNS: usize = 4;
 /// bit-identical, and no copy of the vertices is held (it would be the largest array of the
 /// stage).
 ///
-/// The triangles are split into runs of consecutive triangles, one per thread (at most
-/// [`MAX_RUNS`]), each drawn into its own hits and merged afterwards in triangle order, so
-/// the result is the same as one pass's. Within a run a triangle's corners are fetched and
-/// oriented once and tested against every lattice: a cheap test on its bounding box skips
-/// the lattices where it covers no ray. Where threads outnumber runs, the circle lattices
-/// are also split into groups, one task per run and group.
+/// Each thread (at most [`MAX_RUNS`]) draws into its own set of hits, taking blocks of
+/// consecutive triangles from a shared queue until none is left, so a thread slowed by a
+/// dense part of the mesh (or by other work) leaves the rest to the others; the sets are
+/// merged afterwards. A ray keeps its two highest hits and, at the highest, the lowest
+/// triangle index, so the result is one pass's whoever drew what. Within a block a
+/// triangle's corners are fetched and oriented once and tested against every lattice: a
+/// cheap test on its bounding box skips the lattices where it covers no ray. Where threads
+/// outnumber the sets of hits, the circle lattices are also split into groups, each with its
+/// own queue.
 pub fn cast(
     vertices: &[DVec3],
     frame: &Frame,
@@ -207,13 +218,13 @@ pub fn cast(
 ) -> Projection {
     let base = vertices.first().map_or(0.0, |&p| frame.height(p));
     let threads = rayon::current_num_threads().max(1);
-    let runs = threads.min(MAX_RUNS).min(triangles.len()).max(1);
+    let blocks = triangles.len().div_ceil(BLOCK);
+    let runs = threads.min(MAX_RUNS).min(blocks).max(1);
     // Up to 63 circle lattices a group beside the node lattice (a 64-bit mask per triangle).
     let groups = (threads / runs)
         .max(circles.len().div_ceil(63))
         .clamp(1, circles.len().max(1));
     let per_group = circles.len().div_ceil(groups).max(1);
-    let per_run = triangles.len().div_ceil(runs).max(1);
     // Made in parallel: first touching this memory is a good part of the stage's cost.
     let mut hits: Vec<(Vec<Hit>, Vec<Vec<CircleHit>>)> = (0..runs)
         .into_par_iter()
@@ -227,11 +238,11 @@ pub fn cast(
             )
         })
         .collect();
-    // One task per run and group; the node lattice goes with each run's first group.
+    // One queue of blocks per group, one task per set of hits and group; the node lattice
+    // goes with each set's first group.
+    let queues: Vec<AtomicUsize> = (0..groups).map(|_| AtomicUsize::new(0)).collect();
     let mut tasks = Vec::with_capacity(runs * groups);
-    for (r, (node_hits, circle_hits)) in hits.iter_mut().enumerate() {
-        let lo = (r * per_run).min(triangles.len());
-        let hi = ((r + 1) * per_run).min(triangles.len());
+    for (node_hits, circle_hits) in hits.iter_mut() {
         let mut node_hits = Some(node_hits);
         let mut g = 0;
         let mut rest: &mut [Vec<CircleHit>] = circle_hits;
@@ -240,7 +251,7 @@ pub fn cast(
             let (group, tail) = rest.split_at_mut(take);
             rest = tail;
             let lattices = &circles[g * per_group..g * per_group + take];
-            tasks.push((lo, hi, node_hits.take(), lattices, group));
+            tasks.push((&queues[g], node_hits.take(), lattices, group));
             g += 1;
             if rest.is_empty() {
                 break;
@@ -249,13 +260,17 @@ pub fn cast(
     }
     tasks
         .into_par_iter()
-        .for_each(|(lo, hi, node_hits, lattices, group)| {
+        .for_each(|(queue, node_hits, lattices, group)| {
             let node = node_hits.map(|h| (nodes, &mut h[..]));
-            draw_run(
+            let next = || {
+                let b = queue.fetch_add(1, Ordering::Relaxed);
+                (b < blocks).then(|| b * BLOCK..((b + 1) * BLOCK).min(triangles.len()))
+            };
+            draw_blocks(
                 vertices,
                 frame,
-                &triangles[lo..hi],
-                lo as u32,
+                triangles,
+                next,
                 node,
                 (lattices, group),
                 base,
@@ -287,13 +302,13 @@ fn merge<R: Record>(hits: &mut [R], later: &[R]) {
     }
 }
 
-/// Draws `triangles`, numbered from `first_triangle`, into the node lattice (when given)
-/// and the circle lattices of one group.
-fn draw_run(
+/// Draws the blocks of `triangles` that `next` hands out, until it has none left, into the
+/// node lattice (when given) and the circle lattices of one group.
+fn draw_blocks(
     vertices: &[DVec3],
     frame: &Frame,
     triangles: &[[u32; 3]],
-    first_triangle: u32,
+    mut next: impl FnMut() -> Option<std::ops::Range<usize>>,
     mut node: Option<(&RayLattice, &mut [Hit])>,
     (circles, circle_hits): (&[RayLattice], &mut [Vec<CircleHit>]),
     base: f64,
@@ -317,32 +332,35 @@ fn draw_run(
     let fy: Vec<f64> = lattices.iter().map(|l| offset(l, |v| v.y)).collect();
     let (cover_x, cover_y) = (OffsetBuckets::new(&fx), OffsetBuckets::new(&fy));
     let present = if node.is_some() { u64::MAX } else { !1 };
-    // File order: neighbouring triangles share vertices, so the corner reads stay in cache.
-    for (t, tri) in triangles.iter().enumerate() {
-        let t = first_triangle + t as u32;
-        let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
-        let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
-            continue;
-        };
-        let lo = (triangle.lo - origin) * inv;
-        let width = (triangle.hi - triangle.lo) * inv;
-        // Which lattices the box may cover, as a bit mask, from two table look-ups per axis
-        // instead of a test per lattice.
-        let mut mask = cover_x.covering(fraction(lo.x), width.x)
-            & cover_y.covering(fraction(lo.y), width.y)
-            & present;
-        if mask == 0 {
-            continue;
-        }
-        let edges = triangle.edges();
-        while mask != 0 {
-            let k = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            match (k, &mut node) {
-                (0, Some((lattice, hits))) => triangle.draw(&edges, t, lattice, hits, base),
-                _ => {
-                    let (lattice, hits) = (&circles[k - 1], &mut circle_hits[k - 1]);
-                    triangle.draw(&edges, t, lattice, hits, base)
+    // File order within a block: neighbouring triangles share vertices, so the corner reads
+    // stay in cache.
+    while let Some(block) = next() {
+        for (t, tri) in triangles[block.clone()].iter().enumerate() {
+            let t = (block.start + t) as u32;
+            let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
+            let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
+                continue;
+            };
+            let lo = (triangle.lo - origin) * inv;
+            let width = (triangle.hi - triangle.lo) * inv;
+            // Which lattices the box may cover, as a bit mask, from two table look-ups per axis
+            // instead of a test per lattice.
+            let mut mask = cover_x.covering(fraction(lo.x), width.x)
+                & cover_y.covering(fraction(lo.y), width.y)
+                & present;
+            if mask == 0 {
+                continue;
+            }
+            let edges = triangle.edges();
+            while mask != 0 {
+                let k = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                match (k, &mut node) {
+                    (0, Some((lattice, hits))) => triangle.draw(&edges, t, lattice, hits, base),
+                    _ => {
+                        let (lattice, hits) = (&circles[k - 1], &mut circle_hits[k - 1]);
+                        triangle.draw(&edges, t, lattice, hits, base)
+                    }
                 }
             }
         }
