@@ -178,13 +178,11 @@ fn link_sides(
             }
         });
     drop(slots);
-    // The same memory, now owned plainly (the conversions collect in place).
-    let mut sides: Vec<u64> = filed.into_iter().map(AtomicU64::into_inner).collect();
     let side_of = |key: u64| key as u32;
     // Vertices in blocks, the blocks in parallel; each block's sides are a disjoint slice.
     const BLOCK: usize = 16 * 1024;
-    let mut blocks: Vec<(usize, &mut [u64])> = Vec::with_capacity(nv / BLOCK + 1);
-    let mut rest: &mut [u64] = &mut sides;
+    let mut blocks: Vec<(usize, &mut [AtomicU64])> = Vec::with_capacity(nv / BLOCK + 1);
+    let mut rest: &mut [AtomicU64] = &mut filed;
     let mut v0 = 0;
     while v0 < nv {
         let v1 = (v0 + BLOCK).min(nv);
@@ -199,9 +197,12 @@ fn link_sides(
             let base = start[v0] as usize;
             let (mut edges, mut open, mut non_manifold) = (0u64, 0u64, 0u64);
             let v1 = (v0 + BLOCK).min(nv);
+            let mut bucket = Vec::new();
             for v in v0..v1 {
-                let bucket = &mut block[start[v] as usize - base..start[v + 1] as usize - base];
+                let filed = &mut block[start[v] as usize - base..start[v + 1] as usize - base];
                 // Grouped by the far vertex; sides in triangle order within a group.
+                bucket.clear();
+                bucket.extend(filed.iter_mut().map(|key| *key.get_mut()));
                 bucket.sort_unstable();
                 let mut i = 0;
                 while i < bucket.len() {
@@ -229,7 +230,7 @@ fn link_sides(
             (edges, open, non_manifold)
         })
         .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
-    (counts, sides.into_iter().map(AtomicU64::new).collect())
+    (counts, filed)
 }
 
 /// The representative of `x` in a union-find forest stored as parent links, halving the
