@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use crate::frame::Frame;
 use crate::math::{nearest_on_segment, DVec3};
-use crate::mesh::topology::{root, NO_TRIANGLE};
+use crate::mesh::topology::root;
 use crate::mesh::{Mesh, Topology};
 
 /// The parting line: connected chains of mesh edges.
@@ -63,29 +63,22 @@ impl PartingLine {
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
         let fixed = faces_fixed_side(mesh, frame.d);
         // Each edge between the sides is found from its triangle that faces the fixed side,
-        // in blocks of triangles in parallel (the edges are sorted below). As in
-        // [`Topology::edge_sides`], a pair that is not each other's neighbour (on a
-        // non-manifold edge) is left out.
+        // in blocks of triangles in parallel (the edges are sorted below).
         const BLOCK: usize = 16 * 1024;
-        let check = topology.non_manifold_edges > 0;
         let mut edges: Vec<[u32; 2]> = (0..mesh.triangles.len().div_ceil(BLOCK))
             .into_par_iter()
             .flat_map_iter(|b| {
                 let block = b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len());
                 let fixed = &fixed;
                 block.filter(|&t| fixed[t]).flat_map(move |t| {
-                    let across = topology.neighbours(t);
-                    (0..3).filter_map(move |k| {
-                        let n = across[k] as usize;
-                        (across[k] != NO_TRIANGLE
-                            && !fixed[n]
-                            && (!check || topology.neighbours(n).contains(&(t as u32))))
-                        .then(|| {
+                    topology
+                        .two_sided(t)
+                        .filter(|&(_, n)| !fixed[n as usize])
+                        .map(move |(k, _)| {
                             let tri = mesh.triangles[t];
                             let (a, b) = (tri[k], tri[(k + 1) % 3]);
                             [a.min(b), a.max(b)]
                         })
-                    })
                 })
             })
             .collect();

@@ -135,24 +135,25 @@ impl Record for CircleHit {
 
     #[inline]
     fn add(&mut self, height: f64, _triangle: u32, base: f64) {
-        let h = (height - base) as f32;
+        self.keep((height - base) as f32);
+    }
+
+    #[inline]
+    fn merge(&mut self, later: &CircleHit) {
+        self.keep(later.first);
+        self.keep(later.second);
+    }
+}
+
+impl CircleHit {
+    /// Keeps the two highest of the heights seen and `h`.
+    #[inline]
+    fn keep(&mut self, h: f32) {
         if h > self.first {
             self.second = self.first;
             self.first = h;
         } else if h > self.second {
             self.second = h;
-        }
-    }
-
-    #[inline]
-    fn merge(&mut self, later: &CircleHit) {
-        for h in [later.first, later.second] {
-            if h > self.first {
-                self.second = self.first;
-                self.first = h;
-            } else if h > self.second {
-                self.second = h;
-            }
         }
     }
 }

@@ -62,17 +62,24 @@ impl Topology {
     /// corner k to corner k + 1, and the triangle n across it, with t < n. Open and
     /// non-manifold edges are left out.
     pub fn edge_sides(&self) -> impl Iterator<Item = (u32, usize, u32)> + '_ {
+        (0..self.across.len() / 3).flat_map(move |t| {
+            self.two_sided(t)
+                .filter(move |&(_, n)| n > t as u32)
+                .map(move |(k, n)| (t as u32, k, n))
+        })
+    }
+
+    /// The edges of triangle `t` that it shares with exactly one other triangle, as (k, n):
+    /// its edge from corner k to corner k + 1 and the triangle n across it.
+    pub fn two_sided(&self, t: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
         // Without non-manifold edges every neighbour relation is mutual; with them, a
         // triangle's neighbour may point on to a third one, and such pairs are left out.
         let check = self.non_manifold_edges > 0;
-        (0..self.across.len() / 3).flat_map(move |t| {
-            (0..3).filter_map(move |k| {
-                let n = self.across[3 * t + k];
-                (n != NO_TRIANGLE
-                    && n > t as u32
-                    && (!check || self.neighbours(n as usize).contains(&(t as u32))))
-                .then_some((t as u32, k, n))
-            })
+        let across = self.neighbours(t);
+        (0..3).filter_map(move |k| {
+            let n = across[k];
+            (n != NO_TRIANGLE && (!check || self.neighbours(n as usize).contains(&(t as u32))))
+                .then_some((k, n))
         })
     }
 }
