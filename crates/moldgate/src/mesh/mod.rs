@@ -399,18 +399,7 @@ impl Welder {
     /// The vertex at `p`, if welded here; the table is only read.
     fn find(&self, p: DVec3) -> Option<u32> {
         let bits = position_bits(p);
-        let mask = self.slots.len() - 1;
-        let mut slot = slot_of(bits, mask);
-        loop {
-            let v = self.slots[slot];
-            if v == EMPTY {
-                return None;
-            }
-            if position_bits(self.mesh.vertices[v as usize]) == bits {
-                return Some(v);
-            }
-            slot = (slot + 1) & mask;
-        }
+        self.probe(bits, hash_of(bits)).ok()
     }
 
     #[inline(always)]
@@ -424,23 +413,34 @@ impl Welder {
         if self.recent[cached].0 == bits {
             return self.recent[cached].1;
         }
-        let mask = self.slots.len() - 1;
-        let mut slot = (hash >> 32) as usize & mask;
-        let v = loop {
-            let v = self.slots[slot];
-            if v == EMPTY {
+        let v = match self.probe(bits, hash) {
+            Ok(v) => v,
+            Err(slot) => {
                 let next = self.mesh.vertices.len() as u32;
                 self.slots[slot] = next;
                 self.mesh.vertices.push(p + DVec3::ZERO);
-                break next;
+                next
             }
-            if position_bits(self.mesh.vertices[v as usize]) == bits {
-                break v;
-            }
-            slot = (slot + 1) & mask;
         };
         self.recent[cached] = (bits, v);
         v
+    }
+
+    /// The vertex with these position bits, or the empty slot where it belongs.
+    #[inline(always)]
+    fn probe(&self, bits: [u64; 3], hash: u64) -> Result<u32, usize> {
+        let mask = self.slots.len() - 1;
+        let mut slot = (hash >> 32) as usize & mask;
+        loop {
+            let v = self.slots[slot];
+            if v == EMPTY {
+                return Err(slot);
+            }
+            if position_bits(self.mesh.vertices[v as usize]) == bits {
+                return Ok(v);
+            }
+            slot = (slot + 1) & mask;
+        }
     }
 
     fn grow(&mut self) {
