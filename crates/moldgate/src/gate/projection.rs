@@ -837,6 +837,71 @@ mod tests {
     }
 
     #[test]
+    fn coincident_faces_give_the_lowest_triangle_in_any_order() {
+        // Three hits at heights 2, 2 and 1 by triangles 7, 3 and 9, added and merged in
+        // every order: always first 2 by triangle 3, second 2.
+        let hits = [(2.0, 7), (2.0, 3), (1.0, 9)];
+        for order in [[0, 1, 2], [1, 0, 2], [2, 1, 0], [2, 0, 1]] {
+            let mut one = Hit::MISS;
+            for &i in &order {
+                Hit::add(&mut one, hits[i].0, hits[i].1);
+            }
+            let (mut a, mut b) = (Hit::MISS, Hit::MISS);
+            Hit::add(&mut a, hits[order[0]].0, hits[order[0]].1);
+            for &i in &order[1..] {
+                Hit::add(&mut b, hits[i].0, hits[i].1);
+            }
+            Record::merge(&mut b, &a);
+            for h in [one, b] {
+                assert_eq!((h.first, h.second, h.triangle), (2.0, 2.0, 3), "{order:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn hits_do_not_depend_on_the_number_of_threads() {
+        // The cap, subdivided to many blocks of triangles, along a tilted direction, with
+        // circle lattices at uneven offsets; drawn by pools of 1, 2, 3 and 8 threads (1 to 4
+        // sets of hits, 1 or 2 groups of circle lattices).
+        let mesh = crate::samples::sample("cap")
+            .unwrap()
+            .subdivided()
+            .subdivided()
+            .subdivided();
+        assert!(mesh.triangles.len() > 4 * BLOCK);
+        let frame = Frame::new(crate::frame::Direction::new(DVec3::new(0.1, -0.2, 1.0)).unwrap());
+        let node = RayLattice {
+            origin: DVec2::new(-40.0, -40.0),
+            spacing: 0.7,
+            n_u: 115,
+            n_w: 115,
+        };
+        let circles: Vec<RayLattice> = (0..16)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / 16.0;
+                RayLattice {
+                    origin: node.origin + DVec2::new(a.cos(), a.sin()) * 1.43,
+                    ..node
+                }
+            })
+            .collect();
+        let cast_with = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| cast(&mesh.vertices, &frame, &mesh.triangles, &node, &circles))
+        };
+        let one = cast_with(1);
+        assert!(one.nodes.iter().filter(|h| h.is_hit()).count() > 1000);
+        for threads in [2, 3, 8] {
+            let many = cast_with(threads);
+            assert_eq!(one.nodes, many.nodes, "{threads} threads");
+            assert_eq!(one.circles, many.circles, "{threads} threads");
+        }
+    }
+
+    #[test]
     fn index_range_holds_every_sample_in_the_interval() {
         assert_eq!(index_range(0.0, 4.0, 100, 0.75, 0.75), Some((3, 3)));
         // 3 * 0.1 rounds above 0.3; within the slack, sample 3 is kept for the exact test.
