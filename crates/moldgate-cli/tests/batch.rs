@@ -5,39 +5,20 @@
 //! Exit codes of a batch: the most serious of its parts, internal (1) > output (5) > input (3)
 //! > option (2) > no gate (4); 0 when every part has a gate.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 
 use serde_json::Value;
 use tempfile::TempDir;
 
-const OK: i32 = 0;
-const USAGE: i32 = 2;
-const INPUT: i32 = 3;
-const NO_GATE: i32 = 4;
-const OUTPUT: i32 = 5;
+use common::*;
 
 const SAMPLES: [&str; 5] = ["plate", "cover", "cap", "tray", "bracket"];
 
 // ---------------------------------------------------------------------------------------------
 // Running the binary
-
-fn moldgate(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_moldgate"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the moldgate binary runs")
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 #[track_caller]
 fn assert_code(out: &Output, code: i32) {
@@ -76,16 +57,6 @@ fn json_lines(text: &str) -> Vec<Value> {
     text.lines()
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON ({e}): {l}")))
         .collect()
-}
-
-/// Names of the files in `dir`, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 /// Removes what changes from run to run (times) from a report or a summary row.

@@ -6,40 +6,20 @@
 //! 2 command line or option value (a bad materials file included), 3 input file missing,
 //! unreadable or malformed, 4 no gate, 5 output.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
 
 use serde_json::Value;
 use tempfile::TempDir;
 
-const OK: i32 = 0;
-const USAGE: i32 = 2;
-const INPUT: i32 = 3;
-const NO_GATE: i32 = 4;
-const OUTPUT: i32 = 5;
+use common::*;
 
 const SAMPLES: [&str; 5] = ["plate", "cover", "cap", "tray", "bracket"];
 
 // ---------------------------------------------------------------------------------------------
 // Running the binary
-
-/// Runs `moldgate args...` in `dir`.
-fn moldgate(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_moldgate"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the moldgate binary runs")
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 /// Asserts a failure with exit code `code` whose stderr is exactly one line
 /// `moldgate: error: ...` containing every one of `needles`; returns that line.
@@ -82,16 +62,6 @@ fn point(v: &Value) -> [f64; 3] {
     let a = v.as_array().unwrap_or_else(|| panic!("not a point: {v}"));
     assert_eq!(a.len(), 3, "{v}");
     [0, 1, 2].map(|i| a[i].as_f64().expect("a number"))
-}
-
-/// Names of the files in `dir`, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 // ---------------------------------------------------------------------------------------------

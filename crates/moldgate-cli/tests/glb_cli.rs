@@ -3,25 +3,14 @@
 //! same file as `-o`) ends with one line on stderr, the documented exit code and nothing
 //! half-written. Exit codes as in main.rs: 2 command line, 3 input, 4 no gate, 5 output.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 use serde_json::Value;
 
-const OK: i32 = 0;
-const USAGE: i32 = 2;
-const INPUT: i32 = 3;
-const NO_GATE: i32 = 4;
-const OUTPUT: i32 = 5;
-
-fn moldgate(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_moldgate"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the moldgate binary runs")
-}
+use common::*;
 
 /// Asserts exit code `code` with exactly one stderr line `moldgate: error: ...` that
 /// contains every one of `needles`.
@@ -46,16 +35,6 @@ fn assert_fails(out: &Output, code: i32, needles: &[&str]) {
 fn assert_ok(out: &Output) {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(OK), "stderr: {err}");
-}
-
-/// Names of the files in `dir`, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 /// A folder holding `part.stl`, the `cover` sample written by the binary itself.

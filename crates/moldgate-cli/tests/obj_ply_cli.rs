@@ -3,29 +3,17 @@
 //! batch mode take every format, and every malformed file ends with exit code 3 and one line
 //! on stderr naming the file and the place (line, or byte offset in a binary PLY).
 
+mod common;
+
 use std::fmt::Write as _;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 
 use moldgate::mesh::{read_stl, Mesh, Units};
 use serde_json::Value;
 use tempfile::TempDir;
 
-const OK: i32 = 0;
-const INPUT: i32 = 3;
-
-fn moldgate(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_moldgate"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the moldgate binary runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use common::*;
 
 /// Asserts exit code 3 and one stderr line `moldgate: error: ...` holding every needle.
 #[track_caller]

@@ -2,24 +2,14 @@
 //! is self-contained and renders in headless Chromium (skipped, with the reason printed, when
 //! `chromium` is not installed), and bad output paths fail with one line and write nothing.
 
-use std::path::Path;
+mod common;
+
 use std::process::{Command, Output, Stdio};
 
 use serde_json::Value;
 use tempfile::TempDir;
 
-const USAGE: i32 = 2;
-const NO_GATE: i32 = 4;
-const OUTPUT: i32 = 5;
-
-fn moldgate(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_moldgate"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the moldgate binary runs")
-}
+use common::*;
 
 /// Asserts exit code `code` and one line `moldgate: error: ...` on stderr holding `needle`.
 #[track_caller]
@@ -30,16 +20,6 @@ fn assert_fails(out: &Output, code: i32, needle: &str) {
     assert_eq!(lines.len(), 1, "one line: {err}");
     assert!(lines[0].starts_with("moldgate: error: "), "{err}");
     assert!(lines[0].contains(needle), "{err} lacks {needle}");
-}
-
-/// Names in `dir` (temporary files included).
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 /// The gate point as the report prints it, "(x, y, z)" with 3 decimals.

@@ -385,11 +385,10 @@ fn unknown_values_are_grey_and_missing_gate_normal_uses_d() {
     }
 }
 
-#[test]
-fn empty_scene_is_still_a_glb() {
-    let mesh = Mesh::default();
-    let scene = Scene {
-        mesh: &mesh,
+/// A scene with nothing in it: no triangles, gates, lines or points.
+fn empty_scene(mesh: &Mesh) -> Scene<'_> {
+    Scene {
+        mesh,
         frame: Frame::new(Direction::PLUS_Z),
         field: empty_field(),
         gates: vec![],
@@ -399,7 +398,13 @@ fn empty_scene_is_still_a_glb() {
         title: "empty".into(),
         subtitle: String::new(),
         grid_spacing_mm: 1.0,
-    };
+    }
+}
+
+#[test]
+fn empty_scene_is_still_a_glb() {
+    let mesh = Mesh::default();
+    let scene = empty_scene(&mesh);
     let g = read_glb(&glb(&scene).unwrap());
     assert!(g.bin.is_empty());
     assert!(g.json.get("meshes").is_none());
@@ -573,18 +578,7 @@ fn khronos_validator_accepts_our_files() {
 
     // A scene with nothing in it but its asset.
     let mesh = Mesh::default();
-    let scene = Scene {
-        mesh: &mesh,
-        frame: Frame::new(Direction::PLUS_Z),
-        field: empty_field(),
-        gates: vec![],
-        centre: DVec3::ZERO,
-        parting: vec![],
-        qualifying: vec![],
-        title: "empty".into(),
-        subtitle: String::new(),
-        grid_spacing_mm: 1.0,
-    };
+    let scene = empty_scene(&mesh);
     validate(&script, dir.path(), "empty", &glb(&scene).unwrap());
 
     // Negative control: the same plate with a wrong POSITION maximum must be refused, so a

@@ -202,6 +202,17 @@ impl Canvas {
         }
     }
 
+    /// Strokes `path` in an opaque colour.
+    fn stroke(&mut self, path: &tiny_skia::Path, colour: Rgb, stroke: &Stroke) {
+        self.pixmap.stroke_path(
+            path,
+            &paint(colour, 255),
+            stroke,
+            Transform::identity(),
+            None,
+        );
+    }
+
     /// A rectangle's outline.
     pub fn stroke_rect(&mut self, x: f32, y: f32, w: f32, h: f32, colour: Rgb, width: f32) {
         if let Some(r) = Rect::from_xywh(x, y, w, h) {
@@ -210,13 +221,7 @@ impl Canvas {
                 width,
                 ..Stroke::default()
             };
-            self.pixmap.stroke_path(
-                &path,
-                &paint(colour, 255),
-                &stroke,
-                Transform::identity(),
-                None,
-            );
+            self.stroke(&path, colour, &stroke);
         }
     }
 
@@ -270,13 +275,7 @@ impl Canvas {
             dash: dash.and_then(|d| StrokeDash::new(vec![d[0], d[1]], 0.0)),
             ..Stroke::default()
         };
-        self.pixmap.stroke_path(
-            &path,
-            &paint(colour, 255),
-            &stroke,
-            Transform::identity(),
-            None,
-        );
+        self.stroke(&path, colour, &stroke);
     }
 
     /// A filled disc.
@@ -299,13 +298,7 @@ impl Canvas {
                 width,
                 ..Stroke::default()
             };
-            self.pixmap.stroke_path(
-                &path,
-                &paint(colour, 255),
-                &stroke,
-                Transform::identity(),
-                None,
-            );
+            self.stroke(&path, colour, &stroke);
         }
     }
 
