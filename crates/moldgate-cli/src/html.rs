@@ -331,11 +331,11 @@ fn timings_table(h: &mut String, r: &Report) {
     let _ = writeln!(h, "<h2>Timings</h2>\n<table>");
     for (name, s) in [
         ("Reading the mesh", t.load_s),
-        ("Centre of mass", t.centre_s),
+        ("Centre of mass (alongside the rays)", t.centre_s),
         ("Grid", t.grid_s),
         ("Rays", t.projection_s),
         ("Rules and choice", t.select_s),
-        ("Parting line", t.parting_s),
+        ("Parting line (alongside the rays)", t.parting_s),
         ("Total", t.total_s),
     ] {
         let _ = writeln!(

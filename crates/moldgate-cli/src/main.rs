@@ -5,6 +5,8 @@
 //! 3 input file missing, unreadable or malformed; 4 no node qualifies for a gate;
 //! 5 output cannot be written.
 
+#[cfg(target_os = "linux")]
+mod alloc;
 mod args;
 mod batch;
 mod formats;
@@ -21,6 +23,11 @@ use std::process::ExitCode;
 use clap::Parser;
 
 use args::{Cli, Command};
+
+/// Large blocks on huge pages (see `alloc.rs`); elsewhere the system allocator as it is.
+#[cfg(target_os = "linux")]
+#[global_allocator]
+static ALLOCATOR: alloc::Allocator = alloc::Allocator;
 
 /// An error with the exit code it maps to.
 #[derive(Debug)]

@@ -288,14 +288,14 @@ pub fn render(r: &Report) -> String {
     let ms = |x: f64| x * 1e3;
     let _ = writeln!(
         s,
-        "time: {:.1} ms (load {:.1}, centre {:.1}, grid {:.1}, rays {:.1}, select {:.1}, parting line {:.1})",
+        "time: {:.1} ms (load {:.1}, grid {:.1}, rays {:.1} with the centre of mass {:.1} and the parting line {:.1} alongside, select {:.1})",
         ms(t.total_s),
         ms(t.load_s),
-        ms(t.centre_s),
         ms(t.grid_s),
         ms(t.projection_s),
-        ms(t.select_s),
-        ms(t.parting_s)
+        ms(t.centre_s),
+        ms(t.parting_s),
+        ms(t.select_s)
     );
     s
 }

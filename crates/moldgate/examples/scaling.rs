@@ -96,7 +96,8 @@ fn row(stl: &[u8], direction: Direction, spacing: Spacing, repeats: usize) {
             s.select_s,
             s.parting_s,
         ];
-        let total: f64 = stages.iter().sum();
+        // The parting line runs alongside the rays: the total is the wall time, not a sum.
+        let total = load + s.total_s;
         for (b, v) in best.iter_mut().zip(stages.iter().chain([&total])) {
             *b = b.min(*v);
         }

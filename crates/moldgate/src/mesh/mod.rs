@@ -383,10 +383,11 @@ impl Welder {
     /// `room` (the whole file's, for the run that [`Welder::join`] extends).
     pub fn for_run(triangles: usize, room: usize) -> Welder {
         // A closed mesh has about half as many vertices as triangles; a sixteenth more keeps
-        // slightly open or fragmented meshes from reallocating.
+        // slightly open or fragmented meshes from reallocating. The table starts a quarter
+        // full (it grows at half): shorter probes, for 4 bytes a slot.
         let vertices = |t: usize| t / 2 + t / 16 + 16;
         Welder {
-            slots: vec![EMPTY; (2 * vertices(triangles)).next_power_of_two()],
+            slots: vec![EMPTY; (4 * vertices(triangles)).next_power_of_two()],
             recent: vec![([u64::MAX; 3], EMPTY); RECENT],
             mesh: Mesh {
                 vertices: Vec::with_capacity(vertices(room.max(triangles))),

@@ -1,0 +1,186 @@
+//! The process's memory allocator on Linux: the system's, except that blocks of 2 MiB and
+//! more are mapped on their own, at a 2 MiB boundary, and offered to the kernel for
+//! transparent huge pages.
+//!
+//! The analysis of a large part touches a few large arrays (the welded mesh, the welding
+//! tables, the edge table) at scattered places. On 4 KiB pages each first touch is a fault
+//! and each scattered read may miss the address cache (the TLB); a 2 MiB page is one fault
+//! and one TLB entry. On a 352k-triangle part this takes the process from about 7,700 page
+//! faults to 2,600 and the whole command about a tenth faster (README, "Speed").
+//!
+//! Only the whole 2 MiB pages inside a block are advised, so a block never holds more
+//! memory than its own size rounded up to 4 KiB: peak resident memory does not grow. When
+//! the kernel has huge pages disabled, the advice is ignored and the blocks are ordinary
+//! mappings.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+
+/// Blocks of at least this many bytes are mapped on their own.
+const LARGE: usize = 2 << 20;
+/// The size and alignment of a transparent huge page on x86-64 and AArch64 (4 KiB base).
+const HUGE_PAGE: usize = 2 << 20;
+/// The base page size the mappings are rounded to.
+const PAGE: usize = 4096;
+
+/// The system allocator, with large blocks on huge-page-aligned mappings.
+pub struct Allocator;
+
+/// Whether a block of this layout is mapped on its own (else the system allocator has it).
+fn mapped(size: usize, align: usize) -> bool {
+    size >= LARGE && align <= PAGE
+}
+
+/// The length of the mapping that holds `size` bytes.
+fn mapped_len(size: usize) -> usize {
+    size.div_ceil(PAGE) * PAGE
+}
+
+// SAFETY: every block comes either from `System` or from `map`, and `dealloc` and
+// `realloc` tell them apart by the same rule (`mapped`) on the same layout, so each block is
+// returned to where it came from. Mapped blocks are page-aligned, which meets any alignment
+// up to `PAGE`; larger alignments go to `System`.
+unsafe impl GlobalAlloc for Allocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if mapped(layout.size(), layout.align()) {
+            map(layout.size())
+        } else {
+            // SAFETY: the caller's layout contract is passed on unchanged.
+            unsafe { System.alloc(layout) }
+        }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        if mapped(layout.size(), layout.align()) {
+            // A fresh anonymous mapping reads as zeros.
+            map(layout.size())
+        } else {
+            // SAFETY: as in `alloc`.
+            unsafe { System.alloc_zeroed(layout) }
+        }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        if mapped(layout.size(), layout.align()) {
+            // SAFETY: `ptr` came from `map` with this size, so this is its whole mapping.
+            unsafe { libc::munmap(ptr.cast(), mapped_len(layout.size())) };
+        } else {
+            // SAFETY: `ptr` came from `System` with this layout.
+            unsafe { System.dealloc(ptr, layout) }
+        }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if !mapped(layout.size(), layout.align()) && !mapped(new_size, layout.align()) {
+            // SAFETY: both blocks belong to `System`; the caller's contract is passed on.
+            return unsafe { System.realloc(ptr, layout, new_size) };
+        }
+        // SAFETY: the caller guarantees that `new_size`, rounded up to the alignment, does
+        // not overflow `isize`, which is all a layout needs.
+        let new_layout = unsafe { Layout::from_size_align_unchecked(new_size, layout.align()) };
+        // SAFETY: a non-zero size (at least one of the two sizes is LARGE or more, and
+        // `new_size` is non-zero by the caller's contract).
+        let new = unsafe { self.alloc(new_layout) };
+        if !new.is_null() {
+            // SAFETY: both blocks are valid for the bytes copied and do not overlap; the old
+            // block is returned by the rule it was allocated by.
+            unsafe {
+                std::ptr::copy_nonoverlapping(ptr, new, layout.size().min(new_size));
+                self.dealloc(ptr, layout);
+            }
+        }
+        new
+    }
+}
+
+/// Maps `size` bytes at a 2 MiB boundary and advises huge pages on the whole 2 MiB pages in
+/// it; null when the system has no memory to give.
+fn map(size: usize) -> *mut u8 {
+    let len = mapped_len(size);
+    // Over-map by a huge page, then unmap the ends so the block starts on a boundary.
+    let Some(over) = len.checked_add(HUGE_PAGE) else {
+        return std::ptr::null_mut();
+    };
+    // SAFETY: a new private anonymous mapping; no existing memory is affected.
+    let raw = unsafe {
+        libc::mmap(
+            std::ptr::null_mut(),
+            over,
+            libc::PROT_READ | libc::PROT_WRITE,
+            libc::MAP_PRIVATE | libc::MAP_ANONYMOUS,
+            -1,
+            0,
+        )
+    };
+    if raw == libc::MAP_FAILED {
+        return std::ptr::null_mut();
+    }
+    let start = raw as usize;
+    let aligned = start.div_ceil(HUGE_PAGE) * HUGE_PAGE;
+    let end = aligned + len;
+    // SAFETY: the two ranges unmapped lie inside the mapping just made, before and after
+    // the block kept; the advice covers only the block.
+    unsafe {
+        if aligned > start {
+            libc::munmap(raw, aligned - start);
+        }
+        if start + over > end {
+            libc::munmap(end as *mut libc::c_void, start + over - end);
+        }
+        let whole = len / HUGE_PAGE * HUGE_PAGE;
+        // Advice only: where the kernel declines, the block keeps 4 KiB pages.
+        libc::madvise(aligned as *mut libc::c_void, whole, libc::MADV_HUGEPAGE);
+    }
+    aligned as *mut u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_blocks_start_on_a_huge_page_boundary_and_keep_their_bytes() {
+        let n = 3 * HUGE_PAGE + 12_345;
+        let mut v: Vec<u8> = Vec::with_capacity(n);
+        assert_eq!(v.as_ptr() as usize % HUGE_PAGE, 0);
+        v.extend((0..n).map(|i| (i % 251) as u8));
+        assert!(v.iter().enumerate().all(|(i, &b)| b == (i % 251) as u8));
+    }
+
+    #[test]
+    fn zeroed_large_blocks_read_as_zeros() {
+        let v = vec![0u64; LARGE / 8 + 1000];
+        assert_eq!(v.as_ptr() as usize % HUGE_PAGE, 0);
+        assert!(v.iter().all(|&x| x == 0));
+    }
+
+    #[test]
+    fn growing_across_the_threshold_and_shrinking_back_keeps_the_contents() {
+        // Small (system) -> large (mapped) -> larger (mapped) -> small (system).
+        let mut v: Vec<u32> = (0..1000).collect();
+        for target in [LARGE / 4 + 10, LARGE / 2 + 77] {
+            let from = v.len() as u32;
+            v.extend(from..target as u32);
+            assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32));
+        }
+        assert!(mapped(v.capacity() * 4, 4));
+        v.truncate(500);
+        v.shrink_to_fit();
+        assert!(!mapped(v.capacity() * 4, 4));
+        assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32));
+    }
+
+    #[test]
+    fn alignments_above_a_page_go_to_the_system_allocator() {
+        let layout = Layout::from_size_align(LARGE, 2 * PAGE).unwrap();
+        assert!(!mapped(layout.size(), layout.align()));
+        // SAFETY: a valid non-zero layout, freed with the same layout.
+        unsafe {
+            let p = Allocator.alloc(layout);
+            assert!(!p.is_null());
+            assert_eq!(p as usize % (2 * PAGE), 0);
+            p.write_bytes(7, layout.size());
+            assert_eq!(*p.add(LARGE - 1), 7);
+            Allocator.dealloc(p, layout);
+        }
+    }
+}
