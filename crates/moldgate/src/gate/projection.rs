@@ -357,10 +357,12 @@ fn draw_blocks(
                 let k = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 match (k, &mut node) {
-                    (0, Some((lattice, hits))) => triangle.draw(&edges, t, lattice, hits, base),
+                    (0, Some((lattice, hits))) => {
+                        triangle.draw(&edges, t, (lattice, inv), hits, base)
+                    }
                     _ => {
                         let (lattice, hits) = (&circles[k - 1], &mut circle_hits[k - 1]);
-                        triangle.draw(&edges, t, lattice, hits, base)
+                        triangle.draw(&edges, t, (lattice, inv), hits, base)
                     }
                 }
             }
@@ -496,13 +498,12 @@ impl ProjectedTriangle {
         &self,
         [bc, ca, ab]: &[EdgeFn; 3],
         t: u32,
-        lattice: &RayLattice,
+        (lattice, inv): (&RayLattice, f64),
         hits: &mut [R],
         base: f64,
     ) {
         let [ha, hb, hc] = self.h;
         let o = lattice.origin;
-        let inv = 1.0 / lattice.spacing;
         let Some((i0, i1)) = index_range(o.x, inv, lattice.n_u, self.lo.x, self.hi.x) else {
             return;
         };
@@ -673,7 +674,7 @@ mod tests {
                 continue;
             };
             let mut drawn = vec![Hit::MISS; l.n_u * l.n_w];
-            tri.draw(&tri.edges(), k, &l, &mut drawn, 0.0);
+            tri.draw(&tri.edges(), k, (&l, 1.0 / l.spacing), &mut drawn, 0.0);
             let mut every = vec![Hit::MISS; l.n_u * l.n_w];
             let [pa, pb, pc] = tri.p;
             let edges = [
