@@ -193,7 +193,7 @@ pub struct StageTimes {
     /// overlaps `projection_s` (the two share the threads).
     pub parting_s: f64,
     /// The whole of [`locate`], from start to end: less than the sum of the stages, since
-    /// the parting line overlaps the rays.
+    /// the centre of mass and the parting line overlap the rays.
     pub total_s: f64,
 }
 

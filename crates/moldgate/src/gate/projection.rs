@@ -698,15 +698,21 @@ mod tests {
         }
     }
 
-    #[test]
-    fn offset_buckets_hold_every_covered_lattice_and_little_more() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = || {
+    /// A small deterministic generator of numbers in [0, 1) (xorshift): no dependency
+    /// needed.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    #[test]
+    fn offset_buckets_hold_every_covered_lattice_and_little_more() {
+        let mut next = uniform(0x9E37_79B9_7F4A_7C15);
         // Offsets on and next to bucket edges as well as random ones.
         let mut offsets: Vec<f64> = (0..40).map(|_| next()).collect();
         offsets.extend([
@@ -748,14 +754,8 @@ mod tests {
 
     #[test]
     fn hoisted_edge_functions_are_bit_identical_and_antisymmetric() {
-        // A small deterministic generator: no dependency needed.
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 200.0 - 100.0
-        };
+        let mut unit = uniform(0x2545_F491_4F6C_DD1D);
+        let mut next = || unit() * 200.0 - 100.0;
         for _ in 0..10_000 {
             let (p, q, s) = (
                 DVec2::new(next(), next()),
