@@ -5,11 +5,15 @@
 //! The files are written in code from a built-in sample saved as binary STL and read back, so
 //! every coordinate is an f32 value that each format holds exactly.
 
+mod common;
+
 use std::fmt::Write as _;
 
 use moldgate::error::{LoadError, Place};
 use moldgate::mesh::{read_obj, read_ply, read_stl, Format, LoadedMesh, Mesh, Units};
 use moldgate::{locate, samples, LocateOptions};
+
+use common::SplitMix;
 
 /// The sample `name` as it reads back from a binary STL.
 fn sample_via_stl(name: &str) -> (Vec<u8>, LoadedMesh) {
@@ -267,19 +271,6 @@ fn malformed_files_name_the_place() {
 
 // ---------------------------------------------------------------------------------------------
 // Loading never panics
-
-/// A small deterministic generator (SplitMix64), so failures replay.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
 
 /// A small closed part in every format: a tetrahedron.
 fn small_files() -> Vec<(bool, Vec<u8>)> {

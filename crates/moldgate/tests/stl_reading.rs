@@ -3,10 +3,14 @@
 //!
 //! The files are built in code, so each test shows the bytes it feeds the reader.
 
+mod common;
+
 use std::io::Cursor;
 
 use moldgate::error::{LoadError, Place};
 use moldgate::mesh::{read_stl, Format, LoadedMesh, Units};
+
+use common::SplitMix;
 
 /// A facet as its three corners, in the file's units.
 type Facet = [[f32; 3]; 3];
@@ -888,19 +892,6 @@ fn a_huge_part_warns_about_units() {
 
 // ---------------------------------------------------------------------------------------------
 // Loading never panics
-
-/// A small deterministic generator (SplitMix64), so failures replay.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
 
 #[test]
 fn every_prefix_of_a_valid_file_loads_or_is_refused_without_panic() {
