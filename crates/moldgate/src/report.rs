@@ -202,7 +202,7 @@ pub struct ChosenReport {
 pub struct Timings {
     /// Reading and welding the mesh, with topology.
     pub load_s: f64,
-    /// Centres of mass.
+    /// Centres of mass, computed alongside the rays (this time overlaps `projection_s`).
     pub centre_s: f64,
     /// Frame and grid.
     pub grid_s: f64,

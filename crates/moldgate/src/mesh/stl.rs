@@ -83,11 +83,12 @@ fn read_binary(mut reader: impl Read, declared: u64) -> Result<RawMesh, LoadErro
     reader.read_exact(&mut header)?;
     let mut welder = Welder::with_capacity(declared as usize);
     weld_records(reader, 0..declared, &mut welder)?;
-    Ok(binary_mesh(welder, declared))
+    Ok(binary_mesh(welder.finish(), declared))
 }
 
-fn binary_mesh(welder: Welder, declared: u64) -> RawMesh {
-    let (mesh, collapsed_facets) = welder.finish();
+/// The raw mesh of a binary STL of `declared` facets, welded to `mesh` with
+/// `collapsed_facets` dropped.
+fn binary_mesh((mesh, collapsed_facets): (Mesh, u64), declared: u64) -> RawMesh {
     RawMesh {
         format: Format::StlBinary,
         solids: 1,
@@ -185,16 +186,7 @@ where
         })
         .collect();
     let runs = welded.into_iter().collect::<Result<Vec<_>, _>>()?;
-    let (mesh, collapsed_facets) = Welder::join(runs);
-    Ok(RawMesh {
-        format: Format::StlBinary,
-        solids: 1,
-        facets_read: n,
-        corners_read: 3 * n,
-        collapsed_facets,
-        mesh,
-        warnings: Vec::new(),
-    })
+    Ok(binary_mesh(Welder::join(runs), n))
 }
 
 /// What the ASCII parser expects next.
