@@ -7,15 +7,19 @@
 
 #[cfg(target_os = "linux")]
 mod alloc;
+mod analyse;
 mod args;
 mod batch;
 mod formats;
 mod glb;
-mod html;
+mod locate;
+mod materials;
 mod output;
 mod pictures;
 mod progress;
+mod sample;
 mod summary;
+mod toml_file;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -104,9 +108,9 @@ fn main() -> ExitCode {
         );
     }));
     let result = std::panic::catch_unwind(|| match cli.command {
-        Command::Locate(a) => args::run_locate(*a),
-        Command::Sample(a) => args::run_sample(a),
-        Command::Materials(a) => args::run_materials(a),
+        Command::Locate(a) => locate::run_locate(*a),
+        Command::Sample(a) => sample::run_sample(a),
+        Command::Materials(a) => materials::run_materials(a),
     });
     let Ok(result) = result else {
         return ExitCode::from(1);

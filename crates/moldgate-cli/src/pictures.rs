@@ -3,13 +3,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use moldgate::render::{RenderError, RenderOptions};
-use moldgate::report::Report;
-use moldgate::scene::Scene;
-use moldgate::Material;
+use moldgate::mesh::LoadedMesh;
+use moldgate::render::RenderOptions;
+use moldgate::Study;
 
+use crate::analyse::failure;
 use crate::args::LocateArgs;
-use crate::html;
 use crate::output::{refuse_input, same_file, write_atomic};
 use crate::Failure;
 
@@ -51,31 +50,19 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
 /// Draws the picture and writes `--png` and `--report` when asked for.
 pub fn write(
     a: &LocateArgs,
-    mut scene: Scene,
-    report: &Report,
-    json: &str,
-    material: &Material,
+    study: &Study,
+    part: &LoadedMesh,
+    title: String,
 ) -> Result<(), Failure> {
     if a.png.is_none() && a.report.is_none() {
         return Ok(());
     }
     let t = Instant::now();
-    let d = report.options.demold;
-    scene.subtitle = format!(
-        "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
-        material.name, scene.subtitle, d[0], d[1], d[2]
-    );
-    let options = RenderOptions::default();
-    let png = moldgate::render::png(&scene, &options).map_err(|e| match e {
-        RenderError::EmptyMesh => Failure::input(format!("cannot draw the part: {e}")),
-        e => Failure {
-            code: 1,
-            message: format!("cannot draw the part: {e}"),
-        },
-    })?;
+    let png = study.png(part, title).map_err(|e| failure(&e, ""))?;
     let render_s = t.elapsed().as_secs_f64();
     if let Some(path) = &a.png {
         write_atomic(path, &png)?;
+        let options = RenderOptions::default();
         eprintln!(
             "wrote {} ({}x{} pixels, drawn in {:.0} ms)",
             path.display(),
@@ -85,7 +72,7 @@ pub fn write(
         );
     }
     if let Some(path) = &a.report {
-        let page = html::page(report, json, Some(&png));
+        let page = study.html(Some(&png)).map_err(|e| failure(&e, ""))?;
         write_atomic(path, page.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }

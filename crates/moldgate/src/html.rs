@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use moldgate::report::{RadiusSource, Report};
+use crate::report::{RadiusSource, Report};
 
 /// Escapes text for HTML element content and attribute values.
 pub fn escape(s: &str) -> String {
@@ -106,8 +106,8 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
                 r.options.gate_radius_mm,
                 g.distance_3d_mm,
                 match g.mode {
-                    moldgate::GateMode::Paper => "grid",
-                    moldgate::GateMode::Aesthetic => "parting-line",
+                    crate::GateMode::Paper => "grid",
+                    crate::GateMode::Aesthetic => "parting-line",
                 }
             );
         }
@@ -225,8 +225,8 @@ fn summary_table(h: &mut String, r: &Report) {
             "{} mm ({})",
             v3(c.used),
             match c.kind {
-                moldgate::CentreKind::Surface => "surface, Eq. 5",
-                moldgate::CentreKind::Volume => "enclosed volume",
+                crate::CentreKind::Surface => "surface, Eq. 5",
+                crate::CentreKind::Volume => "enclosed volume",
             }
         ),
     );

@@ -1,0 +1,447 @@
+//! The options of a study, in two forms: [`StudyOptions`], the raw vocabulary every front
+//! end shares (command-line flags, TOML, JSON, query parameters), and [`Settings`], the same
+//! options validated once into the library's types.
+//!
+//! Field names are the command line's flags in snake case (`--gate-radius` is
+//! `gate_radius`) and every default is the command line's. `docs/study-options.md` gives
+//! the JSON form with an example.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::OptionsError;
+use crate::flow::{FillOptions, FlowOptions, Objective, Strategy};
+use crate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
+use crate::report::RadiusSource;
+use crate::study::StudyError;
+use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
+
+/// The largest grid accepted, in nodes. With 16 circle points a node costs 17 rays of 24
+/// bytes, so this is about 8 GB: far beyond a useful grid (the default limit is 4 million
+/// nodes), and a bound that keeps an absurd `max_nodes` from reaching the allocator.
+pub const MAX_NODES_LIMIT: usize = 20_000_000;
+
+/// The largest number of gates of a several-gate layout.
+pub const MAX_GATES: usize = 64;
+
+/// A material: a built-in name (`"PP"`, `"ABS"`, `"PC"`, any case), a name of the user
+/// materials given to [`StudyOptions::validate_with`], or every parameter of a material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MaterialChoice {
+    /// A material by name.
+    Name(String),
+    /// A material given in full (`n`, `t_melt`, `t_wall`, `gamma_opt`, `mu_opt`, `k`, and
+    /// optionally `name` and `max_flow_ratio`).
+    Parameters(Material),
+}
+
+impl Default for MaterialChoice {
+    fn default() -> Self {
+        MaterialChoice::Name("PP".into())
+    }
+}
+
+/// Which centre of mass the gate is placed by (`centre`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CentreChoice {
+    /// Area-weighted facet centroids (the paper's Eq. 5).
+    #[default]
+    Surface,
+    /// Centroid of the enclosed volume.
+    Volume,
+}
+
+/// How nearness to the centre of mass is measured (`nearest`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum NearestChoice {
+    /// 3D distance from the node's surface point.
+    #[default]
+    #[serde(rename = "3d")]
+    ThreeD,
+    /// Distance in the projection plane.
+    #[serde(rename = "2d")]
+    TwoD,
+}
+
+/// The paper's rule that R_gate be below the wall thickness (`thickness_rule`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ThicknessChoice {
+    /// Keep only nodes whose wall is thicker than R_gate (the paper's rule).
+    #[default]
+    Require,
+    /// Measure and report thickness but do not filter on it.
+    Ignore,
+}
+
+/// Which gate is the answer (`strategy`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StrategyChoice {
+    /// The paper's gate: the qualifying node nearest the centre of mass.
+    #[default]
+    Paper,
+    /// The qualifying node that minimises the fill objective (implies `fill`).
+    Balanced,
+}
+
+/// What the balanced gate and several gates minimise (`objective`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObjectiveChoice {
+    /// The largest flow length.
+    #[default]
+    Length,
+    /// The largest flow resistance (fill order).
+    Resistance,
+}
+
+/// Every option of a study, as a front end receives it: the command line's `locate` flags
+/// in snake case, with the command line's defaults. Unknown fields are refused.
+///
+/// ```
+/// let o: moldgate::StudyOptions =
+///     serde_json::from_str(r#"{ "material": "ABS", "fill": true, "gates": 2 }"#).unwrap();
+/// assert_eq!(o.gates, 2);
+/// assert_eq!(o.demold, "+z");
+/// let settings = o.validate().unwrap();
+/// assert!(settings.fill.is_some());
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StudyOptions {
+    /// Demolding direction: `+x`, `-y`, ... or `x,y,z`; `auto` picks the axis or principal
+    /// axis with the least undercut area. Default `+z`.
+    pub demold: String,
+    /// The material. Default `PP`.
+    pub material: MaterialChoice,
+    /// Override of the material's power-law index n.
+    pub n: Option<f64>,
+    /// Override of the melt temperature, degrees C.
+    pub t_melt: Option<f64>,
+    /// Override of the mould wall temperature, degrees C.
+    pub t_wall: Option<f64>,
+    /// Override of the optimal shear rate, 1/s.
+    pub gamma_opt: Option<f64>,
+    /// Override of the viscosity at that shear rate, Pa s.
+    pub mu_opt: Option<f64>,
+    /// Override of the thermal conductivity, W/(m C).
+    pub k: Option<f64>,
+    /// The gate radius in mm instead of Eq. 8. Default: Eq. 8 of the material.
+    pub gate_radius: Option<f64>,
+    /// Grid spacing in mm. Default: min(R_gate, longest projected side / 100).
+    pub spacing: Option<f64>,
+    /// Grid shift as a fraction of the spacing along both axes. Default 0.
+    pub grid_offset: f64,
+    /// Points on each node's circle. Default 16.
+    pub circle_points: usize,
+    /// Which centre of mass the gate is placed by. Default `surface`.
+    pub centre: CentreChoice,
+    /// How nearness to the centre of mass is measured. Default `3d`.
+    pub nearest: NearestChoice,
+    /// The paper's rule that R_gate be below the wall thickness. Default `require`.
+    pub thickness_rule: ThicknessChoice,
+    /// Keep only nodes whose circle is flat within `flat_tol`. Default false.
+    pub require_flat: bool,
+    /// Flatness tolerance along the demolding direction, mm. Default 0.1 R_gate.
+    pub flat_tol: Option<f64>,
+    /// Put the gate on the parting line, nearest the centre of mass. Default false.
+    pub aesthetic: bool,
+    /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`]). Default 4 000 000.
+    pub max_nodes: usize,
+    /// Regions no gate may reach into: `box:x0,y0,z0,x1,y1,z1` or `sphere:x,y,z,r` (mm).
+    pub keep_out: Vec<String>,
+    /// The visible side: no gate on faces turned towards this direction.
+    pub cosmetic: Option<String>,
+    /// Analyse the fill (flow length, fill order, Eq. 1 pressure, last places to fill,
+    /// weld lines, the balanced gate). Default false; implied by `strategy = "balanced"`
+    /// and `gates > 1`.
+    pub fill: bool,
+    /// Which gate is the answer. Default `paper`.
+    pub strategy: StrategyChoice,
+    /// What the balanced gate and several gates minimise. Default `length`.
+    pub objective: ObjectiveChoice,
+    /// Number of gates that together minimise the worst flow (1 to [`MAX_GATES`]).
+    /// Default 1.
+    pub gates: usize,
+    /// Side of the flow-analysis cells, mm. Default: half the nominal wall, at most 1/120
+    /// of the part's diagonal.
+    pub cell: Option<f64>,
+    /// Also measure the wall thickness everywhere. Default false.
+    pub wall_thickness: bool,
+}
+
+impl Default for StudyOptions {
+    fn default() -> Self {
+        StudyOptions {
+            demold: "+z".into(),
+            material: MaterialChoice::default(),
+            n: None,
+            t_melt: None,
+            t_wall: None,
+            gamma_opt: None,
+            mu_opt: None,
+            k: None,
+            gate_radius: None,
+            spacing: None,
+            grid_offset: 0.0,
+            circle_points: 16,
+            centre: CentreChoice::Surface,
+            nearest: NearestChoice::ThreeD,
+            thickness_rule: ThicknessChoice::Require,
+            require_flat: false,
+            flat_tol: None,
+            aesthetic: false,
+            max_nodes: 4_000_000,
+            keep_out: Vec::new(),
+            cosmetic: None,
+            fill: false,
+            strategy: StrategyChoice::Paper,
+            objective: ObjectiveChoice::Length,
+            gates: 1,
+            cell: None,
+            wall_thickness: false,
+        }
+    }
+}
+
+/// The demolding direction of a study: given, or chosen per part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Demold {
+    /// This direction.
+    Given(Direction),
+    /// The axis or principal axis with the least undercut ([`crate::undercut`]).
+    Auto,
+}
+
+/// The options of a study validated into the library's types ([`StudyOptions::validate`]):
+/// what [`crate::study::study_with`] runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// The material, with its overrides.
+    pub material: Material,
+    /// The options of [`crate::locate`] (its direction is replaced per part under
+    /// [`Demold::Auto`]).
+    pub locate: LocateOptions,
+    /// Whether R_gate comes from the material or was forced.
+    pub radius_source: RadiusSource,
+    /// The demolding direction.
+    pub demold: Demold,
+    /// Whether the wall thickness is measured everywhere.
+    pub wall_thickness: bool,
+    /// The fill analysis, when asked for.
+    pub fill: Option<FillOptions>,
+}
+
+fn invalid(field: &'static str, message: impl Into<String>) -> StudyError {
+    StudyError::Invalid {
+        field,
+        message: message.into(),
+    }
+}
+
+fn parse_error(field: &'static str, source: OptionsError) -> StudyError {
+    StudyError::Parse { field, source }
+}
+
+fn positive(field: &'static str, v: f64) -> Result<f64, StudyError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(invalid(
+            field,
+            format!("must be a positive number, got {v}"),
+        ))
+    }
+}
+
+impl StudyOptions {
+    /// Whether `demold` asks for the automatic direction.
+    pub fn auto_demold(&self) -> bool {
+        self.demold.trim().eq_ignore_ascii_case("auto")
+    }
+
+    /// Validates the options once, with the built-in materials only.
+    pub fn validate(&self) -> Result<Settings, StudyError> {
+        self.validate_with(&[])
+    }
+
+    /// Validates the options once; a material name is looked up in `user` (by
+    /// [`Material::name`], any case) before the built-ins.
+    pub fn validate_with(&self, user: &[Material]) -> Result<Settings, StudyError> {
+        let material = self.material(user)?;
+        let demold = if self.auto_demold() {
+            Demold::Auto
+        } else {
+            Demold::Given(self.demold.parse().map_err(|e| parse_error("demold", e))?)
+        };
+        let (gate_radius_mm, radius_source) = match self.gate_radius {
+            Some(r) => (positive("gate_radius", r)?, RadiusSource::Forced),
+            None => (material.gate_radius_mm(), RadiusSource::Material),
+        };
+        let spacing = match self.spacing {
+            Some(h) => Spacing::Mm(positive("spacing", h)?),
+            None => Spacing::Auto,
+        };
+        if !self.grid_offset.is_finite() {
+            return Err(invalid("grid_offset", "must be a finite number"));
+        }
+        if self.circle_points < 3 {
+            return Err(invalid(
+                "circle_points",
+                format!("must be at least 3, got {}", self.circle_points),
+            ));
+        }
+        if let Some(t) = self.flat_tol {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(invalid(
+                    "flat_tol",
+                    format!("must be zero or positive, got {t}"),
+                ));
+            }
+        }
+        if self.max_nodes == 0 || self.max_nodes > MAX_NODES_LIMIT {
+            return Err(invalid(
+                "max_nodes",
+                format!(
+                    "must be between 1 and {MAX_NODES_LIMIT}, got {}",
+                    self.max_nodes
+                ),
+            ));
+        }
+        let keep_out = self
+            .keep_out
+            .iter()
+            .map(|k| k.parse())
+            .collect::<Result<_, OptionsError>>()
+            .map_err(|e| parse_error("keep_out", e))?;
+        let cosmetic = self
+            .cosmetic
+            .as_deref()
+            .map(str::parse)
+            .transpose()
+            .map_err(|e| parse_error("cosmetic", e))?;
+        let locate = LocateOptions {
+            direction: match demold {
+                Demold::Given(d) => d,
+                Demold::Auto => Direction::default(),
+            },
+            gate_radius_mm,
+            spacing,
+            grid_offset: self.grid_offset,
+            circle_points: self.circle_points,
+            centre: match self.centre {
+                CentreChoice::Surface => CentreKind::Surface,
+                CentreChoice::Volume => CentreKind::Volume,
+            },
+            nearest: match self.nearest {
+                NearestChoice::ThreeD => Nearest::Surface3d,
+                NearestChoice::TwoD => Nearest::Plane2d,
+            },
+            thickness_rule: match self.thickness_rule {
+                ThicknessChoice::Require => ThicknessRule::Require,
+                ThicknessChoice::Ignore => ThicknessRule::Ignore,
+            },
+            flat_rule: if self.require_flat {
+                FlatRule::Require
+            } else {
+                FlatRule::Report
+            },
+            flat_tolerance_mm: self.flat_tol,
+            mode: if self.aesthetic {
+                GateMode::Aesthetic
+            } else {
+                GateMode::Paper
+            },
+            max_nodes: self.max_nodes,
+            keep_out,
+            cosmetic,
+        };
+        Ok(Settings {
+            material,
+            locate,
+            radius_source,
+            demold,
+            wall_thickness: self.wall_thickness,
+            fill: self.fill_options()?,
+        })
+    }
+
+    /// The material: a user material or a built-in by name, or given in full, then the
+    /// single-parameter overrides (which add " (modified)" to the name).
+    fn material(&self, user: &[Material]) -> Result<Material, StudyError> {
+        let mut m = match &self.material {
+            MaterialChoice::Parameters(m) => m.clone(),
+            MaterialChoice::Name(name) => user
+                .iter()
+                .find(|m| m.name.eq_ignore_ascii_case(name))
+                .cloned()
+                .or_else(|| Material::builtin(name))
+                .ok_or_else(|| StudyError::UnknownMaterial {
+                    name: name.clone(),
+                    known: crate::material::BUILTIN
+                        .iter()
+                        .map(|s| s.to_string())
+                        .chain(user.iter().map(|m| m.name.clone()))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?,
+        };
+        let overrides = [
+            (&mut m.n, self.n),
+            (&mut m.t_melt, self.t_melt),
+            (&mut m.t_wall, self.t_wall),
+            (&mut m.gamma_opt, self.gamma_opt),
+            (&mut m.mu_opt, self.mu_opt),
+            (&mut m.k, self.k),
+        ];
+        let mut changed = false;
+        for (field, value) in overrides {
+            if let Some(v) = value {
+                *field = v;
+                changed = true;
+            }
+        }
+        if changed {
+            m.name += " (modified)";
+        }
+        m.validate().map_err(StudyError::Material)?;
+        Ok(m)
+    }
+
+    /// The fill analysis's options, or `None` when it was not asked for.
+    fn fill_options(&self) -> Result<Option<FillOptions>, StudyError> {
+        if self.gates == 0 {
+            return Err(invalid("gates", "must be at least 1"));
+        }
+        if self.gates > MAX_GATES {
+            return Err(invalid(
+                "gates",
+                format!("must be at most {MAX_GATES}, got {}", self.gates),
+            ));
+        }
+        if let Some(h) = self.cell {
+            positive("cell", h)?;
+        }
+        let wanted = self.fill || self.strategy == StrategyChoice::Balanced || self.gates > 1;
+        if !wanted {
+            return Ok(None);
+        }
+        Ok(Some(FillOptions {
+            flow: FlowOptions {
+                cell_mm: self.cell,
+                ..FlowOptions::default()
+            },
+            strategy: match self.strategy {
+                StrategyChoice::Paper => Strategy::Paper,
+                StrategyChoice::Balanced => Strategy::Balanced,
+            },
+            objective: match self.objective {
+                ObjectiveChoice::Length => Objective::Length,
+                ObjectiveChoice::Resistance => Objective::Resistance,
+            },
+            gates: self.gates,
+        }))
+    }
+}
