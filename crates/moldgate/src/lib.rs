@@ -33,6 +33,7 @@
 #![deny(missing_docs)]
 
 pub mod centre;
+pub mod clock;
 pub mod colormap;
 pub mod error;
 pub mod flow;

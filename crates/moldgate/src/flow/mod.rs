@@ -26,7 +26,7 @@
 pub mod march;
 pub mod voxel;
 
-use std::time::Instant;
+use crate::clock::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;

@@ -4,7 +4,7 @@
 pub mod projection;
 pub mod quadrature;
 
-use std::time::Instant;
+use crate::clock::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;

@@ -1,6 +1,6 @@
 //! Running a study, and what it gives.
 
-use std::time::Instant;
+use crate::clock::Instant;
 
 use crate::flow::{self, FillAnalysis, FillError, Strategy};
 use crate::gate::{Analysis, ChosenGate};

@@ -1,0 +1,370 @@
+//! A part read from bytes and studied, and what the page asks of it: the report, the GLB
+//! coloured by a chosen field, the PNG and the HTML page. Plain Rust, tested natively; the
+//! exports in [`crate::ffi`] only move bytes in and out of it.
+
+use moldgate::clock::Instant;
+use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::report::Input;
+use moldgate::scene::{Field, Scene};
+use moldgate::study::{Hooks, Progress, Study, StudyOptions};
+use serde::Deserialize;
+
+/// The largest file the page accepts, in bytes. A wasm32 module addresses 4 GiB in all, and
+/// a mesh in memory takes about as much as its binary STL; 1 GiB leaves room for the study.
+pub const MAX_FILE_BYTES: usize = 1 << 30;
+
+/// What the page asks for: a file (its name says the format) or a sample, the unit of the
+/// file, and the study's options (the command line's, [`StudyOptions`]).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Request {
+    /// The file's name (`part.stl`): its extension chooses the reader.
+    pub file_name: String,
+    /// A built-in sample instead of a file (`"cover"`).
+    pub sample: Option<String>,
+    /// The unit of the file: `mm` (default), `cm`, `m`, `in`.
+    pub units: Option<String>,
+    /// The study's options.
+    pub options: StudyOptions,
+}
+
+/// The mesh readers, chosen by the file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// `.stl`, binary or ASCII.
+    Stl,
+    /// `.obj`.
+    Obj,
+    /// `.ply`, ASCII or binary.
+    Ply,
+}
+
+impl Format {
+    /// The format of `file_name` by its extension, in any case; `None` for any other.
+    pub fn of(file_name: &str) -> Option<Format> {
+        let ext = file_name.rsplit_once('.')?.1;
+        [("stl", Format::Stl), ("obj", Format::Obj), ("ply", Format::Ply)]
+            .into_iter()
+            .find(|(e, _)| ext.eq_ignore_ascii_case(e))
+            .map(|(_, f)| f)
+    }
+}
+
+/// Which field colours the part in the GLB.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Colouring {
+    /// What the study shows: the fill order when the fill ran, the height otherwise.
+    Study,
+    /// Height along the demolding direction.
+    Height,
+    /// Wall thickness (needs `wall_thickness`).
+    WallThickness,
+    /// Fill order from the gate (needs the fill analysis).
+    FillOrder,
+}
+
+impl Colouring {
+    /// The colouring numbered as the exports number it (0 study, 1 height, 2 wall, 3 fill).
+    pub fn from_code(code: u32) -> Option<Colouring> {
+        [
+            Colouring::Study,
+            Colouring::Height,
+            Colouring::WallThickness,
+            Colouring::FillOrder,
+        ]
+        .get(code as usize)
+        .copied()
+    }
+}
+
+/// A part and its study.
+pub struct Session {
+    part: LoadedMesh,
+    study: Study,
+    title: String,
+}
+
+/// Reads `bytes` as the format of `file_name`; every error names the file.
+pub fn load(bytes: &[u8], file_name: &str, units: Units) -> Result<LoadedMesh, String> {
+    let fail = |e: &dyn std::fmt::Display| format!("{file_name}: {e}");
+    if bytes.len() > MAX_FILE_BYTES {
+        return Err(fail(&format_args!(
+            "{} bytes, over the limit of {MAX_FILE_BYTES} bytes the browser can study",
+            bytes.len()
+        )));
+    }
+    let format = Format::of(file_name).ok_or_else(|| {
+        fail(&"unsupported file type: moldgate reads .stl (binary or ASCII), .obj and .ply")
+    })?;
+    match format {
+        Format::Stl => mesh::read_stl(bytes, bytes.len() as u64, units),
+        Format::Obj => mesh::read_obj(bytes, units),
+        Format::Ply => mesh::read_ply(bytes, units),
+    }
+    .map_err(|e| fail(&e))
+}
+
+impl Session {
+    /// Reads the request's file from `bytes` (or makes its sample) and studies it,
+    /// reporting progress through `progress`.
+    pub fn new(
+        bytes: &[u8],
+        request: &Request,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Session, String> {
+        let units: Units = match &request.units {
+            Some(u) => u.parse().map_err(|e: String| format!("units: {e}"))?,
+            None => Units::Mm,
+        };
+        // Options first: a bad option is refused before the file is read.
+        let settings = request.options.validate().map_err(|e| e.to_string())?;
+        let start = Instant::now();
+        let (part, input, title) = match &request.sample {
+            Some(name) => {
+                let mesh = moldgate::samples::sample(name).ok_or_else(|| {
+                    let known: Vec<&str> =
+                        moldgate::samples::SAMPLES.iter().map(|s| s.name).collect();
+                    format!("unknown sample '{name}' (known: {})", known.join(", "))
+                })?;
+                let input = Input {
+                    path: None,
+                    sample: Some(name.clone()),
+                    bytes: 0,
+                };
+                (mesh::from_generated(mesh), input, format!("sample '{name}'"))
+            }
+            None => {
+                let part = load(bytes, &request.file_name, units)?;
+                let input = Input {
+                    path: Some(request.file_name.clone()),
+                    sample: None,
+                    bytes: bytes.len() as u64,
+                };
+                (part, input, request.file_name.clone())
+            }
+        };
+        let load_s = start.elapsed().as_secs_f64();
+        let hooks = Hooks {
+            progress: Some(progress),
+            cancel: None,
+        };
+        let mut study = moldgate::study_with(&part, &settings, &hooks).map_err(|e| {
+            let name = input.path.as_ref().or(input.sample.as_ref());
+            format!("{}: {e}", name.map_or("", String::as_str))
+        })?;
+        study.set_input(input, load_s);
+        Ok(Session { part, study, title })
+    }
+
+    /// The study.
+    pub fn study(&self) -> &Study {
+        &self.study
+    }
+
+    /// The report as the command line's `locate --json` prints it.
+    pub fn report_json(&self) -> Result<String, String> {
+        self.study.report_json().map_err(|e| e.to_string())
+    }
+
+    /// The GLB of the study with the part coloured by `colouring`.
+    pub fn glb(&self, colouring: Colouring) -> Result<Vec<u8>, String> {
+        let scene = self.scene(colouring)?;
+        moldgate::gltf::glb(&scene).map_err(|e| format!("cannot write the GLB: {e}"))
+    }
+
+    fn scene(&self, colouring: Colouring) -> Result<Scene<'_>, String> {
+        let scene = self
+            .study
+            .scene(&self.part, self.title.clone())
+            .map_err(|e| e.to_string())?;
+        let field = match colouring {
+            Colouring::Study => return Ok(scene),
+            Colouring::Height => {
+                let frame = self.study.analysis().frame;
+                Field {
+                    name: "height along D".into(),
+                    unit: "mm".into(),
+                    per_vertex: self
+                        .part
+                        .mesh
+                        .vertices
+                        .iter()
+                        .map(|&p| frame.height(p) as f32)
+                        .collect(),
+                }
+            }
+            Colouring::WallThickness => Field {
+                name: "wall thickness".into(),
+                unit: "mm".into(),
+                per_vertex: self
+                    .study
+                    .wall_thickness_per_vertex()
+                    .ok_or("the wall thickness was not measured (turn on 'wall thickness')")?
+                    .to_vec(),
+            },
+            Colouring::FillOrder => Field {
+                name: "fill order (0 gate, 1 last)".into(),
+                unit: String::new(),
+                per_vertex: self
+                    .study
+                    .fill_order()
+                    .ok_or("the fill was not analysed (turn on 'fill analysis')")?
+                    .to_vec(),
+            },
+        };
+        Ok(scene.with_field(field))
+    }
+
+    /// The 1600x900 PNG picture.
+    pub fn png(&self) -> Result<Vec<u8>, String> {
+        self.study
+            .png(&self.part, self.title.clone())
+            .map_err(|e| e.to_string())
+    }
+
+    /// The self-contained HTML report, with the picture.
+    pub fn html(&self) -> Result<String, String> {
+        let png = self.png()?;
+        self.study.html(Some(&png)).map_err(|e| e.to_string())
+    }
+}
+
+/// The built-in samples as JSON: `[{"name": ..., "description": ...}]`.
+pub fn samples_json() -> String {
+    let list: Vec<serde_json::Value> = moldgate::samples::SAMPLES
+        .iter()
+        .map(|s| serde_json::json!({ "name": s.name, "description": s.description }))
+        .collect();
+    serde_json::Value::Array(list).to_string()
+}
+
+/// The built-in materials as JSON, each with its parameters and its Eq. 8 gate radius.
+pub fn materials_json() -> String {
+    let list: Vec<serde_json::Value> = moldgate::material::BUILTIN
+        .iter()
+        .filter_map(|name| moldgate::Material::builtin(name))
+        .map(|m| {
+            let mut v = serde_json::to_value(&m).unwrap_or_default();
+            v["gate_radius_mm"] = serde_json::json!(m.gate_radius_mm());
+            v
+        })
+        .collect();
+    serde_json::Value::Array(list).to_string()
+}
+
+/// The study's default options (the command line's) as JSON.
+pub fn defaults_json() -> String {
+    serde_json::to_string(&StudyOptions::default()).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quiet(_: Progress) {}
+
+    fn request(json: &str) -> Request {
+        serde_json::from_str(json).unwrap()
+    }
+
+    fn stl_of(sample: &str) -> Vec<u8> {
+        let mut out = Vec::new();
+        moldgate::samples::sample(sample)
+            .unwrap()
+            .write_stl(&mut out)
+            .unwrap();
+        out
+    }
+
+    #[test]
+    fn format_by_extension_in_any_case() {
+        assert_eq!(Format::of("a.STL"), Some(Format::Stl));
+        assert_eq!(Format::of("a.b.Obj"), Some(Format::Obj));
+        assert_eq!(Format::of("x.ply"), Some(Format::Ply));
+        assert_eq!(Format::of("x.step"), None);
+        assert_eq!(Format::of("stl"), None);
+    }
+
+    #[test]
+    fn a_file_gives_the_same_report_as_the_library() {
+        let bytes = stl_of("cover");
+        let r = request(r#"{ "file_name": "cover.stl", "options": { "demold": "-z" } }"#);
+        let s = Session::new(&bytes, &r, &quiet).unwrap();
+        let part = mesh::read_stl(&bytes[..], bytes.len() as u64, Units::Mm).unwrap();
+        let direct = moldgate::study(&part, &r.options).unwrap();
+        assert_eq!(
+            s.study().report().gate.as_ref().unwrap().point,
+            direct.report().gate.as_ref().unwrap().point
+        );
+        let json: serde_json::Value = serde_json::from_str(&s.report_json().unwrap()).unwrap();
+        assert_eq!(json["input"]["path"], "cover.stl");
+        assert_eq!(json["input"]["bytes"], bytes.len());
+    }
+
+    #[test]
+    fn bad_files_are_refused_with_their_name_and_place() {
+        let r = |name: &str| request(&format!(r#"{{ "file_name": "{name}" }}"#));
+        let e = Session::new(b"", &r("empty.stl"), &quiet).err().unwrap();
+        assert_eq!(e, "empty.stl: empty file");
+        let e = Session::new(b"v 0 0 0\nv 1 0 0\nf 1 2 x\n", &r("bad.obj"), &quiet)
+            .err()
+            .unwrap();
+        assert!(e.starts_with("bad.obj: line 3"), "{e}");
+        let e = Session::new(b"solid", &r("part.step"), &quiet).err().unwrap();
+        assert!(e.contains("unsupported file type"), "{e}");
+    }
+
+    #[test]
+    fn bad_options_are_refused_before_the_file_is_read() {
+        let r = request(r#"{ "file_name": "x.stl", "options": { "gate_radius": 0 } }"#);
+        let e = Session::new(b"", &r, &quiet).err().unwrap();
+        assert!(e.starts_with("gate_radius must be a positive"), "{e}");
+        let r = request(r#"{ "sample": "plate", "units": "furlong" }"#);
+        assert!(Session::new(b"", &r, &quiet).err().unwrap().contains("furlong"));
+        assert!(serde_json::from_str::<Request>(r#"{ "colour": 1 }"#).is_err());
+    }
+
+    #[test]
+    fn a_grid_too_large_is_refused_before_the_work() {
+        let r = request(r#"{ "sample": "plate", "options": { "spacing": 0.001 } }"#);
+        let e = Session::new(b"", &r, &quiet).err().unwrap();
+        assert!(e.contains("max_nodes") || e.contains("nodes"), "{e}");
+    }
+
+    #[test]
+    fn every_colouring_or_a_reason() {
+        let r = request(r#"{ "sample": "cover", "options": { "demold": "-z" } }"#);
+        let s = Session::new(b"", &r, &quiet).unwrap();
+        assert!(s.glb(Colouring::Height).unwrap().starts_with(b"glTF"));
+        assert!(s.glb(Colouring::FillOrder).unwrap_err().contains("fill"));
+        assert!(s.glb(Colouring::WallThickness).unwrap_err().contains("wall"));
+        let r = request(
+            r#"{ "sample": "cover", "options": { "demold": "-z", "fill": true, "wall_thickness": true } }"#,
+        );
+        let s = Session::new(b"", &r, &quiet).unwrap();
+        for c in [Colouring::FillOrder, Colouring::WallThickness] {
+            assert!(s.glb(c).unwrap().starts_with(b"glTF"));
+        }
+        assert!(s.png().unwrap().starts_with(b"\x89PNG"));
+        assert!(s.html().unwrap().contains("<html"));
+    }
+
+    #[test]
+    fn progress_reaches_the_end() {
+        let seen = std::sync::Mutex::new(Vec::new());
+        let record = |p: Progress| seen.lock().unwrap().push(p.fraction);
+        let r = request(r#"{ "sample": "plate", "options": { "fill": true } }"#);
+        Session::new(b"", &r, &record).unwrap();
+        assert_eq!(seen.lock().unwrap().last(), Some(&1.0));
+    }
+
+    #[test]
+    fn lists_parse() {
+        let s: serde_json::Value = serde_json::from_str(&samples_json()).unwrap();
+        assert_eq!(s.as_array().unwrap().len(), moldgate::samples::SAMPLES.len());
+        let m: serde_json::Value = serde_json::from_str(&materials_json()).unwrap();
+        assert!(m[0]["gate_radius_mm"].as_f64().unwrap() > 0.0);
+        let d: StudyOptions = serde_json::from_str(&defaults_json()).unwrap();
+        assert_eq!(d, StudyOptions::default());
+    }
+}

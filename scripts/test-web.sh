@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The browser app's tests: on a fresh machine it installs what they need (the wasm32 target,
+# Debian's chromium, the npm packages pinned in web/ and tools/gltf-validator), builds the
+# command line (the reference answers) and the page, and runs the tests in headless Chromium
+# with node's test runner. Exits non-zero when anything fails.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+target_dir=${CARGO_TARGET_DIR:-$PWD/target}
+
+chromium=${CHROMIUM:-/usr/bin/chromium}
+if [ ! -x "$chromium" ]; then
+    echo "test-web: installing Debian's chromium"
+    apt-get install -y chromium || { apt-get update && apt-get install -y chromium; }
+fi
+
+echo "test-web: cargo build --release -p moldgate-cli"
+cargo build --release -p moldgate-cli
+
+scripts/build-web.sh
+
+if [ ! -f tools/gltf-validator/node_modules/.package-lock.json ] ||
+    [ tools/gltf-validator/package-lock.json -nt tools/gltf-validator/node_modules/.package-lock.json ]; then
+    echo "test-web: npm ci --prefix tools/gltf-validator"
+    npm ci --prefix tools/gltf-validator --no-audit --no-fund
+fi
+
+cd web
+MOLDGATE_BIN=$target_dir/release/moldgate CHROMIUM=$chromium \
+    node --test --test-concurrency=1 tests/glue.test.mjs tests/app.test.mjs

@@ -1,0 +1,358 @@
+// The page: options, the part (dropped, picked or a sample), the worker that studies it, the
+// 3D view and the results. A new part cancels a study under way by terminating its worker.
+
+import "./style.css";
+import { Viewer } from "./viewer.js";
+import { showReport } from "./results.js";
+
+const $ = (id) => document.getElementById(id);
+const app = $("app");
+
+const STAGES = {
+  start: "Reading the part",
+  tree: "Building the ray-casting tree",
+  demold: "Choosing the demolding direction",
+  locate: "Locating the gate",
+  wall_thickness: "Measuring the wall thickness",
+  fill: "Analysing the fill",
+  report: "Writing the report",
+  "3d": "Building the 3D view",
+};
+
+// ---------------------------------------------------------------- the worker
+
+let worker = null;
+let seq = 0;
+const pending = new Map();
+let info = null;
+
+function startWorker() {
+  worker = new Worker(new URL("./worker.js", import.meta.url), { type: "module" });
+  worker.onmessage = ({ data }) => {
+    if (data.type === "progress") return onProgress(data);
+    const p = pending.get(data.id);
+    if (!p) return;
+    pending.delete(data.id);
+    if (data.type === "error") p.reject(Object.assign(new Error(data.message), { trapped: data.trapped }));
+    else p.resolve(data);
+  };
+  worker.onerror = (e) => {
+    e.preventDefault();
+    const message = `the analysis could not start: ${e.message || "the worker failed to load"}`;
+    for (const p of pending.values()) p.reject(new Error(message));
+    pending.clear();
+  };
+}
+
+function ask(message, transfer = []) {
+  const id = ++seq;
+  return new Promise((resolve, reject) => {
+    pending.set(id, { resolve, reject, id });
+    worker.postMessage({ ...message, id }, transfer);
+  });
+}
+
+/** Stops a study under way: its worker is terminated and a fresh one started. */
+function cancelStudy() {
+  worker.terminate();
+  for (const p of pending.values()) p.reject(Object.assign(new Error("cancelled"), { cancelled: true }));
+  pending.clear();
+  startWorker();
+}
+
+// ---------------------------------------------------------------- the options
+
+const optionIds = ["units", "demold", "strategy", "objective", "gates", "thickness_rule", "fill", "wall_thickness", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
+const materialFields = ["n", "t_melt", "t_wall", "gamma_opt", "mu_opt", "k", "max_flow_ratio"];
+
+function setDefaults() {
+  const d = info.defaults;
+  $("units").value = "mm";
+  for (const id of optionIds) {
+    const e = $(id);
+    if (id === "units") continue;
+    const v = d[id];
+    if (e.type === "checkbox") e.checked = !!v;
+    else if (id === "keep_out") e.value = (v || []).join("\n");
+    else e.value = v === null || v === undefined ? "" : String(v);
+  }
+  $("material").value = typeof d.material === "string" ? d.material : "PP";
+  $("cosmetic").value = d.cosmetic ?? "";
+  showMaterial();
+  $("demold-vector").hidden = true;
+  $("cosmetic-vector").hidden = true;
+}
+
+function showMaterial() {
+  const name = $("material").value;
+  const custom = name === "custom";
+  $("material-parameters").hidden = !custom;
+  if (!custom) {
+    const m = info.materials.find((x) => x.name === name);
+    for (const f of materialFields) $(`m-${f}`).value = m?.[f] ?? "";
+  }
+}
+
+const number = (id) => {
+  const v = $(id).value.trim();
+  return v === "" ? null : Number(v);
+};
+
+function vectorOf(prefix) {
+  return ["x", "y", "z"].map((a) => $(`${prefix}-${a}`).value.trim() || "0").join(",");
+}
+
+/** The study's options (StudyOptions JSON: the command line's flags in snake case). */
+function studyOptions() {
+  const o = {};
+  for (const id of ["strategy", "objective", "thickness_rule", "centre", "nearest"]) o[id] = $(id).value;
+  for (const id of ["fill", "wall_thickness", "aesthetic", "require_flat"]) o[id] = $(id).checked;
+  for (const id of ["gate_radius", "spacing", "flat_tol", "cell"]) o[id] = number(id);
+  o.grid_offset = number("grid_offset") ?? 0;
+  for (const id of ["gates", "circle_points", "max_nodes"]) o[id] = number(id) ?? info.defaults[id];
+  o.demold = $("demold").value === "vector" ? vectorOf("demold") : $("demold").value;
+  o.cosmetic = $("cosmetic").value === "vector" ? vectorOf("cosmetic") : $("cosmetic").value || null;
+  o.keep_out = $("keep_out").value.split("\n").map((s) => s.trim()).filter(Boolean);
+  if ($("material").value === "custom") {
+    const m = { name: "custom" };
+    for (const f of materialFields) m[f] = number(`m-${f}`);
+    if (m.max_flow_ratio === null) delete m.max_flow_ratio;
+    o.material = m;
+  } else {
+    o.material = $("material").value;
+  }
+  return o;
+}
+
+// ---------------------------------------------------------------- the study
+
+let viewer = null;
+let part = null; // {name, bytes} or {sample}
+let current = null; // the study shown: {report, name}
+let started = 0;
+
+function setState(state) {
+  app.dataset.state = state;
+}
+
+function onProgress({ id, stage, fraction }) {
+  if (id !== seq) return;
+  $("busy-text").textContent = `${STAGES[stage] ?? stage}… ${((performance.now() - started) / 1000).toFixed(1)} s`;
+  $("progress").value = fraction;
+}
+
+function showError(message) {
+  const box = $("error");
+  box.replaceChildren();
+  const p = document.createElement("p");
+  p.id = "error-message";
+  p.textContent = message;
+  const hint = document.createElement("p");
+  hint.textContent = "Open or drop another part, or change the options and analyse again.";
+  box.append(p, hint);
+  box.hidden = false;
+}
+
+function clearResults(status) {
+  current = null;
+  viewer?.clear();
+  $("result-body").replaceChildren();
+  $("downloads").hidden = true;
+  $("colour-bar").hidden = true;
+  $("status").textContent = status;
+}
+
+async function analyse() {
+  if (!part) return;
+  if (app.dataset.state === "busy") cancelStudy();
+  setState("busy");
+  started = performance.now();
+  $("error").hidden = true;
+  $("drop-hint").hidden = true;
+  $("busy").hidden = false;
+  $("busy-text").textContent = STAGES.start;
+  $("progress").value = 0;
+  clearResults(`Analysing ${part.name}…`);
+  const request = { file_name: part.name, units: $("units").value, options: studyOptions() };
+  if (part.sample) request.sample = part.sample;
+  const bytes = part.bytes ? part.bytes.slice(0) : new ArrayBuffer(0);
+  const colouring = Number($("colouring").value);
+  try {
+    const r = await ask({ type: "study", bytes, request, colouring }, [bytes]);
+    const report = JSON.parse(r.report);
+    const extras = await viewer.show(r.glb);
+    await new Promise(requestAnimationFrame);
+    const total = performance.now() - started;
+    current = { report, name: part.name };
+    showReport($("result-body"), report, r.times);
+    showColourBar(extras.field);
+    $("downloads").hidden = false;
+    $("status").textContent = report.gate
+      ? `Gate found for ${part.name} in ${(total / 1000).toFixed(2)} s.`
+      : `No gate for ${part.name}: see why below.`;
+    $("status").dataset.totalMs = String(total);
+    $("busy").hidden = true;
+    setState("done");
+  } catch (e) {
+    if (e.cancelled) return;
+    $("busy").hidden = true;
+    clearResults(`${part.name} could not be analysed.`);
+    showError(e.message);
+    setState("error");
+  }
+}
+
+// viridis, low to high, sampled from matplotlib's table (as crates/moldgate/src/colormap.rs)
+const VIRIDIS = ["#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779", "#6ece58", "#b5de2b", "#fde725"];
+
+function showColourBar(field) {
+  const bar = $("colour-bar");
+  if (!field || field.min === null || field.min === undefined) {
+    bar.hidden = true;
+    return;
+  }
+  const unit = field.unit ? ` ${field.unit}` : "";
+  $("colour-bar-name").textContent = field.name;
+  bar.querySelector(".bar").style.background = `linear-gradient(to right, ${VIRIDIS.join(", ")})`;
+  const digits = Math.abs(field.max - field.min) < 10 ? 2 : 1;
+  $("colour-bar-min").textContent = `${field.min.toFixed(digits)}${unit}`;
+  $("colour-bar-max").textContent = `${field.max.toFixed(digits)}${unit}`;
+  bar.dataset.field = field.name;
+  bar.hidden = false;
+}
+
+async function recolour() {
+  if (!current || app.dataset.state !== "done") return;
+  setState("busy");
+  try {
+    const r = await ask({ type: "glb", colouring: Number($("colouring").value) });
+    showColourBar((await viewer.show(r.glb, { keepCamera: true })).field);
+    $("error").hidden = true;
+  } catch (e) {
+    if (e.cancelled) return;
+    showError(e.message);
+  }
+  setState("done");
+}
+
+async function download(what) {
+  if (!current) return;
+  try {
+    const r = await ask({ type: "download", what, colouring: Number($("colouring").value) });
+    const type = { report: "application/json", png: "image/png", glb: "model/gltf-binary", html: "text/html" }[what];
+    const ext = { report: "json", png: "png", glb: "glb", html: "html" }[what];
+    const base = current.name.replace(/\.[^.]*$/, "").replace(/[^\w.-]+/g, "_") || "part";
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(new Blob([r.bytes], { type }));
+    a.download = `${base}.${ext}`;
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(a.href), 60_000);
+  } catch (e) {
+    if (!e.cancelled) showError(e.message);
+  }
+}
+
+// ---------------------------------------------------------------- choosing a part
+
+async function openFile(file) {
+  if (!file) return;
+  if (info && file.size > info.maxFileBytes) {
+    part = null;
+    clearResults(`${file.name} is too large.`);
+    showError(`${file.name}: ${file.size} bytes, over the limit of ${info.maxFileBytes} bytes the browser can study`);
+    setState("error");
+    return;
+  }
+  $("sample").value = "";
+  part = { name: file.name, bytes: await file.arrayBuffer() };
+  $("analyse").disabled = false;
+  analyse();
+}
+
+function openSample(name) {
+  if (!name) return;
+  part = { name: `${name} (sample)`, sample: name };
+  $("analyse").disabled = false;
+  analyse();
+}
+
+function wire() {
+  $("file").addEventListener("change", (e) => {
+    openFile(e.target.files[0]);
+    e.target.value = "";
+  });
+  $("sample").addEventListener("change", (e) => openSample(e.target.value));
+  const area = $("viewport");
+  area.addEventListener("dragover", (e) => {
+    e.preventDefault();
+    area.classList.add("dragging");
+  });
+  area.addEventListener("dragleave", () => area.classList.remove("dragging"));
+  area.addEventListener("drop", (e) => {
+    e.preventDefault();
+    area.classList.remove("dragging");
+    openFile(e.dataTransfer.files[0]);
+  });
+  // A file dropped beside the view must not replace the page.
+  window.addEventListener("dragover", (e) => e.preventDefault());
+  window.addEventListener("drop", (e) => e.preventDefault());
+
+  $("options").addEventListener("submit", (e) => {
+    e.preventDefault();
+    analyse();
+  });
+  $("defaults").addEventListener("click", setDefaults);
+  $("material").addEventListener("change", showMaterial);
+  $("demold").addEventListener("change", () => ($("demold-vector").hidden = $("demold").value !== "vector"));
+  $("cosmetic").addEventListener("change", () => ($("cosmetic-vector").hidden = $("cosmetic").value !== "vector"));
+  $("colouring").addEventListener("change", recolour);
+  $("reset-view").addEventListener("click", () => viewer.reset());
+  $("view-d").addEventListener("click", () => viewer.viewAlongD());
+  for (const layer of ["gates", "centre", "parting", "qualifying"]) {
+    $(`layer-${layer}`).addEventListener("change", (e) => viewer.setLayer(layer, e.target.checked));
+  }
+  viewer.canvas.addEventListener("keydown", (e) => {
+    if (e.key === "r" || e.key === "R") viewer.reset();
+    if (e.key === "d" || e.key === "D") viewer.viewAlongD();
+  });
+  for (const b of document.querySelectorAll("[data-download]")) {
+    b.addEventListener("click", () => download(b.dataset.download));
+  }
+}
+
+async function main() {
+  viewer = new Viewer($("viewport"));
+  startWorker();
+  wire();
+  try {
+    info = await ask({ type: "info" });
+  } catch (e) {
+    showError(e.message);
+    setState("error");
+    return;
+  }
+  $("version").textContent = `moldgate ${info.version}`;
+  for (const s of info.samples) {
+    const o = document.createElement("option");
+    o.value = s.name;
+    o.textContent = s.name;
+    o.title = s.description;
+    $("sample").append(o);
+  }
+  for (const m of info.materials) {
+    const o = document.createElement("option");
+    o.value = m.name;
+    o.textContent = `${m.name} (R = ${m.gate_radius_mm.toFixed(2)} mm)`;
+    $("material").append(o);
+  }
+  const custom = document.createElement("option");
+  custom.value = "custom";
+  custom.textContent = "custom parameters…";
+  $("material").append(custom);
+  setDefaults();
+  setState("ready");
+}
+
+main();

@@ -1,0 +1,181 @@
+// The results beside the view, from the report JSON (the schema of docs/json-schema.md, the
+// same as `moldgate locate --json`). Raw numbers sit in data- attributes so tests can compare
+// them with the command line's to the last bit; the text is rounded for people.
+
+const el = (tag, attrs = {}, ...children) => {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v !== undefined && v !== null) e.setAttribute(k, String(v));
+  }
+  for (const c of children) e.append(c instanceof Node ? c : document.createTextNode(String(c)));
+  return e;
+};
+
+/** `x` rounded for reading, "-0.00" written "0.00". */
+const fixed = (x, digits = 2) => {
+  if (x === null || x === undefined) return "unknown";
+  const s = x.toFixed(digits);
+  return /^-0\.?0*$/.test(s) ? s.slice(1) : s;
+};
+const mm = (x, digits = 2) => (x === null || x === undefined ? "unknown" : `${fixed(x, digits)} mm`);
+const v3 = (p, digits = 2) => `(${p.map((c) => fixed(c, digits)).join(", ")})`;
+const xyz = (p) => ({ "data-x": p[0], "data-y": p[1], "data-z": p[2] });
+
+/** A definition list from [term, description] rows (a description may be an element). */
+function list(id, rows) {
+  const dl = el("dl", { id });
+  for (const [term, value, attrs = {}] of rows) {
+    dl.append(el("dt", {}, term), el("dd", attrs, value));
+  }
+  return dl;
+}
+
+function section(id, title, ...content) {
+  return el("section", { id, class: "result" }, el("h3", {}, title), ...content);
+}
+
+function gateSection(r) {
+  const g = r.gate;
+  const mode = g.strategy === "balanced" ? "balanced" : g.mode;
+  const paper = r.paper_gate;
+  const rows = [
+    ["Gate point", `${v3(g.point)} mm`, { id: "gate-point", ...xyz(g.point) }],
+    ["Chosen by", { paper: "the paper's rule: nearest the centre of mass", aesthetic: "the parting line (aesthetic)", balanced: "the balanced fill" }[mode] ?? mode, { id: "gate-mode", "data-value": mode }],
+  ];
+  if (paper && mode === "paper") {
+    rows.push(["Surface normal", v3(paper.normal, 3), { id: "gate-normal", ...xyz(paper.normal) }]);
+    rows.push(["Wall at the gate", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+    rows.push(["From the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
+  }
+  rows.push([
+    "Gate radius R",
+    `${r.options.gate_radius_mm.toFixed(3)} mm (${r.options.gate_radius_source === "forced" ? "given" : `Eq. 8, ${r.material.name}`})`,
+    { id: "gate-radius", "data-value": r.options.gate_radius_mm },
+  ]);
+  if (r.wall_thickness) {
+    rows.push(["Wall at the gate (measured)", mm(r.wall_thickness.at_gate_mm), { "data-value": r.wall_thickness.at_gate_mm }]);
+  }
+  const several = r.fill?.several;
+  const content = [list("gate", rows)];
+  if (several) {
+    const ol = el("ol", { id: "several-gates" });
+    for (const s of several.gates) {
+      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, L_max ${s.l_max_mm.toFixed(1)} mm`));
+    }
+    content.push(el("p", {}, `${several.gates.length} gates: L_max ${several.l_max_mm.toFixed(1)} mm, balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
+  }
+  return section("gate-result", "Gate", ...content);
+}
+
+function noGateSection(r) {
+  const tries = el("ul", { id: "no-gate-tries" },
+    el("li", {}, "a smaller gate radius (Advanced) or a finer grid spacing"),
+    el("li", {}, "another demolding direction, or 'auto'"),
+    el("li", {}, "'Wall thicker than the gate radius: not required' when the walls are thin"),
+    el("li", {}, "'Aesthetic: gate on the parting line'"),
+  );
+  if (r.counts.kept_out + r.counts.cosmetic > 0) tries.append(el("li", {}, "smaller keep-out regions, or no cosmetic side"));
+  return section("no-gate", "No gate",
+    el("p", { id: "no-gate-reason", class: "warning" }, r.no_gate_reason ?? "no node qualifies"),
+    el("p", {}, "What to try:"), tries);
+}
+
+function gateFill(id, title, f) {
+  const limit = f.flow_ratio_limit;
+  const ratio = limit === null || limit === undefined
+    ? f.flow_ratio.toFixed(0)
+    : `${f.flow_ratio.toFixed(0)} ${f.exceeds_flow_ratio ? "EXCEEDS" : "within"} the material's limit of ${limit.toFixed(0)}`;
+  const rows = [
+    ["Longest flow L_max", `${f.l_max_mm.toFixed(1)} mm (mean ${f.l_mean_mm.toFixed(1)})`, { class: "l-max", "data-value": f.l_max_mm }],
+    ["Wall at the gate", mm(f.wall_mm), { "data-value": f.wall_mm }],
+    ["Flow ratio L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
+    ["Fill pressure (Eq. 1)", `${f.pressure_mpa.toFixed(1)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
+    ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
+  ];
+  const last = el("ol", { class: "last-to-fill" });
+  for (const q of f.last_to_fill.slice(0, 3)) last.append(el("li", xyz(q.point), `${v3(q.point, 1)} at ${q.flow_length_mm.toFixed(1)} mm`));
+  const welds = el("ul", { class: "weld-lines" });
+  for (const w of f.weld_lines.slice(0, 3)) welds.append(el("li", xyz(w.point), `near ${v3(w.point, 1)}, ${w.flow_length_mm.toFixed(1)} mm from the gate, fronts at ${w.meeting_angle_deg.toFixed(0)}°`));
+  if (!f.weld_lines.length) welds.append(el("li", {}, "none found"));
+  return el("div", { id }, el("h4", {}, title), list(null, rows), el("p", {}, "Last to fill:"), last, el("p", {}, "Weld lines (where fronts meet):"), welds);
+}
+
+function fillSection(f) {
+  const parts = [el("p", {}, `${f.cells.toLocaleString("en")} cells of ${f.cell_mm.toFixed(3)} mm; nominal wall ${f.nominal_wall_mm.toFixed(2)} mm (${f.wall_source === "measured" ? "measured" : "2V/A estimate"})`)];
+  if (f.paper) parts.push(gateFill("fill-paper", "From the paper's gate", f.paper));
+  if (f.balanced && !f.balanced.is_paper_gate) {
+    parts.push(gateFill("fill-balanced", "From the balanced gate", f.balanced.fill));
+    parts.push(el("p", {}, `The balanced gate shortens the worst flow by ${f.balanced.improvement_pct.toFixed(1)} %.`));
+  } else if (f.balanced) {
+    parts.push(el("p", {}, "The balanced gate is the paper's gate: no candidate does better."));
+  }
+  for (const w of f.warnings || []) parts.push(el("p", { class: "warning" }, w));
+  return section("fill-result", "Fill", ...parts);
+}
+
+function countsSection(c) {
+  const rows = [
+    ["grid nodes", c.nodes], ["hit the part", c.centre_hits], ["whole circle on the part", c.circle_on_part],
+    ["wall thicker than R", c.thicker_than_radius], ["wall unknown", c.thickness_unknown], ["flat", c.flat],
+    ["kept out", c.kept_out], ["on cosmetic faces", c.cosmetic], ["qualify", c.qualifying],
+  ];
+  const table = el("table", { id: "counts" }, el("caption", {}, "Grid nodes through each rule"));
+  for (const [name, n] of rows) table.append(el("tr", { "data-count": name }, el("th", { scope: "row" }, name), el("td", { "data-value": n }, n.toLocaleString("en"))));
+  return section("counts-result", "Nodes per rule", table);
+}
+
+function partSection(r) {
+  const m = r.mesh;
+  const format = { stl_binary: "binary STL", stl_ascii: "ASCII STL", obj: "OBJ", ply_ascii: "ASCII PLY", ply_binary_little_endian: "binary PLY", ply_binary_big_endian: "binary PLY (big-endian)", generated: "sample" }[m.format] ?? m.format;
+  const size = m.bounds_max.map((hi, i) => hi - m.bounds_min[i]);
+  return section("part-result", "Part", list("part", [
+    ["File", r.input.path ?? `sample '${r.input.sample}'`],
+    ["Read as", `${format}, ${m.units}`],
+    ["Triangles", m.triangles.toLocaleString("en"), { "data-value": m.triangles }],
+    ["Size", `${size.map((s) => s.toFixed(1)).join(" × ")} mm`],
+    ["Mesh", m.open_edges === 0 && m.non_manifold_edges === 0 ? `closed, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}` : `${m.open_edges} open and ${m.non_manifold_edges} non-manifold edges, ${m.bodies} bodies`],
+    ["Demolding direction D", v3(r.options.demold, 3), xyz(r.options.demold)],
+    ["Centre of mass", `${v3(r.centre_of_mass.used)} mm`, { id: "centre-of-mass", ...xyz(r.centre_of_mass.used) }],
+  ]));
+}
+
+function wallSection(w) {
+  return section("wall-result", "Wall thickness", list("wall", [
+    ["Minimum", mm(w.min_mm)], ["Nominal", mm(w.nominal_mm)], ["Maximum", mm(w.max_mm)],
+    ["Unknown", `${(100 * w.unknown_area_share).toFixed(1)} % of the area`],
+  ]));
+}
+
+function timingsSection(r, page) {
+  const t = r.timings;
+  const ms = (s) => `${(1000 * s).toFixed(1)} ms`;
+  const rows = [
+    ["Read the file", ms(t.load_s)], ["Gate location", ms(t.total_s - t.load_s)],
+    ["Grid / rays / selection", `${ms(t.grid_s)} / ${ms(t.projection_s)} / ${ms(t.select_s)}`],
+  ];
+  if (r.fill) rows.push(["Fill analysis", ms(Object.values(r.fill.times).reduce((a, b) => a + b, 0))]);
+  if (page) {
+    rows.push(["Whole study in the browser", `${page.study_ms.toFixed(0)} ms`, { id: "time-study", "data-value": page.study_ms }]);
+    rows.push(["3D file", `${page.glb_ms.toFixed(0)} ms`]);
+  }
+  return section("timings-result", "Time", list("timings", rows));
+}
+
+/** Fills `container` with the report's results; `page` holds the page's own timings. */
+export function showReport(container, r, page) {
+  container.replaceChildren();
+  container.append(r.gate ? gateSection(r) : noGateSection(r));
+  if (r.fill) container.append(fillSection(r.fill));
+  const warnings = el("ul", { id: "warnings" });
+  for (const w of r.warnings) warnings.append(el("li", { class: "warning", "data-warning": w }, w));
+  if (r.warnings.length) container.append(section("warnings-result", "Warnings", warnings));
+  container.append(partSection(r), countsSection(r.counts));
+  if (r.wall_thickness) container.append(wallSection(r.wall_thickness));
+  if (r.demold_auto) {
+    const ul = el("ul", {});
+    for (const c of r.demold_auto.tried) ul.append(el("li", {}, `${v3(c.direction, 3)}: undercut ${c.undercut.area_mm2.toFixed(1)} mm²`));
+    container.append(section("demold-auto-result", "Demolding directions tried", ul));
+  }
+  container.append(timingsSection(r, page));
+}
+

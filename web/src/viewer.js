@@ -1,0 +1,191 @@
+// The 3D view: the GLB that moldgate writes (part coloured by a field, gate discs, centre of
+// mass, parting line, qualifying nodes; see crates/moldgate/src/gltf.rs), shown with three.js.
+// The file's root node already turns the demolding direction D to +Y and mm to metres.
+
+import {
+  Box3,
+  CanvasTexture,
+  Color,
+  DirectionalLight,
+  HemisphereLight,
+  PerspectiveCamera,
+  Scene,
+  Sphere,
+  Sprite,
+  SpriteMaterial,
+  Vector3,
+  WebGLRenderer,
+} from "three";
+import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
+import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
+
+/** The layers of the file a user can hide, by node name (or name prefix for the gates). */
+export const LAYERS = {
+  gates: (name) => name.startsWith("gate "),
+  centre: (name) => name === "centre of mass",
+  parting: (name) => name === "parting line",
+  qualifying: (name) => name === "qualifying nodes",
+};
+
+/** A red ring of constant size on screen around each gate, so a 1 mm gate shows on a 300 mm part. */
+function gateRingTexture() {
+  const c = document.createElement("canvas");
+  c.width = c.height = 64;
+  const g = c.getContext("2d");
+  g.strokeStyle = "rgb(220, 20, 40)";
+  g.lineWidth = 7;
+  g.beginPath();
+  g.arc(32, 32, 26, 0, 2 * Math.PI);
+  g.stroke();
+  return new CanvasTexture(c);
+}
+
+export class Viewer {
+  constructor(container) {
+    this.container = container;
+    this.renderer = new WebGLRenderer({ antialias: true });
+    this.renderer.setPixelRatio(window.devicePixelRatio || 1);
+    this.renderer.setClearColor(new Color(0x2a2f38));
+    this.canvas = this.renderer.domElement;
+    this.canvas.tabIndex = 0;
+    this.canvas.setAttribute("role", "img");
+    this.canvas.setAttribute("aria-label", "3D view of the part and its gate");
+    container.appendChild(this.canvas);
+
+    this.scene = new Scene();
+    this.scene.add(new HemisphereLight(0xffffff, 0x444450, 1.6));
+    this.camera = new PerspectiveCamera(35, 1, 0.001, 100);
+    this.light = new DirectionalLight(0xffffff, 1.8);
+    this.light.position.set(0.3, 0.5, 1);
+    this.camera.add(this.light);
+    this.scene.add(this.camera);
+
+    this.controls = new OrbitControls(this.camera, this.canvas);
+    this.controls.enableDamping = false;
+    this.controls.listenToKeyEvents(this.canvas);
+    this.controls.addEventListener("change", () => this.render());
+    this.ringTexture = gateRingTexture();
+    this.root = null;
+    this.visible = { gates: true, centre: true, parting: true, qualifying: true };
+
+    new ResizeObserver(() => this.resize()).observe(container);
+    this.resize();
+  }
+
+  resize() {
+    const w = Math.max(1, this.container.clientWidth);
+    const h = Math.max(1, this.container.clientHeight);
+    this.renderer.setSize(w, h, false);
+    this.canvas.style.width = "100%";
+    this.canvas.style.height = "100%";
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    this.render();
+  }
+
+  render() {
+    this.renderer.render(this.scene, this.camera);
+  }
+
+  /** Shows a GLB (bytes); resolves with the file's `asset.extras` once drawn. */
+  async show(glb, { keepCamera = false } = {}) {
+    const gltf = await new GLTFLoader().parseAsync(
+      glb.buffer.slice(glb.byteOffset, glb.byteOffset + glb.byteLength),
+      ""
+    );
+    this.clear();
+    this.root = gltf.scene;
+    // three.js renames nodes ("gate 1" becomes "gate_1"); the file's own names are kept here.
+    const names = gltf.parser.json.nodes.map((n) => n.name);
+    this.nodes = new Map();
+    const rings = [];
+    this.root.traverse((o) => {
+      const index = gltf.parser.associations.get(o)?.nodes;
+      if (index !== undefined) this.nodes.set(names[index], o);
+      if (o.isPoints) {
+        o.material.size = 2 * (window.devicePixelRatio || 1);
+        o.material.sizeAttenuation = false;
+        o.material.transparent = true;
+        o.material.opacity = 0.7;
+      }
+    });
+    for (const [name, o] of this.nodes) if (LAYERS.gates(name)) rings.push(o);
+    this.scene.add(this.root);
+    this.root.updateMatrixWorld(true);
+    for (const gate of rings) {
+      const ring = new Sprite(
+        new SpriteMaterial({ map: this.ringTexture, depthTest: false, sizeAttenuation: false })
+      );
+      ring.name = `${gate.name} marker`;
+      ring.scale.set(0.06, 0.06, 1);
+      new Box3().setFromObject(gate).getCenter(ring.position);
+      ring.renderOrder = 10;
+      this.scene.add(ring);
+      this.rings.push(ring);
+    }
+    this.applyVisibility();
+    const part = this.nodes.get("part") || this.root;
+    this.bounds = new Box3().setFromObject(part).getBoundingSphere(new Sphere());
+    if (!keepCamera) this.reset();
+    this.render();
+    return gltf.asset.extras || {};
+  }
+
+  clear() {
+    for (const r of this.rings || []) {
+      this.scene.remove(r);
+      r.material.dispose();
+    }
+    this.rings = [];
+    if (this.root) {
+      this.scene.remove(this.root);
+      this.root.traverse((o) => {
+        o.geometry?.dispose();
+        o.material?.dispose?.();
+      });
+      this.root = null;
+    }
+    this.render();
+  }
+
+  setLayer(layer, on) {
+    this.visible[layer] = on;
+    this.applyVisibility();
+    this.render();
+  }
+
+  applyVisibility() {
+    if (!this.root) return;
+    for (const [name, o] of this.nodes) {
+      for (const [layer, test] of Object.entries(LAYERS)) {
+        if (test(name)) o.visible = this.visible[layer];
+      }
+    }
+    for (const r of this.rings) r.visible = this.visible.gates;
+  }
+
+  /** Looks at the whole part from `direction` (in view axes: D is +Y). */
+  lookFrom(direction, up) {
+    if (!this.bounds) return;
+    const { center, radius } = this.bounds;
+    const distance = radius / Math.sin((this.camera.fov * Math.PI) / 360) * 1.1;
+    this.camera.up.copy(up);
+    this.camera.position.copy(center).addScaledVector(direction.clone().normalize(), distance);
+    this.camera.near = distance / 100;
+    this.camera.far = distance * 100;
+    this.camera.updateProjectionMatrix();
+    this.controls.target.copy(center);
+    this.controls.update();
+    this.render();
+  }
+
+  /** The isometric view with D up. */
+  reset() {
+    this.lookFrom(new Vector3(1, 0.8, 1.2), new Vector3(0, 1, 0));
+  }
+
+  /** Looking along the demolding direction, from the side the mould opens to. */
+  viewAlongD() {
+    this.lookFrom(new Vector3(0, 1, 0), new Vector3(0, 0, -1));
+  }
+}

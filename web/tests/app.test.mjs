@@ -1,0 +1,309 @@
+// The browser app in a real Chromium: the same gates as the command line, bad input, the 3D
+// view, downloads, keyboard, layouts. Run by scripts/test-web.sh (node --test tests/).
+import assert from "node:assert/strict";
+import { execFileSync } from "node:child_process";
+import { existsSync, readFileSync, writeFileSync } from "node:fs";
+import { join } from "node:path";
+import { after, before, describe, test } from "node:test";
+
+import { CLI, PARTS, REPO, TMP, cli, openApp, settled, shown, studyFile } from "./harness.mjs";
+
+const TOLERANCE_MM = 1e-9;
+
+function assertSameGate(page, expected, what) {
+  return shown(page).then((s) => {
+    assert.equal(s.error, null, `${what}: the page shows an error`);
+    if (expected.gate === null) {
+      assert.equal(s.gate, null, `${what}: the page shows a gate, the command line has none`);
+      assert.equal(s.noGate, expected.no_gate_reason, `${what}: reason`);
+    } else {
+      assert.ok(s.gate, `${what}: no gate in the page`);
+      for (let i = 0; i < 3; i++) {
+        assert.ok(Math.abs(s.gate[i] - expected.gate.point[i]) <= TOLERANCE_MM, `${what}: gate ${s.gate} against ${expected.gate.point}`);
+      }
+    }
+    assert.deepEqual(s.warnings, expected.warnings, `${what}: warnings`);
+  });
+}
+
+/** The triangles of a binary STL. */
+function stlTriangles(bytes) {
+  const n = bytes.readUInt32LE(80);
+  const tris = [];
+  for (let t = 0; t < n; t++) {
+    const o = 84 + 50 * t + 12;
+    tris.push([0, 1, 2].map((k) => [0, 1, 2].map((a) => bytes.readFloatLE(o + 12 * k + 4 * a))));
+  }
+  return tris;
+}
+
+function writeObj(tris, path) {
+  const lines = ["# written by the moldgate browser tests"];
+  for (const t of tris) for (const p of t) lines.push(`v ${p.join(" ")}`);
+  tris.forEach((_, i) => lines.push(`f ${3 * i + 1} ${3 * i + 2} ${3 * i + 3}`));
+  writeFileSync(path, lines.join("\n") + "\n");
+}
+
+function writePly(tris, path) {
+  const lines = ["ply", "format ascii 1.0", `element vertex ${3 * tris.length}`, "property float x", "property float y", "property float z", `element face ${tris.length}`, "property list uchar int vertex_indices", "end_header"];
+  for (const t of tris) for (const p of t) lines.push(p.join(" "));
+  tris.forEach((_, i) => lines.push(`3 ${3 * i} ${3 * i + 1} ${3 * i + 2}`));
+  writeFileSync(path, lines.join("\n") + "\n");
+}
+
+/** Pixel statistics of a PNG screenshot, decoded by the browser. */
+function pixelStats(page, png) {
+  return page.evaluate(async (b64) => {
+    const blob = await (await fetch(`data:image/png;base64,${b64}`)).blob();
+    const bitmap = await createImageBitmap(blob);
+    const c = new OffscreenCanvas(bitmap.width, bitmap.height);
+    const g = c.getContext("2d");
+    g.drawImage(bitmap, 0, 0);
+    const d = g.getImageData(0, 0, bitmap.width, bitmap.height).data;
+    let red = 0, background = 0, coloured = 0;
+    const colours = new Set();
+    for (let i = 0; i < d.length; i += 4) {
+      const [r, gr, b] = [d[i], d[i + 1], d[i + 2]];
+      colours.add((r >> 3) * 1024 + (gr >> 3) * 32 + (b >> 3));
+      if (r > 170 && gr < 90 && b < 100) red++;
+      if (Math.abs(r - 0x2a) < 3 && Math.abs(gr - 0x2f) < 3 && Math.abs(b - 0x38) < 3) background++;
+      // viridis: green above red for most of its range, or the purple/yellow ends
+      if ((gr > r + 20 && gr > 60) || (b > gr + 40 && r > 40)) coloured++;
+    }
+    return { pixels: d.length / 4, red, background, coloured, distinct: colours.size };
+  }, png.toString("base64"));
+}
+
+describe("moldgate in the browser", () => {
+  let app;
+  let page;
+
+  before(async () => {
+    assert.ok(existsSync(CLI), `${CLI} not built: cargo build --release -p moldgate-cli`);
+    app = await openApp();
+    page = app.page;
+  });
+
+  after(async () => {
+    await app?.close();
+  });
+
+  test("every sample shows the command line's gate and warnings", async () => {
+    const names = await page.$$eval("#sample option", (os) => os.map((o) => o.value).filter(Boolean));
+    const listed = execFileSync(CLI, ["sample", "--list"], { encoding: "utf8" });
+    assert.ok(names.length >= 5, `samples: ${names}`);
+    for (const name of names) {
+      assert.match(listed, new RegExp(`\\b${name}\\b`));
+      await page.selectOption("#sample", name);
+      assert.equal(await settled(page), "done", name);
+      await assertSameGate(page, cli(["locate", "--sample", name]), name);
+    }
+  });
+
+  test("OBJ and PLY files are read by their extension and give the STL's gate", async () => {
+    const stl = join(TMP, "tray.stl");
+    execFileSync(CLI, ["sample", "tray", "-o", stl]);
+    const tris = stlTriangles(readFileSync(stl));
+    writeObj(tris, join(TMP, "tray.obj"));
+    writePly(tris, join(TMP, "tray.PLY"));
+    for (const f of ["tray.stl", "tray.obj", "tray.PLY"]) {
+      const path = join(TMP, f);
+      assert.equal(await studyFile(page, path), "done", f);
+      await assertSameGate(page, cli(["locate", path]), f);
+    }
+  });
+
+  const shared = [
+    { file: "esp32s3box_bottom_housing_352k.stl", demold: "+y", units: "mm" },
+    { file: "trimesh_ADIS16480_meters_ascii.STL", demold: "+y", units: "m" },
+  ];
+  for (const p of shared) {
+    test(`shared part ${p.file} shows the command line's gate`, async (t) => {
+      const path = join(PARTS, p.file);
+      if (!existsSync(path)) {
+        t.skip(`${path} not found (set MOLDGATE_PARTS)`);
+        return;
+      }
+      assert.equal(await studyFile(page, path, p), "done", p.file);
+      await assertSameGate(page, cli(["locate", path, "--demold", p.demold, "--units", p.units]), p.file);
+    });
+  }
+
+  test("the 3D view shows the part's colours and the gate's red", async () => {
+    await page.selectOption("#demold", "-z");
+    await page.selectOption("#sample", "");
+    await page.selectOption("#sample", "cover");
+    assert.equal(await settled(page), "done");
+    const png = await page.locator("#viewport").screenshot();
+    writeFileSync(join(TMP, "view.png"), png);
+    const s = await pixelStats(page, png);
+    assert.ok(s.distinct > 200, `only ${s.distinct} colours: blank view?`);
+    assert.ok(s.background < 0.9 * s.pixels, `${s.background} of ${s.pixels} pixels are background`);
+    assert.ok(s.coloured > 0.03 * s.pixels, `only ${s.coloured} pixels in the colour map`);
+    assert.ok(s.red > 50, `only ${s.red} red pixels: no gate marker?`);
+    const bar = await page.$eval("#colour-bar", (e) => ({ hidden: e.hidden, field: e.dataset.field }));
+    assert.deepEqual(bar, { hidden: false, field: "height along D" });
+  });
+
+  test("bad files show the library's message and the next file still works", async () => {
+    const cases = [
+      ["empty.stl", Buffer.alloc(0), /empty\.stl: empty file/],
+      ["broken.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", /broken\.obj: line 4/],
+      ["short.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\u0001", /short\.ply: byte 169: the file ends/],
+      ["part.step", "ISO-10303-21;", /part\.step: unsupported file type/],
+      ["noise.stl", "solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 zero\n", /noise\.stl: .*line 4/],
+    ];
+    for (const [name, content, message] of cases) {
+      const path = join(TMP, name);
+      writeFileSync(path, content);
+      assert.equal(await studyFile(page, path), "error", name);
+      const s = await shown(page);
+      assert.match(s.error ?? "", message, name);
+      assert.equal(s.gate, null);
+      assert.equal(await page.$eval("#result-body", (e) => e.children.length), 0, "old results cleared");
+    }
+    const good = join(TMP, "tray.stl");
+    assert.equal(await studyFile(page, good), "done");
+    await assertSameGate(page, cli(["locate", good]), "after bad files");
+  });
+
+  test("a part where no node qualifies says why and what to try", async () => {
+    await page.fill("#gate_radius", "40");
+    await page.selectOption("#sample", "");
+    await page.selectOption("#sample", "plate");
+    assert.equal(await settled(page), "done");
+    const expected = cli(["locate", "--sample", "plate", "--gate-radius", "40"]);
+    assert.equal(expected.gate, null);
+    await assertSameGate(page, expected, "plate, R = 40 mm");
+    assert.ok((await page.$$("#no-gate-tries li")).length >= 3);
+    await page.fill("#gate_radius", "");
+  });
+
+  test("a grid too large for memory is refused before the work", async () => {
+    await page.fill("#spacing", "0.0001");
+    await page.click("#analyse");
+    assert.equal(await settled(page), "error");
+    assert.match((await shown(page)).error, /600001600001 nodes, more than the limit of 4000000/);
+    await page.click("#defaults");
+    await page.click("#analyse");
+    assert.equal(await settled(page), "done");
+    await assertSameGate(page, cli(["locate", "--sample", "plate"]), "after a refused grid");
+  });
+
+  test("a new part cancels the study under way", async (t) => {
+    const big = join(PARTS, "esp32s3box_bottom_housing_352k.stl");
+    if (!existsSync(big)) {
+      t.skip(`${big} not found (set MOLDGATE_PARTS)`);
+      return;
+    }
+    await page.selectOption("#demold", "+y");
+    await page.check("#fill");
+    await page.setInputFiles("#file", big);
+    await page.waitForFunction(() => document.getElementById("app").dataset.state === "busy");
+    await page.waitForFunction(() => !document.getElementById("busy").hidden);
+    await page.selectOption("#sample", "cap");
+    assert.equal(await settled(page), "done");
+    await page.uncheck("#fill");
+    await page.selectOption("#demold", "+z");
+    await page.click("#analyse");
+    assert.equal(await settled(page), "done");
+    await assertSameGate(page, cli(["locate", "--sample", "cap"]), "cap after a cancelled study");
+  });
+
+  test("the fill analysis and the other options reach the library", async () => {
+    await page.selectOption("#demold", "-z");
+    await page.selectOption("#strategy", "balanced");
+    await page.check("#wall_thickness");
+    await page.fill("#keep_out", "sphere:0,0,30,5");
+    await page.selectOption("#material", "ABS");
+    await page.selectOption("#sample", "");
+    await page.selectOption("#sample", "cover");
+    assert.equal(await settled(page), "done");
+    const expected = cli(["locate", "--sample", "cover", "--demold", "-z", "--strategy", "balanced", "--wall-thickness", "--keep-out", "sphere:0,0,30,5", "--material", "ABS"]);
+    await assertSameGate(page, expected, "cover, balanced");
+    const lmax = await page.$eval("#fill-result .l-max", (e) => Number(e.dataset.value));
+    assert.equal(lmax, expected.fill.paper.l_max_mm);
+    for (const c of ["2", "3", "1"]) {
+      await page.selectOption("#colouring", c);
+      await page.waitForFunction((name) => document.getElementById("colour-bar").dataset.field?.startsWith(name), { 2: "wall", 3: "fill", 1: "height" }[c]);
+    }
+    await page.selectOption("#colouring", "0");
+    await page.click("#defaults");
+  });
+
+  test("the downloads are the command line's report, a PNG and a valid GLB", async () => {
+    await page.selectOption("#demold", "-z");
+    await page.selectOption("#sample", "");
+    await page.selectOption("#sample", "cover");
+    assert.equal(await settled(page), "done");
+    const files = {};
+    for (const what of ["report", "png", "glb", "html"]) {
+      const [download] = await Promise.all([page.waitForEvent("download"), page.click(`[data-download=${what}]`)]);
+      const path = join(TMP, `download-${download.suggestedFilename()}`);
+      await download.saveAs(path);
+      files[what] = path;
+    }
+    const report = JSON.parse(readFileSync(files.report, "utf8"));
+    const expected = cli(["locate", "--sample", "cover", "--demold", "-z"]);
+    const keys = (o, prefix = "") =>
+      Object.entries(o).flatMap(([k, v]) => (v && typeof v === "object" && !Array.isArray(v) ? keys(v, `${prefix}${k}.`) : [`${prefix}${k}`])).sort();
+    assert.deepEqual(keys(report).filter((k) => !k.startsWith("timings.")), keys(expected).filter((k) => !k.startsWith("timings.")));
+    assert.deepEqual(report.gate, expected.gate);
+    const png = readFileSync(files.png);
+    assert.equal(png.subarray(1, 4).toString(), "PNG");
+    assert.deepEqual([png.readUInt32BE(16), png.readUInt32BE(20)], [1600, 900]);
+    const decoded = await pixelStats(page, png);
+    assert.equal(decoded.pixels, 1600 * 900);
+    const validator = join(REPO, "tools/gltf-validator/validate.js");
+    const out = execFileSync("node", [validator, files.glb], { encoding: "utf8" });
+    assert.equal(JSON.parse(out).issues.numErrors, 0);
+    const html = readFileSync(files.html, "utf8");
+    assert.match(html, /^<!DOCTYPE html>|^<!doctype html>/i);
+    assert.match(html, /data:image\/png;base64,/);
+  });
+
+  test("every control has a label and the keyboard reaches them", async () => {
+    const unlabelled = await page.$$eval("input, select, textarea", (es) => es.filter((e) => e.labels.length === 0 && !e.getAttribute("aria-label")).map((e) => e.id));
+    assert.deepEqual(unlabelled, []);
+    await page.focus("#file");
+    const reached = new Set();
+    for (let i = 0; i < 60; i++) {
+      await page.keyboard.press("Tab");
+      reached.add(await page.evaluate(() => document.activeElement?.id || document.activeElement?.dataset.download || document.activeElement?.tagName));
+    }
+    for (const id of ["sample", "material", "demold", "fill", "analyse", "reset-view", "colouring", "CANVAS"]) {
+      assert.ok(reached.has(id), `Tab never reaches ${id}: ${[...reached]}`);
+    }
+  });
+
+  test("nothing leaves the page's origin and the console stays clean", () => {
+    assert.deepEqual(app.problems.foreign, []);
+    assert.deepEqual(app.problems.console, []);
+  });
+});
+
+describe("layouts", () => {
+  for (const [width, height] of [[1280, 720], [3840, 2160]]) {
+    test(`${width}x${height}: no overflow, results and view on screen`, async () => {
+      const app = await openApp({ width, height });
+      try {
+        await app.page.selectOption("#demold", "-z");
+        await app.page.selectOption("#sample", "cover");
+        assert.equal(await settled(app.page), "done");
+        const box = (id) => app.page.$eval(id, (e) => e.getBoundingClientRect().toJSON());
+        const view = await box("#viewport");
+        const gate = await box("#gate-point");
+        assert.ok(view.width > width * 0.4 && view.height > height * 0.6, `view ${view.width}x${view.height}`);
+        assert.ok(gate.right <= width && gate.bottom <= height, "the gate is on screen");
+        const scroll = await app.page.evaluate(() => document.documentElement.scrollWidth);
+        assert.ok(scroll <= width, `page ${scroll} px wide`);
+        const font = await app.page.$eval("#gate-point", (e) => parseFloat(getComputedStyle(e).fontSize));
+        assert.ok(font >= 13 && font >= height / 110, `text ${font} px at ${height} px high`);
+        await app.page.screenshot({ path: join(TMP, `layout-${width}x${height}.png`) });
+        assert.deepEqual(app.problems.console, []);
+      } finally {
+        await app.close();
+      }
+    });
+  }
+});

@@ -1,0 +1,51 @@
+// The JavaScript glue (src/moldgate.js) over the WebAssembly module, in Node without a
+// browser: the protocol, the library's errors, and recovery after a trap.
+import assert from "node:assert/strict";
+import { readFileSync } from "node:fs";
+import { join } from "node:path";
+import { test } from "node:test";
+
+import { Moldgate, MoldgateError } from "../src/moldgate.js";
+import { WEB } from "./harness.mjs";
+
+const wasm = readFileSync(join(WEB, "src/wasm/moldgate_web.wasm"));
+const enc = new TextEncoder();
+
+test("a sample is studied, with progress, and its outputs are whole", async () => {
+  const stages = [];
+  const mg = await Moldgate.fromBytes(wasm, (stage, fraction) => stages.push([stage, fraction]));
+  const h = await mg.study(new Uint8Array(0), { sample: "cover", options: { fill: true } });
+  const report = JSON.parse(await mg.report(h));
+  assert.ok(report.gate);
+  assert.ok(report.timings.total_s > 0, "the clock reaches the module");
+  assert.deepEqual(stages.at(-1), ["report", 1]);
+  assert.ok(stages.some(([s]) => s === "fill"));
+  const glb = await mg.glb(h, 3);
+  assert.equal(new TextDecoder().decode(glb.subarray(0, 4)), "glTF");
+  assert.equal(new DataView(glb.buffer).getUint32(8, true), glb.length);
+  const png = await mg.png(h);
+  assert.equal(png[1], 0x50);
+  mg.drop(h);
+  await assert.rejects(mg.report(h), new MoldgateError(`no study ${h}`));
+});
+
+test("the library's errors come back as messages, the module stays usable", async () => {
+  const mg = await Moldgate.fromBytes(wasm);
+  await assert.rejects(mg.study(enc.encode("v 1 2\n"), { file_name: "a.obj" }), /a\.obj: line 1/);
+  await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", options: { demold: "up" } }), /demold/);
+  await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", colour: 1 }), /options: unknown field/);
+  assert.ok((await mg.study(new Uint8Array(0), { sample: "plate" })) > 0);
+});
+
+test("a panic traps the call, its message is kept, and a fresh instance carries on", async () => {
+  const mg = await Moldgate.fromBytes(wasm);
+  const first = mg.instance;
+  const message = enc.encode("deliberate");
+  const error = await mg.call(() => mg.withBytes(message, (p, l) => mg.x.mg_panic(p, l))).catch((e) => e);
+  assert.ok(error instanceof MoldgateError);
+  assert.equal(error.trapped, true);
+  assert.match(error.message, /internal error: .*deliberate/);
+  assert.notEqual(mg.instance, first);
+  const h = await mg.study(new Uint8Array(0), { sample: "cap", options: { demold: "-z" } });
+  assert.ok(JSON.parse(await mg.report(h)).gate);
+});
