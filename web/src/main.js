@@ -131,8 +131,17 @@ let part = null; // {name, bytes} or {sample}
 let current = null; // the study shown: {report, name}
 let started = 0;
 
+let runs = 0;
+
+/** The app's state for people (the overlays) and for tests: `data-state` (loading, ready,
+ * busy, done, error) and `data-run`, counting the studies started. */
 function setState(state) {
   app.dataset.state = state;
+}
+
+function startRun() {
+  app.dataset.run = String(++runs);
+  setState("busy");
 }
 
 function onProgress({ id, stage, fraction }) {
@@ -165,7 +174,7 @@ function clearResults(status) {
 async function analyse() {
   if (!part) return;
   if (app.dataset.state === "busy") cancelStudy();
-  setState("busy");
+  startRun();
   started = performance.now();
   $("error").hidden = true;
   $("drop-hint").hidden = true;
@@ -183,7 +192,7 @@ async function analyse() {
     const extras = await viewer.show(r.glb);
     await new Promise(requestAnimationFrame);
     const total = performance.now() - started;
-    current = { report, name: part.name };
+    current = { report, name: part.sample ?? part.name };
     showReport($("result-body"), report, r.times);
     showColourBar(extras.field);
     $("downloads").hidden = false;
@@ -259,6 +268,8 @@ async function download(what) {
 async function openFile(file) {
   if (!file) return;
   if (info && file.size > info.maxFileBytes) {
+    if (app.dataset.state === "busy") cancelStudy();
+    startRun();
     part = null;
     clearResults(`${file.name} is too large.`);
     showError(`${file.name}: ${file.size} bytes, over the limit of ${info.maxFileBytes} bytes the browser can study`);

@@ -150,13 +150,13 @@ function timingsSection(r, page) {
   const t = r.timings;
   const ms = (s) => `${(1000 * s).toFixed(1)} ms`;
   const rows = [
-    ["Read the file", ms(t.load_s)], ["Gate location", ms(t.total_s - t.load_s)],
+    [r.input.sample ? "Make the sample" : "Read the file", ms(t.load_s)], ["Gate location", ms(t.total_s - t.load_s)],
     ["Grid / rays / selection", `${ms(t.grid_s)} / ${ms(t.projection_s)} / ${ms(t.select_s)}`],
   ];
   if (r.fill) rows.push(["Fill analysis", ms(Object.values(r.fill.times).reduce((a, b) => a + b, 0))]);
   if (page) {
     rows.push(["Whole study in the browser", `${page.study_ms.toFixed(0)} ms`, { id: "time-study", "data-value": page.study_ms }]);
-    rows.push(["3D file", `${page.glb_ms.toFixed(0)} ms`]);
+    rows.push(["3D file", `${page.glb_ms.toFixed(0)} ms`, { id: "time-glb", "data-value": page.glb_ms }]);
   }
   return section("timings-result", "Time", list("timings", rows));
 }

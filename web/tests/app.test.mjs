@@ -6,7 +6,9 @@ import { existsSync, readFileSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { after, before, describe, test } from "node:test";
 
-import { CLI, PARTS, REPO, TMP, cli, openApp, settled, shown, studyFile } from "./harness.mjs";
+import { CLI, PARTS, REPO, analyseAgain, cli, openApp, shown, studyFile, studySample, tempDir } from "./harness.mjs";
+
+const TMP = tempDir();
 
 const TOLERANCE_MM = 1e-9;
 
@@ -94,8 +96,7 @@ describe("moldgate in the browser", () => {
     assert.ok(names.length >= 5, `samples: ${names}`);
     for (const name of names) {
       assert.match(listed, new RegExp(`\\b${name}\\b`));
-      await page.selectOption("#sample", name);
-      assert.equal(await settled(page), "done", name);
+      assert.equal(await studySample(page, name), "done", name);
       await assertSameGate(page, cli(["locate", "--sample", name]), name);
     }
   });
@@ -131,9 +132,7 @@ describe("moldgate in the browser", () => {
 
   test("the 3D view shows the part's colours and the gate's red", async () => {
     await page.selectOption("#demold", "-z");
-    await page.selectOption("#sample", "");
-    await page.selectOption("#sample", "cover");
-    assert.equal(await settled(page), "done");
+    assert.equal(await studySample(page, "cover"), "done");
     const png = await page.locator("#viewport").screenshot();
     writeFileSync(join(TMP, "view.png"), png);
     const s = await pixelStats(page, png);
@@ -168,10 +167,9 @@ describe("moldgate in the browser", () => {
   });
 
   test("a part where no node qualifies says why and what to try", async () => {
+    await page.$eval("details", (d) => (d.open = true));
     await page.fill("#gate_radius", "40");
-    await page.selectOption("#sample", "");
-    await page.selectOption("#sample", "plate");
-    assert.equal(await settled(page), "done");
+    assert.equal(await studySample(page, "plate"), "done");
     const expected = cli(["locate", "--sample", "plate", "--gate-radius", "40"]);
     assert.equal(expected.gate, null);
     await assertSameGate(page, expected, "plate, R = 40 mm");
@@ -180,13 +178,12 @@ describe("moldgate in the browser", () => {
   });
 
   test("a grid too large for memory is refused before the work", async () => {
+    await page.$eval("details", (d) => (d.open = true));
     await page.fill("#spacing", "0.0001");
-    await page.click("#analyse");
-    assert.equal(await settled(page), "error");
+    assert.equal(await analyseAgain(page), "error");
     assert.match((await shown(page)).error, /600001600001 nodes, more than the limit of 4000000/);
     await page.click("#defaults");
-    await page.click("#analyse");
-    assert.equal(await settled(page), "done");
+    assert.equal(await analyseAgain(page), "done");
     await assertSameGate(page, cli(["locate", "--sample", "plate"]), "after a refused grid");
   });
 
@@ -198,15 +195,15 @@ describe("moldgate in the browser", () => {
     }
     await page.selectOption("#demold", "+y");
     await page.check("#fill");
+    const before = await page.$eval("#app", (e) => Number(e.dataset.run));
     await page.setInputFiles("#file", big);
-    await page.waitForFunction(() => document.getElementById("app").dataset.state === "busy");
-    await page.waitForFunction(() => !document.getElementById("busy").hidden);
-    await page.selectOption("#sample", "cap");
-    assert.equal(await settled(page), "done");
+    await page.waitForFunction((n) => Number(document.getElementById("app").dataset.run) > n, before);
+    await page.waitForFunction(() => !document.getElementById("busy").hidden && document.getElementById("app").dataset.state === "busy");
+    assert.equal(await studySample(page, "cap"), "done");
+    assert.match(await page.$eval("#status", (e) => e.textContent), /cap/);
     await page.uncheck("#fill");
     await page.selectOption("#demold", "+z");
-    await page.click("#analyse");
-    assert.equal(await settled(page), "done");
+    assert.equal(await analyseAgain(page), "done");
     await assertSameGate(page, cli(["locate", "--sample", "cap"]), "cap after a cancelled study");
   });
 
@@ -216,9 +213,7 @@ describe("moldgate in the browser", () => {
     await page.check("#wall_thickness");
     await page.fill("#keep_out", "sphere:0,0,30,5");
     await page.selectOption("#material", "ABS");
-    await page.selectOption("#sample", "");
-    await page.selectOption("#sample", "cover");
-    assert.equal(await settled(page), "done");
+    assert.equal(await studySample(page, "cover"), "done");
     const expected = cli(["locate", "--sample", "cover", "--demold", "-z", "--strategy", "balanced", "--wall-thickness", "--keep-out", "sphere:0,0,30,5", "--material", "ABS"]);
     await assertSameGate(page, expected, "cover, balanced");
     const lmax = await page.$eval("#fill-result .l-max", (e) => Number(e.dataset.value));
@@ -233,9 +228,7 @@ describe("moldgate in the browser", () => {
 
   test("the downloads are the command line's report, a PNG and a valid GLB", async () => {
     await page.selectOption("#demold", "-z");
-    await page.selectOption("#sample", "");
-    await page.selectOption("#sample", "cover");
-    assert.equal(await settled(page), "done");
+    assert.equal(await studySample(page, "cover"), "done");
     const files = {};
     for (const what of ["report", "png", "glb", "html"]) {
       const [download] = await Promise.all([page.waitForEvent("download"), page.click(`[data-download=${what}]`)]);
@@ -288,8 +281,7 @@ describe("layouts", () => {
       const app = await openApp({ width, height });
       try {
         await app.page.selectOption("#demold", "-z");
-        await app.page.selectOption("#sample", "cover");
-        assert.equal(await settled(app.page), "done");
+        assert.equal(await studySample(app.page, "cover"), "done");
         const box = (id) => app.page.$eval(id, (e) => e.getBoundingClientRect().toJSON());
         const view = await box("#viewport");
         const gate = await box("#gate-point");

@@ -44,7 +44,7 @@ test("a panic traps the call, its message is kept, and a fresh instance carries 
   const error = await mg.call(() => mg.withBytes(message, (p, l) => mg.x.mg_panic(p, l))).catch((e) => e);
   assert.ok(error instanceof MoldgateError);
   assert.equal(error.trapped, true);
-  assert.match(error.message, /internal error: .*deliberate/);
+  assert.match(error.message, /internal error: panicked at .*\bdeliberate/s);
   assert.notEqual(mg.instance, first);
   const h = await mg.study(new Uint8Array(0), { sample: "cap", options: { demold: "-z" } });
   assert.ok(JSON.parse(await mg.report(h)).gate);

@@ -1,7 +1,7 @@
 // What the browser tests share: the built page served on loopback, Chromium, the command
 // line for the reference answers, and the shared parts.
 import { execFileSync } from "node:child_process";
-import { existsSync, mkdtempSync } from "node:fs";
+import { existsSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { dirname, join, resolve } from "node:path";
 import { fileURLToPath } from "node:url";
@@ -14,7 +14,13 @@ export const REPO = resolve(WEB, "..");
 export const DIST = join(WEB, "dist");
 /** The shared real parts: $MOLDGATE_PARTS, else <repository>/../shared/data/parts. */
 export const PARTS = process.env.MOLDGATE_PARTS ?? resolve(REPO, "../shared/data/parts");
-export const TMP = mkdtempSync(join(tmpdir(), "moldgate-web-"));
+/** A folder for the files a test writes: removed at exit unless MOLDGATE_WEB_KEEP is set. */
+export function tempDir() {
+  const dir = mkdtempSync(join(tmpdir(), "moldgate-web-"));
+  if (process.env.MOLDGATE_WEB_KEEP) console.log(`# test files kept in ${dir}`);
+  else process.on("exit", () => rmSync(dir, { recursive: true, force: true }));
+  return dir;
+}
 
 /** The native command line, built by scripts/test-web.sh. */
 export const CLI =
@@ -60,9 +66,24 @@ export async function openApp({ width = 1280, height = 720 } = {}) {
   };
 }
 
-/** Waits for the study under way to end; returns the app's state ("done" or "error"). */
-export async function settled(page, timeout = 180_000) {
-  await page.waitForFunction(() => ["done", "error"].includes(document.getElementById("app").dataset.state), null, { timeout });
+/** The number of studies the page has started. */
+export function runs(page) {
+  return page.$eval("#app", (e) => Number(e.dataset.run ?? 0));
+}
+
+/** Does `action`, then waits for the study it starts to end; returns the app's state
+ * ("done" or "error"). */
+export async function settled(page, action, timeout = 180_000) {
+  const before = await runs(page);
+  await action();
+  await page.waitForFunction(
+    (n) => {
+      const app = document.getElementById("app");
+      return Number(app.dataset.run ?? 0) > n && ["done", "error"].includes(app.dataset.state);
+    },
+    before,
+    { timeout }
+  );
   return page.$eval("#app", (e) => e.dataset.state);
 }
 
@@ -70,8 +91,18 @@ export async function settled(page, timeout = 180_000) {
 export async function studyFile(page, file, { demold = "+z", units = "mm" } = {}) {
   await page.selectOption("#units", units);
   await page.selectOption("#demold", demold);
-  await page.setInputFiles("#file", file);
-  return settled(page);
+  return settled(page, () => page.setInputFiles("#file", file));
+}
+
+/** Studies a sample with the options set. */
+export async function studySample(page, name) {
+  await page.selectOption("#sample", "");
+  return settled(page, () => page.selectOption("#sample", name));
+}
+
+/** Studies the part again with the options set. */
+export function analyseAgain(page) {
+  return settled(page, () => page.click("#analyse"));
 }
 
 /** The gate and warnings the page shows, from its data- attributes. */
