@@ -125,4 +125,5 @@ export class Moldgate {
   defaults() { return this.json(() => this.x.mg_defaults()); }
   version() { return this.bytes(() => this.x.mg_version()).then((b) => decoder.decode(b)); }
   maxFileBytes() { return this.x.mg_max_file_bytes(); }
+  threads() { return this.x.mg_threads(); }
 }

@@ -44,7 +44,7 @@ function gateSection(r) {
   ];
   if (paper && mode === "paper") {
     rows.push(["Surface normal", v3(paper.normal, 3), { id: "gate-normal", ...xyz(paper.normal) }]);
-    rows.push(["Wall at the gate", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+    rows.push(["Wall under the gate (along D)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
     rows.push(["From the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
   }
   rows.push([
@@ -87,7 +87,7 @@ function gateFill(id, title, f) {
     : `${f.flow_ratio.toFixed(0)} ${f.exceeds_flow_ratio ? "EXCEEDS" : "within"} the material's limit of ${limit.toFixed(0)}`;
   const rows = [
     ["Longest flow L_max", `${f.l_max_mm.toFixed(1)} mm (mean ${f.l_mean_mm.toFixed(1)})`, { class: "l-max", "data-value": f.l_max_mm }],
-    ["Wall at the gate", mm(f.wall_mm), { "data-value": f.wall_mm }],
+    ["Wall at the gate (flow model)", mm(f.wall_mm), { "data-value": f.wall_mm }],
     ["Flow ratio L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
     ["Fill pressure (Eq. 1)", `${f.pressure_mpa.toFixed(1)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],

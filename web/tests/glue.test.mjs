@@ -15,6 +15,7 @@ test("a sample is studied, with progress, and its outputs are whole", async () =
   const stages = [];
   const mg = await Moldgate.fromBytes(wasm, (stage, fraction) => stages.push([stage, fraction]));
   const h = await mg.study(new Uint8Array(0), { sample: "cover", options: { fill: true } });
+  assert.equal(mg.threads(), 1, "rayon runs on the calling thread");
   const report = JSON.parse(await mg.report(h));
   assert.ok(report.gate);
   assert.ok(report.timings.total_s > 0, "the clock reaches the module");

@@ -262,6 +262,14 @@ pub unsafe extern "C" fn mg_panic(ptr: *const u8, len: usize) {
     panic!("{message}");
 }
 
+/// The threads the study runs on: 1 in the browser, where rayon falls back to the calling
+/// thread because `wasm32-unknown-unknown` cannot start threads.
+#[no_mangle]
+pub extern "C" fn mg_threads() -> usize {
+    // Builds rayon's global pool if no study has yet, as a study's first parallel loop does.
+    rayon::current_num_threads()
+}
+
 /// The version of moldgate.
 #[no_mangle]
 pub extern "C" fn mg_version() -> u32 {

@@ -43,10 +43,14 @@ impl Format {
     /// The format of `file_name` by its extension, in any case; `None` for any other.
     pub fn of(file_name: &str) -> Option<Format> {
         let ext = file_name.rsplit_once('.')?.1;
-        [("stl", Format::Stl), ("obj", Format::Obj), ("ply", Format::Ply)]
-            .into_iter()
-            .find(|(e, _)| ext.eq_ignore_ascii_case(e))
-            .map(|(_, f)| f)
+        [
+            ("stl", Format::Stl),
+            ("obj", Format::Obj),
+            ("ply", Format::Ply),
+        ]
+        .into_iter()
+        .find(|(e, _)| ext.eq_ignore_ascii_case(e))
+        .map(|(_, f)| f)
     }
 }
 
@@ -131,7 +135,11 @@ impl Session {
                     sample: Some(name.clone()),
                     bytes: 0,
                 };
-                (mesh::from_generated(mesh), input, format!("sample '{name}'"))
+                (
+                    mesh::from_generated(mesh),
+                    input,
+                    format!("sample '{name}'"),
+                )
             }
             None => {
                 let part = load(bytes, &request.file_name, units)?;
@@ -310,7 +318,9 @@ mod tests {
             .err()
             .unwrap();
         assert!(e.starts_with("bad.obj: line 3"), "{e}");
-        let e = Session::new(b"solid", &r("part.step"), &quiet).err().unwrap();
+        let e = Session::new(b"solid", &r("part.step"), &quiet)
+            .err()
+            .unwrap();
         assert!(e.contains("unsupported file type"), "{e}");
     }
 
@@ -320,7 +330,10 @@ mod tests {
         let e = Session::new(b"", &r, &quiet).err().unwrap();
         assert!(e.starts_with("gate_radius must be a positive"), "{e}");
         let r = request(r#"{ "sample": "plate", "units": "furlong" }"#);
-        assert!(Session::new(b"", &r, &quiet).err().unwrap().contains("furlong"));
+        assert!(Session::new(b"", &r, &quiet)
+            .err()
+            .unwrap()
+            .contains("furlong"));
         assert!(serde_json::from_str::<Request>(r#"{ "colour": 1 }"#).is_err());
     }
 
@@ -337,7 +350,10 @@ mod tests {
         let s = Session::new(b"", &r, &quiet).unwrap();
         assert!(s.glb(Colouring::Height).unwrap().starts_with(b"glTF"));
         assert!(s.glb(Colouring::FillOrder).unwrap_err().contains("fill"));
-        assert!(s.glb(Colouring::WallThickness).unwrap_err().contains("wall"));
+        assert!(s
+            .glb(Colouring::WallThickness)
+            .unwrap_err()
+            .contains("wall"));
         let r = request(
             r#"{ "sample": "cover", "options": { "demold": "-z", "fill": true, "wall_thickness": true } }"#,
         );
@@ -361,7 +377,10 @@ mod tests {
     #[test]
     fn lists_parse() {
         let s: serde_json::Value = serde_json::from_str(&samples_json()).unwrap();
-        assert_eq!(s.as_array().unwrap().len(), moldgate::samples::SAMPLES.len());
+        assert_eq!(
+            s.as_array().unwrap().len(),
+            moldgate::samples::SAMPLES.len()
+        );
         let m: serde_json::Value = serde_json::from_str(&materials_json()).unwrap();
         assert!(m[0]["gate_radius_mm"].as_f64().unwrap() > 0.0);
         let d: StudyOptions = serde_json::from_str(&defaults_json()).unwrap();
