@@ -5,7 +5,10 @@ For refactors that must not change behaviour: runs `A locate ... --json` and
 `B locate ... --json` on every built-in sample and every shared part (natural demolding
 direction from SOURCES.md, PP, default options otherwise) with several option sets, and
 compares the exit codes and the reports, less their time keys (`timings`, `times`,
-`time_s`), which vary from run to run. Prints one line per difference and a count.
+`time_s`), which vary from run to run. Prints one line per difference (its first differing
+path) and a count. `--rel-tol` accepts floating-point noise (the undercut areas of
+`--demold auto` are summed in parallel in an order that varies from run to run, so even one
+binary differs from itself in their last bits).
 
     python3 scripts/same_json.py BASE_BINARY NEW_BINARY [--parts DIR] [--sets NAME,...]
         [--jobs N] [--skip-large]
@@ -85,6 +88,8 @@ def first_difference(a, b, path="$"):
             if d:
                 return d
         return None
+    if isinstance(a, float) and REL_TOL > 0 and abs(a - b) <= REL_TOL * max(abs(a), abs(b)):
+        return None
     return None if a == b else f"{path}: {a!r} != {b!r}"
 
 
@@ -119,8 +124,12 @@ def main():
     ap.add_argument("--sets", default=",".join(SETS))
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--skip-large", action="store_true")
+    ap.add_argument("--rel-tol", type=float, default=0.0,
+                    help="accept numbers this close (relative); 0, the default, is exact")
     args = ap.parse_args()
     BASE = args.base
+    global REL_TOL
+    REL_TOL = args.rel_tol
     sets = args.sets.split(",")
     for s in sets:
         if s not in SETS:
@@ -133,8 +142,9 @@ def main():
         cb, rb, eb = run(args.new, a)
         if ca != cb:
             return f"{label}: exit code {ca} != {cb} ({ea[:120]!r} / {eb[:120]!r})"
-        if ra != rb:
-            return f"{label}: {first_difference(ra, rb)}"
+        d = first_difference(ra, rb)
+        if d:
+            return f"{label}: {d}"
         return None
 
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
@@ -147,6 +157,7 @@ def main():
 
 
 BASE = None
+REL_TOL = 0.0
 
 if __name__ == "__main__":
     main()
