@@ -25,23 +25,6 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
     .into_iter()
     .filter_map(|(flag, p)| p.map(|p| (flag, p)))
     .collect();
-    for (flag, path, extensions) in [
-        ("--png", a.png.as_ref(), &["png"][..]),
-        ("--glb", a.glb.as_ref(), &["glb"][..]),
-        ("--report", a.report.as_ref(), &["html", "htm"][..]),
-    ] {
-        let Some(path) = path else { continue };
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
-            return Err(Failure::usage(format!(
-                "{flag} {}: the file name must end in .{} (it writes that format only)",
-                path.display(),
-                extensions.join(" or .")
-            )));
-        }
-    }
     for (i, (flag, path)) in outputs.iter().enumerate() {
         refuse_input(path, a.files.first().map(PathBuf::as_path))?;
         if let Some((other, _)) = outputs[..i].iter().find(|(_, q)| same_file(q, path)) {
@@ -59,6 +42,23 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
                 "{}: cannot write: folder {} does not exist",
                 path.display(),
                 dir.display()
+            )));
+        }
+    }
+    for (flag, path, extensions) in [
+        ("--png", a.png.as_ref(), &["png"][..]),
+        ("--glb", a.glb.as_ref(), &["glb"][..]),
+        ("--report", a.report.as_ref(), &["html", "htm"][..]),
+    ] {
+        let Some(path) = path else { continue };
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
+            return Err(Failure::usage(format!(
+                "{flag} {}: the file name must end in .{} (it writes that format only)",
+                path.display(),
+                extensions.join(" or .")
             )));
         }
     }
