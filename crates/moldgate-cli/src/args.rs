@@ -83,6 +83,18 @@ pub enum ObjectiveArg {
     Resistance,
 }
 
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ColorByArg {
+    /// Flow length from the gate, mm.
+    FlowLength,
+    /// Estimated fill time from the gate, s.
+    FillOrder,
+    /// Wall thickness, mm.
+    Wall,
+    /// Height along the demolding direction.
+    Height,
+}
+
 #[derive(Debug, Args)]
 pub struct LocateArgs {
     /// The part: an STL (binary or ASCII), OBJ or PLY file, read by its extension (.stl,
@@ -190,6 +202,9 @@ pub struct LocateArgs {
     /// What the balanced gate and several gates minimise.
     #[arg(long, value_enum, default_value = "length")]
     pub objective: ObjectiveArg,
+    /// What pictures of the fill are coloured by.
+    #[arg(long = "color-by", value_enum, default_value = "fill-order")]
+    pub color_by: ColorByArg,
     /// Number of gates that together minimise the worst flow (implies --fill).
     #[arg(long, default_value_t = 1, value_name = "K")]
     pub gates: usize,
@@ -476,6 +491,12 @@ fn fill_options(a: &LocateArgs) -> Result<Option<flow::FillOptions>, Failure> {
             ObjectiveArg::Resistance => flow::Objective::Resistance,
         },
         gates: a.gates,
+        colour_by: match a.color_by {
+            ColorByArg::FlowLength => flow::ColourBy::FlowLength,
+            ColorByArg::FillOrder => flow::ColourBy::FillTime,
+            ColorByArg::Wall => flow::ColourBy::Wall,
+            ColorByArg::Height => flow::ColourBy::Height,
+        },
     }))
 }
 
@@ -764,12 +785,8 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
         report = report.with_wall_thickness(w, *time_s);
     }
     let mut fill_order = None;
-    if let Some(mut fill) = fill {
-        fill_order = Some(Field {
-            name: "fill order (0 gate, 1 last)".into(),
-            unit: String::new(),
-            per_vertex: std::mem::take(&mut fill.fill_order_per_vertex),
-        });
+    if let (Some(fill), Some(o)) = (fill, fill_options) {
+        fill_order = fill.field(o.colour_by);
         report = report.with_fill(fill, analysis.centre);
     }
     Ok(Analysed {
