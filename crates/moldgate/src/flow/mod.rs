@@ -3,11 +3,27 @@
 //! path (the balanced gate) or several gates that share the part.
 //!
 //! **Model.** The part is voxelised ([`voxel`]): the solid cells of its inside plus the cells
-//! its surface passes through. The melt flows from cell to cell, never through air; parts of
-//! the mesh that touch no common cell are separate bodies, and a gate fills only its own.
+//! its surface passes through. The melt flows from cell to cell, never through air. The
+//! bodies are the mesh's connected sets of triangles ([`Bodies`]); each cell belongs to the
+//! body that made it and cells of different bodies are never neighbours, so a gate fills
+//! only its own body at any cell size, and a part of several bodies gets a gate per body
+//! (the paper's rule on each: its qualifying node nearest its centre of mass). Bodies of
+//! less than [`STRAY_BODY_AREA_SHARE`] of the area are stray and left out.
 //! Arrival fields are marched over the cells ([`march`]): the flow length is the length of
 //! the shortest path through the solid; the fill order weights each millimetre by the flow
 //! resistance of the wall it crosses.
+//!
+//! **Fill time.** The fill order is reported as an estimated fill time in seconds: the
+//! resistance-weighted path (mm of nominal wall) over the Eq. 7 front velocity v. A raw
+//! weighted length or a 0..1 rank would not compare across parts (the same number means a
+//! different time at a different wall and material) and a rank hides how late the last
+//! place is; seconds do both, and the Eq. 7 velocity is the paper's own. It converges as the
+//! cells shrink because the weights depend on the measured wall only (floored at
+//! [`MIN_WALL_OF_NOMINAL`] of H_ref, slivers read as the nominal wall), not on the cell.
+//! It is an estimate (a front at constant speed slowed by thin walls), not a simulation.
+//!
+//! **Limits.** [`FlowOptions`] bounds the grid, the solid cells, the surface samples, the
+//! gates and the several-gate search; each is checked before the work it bounds.
 //!
 //! **Resistance (derivation).** In a slit of thickness H, a power-law melt (index n,
 //! consistency K) has a mean velocity
@@ -315,7 +331,8 @@ pub struct Domain {
 impl Domain {
     /// Voxelises `mesh` at `h` mm. `triangle_wall_mm` gives the wall thickness of each
     /// triangle (NaN where unknown); cells take the thickness of their triangle, and unknown
-    /// values take the nominal wall. The thickness is clamped to
+    /// values and slivers (below [`crate::thickness::SLIVER_OF_NOMINAL`] of H_ref) take the
+    /// nominal wall. The thickness is clamped to
     /// [[`MIN_WALL_OF_NOMINAL`] H_ref, 100 H_ref] so the costs stay finite and do not
     /// depend on the cell size.
     pub fn new(
@@ -355,7 +372,11 @@ impl Domain {
                 let w = triangle_wall_mm
                     .and_then(|w| w.get(t as usize).copied())
                     .map(f64::from)
-                    .filter(|w| w.is_finite() && *w > 0.0)
+                    // Slivers are films, not walls (see [`crate::thickness`]): unknown.
+                    .filter(|w| {
+                        w.is_finite()
+                            && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
+                    })
                     .unwrap_or(nominal_wall_mm);
                 w.clamp(lo, 100.0 * nominal_wall_mm) as f32
             })
