@@ -2,7 +2,7 @@
 """The README's table of the paper gate against the balanced gate on the shared parts.
 
 Runs `moldgate locate PART --demold D --units U --fill --json` on every shared part (natural
-demolding direction from ../shared/data/parts/SOURCES.md, PP, default options otherwise)
+demolding direction from ../shared/data/parts/SOURCES.md or $MOLDGATE_PARTS, PP, default options otherwise)
 and prints a Markdown table: bodies, flow length L_max, L/t, Eq. 1 pressure and estimated
 fill time for both gates, the improvement, the field runs of the balanced search and the
 fill-analysis time (ray tree, wall thickness, voxels, paper-gate fields and balanced search,
@@ -25,7 +25,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from speed import NATURAL  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PARTS = os.path.join(ROOT, "..", "shared", "data", "parts")
+PARTS = os.environ.get("MOLDGATE_PARTS", os.path.join(ROOT, "..", "shared", "data", "parts"))
 
 
 def units(stem):

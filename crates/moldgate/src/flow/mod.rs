@@ -112,15 +112,15 @@ pub const MAX_CELL_OF_DIAGONAL: f64 = 0.1;
 
 /// Volume (absolute) and area of the kept triangles of `mesh`.
 fn volume_and_area(mesh: &Mesh, keep: &[u32]) -> (f64, f64) {
-    let (mut v, mut a) = (0.0, 0.0);
-    for t in 0..mesh.triangles.len() {
-        if keep[t] == u32::MAX {
-            continue;
-        }
-        let [p, q, r] = mesh.corners(t);
-        v += p.dot(q.cross(r)) / 6.0;
-        a += 0.5 * (q - p).cross(r - p).length();
-    }
+    let (v, a) = keep
+        .par_iter()
+        .enumerate()
+        .filter(|(_, &b)| b != u32::MAX)
+        .map(|(t, _)| {
+            let [p, q, r] = mesh.corners(t);
+            (p.dot(q.cross(r)) / 6.0, 0.5 * (q - p).cross(r - p).length())
+        })
+        .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
     (v.abs(), a)
 }
 
@@ -374,8 +374,7 @@ impl Domain {
                     .map(f64::from)
                     // Slivers are films, not walls (see [`crate::thickness`]): unknown.
                     .filter(|w| {
-                        w.is_finite()
-                            && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
+                        w.is_finite() && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
                     })
                     .unwrap_or(nominal_wall_mm);
                 w.clamp(lo, 100.0 * nominal_wall_mm) as f32
@@ -1281,7 +1280,8 @@ pub enum ColourBy {
     Height,
 }
 
-/// The answer's fields per mesh vertex (NaN where the vertex's cell is unreached).
+/// The answer's fields per mesh vertex (NaN where the vertex's cell is unreached); only the
+/// one of [`FillOptions::colour_by`] is filled, the others are empty.
 #[derive(Debug, Clone, Default)]
 pub struct VertexFields {
     /// Flow length, mm.
@@ -1295,7 +1295,8 @@ pub struct VertexFields {
 impl FillAnalysis {
     /// The colour field of the answer's gate for pictures, in real units (the colour bar
     /// spans the values' real minimum and maximum).
-    /// `None` for [`ColourBy::Height`], which the scene draws itself.
+    /// `None` for [`ColourBy::Height`], which the scene draws itself. Empty values unless
+    /// `by` is the analysis's [`FillOptions::colour_by`].
     pub fn field(&self, by: ColourBy) -> Option<crate::scene::Field> {
         let (name, unit, values) = match by {
             ColourBy::FlowLength => ("flow length", "mm", &self.per_vertex.flow_length_mm),
@@ -1392,7 +1393,8 @@ pub fn analyse(
             "flow cells coarsened to {h:.4} mm to keep a limit ({why})"
         ));
     }
-    let voxels = Voxels::bounded(mesh, h, &bodies.of_triangle, &options.flow)?;
+    // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
+    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
     if voxels.len() as f64 > options.flow.max_solid_cells {
         return Err(FillError::too_large(
             "solid cells",
@@ -1602,11 +1604,18 @@ pub fn analyse(
     } else {
         Vec::new()
     };
-    let per_vertex = VertexFields {
-        flow_length_mm: per_vertex(&domain, mesh, &fields.length.t, 1.0),
-        fill_time_s: per_vertex(&domain, mesh, &fields.fill.t, per_mm),
-        wall_mm: per_vertex_of_cells(&domain, mesh, &domain.wall_mm),
-    };
+    // Only the field the pictures show (a pass over the vertices each).
+    let mut per_vertex = VertexFields::default();
+    match options.colour_by {
+        ColourBy::FlowLength => {
+            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, &fields.length.t, 1.0)
+        }
+        ColourBy::FillTime => {
+            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, &fields.fill.t, per_mm)
+        }
+        ColourBy::Wall => per_vertex.wall_mm = per_vertex_of_cells(&domain, mesh, &domain.wall_mm),
+        ColourBy::Height => {}
+    }
     snap_places(&domain, mesh, &mut paper);
     let mut balanced = balanced.map(|(b, _)| b);
     if let Some(b) = &mut balanced {
@@ -1750,7 +1759,7 @@ fn nearest_candidate(candidates: &[Source], p: DVec3) -> Option<usize> {
 
 /// A field per mesh vertex in real units (`scale` times the field; NaN where the vertex's
 /// cell is unreached).
-fn per_vertex(domain: &Domain, mesh: &Mesh, t: &[f64], scale: f64) -> Vec<f32> {
+fn per_vertex_of(domain: &Domain, mesh: &Mesh, t: &[f64], scale: f64) -> Vec<f32> {
     mesh.vertices
         .par_iter()
         .map(|&p| {

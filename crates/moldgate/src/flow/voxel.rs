@@ -80,6 +80,10 @@ pub(crate) fn neighbour_offsets() -> [([i32; 3], f64); 26] {
     out
 }
 
+/// A column's crossing of the surface: ((column, body), z, +1 entering / -1 leaving,
+/// triangle).
+type Crossing = ((u32, u32), f64, i8, u32);
+
 /// Smallest spacing of surface samples, in cells: every triangle is covered by rows at most
 /// this far apart, with samples at most this far apart along each row.
 const SAMPLE_STEP: f64 = 0.5;
@@ -166,7 +170,8 @@ impl Voxels {
         Ok(Self::build(mesh, h, body_of))
     }
 
-    fn build(mesh: &Mesh, h: f64, body_of: &[u32]) -> Voxels {
+    /// [`Voxels::bounded`] without the checks, for a caller that made them.
+    pub(crate) fn build(mesh: &Mesh, h: f64, body_of: &[u32]) -> Voxels {
         let bounds = mesh.bounds();
         let (origin, dims) = Self::layout(&bounds, h);
         let n_cells = dims[0] * dims[1] * dims[2];
@@ -298,7 +303,7 @@ impl Voxels {
     ) -> (Vec<u32>, usize) {
         let [nx, ny, nz] = dims;
         // Crossings (column and body, z, +1 entering / -1 leaving, triangle), per triangle.
-        let crossings: Vec<Vec<((u32, u32), f64, i8, u32)>> = (0..mesh.triangles.len())
+        let crossings: Vec<Vec<Crossing>> = (0..mesh.triangles.len())
             .collect::<Vec<_>>()
             .par_chunks(4096)
             .map(|ts| {
@@ -344,7 +349,7 @@ impl Voxels {
                 out
             })
             .collect();
-        let mut all: Vec<((u32, u32), f64, i8, u32)> = crossings.into_iter().flatten().collect();
+        let mut all: Vec<Crossing> = crossings.into_iter().flatten().collect();
         all.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
         let mut inside = vec![EMPTY; nx * ny * nz];
         let mut open_columns = 0;
