@@ -1222,7 +1222,7 @@ pub enum FillError {
     #[error("{0}")]
     Option(String),
     /// The work would break a limit of [`FlowOptions`]; nothing was allocated.
-    #[error("{what}: {count:.3e} at a cell of {cell_mm:.4} mm, over the limit of {limit:.3e}; choose a coarser cell or raise the limit")]
+    #[error("{what}: {count:.3e} at a cell of {cell_mm:.4} mm, over the limit of {limit:.3e} (FlowOptions); choose a coarser cell")]
     TooLarge {
         /// What is counted.
         what: &'static str,
