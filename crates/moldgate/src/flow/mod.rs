@@ -301,7 +301,8 @@ impl Bodies {
 /// does not squeeze through such a place but goes around it, which the march finds as the
 /// cheaper path. A floor fixed to H_ref (not to the cell) keeps the fill time converging
 /// as the cells shrink: with a floor of h, finer cells let thinner readings in and the
-/// fill-order maximum grew from 120 to 1783 on one part.
+/// fill-order maximum grew from 108 to 3279 on deskhop_case_bottom between cells of 0.91
+/// and 0.45 mm.
 pub const MIN_WALL_OF_NOMINAL: f64 = 0.5;
 
 /// The voxelised part with its wall thickness and the costs of the three fields.
