@@ -1192,7 +1192,8 @@ pub struct FillAnalysis {
     pub warnings: Vec<String>,
     /// Seconds per stage.
     pub times: FlowTimes,
-    /// The answer's fields per mesh vertex, for pictures (see [`FillAnalysis::field`]).
+    /// The answer's fields per mesh vertex, for pictures (see [`FillAnalysis::field`]); with
+    /// several gates, the flow length and fill time of all of them together.
     #[serde(skip)]
     pub per_vertex: VertexFields,
     /// The answer's gate point.
@@ -1556,7 +1557,7 @@ pub fn analyse(
             })?,
         };
         let k = options.gates as f64;
-        let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k);
+        let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k + 1.0);
         if work > options.flow.max_march_cells {
             return Err(FillError::too_large(
                 "cell visits of the several-gate search",
@@ -1607,12 +1608,24 @@ pub fn analyse(
     };
     // Only the field the pictures show (a pass over the vertices each).
     let mut per_vertex = VertexFields::default();
+    // With several gates the pictured flow length or fill time is that of all of them
+    // together: one more march from every gate at once.
+    let all_gates = |cost: Option<&[f32]>| {
+        several.as_ref().map(|m| {
+            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+            march(&domain.voxels, &sources, cost)
+        })
+    };
     match options.colour_by {
         ColourBy::FlowLength => {
-            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, &fields.length.t, 1.0)
+            let field = all_gates(None);
+            let t = field.as_ref().map_or(&fields.length.t, |f| &f.t);
+            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, t, 1.0)
         }
         ColourBy::FillTime => {
-            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, &fields.fill.t, per_mm)
+            let field = all_gates(Some(&domain.fill_cost));
+            let t = field.as_ref().map_or(&fields.fill.t, |f| &f.t);
+            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, t, per_mm)
         }
         ColourBy::Wall => per_vertex.wall_mm = per_vertex_of_cells(&domain, mesh, &domain.wall_mm),
         ColourBy::Height => {}
