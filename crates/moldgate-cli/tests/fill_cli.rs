@@ -208,7 +208,7 @@ fn heavy_fill_options_are_refused_before_the_work_with_the_number_and_the_limit(
     fails(
         &["locate", "--sample", "cover", "--gates", "1000"],
         2,
-        "1000 gates asked for, over the limit of 32",
+        "--gates must be at most 32, got 1000",
     );
     fails(
         &["locate", "--sample", "cover", "--fill", "--cell", "0.05"],
