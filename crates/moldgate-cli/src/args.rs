@@ -37,7 +37,8 @@ pub enum Command {
     Locate(Box<LocateArgs>),
     /// Write a built-in sample part as a binary STL.
     Sample(SampleArgs),
-    /// List the built-in materials and their gate radii (Eq. 7-8, Table 1).
+    /// List the built-in materials (the paper's Table 1 and typical grades): gate radius
+    /// (Eq. 7-8), L/t limit, and with --json every value's source.
     Materials(MaterialsArgs),
 }
 
@@ -109,7 +110,9 @@ pub struct LocateArgs {
         value_name = "DIR"
     )]
     pub demold: String,
-    /// Material: PP, ABS, PC (the paper's Table 1) or one from --materials-file.
+    /// Material: PP, ABS, PC (the paper's Table 1), a built-in grade such as PA66-GF30
+    /// (`moldgate materials` lists them; case and separators are ignored) or one from
+    /// --materials-file, which wins over a built-in of the same name.
     #[arg(long, default_value = "PP")]
     pub material: String,
     /// TOML file of user materials: one table per material with n, t_melt, t_wall,
@@ -240,9 +243,13 @@ pub struct SampleArgs {
 
 #[derive(Debug, Args)]
 pub struct MaterialsArgs {
-    /// Also list the materials of this TOML file.
+    /// Also list the materials of this TOML file (one of the same name as a built-in
+    /// replaces it).
     #[arg(long, value_name = "FILE")]
     pub materials_file: Option<PathBuf>,
+    /// Print every parameter with its source as JSON instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Reads and parses a TOML file: an unreadable file is an input error (exit 3), a syntax
@@ -274,29 +281,14 @@ fn read_materials(path: &Path) -> Result<BTreeMap<String, Material>, Failure> {
     Ok(table)
 }
 
-/// The material: user file first, then the built-ins, then single-parameter overrides.
+/// The material: user file first, then the built-in library, then single-parameter
+/// overrides.
 fn material(a: &LocateArgs) -> Result<Material, Failure> {
     let user = match &a.materials_file {
         Some(p) => read_materials(p)?,
         None => BTreeMap::new(),
     };
-    let mut m = user
-        .iter()
-        .find(|(k, _)| k.eq_ignore_ascii_case(&a.material))
-        .map(|(_, m)| m.clone())
-        .or_else(|| Material::builtin(&a.material))
-        .ok_or_else(|| {
-            let mut known: Vec<String> = moldgate::material::BUILTIN
-                .iter()
-                .map(|s| s.to_string())
-                .collect();
-            known.extend(user.keys().cloned());
-            Failure::usage(format!(
-                "unknown material '{}' (known: {})",
-                a.material,
-                known.join(", ")
-            ))
-        })?;
+    let mut m = crate::materials::lookup(&a.material, &user)?;
     let overrides = [
         (&mut m.n, a.n),
         (&mut m.t_melt, a.t_melt),
@@ -821,30 +813,13 @@ pub fn run_sample(a: SampleArgs) -> Result<(), Failure> {
 }
 
 pub fn run_materials(a: MaterialsArgs) -> Result<(), Failure> {
-    let mut all: Vec<Material> = moldgate::material::BUILTIN
-        .iter()
-        .filter_map(|n| Material::builtin(n))
-        .collect();
-    if let Some(p) = &a.materials_file {
-        all.extend(read_materials(p)?.into_values());
-    }
-    let mut out = format!(
-        "{:<10} {:>7} {:>7} {:>7} {:>9} {:>8} {:>6} {:>10} {:>10}\n",
-        "material", "n", "Tmelt_C", "Twall_C", "gamma_1/s", "mu_Pa.s", "k", "v_m/s", "R_gate_mm"
-    );
-    for m in all {
-        out += &format!(
-            "{:<10} {:>7} {:>7} {:>7} {:>9} {:>8} {:>6} {:>10.5} {:>10.4}\n",
-            m.name,
-            m.n,
-            m.t_melt,
-            m.t_wall,
-            m.gamma_opt,
-            m.mu_opt,
-            m.k,
-            m.melt_velocity_m_s(),
-            m.gate_radius_mm()
-        );
-    }
-    print_stdout(&out)
+    let user = match &a.materials_file {
+        Some(p) => read_materials(p)?,
+        None => BTreeMap::new(),
+    };
+    print_stdout(&crate::materials::run(
+        user,
+        a.materials_file.as_deref(),
+        a.json,
+    )?)
 }

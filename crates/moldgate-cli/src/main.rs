@@ -12,6 +12,7 @@ mod batch;
 mod formats;
 mod glb;
 mod html;
+mod materials;
 mod output;
 mod pictures;
 mod progress;

@@ -263,7 +263,9 @@ mod tests {
     fn derived_values_follow_from_their_inputs() {
         for info in library().iter().filter(|i| i.typical) {
             let m = &info.material;
-            let limit = info.max_shear_rate.expect("typical gamma_opt has its limit");
+            let limit = info
+                .max_shear_rate
+                .expect("typical gamma_opt has its limit");
             assert_eq!(m.gamma_opt, limit / 10.0, "{}", m.name);
             let mu_1000 = info.mu_1000.expect("typical mu_opt has its mu_1000");
             let mu = mu_1000 * (m.gamma_opt / 1000.0).powf(m.n - 1.0);
@@ -285,7 +287,8 @@ mod tests {
             let ratio = m.max_flow_ratio.unwrap();
             let base = name::normalized(&m.name);
             let range = match base.as_str() {
-                _ if base.starts_with("PE") && !base.starts_with("PEEK")
+                _ if base.starts_with("PE")
+                    && !base.starts_with("PEEK")
                     && !base.starts_with("PET") =>
                 {
                     200.0..=300.0
@@ -322,7 +325,10 @@ mod tests {
         let m = &parse(good).unwrap()[0];
         assert_eq!(m.sources.max_flow_ratio, "a source: 1-2");
         let err = parse(&good.replace("k = \"x\"", "k = \"y\"")).unwrap_err();
-        assert!(err.contains("'M'") && err.contains("k cites unknown source 'y'"), "{err}");
+        assert!(
+            err.contains("'M'") && err.contains("k cites unknown source 'y'"),
+            "{err}"
+        );
         let err = parse(&good.replace("t_wall = 40.0", "t_wall = 240.0")).unwrap_err();
         assert!(err.contains("must be above"), "{err}");
     }

@@ -56,11 +56,21 @@ pub fn closest<'a>(
     names: impl IntoIterator<Item = &'a str>,
     count: usize,
 ) -> Vec<&'a str> {
+    closest_of(query, names.into_iter().map(|n| (n, n)), count)
+}
+
+/// Like [`closest`] over `(spelling, name)` pairs: each spelling (a name or an alias) is
+/// ranked, and its name is answered, once, at the rank of its closest spelling.
+pub fn closest_of<'a>(
+    query: &str,
+    spellings: impl IntoIterator<Item = (&'a str, &'a str)>,
+    count: usize,
+) -> Vec<&'a str> {
     let query = normalized(query);
-    let mut ranked: Vec<(usize, usize, &str)> = names
+    let mut ranked: Vec<(usize, usize, &str)> = spellings
         .into_iter()
-        .map(|name| {
-            let key = normalized(name);
+        .map(|(spelling, name)| {
+            let key = normalized(spelling);
             (
                 prefix_distance(&query, &key),
                 edit_distance(&query, &key),
@@ -69,8 +79,16 @@ pub fn closest<'a>(
         })
         .collect();
     ranked.sort();
-    ranked.dedup_by(|a, b| a.2 == b.2);
-    ranked.into_iter().take(count).map(|r| r.2).collect()
+    let mut out: Vec<&str> = Vec::new();
+    for (_, _, name) in ranked {
+        if out.len() == count {
+            break;
+        }
+        if !out.contains(&name) {
+            out.push(name);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -79,7 +97,13 @@ mod tests {
 
     #[test]
     fn separators_and_case_are_ignored() {
-        for spelling in ["pa66-gf30", "PA66 GF30", "pa66gf30", "PA66_GF30", " Pa66/gf30 "] {
+        for spelling in [
+            "pa66-gf30",
+            "PA66 GF30",
+            "pa66gf30",
+            "PA66_GF30",
+            " Pa66/gf30 ",
+        ] {
             assert_eq!(normalized(spelling), "PA66GF30", "{spelling}");
         }
         assert!(same("PC/ABS", "pc-abs"));
@@ -105,11 +129,24 @@ mod tests {
 
     #[test]
     fn closest_names_of_an_unknown_grade() {
-        let names = ["PP", "ABS", "PC", "PA6", "PA66", "PA66-GF30", "PET", "PEEK", "POM"];
+        let names = [
+            "PP",
+            "ABS",
+            "PC",
+            "PA6",
+            "PA66",
+            "PA66-GF30",
+            "PET",
+            "PEEK",
+            "POM",
+        ];
         assert_eq!(closest("PA77", names, 3), ["PA6", "PA66", "PA66-GF30"]);
         assert_eq!(closest("peak", names, 1), ["PEEK"]);
         assert_eq!(closest("abs", names, 1), ["ABS"]);
         assert_eq!(closest("x", names, 0), Vec::<&str>::new());
         assert_eq!(closest("x", ["A", "A"], 5), ["A"]);
+        // An alias ranks its material but is not itself answered.
+        let spellings = [("HDPE", "PE-HD"), ("PE-HD", "PE-HD"), ("PEEK", "PEEK")];
+        assert_eq!(closest_of("HDP", spellings, 2), ["PE-HD", "PEEK"]);
     }
 }
