@@ -175,12 +175,19 @@ pub fn render(r: &Report) -> String {
     let o = &r.options;
     let _ = writeln!(
         s,
-        "material {}: R_gate = {:.4} mm{}",
+        "material {}: R_gate = {:.4} mm{}{}",
         r.material.material.name,
         o.gate_radius_mm,
         match o.gate_radius_source {
             moldgate::report::RadiusSource::Material => " (Eq. 8)",
             moldgate::report::RadiusSource::Forced => " (forced)",
+        },
+        // Family values are a starting point, not a grade's data: say so where they are used.
+        match moldgate::material::find(&r.material.material.name) {
+            Some(info) if info.typical && info.material == r.material.material => {
+                " from typical family values (sources: moldgate materials --json)"
+            }
+            _ => "",
         }
     );
     let _ = writeln!(

@@ -515,6 +515,27 @@ fn unknown_material_lists_the_user_materials_too() {
     assert_fails(&out, USAGE, &["unknown material 'MyPX'; closest: MyPP"]);
 }
 
+#[test]
+fn the_summary_says_when_values_are_typical_of_a_family() {
+    let summary = |material: &str| {
+        assert_ok(&moldgate(
+            &std::env::temp_dir(),
+            &["locate", "--sample", "plate", "--material", material],
+        ))
+    };
+    let peek = summary("peek");
+    assert!(
+        peek.contains("material PEEK: R_gate = 0.9278 mm (Eq. 8) from typical family values"),
+        "{peek}"
+    );
+    // The paper's values are Table 1's, not a family's.
+    let pp = summary("PP");
+    assert!(
+        pp.contains("material PP: R_gate = 1.4254 mm (Eq. 8)\n"),
+        "{pp}"
+    );
+}
+
 /// A user material of a built-in's name (ignoring case and separators) wins over it.
 #[test]
 fn user_material_overrides_a_built_in() {
