@@ -1,5 +1,6 @@
-//! The `materials` command and the `--material` look-up: the built-in library and a
-//! user's `--materials-file`, where a user material wins over a built-in of the same name.
+//! `moldgate materials` (the built-in library with a user's `--materials-file`, where a user
+//! material wins over a built-in of the same name), and reading that file. The `--material`
+//! look-up itself is the library's (`StudyOptions::validate_with`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -9,34 +10,23 @@ use serde::Serialize;
 use moldgate::material::{self, name, MaterialInfo, ParameterSources};
 use moldgate::Material;
 
+use crate::args::MaterialsArgs;
+use crate::output::print_stdout;
+use crate::toml_file::read_toml;
 use crate::Failure;
 
-/// How many names an unknown `--material` is answered with.
-const SUGGESTIONS: usize = 3;
-
-/// The material called `query` (case and separators ignored): the user's first, then the
-/// library's; an unknown name fails with the closest known names.
-pub fn lookup(query: &str, user: &BTreeMap<String, Material>) -> Result<Material, Failure> {
-    if let Some(m) = user.values().find(|m| name::same(&m.name, query)) {
-        return Ok(m.clone());
+/// Reads a TOML file of user materials, each named by its table, in the order of their
+/// names.
+pub fn read_materials(path: &Path) -> Result<Vec<Material>, Failure> {
+    let table: BTreeMap<String, Material> = read_toml(path)?;
+    let mut out = Vec::with_capacity(table.len());
+    for (name, mut m) in table {
+        m.name = name;
+        m.validate()
+            .map_err(|e| Failure::usage(format!("{}: {e}", path.display())))?;
+        out.push(m);
     }
-    if let Some(info) = material::find(query) {
-        return Ok(info.material.clone());
-    }
-    // Aliases count for closeness, but the answer is the material's own name.
-    let known =
-        user.keys()
-            .map(|k| (k.as_str(), k.as_str()))
-            .chain(material::library().iter().flat_map(|i| {
-                std::iter::once(&i.material.name)
-                    .chain(&i.aliases)
-                    .map(|spelling| (spelling.as_str(), i.material.name.as_str()))
-            }));
-    let closest = name::closest_of(query, known, SUGGESTIONS);
-    Err(Failure::usage(format!(
-        "unknown material '{query}'; closest: {} (`moldgate materials` lists them all)",
-        closest.join(", ")
-    )))
+    Ok(out)
 }
 
 /// A row of the listing: a library material, or a user one described by its file.
@@ -63,14 +53,13 @@ struct Listing {
 
 /// The library, with each user material in place of a built-in of the same name or after
 /// them.
-fn listing(user: BTreeMap<String, Material>, file: Option<&Path>) -> Vec<Listed> {
+fn listing(mut user: Vec<Material>, file: Option<&Path>) -> Vec<Listed> {
     let listed = |info: MaterialInfo, origin: String| Listed {
         melt_velocity_m_s: info.material.melt_velocity_m_s(),
         gate_radius_mm: info.material.gate_radius_mm(),
         info,
         origin,
     };
-    let mut user: Vec<Material> = user.into_values().collect();
     let from_user = |m: Material| {
         let path = file.map(|p| p.display().to_string()).unwrap_or_default();
         let said = format!("the user file {path}");
@@ -135,14 +124,15 @@ fn table(rows: &[Listed]) -> String {
     out
 }
 
-/// `moldgate materials`: the table, or with `json` the full data with every source.
-pub fn run(
-    user: BTreeMap<String, Material>,
-    file: Option<&Path>,
-    json: bool,
-) -> Result<String, Failure> {
-    let rows = listing(user, file);
-    Ok(if json {
+/// `moldgate materials`: the table, or with `--json` the full data with every source; the
+/// materials of `--materials-file` in place of built-ins of the same name or after them.
+pub fn run_materials(a: MaterialsArgs) -> Result<(), Failure> {
+    let user = match &a.materials_file {
+        Some(p) => read_materials(p)?,
+        None => Vec::new(),
+    };
+    let rows = listing(user, a.materials_file.as_deref());
+    print_stdout(&if a.json {
         let listing = Listing {
             schema_version: 1,
             materials: rows,

@@ -525,9 +525,37 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
     };
     let peek = summary("peek");
     assert!(
-        peek.contains("material PEEK: R_gate = 0.9278 mm (Eq. 8) from typical family values"),
+        peek.contains(
+            "material PEEK: R_gate = 0.9278 mm (Eq. 8) from typical high-temperature family values"
+        ),
         "{peek}"
     );
+    // The HTML report gives the same basis beside the material.
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--material",
+            "peek",
+            "--report",
+            "r.html",
+        ],
+    ));
+    let html = std::fs::read_to_string(dir.path().join("r.html")).unwrap();
+    assert!(
+        html.contains("(Eq. 7), from typical high-temperature family values"),
+        "no basis in the report's material row"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&moldgate(
+        dir.path(),
+        &["locate", "--sample", "plate", "--report", "r.html"],
+    ));
+    let html = std::fs::read_to_string(dir.path().join("r.html")).unwrap();
+    assert!(!html.contains("family values"));
     // The paper's values are Table 1's, not a family's.
     let pp = summary("PP");
     assert!(

@@ -7,7 +7,7 @@ use crate::error::OptionsError;
 pub mod library;
 pub mod name;
 
-pub use library::{find, library, MaterialInfo, ParameterSources};
+pub use library::{entry_of, find, library, typical_note, MaterialInfo, ParameterSources};
 
 /// The rheological and thermal parameters of a thermoplastic, in the units of the paper's
 /// Table 1.

@@ -80,6 +80,24 @@ pub fn find(query: &str) -> Option<&'static MaterialInfo> {
     })
 }
 
+/// The library's entry that `m` is unchanged (its name and every parameter), or `None` for
+/// a user's material, one given in full, or a built-in with overrides: what a report's
+/// material rests on.
+pub fn entry_of(m: &Material) -> Option<&'static MaterialInfo> {
+    find(&m.name).filter(|info| info.material == *m)
+}
+
+/// The note a report gives beside a material of typical family values (a starting point,
+/// not a grade's data), or `None` for any other material.
+pub fn typical_note(m: &Material) -> Option<String> {
+    entry_of(m).filter(|info| info.typical).map(|info| {
+        format!(
+            "from typical {} family values (sources: moldgate materials --json)",
+            info.family
+        )
+    })
+}
+
 /// The data file's layout.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -302,6 +320,28 @@ mod tests {
             };
             assert!(range.contains(&ratio), "{}: L/t {ratio}", m.name);
         }
+    }
+
+    #[test]
+    fn only_an_unchanged_typical_built_in_has_the_note() {
+        let grade = find("PA66-GF30").unwrap().material.clone();
+        assert_eq!(
+            typical_note(&grade).as_deref(),
+            Some("from typical polyamide family values (sources: moldgate materials --json)")
+        );
+        // The paper's own values, a user's material of the same name, an override: no note.
+        assert_eq!(typical_note(&find("PP").unwrap().material), None);
+        assert!(entry_of(&find("PP").unwrap().material).is_some());
+        let mine = Material {
+            mu_opt: grade.mu_opt * 2.0,
+            ..grade.clone()
+        };
+        assert_eq!(typical_note(&mine), None);
+        let renamed = Material {
+            name: "PA66-GF30 (modified)".into(),
+            ..grade
+        };
+        assert_eq!(entry_of(&renamed), None);
     }
 
     #[test]
