@@ -61,9 +61,10 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
             flag(first),
             flag(second)
         )),
-        StudyError::UnknownMaterial { .. } | StudyError::Material(_) | StudyError::Locate(_) => {
-            Failure::usage(e.to_string())
+        StudyError::UnknownMaterial { .. } => {
+            Failure::usage(format!("{e} (`moldgate materials` lists them all)"))
         }
+        StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
         StudyError::Fill(f) => Failure::usage(f.to_string()),

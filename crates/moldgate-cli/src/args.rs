@@ -26,7 +26,8 @@ pub enum Command {
     Locate(Box<LocateArgs>),
     /// Write a built-in sample part as a binary STL.
     Sample(SampleArgs),
-    /// List the built-in materials and their gate radii (Eq. 7-8, Table 1).
+    /// List the built-in materials (the paper's Table 1 and typical grades): gate radius
+    /// (Eq. 7-8), L/t limit, and with --json every value's source.
     Materials(MaterialsArgs),
 }
 
@@ -110,7 +111,9 @@ pub struct LocateArgs {
         value_name = "DIR"
     )]
     pub demold: String,
-    /// Material: PP, ABS, PC (the paper's Table 1) or one from --materials-file.
+    /// Material: PP, ABS, PC (the paper's Table 1), a built-in grade such as PA66-GF30
+    /// (`moldgate materials` lists them; case and separators are ignored) or one from
+    /// --materials-file, which wins over a built-in of the same name.
     #[arg(long, default_value = "PP")]
     pub material: String,
     /// TOML file of user materials: one table per material with n, t_melt, t_wall,
@@ -244,9 +247,13 @@ pub struct SampleArgs {
 
 #[derive(Debug, Args)]
 pub struct MaterialsArgs {
-    /// Also list the materials of this TOML file.
+    /// Also list the materials of this TOML file (one of the same name as a built-in
+    /// replaces it).
     #[arg(long, value_name = "FILE")]
     pub materials_file: Option<PathBuf>,
+    /// Print every parameter with its source as JSON instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Options of `locate` for several parts.

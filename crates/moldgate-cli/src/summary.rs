@@ -202,13 +202,17 @@ pub fn render(r: &Report) -> String {
     let o = &r.options;
     let _ = writeln!(
         s,
-        "material {}: R_gate = {:.4} mm{}",
+        "material {}: R_gate = {:.4} mm{}{}",
         r.material.material.name,
         o.gate_radius_mm,
         match o.gate_radius_source {
             moldgate::report::RadiusSource::Material => " (Eq. 8)",
             moldgate::report::RadiusSource::Forced => " (forced)",
-        }
+        },
+        // Family values are a starting point, not a grade's data: say so where they are used.
+        moldgate::material::typical_note(&r.material.material)
+            .map(|note| format!(" {note}"))
+            .unwrap_or_default()
     );
     let _ = writeln!(
         s,

@@ -216,9 +216,13 @@ fn summary_table(h: &mut String, r: &Report) {
         h,
         "Material",
         &format!(
-            "{}: melt velocity {:.4} m/s (Eq. 7)",
+            "{}: melt velocity {:.4} m/s (Eq. 7){}",
             escape(&r.material.material.name),
-            r.material.melt_velocity_m_s
+            r.material.melt_velocity_m_s,
+            // The summary's note: family values are a starting point, not a grade's data.
+            crate::material::typical_note(&r.material.material)
+                .map(|note| format!(", {}", escape(&note)))
+                .unwrap_or_default()
         ),
     );
     row(

@@ -150,13 +150,15 @@ pub enum StudyError {
         /// Why.
         why: &'static str,
     },
-    /// A material name that is neither a user material nor a built-in one.
-    #[error("unknown material '{name}' (known: {known})")]
+    /// A material name that is neither a user material nor a built-in one (nor an alias of
+    /// one), case and separators ignored.
+    #[error("unknown material '{name}'; closest: {}", closest.join(", "))]
     UnknownMaterial {
         /// The name asked for.
         name: String,
-        /// The names known, comma-separated.
-        known: String,
+        /// The closest known names, closest first ([`crate::material::name::closest_of`]):
+        /// the user's materials and the library's, aliases ranking their material.
+        closest: Vec<String>,
     },
     /// A material parameter out of range.
     #[error("{0}")]

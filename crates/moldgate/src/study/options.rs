@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::OptionsError;
 use crate::flow::{ColourBy, FillOptions, FlowOptions, Objective, Strategy};
 use crate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
+use crate::material::{self, name};
 use crate::report::RadiusSource;
 use crate::study::StudyError;
 use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
@@ -20,8 +21,10 @@ use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
 /// nodes), and a bound that keeps an absurd `max_nodes` from reaching the allocator.
 pub const MAX_NODES_LIMIT: usize = 20_000_000;
 
-/// A material: a built-in name (`"PP"`, `"ABS"`, `"PC"`, any case), a name of the user
-/// materials given to [`StudyOptions::validate_with`], or every parameter of a material.
+/// A material: a name of the built-in library (`"PP"`, `"pa66-gf30"`, an alias such as
+/// `"HDPE"`; case and separators ignored), a name of the user materials given to
+/// [`StudyOptions::validate_with`] (which win over a built-in of the same name), or every
+/// parameter of a material.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum MaterialChoice {
@@ -251,6 +254,45 @@ pub struct Settings {
     pub fill: Option<FillOptions>,
 }
 
+/// How many names an unknown material is answered with.
+const SUGGESTIONS: usize = 3;
+
+/// The material called `query`, case and separators ignored: the user's first, then the
+/// built-in library's (names and aliases); an unknown name fails with the
+/// [`SUGGESTIONS`] closest known names.
+fn lookup(query: &str, user: &[Material]) -> Result<Material, StudyError> {
+    if let Some(m) = user.iter().find(|m| name::same(&m.name, query)) {
+        return Ok(m.clone());
+    }
+    if let Some(info) = material::find(query) {
+        return Ok(info.material.clone());
+    }
+    // Aliases count for closeness, but the answer is the material's own name; a built-in
+    // that a user material of its name replaces is not offered.
+    let shadowed =
+        |i: &&material::MaterialInfo| user.iter().any(|m| name::same(&m.name, &i.material.name));
+    let known = user
+        .iter()
+        .map(|m| (m.name.as_str(), m.name.as_str()))
+        .chain(
+            material::library()
+                .iter()
+                .filter(|i| !shadowed(i))
+                .flat_map(|i| {
+                    std::iter::once(&i.material.name)
+                        .chain(&i.aliases)
+                        .map(|spelling| (spelling.as_str(), i.material.name.as_str()))
+                }),
+        );
+    Err(StudyError::UnknownMaterial {
+        name: query.to_string(),
+        closest: name::closest_of(query, known, SUGGESTIONS)
+            .into_iter()
+            .map(String::from)
+            .collect(),
+    })
+}
+
 fn invalid(field: &'static str, message: impl Into<String>) -> StudyError {
     StudyError::Invalid {
         field,
@@ -285,7 +327,8 @@ impl StudyOptions {
     }
 
     /// Validates the options once; a material name is looked up in `user` (by
-    /// [`Material::name`], any case) before the built-ins.
+    /// [`Material::name`]) before the built-in library (names and aliases), case and
+    /// separators ignored, so a user material wins over a built-in of the same name.
     pub fn validate_with(&self, user: &[Material]) -> Result<Settings, StudyError> {
         if self.aesthetic && self.strategy == StrategyChoice::Balanced {
             return Err(StudyError::Conflict {
@@ -397,20 +440,7 @@ impl StudyOptions {
     fn material(&self, user: &[Material]) -> Result<Material, StudyError> {
         let mut m = match &self.material {
             MaterialChoice::Parameters(m) => m.clone(),
-            MaterialChoice::Name(name) => user
-                .iter()
-                .find(|m| m.name.eq_ignore_ascii_case(name))
-                .cloned()
-                .or_else(|| Material::builtin(name))
-                .ok_or_else(|| StudyError::UnknownMaterial {
-                    name: name.clone(),
-                    known: crate::material::BUILTIN
-                        .iter()
-                        .map(|s| s.to_string())
-                        .chain(user.iter().map(|m| m.name.clone()))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                })?,
+            MaterialChoice::Name(name) => lookup(name, user)?,
         };
         let overrides = [
             (&mut m.n, self.n),
@@ -579,15 +609,81 @@ color_by = "flow_length"
         let o: StudyOptions = serde_json::from_str(r#"{ "material": "MINE" }"#).unwrap();
         assert_eq!(o.validate_with(&user).unwrap().material.name, "Mine");
         let e = o.validate().unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "unknown material 'MINE' (known: PP, ABS, PC)"
+        assert!(
+            e.to_string()
+                .starts_with("unknown material 'MINE'; closest: "),
+            "{e}"
         );
         let o: StudyOptions =
             serde_json::from_str(r#"{ "strategy": "balanced", "aesthetic": true }"#).unwrap();
         let e = o.validate().unwrap_err().to_string();
         assert!(
             e.starts_with("strategy and aesthetic cannot be used together"),
+            "{e}"
+        );
+    }
+
+    fn material_named(name: &str, user: &[Material]) -> Result<Material, StudyError> {
+        let o = StudyOptions {
+            material: MaterialChoice::Name(name.into()),
+            ..StudyOptions::default()
+        };
+        o.validate_with(user).map(|s| s.material)
+    }
+
+    #[test]
+    fn built_in_names_ignore_case_and_separators_and_take_aliases() {
+        let grade = material::find("PA66-GF30").unwrap();
+        for spelling in ["pa66-gf30", "PA66 GF30", "pa66gf30", "PA6.6-GF30"] {
+            assert_eq!(
+                material_named(spelling, &[]).unwrap(),
+                grade.material,
+                "{spelling}"
+            );
+        }
+        let hd = material_named("hdpe", &[]).unwrap();
+        assert_eq!(hd, material::find("PE-HD").unwrap().material);
+        assert_eq!(hd.name, "PE-HD");
+    }
+
+    #[test]
+    fn a_user_material_wins_over_the_built_in_of_its_name() {
+        // The user's "pa-66" is the built-in PA66 once case and separators are ignored.
+        let mine = Material {
+            name: "pa-66".into(),
+            ..Material::builtin("PC").unwrap()
+        };
+        let user = [mine.clone()];
+        assert_eq!(material_named("PA66", &user).unwrap(), mine);
+        assert_eq!(material_named("Pa 66", &user).unwrap(), mine);
+        // Other names still reach the library.
+        assert_eq!(material_named("PA6", &user).unwrap().name, "PA6");
+        assert_ne!(material_named("PA66", &[]).unwrap(), mine);
+        // The replaced built-in is not offered beside the user's material.
+        let e = material_named("PA67", &user).unwrap_err().to_string();
+        assert_eq!(e, "unknown material 'PA67'; closest: PA6, pa-66, PA66-GF30");
+    }
+
+    #[test]
+    fn an_unknown_material_names_the_closest_ones() {
+        let e = material_named("PA77", &[]).unwrap_err();
+        let StudyError::UnknownMaterial { name, closest } = &e else {
+            panic!("{e}")
+        };
+        assert_eq!(name, "PA77");
+        assert_eq!(closest, &["PA6", "PA66", "PA66-GF30"]);
+        assert_eq!(
+            e.to_string(),
+            "unknown material 'PA77'; closest: PA6, PA66, PA66-GF30"
+        );
+        // The user's materials are among the candidates.
+        let user = [Material {
+            name: "MyPP".into(),
+            ..Material::builtin("PP").unwrap()
+        }];
+        let e = material_named("MyPX", &user).unwrap_err().to_string();
+        assert!(
+            e.starts_with("unknown material 'MyPX'; closest: MyPP"),
             "{e}"
         );
     }
