@@ -411,6 +411,9 @@ fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, Radius
             .transpose()
             .map_err(|e: moldgate::OptionsError| Failure::usage(format!("--cosmetic: {e}")))?,
     };
+    options
+        .validate()
+        .map_err(|e| Failure::usage(e.to_string()))?;
     Ok((options, source))
 }
 
@@ -713,7 +716,14 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
         }
         _ => None,
     };
-    let analysis = locate(&part, &options).map_err(|e| Failure::usage(e.to_string()))?;
+    let analysis = locate(&part, &options).map_err(|e| match e {
+        // The part's fault, not an option's: an input error that names the file.
+        moldgate::OptionsError::PartTooLarge { .. }
+        | moldgate::OptionsError::OverlappingSurface { .. } => {
+            Failure::input(format!("{}: {e}", input_name(&input)))
+        }
+        e => Failure::usage(e.to_string()),
+    })?;
     // The full wall map only when asked for; the fill analysis measures its own samples.
     let wall = match (&bvh, *wall_thickness) {
         (Some(bvh), true) => {
