@@ -10,7 +10,8 @@ const EXPORT: &str =
 
 /// The kind of file `head` (the first bytes of a file, up to a kilobyte) starts, when it is
 /// a known kind that is not a mesh moldgate reads; `text` says whether to name plain text
-/// (for the STL reader, text that does not start with `solid`).
+/// (for the STL reader, text of at least a binary STL's 84-byte header that does not start
+/// with `solid`; shorter text is a truncated binary header as far as anyone can tell).
 pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
     let trimmed = head
         .strip_prefix(b"\xEF\xBB\xBF")
@@ -54,7 +55,7 @@ pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
             "a PLY file",
             "give it a .ply extension so that it is read as PLY",
         )
-    } else if text && is_text(head) {
+    } else if text && head.len() >= 84 && is_text(head) {
         if trimmed.starts_with(b"v ") || trimmed.starts_with(b"#") || contains(head, b"\nv ") {
             (
                 "a text file that looks like a Wavefront OBJ",
@@ -121,8 +122,8 @@ mod tests {
             (b"glTF\x02\x00\x00\x00", "GLB"),
             (iges.as_bytes(), "IGES"),
             (b"ply\nformat ascii 1.0\n", "PLY"),
-            (b"# made by hand\nv 0 0 0\n", "OBJ"),
-            (b"hello, this is a note\n", "not an ASCII STL"),
+            (&b"# made by hand\nv 0 0 0\n".repeat(8), "OBJ"),
+            (&b"hello, this is a note\n".repeat(8), "not an ASCII STL"),
         ] {
             let w = what(head).unwrap_or_else(|| panic!("{name} not recognised"));
             assert!(w.contains(name), "{name}: {w}");
