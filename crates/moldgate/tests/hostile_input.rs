@@ -66,7 +66,9 @@ fn overlapping_triangles_are_refused_before_the_rays() {
     // hundred of them. At 0.06 mm that is over 1e9 ray-triangle tests.
     let mut rng = SplitMix(7);
     let mut coord = || (rng.next() >> 11) as f64 / (1u64 << 53) as f64 * 100.0;
-    let vertices: Vec<DVec3> = (0..30).map(|_| DVec3::new(coord(), coord(), coord())).collect();
+    let vertices: Vec<DVec3> = (0..30)
+        .map(|_| DVec3::new(coord(), coord(), coord()))
+        .collect();
     let mut rng = SplitMix(8);
     let mut triangles = Vec::new();
     while triangles.len() < 300 {
@@ -107,7 +109,10 @@ fn duplicate_triangles_are_dropped_at_weld_time() {
     assert_eq!(part.stats.triangles, 2);
     assert_eq!(part.stats.duplicate_triangles, 2998);
     assert_eq!(part.mesh.triangles, vec![[0, 1, 2], [1, 3, 2]]);
-    assert!(part.warnings.iter().any(|w| w.contains("2998 triangles repeat")));
+    assert!(part
+        .warnings
+        .iter()
+        .any(|w| w.contains("2998 triangles repeat")));
     // A file of two copies of one triangle has no non-manifold edge, and is caught too.
     let twice = obj(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 3\n").unwrap();
     assert_eq!(twice.stats.duplicate_triangles, 1);
@@ -156,10 +161,23 @@ fn enormous_polygon_is_refused_naming_its_line() {
 fn enormous_line_is_refused_naming_it_and_quoted_short() {
     // An ASCII STL on one line of more than a mebibyte.
     let mut one_line = b"solid s ".to_vec();
-    one_line.extend(TETRA_ASCII.replace('\n', " ").as_bytes().iter().cycle().take(2 << 20));
+    one_line.extend(
+        TETRA_ASCII
+            .replace('\n', " ")
+            .as_bytes()
+            .iter()
+            .cycle()
+            .take(2 << 20),
+    );
     let err = stl(&one_line).unwrap_err();
     assert!(
-        matches!(&err, LoadError::Syntax { place: Place::Line(1), .. }),
+        matches!(
+            &err,
+            LoadError::Syntax {
+                place: Place::Line(1),
+                ..
+            }
+        ),
         "{err}"
     );
     message_is_one_short_clean_line(&err);
@@ -169,7 +187,13 @@ fn enormous_line_is_refused_naming_it_and_quoted_short() {
     token.extend(b"x 0\n");
     let err = obj(&token).unwrap_err();
     assert!(
-        matches!(&err, LoadError::Syntax { place: Place::Line(2), .. }),
+        matches!(
+            &err,
+            LoadError::Syntax {
+                place: Place::Line(2),
+                ..
+            }
+        ),
         "{err}"
     );
     message_is_one_short_clean_line(&err);
@@ -202,7 +226,10 @@ fn options_that_size_memory_are_checked_against_their_budget() {
     else {
         panic!("expected RayMemory, got {err:?}");
     };
-    assert!(bytes > budget && nodes_within >= 4_000_000, "{nodes_within}");
+    assert!(
+        bytes > budget && nodes_within >= 4_000_000,
+        "{nodes_within}"
+    );
     let within = LocateOptions {
         max_nodes: nodes_within as usize,
         ..LocateOptions::default()
@@ -222,7 +249,13 @@ fn coordinates_beyond_the_limit_are_refused_at_load_with_their_place() {
     let err = stl(&binary_stl(&far)).unwrap_err();
     // Facet 2, corner 1, y: 84 + 2 x 50 + 12 + 12 + 4.
     assert!(
-        matches!(err, LoadError::OutOfRange { place: Place::Byte(212), .. }),
+        matches!(
+            err,
+            LoadError::OutOfRange {
+                place: Place::Byte(212),
+                ..
+            }
+        ),
         "{err:?}"
     );
     message_is_one_short_clean_line(&err);
@@ -265,7 +298,11 @@ fn every_number_of_an_analysis_is_finite_for_a_part_far_from_the_origin() {
     let (s, r3) = (64.0, 3f64.sqrt());
     let along = |face_sum: f64| face_sum / (3.0 + r3);
     let expected = DVec3::new(1e8, -1e8, 1e8) + DVec3::splat(along(s / 3.0 * (2.0 + r3)));
-    assert!((a.centres.surface - expected).length() < 1.0, "{}", a.centres.surface);
+    assert!(
+        (a.centres.surface - expected).length() < 1.0,
+        "{}",
+        a.centres.surface
+    );
     let g = a.grid_gate.expect("a gate on the slanted face");
     assert!(g.distance_3d.is_finite() && g.distance_2d.is_finite() && g.point.is_finite());
 }
@@ -331,7 +368,13 @@ fn control_character_early_in_ascii_stl_is_named() {
     let text = TETRA_ASCII.replacen("outer loop", "outer\x00loop", 1);
     let err = stl(text.as_bytes()).unwrap_err();
     assert!(
-        matches!(&err, LoadError::Syntax { place: Place::Line(3), .. }),
+        matches!(
+            &err,
+            LoadError::Syntax {
+                place: Place::Line(3),
+                ..
+            }
+        ),
         "{err}"
     );
     message_is_one_short_clean_line(&err);
@@ -343,7 +386,9 @@ fn cr_only_line_endings_are_read() {
     let part = stl(text.as_bytes()).unwrap();
     assert_eq!(part.stats.triangles, 4);
     assert!(part.warnings.is_empty(), "{:?}", part.warnings);
-    let bad = TETRA_ASCII.replacen("vertex 0 0 10", "vertex 0 0 x", 1).replace('\n', "\r");
+    let bad = TETRA_ASCII
+        .replacen("vertex 0 0 10", "vertex 0 0 x", 1)
+        .replace('\n', "\r");
     assert!(matches!(
         stl(bad.as_bytes()).unwrap_err(),
         LoadError::Syntax {
@@ -368,13 +413,19 @@ fn files_that_are_not_meshes_are_named_by_their_first_bytes() {
     let iges = format!("{:<72}S{:>7}\n", "an IGES model", 1);
     for (bytes, name) in [
         (pad(b"ISO-10303-21;\nHEADER;\n"), "STEP"),
-        (pad(b"PK\x03\x04\x14\x00\x00\x00\x08\x00[Content_Types].xml"), "3MF"),
+        (
+            pad(b"PK\x03\x04\x14\x00\x00\x00\x08\x00[Content_Types].xml"),
+            "3MF",
+        ),
         (pad(b"PK\x03\x04\x14\x00\x00\x00\x08\x00model.stl"), "ZIP"),
         (pad(b"\x1f\x8b\x08\x00"), "gzip"),
         (pad(b"%PDF-1.4\n"), "PDF"),
         (pad(b"\x89PNG\r\n\x1a\n"), "PNG"),
         (pad(iges.as_bytes()), "IGES"),
-        (b"just a note about the part\n".repeat(10), "not an ASCII STL"),
+        (
+            b"just a note about the part\n".repeat(10),
+            "not an ASCII STL",
+        ),
     ] {
         let err = stl(&bytes).unwrap_err();
         assert!(

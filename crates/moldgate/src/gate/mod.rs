@@ -395,7 +395,8 @@ impl Analysis {
         }
         s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
         // A part whose size suggests other units fails for that reason more often than any.
-        let across = DVec2::from_array(self.grid.box_hi).distance(DVec2::from_array(self.grid.box_lo));
+        let across =
+            DVec2::from_array(self.grid.box_hi).distance(DVec2::from_array(self.grid.box_lo));
         if crate::mesh::units::size_is_suspicious(across) {
             s += &format!(
                 "; the part is {across:.4} mm across as read: if the file is not in millimetres, pass --units (in, cm or m)"

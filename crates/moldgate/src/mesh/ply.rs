@@ -338,7 +338,10 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                 let count: u64 = count.parse().map_err(|_| {
                     syntax(
                         place,
-                        format!("element count '{}' is not a whole number", shown(count.as_bytes())),
+                        format!(
+                            "element count '{}' is not a whole number",
+                            shown(count.as_bytes())
+                        ),
                     )
                 })?;
                 if (name == "vertex" || name == "face") && elements.iter().any(|e| e.name == name) {
@@ -362,8 +365,12 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                 };
                 let scalar = |word: Option<&str>| {
                     let word = word.unwrap_or("");
-                    Scalar::parse(word)
-                        .ok_or_else(|| syntax(place, format!("unknown PLY type '{}'", shown(word.as_bytes()))))
+                    Scalar::parse(word).ok_or_else(|| {
+                        syntax(
+                            place,
+                            format!("unknown PLY type '{}'", shown(word.as_bytes())),
+                        )
+                    })
                 };
                 let first = words.next();
                 let kind = if first == Some("list") {
@@ -730,7 +737,10 @@ mod tests {
         );
         // Cut inside the face's second index.
         let cut = &data[..(body + 72 + 1 + 6) as usize];
-        assert_eq!(place_of(read(cut, Units::Mm).unwrap_err()), Place::Byte(body + 77));
+        assert_eq!(
+            place_of(read(cut, Units::Mm).unwrap_err()),
+            Place::Byte(body + 77)
+        );
         // A NaN coordinate: vertex 1's y.
         let mut nan = data.clone();
         let at = (body + 32) as usize;

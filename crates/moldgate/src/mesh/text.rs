@@ -116,7 +116,10 @@ mod tests {
 
     #[test]
     fn byte_order_mark_before_the_first_line_is_dropped() {
-        assert_eq!(all(b"\xEF\xBB\xBFsolid x\nfacet").unwrap(), ["solid x", "facet"]);
+        assert_eq!(
+            all(b"\xEF\xBB\xBFsolid x\nfacet").unwrap(),
+            ["solid x", "facet"]
+        );
     }
 
     #[test]
@@ -125,7 +128,13 @@ mod tests {
         text.extend(std::iter::repeat_n(b'1', MAX_LINE_BYTES + 1));
         let err = all(&text).unwrap_err();
         assert!(
-            matches!(err, LoadError::Syntax { place: Place::Line(2), .. }),
+            matches!(
+                err,
+                LoadError::Syntax {
+                    place: Place::Line(2),
+                    ..
+                }
+            ),
             "{err:?}"
         );
         assert!(err.to_string().len() < 200);
