@@ -607,13 +607,13 @@ fn csv(rows: &[Row]) -> String {
 /// else the first one, cut to fit, and how many more.
 fn short_warning(joined: &str) -> String {
     let all: Vec<&str> = joined.split(" | ").collect();
-    let first = all
-        .iter()
-        .find(|w| w.contains("--units"))
-        .unwrap_or(&all[0]);
+    let units = all.iter().find(|w| w.contains("--units"));
+    let first = units.unwrap_or(&all[0]);
     let mut shown: String = first.chars().take(100).collect();
-    if shown.len() < first.len() {
+    if units.is_none() && shown.len() < first.len() {
         shown += "...";
+    } else {
+        shown = first.to_string();
     }
     if all.len() > 1 {
         shown += &format!(" (+{} more)", all.len() - 1);

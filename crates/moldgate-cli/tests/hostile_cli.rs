@@ -19,7 +19,7 @@ fn tetrahedron(s: f32) -> Vec<u8> {
     for f in facets {
         out.extend([0u8; 12]);
         for c in f.iter().flatten() {
-            out.extend((*c as f32).to_le_bytes());
+            out.extend(c.to_le_bytes());
         }
         out.extend([0u8; 2]);
     }

@@ -137,11 +137,10 @@ fn enormous_polygon_is_refused_naming_its_line() {
         "{err}"
     );
     // A PLY face declaring more corners is refused before they are read.
-    let ply = format!(
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
          property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n\
          0 0 0\n1 0 0\n0 1 0\n25000000 0 1 2\n"
-    );
+        .to_string();
     let err = read_ply(Cursor::new(ply), Units::Mm).unwrap_err();
     assert!(
         matches!(&err, LoadError::Syntax { place: Place::Line(13), message }

@@ -142,7 +142,7 @@ fn weld_records(
     units: Units,
 ) -> Result<(), LoadError> {
     const CHUNK: usize = 4096;
-    // One comparison a coordinate catches NaN, the infinities and the out of range alike.
+    // NaN, the infinities and the out of range refused by one test a coordinate.
     let limit = coordinate_limit(units) as f32;
     let mut buf = vec![0u8; CHUNK * RECORD as usize];
     let mut done = range.start;
@@ -158,7 +158,7 @@ fn weld_records(
                 for (j, c) in xyz.iter_mut().enumerate() {
                     let at = 12 + 12 * k + 4 * j;
                     let v = f32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]]);
-                    if !(v.abs() <= limit) {
+                    if v.is_nan() || v.abs() > limit {
                         return Err(bad_coordinate(
                             Place::Byte(HEADER + RECORD * triangle + at as u64),
                             triangle,
@@ -358,7 +358,7 @@ fn read_ascii(reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError> 
                 }
                 Expect::VertexValues(i) => {
                     let v = parse_number(tok, line_no)?;
-                    if !(v.abs() <= limit) {
+                    if v.is_nan() || v.abs() > limit {
                         return Err(bad_coordinate(Place::Line(line_no), facets, v, units));
                     }
                     xyz[i as usize] = v;
