@@ -116,10 +116,11 @@ pub const RAY_MEMORY_BUDGET_BYTES: u64 = 3 << 30;
 
 /// The most ray-triangle tests the rays may make, summed over the node and circle
 /// lattices: the lattice points inside every triangle's projection, estimated from the
-/// triangles' projected areas before any ray is cast. The default grid of a part whose
-/// surface each ray crosses a few times makes a few million to a few hundred million (the
-/// 352k-triangle shared part: about 1.1e6 a lattice, 2e7 in all); the budget takes about
-/// ten seconds on one thread of this project's machine.
+/// triangles' projected areas before any ray is cast. A part whose surface each ray
+/// crosses a few times stays far below it (the 352k-triangle shared part, default grid of
+/// 9,393 nodes: at most 3.0e4 a lattice by its surface area, 5e5 in all); 1.17 million
+/// random triangles over a 100 mm box would make 1.5e10, which took over 300 s on two
+/// threads, so the budget is of the order of 20 s of rays.
 pub const RAY_TEST_BUDGET: f64 = 1e9;
 
 impl LocateOptions {
