@@ -43,6 +43,48 @@ fn part_too_large_for_the_automatic_spacing_is_an_input_error_naming_the_file() 
 }
 
 #[test]
+fn overlapping_triangles_are_an_input_error_naming_the_file() {
+    // 300 random triangles over 30 corners of a 100 mm cube: each ray crosses about a
+    // hundred of them, over the ray-test budget at a 0.06 mm spacing.
+    let mut state = 7u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        state >> 11
+    };
+    let corners: Vec<[f32; 3]> = (0..30)
+        .map(|_| [0; 3].map(|_: i32| (next() % 100_000) as f32 / 1000.0))
+        .collect();
+    let mut out = vec![b' '; 80];
+    out.extend(300u32.to_le_bytes());
+    let mut n = 0;
+    while n < 300 {
+        let t = [0; 3].map(|_: i32| (next() % 30) as usize);
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            continue;
+        }
+        out.extend([0u8; 12]);
+        for c in t.iter().flat_map(|&i| corners[i]) {
+            out.extend(c.to_le_bytes());
+        }
+        out.extend([0u8; 2]);
+        n += 1;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("soup.stl");
+    std::fs::write(&path, out).unwrap();
+    let out = moldgate(&["locate", path.to_str().unwrap(), "--spacing", "0.06"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("soup.stl") && stderr.contains("overlap"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
 fn option_over_its_memory_budget_is_refused_before_loading() {
     // The file does not exist: the options are refused first.
     let out = moldgate(&["locate", "missing.stl", "--circle-points", "1000000"]);

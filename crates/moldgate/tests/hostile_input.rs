@@ -13,6 +13,7 @@ use moldgate::math::DVec3;
 use moldgate::mesh::{
     from_generated, read_obj, read_ply, read_stl, LoadedMesh, Mesh, Units, MAX_POLYGON_CORNERS,
 };
+use moldgate::study::{study, StudyError, StudyOptions};
 use moldgate::{locate, LocateOptions, OptionsError};
 
 use common::SplitMix;
@@ -237,6 +238,36 @@ fn options_that_size_memory_are_checked_against_their_budget() {
     // locate checks them too, before any work.
     let part = from_generated(moldgate::samples::sample("plate").expect("a plate sample"));
     assert!(locate(&part, &too_many_points).is_err());
+}
+
+#[test]
+fn a_study_checks_the_same_budgets_when_its_options_are_validated() {
+    let refused = |json: &str| {
+        let o: StudyOptions = serde_json::from_str(json).unwrap();
+        o.validate().unwrap_err()
+    };
+    assert!(matches!(
+        refused(r#"{ "circle_points": 1000 }"#),
+        StudyError::Locate(OptionsError::AboveLimit { limit, .. }) if limit == MAX_CIRCLE_POINTS as u64
+    ));
+    assert!(matches!(
+        refused(r#"{ "max_nodes": 20000000 }"#),
+        StudyError::Locate(OptionsError::RayMemory { .. })
+    ));
+    // One node limit: the study's is the gate location's.
+    assert_eq!(
+        moldgate::study::MAX_NODES_LIMIT,
+        moldgate::gate::MAX_NODES_LIMIT
+    );
+    // A part too large for the automatic spacing is refused at the locate stage.
+    let part = stl(&binary_stl(&tetrahedron([0.0; 3], 2e8))).unwrap();
+    let Err(err) = study(&part, &StudyOptions::default()) else {
+        panic!("a part 2e8 mm across was studied");
+    };
+    assert!(
+        matches!(err, StudyError::Locate(OptionsError::PartTooLarge { .. })),
+        "{err:?}"
+    );
 }
 
 // 4. Numbers that are not numbers ------------------------------------------------------------
