@@ -12,6 +12,7 @@ use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::render::RenderError;
 use moldgate::report::Input;
 use moldgate::study::{self, Hooks, Study, StudyError};
+use moldgate::OptionsError;
 
 use crate::args::LocateArgs;
 use crate::formats::MeshKind;
@@ -64,6 +65,10 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         StudyError::UnknownMaterial { .. } => {
             Failure::usage(format!("{e} (`moldgate materials` lists them all)"))
         }
+        // The part's fault, not an option's: an input error that names the file.
+        StudyError::Locate(
+            l @ (OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. }),
+        ) => Failure::input(format!("{part}: {l}")),
         StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),

@@ -881,7 +881,7 @@ fn units_metres_scale_the_part_and_millimetres_warn() {
     let out = moldgate(dir.path(), &["locate", "metres.stl", "--json"]);
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     let warnings = report["warnings"].to_string();
-    assert!(warnings.contains("--units m"), "{warnings}");
+    assert!(warnings.contains("--units in, cm or m"), "{warnings}");
 }
 
 #[test]

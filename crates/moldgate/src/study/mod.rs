@@ -163,7 +163,10 @@ pub enum StudyError {
     /// A material parameter out of range.
     #[error("{0}")]
     Material(OptionsError),
-    /// An option the gate location refuses (a grid too large for `max_nodes`).
+    /// What the gate location refuses: an option above its limit or over the ray memory
+    /// budget ([`crate::LocateOptions::validate`], at validation), or the part itself at the
+    /// locate stage (a grid too large for `max_nodes`, [`OptionsError::PartTooLarge`],
+    /// [`OptionsError::OverlappingSurface`]).
     #[error("{0}")]
     Locate(OptionsError),
     /// The automatic demolding direction could not be chosen.

@@ -16,10 +16,9 @@ use crate::report::RadiusSource;
 use crate::study::StudyError;
 use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
 
-/// The largest grid accepted, in nodes. With 16 circle points a node costs 17 rays of 24
-/// bytes, so this is about 8 GB: far beyond a useful grid (the default limit is 4 million
-/// nodes), and a bound that keeps an absurd `max_nodes` from reaching the allocator.
-pub const MAX_NODES_LIMIT: usize = 20_000_000;
+/// The largest grid accepted, in nodes: the gate location's own limit, so that a study and
+/// [`crate::locate`] refuse the same values.
+pub use crate::gate::MAX_NODES_LIMIT;
 
 /// A material: a name of the built-in library (`"PP"`, `"pa66-gf30"`, an alias such as
 /// `"HDPE"`; case and separators ignored), a name of the user materials given to
@@ -150,7 +149,7 @@ pub struct StudyOptions {
     pub spacing: Option<f64>,
     /// Grid shift as a fraction of the spacing along both axes. Default 0.
     pub grid_offset: f64,
-    /// Points on each node's circle. Default 16.
+    /// Points on each node's circle, 3 to [`crate::gate::MAX_CIRCLE_POINTS`]. Default 16.
     pub circle_points: usize,
     /// Which centre of mass the gate is placed by. Default `surface`.
     pub centre: CentreChoice,
@@ -164,7 +163,9 @@ pub struct StudyOptions {
     pub flat_tol: Option<f64>,
     /// Put the gate on the parting line, nearest the centre of mass. Default false.
     pub aesthetic: bool,
-    /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`]). Default 4 000 000.
+    /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`], and within the ray
+    /// memory budget [`crate::gate::RAY_MEMORY_BUDGET_BYTES`] with `circle_points`). Default
+    /// 4 000 000.
     pub max_nodes: usize,
     /// Regions no gate may reach into: `box:x0,y0,z0,x1,y1,z1` or `sphere:x,y,z,r` (mm).
     pub keep_out: Vec<String>,
@@ -425,6 +426,9 @@ impl StudyOptions {
             keep_out,
             cosmetic,
         };
+        // The gate location's limits (circle points, the ray memory budget), checked here
+        // so that every front end refuses the same options before any work.
+        locate.validate().map_err(StudyError::Locate)?;
         Ok(Settings {
             material,
             locate,
