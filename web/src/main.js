@@ -356,6 +356,7 @@ async function main() {
     const o = document.createElement("option");
     o.value = m.name;
     o.textContent = `${m.name} (R = ${m.gate_radius_mm.toFixed(2)} mm)`;
+    o.title = m.description;
     $("material").append(o);
   }
   const custom = document.createElement("option");

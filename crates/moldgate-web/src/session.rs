@@ -63,7 +63,8 @@ pub enum Colouring {
     Height,
     /// Wall thickness (needs `wall_thickness`).
     WallThickness,
-    /// Fill order from the gate (needs the fill analysis).
+    /// The fill analysis's field (`color_by`: by default the fill order from the gate, as
+    /// an estimated fill time; needs the fill analysis).
     FillOrder,
 }
 
@@ -210,15 +211,10 @@ impl Session {
                     .ok_or("the wall thickness was not measured (turn on 'wall thickness')")?
                     .to_vec(),
             },
-            Colouring::FillOrder => Field {
-                name: "fill order (0 gate, 1 last)".into(),
-                unit: String::new(),
-                per_vertex: self
-                    .study
-                    .fill_order()
-                    .ok_or("the fill was not analysed (turn on 'fill analysis')")?
-                    .to_vec(),
-            },
+            Colouring::FillOrder => self
+                .study
+                .fill_field()
+                .ok_or("the fill was not analysed (turn on 'fill analysis')")?,
         };
         Ok(scene.with_field(field))
     }
@@ -246,14 +242,16 @@ pub fn samples_json() -> String {
     serde_json::Value::Array(list).to_string()
 }
 
-/// The built-in materials as JSON, each with its parameters and its Eq. 8 gate radius.
+/// The materials of the built-in library as JSON, each with its parameters, its Eq. 8 gate
+/// radius and its description (the paper's Table 1 first).
 pub fn materials_json() -> String {
-    let list: Vec<serde_json::Value> = moldgate::material::BUILTIN
+    let list: Vec<serde_json::Value> = moldgate::material::library()
         .iter()
-        .filter_map(|name| moldgate::Material::builtin(name))
-        .map(|m| {
-            let mut v = serde_json::to_value(&m).unwrap_or_default();
+        .map(|info| {
+            let m = &info.material;
+            let mut v = serde_json::to_value(m).unwrap_or_default();
             v["gate_radius_mm"] = serde_json::json!(m.gate_radius_mm());
+            v["description"] = serde_json::json!(info.description);
             v
         })
         .collect();
@@ -382,7 +380,12 @@ mod tests {
             moldgate::samples::SAMPLES.len()
         );
         let m: serde_json::Value = serde_json::from_str(&materials_json()).unwrap();
+        assert_eq!(m[0]["name"], "PP");
         assert!(m[0]["gate_radius_mm"].as_f64().unwrap() > 0.0);
+        assert_eq!(
+            m.as_array().unwrap().len(),
+            moldgate::material::library().len()
+        );
         let d: StudyOptions = serde_json::from_str(&defaults_json()).unwrap();
         assert_eq!(d, StudyOptions::default());
     }
