@@ -1,7 +1,6 @@
 //! Command-line arguments, validated once into library options, and the commands.
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -417,17 +416,18 @@ fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, Radius
 /// Reads a mesh file and gives its size in bytes; every failure names the file.
 pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
     let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
-    if path.is_dir() {
-        return Err(fail(&"is a folder, not a mesh file"));
-    }
-    let file = File::open(path).map_err(|e| fail(&format_args!("cannot open: {e}")))?;
+    let file = crate::files::open_regular(path).map_err(|e| fail(&e))?;
     let len = file
         .metadata()
         .map_err(|e| fail(&format_args!("cannot read: {e}")))?
         .len();
     drop(file);
-    // Opened once per reading thread for large binary files.
-    let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
+    // Opened once per reading thread for large binary files, each time checked again.
+    let open = || {
+        crate::files::open_regular(path)
+            .map(|f| BufReader::with_capacity(1 << 16, f))
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    };
     let part = match crate::formats::mesh_kind(path) {
         MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
         MeshKind::Obj => open()
