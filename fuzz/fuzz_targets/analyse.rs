@@ -33,8 +33,7 @@ fuzz_target!(|data: &[u8]| {
         _ => read_ply(file, Units::Mm),
     };
     let Ok(part) = loaded else { return };
-    let Ok(direction) = Direction::new(DVec3::from_array(DIRECTIONS[usize::from(dir % 8)]))
-    else {
+    let Ok(direction) = Direction::new(DVec3::from_array(DIRECTIONS[usize::from(dir % 8)])) else {
         return;
     };
     let material = Material::builtin("ABS").expect("ABS is built in");
