@@ -100,15 +100,42 @@ impl Voxels {
                     let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
                     let n = ((longest / (0.5 * h)).ceil() as usize).max(1);
                     let mut last = usize::MAX;
-                    for i in 0..=n {
-                        for j in 0..=n - i {
-                            let p = a
-                                + (b - a) * (i as f64 / n as f64)
-                                + (c - a) * (j as f64 / n as f64);
-                            let cell = cell_of(p);
-                            if cell != last {
-                                out.push((cell as u32, t as u32));
-                                last = cell;
+                    let mut mark = |p: DVec3| {
+                        let cell = cell_of(p);
+                        if cell != last {
+                            out.push((cell as u32, t as u32));
+                            last = cell;
+                        }
+                    };
+                    // A sliver (long and thin) would take n^2 / 2 lattice samples for a
+                    // handful of cells: it is sampled in rows parallel to its longest edge
+                    // instead, rows and samples at most h/2 apart.
+                    let height = 2.0 * triangle_area(a, b, c) / longest.max(f64::MIN_POSITIVE);
+                    let rows = ((height / (0.5 * h)).ceil() as usize).max(1);
+                    if (n + 1) * (n + 2) / 2 <= 8 * (rows + 1) * (n + 1) {
+                        for i in 0..=n {
+                            for j in 0..=n - i {
+                                mark(
+                                    a + (b - a) * (i as f64 / n as f64)
+                                        + (c - a) * (j as f64 / n as f64),
+                                );
+                            }
+                        }
+                    } else {
+                        // The longest edge from p to q, and the corner r opposite it.
+                        let (p, q, r) = if a.distance(b) == longest {
+                            (a, b, c)
+                        } else if b.distance(c) == longest {
+                            (b, c, a)
+                        } else {
+                            (c, a, b)
+                        };
+                        for row in 0..=rows {
+                            let f = row as f64 / rows as f64;
+                            let (s, e) = (p + (r - p) * f, q + (r - q) * f);
+                            let k = ((s.distance(e) / (0.5 * h)).ceil() as usize).max(1);
+                            for i in 0..=k {
+                                mark(s + (e - s) * (i as f64 / k as f64));
                             }
                         }
                     }
@@ -405,6 +432,11 @@ impl Voxels {
         }
         (label, count as usize)
     }
+}
+
+/// Area of the triangle a, b, c.
+fn triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    0.5 * (b - a).cross(c - a).length()
 }
 
 #[cfg(test)]
