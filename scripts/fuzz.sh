@@ -56,8 +56,8 @@ for t in "${targets[@]}"; do
     cov=$(sed -n 's/.* cov: \([0-9]*\).*/\1/p' <<<"$done_line")
     ft=$(sed -n 's/.* ft: \([0-9]*\).*/\1/p' <<<"$done_line")
     size=$(find "$corpus" -type f | wc -l)
-    rate=$(( ${execs:-0} / (time_s > 0 ? time_s : 1) ))
-    printf '%-9s %8s %12s %10s %7s %7s %7s\n' "$t" "$time_s" "${execs:--}" "$rate" \
+    rate=$(sed -n 's/.* exec\/s: \([0-9]*\).*/\1/p' <<<"$done_line")
+    printf '%-9s %8s %12s %10s %7s %7s %7s\n' "$t" "$time_s" "${execs:--}" "${rate:--}" \
         "${cov:--}" "${ft:--}" "$size"
     if [ $rc -ne 0 ]; then
         status=1
