@@ -2,7 +2,6 @@
 //! read from its file (or made from a sample), [`moldgate::study_with`] run on it, and the
 //! library's errors mapped to exit codes.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 use std::time::Instant;
@@ -111,17 +110,18 @@ impl Source<'_> {
 /// Reads a mesh file and gives its size in bytes; every failure names the file.
 pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
     let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
-    if path.is_dir() {
-        return Err(fail(&"is a folder, not a mesh file"));
-    }
-    let file = File::open(path).map_err(|e| fail(&format_args!("cannot open: {e}")))?;
+    let file = crate::files::open_regular(path).map_err(|e| fail(&e))?;
     let len = file
         .metadata()
         .map_err(|e| fail(&format_args!("cannot read: {e}")))?
         .len();
     drop(file);
-    // Opened once per reading thread for large binary files.
-    let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
+    // Opened once per reading thread for large binary files, each time checked again.
+    let open = || {
+        crate::files::open_regular(path)
+            .map(|f| BufReader::with_capacity(1 << 16, f))
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    };
     let part = match crate::formats::mesh_kind(path) {
         MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
         MeshKind::Obj => open()

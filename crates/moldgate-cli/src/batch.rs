@@ -65,6 +65,9 @@ struct Part {
     settings: Settings,
     /// The demolding direction as written (command line or manifest).
     demold: String,
+    /// Why a folder's entry is not read (a FIFO, a folder, a link that points nowhere), or
+    /// `None` for a part to analyse.
+    skipped: Option<String>,
 }
 
 /// What came of one part.
@@ -106,11 +109,12 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     let base = settings(&a)?;
     let summary_format = b.summary.as_deref().map(summary_format).transpose()?;
     let mut parts = Vec::new();
-    for path in expand(&a.files)? {
+    for (path, skipped) in expand(&a.files)? {
         parts.push(Part {
             path,
             settings: base.clone(),
             demold: a.demold.clone(),
+            skipped,
         });
     }
     if let Some(m) = &b.manifest {
@@ -159,10 +163,12 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     } else {
         print_stdout(&table(&rows, b.quiet))?;
     }
-    // The end report: one line per failed part, in input order.
+    // The end report: one line per failed part or skipped entry, in input order.
     for row in &rows {
-        if let Some(reason) = &row.error {
-            eprintln!("moldgate: error: {}: {reason}", row.file);
+        match (&row.error, row.status) {
+            (Some(reason), "skipped") => eprintln!("moldgate: skipped {}: {reason}", row.file),
+            (Some(reason), _) => eprintln!("moldgate: error: {}: {reason}", row.file),
+            _ => {}
         }
     }
     for f in &failures {
@@ -196,6 +202,13 @@ pub fn exit_code(codes: impl IntoIterator<Item = u8>) -> u8 {
 
 /// Analyses one part and writes its report; a panic is this part's internal error.
 fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
+    if part.skipped.is_some() {
+        return Outcome {
+            report: None,
+            failure: None,
+            time_s: 0.0,
+        };
+    }
     let t = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         analyse(Source::File(&part.path), &part.settings, &Hooks::default())
@@ -257,25 +270,52 @@ fn summary_format(path: &Path) -> Result<SummaryFormat, Failure> {
     }
 }
 
-/// The inputs in order: each file as given; each folder's `.stl`, `.obj` and `.ply` files
-/// (any case, not in subfolders) sorted by name. A folder that cannot be listed or holds no
-/// mesh file is an
-/// error of the command line, found before any work.
-fn expand(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
+/// The inputs in order: each file as given; each folder's entries named `.stl`, `.obj` and
+/// `.ply` (any case, not in subfolders) sorted by name. An entry of such a name that is not a
+/// regular file (a FIFO, a folder, a link that points nowhere) comes with the reason it is
+/// skipped, so the batch reports it instead of dropping it or hanging on it. A folder that
+/// cannot be listed or holds no mesh file is an error of the command line, found before any
+/// work.
+fn expand(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Option<String>)>, Failure> {
     let mut out = Vec::new();
     for input in inputs {
         if !input.is_dir() {
-            out.push(input.clone());
+            out.push((input.clone(), None));
             continue;
         }
         let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", input.display()));
-        let mut found: Vec<PathBuf> = std::fs::read_dir(input)
+        let mut found: Vec<(PathBuf, Option<String>)> = std::fs::read_dir(input)
             .map_err(|e| fail(&format_args!("cannot list the folder: {e}")))?
             .filter_map(|entry| entry.ok().map(|e| e.path()))
-            .filter(|p| crate::formats::is_mesh_file(p) && p.is_file())
+            .filter(|p| crate::formats::is_mesh_file(p))
+            .map(|p| {
+                let skipped = match std::fs::metadata(&p) {
+                    Ok(m) if m.is_file() => None,
+                    Ok(m) => Some(format!(
+                        "is {}, not a mesh file",
+                        crate::files::file_kind(&m)
+                    )),
+                    Err(_) if p.is_symlink() => {
+                        Some("is a symbolic link that points nowhere".into())
+                    }
+                    Err(e) => Some(format!("cannot read: {e}")),
+                };
+                (p, skipped)
+            })
             .collect();
-        if found.is_empty() {
-            return Err(fail(&"is a folder holding no .stl, .obj or .ply file"));
+        if found.iter().all(|(_, skipped)| skipped.is_some()) {
+            let skipped: Vec<String> = found
+                .iter()
+                .filter_map(|(p, why)| Some(format!("{} {}", p.display(), why.as_ref()?)))
+                .collect();
+            return Err(fail(&format_args!(
+                "is a folder holding no .stl, .obj or .ply file{}",
+                if skipped.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (skipped: {})", skipped.join("; "))
+                }
+            )));
         }
         found.sort();
         out.extend(found);
@@ -336,6 +376,7 @@ fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>
             path: folder.join(&entry.file),
             settings,
             demold: entry.demold.unwrap_or_else(|| demold.to_string()),
+            skipped: None,
         });
     }
     Ok(parts)
@@ -349,7 +390,11 @@ fn check_outputs(
     summary: Option<&Path>,
 ) -> Result<Vec<Option<PathBuf>>, Failure> {
     let same_file = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_path_buf());
-    let inputs: HashSet<PathBuf> = parts.iter().map(|p| same_file(&p.path)).collect();
+    let inputs: HashSet<PathBuf> = parts
+        .iter()
+        .filter(|p| p.skipped.is_none())
+        .map(|p| same_file(&p.path))
+        .collect();
     let refuse = |out: &Path| {
         if inputs.contains(&same_file(out)) {
             Err(Failure::output(format!(
@@ -382,6 +427,10 @@ fn check_outputs(
     let mut taken: BTreeMap<String, &Path> = BTreeMap::new();
     let mut outputs = Vec::with_capacity(parts.len());
     for part in parts {
+        if part.skipped.is_some() {
+            outputs.push(None);
+            continue;
+        }
         let stem = part
             .path
             .file_stem()
@@ -417,10 +466,10 @@ fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
     if !folder.is_dir() {
         return Err(fail(&format_args!("{} is not a folder", folder.display())));
     }
-    let probe = folder.join(format!(".moldgate-probe.{}.tmp", std::process::id()));
-    std::fs::File::create(&probe).map_err(|e| fail(&format_args!("cannot write: {e}")))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
+    // Created exclusively under a random name, removed when dropped.
+    crate::output::temporary_in(folder)
+        .map(drop)
+        .map_err(|e| fail(&format_args!("cannot write: {e}")))
 }
 
 /// One line of the summary.
@@ -428,9 +477,12 @@ fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
 struct Row {
     /// The input file as given.
     file: String,
-    /// `ok`, `no_gate`, `input_error`, `option_error`, `output_error` or `internal_error`.
+    /// `ok`, `no_gate`, `input_error`, `option_error`, `output_error`, `internal_error`, or
+    /// `skipped` for a folder's entry that is not a regular file (a FIFO, a folder, a link
+    /// that points nowhere).
     status: &'static str,
-    /// The part's own exit code, as `moldgate locate FILE` would give.
+    /// The part's own exit code, as `moldgate locate FILE` would give; 0 for a skipped
+    /// entry, which does not change the batch's exit code.
     exit_code: u8,
     /// Unit the file was read in.
     units: String,
@@ -476,8 +528,10 @@ impl Row {
                 .unwrap_or(&f.message)
                 .to_string()
         });
+        let error = error.or_else(|| part.skipped.clone());
         Row {
             status: match code {
+                _ if part.skipped.is_some() => "skipped",
                 0 => "ok",
                 2 => "option_error",
                 3 => "input_error",
@@ -624,14 +678,19 @@ fn table(rows: &[Row], quiet: bool) -> String {
         );
     }
     if !quiet {
-        let ok = rows.iter().filter(|r| r.exit_code == 0).count();
+        let skipped = rows.iter().filter(|r| r.status == "skipped").count();
+        let ok = rows.iter().filter(|r| r.status == "ok").count();
         let no_gate = rows.iter().filter(|r| r.exit_code == 4).count();
-        let failed = rows.len() - ok - no_gate;
-        let _ = writeln!(
+        let failed = rows.len() - skipped - ok - no_gate;
+        let _ = write!(
             out,
             "{} parts: {ok} with a gate, {no_gate} without, {failed} failed",
-            rows.len()
+            rows.len() - skipped
         );
+        if skipped > 0 {
+            let _ = write!(out, ", {skipped} skipped (not regular files)");
+        }
+        out.push('\n');
     }
     out
 }

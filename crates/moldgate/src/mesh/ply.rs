@@ -139,6 +139,11 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
     for element in &elements {
+        // A binary element without properties takes no bytes: however large its count, there
+        // is nothing to read (counting through 10^15 of them would never end).
+        if element.properties.is_empty() && !matches!(body, Body::Ascii { .. }) {
+            continue;
+        }
         for index in 0..element.count {
             let what = Instance {
                 element: &element.name,
