@@ -468,7 +468,11 @@ fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
     }
     // Created exclusively under a random name, removed when dropped.
     crate::output::temporary_in(folder)
-        .map(drop)
+        .map(|tmp| {
+            let path = tmp.path().to_path_buf();
+            drop(tmp);
+            crate::output::release(&path);
+        })
         .map_err(|e| fail(&format_args!("cannot write: {e}")))
 }
 

@@ -100,30 +100,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     sweep_stale(dir);
     let mut tmp = temporary_in(dir).map_err(|e| fail(&e))?;
     let registered = tmp.path().to_path_buf();
-    register(&registered);
     let result = tmp
         .as_file_mut()
         .write_all(bytes)
         .and_then(|_| tmp.as_file().sync_all())
         .and_then(|_| tmp.persist(&target).map(drop).map_err(|e| e.error));
     // On an error the temporary file is removed when `tmp` is dropped.
-    unregister(&registered);
+    release(&registered);
     result.map_err(|e| fail(&e))
 }
 
 /// A new temporary file in `dir`: created exclusively (`O_EXCL`, so a link planted under
-/// its name is never followed) under a random name of [`TEMP_PREFIX`].
+/// its name is never followed) under a random name of [`TEMP_PREFIX`]. Its name is
+/// registered for removal on a signal *before* the file exists, so a signal that arrives
+/// while it is being created cannot leave it behind; the caller unregisters it with
+/// [`release`] once it is renamed into place or removed.
 pub fn temporary_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(TEMP_PREFIX).rand_bytes(12);
-    // The mode `File::create` gives (0666 less the umask), not tempfile's private 0600:
-    // the temporary file becomes the output.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    builder.tempfile_in(dir)
+    tempfile::Builder::new()
+        .prefix(TEMP_PREFIX)
+        .rand_bytes(12)
+        .make_in(dir, |path| {
+            register(path);
+            let mut open = std::fs::OpenOptions::new();
+            open.write(true).create_new(true);
+            // The mode `File::create` gives (0666 less the umask), not tempfile's private
+            // 0600: the temporary file becomes the output.
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::OpenOptionsExt;
+                open.mode(0o666);
+            }
+            open.open(path).inspect_err(|_| unregister(path))
+        })
+}
+
+/// Forgets a temporary file of [`temporary_in`] (renamed into place, or removed).
+pub fn release(tmp: &Path) {
+    unregister(tmp);
 }
 
 /// Writes into a FIFO or a character device as a stream; refuses the other special files.

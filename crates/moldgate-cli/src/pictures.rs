@@ -54,7 +54,9 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
+        // A FIFO or a device (`/dev/null`, `/dev/stdout`) is written into whatever its name.
+        let special = std::fs::metadata(path).is_ok_and(|m| !m.is_file());
+        if !special && !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
             return Err(Failure::usage(format!(
                 "{flag} {}: the file name must end in .{} (it writes that format only)",
                 path.display(),

@@ -538,13 +538,23 @@ fn centre_and_offset_grid_gate_match_the_reference() {
                 ..LocateOptions::default()
             };
             let analysis = locate(lm, &options).expect("valid options");
-            check_close!(
-                failures,
-                analysis.centres.surface,
-                vec3(&r["centre_of_mass"]["area_weighted"]) * s,
-                1e-6 * size,
-                "{name}: area-weighted centre"
-            );
+            // The reference counts a repeated facet twice; moldgate drops it at load (a
+            // defect, counted in `duplicate_triangles`), so the centres differ there.
+            let repeats = lm.stats.duplicate_triangles;
+            if repeats == 0 {
+                check_close!(
+                    failures,
+                    analysis.centres.surface,
+                    vec3(&r["centre_of_mass"]["area_weighted"]) * s,
+                    1e-6 * size,
+                    "{name}: area-weighted centre"
+                );
+            } else {
+                lines.push(format!(
+                    "{name}: centre not compared: {repeats} repeated facets dropped at load, \
+                     which the reference counts twice"
+                ));
+            }
             // `gate` holds the reference's aesthetic gate (its runs used --aesthetic); the
             // paper's gate is `gate_3d_rule`.
             let theirs = vec3(&r["gate_3d_rule"]["point"]) * s;
