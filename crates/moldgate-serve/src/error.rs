@@ -78,7 +78,8 @@ impl ApiError {
             StudyError::UnknownMaterial { .. } | StudyError::Material(_) => {
                 ApiError::options(message).at("material")
             }
-            StudyError::Locate(_) => ApiError::options(message),
+            // The grid the spacing gives on this part is over max_nodes.
+            StudyError::Locate(_) => ApiError::options(message).at("spacing"),
             StudyError::Fill(FillError::TooFewCandidates { .. }) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "no_gate", message)
             }
