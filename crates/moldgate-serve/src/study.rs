@@ -540,3 +540,48 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_in_a_study_is_a_500_internal_error() {
+        let e = guarded::<()>(|| panic!("boom")).unwrap_err();
+        assert_eq!(e.status, StatusCode::INTERNAL_SERVER_ERROR);
+        assert_eq!(e.kind, "internal");
+        assert!(e.message.contains("boom"));
+        assert!(guarded(|| Ok(3)).is_ok_and(|v| v == 3));
+    }
+
+    fn pairs(q: &[(&str, &str)]) -> Vec<(String, String)> {
+        q.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+    }
+
+    #[test]
+    fn query_pairs_become_typed_options() {
+        let o = options_object(pairs(&[
+            ("gates", "2"),
+            ("fill", "true"),
+            ("demold", "-1,0,0"),
+            ("material", "ABS"),
+            ("keep_out", "sphere:0,0,0,1"),
+            ("keep_out", "box:0,0,0,1,1,1"),
+            ("gate_radius", "1.5"),
+            ("cosmetic", "-z"),
+        ]))
+        .unwrap();
+        let o = study_options(o).unwrap();
+        assert_eq!(o.gates, 2);
+        assert!(o.fill);
+        assert_eq!(o.demold, "-1,0,0");
+        assert_eq!(o.keep_out.len(), 2);
+        assert_eq!(o.gate_radius, Some(1.5));
+        assert_eq!(o.cosmetic.as_deref(), Some("-z"));
+        // Text fields stay text even when they read as numbers.
+        let o = study_options(options_object(pairs(&[("demold", "1")])).unwrap()).unwrap();
+        assert_eq!(o.demold, "1");
+        let e = study_options(options_object(pairs(&[("spacing", "wide")])).unwrap()).unwrap_err();
+        assert_eq!(e.place.as_deref(), Some("spacing"));
+    }
+}
