@@ -68,8 +68,13 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
         },
         web_dir,
     };
-    moldgate_serve::run(config).map_err(|e| Failure {
-        code: 1,
-        message: format!("serve on {}: {e}", a.bind),
+    moldgate_serve::run(config).map_err(|e| match e {
+        moldgate_serve::ServeError::Bind(_) | moldgate_serve::ServeError::Limit(_) => {
+            Failure::usage(format!("serve on {}: {e}", a.bind))
+        }
+        moldgate_serve::ServeError::Io(_) => Failure {
+            code: 1,
+            message: format!("serve on {}: {e}", a.bind),
+        },
     })
 }

@@ -98,6 +98,8 @@ impl Default for Config {
 pub enum ServeError {
     /// A limit of zero where at least one is needed.
     Limit(&'static str),
+    /// The address cannot be listened on (in use, not this machine's, no permission).
+    Bind(std::io::Error),
     /// The address cannot be bound, or the server failed.
     Io(std::io::Error),
 }
@@ -106,6 +108,7 @@ impl std::fmt::Display for ServeError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             ServeError::Limit(what) => write!(f, "{what} must be at least 1"),
+            ServeError::Bind(e) => write!(f, "cannot listen: {e}"),
             ServeError::Io(e) => write!(f, "{e}"),
         }
     }
@@ -156,7 +159,7 @@ pub fn run(config: Config) -> Result<(), ServeError> {
     runtime.block_on(async move {
         let listener = tokio::net::TcpListener::bind(config.bind)
             .await
-            .map_err(ServeError::Io)?;
+            .map_err(ServeError::Bind)?;
         let addr = listener.local_addr().map_err(ServeError::Io)?;
         let app = router(config.limits, config.web_dir.as_deref());
         eprintln!("moldgate: listening on http://{addr}");
