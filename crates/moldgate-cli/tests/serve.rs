@@ -68,7 +68,10 @@ fn small_endpoints_answer_json_with_isolation_headers() {
     assert_eq!(h.status, 200);
     assert_eq!(h.json()["running"], 0);
     assert_eq!(h.header("cross-origin-opener-policy"), Some("same-origin"));
-    assert_eq!(h.header("cross-origin-embedder-policy"), Some("require-corp"));
+    assert_eq!(
+        h.header("cross-origin-embedder-policy"),
+        Some("require-corp")
+    );
 
     let m = get(s.addr, "/v1/materials").json();
     let names: Vec<&str> = m["materials"]
@@ -157,7 +160,12 @@ fn multipart_options_and_formats_give_the_same_report() {
     body.extend_from_slice(format!("\r\n--{b}--\r\n").as_bytes());
     let ct = format!("multipart/form-data; boundary={b}");
     let by_part = request(s.addr, "POST", "/v1/study", &[("content-type", &ct)], &body);
-    assert_eq!(by_part.status, 200, "{}", String::from_utf8_lossy(&by_part.body));
+    assert_eq!(
+        by_part.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&by_part.body)
+    );
     assert_eq!(comparable(by_query.json()), comparable(by_part.json()));
     // The same option in both places is refused.
     let both = request(
@@ -183,7 +191,13 @@ fn multipart_options_and_formats_give_the_same_report() {
 fn obj_and_ply_bodies_are_read_by_their_content_type() {
     let s = start(&[]);
     let obj = b"v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nv 0 0 10\nv 10 0 10\nv 10 10 10\nv 0 10 10\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
-    let r = request(s.addr, "POST", "/v1/study", &[("content-type", "model/obj")], obj);
+    let r = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", "model/obj")],
+        obj,
+    );
     assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
     assert_eq!(r.json()["mesh"]["triangles"], 12);
     let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n10 0 0\n0 10 0\n0 0 10\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n";
@@ -217,7 +231,10 @@ fn png_decodes_and_html_holds_it() {
     let reader = decoder.read_info().expect("a PNG");
     assert_eq!((reader.info().width, reader.info().height), (1600, 900));
     let page = study_stl(s.addr, "output=html", &stl);
-    assert_eq!(page.header("content-type"), Some("text/html; charset=utf-8"));
+    assert_eq!(
+        page.header("content-type"),
+        Some("text/html; charset=utf-8")
+    );
     let text = String::from_utf8(page.body).unwrap();
     assert!(text.starts_with("<!DOCTYPE html>") || text.starts_with("<!doctype html>"));
     assert!(text.contains("data:image/png;base64,"));
@@ -233,7 +250,9 @@ fn glb_is_valid_for_the_khronos_validator() {
     assert_eq!(r.header("content-type"), Some("model/gltf-binary"));
     assert_eq!(&r.body[..4], b"glTF");
     let tool = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/gltf-validator");
-    let installed = tool.join("node_modules/gltf-validator/package.json").is_file()
+    let installed = tool
+        .join("node_modules/gltf-validator/package.json")
+        .is_file()
         && std::process::Command::new("node")
             .arg("--version")
             .output()
@@ -265,13 +284,21 @@ fn bad_options_are_400_with_the_librarys_message() {
     let stl = sample_stl("plate");
     let cases = [
         ("colour=red", "colour", "unknown field `colour`"),
-        ("gates=abc", "gates", "invalid type: string \"abc\", expected usize"),
+        (
+            "gates=abc",
+            "gates",
+            "invalid type: string \"abc\", expected usize",
+        ),
         ("fill=maybe", "fill", "expected a boolean"),
         ("circle_points=2.5", "circle_points", "expected usize"),
         ("demold=0,0,0", "demold", "non-zero finite vector"),
         ("gates=0", "gates", "must be at least 1"),
         ("material=PEEK", "material", "unknown material 'PEEK'"),
-        ("max_nodes=5000000", "max_nodes", "at most 4000000 on this server"),
+        (
+            "max_nodes=5000000",
+            "max_nodes",
+            "at most 4000000 on this server",
+        ),
         ("keep_out=cube:1,2,3", "keep_out", "keep_out"),
         ("gates=2&gates=3", "gates", "more than once"),
         ("units=furlong", "units", "units"),
@@ -296,10 +323,7 @@ fn keep_outs_that_forbid_everything_are_422_with_the_reason_and_the_report() {
         &sample_stl("plate"),
     );
     let e = assert_error(&s, &r, 422, "no_gate");
-    assert!(
-        e["message"].as_str().unwrap().contains("kept out"),
-        "{e}"
-    );
+    assert!(e["message"].as_str().unwrap().contains("kept out"), "{e}");
     assert!(r.json()["report"]["counts"].is_object());
 }
 
@@ -307,7 +331,11 @@ fn keep_outs_that_forbid_everything_are_422_with_the_reason_and_the_report() {
 fn unknown_formats_are_415() {
     let s = start(&[]);
     let stl = sample_stl("plate");
-    for headers in [vec![], vec![("content-type", "text/csv")], vec![("content-type", "application/octet-stream")]] {
+    for headers in [
+        vec![],
+        vec![("content-type", "text/csv")],
+        vec![("content-type", "application/octet-stream")],
+    ] {
         let r = request(s.addr, "POST", "/v1/study", &headers, &stl);
         assert_error(&s, &r, 415, "format");
     }
@@ -325,7 +353,11 @@ fn malformed_meshes_are_422_with_their_place() {
     assert!(e["where"].as_str().unwrap().starts_with("byte "), "{e}");
     let r = study_stl(s.addr, "", &stl[..40]);
     assert_error(&s, &r, 422, "mesh");
-    let r = study_stl(s.addr, "", b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nope\n");
+    let r = study_stl(
+        s.addr,
+        "",
+        b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nope\n",
+    );
     assert_eq!(assert_error(&s, &r, 422, "mesh")["where"], "line 4");
     let r = study_stl(s.addr, "", b"");
     assert_error(&s, &r, 422, "mesh");
@@ -385,7 +417,10 @@ fn oversized_content_length_is_413_before_the_body_is_sent() {
     )
     .unwrap();
     let r = read_response(&mut BufReader::new(c)).unwrap();
-    assert_eq!(assert_error(&s, &r, 413, "too_large")["where"], "Content-Length");
+    assert_eq!(
+        assert_error(&s, &r, 413, "too_large")["where"],
+        "Content-Length"
+    );
     // A chunked body is cut at the limit as it streams.
     let mut c = connect(s.addr);
     let mut req = "POST /v1/study HTTP/1.1\r\nhost: x\r\ncontent-type: model/stl\r\ntransfer-encoding: chunked\r\n\r\n".to_string();
@@ -466,7 +501,12 @@ fn a_client_that_disconnects_mid_upload_leaves_the_server_serving() {
     while s.log_text().matches("POST /v1/study 400").count() < 5 && t.elapsed().as_secs() < 10 {
         std::thread::sleep(Duration::from_millis(20));
     }
-    assert_eq!(s.log_text().matches("POST /v1/study 400").count(), 5, "{}", s.log_text());
+    assert_eq!(
+        s.log_text().matches("POST /v1/study 400").count(),
+        5,
+        "{}",
+        s.log_text()
+    );
     assert_alive(s.addr);
     assert_eq!(get(s.addr, "/healthz").json()["running"], 0);
     assert_eq!(study_stl(s.addr, "", &stl).status, 200);
@@ -565,7 +605,10 @@ fn sigterm_finishes_the_request_in_flight_then_exits() {
     // Wait until the study runs.
     let t = Instant::now();
     while get(s.addr, "/healthz").json()["running"] == 0 {
-        assert!(t.elapsed() < Duration::from_secs(10), "the study never started");
+        assert!(
+            t.elapsed() < Duration::from_secs(10),
+            "the study never started"
+        );
         std::thread::sleep(Duration::from_millis(5));
     }
     let kill = std::process::Command::new("kill")
@@ -581,26 +624,46 @@ fn sigterm_finishes_the_request_in_flight_then_exits() {
     while !s.log_text().contains("moldgate: stopped") && t.elapsed().as_secs() < 5 {
         std::thread::sleep(Duration::from_millis(10));
     }
-    assert!(s.log_text().contains("moldgate: stopped"), "{}", s.log_text());
+    assert!(
+        s.log_text().contains("moldgate: stopped"),
+        "{}",
+        s.log_text()
+    );
     assert!(std::net::TcpStream::connect(addr).is_err());
 }
 
 #[test]
 fn the_web_folder_is_served_with_isolation_headers_and_mime_types() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("index.html"), "<!doctype html><title>app</title>").unwrap();
+    std::fs::write(
+        dir.path().join("index.html"),
+        "<!doctype html><title>app</title>",
+    )
+    .unwrap();
     std::fs::write(dir.path().join("app.wasm"), b"\0asm\x01\0\0\0").unwrap();
     std::fs::write(dir.path().join("app.js"), "export {}").unwrap();
     let s = start(&["--web-dir", dir.path().to_str().unwrap()]);
     let index = get(s.addr, "/");
     assert_eq!(index.status, 200);
-    assert!(index.header("content-type").unwrap().starts_with("text/html"));
-    assert_eq!(index.header("cross-origin-opener-policy"), Some("same-origin"));
-    assert_eq!(index.header("cross-origin-embedder-policy"), Some("require-corp"));
+    assert!(index
+        .header("content-type")
+        .unwrap()
+        .starts_with("text/html"));
+    assert_eq!(
+        index.header("cross-origin-opener-policy"),
+        Some("same-origin")
+    );
+    assert_eq!(
+        index.header("cross-origin-embedder-policy"),
+        Some("require-corp")
+    );
     let wasm = get(s.addr, "/app.wasm");
     assert_eq!(wasm.header("content-type"), Some("application/wasm"));
     assert_eq!(wasm.body, b"\0asm\x01\0\0\0");
-    assert!(get(s.addr, "/app.js").header("content-type").unwrap().contains("javascript"));
+    assert!(get(s.addr, "/app.js")
+        .header("content-type")
+        .unwrap()
+        .contains("javascript"));
     assert_eq!(get(s.addr, "/missing.js").status, 404);
     assert_eq!(get(s.addr, "/v1/materials").status, 200);
     // A missing folder given on purpose is an error at start.

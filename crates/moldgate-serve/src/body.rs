@@ -21,7 +21,9 @@ fn too_large(max: u64, place: &str) -> ApiError {
     ApiError::new(
         StatusCode::PAYLOAD_TOO_LARGE,
         "too_large",
-        format!("the request body is larger than this server's limit of {max} bytes (--max-upload)"),
+        format!(
+            "the request body is larger than this server's limit of {max} bytes (--max-upload)"
+        ),
     )
     .at(place)
 }
@@ -37,8 +39,12 @@ pub fn check_length(headers: &HeaderMap, max: u64) -> Result<Option<u64>, ApiErr
         .ok()
         .and_then(|s| s.trim().parse::<u64>().ok())
         .ok_or_else(|| {
-            ApiError::new(StatusCode::BAD_REQUEST, "body", "Content-Length is not a number")
-                .at("Content-Length")
+            ApiError::new(
+                StatusCode::BAD_REQUEST,
+                "body",
+                "Content-Length is not a number",
+            )
+            .at("Content-Length")
         })?;
     if declared > max {
         return Err(too_large(max, "Content-Length"));

@@ -3,11 +3,11 @@
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
+use axum::body::HttpBody as _;
 use axum::extract::Request;
+use axum::http::header;
 use axum::middleware::Next;
 use axum::response::Response;
-use axum::http::header;
-use axum::body::HttpBody as _;
 
 use crate::body::BytesIn;
 

@@ -184,18 +184,15 @@ async fn sample(UrlPath(name): UrlPath<String>) -> Response {
 
 /// `GET /v1/openapi.json`.
 async fn openapi() -> Response {
-    (
-        [(header::CONTENT_TYPE, "application/json")],
-        crate::OPENAPI,
-    )
-        .into_response()
+    ([(header::CONTENT_TYPE, "application/json")], crate::OPENAPI).into_response()
 }
 
 /// `GET /healthz`: alive, and how busy.
 async fn healthz(State(app): State<Arc<App>>) -> Response {
     let l = &app.limits;
     let running = l.analyses - app.running.available_permits().min(l.analyses);
-    let admitted = (l.analyses + l.queue) - app.admitted.available_permits().min(l.analyses + l.queue);
+    let admitted =
+        (l.analyses + l.queue) - app.admitted.available_permits().min(l.analyses + l.queue);
     json_response(json!({
         "status": "ok",
         "running": running,

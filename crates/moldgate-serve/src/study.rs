@@ -466,7 +466,11 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
     })?;
     let declared = body::check_length(req.headers(), limits.max_upload)?;
     let (controls, pairs) = parse_query(req.uri().query().unwrap_or(""))?;
-    let counter = req.extensions().get::<BytesIn>().cloned().unwrap_or_default();
+    let counter = req
+        .extensions()
+        .get::<BytesIn>()
+        .cloned()
+        .unwrap_or_default();
     let boundary = multipart_boundary(req.headers());
     // A plain body's format and options are checked before a byte of it is read.
     let early = match &boundary {
@@ -487,8 +491,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
     .await?;
     let (upload, settings) = match (boundary, early) {
         (Some(boundary), _) => {
-            let (upload, object) =
-                multipart(bytes, boundary, controls.format.as_deref()).await?;
+            let (upload, object) = multipart(bytes, boundary, controls.format.as_deref()).await?;
             (upload, settings(object, pairs, limits.max_nodes)?)
         }
         (None, Some((format, settings))) => {
@@ -502,9 +505,12 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         (None, None) => return Err(ApiError::internal("no options for a plain body")),
     };
     if upload.bytes.is_empty() {
-        return Err(
-            ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", "the mesh is empty").at("body"),
-        );
+        return Err(ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "mesh",
+            "the mesh is empty",
+        )
+        .at("body"));
     }
 
     let deadline = tokio::time::Instant::now() + limits.timeout;
@@ -555,7 +561,9 @@ mod tests {
     }
 
     fn pairs(q: &[(&str, &str)]) -> Vec<(String, String)> {
-        q.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+        q.iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
     }
 
     #[test]

@@ -19,7 +19,9 @@ fn doc() -> Value {
 fn resolve<'a>(doc: &'a Value, schema: &'a Value) -> &'a Value {
     match schema.get("$ref").and_then(Value::as_str) {
         Some(r) => {
-            let name = r.strip_prefix("#/components/schemas/").expect("a local $ref");
+            let name = r
+                .strip_prefix("#/components/schemas/")
+                .expect("a local $ref");
             &doc["components"]["schemas"][name]
         }
         None => schema,
@@ -64,7 +66,12 @@ fn validate(doc: &Value, schema: &Value, v: &Value, path: &str, out: &mut Vec<St
         }
     }
     if let Some(obj) = v.as_object() {
-        for r in schema.get("required").and_then(Value::as_array).into_iter().flatten() {
+        for r in schema
+            .get("required")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
             if !obj.contains_key(r.as_str().unwrap()) {
                 out.push(format!("{path}: missing {r}"));
             }
@@ -162,7 +169,12 @@ async fn error_answers_validate() {
     let cases = [
         ("/v1/study?colour=red", "model/stl", b"x".to_vec(), "400"),
         ("/v1/study", "text/csv", b"x".to_vec(), "415"),
-        ("/v1/study", "model/stl", b"solid\nfacet x\n".to_vec(), "422"),
+        (
+            "/v1/study",
+            "model/stl",
+            b"solid\nfacet x\n".to_vec(),
+            "422",
+        ),
     ];
     for (uri, ct, body, code) in cases {
         let (status, v) = call("POST", uri, ct, body).await;
@@ -182,7 +194,12 @@ fn the_documents_examples_validate() {
     let doc = doc();
     let mut seen = 0;
     for (name, schema) in doc["components"]["schemas"].as_object().unwrap() {
-        for example in schema.get("examples").and_then(Value::as_array).into_iter().flatten() {
+        for example in schema
+            .get("examples")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
             assert_valid(&doc, schema, example, name);
             seen += 1;
         }
