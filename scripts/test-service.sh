@@ -4,7 +4,7 @@
 # (status codes, content types, schemas) and for server errors. Loopback only, bounded in
 # examples per operation and in time.
 #
-#   scripts/test-service.sh            # builds the release binary if needed
+#   scripts/test-service.sh            # the debug binary (built by cargo test), built if needed
 #   MOLDGATE_BIN=path/to/moldgate scripts/test-service.sh
 #
 # Installs what it needs on a fresh machine: a virtualenv under the cargo target folder with
@@ -14,7 +14,7 @@ set -euo pipefail
 
 cd "$(dirname "$0")/.."
 target="${CARGO_TARGET_DIR:-target}"
-bin="${MOLDGATE_BIN:-$target/release/moldgate}"
+bin="${MOLDGATE_BIN:-$target/debug/moldgate}"
 venv="$target/schemathesis-venv"
 schemathesis_version="4.32.5"
 max_examples="${SCHEMATHESIS_MAX_EXAMPLES:-40}"
@@ -23,7 +23,7 @@ start=$(date +%s)
 
 if [ ! -x "$bin" ]; then
   echo "test-service: building $bin" >&2
-  cargo build --release -p moldgate-cli
+  cargo build -p moldgate-cli
 fi
 if [ ! -x "$venv/bin/schemathesis" ] || ! "$venv/bin/schemathesis" --version | grep -q "$schemathesis_version"; then
   echo "test-service: installing schemathesis $schemathesis_version into $venv" >&2
