@@ -12,6 +12,7 @@ use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::render::RenderError;
 use moldgate::report::Input;
 use moldgate::study::{self, Hooks, Study, StudyError};
+use moldgate::OptionsError;
 
 use crate::args::LocateArgs;
 use crate::formats::MeshKind;
@@ -61,9 +62,14 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
             flag(first),
             flag(second)
         )),
-        StudyError::UnknownMaterial { .. } | StudyError::Material(_) | StudyError::Locate(_) => {
-            Failure::usage(e.to_string())
+        StudyError::UnknownMaterial { .. } => {
+            Failure::usage(format!("{e} (`moldgate materials` lists them all)"))
         }
+        // The part's fault, not an option's: an input error that names the file.
+        StudyError::Locate(
+            l @ (OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. }),
+        ) => Failure::input(format!("{part}: {l}")),
+        StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
         StudyError::Fill(f) => Failure::usage(f.to_string()),

@@ -454,6 +454,9 @@ struct Row {
     circle_on_part: Option<usize>,
     /// Nodes passing every rule.
     qualifying: Option<usize>,
+    /// The report's warnings (units in doubt, open mesh, dropped facets ...), joined by
+    /// ` | `; null when the part failed or had none.
+    warnings: Option<String>,
     /// Seconds to load and analyse the part (varies from run to run).
     time_s: f64,
     /// Why the part failed, or null.
@@ -494,6 +497,9 @@ impl Row {
             nodes: r.map(|r| r.counts.nodes),
             circle_on_part: r.map(|r| r.counts.circle_on_part),
             qualifying: r.map(|r| r.counts.qualifying),
+            warnings: r
+                .filter(|r| !r.warnings.is_empty())
+                .map(|r| r.warnings.join(" | ")),
             time_s: (o.time_s * 1e4).round() / 1e4,
             error,
             file,
@@ -516,7 +522,7 @@ fn json_lines(rows: &[Row]) -> Result<String, Failure> {
 
 /// The CSV header, in the order of [`Row`]'s fields.
 const CSV_HEADER: &str = "file,status,exit_code,units,demold,triangles,gate_x_mm,gate_y_mm,\
-gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,time_s,error";
+gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,warnings,time_s,error";
 
 /// The rows as CSV (RFC 4180: fields with a comma, quote or line break are quoted, quotes
 /// doubled); a missing value is an empty field.
@@ -551,6 +557,7 @@ fn csv(rows: &[Row]) -> String {
             opt(r.nodes),
             opt(r.circle_on_part),
             opt(r.qualifying),
+            r.warnings.clone().unwrap_or_default(),
             r.time_s.to_string(),
             r.error.clone().unwrap_or_default(),
         ];
@@ -565,6 +572,24 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
+/// A row's warnings in the table: a warning about the units in full (it changes the answer),
+/// else the first one, cut to fit, and how many more.
+fn short_warning(joined: &str) -> String {
+    let all: Vec<&str> = joined.split(" | ").collect();
+    let units = all.iter().find(|w| w.contains("--units"));
+    let first = units.unwrap_or(&all[0]);
+    let mut shown: String = first.chars().take(100).collect();
+    if units.is_none() && shown.len() < first.len() {
+        shown += "...";
+    } else {
+        shown = first.to_string();
+    }
+    if all.len() > 1 {
+        shown += &format!(" (+{} more)", all.len() - 1);
+    }
+    shown
+}
+
 /// The human table, and a closing count unless `quiet`.
 fn table(rows: &[Row], quiet: bool) -> String {
     let width = rows
@@ -576,7 +601,7 @@ fn table(rows: &[Row], quiet: bool) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7}",
+        "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7}  warnings",
         "part", "status", "triangles", "gate x, y, z (mm)", "dist mm", "R mm", "time s"
     );
     let dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
@@ -587,7 +612,7 @@ fn table(rows: &[Row], quiet: bool) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}",
+            "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}  {}",
             r.file,
             r.status.replace('_', " "),
             dash(r.triangles.map(|t| t.to_string())),
@@ -595,6 +620,7 @@ fn table(rows: &[Row], quiet: bool) -> String {
             dash(r.distance_mm.map(|d| format!("{d:.3}"))),
             dash(r.gate_radius_mm.map(|d| format!("{d:.3}"))),
             r.time_s,
+            r.warnings.as_deref().map_or(String::new(), short_warning),
         );
     }
     if !quiet {
@@ -652,6 +678,7 @@ mod tests {
             nodes: None,
             circle_on_part: None,
             qualifying: None,
+            warnings: None,
             time_s: 0.5,
             error: Some("line 3: bad\nthing".into()),
         };
@@ -660,7 +687,7 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,0.5,\"line 3: bad\nthing\""
+            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,,0.5,\"line 3: bad\nthing\""
         );
     }
 
@@ -682,6 +709,7 @@ mod tests {
             nodes: None,
             circle_on_part: None,
             qualifying: None,
+            warnings: None,
             time_s: 0.0,
             error: None,
         };

@@ -293,7 +293,11 @@ fn bad_options_are_400_with_the_librarys_message() {
         ("circle_points=2.5", "circle_points", "expected usize"),
         ("demold=0,0,0", "demold", "non-zero finite vector"),
         ("gates=0", "gates", "must be at least 1"),
-        ("material=PEEK", "material", "unknown material 'PEEK'"),
+        (
+            "material=NoSuchResin",
+            "material",
+            "unknown material 'NoSuchResin'",
+        ),
         (
             "max_nodes=5000000",
             "max_nodes",

@@ -6,7 +6,7 @@ use axum::response::{IntoResponse, Response};
 use moldgate::flow::FillError;
 use moldgate::render::RenderError;
 use moldgate::study::StudyError;
-use moldgate::LoadError;
+use moldgate::{LoadError, OptionsError};
 use serde_json::{json, Value};
 
 /// An error answer: its status, a kind (one word, stable), a message for people, and
@@ -78,7 +78,11 @@ impl ApiError {
             StudyError::UnknownMaterial { .. } | StudyError::Material(_) => {
                 ApiError::options(message).at("material")
             }
-            // The grid the spacing gives on this part is over max_nodes.
+            // The part's fault, not an option's (as the command line's exit code 3).
+            StudyError::Locate(
+                OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. },
+            ) => ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message),
+            // An option over its limit or budget, or a grid over max_nodes for the spacing.
             StudyError::Locate(_) => ApiError::options(message).at("spacing"),
             StudyError::Fill(FillError::TooFewCandidates { .. }) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "no_gate", message)
