@@ -29,6 +29,8 @@ pub enum Command {
     /// List the built-in materials (the paper's Table 1 and typical grades): gate radius
     /// (Eq. 7-8), L/t limit, and with --json every value's source.
     Materials(MaterialsArgs),
+    /// Serve studies over HTTP (POST /v1/study; the API is at /v1/openapi.json).
+    Serve(ServeArgs),
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -254,6 +256,35 @@ pub struct MaterialsArgs {
     /// Print every parameter with its source as JSON instead of the table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Options of `serve`; every limit has a default and is checked before the work.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// Address to listen on (port 0: any free port, printed on stderr).
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "ADDR")]
+    pub bind: std::net::SocketAddr,
+    /// Largest request body, in MiB.
+    #[arg(long, default_value_t = 100, value_name = "MIB")]
+    pub max_upload: u64,
+    /// Studies that run at once (default: the number of cores).
+    #[arg(long, value_name = "N")]
+    pub analyses: Option<usize>,
+    /// Studies admitted beyond those, waiting; more are refused with 503.
+    #[arg(long, default_value_t = 16, value_name = "N")]
+    pub queue: usize,
+    /// Time limit of a study, seconds (504 past it).
+    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    pub timeout: f64,
+    /// Time limit for receiving a request body, seconds (408 past it).
+    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    pub read_timeout: f64,
+    /// Largest grid a request may ask for, in nodes.
+    #[arg(long, default_value_t = 4_000_000, value_name = "N")]
+    pub max_nodes: usize,
+    /// The browser app's built folder, served at / (default web/dist when it exists).
+    #[arg(long, value_name = "DIR")]
+    pub web_dir: Option<PathBuf>,
 }
 
 /// Options of `locate` for several parts.

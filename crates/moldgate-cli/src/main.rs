@@ -19,6 +19,7 @@ mod output;
 mod pictures;
 mod progress;
 mod sample;
+mod serve;
 mod summary;
 mod toml_file;
 
@@ -128,6 +129,7 @@ fn main() -> ExitCode {
         Command::Locate(a) => locate::run_locate(*a),
         Command::Sample(a) => sample::run_sample(a),
         Command::Materials(a) => materials::run_materials(a),
+        Command::Serve(a) => serve::run_serve(a),
     });
     let Ok(result) = result else {
         return ExitCode::from(1);

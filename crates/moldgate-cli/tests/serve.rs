@@ -1,0 +1,690 @@
+//! `moldgate serve` end to end over 127.0.0.1 with the real binary: every endpoint, the
+//! report against `locate --json`, the picture, the GLB, and every kind of bad input and
+//! fault, each followed by a check that the server still serves.
+
+mod common;
+#[path = "common/http.rs"]
+mod http;
+
+use std::io::{BufReader, Write};
+use std::net::SocketAddr;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use common::moldgate;
+use http::{connect, get, head, read_response, request, study_stl, Server};
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_moldgate");
+
+fn start(args: &[&str]) -> Server {
+    Server::start(BIN, args)
+}
+
+/// A built-in sample as binary STL, written by `moldgate sample`.
+fn sample_stl(name: &str) -> Vec<u8> {
+    let dir = tempfile::tempdir().unwrap();
+    let out = moldgate(dir.path(), &["sample", name, "-o", "part.stl"]);
+    assert!(out.status.success());
+    std::fs::read(dir.path().join("part.stl")).unwrap()
+}
+
+fn assert_alive(addr: SocketAddr) {
+    let r = get(addr, "/healthz");
+    assert_eq!(r.status, 200);
+    assert_eq!(r.json()["status"], "ok");
+}
+
+/// The answer has the status and error kind; never a 500; the server still serves.
+fn assert_error(server: &Server, r: &http::Response, status: u16, kind: &str) -> Value {
+    assert_eq!(
+        (r.status, r.kind().as_str()),
+        (status, kind),
+        "{}",
+        String::from_utf8_lossy(&r.body)
+    );
+    assert_eq!(r.header("content-type"), Some("application/json"));
+    assert_alive(server.addr);
+    r.json()["error"].clone()
+}
+
+/// A report without what depends on the run (timings) and on where the part came from.
+fn comparable(mut v: Value) -> Value {
+    v.as_object_mut().unwrap().remove("timings");
+    v.as_object_mut().unwrap().remove("input");
+    if let Some(fill) = v.get_mut("fill").and_then(Value::as_object_mut) {
+        fill.remove("times");
+    }
+    if let Some(wall) = v.get_mut("wall_thickness").and_then(Value::as_object_mut) {
+        wall.remove("time_s");
+    }
+    v
+}
+
+#[test]
+fn small_endpoints_answer_json_with_isolation_headers() {
+    let s = start(&[]);
+    let h = get(s.addr, "/healthz");
+    assert_eq!(h.status, 200);
+    assert_eq!(h.json()["running"], 0);
+    assert_eq!(h.header("cross-origin-opener-policy"), Some("same-origin"));
+    assert_eq!(
+        h.header("cross-origin-embedder-policy"),
+        Some("require-corp")
+    );
+
+    let m = get(s.addr, "/v1/materials").json();
+    let names: Vec<&str> = m["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["PP", "ABS", "PC"]);
+    // Table 1's radius of PP.
+    let pp = m["materials"][0]["gate_radius_mm"].as_f64().unwrap();
+    assert!((pp - 1.4254).abs() < 1e-3, "{pp}");
+
+    let list = get(s.addr, "/v1/samples").json();
+    assert_eq!(list["samples"].as_array().unwrap().len(), 5);
+    assert_eq!(list["samples"][1]["href"], "/v1/samples/cover");
+    let stl = get(s.addr, "/v1/samples/cover");
+    assert_eq!(stl.status, 200);
+    assert_eq!(stl.header("content-type"), Some("model/stl"));
+    assert_eq!(stl.body, sample_stl("cover"));
+    assert_error(&s, &get(s.addr, "/v1/samples/nope"), 404, "not_found");
+
+    let doc = get(s.addr, "/v1/openapi.json").json();
+    assert_eq!(doc["openapi"], "3.1.0");
+    assert_error(&s, &get(s.addr, "/nowhere"), 404, "not_found");
+    assert_error(&s, &get(s.addr, "/v1/study"), 405, "method");
+    // One log line per request: method, path, status, bytes in and out, time.
+    let log = s.log_text();
+    assert!(log.contains("GET /v1/samples/cover 200 in=0 out="), "{log}");
+    assert!(log.contains("ms"), "{log}");
+}
+
+#[test]
+fn report_is_the_command_lines_for_the_same_part_and_options() {
+    let s = start(&[]);
+    let dir = tempfile::tempdir().unwrap();
+    let stl = sample_stl("cover");
+    std::fs::write(dir.path().join("cover.stl"), &stl).unwrap();
+    let cases: [(&str, &[&str]); 3] = [
+        ("", &[]),
+        (
+            "material=ABS&demold=%2Bz&keep_out=box:-70,-50,-5,0,50,40&keep_out=sphere:30,0,5,4",
+            &[
+                "--material",
+                "ABS",
+                "--demold",
+                "+z",
+                "--keep-out",
+                "box:-70,-50,-5,0,50,40",
+                "--keep-out",
+                "sphere:30,0,5,4",
+            ],
+        ),
+        (
+            "fill=true&gate_radius=1.2&wall_thickness=true",
+            &["--fill", "--gate-radius", "1.2", "--wall-thickness"],
+        ),
+    ];
+    for (query, flags) in cases {
+        let r = study_stl(s.addr, query, &stl);
+        assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+        assert_eq!(r.header("content-type"), Some("application/json"));
+        let service = r.json();
+        assert_eq!(service["input"]["bytes"], stl.len());
+        let mut args = vec!["locate", "cover.stl", "--json"];
+        args.extend_from_slice(flags);
+        let out = moldgate(dir.path(), &args);
+        assert!(out.status.success(), "{}", common::stderr(&out));
+        let cli: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(comparable(service), comparable(cli), "options {query:?}");
+    }
+}
+
+#[test]
+fn multipart_options_and_formats_give_the_same_report() {
+    let s = start(&[]);
+    let stl = sample_stl("plate");
+    let by_query = study_stl(s.addr, "material=PC&circle_points=12", &stl);
+    assert_eq!(by_query.status, 200);
+    let b = "moldgateboundary";
+    let mut body = format!(
+        "--{b}\r\ncontent-disposition: form-data; name=\"options\"\r\ncontent-type: application/json\r\n\r\n{{\"material\": \"PC\", \"circle_points\": 12}}\r\n--{b}\r\ncontent-disposition: form-data; name=\"mesh\"; filename=\"plate.stl\"\r\ncontent-type: application/octet-stream\r\n\r\n"
+    )
+    .into_bytes();
+    body.extend_from_slice(&stl);
+    body.extend_from_slice(format!("\r\n--{b}--\r\n").as_bytes());
+    let ct = format!("multipart/form-data; boundary={b}");
+    let by_part = request(s.addr, "POST", "/v1/study", &[("content-type", &ct)], &body);
+    assert_eq!(
+        by_part.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&by_part.body)
+    );
+    assert_eq!(comparable(by_query.json()), comparable(by_part.json()));
+    // The same option in both places is refused.
+    let both = request(
+        s.addr,
+        "POST",
+        "/v1/study?material=PP",
+        &[("content-type", &ct)],
+        &body,
+    );
+    assert_eq!(assert_error(&s, &both, 400, "options")["where"], "material");
+    // application/octet-stream with format=, and the format parameter over the type.
+    let octet = request(
+        s.addr,
+        "POST",
+        "/v1/study?format=stl&material=PC&circle_points=12",
+        &[("content-type", "application/octet-stream")],
+        &stl,
+    );
+    assert_eq!(comparable(octet.json()), comparable(by_query.json()));
+}
+
+#[test]
+fn obj_and_ply_bodies_are_read_by_their_content_type() {
+    let s = start(&[]);
+    let obj = b"v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nv 0 0 10\nv 10 0 10\nv 10 10 10\nv 0 10 10\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    let r = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", "model/obj")],
+        obj,
+    );
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    assert_eq!(r.json()["mesh"]["triangles"], 12);
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n10 0 0\n0 10 0\n0 0 10\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n";
+    let r = request(
+        s.addr,
+        "POST",
+        "/v1/study?gate_radius=0.5",
+        &[("content-type", "application/x-ply")],
+        ply.as_bytes(),
+    );
+    assert!(r.status == 200 || r.status == 422, "{}", r.status);
+    assert_eq!(r.header("content-type"), Some("application/json"));
+    let bad = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", "model/obj")],
+        b"v 0 0 0\nv 1 0\nf 1 2 3\n",
+    );
+    assert_eq!(assert_error(&s, &bad, 422, "mesh")["where"], "line 2");
+}
+
+#[test]
+fn png_decodes_and_html_holds_it() {
+    let s = start(&[]);
+    let stl = sample_stl("tray");
+    let r = study_stl(s.addr, "output=png", &stl);
+    assert_eq!(r.status, 200);
+    assert_eq!(r.header("content-type"), Some("image/png"));
+    let decoder = png::Decoder::new(std::io::Cursor::new(r.body.clone()));
+    let reader = decoder.read_info().expect("a PNG");
+    assert_eq!((reader.info().width, reader.info().height), (1600, 900));
+    let page = study_stl(s.addr, "output=html", &stl);
+    assert_eq!(
+        page.header("content-type"),
+        Some("text/html; charset=utf-8")
+    );
+    let text = String::from_utf8(page.body).unwrap();
+    assert!(text.starts_with("<!DOCTYPE html>") || text.starts_with("<!doctype html>"));
+    assert!(text.contains("data:image/png;base64,"));
+    let e = study_stl(s.addr, "output=svg", &stl);
+    assert_eq!(assert_error(&s, &e, 400, "options")["where"], "output");
+}
+
+#[test]
+fn glb_is_valid_for_the_khronos_validator() {
+    let s = start(&[]);
+    let r = study_stl(s.addr, "output=glb&fill=true", &sample_stl("cover"));
+    assert_eq!(r.status, 200);
+    assert_eq!(r.header("content-type"), Some("model/gltf-binary"));
+    assert_eq!(&r.body[..4], b"glTF");
+    let tool = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/gltf-validator");
+    let installed = tool
+        .join("node_modules/gltf-validator/package.json")
+        .is_file()
+        && std::process::Command::new("node")
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success());
+    if !installed {
+        assert!(
+            std::env::var_os("MOLDGATE_REQUIRE_GLTF_VALIDATOR").is_none(),
+            "the glTF validator is required but not installed"
+        );
+        eprintln!("skipped the Khronos validator: node or tools/gltf-validator is not installed");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("study.glb");
+    std::fs::write(&file, &r.body).unwrap();
+    let out = std::process::Command::new("node")
+        .arg(tool.join("validate.js"))
+        .arg(&file)
+        .output()
+        .unwrap();
+    let report: Value = serde_json::from_slice(&out.stdout).expect("the validator's JSON");
+    assert_eq!(report["issues"]["numErrors"], 0, "{report}");
+    assert!(out.status.success());
+}
+
+#[test]
+fn bad_options_are_400_with_the_librarys_message() {
+    let s = start(&[]);
+    let stl = sample_stl("plate");
+    let cases = [
+        ("colour=red", "colour", "unknown field `colour`"),
+        (
+            "gates=abc",
+            "gates",
+            "invalid type: string \"abc\", expected usize",
+        ),
+        ("fill=maybe", "fill", "expected a boolean"),
+        ("circle_points=2.5", "circle_points", "expected usize"),
+        ("demold=0,0,0", "demold", "non-zero finite vector"),
+        ("gates=0", "gates", "must be at least 1"),
+        (
+            "material=NoSuchResin",
+            "material",
+            "unknown material 'NoSuchResin'",
+        ),
+        (
+            "max_nodes=5000000",
+            "max_nodes",
+            "at most 4000000 on this server",
+        ),
+        ("keep_out=cube:1,2,3", "keep_out", "keep_out"),
+        ("gates=2&gates=3", "gates", "more than once"),
+        ("units=furlong", "units", "units"),
+    ];
+    for (query, place, needle) in cases {
+        let r = study_stl(s.addr, query, &stl);
+        let e = assert_error(&s, &r, 400, "options");
+        assert_eq!(e["where"], place, "{query}: {e}");
+        assert!(
+            e["message"].as_str().unwrap().contains(needle),
+            "{query}: {e}"
+        );
+    }
+}
+
+#[test]
+fn keep_outs_that_forbid_everything_are_422_with_the_reason_and_the_report() {
+    let s = start(&[]);
+    let r = study_stl(
+        s.addr,
+        "keep_out=box:-1000,-1000,-1000,1000,1000,1000",
+        &sample_stl("plate"),
+    );
+    let e = assert_error(&s, &r, 422, "no_gate");
+    assert!(e["message"].as_str().unwrap().contains("kept out"), "{e}");
+    assert!(r.json()["report"]["counts"].is_object());
+}
+
+#[test]
+fn unknown_formats_are_415() {
+    let s = start(&[]);
+    let stl = sample_stl("plate");
+    for headers in [
+        vec![],
+        vec![("content-type", "text/csv")],
+        vec![("content-type", "application/octet-stream")],
+    ] {
+        let r = request(s.addr, "POST", "/v1/study", &headers, &stl);
+        assert_error(&s, &r, 415, "format");
+    }
+    let r = request(s.addr, "POST", "/v1/study?format=step", &[], &stl);
+    assert_eq!(assert_error(&s, &r, 415, "format")["where"], "format");
+}
+
+#[test]
+fn malformed_meshes_are_422_with_their_place() {
+    let s = start(&[]);
+    let stl = sample_stl("plate");
+    // Truncated binary STL: cut inside a triangle.
+    let r = study_stl(s.addr, "", &stl[..stl.len() - 30]);
+    let e = assert_error(&s, &r, 422, "mesh");
+    assert!(e["where"].as_str().unwrap().starts_with("byte "), "{e}");
+    let r = study_stl(s.addr, "", &stl[..40]);
+    assert_error(&s, &r, 422, "mesh");
+    let r = study_stl(
+        s.addr,
+        "",
+        b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nope\n",
+    );
+    assert_eq!(assert_error(&s, &r, 422, "mesh")["where"], "line 4");
+    let r = study_stl(s.addr, "", b"");
+    assert_error(&s, &r, 422, "mesh");
+}
+
+#[test]
+fn seeded_corruptions_never_give_a_500() {
+    let s = start(&[]);
+    let stl = sample_stl("cap");
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for case in 0..40 {
+        let mut body = stl.clone();
+        let cut = (next() as usize) % body.len();
+        match case % 4 {
+            0 => body.truncate(cut),
+            1 => body[cut] ^= 1 << (next() % 8),
+            2 => body[80..84].copy_from_slice(&(next() as u32).to_le_bytes()),
+            _ => {
+                for _ in 0..32 {
+                    let i = (next() as usize) % body.len();
+                    body[i] = next() as u8;
+                }
+            }
+        }
+        let r = study_stl(s.addr, "", &body);
+        // 400: a corrupted coordinate can make the part too large for the grid limit.
+        assert!(
+            [200, 400, 422].contains(&r.status),
+            "case {case}: {} {}",
+            r.status,
+            String::from_utf8_lossy(&r.body)
+        );
+    }
+    assert_alive(s.addr);
+    assert!(!s.log_text().contains("internal error"), "{}", s.log_text());
+}
+
+#[test]
+fn oversized_content_length_is_413_before_the_body_is_sent() {
+    let s = start(&["--max-upload", "1"]);
+    let mut c = connect(s.addr);
+    // Only the head: the answer must come without a byte of the body.
+    c.write_all(
+        head(
+            "POST",
+            "/v1/study",
+            &[("content-type", "model/stl")],
+            Some(1 << 40),
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_eq!(
+        assert_error(&s, &r, 413, "too_large")["where"],
+        "Content-Length"
+    );
+    // A chunked body is cut at the limit as it streams.
+    let mut c = connect(s.addr);
+    let mut req = "POST /v1/study HTTP/1.1\r\nhost: x\r\ncontent-type: model/stl\r\ntransfer-encoding: chunked\r\n\r\n".to_string();
+    let chunk = "a".repeat(1 << 16);
+    for _ in 0..20 {
+        req += &format!("{:x}\r\n{chunk}\r\n", chunk.len());
+    }
+    let _ = c.write_all(req.as_bytes());
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_eq!(assert_error(&s, &r, 413, "too_large")["where"], "body");
+}
+
+#[test]
+fn lying_content_lengths() {
+    let s = start(&["--read-timeout", "5"]);
+    let stl = sample_stl("plate");
+    // Shorter than the body: the mesh read is cut, a malformed mesh.
+    let mut c = connect(s.addr);
+    c.write_all(
+        head(
+            "POST",
+            "/v1/study",
+            &[("content-type", "model/stl"), ("connection", "close")],
+            Some(stl.len() - 100),
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    c.write_all(&stl).unwrap();
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_error(&s, &r, 422, "mesh");
+    // Longer than the body, then the client stops sending: the body cannot be read.
+    let mut c = connect(s.addr);
+    c.write_all(
+        head(
+            "POST",
+            "/v1/study",
+            &[("content-type", "model/stl")],
+            Some(stl.len() + 1000),
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    c.write_all(&stl).unwrap();
+    c.shutdown(std::net::Shutdown::Write).unwrap();
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_error(&s, &r, 400, "body");
+    // A Content-Length that is not a number is refused by the HTTP layer or by us, never 500.
+    let mut c = connect(s.addr);
+    c.write_all(b"POST /v1/study HTTP/1.1\r\nhost: x\r\ncontent-length: lots\r\n\r\n")
+        .unwrap();
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_eq!(r.status, 400);
+    assert_alive(s.addr);
+}
+
+#[test]
+fn a_client_that_disconnects_mid_upload_leaves_the_server_serving() {
+    let s = start(&[]);
+    let stl = sample_stl("cover");
+    for _ in 0..5 {
+        let mut c = connect(s.addr);
+        c.write_all(
+            head(
+                "POST",
+                "/v1/study",
+                &[("content-type", "model/stl")],
+                Some(stl.len()),
+            )
+            .as_bytes(),
+        )
+        .unwrap();
+        c.write_all(&stl[..stl.len() / 2]).unwrap();
+        drop(c);
+    }
+    // The log shows each as a body that could not be read, and the slots are free again.
+    let t = Instant::now();
+    while s.log_text().matches("POST /v1/study 400").count() < 5 && t.elapsed().as_secs() < 10 {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(
+        s.log_text().matches("POST /v1/study 400").count(),
+        5,
+        "{}",
+        s.log_text()
+    );
+    assert_alive(s.addr);
+    assert_eq!(get(s.addr, "/healthz").json()["running"], 0);
+    assert_eq!(study_stl(s.addr, "", &stl).status, 200);
+}
+
+#[test]
+fn a_slow_client_gets_408() {
+    let s = start(&["--read-timeout", "2"]);
+    let mut c = connect(s.addr);
+    c.write_all(
+        head(
+            "POST",
+            "/v1/study",
+            &[("content-type", "model/stl")],
+            Some(1000),
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    // A byte a second: the body cannot arrive within the limit.
+    let t = Instant::now();
+    let mut out = c.try_clone().unwrap();
+    let writer = std::thread::spawn(move || {
+        for _ in 0..4 {
+            if out.write_all(b"s").is_err() {
+                break;
+            }
+            std::thread::sleep(Duration::from_secs(1));
+        }
+    });
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    let elapsed = t.elapsed();
+    assert_error(&s, &r, 408, "body_timeout");
+    assert!(elapsed < Duration::from_secs(4), "{elapsed:?}");
+    writer.join().unwrap();
+}
+
+#[test]
+fn requests_beyond_the_queue_are_503() {
+    let s = start(&["--analyses", "1", "--queue", "1"]);
+    let stl = sample_stl("plate");
+    // Two uploads that never finish hold the one running slot and the one queue slot.
+    let mut held = Vec::new();
+    for _ in 0..2 {
+        let mut c = connect(s.addr);
+        c.write_all(
+            head(
+                "POST",
+                "/v1/study",
+                &[("content-type", "model/stl")],
+                Some(stl.len()),
+            )
+            .as_bytes(),
+        )
+        .unwrap();
+        c.write_all(&stl[..100]).unwrap();
+        held.push(c);
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let r = study_stl(s.addr, "", &stl);
+    assert_error(&s, &r, 503, "busy");
+    // When they go, studies are admitted again.
+    drop(held);
+    let t = Instant::now();
+    loop {
+        let r = study_stl(s.addr, "", &stl);
+        if r.status == 200 {
+            break;
+        }
+        assert_eq!(r.status, 503);
+        assert!(t.elapsed() < Duration::from_secs(10));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_study_past_the_time_limit_is_stopped_with_504() {
+    let s = start(&["--timeout", "0.05", "--analyses", "1"]);
+    let stl = sample_stl("cover");
+    let r = study_stl(s.addr, "fill=true&wall_thickness=true", &stl);
+    assert_error(&s, &r, 504, "timeout");
+    // The cancelled study frees its slot at its next stage; then the server studies again.
+    let t = Instant::now();
+    while get(s.addr, "/healthz").json()["running"] != 0 {
+        assert!(t.elapsed() < Duration::from_secs(30));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn sigterm_finishes_the_request_in_flight_then_exits() {
+    let mut s = start(&[]);
+    let stl = sample_stl("cover");
+    let addr = s.addr;
+    let inflight = std::thread::spawn(move || study_stl(addr, "fill=true", &stl));
+    // Wait until the study runs.
+    let t = Instant::now();
+    while get(s.addr, "/healthz").json()["running"] == 0 {
+        assert!(
+            t.elapsed() < Duration::from_secs(10),
+            "the study never started"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-TERM", &s.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let r = inflight.join().unwrap();
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let status = s.child.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    let t = Instant::now();
+    while !s.log_text().contains("moldgate: stopped") && t.elapsed().as_secs() < 5 {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+        s.log_text().contains("moldgate: stopped"),
+        "{}",
+        s.log_text()
+    );
+    assert!(std::net::TcpStream::connect(addr).is_err());
+}
+
+#[test]
+fn the_web_folder_is_served_with_isolation_headers_and_mime_types() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("index.html"),
+        "<!doctype html><title>app</title>",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("app.wasm"), b"\0asm\x01\0\0\0").unwrap();
+    std::fs::write(dir.path().join("app.js"), "export {}").unwrap();
+    let s = start(&["--web-dir", dir.path().to_str().unwrap()]);
+    let index = get(s.addr, "/");
+    assert_eq!(index.status, 200);
+    assert!(index
+        .header("content-type")
+        .unwrap()
+        .starts_with("text/html"));
+    assert_eq!(
+        index.header("cross-origin-opener-policy"),
+        Some("same-origin")
+    );
+    assert_eq!(
+        index.header("cross-origin-embedder-policy"),
+        Some("require-corp")
+    );
+    let wasm = get(s.addr, "/app.wasm");
+    assert_eq!(wasm.header("content-type"), Some("application/wasm"));
+    assert_eq!(wasm.body, b"\0asm\x01\0\0\0");
+    assert!(get(s.addr, "/app.js")
+        .header("content-type")
+        .unwrap()
+        .contains("javascript"));
+    assert_eq!(get(s.addr, "/missing.js").status, 404);
+    assert_eq!(get(s.addr, "/v1/materials").status, 200);
+    // A missing folder given on purpose is an error at start.
+    let out = moldgate(dir.path(), &["serve", "--web-dir", "no-such-folder"]);
+    assert_eq!(out.status.code(), Some(common::INPUT));
+}
+
+#[test]
+fn bad_limits_are_refused_at_start() {
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        &["serve", "--analyses", "0"][..],
+        &["serve", "--max-upload", "0"],
+        &["serve", "--timeout", "0"],
+        &["serve", "--max-nodes", "0"],
+    ] {
+        let out = moldgate(dir.path(), args);
+        assert_eq!(out.status.code(), Some(common::USAGE), "{args:?}");
+    }
+}

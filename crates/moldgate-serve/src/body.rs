@@ -1,0 +1,105 @@
+//! Reading a request body within the limits: refused by its `Content-Length` before any
+//! byte is read when it is too large, cut at the limit when it streams, and given a
+//! deadline so a client that sends a byte a second cannot hold a slot.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::body::{Body, Bytes};
+use axum::http::{header, HeaderMap, StatusCode};
+use http_body_util::BodyExt;
+
+use crate::error::ApiError;
+
+/// Bytes received of one request, shared with the request log line.
+#[derive(Debug, Clone, Default)]
+pub struct BytesIn(pub Arc<AtomicU64>);
+
+/// The 413 error of a body over `max` bytes.
+fn too_large(max: u64, place: &str) -> ApiError {
+    ApiError::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "too_large",
+        format!(
+            "the request body is larger than this server's limit of {max} bytes (--max-upload)"
+        ),
+    )
+    .at(place)
+}
+
+/// Refuses a request whose declared `Content-Length` is over `max`, before its body is
+/// read; gives the declared length.
+pub fn check_length(headers: &HeaderMap, max: u64) -> Result<Option<u64>, ApiError> {
+    let Some(v) = headers.get(header::CONTENT_LENGTH) else {
+        return Ok(None);
+    };
+    let declared = v
+        .to_str()
+        .ok()
+        .and_then(|s| s.trim().parse::<u64>().ok())
+        .ok_or_else(|| {
+            ApiError::new(
+                StatusCode::BAD_REQUEST,
+                "body",
+                "Content-Length is not a number",
+            )
+            .at("Content-Length")
+        })?;
+    if declared > max {
+        return Err(too_large(max, "Content-Length"));
+    }
+    Ok(Some(declared))
+}
+
+/// Reads the whole body: at most `max` bytes, all of it within `timeout`. `declared` (the
+/// checked `Content-Length`) sizes the buffer once, so a large upload is not copied as it
+/// grows.
+pub async fn read(
+    body: Body,
+    declared: Option<u64>,
+    max: u64,
+    timeout: Duration,
+    counter: &BytesIn,
+) -> Result<Bytes, ApiError> {
+    let deadline = tokio::time::Instant::now() + timeout;
+    let mut body = body;
+    let mut out = Vec::with_capacity(declared.unwrap_or(0).min(max) as usize);
+    loop {
+        let frame = match tokio::time::timeout_at(deadline, body.frame()).await {
+            Err(_) => {
+                return Err(ApiError::new(
+                    StatusCode::REQUEST_TIMEOUT,
+                    "body_timeout",
+                    format!(
+                        "the request body did not arrive within {} s (--read-timeout); {} bytes were received",
+                        timeout.as_secs_f64(),
+                        out.len()
+                    ),
+                )
+                .at("body"))
+            }
+            Ok(None) => break,
+            Ok(Some(Err(e))) => {
+                return Err(ApiError::new(
+                    StatusCode::BAD_REQUEST,
+                    "body",
+                    format!(
+                        "the request body could not be read after {} bytes: {e}",
+                        out.len()
+                    ),
+                )
+                .at("body"))
+            }
+            Ok(Some(Ok(frame))) => frame,
+        };
+        if let Ok(data) = frame.into_data() {
+            counter.0.fetch_add(data.len() as u64, Ordering::Relaxed);
+            if out.len() as u64 + data.len() as u64 > max {
+                return Err(too_large(max, "body"));
+            }
+            out.extend_from_slice(&data);
+        }
+    }
+    Ok(Bytes::from(out))
+}

@@ -1,0 +1,201 @@
+//! The routes of the service, in one table that both the router and the OpenAPI test read,
+//! and the small handlers (materials, samples, health, the document).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use axum::extract::{Path as UrlPath, State};
+use axum::http::{header, HeaderName, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post, MethodRouter};
+use axum::Router;
+use moldgate::Material;
+use serde_json::json;
+use tower_http::services::ServeDir;
+use tower_http::set_header::SetResponseHeaderLayer;
+
+use crate::error::ApiError;
+use crate::App;
+
+/// One route: its method (lower case, as in OpenAPI) and path (OpenAPI's `{name}` form,
+/// which is also axum's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Route {
+    /// `get` or `post`.
+    pub method: &'static str,
+    /// The path.
+    pub path: &'static str,
+}
+
+/// Every route of the service; the router is built from this table and the OpenAPI
+/// document is tested against it.
+pub const ROUTES: &[Route] = &[
+    Route {
+        method: "post",
+        path: "/v1/study",
+    },
+    Route {
+        method: "get",
+        path: "/v1/materials",
+    },
+    Route {
+        method: "get",
+        path: "/v1/samples",
+    },
+    Route {
+        method: "get",
+        path: "/v1/samples/{name}",
+    },
+    Route {
+        method: "get",
+        path: "/v1/openapi.json",
+    },
+    Route {
+        method: "get",
+        path: "/healthz",
+    },
+];
+
+fn handler_of(route: Route) -> Option<MethodRouter<Arc<App>>> {
+    Some(match (route.method, route.path) {
+        ("post", "/v1/study") => post(crate::study::handler),
+        ("get", "/v1/materials") => get(materials),
+        ("get", "/v1/samples") => get(samples),
+        ("get", "/v1/samples/{name}") => get(sample),
+        ("get", "/v1/openapi.json") => get(openapi),
+        ("get", "/healthz") => get(healthz),
+        _ => return None,
+    })
+}
+
+/// The service's router: the routes of [`ROUTES`], JSON errors for unknown routes and
+/// methods, the browser app's folder at `/` when given and present, cross-origin
+/// isolation headers on every answer, and one log line per request.
+pub(crate) fn router(app: Arc<App>, web_dir: Option<&Path>) -> Router {
+    let mut r = Router::new();
+    for route in ROUTES {
+        if let Some(h) = handler_of(*route) {
+            r = r.route(route.path, h);
+        }
+    }
+    r = r.method_not_allowed_fallback(|| async {
+        ApiError::new(
+            StatusCode::METHOD_NOT_ALLOWED,
+            "method",
+            "this method is not allowed on this path (see /v1/openapi.json)",
+        )
+    });
+    r = match web_dir.filter(|d| d.is_dir()) {
+        Some(dir) => r.fallback_service(ServeDir::new(dir)),
+        None => r.fallback(|| async {
+            ApiError::new(
+                StatusCode::NOT_FOUND,
+                "not_found",
+                "no such path (see /v1/openapi.json)",
+            )
+        }),
+    };
+    r.with_state(app)
+        .layer(axum::middleware::from_fn(crate::log::log))
+        .layer(SetResponseHeaderLayer::overriding(
+            HeaderName::from_static("cross-origin-opener-policy"),
+            HeaderValue::from_static("same-origin"),
+        ))
+        .layer(SetResponseHeaderLayer::overriding(
+            HeaderName::from_static("cross-origin-embedder-policy"),
+            HeaderValue::from_static("require-corp"),
+        ))
+}
+
+fn json_response(v: serde_json::Value) -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        serde_json::to_vec_pretty(&v).unwrap_or_default(),
+    )
+        .into_response()
+}
+
+/// `GET /v1/materials`: the built-in materials with Eq. 7-8.
+async fn materials() -> Response {
+    let list: Vec<_> = moldgate::material::BUILTIN
+        .iter()
+        .filter_map(|n| Material::builtin(n))
+        .map(|m| {
+            json!({
+                "name": m.name,
+                "n": m.n,
+                "t_melt": m.t_melt,
+                "t_wall": m.t_wall,
+                "gamma_opt": m.gamma_opt,
+                "mu_opt": m.mu_opt,
+                "k": m.k,
+                "max_flow_ratio": m.max_flow_ratio,
+                "melt_velocity_m_s": m.melt_velocity_m_s(),
+                "gate_radius_mm": m.gate_radius_mm(),
+            })
+        })
+        .collect();
+    json_response(json!({ "materials": list }))
+}
+
+/// `GET /v1/samples`: the built-in sample parts.
+async fn samples() -> Response {
+    let list: Vec<_> = moldgate::samples::SAMPLES
+        .iter()
+        .map(|s| {
+            json!({
+                "name": s.name,
+                "description": s.description,
+                "href": format!("/v1/samples/{}", s.name),
+            })
+        })
+        .collect();
+    json_response(json!({ "samples": list }))
+}
+
+/// `GET /v1/samples/{name}`: a sample part as binary STL (mm).
+async fn sample(UrlPath(name): UrlPath<String>) -> Response {
+    let Some(mesh) = moldgate::samples::sample(&name) else {
+        let known: Vec<&str> = moldgate::samples::SAMPLES.iter().map(|s| s.name).collect();
+        return ApiError::new(
+            StatusCode::NOT_FOUND,
+            "not_found",
+            format!("unknown sample '{name}' (known: {})", known.join(", ")),
+        )
+        .at("name")
+        .into_response();
+    };
+    let mut bytes = Vec::new();
+    if let Err(e) = mesh.write_stl(&mut bytes) {
+        return ApiError::internal(format!("cannot encode STL: {e}")).into_response();
+    }
+    (
+        [
+            (header::CONTENT_TYPE, "model/stl".to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"{name}.stl\""),
+            ),
+        ],
+        bytes,
+    )
+        .into_response()
+}
+
+/// `GET /v1/openapi.json`.
+async fn openapi() -> Response {
+    ([(header::CONTENT_TYPE, "application/json")], crate::OPENAPI).into_response()
+}
+
+/// `GET /healthz`: alive, and how busy.
+async fn healthz(State(app): State<Arc<App>>) -> Response {
+    let l = &app.limits;
+    let running = l.analyses - app.running.available_permits().min(l.analyses);
+    let admitted =
+        (l.analyses + l.queue) - app.admitted.available_permits().min(l.analyses + l.queue);
+    json_response(json!({
+        "status": "ok",
+        "running": running,
+        "waiting": admitted.saturating_sub(running),
+    }))
+}

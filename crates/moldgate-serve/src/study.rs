@@ -1,0 +1,595 @@
+//! `POST /v1/study`: admission, the body within the limits, the options from the query (or
+//! a multipart `options` part) through the library's serde [`StudyOptions`], the study on a
+//! blocking thread with a time limit, and the answer (report, picture, GLB or page).
+
+use std::io::Cursor;
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use axum::body::Bytes;
+use axum::extract::{Request, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::report::Input;
+use moldgate::study::{Hooks, Settings, StudyOptions};
+use serde_json::{Map, Value};
+
+use crate::body::{self, BytesIn};
+use crate::error::ApiError;
+use crate::App;
+
+/// A mesh format the service reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Binary or ASCII STL.
+    Stl,
+    /// Wavefront OBJ.
+    Obj,
+    /// PLY, ASCII or binary.
+    Ply,
+}
+
+const FORMATS: &str = "stl, obj, ply";
+
+impl Format {
+    /// The format of a `format` value (`stl`, `obj`, `ply`, any case).
+    fn by_name(name: &str) -> Option<Format> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "stl" => Some(Format::Stl),
+            "obj" => Some(Format::Obj),
+            "ply" => Some(Format::Ply),
+            _ => None,
+        }
+    }
+
+    /// The format of a media type; `None` for `application/octet-stream` and every type
+    /// that does not name one.
+    fn by_media_type(media: &str) -> Option<Format> {
+        let essence = media.split(';').next().unwrap_or("").trim();
+        match essence.to_ascii_lowercase().as_str() {
+            "model/stl" | "model/x.stl-binary" | "model/x.stl-ascii" | "application/sla" => {
+                Some(Format::Stl)
+            }
+            "model/obj" => Some(Format::Obj),
+            "application/x-ply" | "model/x-ply" => Some(Format::Ply),
+            _ => None,
+        }
+    }
+
+    /// The format of a file name's extension.
+    fn by_file_name(name: &str) -> Option<Format> {
+        let (_, ext) = name.rsplit_once('.')?;
+        Format::by_name(ext)
+    }
+}
+
+/// What the answer is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Output {
+    Json,
+    Png,
+    Glb,
+    Html,
+}
+
+impl Output {
+    fn by_name(name: &str) -> Result<Output, ApiError> {
+        match name {
+            "json" => Ok(Output::Json),
+            "png" => Ok(Output::Png),
+            "glb" => Ok(Output::Glb),
+            "html" => Ok(Output::Html),
+            _ => Err(ApiError::options(format!(
+                "output must be one of json, png, glb, html, got '{name}'"
+            ))
+            .at("output")),
+        }
+    }
+}
+
+/// The query parameters that are not study options.
+struct Controls {
+    format: Option<String>,
+    output: Output,
+    units: Units,
+}
+
+/// Splits the query into the service's own parameters and the study options (as a JSON
+/// object, see [`options_object`]).
+fn parse_query(query: &str) -> Result<(Controls, Vec<(String, String)>), ApiError> {
+    let pairs: Vec<(String, String)> = serde_urlencoded::from_str(query)
+        .map_err(|e| ApiError::options(format!("the query cannot be read: {e}")).at("query"))?;
+    let mut controls = Controls {
+        format: None,
+        output: Output::Json,
+        units: Units::Mm,
+    };
+    let mut seen = std::collections::HashSet::new();
+    let mut rest = Vec::new();
+    for (k, v) in pairs {
+        let own = matches!(k.as_str(), "format" | "output" | "units");
+        if own && !seen.insert(k.clone()) {
+            return Err(ApiError::options(format!("{k} is given more than once")).at(k));
+        }
+        match k.as_str() {
+            "format" => controls.format = Some(v),
+            "output" => controls.output = Output::by_name(&v)?,
+            "units" => {
+                controls.units = v
+                    .parse()
+                    .map_err(|e: String| ApiError::options(format!("units: {e}")).at("units"))?
+            }
+            _ => rest.push((k, v)),
+        }
+    }
+    Ok((controls, rest))
+}
+
+/// The query's option pairs as a JSON object for [`StudyOptions`]'s serde: a list field
+/// (`keep_out`) takes every value of its repeated key, a text field its text, and any other
+/// value is read as JSON when it is a number, `true`, `false` or an object, else as text,
+/// so a wrong type is refused by serde with its message.
+pub fn options_object(pairs: Vec<(String, String)>) -> Result<Map<String, Value>, ApiError> {
+    let defaults = serde_json::to_value(StudyOptions::default()).unwrap_or(Value::Null);
+    let mut out = Map::new();
+    for (k, v) in pairs {
+        let default = defaults.get(&k);
+        if let Some(Value::Array(_)) = default {
+            if let Value::Array(list) = out.entry(k).or_insert_with(|| Value::Array(Vec::new())) {
+                list.push(Value::String(v));
+            }
+            continue;
+        }
+        if out.contains_key(&k) {
+            return Err(ApiError::options(format!("{k} is given more than once")).at(k));
+        }
+        let value = match default {
+            Some(Value::String(_)) => Value::String(v),
+            _ => scalar(&v),
+        };
+        out.insert(k, value);
+    }
+    Ok(out)
+}
+
+/// A query value as JSON: a number, a boolean or an object when it reads as one, text
+/// otherwise.
+fn scalar(v: &str) -> Value {
+    let t = v.trim();
+    let looks_json = t == "true"
+        || t == "false"
+        || t.starts_with('{')
+        || t.starts_with(|c: char| c.is_ascii_digit() || c == '-' || c == '.');
+    match looks_json.then(|| serde_json::from_str::<Value>(t)) {
+        Some(Ok(v @ (Value::Number(_) | Value::Bool(_) | Value::Object(_)))) => v,
+        _ => Value::String(v.to_string()),
+    }
+}
+
+/// The study options of a JSON object: serde's message on failure, and the option it is
+/// about when it can be found.
+pub fn study_options(object: Map<String, Value>) -> Result<StudyOptions, ApiError> {
+    match serde_json::from_value::<StudyOptions>(Value::Object(object.clone())) {
+        Ok(o) => Ok(o),
+        Err(e) => {
+            let mut err = ApiError::options(e.to_string());
+            // The first option that fails on its own is the one at fault.
+            let culprit = object.iter().find(|(k, v)| {
+                let mut one = Map::new();
+                one.insert((*k).clone(), (*v).clone());
+                serde_json::from_value::<StudyOptions>(Value::Object(one)).is_err()
+            });
+            if let Some((k, _)) = culprit {
+                err = err.at(k.clone());
+            }
+            Err(err)
+        }
+    }
+}
+
+/// The mesh bytes, their format and a title, from a plain or a multipart body.
+struct Upload {
+    bytes: Bytes,
+    format: Format,
+    title: String,
+}
+
+fn unknown_format(what: String) -> ApiError {
+    ApiError::new(StatusCode::UNSUPPORTED_MEDIA_TYPE, "format", what)
+}
+
+fn format_by_name(name: &str) -> Result<Format, ApiError> {
+    Format::by_name(name).ok_or_else(|| {
+        unknown_format(format!("unknown mesh format '{name}' (known: {FORMATS})")).at("format")
+    })
+}
+
+/// The format of a plain body: the `format` parameter, else the Content-Type.
+fn plain_format(query_format: Option<&str>, headers: &HeaderMap) -> Result<Format, ApiError> {
+    if let Some(name) = query_format {
+        return format_by_name(name);
+    }
+    let media = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("");
+    Format::by_media_type(media).ok_or_else(|| {
+        let said = if media.is_empty() {
+            "no Content-Type".to_string()
+        } else {
+            format!("Content-Type '{media}'")
+        };
+        unknown_format(format!(
+            "{said} names no mesh format: send model/stl, model/obj or application/x-ply, or give format={{{}}}",
+            FORMATS.replace(", ", ",")
+        ))
+        .at("Content-Type")
+    })
+}
+
+fn multipart_boundary(headers: &HeaderMap) -> Option<String> {
+    let media = headers.get(header::CONTENT_TYPE)?.to_str().ok()?;
+    if !media
+        .trim_start()
+        .to_ascii_lowercase()
+        .starts_with("multipart/form-data")
+    {
+        return None;
+    }
+    multer::parse_boundary(media).ok()
+}
+
+/// Reads the `options` (JSON object) and `mesh` parts of a multipart body.
+async fn multipart(
+    bytes: Bytes,
+    boundary: String,
+    query_format: Option<&str>,
+) -> Result<(Upload, Map<String, Value>), ApiError> {
+    let bad = |m: String| ApiError::new(StatusCode::BAD_REQUEST, "body", m).at("multipart");
+    let stream = futures_util::stream::once(async move { Ok::<Bytes, std::io::Error>(bytes) });
+    let mut parts = multer::Multipart::new(stream, boundary);
+    let mut options = None;
+    let mut mesh = None;
+    while let Some(field) = parts
+        .next_field()
+        .await
+        .map_err(|e| bad(format!("the multipart body cannot be read: {e}")))?
+    {
+        let name = field.name().unwrap_or("").to_string();
+        match name.as_str() {
+            "options" => {
+                let text = field
+                    .bytes()
+                    .await
+                    .map_err(|e| bad(format!("the options part cannot be read: {e}")))?;
+                let v: Value = serde_json::from_slice(&text).map_err(|e| {
+                    ApiError::options(format!("the options part is not JSON: {e}")).at("options")
+                })?;
+                let Value::Object(map) = v else {
+                    return Err(
+                        ApiError::options("the options part must be a JSON object").at("options")
+                    );
+                };
+                options = Some(map);
+            }
+            "mesh" => {
+                let media = field.content_type().map(|m| m.to_string());
+                let file = field.file_name().map(str::to_string);
+                let data = field
+                    .bytes()
+                    .await
+                    .map_err(|e| bad(format!("the mesh part cannot be read: {e}")))?;
+                mesh = Some((data, media, file));
+            }
+            other => {
+                return Err(bad(format!(
+                    "unknown part '{other}' (the parts are 'options' and 'mesh')"
+                )))
+            }
+        }
+    }
+    let Some((data, media, file)) = mesh else {
+        return Err(bad("no 'mesh' part".into()));
+    };
+    let format = match query_format {
+        Some(name) => format_by_name(name)?,
+        None => media
+            .as_deref()
+            .and_then(Format::by_media_type)
+            .or_else(|| file.as_deref().and_then(Format::by_file_name))
+            .ok_or_else(|| {
+                unknown_format(format!(
+                    "the mesh part names no format: give it the Content-Type model/stl, model/obj or application/x-ply, a file name ending in .stl, .obj or .ply, or format={{{}}}",
+                    FORMATS.replace(", ", ",")
+                ))
+                .at("mesh")
+            })?,
+    };
+    let title = file.unwrap_or_else(|| "uploaded part".into());
+    Ok((
+        Upload {
+            bytes: data,
+            format,
+            title,
+        },
+        options.unwrap_or_default(),
+    ))
+}
+
+/// What a finished request answers.
+enum Answer {
+    Json(String),
+    Png(Vec<u8>),
+    Glb(Vec<u8>),
+    Html(String),
+}
+
+impl IntoResponse for Answer {
+    fn into_response(self) -> Response {
+        let (ct, body) = match self {
+            Answer::Json(s) => ("application/json", s.into_bytes()),
+            Answer::Png(b) => ("image/png", b),
+            Answer::Glb(b) => ("model/gltf-binary", b),
+            Answer::Html(s) => ("text/html; charset=utf-8", s.into_bytes()),
+        };
+        ([(header::CONTENT_TYPE, ct)], body).into_response()
+    }
+}
+
+/// Runs `f`, turning a panic into a 500 answer (logged on stderr by the panic hook and here).
+pub fn guarded<T>(f: impl FnOnce() -> Result<T, ApiError>) -> Result<T, ApiError> {
+    match std::panic::catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(payload) => {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "a panic".into());
+            eprintln!("moldgate: internal error in a study: {what}");
+            Err(ApiError::internal(format!(
+                "internal error, please report it: {what}"
+            )))
+        }
+    }
+}
+
+fn load(upload: &Upload, units: Units) -> Result<LoadedMesh, ApiError> {
+    let reader = Cursor::new(&upload.bytes[..]);
+    match upload.format {
+        Format::Stl => mesh::read_stl(reader, upload.bytes.len() as u64, units),
+        Format::Obj => mesh::read_obj(reader, units),
+        Format::Ply => mesh::read_ply(reader, units),
+    }
+    .map_err(|e| ApiError::mesh(&e))
+}
+
+/// Loads and studies the upload, and makes the answer (on a blocking thread).
+fn work(
+    upload: Upload,
+    units: Units,
+    settings: &Settings,
+    output: Output,
+    cancel: &AtomicBool,
+) -> Result<Answer, ApiError> {
+    let t = Instant::now();
+    let part = load(&upload, units)?;
+    let load_s = t.elapsed().as_secs_f64();
+    let hooks = Hooks {
+        progress: None,
+        cancel: Some(cancel),
+    };
+    let mut study =
+        moldgate::study_with(&part, settings, &hooks).map_err(|e| ApiError::study(&e))?;
+    study.set_input(
+        Input {
+            path: None,
+            sample: None,
+            bytes: upload.bytes.len() as u64,
+        },
+        load_s,
+    );
+    drop(upload.bytes);
+    let report = study.report();
+    if let (None, Some(reason)) = (&report.gate, &report.no_gate_reason) {
+        let mut e = ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no_gate",
+            format!("no gate: {reason}"),
+        );
+        e.report = serde_json::to_value(report).ok();
+        return Err(e);
+    }
+    let fail = |e: moldgate::StudyError| ApiError::study(&e);
+    Ok(match output {
+        Output::Json => Answer::Json(study.report_json().map_err(fail)?),
+        Output::Png => Answer::Png(study.png(&part, upload.title).map_err(fail)?),
+        Output::Glb => Answer::Glb(study.glb(&part, upload.title).map_err(fail)?),
+        Output::Html => {
+            let png = study.png(&part, upload.title).map_err(fail)?;
+            Answer::Html(study.html(Some(&png)).map_err(fail)?)
+        }
+    })
+}
+
+/// The validated settings of an options part's object and the query's option pairs (an
+/// option in both is refused), within the server's `max_nodes`.
+fn settings(
+    mut object: Map<String, Value>,
+    pairs: Vec<(String, String)>,
+    max_nodes: usize,
+) -> Result<Settings, ApiError> {
+    for (k, v) in options_object(pairs)? {
+        if object.contains_key(&k) {
+            return Err(ApiError::options(format!(
+                "{k} is given both in the query and in the options part"
+            ))
+            .at(k));
+        }
+        object.insert(k, v);
+    }
+    let options = study_options(object)?;
+    if options.max_nodes > max_nodes {
+        return Err(ApiError::options(format!(
+            "max_nodes must be at most {max_nodes} on this server (--max-nodes), got {}",
+            options.max_nodes
+        ))
+        .at("max_nodes"));
+    }
+    options.validate().map_err(|e| ApiError::study(&e))
+}
+
+/// `POST /v1/study`.
+pub async fn handler(State(app): State<Arc<App>>, req: Request) -> Response {
+    match handle(app, req).await {
+        Ok(a) => a.into_response(),
+        Err(e) => e.into_response(),
+    }
+}
+
+async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
+    let limits = &app.limits;
+    // Admission first: a request beyond the running studies and the queue is refused
+    // before a byte of its body is read.
+    let admitted = app.admitted.clone().try_acquire_owned().map_err(|_| {
+        ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "busy",
+            format!(
+                "the server is busy: {} studies running and {} waiting (--analyses, --queue); try again later",
+                limits.analyses, limits.queue
+            ),
+        )
+    })?;
+    let declared = body::check_length(req.headers(), limits.max_upload)?;
+    let (controls, pairs) = parse_query(req.uri().query().unwrap_or(""))?;
+    let counter = req
+        .extensions()
+        .get::<BytesIn>()
+        .cloned()
+        .unwrap_or_default();
+    let boundary = multipart_boundary(req.headers());
+    // A plain body's format and options are checked before a byte of it is read.
+    let early = match &boundary {
+        None => Some((
+            plain_format(controls.format.as_deref(), req.headers())?,
+            settings(Map::new(), pairs.clone(), limits.max_nodes)?,
+        )),
+        Some(_) => None,
+    };
+    let (_, body) = req.into_parts();
+    let bytes = body::read(
+        body,
+        declared,
+        limits.max_upload,
+        limits.read_timeout,
+        &counter,
+    )
+    .await?;
+    let (upload, settings) = match (boundary, early) {
+        (Some(boundary), _) => {
+            let (upload, object) = multipart(bytes, boundary, controls.format.as_deref()).await?;
+            (upload, settings(object, pairs, limits.max_nodes)?)
+        }
+        (None, Some((format, settings))) => {
+            let upload = Upload {
+                bytes,
+                format,
+                title: "uploaded part".into(),
+            };
+            (upload, settings)
+        }
+        (None, None) => return Err(ApiError::internal("no options for a plain body")),
+    };
+    if upload.bytes.is_empty() {
+        return Err(ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "mesh",
+            "the mesh is empty",
+        )
+        .at("body"));
+    }
+
+    let deadline = tokio::time::Instant::now() + limits.timeout;
+    let timed_out = || {
+        ApiError::new(
+            StatusCode::GATEWAY_TIMEOUT,
+            "timeout",
+            format!(
+                "the study did not finish within {} s (--timeout) and was stopped",
+                limits.timeout.as_secs_f64()
+            ),
+        )
+    };
+    let running = tokio::time::timeout_at(deadline, app.running.clone().acquire_owned())
+        .await
+        .map_err(|_| timed_out())?
+        .map_err(|_| ApiError::internal("the service is shutting down"))?;
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    let units = controls.units;
+    let output = controls.output;
+    let task = tokio::task::spawn_blocking(move || {
+        // Both permits live until the study really ends, even after a 504 was answered.
+        let _permits = (admitted, running);
+        guarded(|| work(upload, units, &settings, output, &flag))
+    });
+    match tokio::time::timeout_at(deadline, task).await {
+        Ok(Ok(result)) => result,
+        Ok(Err(join)) => Err(ApiError::internal(format!("the study failed: {join}"))),
+        Err(_) => {
+            cancel.store(true, Ordering::Relaxed);
+            Err(timed_out())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_in_a_study_is_a_500_internal_error() {
+        let e = guarded::<()>(|| panic!("boom")).unwrap_err();
+        assert_eq!(e.status, StatusCode::INTERNAL_SERVER_ERROR);
+        assert_eq!(e.kind, "internal");
+        assert!(e.message.contains("boom"));
+        assert!(guarded(|| Ok(3)).is_ok_and(|v| v == 3));
+    }
+
+    fn pairs(q: &[(&str, &str)]) -> Vec<(String, String)> {
+        q.iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    }
+
+    #[test]
+    fn query_pairs_become_typed_options() {
+        let o = options_object(pairs(&[
+            ("gates", "2"),
+            ("fill", "true"),
+            ("demold", "-1,0,0"),
+            ("material", "ABS"),
+            ("keep_out", "sphere:0,0,0,1"),
+            ("keep_out", "box:0,0,0,1,1,1"),
+            ("gate_radius", "1.5"),
+            ("cosmetic", "-z"),
+        ]))
+        .unwrap();
+        let o = study_options(o).unwrap();
+        assert_eq!(o.gates, 2);
+        assert!(o.fill);
+        assert_eq!(o.demold, "-1,0,0");
+        assert_eq!(o.keep_out.len(), 2);
+        assert_eq!(o.gate_radius, Some(1.5));
+        assert_eq!(o.cosmetic.as_deref(), Some("-z"));
+        // Text fields stay text even when they read as numbers.
+        let o = study_options(options_object(pairs(&[("demold", "1")])).unwrap()).unwrap();
+        assert_eq!(o.demold, "1");
+        let e = study_options(options_object(pairs(&[("spacing", "wide")])).unwrap()).unwrap_err();
+        assert_eq!(e.place.as_deref(), Some("spacing"));
+    }
+}
