@@ -9,13 +9,13 @@ use std::time::Instant;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use moldgate::flow;
-use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
+use moldgate::gate::{FlatRule, Nearest, Spacing, ThicknessFallback, ThicknessRule};
 use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::raycast::{Bvh, Sampling};
 use moldgate::report::{Input, RadiusSource, Report};
 use moldgate::scene::{Field, Marker, Scene};
 use moldgate::thickness::{wall_thickness_with, ThicknessOptions};
-use moldgate::undercut::auto_direction_with;
+use moldgate::undercut::auto_direction_checked;
 use moldgate::{locate, CentreKind, Direction, GateMode, LocateOptions, Material};
 
 use crate::formats::MeshKind;
@@ -160,6 +160,10 @@ pub struct LocateArgs {
     /// The paper's rule that R_gate be below the wall thickness.
     #[arg(long, value_enum, default_value = "require")]
     pub thickness_rule: ThicknessArg,
+    /// When the thickness rule leaves no node, take the gate of the largest gate radius that
+    /// fits (searched below R_gate and reported either way).
+    #[arg(long)]
+    pub fit_radius: bool,
     /// Keep only nodes whose circle is flat within --flat-tol.
     #[arg(long)]
     pub require_flat: bool,
@@ -385,6 +389,11 @@ fn options(a: &LocateArgs, material: &Material) -> Result<(LocateOptions, Radius
         thickness_rule: match a.thickness_rule {
             ThicknessArg::Require => ThicknessRule::Require,
             ThicknessArg::Ignore => ThicknessRule::Ignore,
+        },
+        thickness_fallback: if a.fit_radius {
+            ThicknessFallback::LargestFitting
+        } else {
+            ThicknessFallback::Report
         },
         flat_rule: if a.require_flat {
             FlatRule::Require
@@ -705,9 +714,18 @@ pub fn analyse(source: Source, s: &Settings) -> Result<Analysed, Failure> {
     let mut options = options.clone();
     let auto = match &bvh {
         Some(bvh) if *auto_demold => {
-            let auto = auto_direction_with(&part.mesh, bvh, Sampling::Centroid).map_err(|e| {
-                Failure::input(format!("{}: --demold auto: {e}", input_name(&input)))
-            })?;
+            // Lines still tied after the shallowest draw go to one on which a gate qualifies.
+            let gate_qualifies = |d| {
+                let o = moldgate::LocateOptions {
+                    direction: d,
+                    ..options.clone()
+                };
+                locate(&part, &o).is_ok_and(|a| a.gate().is_ok())
+            };
+            let auto = auto_direction_checked(&part.mesh, bvh, Sampling::Centroid, gate_qualifies)
+                .map_err(|e| {
+                    Failure::input(format!("{}: --demold auto: {e}", input_name(&input)))
+                })?;
             options.direction = auto.direction();
             Some(auto)
         }

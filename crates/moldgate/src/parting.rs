@@ -9,29 +9,54 @@
 //! the -D end of the band: the mould splits where the part's -D face begins, so the +D half
 //! forms every vertical wall, as it does when those walls are drafted towards +D. For a cover
 //! open towards -D that is the outer edge of its rim; for a plate or a tray, the outline of the
-//! face that lies on the -D side. Such edges can form several loops (outline, holes, pockets,
-//! rib ends); the longest loop is the parting line.
+//! face that lies on the -D side.
+//!
+//! Such edges also run round holes, pockets, rib ends and threads, where the two halves do
+//! not meet. The parting line keeps the edges on the part's **outline** seen along D: an
+//! edge is on it when, in the projection plane, a point just beside its middle (1e-6 of the
+//! projected box diagonal, on either side) is covered by no triangle of the part. Those
+//! edges are chained into loops (connected sets of edges); the parting line is, for each
+//! body, its outline loop with the largest projected box (the outer rim; a hole's rim lies
+//! inside it), so a file with two parts has two loops. A loop is closed when each of its
+//! vertices has two of its edges. Where the outline itself steps along D (a rim whose -D
+//! end changes height) it runs up an undrafted wall, whose edges do not separate the sides;
+//! there the loop stays open and says so.
 
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::frame::Frame;
-use crate::math::{nearest_on_segment, DVec3};
+use crate::math::{nearest_on_segment, DVec2, DVec3};
 use crate::mesh::topology::root;
 use crate::mesh::{Mesh, Topology};
 
-/// The parting line: connected chains of mesh edges.
+/// The parting line: the outer outline loop of each body.
 #[derive(Debug, Clone, Default)]
 pub struct PartingLine {
-    /// The edges of the longest loop, as vertex index pairs.
+    /// The edges of the kept loops, as vertex index pairs.
     pub edges: Vec<[u32; 2]>,
     /// Total length of those edges in mm.
     pub length_mm: f64,
-    /// Every edge between the two sides, over all loops.
+    /// Every edge between the two sides, on the outline or not.
     pub edges_all: usize,
-    /// Number of connected loops found.
+    /// Number of outline loops found (outer rims, hole rims).
     pub loops: usize,
-    /// True when every vertex of the kept loop has exactly two of its edges.
+    /// True when every kept loop is closed.
+    pub closed: bool,
+    /// The kept loops, one per body with an outline, in body order.
+    pub rims: Vec<Rim>,
+}
+
+/// One kept loop of the parting line.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Rim {
+    /// The body it belongs to (numbered as [`crate::mesh::topology::body_of_triangle`]).
+    pub body: u32,
+    /// Its edges.
+    pub edges: usize,
+    /// Its length, mm.
+    pub length_mm: f64,
+    /// Whether each of its vertices has two of its edges.
     pub closed: bool,
 }
 
@@ -83,10 +108,34 @@ impl PartingLine {
             })
             .collect();
         edges.par_sort_unstable();
+        edges.dedup();
         if edges.is_empty() {
             return PartingLine::default();
         }
-        // Loops are the connected components of the chosen edges (union-find on vertices).
+        let edges_all = edges.len();
+        let outline = Outline::new(mesh, frame);
+        let project = |v: u32| frame.project(mesh.vertices[v as usize]);
+        let on_outline: Vec<bool> = edges
+            .par_iter()
+            .map(|&[a, b]| outline.borders(project(a), project(b)))
+            .collect();
+        let edges: Vec<[u32; 2]> = edges
+            .iter()
+            .zip(&on_outline)
+            .filter(|(_, &on)| on)
+            .map(|(&e, _)| e)
+            .collect();
+        if edges.is_empty() {
+            return PartingLine {
+                edges_all,
+                ..PartingLine::default()
+            };
+        }
+        let mut edges = edges;
+        edges.extend(bridges(mesh, frame, &edges));
+        edges.sort_unstable();
+        edges.dedup();
+        // Loops are the connected components of the outline edges (union-find on vertices).
         let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
         for &[a, b] in &edges {
             let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
@@ -94,33 +143,84 @@ impl PartingLine {
                 parent[ra.max(rb) as usize] = ra.min(rb);
             }
         }
-        let mut length = rustc_hash::FxHashMap::<u32, f64>::default();
+        let body_of_vertex = {
+            let body = crate::mesh::topology::body_of_triangle(mesh);
+            let mut of = vec![u32::MAX; mesh.vertices.len()];
+            for (t, tri) in mesh.triangles.iter().enumerate() {
+                for &v in tri {
+                    of[v as usize] = body[t];
+                }
+            }
+            of
+        };
+        #[derive(Default)]
+        struct Loop {
+            length: f64,
+            edges: usize,
+            lo: DVec2,
+            hi: DVec2,
+        }
+        // Keyed by root vertex, in a sorted map so the choice below is deterministic.
+        let mut loops = std::collections::BTreeMap::<u32, Loop>::new();
+        let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
         for &[a, b] in &edges {
             let r = root(&mut parent, a);
-            *length.entry(r).or_default() +=
-                mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
-        }
-        // The longest loop; ties go to the loop with the smallest root vertex.
-        let (&best, &length_mm) = length
-            .iter()
-            .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
-            .expect("at least one edge");
-        let kept: Vec<[u32; 2]> = edges
-            .iter()
-            .copied()
-            .filter(|&[a, _]| root(&mut parent, a) == best)
-            .collect();
-        let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
-        for &[a, b] in &kept {
+            let l = loops.entry(r).or_insert_with(|| Loop {
+                lo: DVec2::splat(f64::INFINITY),
+                hi: DVec2::splat(f64::NEG_INFINITY),
+                ..Loop::default()
+            });
+            l.length += mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
+            l.edges += 1;
+            for q in [project(a), project(b)] {
+                l.lo = l.lo.min(q);
+                l.hi = l.hi.max(q);
+            }
             *degree.entry(a).or_default() += 1;
             *degree.entry(b).or_default() += 1;
         }
+        // Per body, the loop with the largest projected box; ties go to the longer loop,
+        // then to the smaller root vertex.
+        let mut kept = std::collections::BTreeMap::<u32, (u32, f64, f64)>::new();
+        for (&r, l) in &loops {
+            let size = (l.hi - l.lo).x * (l.hi - l.lo).y;
+            let body = body_of_vertex[r as usize];
+            let better = kept
+                .get(&body)
+                .is_none_or(|&(_, s, len)| size > s || (size == s && l.length > len));
+            if better {
+                kept.insert(body, (r, size, l.length));
+            }
+        }
+        let kept_roots: rustc_hash::FxHashMap<u32, u32> =
+            kept.iter().map(|(&body, &(r, _, _))| (r, body)).collect();
+        let mut rims: Vec<Rim> = kept
+            .iter()
+            .map(|(&body, &(r, _, length))| Rim {
+                body,
+                edges: loops[&r].edges,
+                length_mm: length,
+                closed: true,
+            })
+            .collect();
+        let mut kept_edges = Vec::new();
+        for &[a, b] in &edges {
+            if let Some(&body) = kept_roots.get(&root(&mut parent, a)) {
+                kept_edges.push([a, b]);
+                if degree[&a] != 2 || degree[&b] != 2 {
+                    if let Some(rim) = rims.iter_mut().find(|x| x.body == body) {
+                        rim.closed = false;
+                    }
+                }
+            }
+        }
         PartingLine {
-            closed: degree.values().all(|&d| d == 2),
-            edges_all: edges.len(),
-            loops: length.len(),
-            edges: kept,
-            length_mm,
+            closed: rims.iter().all(|r| r.closed),
+            length_mm: rims.iter().map(|r| r.length_mm).sum(),
+            edges_all,
+            loops: loops.len(),
+            edges: kept_edges,
+            rims,
         }
     }
 
@@ -203,19 +303,261 @@ impl PartingLine {
     }
 }
 
+/// Most chain ends [`bridges`] joins; past that the outline is left as found.
+const MAX_BRIDGED_ENDS: usize = 2000;
+/// Most vertices one bridge's search visits.
+const MAX_BRIDGE_VISITS: usize = 50_000;
+
+/// Mesh-edge paths joining the ends of the outline chains where the outline steps along D
+/// (it runs up an undrafted wall whose edges do not separate the sides). Ends (vertices
+/// with an odd number of chain edges) are paired nearest first in the projection plane,
+/// within a tenth of the box diagonal in space, each with an end of another chain when there is one (a chain's own two ends
+/// when it has no other left); each pair is joined by the shortest path along mesh edges
+/// (Dijkstra, at most [`MAX_BRIDGE_VISITS`] vertices).
+fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
+    let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
+    let mut parent = rustc_hash::FxHashMap::<u32, u32>::default();
+    fn find(parent: &mut rustc_hash::FxHashMap<u32, u32>, v: u32) -> u32 {
+        let mut r = v;
+        while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
+            r = p;
+        }
+        parent.insert(v, r);
+        r
+    }
+    for &[a, b] in chains {
+        *degree.entry(a).or_default() += 1;
+        *degree.entry(b).or_default() += 1;
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        if ra != rb {
+            parent.insert(ra.max(rb), ra.min(rb));
+        }
+    }
+    let mut ends: Vec<u32> = degree
+        .iter()
+        .filter(|(_, &d)| d % 2 == 1)
+        .map(|(&v, _)| v)
+        .collect();
+    ends.sort_unstable();
+    if ends.len() < 2 || ends.len() > MAX_BRIDGED_ENDS {
+        return Vec::new();
+    }
+    let reach = 0.1 * mesh.bounds().diagonal();
+    let at = |v: u32| mesh.vertices[v as usize];
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for i in 0..ends.len() {
+        for j in i + 1..ends.len() {
+            // Nearest in the projection plane: a step of the outline is a vertical run.
+            let (p, q) = (at(ends[i]), at(ends[j]));
+            if p.distance(q) <= reach {
+                pairs.push((frame.project(p).distance(frame.project(q)), i, j));
+            }
+        }
+    }
+    pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    let mut open_ends = rustc_hash::FxHashMap::<u32, usize>::default();
+    for &e in &ends {
+        *open_ends.entry(find(&mut parent, e)).or_default() += 1;
+    }
+    let mut paired = vec![false; ends.len()];
+    let mut chosen = Vec::new();
+    for &(_, i, j) in &pairs {
+        if paired[i] || paired[j] {
+            continue;
+        }
+        let (ri, rj) = (find(&mut parent, ends[i]), find(&mut parent, ends[j]));
+        if ri == rj && open_ends[&ri] > 2 {
+            continue;
+        }
+        paired[i] = true;
+        paired[j] = true;
+        chosen.push((ends[i], ends[j]));
+        if ri != rj {
+            let merged = open_ends[&ri] + open_ends[&rj] - 2;
+            parent.insert(ri.max(rj), ri.min(rj));
+            open_ends.insert(ri.min(rj), merged);
+        } else {
+            open_ends.insert(ri, open_ends[&ri] - 2);
+        }
+    }
+    if chosen.is_empty() {
+        return Vec::new();
+    }
+    // Neighbours of each vertex along mesh edges.
+    let mut neighbours = vec![Vec::new(); mesh.vertices.len()];
+    for tri in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            neighbours[a as usize].push(b);
+            neighbours[b as usize].push(a);
+        }
+    }
+    let mut out = Vec::new();
+    for (from, to) in chosen {
+        if let Some(path) = shortest_path(mesh, &neighbours, from, to) {
+            out.extend(path.windows(2).map(|w| [w[0].min(w[1]), w[0].max(w[1])]));
+        }
+    }
+    out
+}
+
+/// The shortest path along mesh edges from `from` to `to`, as vertices, or `None` when not
+/// found within [`MAX_BRIDGE_VISITS`] vertices.
+fn shortest_path(mesh: &Mesh, neighbours: &[Vec<u32>], from: u32, to: u32) -> Option<Vec<u32>> {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    let mut dist = rustc_hash::FxHashMap::<u32, (f64, u32)>::default();
+    let mut heap = BinaryHeap::new();
+    dist.insert(from, (0.0, from));
+    heap.push(Reverse((OrdF64(0.0), from)));
+    let mut visits = 0;
+    while let Some(Reverse((OrdF64(d), v))) = heap.pop() {
+        if d > dist[&v].0 {
+            continue;
+        }
+        if v == to {
+            let mut path = vec![to];
+            let mut at = to;
+            while at != from {
+                at = dist[&at].1;
+                path.push(at);
+            }
+            return Some(path);
+        }
+        visits += 1;
+        if visits > MAX_BRIDGE_VISITS {
+            return None;
+        }
+        for &n in &neighbours[v as usize] {
+            let nd = d + mesh.vertices[v as usize].distance(mesh.vertices[n as usize]);
+            if dist.get(&n).is_none_or(|&(old, _)| nd < old) {
+                dist.insert(n, (nd, v));
+                heap.push(Reverse((OrdF64(nd), n)));
+            }
+        }
+    }
+    None
+}
+
+/// A finite f64 ordered for the heap.
+#[derive(Clone, Copy, PartialEq, PartialOrd)]
+struct OrdF64(f64);
+impl Eq for OrdF64 {}
+impl Ord for OrdF64 {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
+/// The projection of the part's triangles along D, binned in a uniform grid, to tell which
+/// points of the projection plane the part covers.
+struct Outline {
+    /// Projected corners of each triangle with projected area.
+    triangles: Vec<[DVec2; 3]>,
+    /// Triangles overlapping each cell, row by row.
+    cells: Vec<Vec<u32>>,
+    lo: DVec2,
+    cell: f64,
+    n_u: usize,
+    n_w: usize,
+    /// How far beside an edge's middle the cover is tested.
+    offset: f64,
+}
+
+impl Outline {
+    /// Every triangle with projected area covers (the fixed side alone would do on a closed
+    /// part, not on an open mesh).
+    fn new(mesh: &Mesh, frame: &Frame) -> Outline {
+        let triangles: Vec<[DVec2; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| frame.project(mesh.vertices[v as usize])))
+            .filter(|[a, b, c]| (*b - *a).perp_dot(*c - *a).abs() > 0.0)
+            .collect();
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for q in triangles.iter().flatten() {
+            lo = lo.min(*q);
+            hi = hi.max(*q);
+        }
+        let size = (hi - lo).max(DVec2::splat(1e-12));
+        // About two triangles per cell.
+        let cells_wanted = (triangles.len() / 2).clamp(1, 1 << 22) as f64;
+        let cell = (size.x * size.y / cells_wanted).sqrt().max(1e-12);
+        let n_u = ((size.x / cell).ceil() as usize).clamp(1, 1 << 12);
+        let n_w = ((size.y / cell).ceil() as usize).clamp(1, 1 << 12);
+        let cell = (size.x / n_u as f64).max(size.y / n_w as f64);
+        let mut cells = vec![Vec::new(); n_u * n_w];
+        let index = |x: f64, n: usize| (((x / cell).floor().max(0.0)) as usize).min(n - 1);
+        for (i, t) in triangles.iter().enumerate() {
+            let (tlo, thi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            for w in index(tlo.y - lo.y, n_w)..=index(thi.y - lo.y, n_w) {
+                for u in index(tlo.x - lo.x, n_u)..=index(thi.x - lo.x, n_u) {
+                    cells[w * n_u + u].push(i as u32);
+                }
+            }
+        }
+        Outline {
+            triangles,
+            cells,
+            lo,
+            cell,
+            n_u,
+            n_w,
+            offset: 1e-6 * size.length(),
+        }
+    }
+
+    /// Whether some triangle covers `p` (on its boundary counts).
+    fn covers(&self, p: DVec2) -> bool {
+        let d = p - self.lo;
+        if d.x < 0.0 || d.y < 0.0 {
+            return false;
+        }
+        let (u, w) = ((d.x / self.cell) as usize, (d.y / self.cell) as usize);
+        if u >= self.n_u || w >= self.n_w {
+            return false;
+        }
+        self.cells[w * self.n_u + u].iter().any(|&i| {
+            let [a, b, c] = self.triangles[i as usize];
+            let (e0, e1, e2) = (
+                (b - a).perp_dot(p - a),
+                (c - b).perp_dot(p - b),
+                (a - c).perp_dot(p - c),
+            );
+            (e0 >= 0.0 && e1 >= 0.0 && e2 >= 0.0) || (e0 <= 0.0 && e1 <= 0.0 && e2 <= 0.0)
+        })
+    }
+
+    /// Whether the projected edge `a`-`b` borders the uncovered plane: a point beside its
+    /// middle, on one side or the other, is covered by no triangle. An edge seen end-on
+    /// (along D) borders nothing.
+    fn borders(&self, a: DVec2, b: DVec2) -> bool {
+        let along = b - a;
+        let len = along.length();
+        if len <= self.offset {
+            return false;
+        }
+        let side = along.perp() / len * self.offset;
+        let m = 0.5 * (a + b);
+        !self.covers(m + side) || !self.covers(m - side)
+    }
+}
+
 /// The parting line summary reported in the JSON output.
 #[derive(Debug, Clone, Serialize)]
 pub struct PartingSummary {
-    /// Edges of the kept loop.
+    /// Edges of the kept loops.
     pub edges: usize,
-    /// Its length in mm.
+    /// Their length in mm.
     pub length_mm: f64,
-    /// Edges of all loops.
+    /// Edges between the two sides, on the outline or not.
     pub edges_all: usize,
-    /// Loops found.
+    /// Outline loops found.
     pub loops: usize,
-    /// Whether the kept loop is closed.
+    /// Whether every kept loop is closed.
     pub closed: bool,
+    /// The kept loops (the outer rim of each body).
+    pub rims: Vec<Rim>,
 }
 
 impl From<&PartingLine> for PartingSummary {
@@ -226,6 +568,7 @@ impl From<&PartingLine> for PartingSummary {
             edges_all: p.edges_all,
             loops: p.loops,
             closed: p.closed,
+            rims: p.rims.clone(),
         }
     }
 }
