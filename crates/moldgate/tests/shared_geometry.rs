@@ -236,7 +236,7 @@ fn abs_gate_that_the_thickness_rule_refuses_gets_the_largest_fitting_radius() {
     };
     let a = locate(&part, &options).unwrap();
     assert!(a.grid_gate.is_none());
-    let fit = a.radius_fit.unwrap();
+    let fit = a.radius_fit.clone().unwrap();
     let r_fit = fit.radius_mm.expect("a smaller gate fits");
     let gate = fit.gate.unwrap();
     println!(
