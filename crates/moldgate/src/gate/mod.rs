@@ -325,8 +325,28 @@ impl Analysis {
         }
     }
 
-    /// One sentence saying which rule removed the last nodes.
+    /// One sentence saying which rule removed the last nodes, with the largest gate radius
+    /// that fits when it was the thickness rule, and what to try.
     pub fn why_no_candidate(&self) -> String {
+        let mut s = self.rule_that_removed_the_last_nodes();
+        if let Some(fit) = self.radius_fit.as_ref().filter(|f| !f.accepted) {
+            s += &match (fit.radius_mm, &fit.gate) {
+                (Some(r_fit), Some(g)) => format!(
+                    "; the largest gate radius that fits is {r_fit:.3} mm, with the gate at ({:.3}, {:.3}, {:.3}) mm on a wall {} thick (--fit-radius takes it)",
+                    g.point.x,
+                    g.point.y,
+                    g.point.z,
+                    g.disc_thickness_mm
+                        .map_or("of unknown".into(), |t| format!("{t:.3} mm")),
+                ),
+                _ => format!("; no gate radius down to {:.3} mm fits", fit.floor_mm),
+            };
+        }
+        s + " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)"
+    }
+
+    /// The counts of the rules in force, up to the one that removed the last nodes.
+    fn rule_that_removed_the_last_nodes(&self) -> String {
         let c = &self.counts;
         let r = self.options.gate_radius_mm;
         let mut s = format!(
@@ -348,20 +368,7 @@ impl Analysis {
         if c.cosmetic > 0 {
             s += &format!("; {} lie on cosmetic faces", c.cosmetic);
         }
-        if let Some(fit) = self.radius_fit.as_ref().filter(|f| !f.accepted) {
-            s += &match (fit.radius_mm, &fit.gate) {
-                (Some(r_fit), Some(g)) => format!(
-                    "; the largest gate radius that fits is {r_fit:.3} mm, with the gate at ({:.3}, {:.3}, {:.3}) mm on a wall {} thick (--fit-radius takes it)",
-                    g.point.x,
-                    g.point.y,
-                    g.point.z,
-                    g.disc_thickness_mm
-                        .map_or("of unknown".into(), |t| format!("{t:.3} mm")),
-                ),
-                _ => format!("; no gate radius down to {:.3} mm fits", fit.floor_mm),
-            };
-        }
-        s + " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)"
+        s
     }
 
     /// True when the thickness rule removed every node that passed the other rules.
@@ -417,7 +424,7 @@ fn largest_fitting_radius(
         radius_mm: best.map(|b| b.0),
         gate: best.map(|b| b.1),
         probes,
-        reason: analysis.why_no_candidate(),
+        reason: analysis.rule_that_removed_the_last_nodes(),
         accepted: false,
     })
 }
