@@ -974,7 +974,11 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
     let dir = tempfile::tempdir().unwrap();
     let args = ["locate", "--sample", "cap", "--gate-radius", "2.5"];
     let out = moldgate(dir.path(), &args);
-    assert_fails(&out, NO_GATE, &["largest gate radius that fits is 1.5", "--fit-radius"]);
+    assert_fails(
+        &out,
+        NO_GATE,
+        &["largest gate radius that fits is 1.5", "--fit-radius"],
+    );
     let text = stdout(&out);
     assert!(
         text.contains("largest gate radius that fits: 1.5"),

@@ -306,14 +306,18 @@ impl PartingLine {
 /// Most chain ends [`bridges`] joins; past that the outline is left as found.
 const MAX_BRIDGED_ENDS: usize = 2000;
 /// Most vertices one bridge's search visits.
-const MAX_BRIDGE_VISITS: usize = 50_000;
+const MAX_BRIDGE_VISITS: usize = 20_000;
+/// Most vertices all bridge searches of one line visit together (bounds the cost on fine
+/// meshes; bridges past it are not built and their loops stay open).
+const MAX_BRIDGE_VISITS_TOTAL: usize = 200_000;
 
 /// Mesh-edge paths joining the ends of the outline chains where the outline steps along D
 /// (it runs up an undrafted wall whose edges do not separate the sides). Ends (vertices
 /// with an odd number of chain edges) are paired nearest first in the projection plane,
 /// within a tenth of the box diagonal in space, each with an end of another chain when there is one (a chain's own two ends
 /// when it has no other left); each pair is joined by the shortest path along mesh edges
-/// (Dijkstra, at most [`MAX_BRIDGE_VISITS`] vertices).
+/// (Dijkstra, at most [`MAX_BRIDGE_VISITS`] vertices each, [`MAX_BRIDGE_VISITS_TOTAL`] in
+/// all).
 fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
     let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
     let mut parent = rustc_hash::FxHashMap::<u32, u32>::default();
@@ -393,8 +397,12 @@ fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
         }
     }
     let mut out = Vec::new();
+    let mut budget = MAX_BRIDGE_VISITS_TOTAL;
     for (from, to) in chosen {
-        if let Some(path) = shortest_path(mesh, &neighbours, from, to) {
+        if budget == 0 {
+            break;
+        }
+        if let Some(path) = shortest_path(mesh, &neighbours, from, to, &mut budget) {
             out.extend(path.windows(2).map(|w| [w[0].min(w[1]), w[0].max(w[1])]));
         }
     }
@@ -403,7 +411,13 @@ fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
 
 /// The shortest path along mesh edges from `from` to `to`, as vertices, or `None` when not
 /// found within [`MAX_BRIDGE_VISITS`] vertices.
-fn shortest_path(mesh: &Mesh, neighbours: &[Vec<u32>], from: u32, to: u32) -> Option<Vec<u32>> {
+fn shortest_path(
+    mesh: &Mesh,
+    neighbours: &[Vec<u32>],
+    from: u32,
+    to: u32,
+    budget: &mut usize,
+) -> Option<Vec<u32>> {
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
     let mut dist = rustc_hash::FxHashMap::<u32, (f64, u32)>::default();
@@ -425,9 +439,10 @@ fn shortest_path(mesh: &Mesh, neighbours: &[Vec<u32>], from: u32, to: u32) -> Op
             return Some(path);
         }
         visits += 1;
-        if visits > MAX_BRIDGE_VISITS {
+        if visits > MAX_BRIDGE_VISITS || *budget == 0 {
             return None;
         }
+        *budget -= 1;
         for &n in &neighbours[v as usize] {
             let nd = d + mesh.vertices[v as usize].distance(mesh.vertices[n as usize]);
             if dist.get(&n).is_none_or(|&(old, _)| nd < old) {
