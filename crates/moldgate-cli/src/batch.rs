@@ -15,53 +15,19 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use moldgate::mesh::Units;
 use moldgate::report::Report;
+use moldgate::study::{Demold, Hooks};
 use moldgate::Direction;
 
-use crate::args::{analyse, settings, LocateArgs, Settings, Source};
+use crate::analyse::{analyse, settings, Settings, Source};
+use crate::args::{LocateArgs, Schedule};
 use crate::output::{print_stdout, write_atomic};
 use crate::progress::Progress;
 use crate::Failure;
-
-/// Options of `locate` for several parts.
-#[derive(Debug, Args)]
-pub struct BatchArgs {
-    /// Write one JSON report per part into this existing folder, named after the input file
-    /// (`part.stl` gives `part.json`).
-    #[arg(long, value_name = "DIR", conflicts_with = "sample")]
-    pub out_dir: Option<PathBuf>,
-    /// Write one line per part to this file: JSON Lines if it ends in .jsonl or .ndjson, CSV
-    /// if it ends in .csv.
-    #[arg(long, value_name = "FILE.jsonl|FILE.csv", conflicts_with = "sample")]
-    pub summary: Option<PathBuf>,
-    /// TOML file listing parts, each with an optional unit and demolding direction of its own:
-    /// `[[part]]` tables with `file` (relative to the manifest), `units`, `demold`.
-    #[arg(long, value_name = "FILE.toml", conflicts_with = "sample")]
-    pub manifest: Option<PathBuf>,
-    /// Threads for the whole run, parts and their inner stages together [default: all cores].
-    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
-    pub jobs: Option<u16>,
-    /// No progress bar and no closing count.
-    #[arg(short, long)]
-    pub quiet: bool,
-    /// How parts share the threads (for measurement; `parts` was the faster).
-    #[arg(long, value_enum, default_value = "parts", hide = true)]
-    pub schedule: Schedule,
-}
-
-/// How the parts of a batch share the pool.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Schedule {
-    /// Several parts at once, each with the library's inner parallelism on the same pool.
-    Parts,
-    /// One part after the other, each using the whole pool inside.
-    OneByOne,
-}
 
 /// Whether the command line asks for batch mode: several inputs, a folder, a manifest, or an
 /// output that only batch mode writes. One plain file keeps the single-part behaviour.
@@ -232,7 +198,8 @@ pub fn exit_code(codes: impl IntoIterator<Item = u8>) -> u8 {
 fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
     let t = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        analyse(Source::File(&part.path), &part.settings).map(|a| a.report)
+        analyse(Source::File(&part.path), &part.settings, &Hooks::default())
+            .map(|a| a.study.into_report())
     }))
     .unwrap_or_else(|_| {
         Err(Failure {
@@ -340,7 +307,7 @@ struct Manifest {
 /// direction. Syntax errors and bad values are errors of the command line (exit code 2), with
 /// the line or the part named.
 fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>, Failure> {
-    let manifest: Manifest = crate::args::read_toml(path)?;
+    let manifest: Manifest = crate::toml_file::read_toml(path)?;
     let folder = path.parent().unwrap_or(Path::new(""));
     let mut parts = Vec::with_capacity(manifest.part.len());
     for (i, entry) in manifest.part.into_iter().enumerate() {
@@ -359,9 +326,11 @@ fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>
                 .map_err(|e| fail(format!("units: {e}")))?;
         }
         if let Some(d) = &entry.demold {
-            settings.options.direction = d
+            let d = d
                 .parse::<Direction>()
                 .map_err(|e| fail(format!("demold: {e}")))?;
+            settings.study.locate.direction = d;
+            settings.study.demold = Demold::Given(d);
         }
         parts.push(Part {
             path: folder.join(&entry.file),

@@ -7,15 +7,19 @@
 
 #[cfg(target_os = "linux")]
 mod alloc;
+mod analyse;
 mod args;
 mod batch;
 mod formats;
 mod glb;
-mod html;
+mod locate;
+mod materials;
 mod output;
 mod pictures;
 mod progress;
+mod sample;
 mod summary;
+mod toml_file;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -87,8 +91,22 @@ fn main() -> ExitCode {
         Err(e) => {
             // Clap's message, on one line: its first line, less clap's own prefix.
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid command line");
-            let first = first.trim_start_matches("error: ");
+            let mut first = text
+                .lines()
+                .next()
+                .unwrap_or("invalid command line")
+                .trim_start_matches("error: ")
+                .to_string();
+            // A list after the colon (the missing arguments) goes on the same line.
+            if first.ends_with(':') {
+                let items: Vec<&str> = text
+                    .lines()
+                    .skip(1)
+                    .map(str::trim)
+                    .take_while(|l| !l.is_empty())
+                    .collect();
+                first = format!("{first} {}", items.join(", "));
+            }
             let _ = writeln!(
                 std::io::stderr(),
                 "moldgate: error: {first} (see moldgate --help)"
@@ -104,9 +122,9 @@ fn main() -> ExitCode {
         );
     }));
     let result = std::panic::catch_unwind(|| match cli.command {
-        Command::Locate(a) => args::run_locate(*a),
-        Command::Sample(a) => args::run_sample(a),
-        Command::Materials(a) => args::run_materials(a),
+        Command::Locate(a) => locate::run_locate(*a),
+        Command::Sample(a) => sample::run_sample(a),
+        Command::Materials(a) => materials::run_materials(a),
     });
     let Ok(result) = result else {
         return ExitCode::from(1);

@@ -3,18 +3,18 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use moldgate::render::{RenderError, RenderOptions};
-use moldgate::report::Report;
-use moldgate::scene::Scene;
-use moldgate::Material;
+use moldgate::mesh::LoadedMesh;
+use moldgate::render::RenderOptions;
+use moldgate::Study;
 
+use crate::analyse::failure;
 use crate::args::LocateArgs;
-use crate::html;
 use crate::output::{refuse_input, same_file, write_atomic};
 use crate::Failure;
 
-/// Checks every output path before any work: none is the input, no two are the same file,
-/// and each one's folder exists.
+/// Checks every output path before any work: `--png`, `--glb` and `--report` end in their
+/// format's extension, none is the input, no two are the same file, and each one's folder
+/// exists.
 pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
     let outputs: Vec<(&str, &PathBuf)> = [
         ("--output", a.output.as_ref()),
@@ -45,37 +45,42 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
             )));
         }
     }
+    for (flag, path, extensions) in [
+        ("--png", a.png.as_ref(), &["png"][..]),
+        ("--glb", a.glb.as_ref(), &["glb"][..]),
+        ("--report", a.report.as_ref(), &["html", "htm"][..]),
+    ] {
+        let Some(path) = path else { continue };
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
+            return Err(Failure::usage(format!(
+                "{flag} {}: the file name must end in .{} (it writes that format only)",
+                path.display(),
+                extensions.join(" or .")
+            )));
+        }
+    }
     Ok(())
 }
 
 /// Draws the picture and writes `--png` and `--report` when asked for.
 pub fn write(
     a: &LocateArgs,
-    mut scene: Scene,
-    report: &Report,
-    json: &str,
-    material: &Material,
+    study: &Study,
+    part: &LoadedMesh,
+    title: String,
 ) -> Result<(), Failure> {
     if a.png.is_none() && a.report.is_none() {
         return Ok(());
     }
     let t = Instant::now();
-    let d = report.options.demold;
-    scene.subtitle = format!(
-        "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
-        material.name, scene.subtitle, d[0], d[1], d[2]
-    );
-    let options = RenderOptions::default();
-    let png = moldgate::render::png(&scene, &options).map_err(|e| match e {
-        RenderError::EmptyMesh => Failure::input(format!("cannot draw the part: {e}")),
-        e => Failure {
-            code: 1,
-            message: format!("cannot draw the part: {e}"),
-        },
-    })?;
+    let png = study.png(part, title).map_err(|e| failure(&e, ""))?;
     let render_s = t.elapsed().as_secs_f64();
     if let Some(path) = &a.png {
         write_atomic(path, &png)?;
+        let options = RenderOptions::default();
         eprintln!(
             "wrote {} ({}x{} pixels, drawn in {:.0} ms)",
             path.display(),
@@ -85,7 +90,7 @@ pub fn write(
         );
     }
     if let Some(path) = &a.report {
-        let page = html::page(report, json, Some(&png));
+        let page = study.html(Some(&png)).map_err(|e| failure(&e, ""))?;
         write_atomic(path, page.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }

@@ -1,0 +1,174 @@
+//! One part, loaded and studied: the arguments validated once into [`Settings`], the mesh
+//! read from its file (or made from a sample), [`moldgate::study_with`] run on it, and the
+//! library's errors mapped to exit codes.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+use std::time::Instant;
+
+use moldgate::flow::FillError;
+use moldgate::mesh::{self, LoadedMesh, Units};
+use moldgate::render::RenderError;
+use moldgate::report::Input;
+use moldgate::study::{self, Hooks, Study, StudyError};
+
+use crate::args::LocateArgs;
+use crate::formats::MeshKind;
+use crate::Failure;
+
+/// The validated options of `locate`, the same for every part of a run.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// The study's options, validated.
+    pub study: study::Settings,
+    /// The unit of the files.
+    pub units: Units,
+}
+
+/// Validates the raw arguments of `locate` once into [`Settings`].
+pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
+    let user = match &a.materials_file {
+        Some(p) => crate::materials::read_materials(p)?,
+        None => Vec::new(),
+    };
+    let study = a
+        .study_options()
+        .validate_with(&user)
+        .map_err(|e| failure(&e, ""))?;
+    let units: Units = a
+        .units
+        .parse()
+        .map_err(|e: String| Failure::usage(format!("--units: {e}")))?;
+    Ok(Settings { study, units })
+}
+
+/// The command line's flag of a field of [`moldgate::StudyOptions`].
+fn flag(field: &str) -> String {
+    format!("--{}", field.replace('_', "-"))
+}
+
+/// The failure (message and exit code) of a library error; `part` names the part for the
+/// errors that belong to it.
+pub fn failure(e: &StudyError, part: &str) -> Failure {
+    match e {
+        StudyError::Invalid { field, message } => {
+            Failure::usage(format!("{} {message}", flag(field)))
+        }
+        StudyError::Parse { field, source } => Failure::usage(format!("{}: {source}", flag(field))),
+        StudyError::Conflict { first, second, why } => Failure::usage(format!(
+            "{} and {} cannot be used together: {why}",
+            flag(first),
+            flag(second)
+        )),
+        StudyError::UnknownMaterial { .. } | StudyError::Material(_) | StudyError::Locate(_) => {
+            Failure::usage(e.to_string())
+        }
+        StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
+        StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
+        StudyError::Fill(f) => Failure::usage(f.to_string()),
+        StudyError::Render(RenderError::EmptyMesh) => Failure::input(e.to_string()),
+        StudyError::Glb(g) => Failure::output(format!("{part}: {g}")),
+        StudyError::Cancelled { .. }
+        | StudyError::Render(_)
+        | StudyError::OtherPart { .. }
+        | StudyError::Encode(_) => Failure {
+            code: 1,
+            message: e.to_string(),
+        },
+    }
+}
+
+/// Where a part comes from.
+#[derive(Debug, Clone, Copy)]
+pub enum Source<'a> {
+    /// A mesh file.
+    File(&'a Path),
+    /// A built-in sample, by name.
+    Sample(&'a str),
+}
+
+impl Source<'_> {
+    /// The title of a picture or 3D file: the file's name, or the sample's.
+    pub fn title(self) -> String {
+        match self {
+            Source::File(f) => f
+                .file_name()
+                .unwrap_or(f.as_os_str())
+                .to_string_lossy()
+                .into_owned(),
+            Source::Sample(s) => format!("sample '{s}'"),
+        }
+    }
+}
+
+/// Reads a mesh file and gives its size in bytes; every failure names the file.
+pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
+    let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
+    if path.is_dir() {
+        return Err(fail(&"is a folder, not a mesh file"));
+    }
+    let file = File::open(path).map_err(|e| fail(&format_args!("cannot open: {e}")))?;
+    let len = file
+        .metadata()
+        .map_err(|e| fail(&format_args!("cannot read: {e}")))?
+        .len();
+    drop(file);
+    // Opened once per reading thread for large binary files.
+    let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
+    let part = match crate::formats::mesh_kind(path) {
+        MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
+        MeshKind::Obj => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_obj(r, units)),
+        MeshKind::Ply => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_ply(r, units)),
+    }
+    .map_err(|e| fail(&e))?;
+    Ok((part, len))
+}
+
+/// One studied part: the mesh, and its study.
+pub struct Analysed {
+    /// The part.
+    pub part: LoadedMesh,
+    /// Its study (the report's `input` says where it came from).
+    pub study: Study,
+}
+
+/// Loads and studies one part. A part without a gate is a study whose report says why; the
+/// error is for a part that could not be studied at all.
+pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, Failure> {
+    let t = Instant::now();
+    let (part, input) = match source {
+        Source::File(path) => {
+            let (part, bytes) = load_file(path, s.units)?;
+            let input = Input {
+                path: Some(path.display().to_string()),
+                sample: None,
+                bytes,
+            };
+            (part, input)
+        }
+        Source::Sample(name) => {
+            let m = moldgate::samples::sample(name)
+                .ok_or_else(|| crate::sample::unknown_sample(name))?;
+            let input = Input {
+                path: None,
+                sample: Some(name.to_string()),
+                bytes: 0,
+            };
+            (mesh::from_generated(m), input)
+        }
+    };
+    let load_s = t.elapsed().as_secs_f64();
+    let name = input
+        .path
+        .clone()
+        .or(input.sample.clone())
+        .unwrap_or_default();
+    let mut study = moldgate::study_with(&part, &s.study, hooks).map_err(|e| failure(&e, &name))?;
+    study.set_input(input, load_s);
+    Ok(Analysed { part, study })
+}

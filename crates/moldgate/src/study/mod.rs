@@ -1,0 +1,214 @@
+//! The whole study of a part, in one call: the demolding direction (given or automatic),
+//! the gate ([`crate::locate`]), the wall thickness, the fill analysis, and from them the
+//! report, the scene, the picture, the GLB file and the HTML page. Every front end (the
+//! command line, the Python package, the HTTP service, the browser app) runs this, so they
+//! all give the same answers from the same options.
+//!
+//! ```
+//! use moldgate::study::{study, StudyOptions};
+//!
+//! let part = moldgate::mesh::from_generated(moldgate::samples::sample("plate").unwrap());
+//! let options: StudyOptions = serde_json::from_str(r#"{ "material": "ABS" }"#).unwrap();
+//! let s = study(&part, &options).unwrap();
+//! assert!(s.report().gate.is_some());
+//! let json = s.report_json().unwrap();
+//! assert!(json.contains("\"schema_version\""));
+//! ```
+//!
+//! Options come in two forms ([`options`]): [`StudyOptions`], raw and shared by every front
+//! end (serde, the command line's flags in snake case and its defaults), and [`Settings`],
+//! validated once. [`study_with`] runs validated settings with [`Hooks`]: a progress
+//! observer and a cancellation flag checked between stages.
+
+mod options;
+mod run;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+pub use options::{
+    CentreChoice, Demold, MaterialChoice, NearestChoice, ObjectiveChoice, Settings, StrategyChoice,
+    StudyOptions, ThicknessChoice, MAX_GATES, MAX_NODES_LIMIT,
+};
+pub use run::{GateMarker, Study};
+
+use crate::error::OptionsError;
+use crate::flow::FillError;
+use crate::gltf::GlbError;
+use crate::mesh::LoadedMesh;
+use crate::render::RenderError;
+use crate::undercut::DemoldError;
+
+/// A stage of a study, as the progress observer sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Building the ray-casting tree (automatic direction, wall thickness, fill).
+    Tree,
+    /// Choosing the demolding direction (`demold = "auto"`).
+    Demold,
+    /// The paper's gate location: grid, rays, rules, parting line.
+    Locate,
+    /// Measuring the wall thickness everywhere.
+    WallThickness,
+    /// The fill analysis.
+    Fill,
+    /// Assembling the report.
+    Report,
+}
+
+impl Stage {
+    /// The stage's name in snake case (`"wall_thickness"`), for progress lines and logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Tree => "tree",
+            Stage::Demold => "demold",
+            Stage::Locate => "locate",
+            Stage::WallThickness => "wall_thickness",
+            Stage::Fill => "fill",
+            Stage::Report => "report",
+        }
+    }
+}
+
+impl std::fmt::Display for Stage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Where a study is: the stage that starts (or is under way) and the fraction of the whole
+/// study done so far, 0 to 1 (a rough guide: stages are weighted by their usual cost).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress {
+    /// The stage.
+    pub stage: Stage,
+    /// Fraction of the study done, 0 to 1.
+    pub fraction: f64,
+}
+
+/// What a front end hooks into a study: both optional, no threads of their own.
+///
+/// The observer is called on the calling thread between stages (never inside a parallel
+/// loop), so it may take a lock or write to a terminal. The cancellation flag is read
+/// between stages; once set, the study returns [`StudyError::Cancelled`] naming the stage
+/// it did not start.
+#[derive(Clone, Copy, Default)]
+pub struct Hooks<'a> {
+    /// Called with each stage as it starts, and with [`Stage::Report`] at 1.0 at the end.
+    pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+    /// Set it (from another thread, a signal handler or a timer) to stop the study.
+    pub cancel: Option<&'a AtomicBool>,
+}
+
+impl std::fmt::Debug for Hooks<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Hooks")
+            .field("progress", &self.progress.is_some())
+            .field("cancel", &self.cancel)
+            .finish()
+    }
+}
+
+impl Hooks<'_> {
+    /// Reports `stage` at `fraction`, then fails if the study was cancelled.
+    pub(crate) fn enter(&self, stage: Stage, fraction: f64) -> Result<(), StudyError> {
+        if self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            return Err(StudyError::Cancelled { stage });
+        }
+        if let Some(p) = self.progress {
+            p(Progress { stage, fraction });
+        }
+        Ok(())
+    }
+}
+
+/// Why a study could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// An option out of range; `field` is the [`StudyOptions`] field.
+    #[error("{field} {message}")]
+    Invalid {
+        /// The field of [`StudyOptions`] (`gate_radius`).
+        field: &'static str,
+        /// What is wrong ("must be a positive number, got 0").
+        message: String,
+    },
+    /// An option that cannot be read (a direction, a keep-out region).
+    #[error("{field}: {source}")]
+    Parse {
+        /// The field of [`StudyOptions`].
+        field: &'static str,
+        /// Why.
+        source: OptionsError,
+    },
+    /// Two options that cannot be used together.
+    #[error("{first} and {second} cannot be used together: {why}")]
+    Conflict {
+        /// One field.
+        first: &'static str,
+        /// The other.
+        second: &'static str,
+        /// Why.
+        why: &'static str,
+    },
+    /// A material name that is neither a user material nor a built-in one.
+    #[error("unknown material '{name}' (known: {known})")]
+    UnknownMaterial {
+        /// The name asked for.
+        name: String,
+        /// The names known, comma-separated.
+        known: String,
+    },
+    /// A material parameter out of range.
+    #[error("{0}")]
+    Material(OptionsError),
+    /// An option the gate location refuses (a grid too large for `max_nodes`).
+    #[error("{0}")]
+    Locate(OptionsError),
+    /// The automatic demolding direction could not be chosen.
+    #[error("demold auto: {0}")]
+    Demold(DemoldError),
+    /// The fill analysis failed ([`FillError::TooFewCandidates`]: no gate layout exists).
+    #[error("{0}")]
+    Fill(FillError),
+    /// The study was cancelled before this stage.
+    #[error("cancelled before the {stage} stage")]
+    Cancelled {
+        /// The stage that did not start.
+        stage: Stage,
+    },
+    /// The picture could not be drawn.
+    #[error("cannot draw the part: {0}")]
+    Render(RenderError),
+    /// The GLB file could not be made.
+    #[error("cannot write the GLB: {0}")]
+    Glb(GlbError),
+    /// A mesh other than the one studied was given for a picture or file.
+    #[error("this is not the part that was studied ({vertices} vertices and {triangles} triangles expected)")]
+    OtherPart {
+        /// Vertices of the studied part.
+        vertices: usize,
+        /// Triangles of the studied part.
+        triangles: usize,
+    },
+    /// The report could not be encoded.
+    #[error("cannot encode the report: {0}")]
+    Encode(String),
+}
+
+/// Validates `options` and studies `part` with them, without hooks.
+pub fn study(part: &LoadedMesh, options: &StudyOptions) -> Result<Study, StudyError> {
+    study_with(part, &options.validate()?, &Hooks::default())
+}
+
+/// Studies `part` with validated settings, reporting progress and honouring cancellation
+/// through `hooks`.
+///
+/// A part without a gate is a [`Study`] whose report says why (`gate` is `None`,
+/// `no_gate_reason` is set); an error is a study that could not be made at all.
+pub fn study_with(
+    part: &LoadedMesh,
+    settings: &Settings,
+    hooks: &Hooks,
+) -> Result<Study, StudyError> {
+    run::run(part, settings, hooks)
+}

@@ -1,0 +1,627 @@
+//! The options of a study, in two forms: [`StudyOptions`], the raw vocabulary every front
+//! end shares (command-line flags, TOML, JSON, query parameters), and [`Settings`], the same
+//! options validated once into the library's types.
+//!
+//! Field names are the command line's flags in snake case (`--gate-radius` is
+//! `gate_radius`) and every default is the command line's. `docs/study-options.md` gives
+//! the JSON form with an example.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::OptionsError;
+use crate::flow::{FillOptions, FlowOptions, Objective, Strategy};
+use crate::gate::{FlatRule, Nearest, Spacing, ThicknessFallback, ThicknessRule};
+use crate::report::RadiusSource;
+use crate::study::StudyError;
+use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
+
+/// The largest grid accepted, in nodes. With 16 circle points a node costs 17 rays of 24
+/// bytes, so this is about 8 GB: far beyond a useful grid (the default limit is 4 million
+/// nodes), and a bound that keeps an absurd `max_nodes` from reaching the allocator.
+pub const MAX_NODES_LIMIT: usize = 20_000_000;
+
+/// The largest number of gates of a several-gate layout.
+pub const MAX_GATES: usize = 64;
+
+/// A material: a built-in name (`"PP"`, `"ABS"`, `"PC"`, any case), a name of the user
+/// materials given to [`StudyOptions::validate_with`], or every parameter of a material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MaterialChoice {
+    /// A material by name.
+    Name(String),
+    /// A material given in full (`n`, `t_melt`, `t_wall`, `gamma_opt`, `mu_opt`, `k`, and
+    /// optionally `name` and `max_flow_ratio`).
+    Parameters(Material),
+}
+
+impl Default for MaterialChoice {
+    fn default() -> Self {
+        MaterialChoice::Name("PP".into())
+    }
+}
+
+/// Which centre of mass the gate is placed by (`centre`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CentreChoice {
+    /// Area-weighted facet centroids (the paper's Eq. 5).
+    #[default]
+    Surface,
+    /// Centroid of the enclosed volume.
+    Volume,
+}
+
+/// How nearness to the centre of mass is measured (`nearest`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum NearestChoice {
+    /// 3D distance from the node's surface point.
+    #[default]
+    #[serde(rename = "3d")]
+    ThreeD,
+    /// Distance in the projection plane.
+    #[serde(rename = "2d")]
+    TwoD,
+}
+
+/// The paper's rule that R_gate be below the wall thickness (`thickness_rule`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ThicknessChoice {
+    /// Keep only nodes whose wall is thicker than R_gate (the paper's rule).
+    #[default]
+    Require,
+    /// Measure and report thickness but do not filter on it.
+    Ignore,
+}
+
+/// Which gate is the answer (`strategy`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StrategyChoice {
+    /// The paper's gate: the qualifying node nearest the centre of mass.
+    #[default]
+    Paper,
+    /// The qualifying node that minimises the fill objective (implies `fill`).
+    Balanced,
+}
+
+/// What the balanced gate and several gates minimise (`objective`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObjectiveChoice {
+    /// The largest flow length.
+    #[default]
+    Length,
+    /// The largest flow resistance (fill order).
+    Resistance,
+}
+
+/// Every option of a study, as a front end receives it: the command line's `locate` flags
+/// in snake case, with the command line's defaults. Unknown fields are refused.
+///
+/// ```
+/// let o: moldgate::StudyOptions =
+///     serde_json::from_str(r#"{ "material": "ABS", "fill": true, "gates": 2 }"#).unwrap();
+/// assert_eq!(o.gates, 2);
+/// assert_eq!(o.demold, "+z");
+/// let settings = o.validate().unwrap();
+/// assert!(settings.fill.is_some());
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StudyOptions {
+    /// Demolding direction: `+x`, `-y`, ... or `x,y,z`; `auto` picks the axis or principal
+    /// axis with the least undercut area. Default `+z`.
+    pub demold: String,
+    /// The material. Default `PP`.
+    pub material: MaterialChoice,
+    /// Override of the material's power-law index n.
+    pub n: Option<f64>,
+    /// Override of the melt temperature, degrees C.
+    pub t_melt: Option<f64>,
+    /// Override of the mould wall temperature, degrees C.
+    pub t_wall: Option<f64>,
+    /// Override of the optimal shear rate, 1/s.
+    pub gamma_opt: Option<f64>,
+    /// Override of the viscosity at that shear rate, Pa s.
+    pub mu_opt: Option<f64>,
+    /// Override of the thermal conductivity, W/(m C).
+    pub k: Option<f64>,
+    /// The gate radius in mm instead of Eq. 8. Default: Eq. 8 of the material.
+    pub gate_radius: Option<f64>,
+    /// Grid spacing in mm. Default: min(R_gate, longest projected side / 100).
+    pub spacing: Option<f64>,
+    /// Grid shift as a fraction of the spacing along both axes. Default 0.
+    pub grid_offset: f64,
+    /// Points on each node's circle. Default 16.
+    pub circle_points: usize,
+    /// Which centre of mass the gate is placed by. Default `surface`.
+    pub centre: CentreChoice,
+    /// How nearness to the centre of mass is measured. Default `3d`.
+    pub nearest: NearestChoice,
+    /// The paper's rule that R_gate be below the wall thickness. Default `require`.
+    pub thickness_rule: ThicknessChoice,
+    /// When the thickness rule leaves no node, take the gate of the largest gate radius that
+    /// fits (searched below R_gate and reported either way). Default false.
+    pub fit_radius: bool,
+    /// Keep only nodes whose circle is flat within `flat_tol`. Default false.
+    pub require_flat: bool,
+    /// Flatness tolerance along the demolding direction, mm. Default 0.1 R_gate.
+    pub flat_tol: Option<f64>,
+    /// Put the gate on the parting line, nearest the centre of mass. Default false.
+    pub aesthetic: bool,
+    /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`]). Default 4 000 000.
+    pub max_nodes: usize,
+    /// Regions no gate may reach into: `box:x0,y0,z0,x1,y1,z1` or `sphere:x,y,z,r` (mm).
+    pub keep_out: Vec<String>,
+    /// The visible side: no gate on faces turned towards this direction.
+    pub cosmetic: Option<String>,
+    /// Analyse the fill (flow length, fill order, Eq. 1 pressure, last places to fill,
+    /// weld lines, the balanced gate). Default false; implied by `strategy = "balanced"`
+    /// and `gates > 1`.
+    pub fill: bool,
+    /// Which gate is the answer. Default `paper`.
+    pub strategy: StrategyChoice,
+    /// What the balanced gate and several gates minimise. Default `length`.
+    pub objective: ObjectiveChoice,
+    /// Number of gates that together minimise the worst flow (1 to [`MAX_GATES`]).
+    /// Default 1.
+    pub gates: usize,
+    /// Side of the flow-analysis cells, mm. Default: half the nominal wall, at most 1/120
+    /// of the part's diagonal.
+    pub cell: Option<f64>,
+    /// Also measure the wall thickness everywhere. Default false.
+    pub wall_thickness: bool,
+}
+
+impl Default for StudyOptions {
+    fn default() -> Self {
+        StudyOptions {
+            demold: "+z".into(),
+            material: MaterialChoice::default(),
+            n: None,
+            t_melt: None,
+            t_wall: None,
+            gamma_opt: None,
+            mu_opt: None,
+            k: None,
+            gate_radius: None,
+            spacing: None,
+            grid_offset: 0.0,
+            circle_points: 16,
+            centre: CentreChoice::Surface,
+            nearest: NearestChoice::ThreeD,
+            thickness_rule: ThicknessChoice::Require,
+            fit_radius: false,
+            require_flat: false,
+            flat_tol: None,
+            aesthetic: false,
+            max_nodes: 4_000_000,
+            keep_out: Vec::new(),
+            cosmetic: None,
+            fill: false,
+            strategy: StrategyChoice::Paper,
+            objective: ObjectiveChoice::Length,
+            gates: 1,
+            cell: None,
+            wall_thickness: false,
+        }
+    }
+}
+
+/// The demolding direction of a study: given, or chosen per part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Demold {
+    /// This direction.
+    Given(Direction),
+    /// The axis or principal axis with the least undercut ([`crate::undercut`]).
+    Auto,
+}
+
+/// The options of a study validated into the library's types ([`StudyOptions::validate`]):
+/// what [`crate::study::study_with`] runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// The material, with its overrides.
+    pub material: Material,
+    /// The options of [`crate::locate`] (its direction is replaced per part under
+    /// [`Demold::Auto`]).
+    pub locate: LocateOptions,
+    /// Whether R_gate comes from the material or was forced.
+    pub radius_source: RadiusSource,
+    /// The demolding direction.
+    pub demold: Demold,
+    /// Whether the wall thickness is measured everywhere.
+    pub wall_thickness: bool,
+    /// The fill analysis, when asked for.
+    pub fill: Option<FillOptions>,
+}
+
+fn invalid(field: &'static str, message: impl Into<String>) -> StudyError {
+    StudyError::Invalid {
+        field,
+        message: message.into(),
+    }
+}
+
+fn parse_error(field: &'static str, source: OptionsError) -> StudyError {
+    StudyError::Parse { field, source }
+}
+
+fn positive(field: &'static str, v: f64) -> Result<f64, StudyError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(invalid(
+            field,
+            format!("must be a positive number, got {v}"),
+        ))
+    }
+}
+
+impl StudyOptions {
+    /// Whether `demold` asks for the automatic direction.
+    pub fn auto_demold(&self) -> bool {
+        self.demold.trim().eq_ignore_ascii_case("auto")
+    }
+
+    /// Validates the options once, with the built-in materials only.
+    pub fn validate(&self) -> Result<Settings, StudyError> {
+        self.validate_with(&[])
+    }
+
+    /// Validates the options once; a material name is looked up in `user` (by
+    /// [`Material::name`], any case) before the built-ins.
+    pub fn validate_with(&self, user: &[Material]) -> Result<Settings, StudyError> {
+        if self.aesthetic && self.strategy == StrategyChoice::Balanced {
+            return Err(StudyError::Conflict {
+                first: "strategy",
+                second: "aesthetic",
+                why: "the balanced gate is a grid node chosen by the fill, the aesthetic gate the point of the parting line nearest the centre of mass; choose one",
+            });
+        }
+        let material = self.material(user)?;
+        let demold = if self.auto_demold() {
+            Demold::Auto
+        } else {
+            Demold::Given(self.demold.parse().map_err(|e| parse_error("demold", e))?)
+        };
+        let (gate_radius_mm, radius_source) = match self.gate_radius {
+            Some(r) => (positive("gate_radius", r)?, RadiusSource::Forced),
+            None => (material.gate_radius_mm(), RadiusSource::Material),
+        };
+        let spacing = match self.spacing {
+            Some(h) => Spacing::Mm(positive("spacing", h)?),
+            None => Spacing::Auto,
+        };
+        if !self.grid_offset.is_finite() {
+            return Err(invalid("grid_offset", "must be a finite number"));
+        }
+        if self.circle_points < 3 {
+            return Err(invalid(
+                "circle_points",
+                format!("must be at least 3, got {}", self.circle_points),
+            ));
+        }
+        if let Some(t) = self.flat_tol {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(invalid(
+                    "flat_tol",
+                    format!("must be zero or positive, got {t}"),
+                ));
+            }
+        }
+        if self.max_nodes == 0 || self.max_nodes > MAX_NODES_LIMIT {
+            return Err(invalid(
+                "max_nodes",
+                format!(
+                    "must be between 1 and {MAX_NODES_LIMIT}, got {}",
+                    self.max_nodes
+                ),
+            ));
+        }
+        let keep_out = self
+            .keep_out
+            .iter()
+            .map(|k| k.parse())
+            .collect::<Result<_, OptionsError>>()
+            .map_err(|e| parse_error("keep_out", e))?;
+        let cosmetic = self
+            .cosmetic
+            .as_deref()
+            .map(str::parse)
+            .transpose()
+            .map_err(|e| parse_error("cosmetic", e))?;
+        let locate = LocateOptions {
+            direction: match demold {
+                Demold::Given(d) => d,
+                Demold::Auto => Direction::default(),
+            },
+            gate_radius_mm,
+            spacing,
+            grid_offset: self.grid_offset,
+            circle_points: self.circle_points,
+            centre: match self.centre {
+                CentreChoice::Surface => CentreKind::Surface,
+                CentreChoice::Volume => CentreKind::Volume,
+            },
+            nearest: match self.nearest {
+                NearestChoice::ThreeD => Nearest::Surface3d,
+                NearestChoice::TwoD => Nearest::Plane2d,
+            },
+            thickness_rule: match self.thickness_rule {
+                ThicknessChoice::Require => ThicknessRule::Require,
+                ThicknessChoice::Ignore => ThicknessRule::Ignore,
+            },
+            thickness_fallback: if self.fit_radius {
+                ThicknessFallback::LargestFitting
+            } else {
+                ThicknessFallback::Report
+            },
+            flat_rule: if self.require_flat {
+                FlatRule::Require
+            } else {
+                FlatRule::Report
+            },
+            flat_tolerance_mm: self.flat_tol,
+            mode: if self.aesthetic {
+                GateMode::Aesthetic
+            } else {
+                GateMode::Paper
+            },
+            max_nodes: self.max_nodes,
+            keep_out,
+            cosmetic,
+        };
+        Ok(Settings {
+            material,
+            locate,
+            radius_source,
+            demold,
+            wall_thickness: self.wall_thickness,
+            fill: self.fill_options()?,
+        })
+    }
+
+    /// The material: a user material or a built-in by name, or given in full, then the
+    /// single-parameter overrides (which add " (modified)" to the name).
+    fn material(&self, user: &[Material]) -> Result<Material, StudyError> {
+        let mut m = match &self.material {
+            MaterialChoice::Parameters(m) => m.clone(),
+            MaterialChoice::Name(name) => user
+                .iter()
+                .find(|m| m.name.eq_ignore_ascii_case(name))
+                .cloned()
+                .or_else(|| Material::builtin(name))
+                .ok_or_else(|| StudyError::UnknownMaterial {
+                    name: name.clone(),
+                    known: crate::material::BUILTIN
+                        .iter()
+                        .map(|s| s.to_string())
+                        .chain(user.iter().map(|m| m.name.clone()))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?,
+        };
+        let overrides = [
+            (&mut m.n, self.n),
+            (&mut m.t_melt, self.t_melt),
+            (&mut m.t_wall, self.t_wall),
+            (&mut m.gamma_opt, self.gamma_opt),
+            (&mut m.mu_opt, self.mu_opt),
+            (&mut m.k, self.k),
+        ];
+        let mut changed = false;
+        for (field, value) in overrides {
+            if let Some(v) = value {
+                *field = v;
+                changed = true;
+            }
+        }
+        if changed {
+            m.name += " (modified)";
+        }
+        m.validate().map_err(StudyError::Material)?;
+        Ok(m)
+    }
+
+    /// The fill analysis's options, or `None` when it was not asked for.
+    fn fill_options(&self) -> Result<Option<FillOptions>, StudyError> {
+        if self.gates == 0 {
+            return Err(invalid("gates", "must be at least 1"));
+        }
+        if self.gates > MAX_GATES {
+            return Err(invalid(
+                "gates",
+                format!("must be at most {MAX_GATES}, got {}", self.gates),
+            ));
+        }
+        if let Some(h) = self.cell {
+            positive("cell", h)?;
+        }
+        let wanted = self.fill || self.strategy == StrategyChoice::Balanced || self.gates > 1;
+        if !wanted {
+            return Ok(None);
+        }
+        Ok(Some(FillOptions {
+            flow: FlowOptions {
+                cell_mm: self.cell,
+                ..FlowOptions::default()
+            },
+            strategy: match self.strategy {
+                StrategyChoice::Paper => Strategy::Paper,
+                StrategyChoice::Balanced => Strategy::Balanced,
+            },
+            objective: match self.objective {
+                ObjectiveChoice::Length => Objective::Length,
+                ObjectiveChoice::Resistance => Objective::Resistance,
+            },
+            gates: self.gates,
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_empty_object_is_the_defaults() {
+        let json: StudyOptions = serde_json::from_str("{}").unwrap();
+        let toml: StudyOptions = toml::from_str("").unwrap();
+        assert_eq!(json, StudyOptions::default());
+        assert_eq!(toml, StudyOptions::default());
+        let s = json.validate().unwrap();
+        assert_eq!(s.locate, LocateOptions::default());
+        assert_eq!(s.material, Material::builtin("PP").unwrap());
+        assert_eq!(s.demold, Demold::Given(Direction::PLUS_Z));
+        assert_eq!(s.fill, None);
+        assert!(!s.wall_thickness);
+    }
+
+    #[test]
+    fn json_and_toml_give_the_same_options() {
+        let json: StudyOptions = serde_json::from_str(
+            r#"{ "material": "abs", "demold": "-y", "gate_radius": 1.5, "spacing": 0.5,
+                 "centre": "volume", "nearest": "2d", "thickness_rule": "ignore",
+                 "keep_out": ["sphere:0,0,0,2"], "cosmetic": "+y", "fill": true,
+                 "strategy": "balanced", "objective": "resistance", "gates": 1,
+                 "cell": 0.8, "wall_thickness": true }"#,
+        )
+        .unwrap();
+        let toml: StudyOptions = toml::from_str(
+            r#"material = "abs"
+demold = "-y"
+gate_radius = 1.5
+spacing = 0.5
+centre = "volume"
+nearest = "2d"
+thickness_rule = "ignore"
+keep_out = ["sphere:0,0,0,2"]
+cosmetic = "+y"
+fill = true
+strategy = "balanced"
+objective = "resistance"
+gates = 1
+cell = 0.8
+wall_thickness = true
+"#,
+        )
+        .unwrap();
+        assert_eq!(json, toml);
+        let s = json.validate().unwrap();
+        assert_eq!(s.material.name, "ABS");
+        assert_eq!(s.locate.gate_radius_mm, 1.5);
+        assert_eq!(s.radius_source, RadiusSource::Forced);
+        assert_eq!(s.locate.spacing, Spacing::Mm(0.5));
+        assert_eq!(s.locate.centre, CentreKind::Volume);
+        assert_eq!(s.locate.nearest, Nearest::Plane2d);
+        assert_eq!(s.locate.thickness_rule, ThicknessRule::Ignore);
+        assert_eq!(s.locate.keep_out.len(), 1);
+        assert!(s.locate.cosmetic.is_some());
+        let fill = s.fill.unwrap();
+        assert_eq!(fill.strategy, Strategy::Balanced);
+        assert_eq!(fill.objective, Objective::Resistance);
+        assert_eq!(fill.flow.cell_mm, Some(0.8));
+    }
+
+    #[test]
+    fn unknown_fields_are_refused_by_name() {
+        let e = serde_json::from_str::<StudyOptions>(r#"{ "gate_radus": 1 }"#).unwrap_err();
+        assert!(e.to_string().contains("unknown field `gate_radus`"), "{e}");
+        let e = toml::from_str::<StudyOptions>("spacng = 1.0").unwrap_err();
+        assert!(e.to_string().contains("unknown field `spacng`"), "{e}");
+        let e = serde_json::from_str::<StudyOptions>(r#"{ "nearest": "4d" }"#).unwrap_err();
+        assert!(e.to_string().contains("4d"), "{e}");
+    }
+
+    #[test]
+    fn a_material_is_a_name_or_every_parameter() {
+        let o: StudyOptions = serde_json::from_str(
+            r#"{ "material": { "name": "mine", "n": 0.3, "t_melt": 220, "t_wall": 40,
+                 "gamma_opt": 9000, "mu_opt": 12, "k": 0.2 }, "mu_opt": 15 }"#,
+        )
+        .unwrap();
+        let m = o.validate().unwrap().material;
+        assert_eq!(m.name, "mine (modified)");
+        assert_eq!(m.mu_opt, 15.0);
+        assert_eq!(m.max_flow_ratio, None);
+        let user = [Material {
+            name: "Mine".into(),
+            ..Material::builtin("PC").unwrap()
+        }];
+        let o: StudyOptions = serde_json::from_str(r#"{ "material": "MINE" }"#).unwrap();
+        assert_eq!(o.validate_with(&user).unwrap().material.name, "Mine");
+        let e = o.validate().unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "unknown material 'MINE' (known: PP, ABS, PC)"
+        );
+        let o: StudyOptions =
+            serde_json::from_str(r#"{ "strategy": "balanced", "aesthetic": true }"#).unwrap();
+        let e = o.validate().unwrap_err().to_string();
+        assert!(
+            e.starts_with("strategy and aesthetic cannot be used together"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn bad_values_name_their_field() {
+        let cases = [
+            (
+                r#"{ "gate_radius": 0 }"#,
+                "gate_radius must be a positive number, got 0",
+            ),
+            (
+                r#"{ "spacing": -1 }"#,
+                "spacing must be a positive number, got -1",
+            ),
+            (
+                r#"{ "circle_points": 2 }"#,
+                "circle_points must be at least 3, got 2",
+            ),
+            (
+                r#"{ "flat_tol": -1 }"#,
+                "flat_tol must be zero or positive, got -1",
+            ),
+            (r#"{ "max_nodes": 0 }"#, "max_nodes must be between 1"),
+            (r#"{ "gates": 0 }"#, "gates must be at least 1"),
+            (r#"{ "gates": 65 }"#, "gates must be at most 64, got 65"),
+            (r#"{ "cell": 0 }"#, "cell must be a positive number, got 0"),
+            (
+                r#"{ "demold": "sideways" }"#,
+                "demold: cannot read demolding direction",
+            ),
+            (
+                r#"{ "keep_out": ["cube:1"] }"#,
+                "keep_out: cannot read keep-out region",
+            ),
+            (
+                r#"{ "cosmetic": "0,0,0" }"#,
+                "cosmetic: the demolding direction must be",
+            ),
+            (r#"{ "n": -1 }"#, "n must be a positive finite number"),
+        ];
+        for (json, message) in cases {
+            let o: StudyOptions = serde_json::from_str(json).unwrap();
+            let e = o.validate().unwrap_err().to_string();
+            assert!(e.starts_with(message) || e.contains(message), "{json}: {e}");
+        }
+    }
+
+    #[test]
+    fn fill_is_implied_by_balanced_and_several_gates() {
+        for json in [
+            r#"{ "strategy": "balanced" }"#,
+            r#"{ "gates": 3 }"#,
+            r#"{ "fill": true }"#,
+        ] {
+            let o: StudyOptions = serde_json::from_str(json).unwrap();
+            assert!(o.validate().unwrap().fill.is_some(), "{json}");
+        }
+        let o: StudyOptions = serde_json::from_str(r#"{ "demold": " AUTO " }"#).unwrap();
+        assert_eq!(o.validate().unwrap().demold, Demold::Auto);
+    }
+}

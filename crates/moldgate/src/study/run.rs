@@ -1,0 +1,404 @@
+//! Running a study, and what it gives.
+
+use std::time::Instant;
+
+use crate::flow::{self, FillAnalysis, FillError, Strategy};
+use crate::gate::{Analysis, ChosenGate};
+use crate::math::DVec3;
+use crate::mesh::LoadedMesh;
+use crate::raycast::{Bvh, Sampling};
+use crate::render::RenderOptions;
+use crate::report::{AnswerGate, Input, Report};
+use crate::scene::{Field, Marker, Scene};
+use crate::study::{Demold, Hooks, Settings, Stage, StudyError};
+use crate::thickness::{wall_thickness_with, ThicknessOptions, WallThickness};
+use crate::undercut::auto_direction_checked;
+
+/// One gate of the answer, as pictures and 3D files show it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GateMarker {
+    /// The gate point on the surface, mm.
+    pub point: DVec3,
+    /// Outward unit normal of the surface there (zero when no triangle is near).
+    pub normal: DVec3,
+}
+
+/// A finished study of one part: the analysis, its optional parts, and what front ends
+/// show of it. It does not hold the mesh: the methods that draw take the part that was
+/// studied (and refuse another one).
+#[derive(Debug, Clone)]
+pub struct Study {
+    report: Report,
+    analysis: Analysis,
+    wall: Option<WallThickness>,
+    wall_per_vertex: Option<Vec<f32>>,
+    fill_order: Option<Vec<f32>>,
+    gates: Vec<GateMarker>,
+    subtitle: String,
+    material_name: String,
+    size: (usize, usize),
+}
+
+/// Fewer grid nodes on the part than this (10 x 10) draw a warning: the grid is too coarse
+/// for the gate to mean much.
+pub const MIN_NODES_ON_PART: usize = 100;
+
+/// The usual share of each stage in the time of a study (for [`crate::study::Progress`]).
+fn fraction(stage: Stage) -> f64 {
+    match stage {
+        Stage::Tree => 0.0,
+        Stage::Demold => 0.1,
+        Stage::Locate => 0.2,
+        Stage::WallThickness => 0.4,
+        Stage::Fill => 0.5,
+        Stage::Report => 1.0,
+    }
+}
+
+pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Study, StudyError> {
+    let mesh = &part.mesh;
+    let enter = |stage: Stage| hooks.enter(stage, fraction(stage));
+    // One ray-casting tree serves the automatic direction and the wall thickness (which the
+    // fill analysis uses for its flow resistance).
+    let auto_demold = s.demold == Demold::Auto;
+    let wants_tree = auto_demold || s.wall_thickness || s.fill.is_some();
+    let mut tree_s = 0.0;
+    let bvh = if wants_tree {
+        enter(Stage::Tree)?;
+        let t = Instant::now();
+        let bvh = Bvh::new(mesh);
+        tree_s = t.elapsed().as_secs_f64();
+        Some(bvh)
+    } else {
+        None
+    };
+    let mut options = s.locate.clone();
+    let mut demold_s = None;
+    let auto = match &bvh {
+        Some(bvh) if auto_demold => {
+            enter(Stage::Demold)?;
+            let t = Instant::now();
+            // Lines still tied after the shallowest draw go to one on which a gate qualifies.
+            let gate_qualifies = |d| {
+                let o = crate::LocateOptions {
+                    direction: d,
+                    ..options.clone()
+                };
+                crate::locate(part, &o).is_ok_and(|a| a.gate().is_ok())
+            };
+            let auto = auto_direction_checked(mesh, bvh, Sampling::Centroid, gate_qualifies)
+                .map_err(StudyError::Demold)?;
+            demold_s = Some(t.elapsed().as_secs_f64());
+            options.direction = auto.direction();
+            Some(auto)
+        }
+        _ => None,
+    };
+    enter(Stage::Locate)?;
+    let mut analysis = crate::locate(part, &options).map_err(StudyError::Locate)?;
+    if analysis.counts.centre_hits < MIN_NODES_ON_PART {
+        analysis.warnings.push(format!(
+            "only {} grid nodes fall on the part (spacing {:.3} mm): the gate is a coarse guess; use a smaller spacing",
+            analysis.counts.centre_hits, analysis.grid.spacing
+        ));
+    }
+    // The full wall map only when asked for; the fill analysis measures its own samples.
+    let wall = match (&bvh, s.wall_thickness) {
+        (Some(bvh), true) => {
+            enter(Stage::WallThickness)?;
+            let t = Instant::now();
+            let w = wall_thickness_with(mesh, bvh, &ThicknessOptions::default());
+            Some((w, t.elapsed().as_secs_f64()))
+        }
+        _ => None,
+    };
+    let fill = match &s.fill {
+        Some(o) if analysis.gate().is_ok() => {
+            enter(Stage::Fill)?;
+            let walls = match (&wall, &bvh) {
+                (Some((w, _)), _) if w.nominal_mm.is_some() => {
+                    flow::Walls::Given(&w.per_triangle, w.nominal_mm.unwrap_or_default())
+                }
+                (_, Some(bvh)) => flow::Walls::Measure(bvh),
+                _ => flow::Walls::Estimate,
+            };
+            let mut f =
+                flow::analyse(mesh, &analysis, &s.material, walls, o).map_err(StudyError::Fill)?;
+            f.times.tree_s = tree_s;
+            Some(f)
+        }
+        _ => None,
+    };
+    enter(Stage::Report)?;
+    let input = Input {
+        path: None,
+        sample: None,
+        bytes: 0,
+    };
+    let mut report = Report::new(
+        input,
+        &part.stats,
+        &part.warnings,
+        &s.material,
+        s.radius_source,
+        &analysis,
+        0.0,
+    );
+    if let Some(auto) = auto {
+        report = report.with_demold_auto(auto);
+    }
+    if let Some((w, time_s)) = &wall {
+        report = report.with_wall_thickness(w, *time_s);
+    }
+    let mut fill_order = None;
+    if let Some(mut fill) = fill {
+        fill_order = Some(std::mem::take(&mut fill.fill_order_per_vertex));
+        report = report.with_fill(fill, analysis.centre);
+    }
+    // The tree serves several stages: counted once, on its own.
+    if bvh.is_some() {
+        report.timings.tree_s = Some(tree_s);
+        report.timings.total_s += tree_s;
+    }
+    if let Some(d) = demold_s {
+        report.timings.demold_s = Some(d);
+        report.timings.total_s += d;
+    }
+    let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
+    let wall_per_vertex = wall.as_ref().map(|(w, _)| w.per_vertex(mesh));
+    if let Some(p) = hooks.progress {
+        p(crate::study::Progress {
+            stage: Stage::Report,
+            fraction: 1.0,
+        });
+    }
+    Ok(Study {
+        report,
+        analysis,
+        wall: wall.map(|(w, _)| w),
+        wall_per_vertex,
+        fill_order,
+        gates,
+        subtitle,
+        material_name: s.material.name.clone(),
+        size: (mesh.vertices.len(), mesh.triangles.len()),
+    })
+}
+
+/// The outward normal of the surface at `p`: that of the nearest triangle (zero without a
+/// tree or when no triangle is near).
+fn normal_at(part: &LoadedMesh, bvh: Option<&Bvh>, p: DVec3) -> DVec3 {
+    let reach = part.mesh.bounds().size().length().max(1.0);
+    bvh.and_then(|b| b.nearest_within(p, reach))
+        .map_or(DVec3::ZERO, |hit| part.mesh.normal(hit.triangle as usize))
+}
+
+/// The gates of the answer and the picture's second title line: the paper's (or the
+/// aesthetic) gate, the balanced gate under `strategy = "balanced"`, or the K gates of a
+/// several-gate layout (which also become the report's `gate`, each with its normal).
+fn answer_gates(
+    part: &LoadedMesh,
+    analysis: &Analysis,
+    report: &mut Report,
+    bvh: Option<&Bvh>,
+) -> (Vec<GateMarker>, String) {
+    let r = analysis.options.gate_radius_mm;
+    let Ok(chosen) = analysis.gate() else {
+        return (Vec::new(), "no gate".to_string());
+    };
+    let p = chosen.point();
+    let mut gates = vec![GateMarker {
+        point: p,
+        normal: match chosen {
+            ChosenGate::Paper(g) => g.normal,
+            ChosenGate::Aesthetic(_) => normal_at(part, bvh, p),
+        },
+    }];
+    let mut subtitle = format!(
+        "gate ({:.2}, {:.2}, {:.2}) mm, R = {:.2} mm",
+        p.x, p.y, p.z, r
+    );
+    let several = report.fill.as_ref().and_then(|f| f.several.clone());
+    let Some(g) = report.gate.as_mut() else {
+        return (gates, subtitle);
+    };
+    if g.strategy == Strategy::Balanced {
+        let p = DVec3::from_array(g.point);
+        gates[0] = GateMarker {
+            point: p,
+            normal: normal_at(part, bvh, p),
+        };
+        subtitle = format!(
+            "balanced gate ({:.2}, {:.2}, {:.2}) mm, R = {r:.2} mm",
+            g.point[0], g.point[1], g.point[2]
+        );
+    }
+    if let Some(several) = several {
+        let answer: Vec<AnswerGate> = several
+            .gates
+            .iter()
+            .map(|s| AnswerGate {
+                point: s.point,
+                normal: normal_at(part, bvh, DVec3::from_array(s.point)).to_array(),
+                volume_share: s.volume_share,
+                l_max_mm: s.l_max_mm,
+            })
+            .collect();
+        gates = answer
+            .iter()
+            .map(|a| GateMarker {
+                point: DVec3::from_array(a.point),
+                normal: DVec3::from_array(a.normal),
+            })
+            .collect();
+        if let Some(first) = answer.first() {
+            g.point = first.point;
+            g.distance_3d_mm = DVec3::from_array(first.point).distance(analysis.centre);
+        }
+        subtitle = format!(
+            "{} gates, L_max {:.1} mm, R = {r:.2} mm",
+            answer.len(),
+            several.l_max_mm
+        );
+        g.gates = Some(answer);
+    }
+    (gates, subtitle)
+}
+
+impl Study {
+    /// The report (the JSON schema of `docs/json-schema.md`).
+    pub fn report(&self) -> &Report {
+        &self.report
+    }
+
+    /// The report, taken out of the study.
+    pub fn into_report(self) -> Report {
+        self.report
+    }
+
+    /// Says where the part came from and how long it took to load: the report's `input`,
+    /// and `timings.load_s` (added to `timings.total_s`).
+    pub fn set_input(&mut self, input: Input, load_s: f64) {
+        self.report.input = input;
+        self.report.timings.load_s = load_s;
+        self.report.timings.total_s += load_s;
+    }
+
+    /// The report as pretty JSON with a final newline (what `locate --json` prints); no
+    /// number is written as a negative zero.
+    pub fn report_json(&self) -> Result<String, StudyError> {
+        serde_json::to_string_pretty(&self.report)
+            .map(|s| crate::report::without_negative_zeros(&s, true) + "\n")
+            .map_err(|e| StudyError::Encode(e.to_string()))
+    }
+
+    /// The gate analysis of [`crate::locate`] (grid, counts, centres, parting line).
+    pub fn analysis(&self) -> &Analysis {
+        &self.analysis
+    }
+
+    /// The fill analysis, when it ran.
+    pub fn fill(&self) -> Option<&FillAnalysis> {
+        self.report.fill.as_ref()
+    }
+
+    /// Fill order of the answer's gate per mesh vertex (0 at the gate, 1 last; NaN where the
+    /// melt does not reach), when the fill ran.
+    pub fn fill_order(&self) -> Option<&[f32]> {
+        self.fill_order.as_deref()
+    }
+
+    /// The wall thickness everywhere, when it was measured (`wall_thickness = true`).
+    pub fn wall_thickness(&self) -> Option<&WallThickness> {
+        self.wall.as_ref()
+    }
+
+    /// Wall thickness per mesh vertex, mm (NaN where unknown), when it was measured.
+    pub fn wall_thickness_per_vertex(&self) -> Option<&[f32]> {
+        self.wall_per_vertex.as_deref()
+    }
+
+    /// Surface points of every node that qualifies as a gate position, in node order.
+    pub fn qualifying_points(&self) -> &[DVec3] {
+        &self.analysis.qualifying_points
+    }
+
+    /// The gates of the answer (one, or the K gates of a several-gate layout), first is the
+    /// main one; empty when there is no gate.
+    pub fn gates(&self) -> &[GateMarker] {
+        &self.gates
+    }
+
+    fn check_part(&self, part: &LoadedMesh) -> Result<(), StudyError> {
+        let (vertices, triangles) = self.size;
+        if part.mesh.vertices.len() == vertices && part.mesh.triangles.len() == triangles {
+            Ok(())
+        } else {
+            Err(StudyError::OtherPart {
+                vertices,
+                triangles,
+            })
+        }
+    }
+
+    /// What pictures and 3D files show: the part coloured by the fill order when the fill
+    /// ran (by height along D otherwise), the answer's gates, the centre of mass, the
+    /// parting line, the qualifying points. `title` is the first title line (the file's
+    /// name).
+    pub fn scene<'a>(
+        &self,
+        part: &'a LoadedMesh,
+        title: impl Into<String>,
+    ) -> Result<Scene<'a>, StudyError> {
+        self.check_part(part)?;
+        let mut scene = Scene::new(&part.mesh, &self.analysis, title);
+        if let Some(f) = &self.fill_order {
+            scene = scene.with_field(Field {
+                name: "fill order (0 gate, 1 last)".into(),
+                unit: String::new(),
+                per_vertex: f.clone(),
+            });
+        }
+        let r = self.analysis.options.gate_radius_mm;
+        scene.gates = self
+            .gates
+            .iter()
+            .map(|g| Marker {
+                point: g.point,
+                normal: g.normal,
+                radius_mm: r,
+            })
+            .collect();
+        scene.subtitle = self.subtitle.clone();
+        Ok(scene)
+    }
+
+    /// The 1600x900 PNG picture of the study (the view along D and an isometric view), its
+    /// second title line naming the material and the demolding direction.
+    pub fn png(&self, part: &LoadedMesh, title: impl Into<String>) -> Result<Vec<u8>, StudyError> {
+        let mut scene = self.scene(part, title)?;
+        let d = self.report.options.demold;
+        scene.subtitle = format!(
+            "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
+            self.material_name, scene.subtitle, d[0], d[1], d[2]
+        );
+        crate::render::png(&scene, &RenderOptions::default()).map_err(StudyError::Render)
+    }
+
+    /// The study as binary glTF 2.0 (see [`crate::gltf`]).
+    pub fn glb(&self, part: &LoadedMesh, title: impl Into<String>) -> Result<Vec<u8>, StudyError> {
+        crate::gltf::glb(&self.scene(part, title)?).map_err(StudyError::Glb)
+    }
+
+    /// The self-contained HTML page of the study, with `png` (from [`Study::png`]) as its
+    /// picture when given.
+    pub fn html(&self, png: Option<&[u8]>) -> Result<String, StudyError> {
+        Ok(crate::html::page(&self.report, &self.report_json()?, png))
+    }
+}
+
+impl From<FillError> for StudyError {
+    fn from(e: FillError) -> Self {
+        StudyError::Fill(e)
+    }
+}
