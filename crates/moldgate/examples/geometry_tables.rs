@@ -88,6 +88,7 @@ fn main() {
             &part,
             &LocateOptions {
                 direction: d,
+                parting: moldgate::gate::PartingRule::Outline,
                 ..LocateOptions::default()
             },
         )
@@ -116,6 +117,7 @@ fn main() {
                 &part,
                 &LocateOptions {
                     direction: d,
+                    parting: moldgate::gate::PartingRule::Outline,
                     ..LocateOptions::default()
                 },
             )
@@ -134,6 +136,7 @@ fn main() {
             &part,
             &LocateOptions {
                 direction: auto.direction(),
+                parting: moldgate::gate::PartingRule::Outline,
                 ..LocateOptions::default()
             },
         )

@@ -30,7 +30,20 @@ use crate::math::{nearest_on_segment, DVec2, DVec3};
 use crate::mesh::topology::root;
 use crate::mesh::{Mesh, Topology};
 
-/// The parting line: the outer outline loop of each body.
+/// Which edges make the parting line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PartingRule {
+    /// The longest loop of the edges between the two sides (the paper's path; on parts
+    /// whose holes or pockets have a longer rim than the outline, that rim wins).
+    #[default]
+    Longest,
+    /// The outer outline loop of each body seen along D, chain ends bridged (the module's
+    /// documentation; slower: a cover test per edge and shortest paths along the mesh).
+    Outline,
+}
+
+/// The parting line: the kept loop (or loops, one per body, by [`PartingRule::Outline`]).
 #[derive(Debug, Clone, Default)]
 pub struct PartingLine {
     /// The edges of the kept loops, as vertex index pairs.
@@ -83,32 +96,113 @@ fn faces_fixed_side(mesh: &Mesh, d: DVec3) -> Vec<bool> {
         .collect()
 }
 
+/// The edges between a triangle that faces the fixed side and one that does not, sorted,
+/// each once, as (smaller, larger) vertex pairs.
+fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Vec<[u32; 2]> {
+    let fixed = faces_fixed_side(mesh, frame.d);
+    // Each edge between the sides is found from its triangle that faces the fixed side,
+    // in blocks of triangles in parallel (the edges are sorted below).
+    const BLOCK: usize = 16 * 1024;
+    let mut edges: Vec<[u32; 2]> = (0..mesh.triangles.len().div_ceil(BLOCK))
+        .into_par_iter()
+        .flat_map_iter(|b| {
+            let block = b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len());
+            let fixed = &fixed;
+            block.filter(|&t| fixed[t]).flat_map(move |t| {
+                topology
+                    .two_sided(t)
+                    .filter(|&(_, n)| !fixed[n as usize])
+                    .map(move |(k, _)| {
+                        let tri = mesh.triangles[t];
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        [a.min(b), a.max(b)]
+                    })
+            })
+        })
+        .collect();
+    edges.par_sort_unstable();
+    edges.dedup();
+    edges
+}
+
 impl PartingLine {
     /// Extracts the parting line of `mesh` for the frame's demolding direction.
+    /// Extracts the parting line of `mesh` for the frame's demolding direction by the
+    /// [`PartingRule::Longest`] rule: the longest loop of the edges between the two sides
+    /// (the paper's path: cheap beside the rays). Its one rim is that loop; `closed` says
+    /// whether each of its vertices has two of its edges.
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
-        let fixed = faces_fixed_side(mesh, frame.d);
-        // Each edge between the sides is found from its triangle that faces the fixed side,
-        // in blocks of triangles in parallel (the edges are sorted below).
-        const BLOCK: usize = 16 * 1024;
-        let mut edges: Vec<[u32; 2]> = (0..mesh.triangles.len().div_ceil(BLOCK))
-            .into_par_iter()
-            .flat_map_iter(|b| {
-                let block = b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len());
-                let fixed = &fixed;
-                block.filter(|&t| fixed[t]).flat_map(move |t| {
-                    topology
-                        .two_sided(t)
-                        .filter(|&(_, n)| !fixed[n as usize])
-                        .map(move |(k, _)| {
-                            let tri = mesh.triangles[t];
-                            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                            [a.min(b), a.max(b)]
-                        })
-                })
-            })
+        let edges = side_edges(mesh, topology, frame);
+        if edges.is_empty() {
+            return PartingLine::default();
+        }
+        // Loops are the connected components of the edges (union-find on vertices).
+        let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
+        for &[a, b] in &edges {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            if ra != rb {
+                parent[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+        let mut length = rustc_hash::FxHashMap::<u32, f64>::default();
+        for &[a, b] in &edges {
+            let r = root(&mut parent, a);
+            *length.entry(r).or_default() +=
+                mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
+        }
+        // The longest loop; ties go to the loop with the smallest root vertex.
+        let (&best, &length_mm) = length
+            .iter()
+            .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
+            .expect("at least one edge");
+        let kept: Vec<[u32; 2]> = edges
+            .iter()
+            .copied()
+            .filter(|&[a, _]| root(&mut parent, a) == best)
             .collect();
-        edges.par_sort_unstable();
-        edges.dedup();
+        let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
+        for &[a, b] in &kept {
+            *degree.entry(a).or_default() += 1;
+            *degree.entry(b).or_default() += 1;
+        }
+        let closed = degree.values().all(|&d| d == 2);
+        // The body of the kept loop, numbered as `body_of_triangle` numbers them: bodies
+        // in the order of their first triangle.
+        let body = {
+            let mut joined = crate::mesh::topology::joined_vertices(mesh);
+            let target = root(&mut joined, best);
+            let mut seen = rustc_hash::FxHashSet::<u32>::default();
+            let mut body = 0;
+            for tri in &mesh.triangles {
+                let r = root(&mut joined, tri[0]);
+                if r == target {
+                    break;
+                }
+                if seen.insert(r) {
+                    body += 1;
+                }
+            }
+            body
+        };
+        PartingLine {
+            closed,
+            edges_all: edges.len(),
+            loops: length.len(),
+            rims: vec![Rim {
+                body,
+                edges: kept.len(),
+                length_mm,
+                closed,
+            }],
+            edges: kept,
+            length_mm,
+        }
+    }
+
+    /// Extracts the parting line of `mesh` for the frame's demolding direction by the
+    /// [`PartingRule::Outline`] rule (see the module's documentation).
+    pub fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
+        let edges = side_edges(mesh, topology, frame);
         if edges.is_empty() {
             return PartingLine::default();
         }
@@ -305,6 +399,8 @@ impl PartingLine {
 
 /// Most chain ends [`bridges`] joins; past that the outline is left as found.
 const MAX_BRIDGED_ENDS: usize = 2000;
+/// Candidates considered for each chain end when pairing them (its nearest).
+const PAIRS_PER_END: usize = 8;
 /// Most vertices one bridge's search visits.
 const MAX_BRIDGE_VISITS: usize = 20_000;
 /// Most vertices all bridge searches of one line visit together (bounds the cost on fine
@@ -348,17 +444,29 @@ fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
     }
     let reach = 0.1 * mesh.bounds().diagonal();
     let at = |v: u32| mesh.vertices[v as usize];
+    // Each end's [`PAIRS_PER_END`] nearest candidates, nearest in the projection plane (a
+    // step of the outline is a vertical run).
     let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    let mut near: Vec<(f64, usize)> = Vec::new();
     for i in 0..ends.len() {
-        for j in i + 1..ends.len() {
-            // Nearest in the projection plane: a step of the outline is a vertical run.
-            let (p, q) = (at(ends[i]), at(ends[j]));
-            if p.distance(q) <= reach {
-                pairs.push((frame.project(p).distance(frame.project(q)), i, j));
+        near.clear();
+        let p = at(ends[i]);
+        for (j, &e) in ends.iter().enumerate() {
+            let q = at(e);
+            if j != i && p.distance(q) <= reach {
+                near.push((frame.project(p).distance(frame.project(q)), j));
             }
         }
+        if near.len() > PAIRS_PER_END {
+            near.select_nth_unstable_by(PAIRS_PER_END, |x, y| {
+                x.0.total_cmp(&y.0).then(x.1.cmp(&y.1))
+            });
+            near.truncate(PAIRS_PER_END);
+        }
+        pairs.extend(near.iter().map(|&(d, j)| (d, i.min(j), i.max(j))));
     }
     pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    pairs.dedup();
     let mut open_ends = rustc_hash::FxHashMap::<u32, usize>::default();
     for &e in &ends {
         *open_ends.entry(find(&mut parent, e)).or_default() += 1;
@@ -387,22 +495,15 @@ fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
     if chosen.is_empty() {
         return Vec::new();
     }
-    // Neighbours of each vertex along mesh edges.
-    let mut neighbours = vec![Vec::new(); mesh.vertices.len()];
-    for tri in &mesh.triangles {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            neighbours[a as usize].push(b);
-            neighbours[b as usize].push(a);
-        }
-    }
+    let neighbours = Neighbours::new(mesh);
     let mut out = Vec::new();
+    let mut search = Search::new(mesh.vertices.len());
     let mut budget = MAX_BRIDGE_VISITS_TOTAL;
     for (from, to) in chosen {
         if budget == 0 {
             break;
         }
-        if let Some(path) = shortest_path(mesh, &neighbours, from, to, &mut budget) {
+        if let Some(path) = shortest_path(mesh, &neighbours, &mut search, from, to, &mut budget) {
             out.extend(path.windows(2).map(|w| [w[0].min(w[1]), w[0].max(w[1])]));
         }
     }
@@ -410,30 +511,29 @@ fn bridges(mesh: &Mesh, frame: &Frame, chains: &[[u32; 2]]) -> Vec<[u32; 2]> {
 }
 
 /// The shortest path along mesh edges from `from` to `to`, as vertices, or `None` when not
-/// found within [`MAX_BRIDGE_VISITS`] vertices.
+/// found within [`MAX_BRIDGE_VISITS`] vertices. `search` is reused from path to path.
 fn shortest_path(
     mesh: &Mesh,
-    neighbours: &[Vec<u32>],
+    neighbours: &Neighbours,
+    search: &mut Search,
     from: u32,
     to: u32,
     budget: &mut usize,
 ) -> Option<Vec<u32>> {
     use std::cmp::Reverse;
-    use std::collections::BinaryHeap;
-    let mut dist = rustc_hash::FxHashMap::<u32, (f64, u32)>::default();
-    let mut heap = BinaryHeap::new();
-    dist.insert(from, (0.0, from));
-    heap.push(Reverse((OrdF64(0.0), from)));
+    search.reset();
+    search.set(from, 0.0, from);
+    search.heap.push(Reverse((OrdF64(0.0), from)));
     let mut visits = 0;
-    while let Some(Reverse((OrdF64(d), v))) = heap.pop() {
-        if d > dist[&v].0 {
+    while let Some(Reverse((OrdF64(d), v))) = search.heap.pop() {
+        if d > search.dist[v as usize] {
             continue;
         }
         if v == to {
             let mut path = vec![to];
             let mut at = to;
             while at != from {
-                at = dist[&at].1;
+                at = search.from[at as usize];
                 path.push(at);
             }
             return Some(path);
@@ -443,15 +543,89 @@ fn shortest_path(
             return None;
         }
         *budget -= 1;
-        for &n in &neighbours[v as usize] {
+        for &n in neighbours.of(v) {
             let nd = d + mesh.vertices[v as usize].distance(mesh.vertices[n as usize]);
-            if dist.get(&n).is_none_or(|&(old, _)| nd < old) {
-                dist.insert(n, (nd, v));
-                heap.push(Reverse((OrdF64(nd), n)));
+            if nd < search.dist[n as usize] {
+                search.set(n, nd, v);
+                search.heap.push(Reverse((OrdF64(nd), n)));
             }
         }
     }
     None
+}
+
+/// Dijkstra's state over all vertices, reset between searches by the vertices touched.
+struct Search {
+    dist: Vec<f64>,
+    from: Vec<u32>,
+    touched: Vec<u32>,
+    heap: std::collections::BinaryHeap<std::cmp::Reverse<(OrdF64, u32)>>,
+}
+
+impl Search {
+    fn new(vertices: usize) -> Search {
+        Search {
+            dist: vec![f64::INFINITY; vertices],
+            from: vec![u32::MAX; vertices],
+            touched: Vec::new(),
+            heap: std::collections::BinaryHeap::new(),
+        }
+    }
+
+    fn set(&mut self, v: u32, d: f64, from: u32) {
+        if self.dist[v as usize] == f64::INFINITY {
+            self.touched.push(v);
+        }
+        self.dist[v as usize] = d;
+        self.from[v as usize] = from;
+    }
+
+    fn reset(&mut self) {
+        for &v in &self.touched {
+            self.dist[v as usize] = f64::INFINITY;
+        }
+        self.touched.clear();
+        self.heap.clear();
+    }
+}
+
+/// The neighbours of each vertex along mesh edges, in one flat array (each edge is listed
+/// from both of its triangles, so most neighbours appear twice; the search does not mind).
+struct Neighbours {
+    /// Where each vertex's neighbours begin in `items` (one more at the end).
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Neighbours {
+    fn new(mesh: &Mesh) -> Neighbours {
+        let mut start = vec![0u32; mesh.vertices.len() + 1];
+        for tri in &mesh.triangles {
+            for &v in tri {
+                start[v as usize + 1] += 2;
+            }
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut fill = start.clone();
+        let mut items = vec![0u32; start[mesh.vertices.len()] as usize];
+        for tri in &mesh.triangles {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                for (from, to) in [(a, b), (b, a)] {
+                    let at = &mut fill[from as usize];
+                    items[*at as usize] = to;
+                    *at += 1;
+                }
+            }
+        }
+        Neighbours { start, items }
+    }
+
+    fn of(&self, v: u32) -> &[u32] {
+        &self.items[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
 }
 
 /// A finite f64 ordered for the heap.
@@ -474,8 +648,10 @@ impl Ord for OrdF64 {
 struct Outline {
     /// Projected corners of each triangle with projected area.
     triangles: Vec<[DVec2; 3]>,
-    /// Triangles overlapping each cell, row by row.
-    cells: Vec<Vec<u32>>,
+    /// Where each cell's triangles begin in `items` (cells row by row; one more at the end).
+    start: Vec<u32>,
+    /// The triangles overlapping each cell, cell after cell.
+    items: Vec<u32>,
     lo: DVec2,
     cell: f64,
     n_u: usize,
@@ -486,19 +662,30 @@ struct Outline {
 
 impl Outline {
     /// Every triangle with projected area covers (the fixed side alone would do on a closed
-    /// part, not on an open mesh).
+    /// part, not on an open mesh). The grid is one flat array of triangle indices, cell after
+    /// cell, with an offset per cell (counted, then filled).
     fn new(mesh: &Mesh, frame: &Frame) -> Outline {
         let triangles: Vec<[DVec2; 3]> = mesh
             .triangles
-            .iter()
+            .par_iter()
             .map(|t| t.map(|v| frame.project(mesh.vertices[v as usize])))
             .filter(|[a, b, c]| (*b - *a).perp_dot(*c - *a).abs() > 0.0)
             .collect();
-        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        for q in triangles.iter().flatten() {
-            lo = lo.min(*q);
-            hi = hi.max(*q);
-        }
+        let (lo, hi) = triangles
+            .par_iter()
+            .fold(
+                || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+                |(lo, hi), t| {
+                    (
+                        lo.min(t[0].min(t[1]).min(t[2])),
+                        hi.max(t[0].max(t[1]).max(t[2])),
+                    )
+                },
+            )
+            .reduce(
+                || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
         let size = (hi - lo).max(DVec2::splat(1e-12));
         // About two triangles per cell.
         let cells_wanted = (triangles.len() / 2).clamp(1, 1 << 22) as f64;
@@ -506,19 +693,62 @@ impl Outline {
         let n_u = ((size.x / cell).ceil() as usize).clamp(1, 1 << 12);
         let n_w = ((size.y / cell).ceil() as usize).clamp(1, 1 << 12);
         let cell = (size.x / n_u as f64).max(size.y / n_w as f64);
-        let mut cells = vec![Vec::new(); n_u * n_w];
         let index = |x: f64, n: usize| (((x / cell).floor().max(0.0)) as usize).min(n - 1);
-        for (i, t) in triangles.iter().enumerate() {
-            let (tlo, thi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
-            for w in index(tlo.y - lo.y, n_w)..=index(thi.y - lo.y, n_w) {
-                for u in index(tlo.x - lo.x, n_u)..=index(thi.x - lo.x, n_u) {
-                    cells[w * n_u + u].push(i as u32);
+        // The cells a triangle overlaps, row by row: in each row, the x range of the
+        // triangle clipped to the row's slab (a thin sliver crossing the grid touches few
+        // cells per row, not its whole bounding box).
+        let for_cells = |t: &[DVec2; 3], f: &mut dyn FnMut(usize)| {
+            let (y_lo, y_hi) = (
+                t[0].y.min(t[1].y).min(t[2].y),
+                t[0].y.max(t[1].y).max(t[2].y),
+            );
+            for w in index(y_lo - lo.y, n_w)..=index(y_hi - lo.y, n_w) {
+                let s0 = (lo.y + w as f64 * cell).max(y_lo);
+                let s1 = (lo.y + (w + 1) as f64 * cell).min(y_hi);
+                let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
+                for k in 0..3 {
+                    let (p, q) = (t[k], t[(k + 1) % 3]);
+                    if (s0..=s1).contains(&p.y) {
+                        x0 = x0.min(p.x);
+                        x1 = x1.max(p.x);
+                    }
+                    for y in [s0, s1] {
+                        if (p.y - y) * (q.y - y) < 0.0 {
+                            let x = p.x + (q.x - p.x) * (y - p.y) / (q.y - p.y);
+                            x0 = x0.min(x);
+                            x1 = x1.max(x);
+                        }
+                    }
+                }
+                if x0 > x1 {
+                    // Rounding left the slab empty: the row's share of the box.
+                    x0 = t[0].x.min(t[1].x).min(t[2].x);
+                    x1 = t[0].x.max(t[1].x).max(t[2].x);
+                }
+                for u in index(x0 - lo.x, n_u)..=index(x1 - lo.x, n_u) {
+                    f(w * n_u + u);
                 }
             }
+        };
+        let mut start = vec![0u32; n_u * n_w + 1];
+        for t in &triangles {
+            for_cells(t, &mut |c| start[c + 1] += 1);
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut fill = start.clone();
+        let mut items = vec![0u32; start[n_u * n_w] as usize];
+        for (i, t) in triangles.iter().enumerate() {
+            for_cells(t, &mut |c| {
+                items[fill[c] as usize] = i as u32;
+                fill[c] += 1;
+            });
         }
         Outline {
             triangles,
-            cells,
+            start,
+            items,
             lo,
             cell,
             n_u,
@@ -537,7 +767,9 @@ impl Outline {
         if u >= self.n_u || w >= self.n_w {
             return false;
         }
-        self.cells[w * self.n_u + u].iter().any(|&i| {
+        let c = w * self.n_u + u;
+        let cell = &self.items[self.start[c] as usize..self.start[c + 1] as usize];
+        cell.iter().any(|&i| {
             let [a, b, c] = self.triangles[i as usize];
             let (e0, e1, e2) = (
                 (b - a).perp_dot(p - a),
@@ -602,7 +834,7 @@ mod tests {
     fn parting(name: &str, demold: &str) -> (Mesh, PartingLine, Frame) {
         let mesh = sample(name).unwrap();
         let frame = Frame::new(demold.parse::<Direction>().unwrap());
-        let line = PartingLine::new(&mesh, &Topology::new(&mesh), &frame);
+        let line = PartingLine::outline(&mesh, &Topology::new(&mesh), &frame);
         (mesh, line, frame)
     }
 

@@ -81,6 +81,7 @@ fn parting_vs_outline(part: &LoadedMesh, d: Direction, cells: usize) -> (f64, f6
         part,
         &LocateOptions {
             direction: d,
+            parting: moldgate::gate::PartingRule::Outline,
             ..LocateOptions::default()
         },
     )

@@ -15,6 +15,7 @@ use crate::frame::{Direction, Frame};
 use crate::keepout::Region;
 use crate::math::{DVec2, DVec3};
 use crate::mesh::LoadedMesh;
+pub use crate::parting::PartingRule;
 use crate::parting::{AestheticGate, PartingLine};
 use projection::{Hit, Projection, RayLattice};
 pub use quadrature::{auto_spacing, Grid, Spacing};
@@ -134,6 +135,8 @@ pub struct LocateOptions {
     pub thickness_rule: ThicknessRule,
     /// When that rule removes every node. Default [`ThicknessFallback::Report`].
     pub thickness_fallback: ThicknessFallback,
+    /// Which edges make the parting line. Default [`PartingRule::Longest`].
+    pub parting: PartingRule,
     /// Flat-seat rule. Default [`FlatRule::Report`].
     pub flat_rule: FlatRule,
     /// Flatness tolerance along D in mm. Default `None`: 0.1 R_gate.
@@ -163,6 +166,7 @@ impl Default for LocateOptions {
             nearest: Nearest::Surface3d,
             thickness_rule: ThicknessRule::Require,
             thickness_fallback: ThicknessFallback::Report,
+            parting: PartingRule::Longest,
             flat_rule: FlatRule::Report,
             flat_tolerance_mm: None,
             mode: GateMode::Paper,
@@ -538,7 +542,10 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
             let centre = centres.get(options.centre).unwrap_or(centres.surface);
             times.centre_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let parting = PartingLine::new(mesh, &part.topology, &frame);
+            let parting = match options.parting {
+                PartingRule::Longest => PartingLine::new(mesh, &part.topology, &frame),
+                PartingRule::Outline => PartingLine::outline(mesh, &part.topology, &frame),
+            };
             // Keep-out regions apply to the parting-line gate too (cosmetic faces do not:
             // the line is the boundary between the two halves).
             let aesthetic_gate = parting.nearest_allowed(mesh, &frame, centre, 0.25 * r, |p| {

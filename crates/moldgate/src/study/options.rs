@@ -354,6 +354,7 @@ impl StudyOptions {
                 ThicknessChoice::Require => ThicknessRule::Require,
                 ThicknessChoice::Ignore => ThicknessRule::Ignore,
             },
+            parting: crate::gate::PartingRule::Longest,
             thickness_fallback: if self.fit_radius {
                 ThicknessFallback::LargestFitting
             } else {
