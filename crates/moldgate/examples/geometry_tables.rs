@@ -173,7 +173,8 @@ fn main() {
 
 const PARTING_INTRO: &str = "# The parting line on the shared parts
 
-The parting line is the outer outline loop of each body seen along the demolding direction D
+With `PartingRule::Outline` (the library's option; the default, `Longest`, keeps the longest loop
+of the side-changing edges) the parting line is the outer outline loop of each body seen along the demolding direction D
 (`crates/moldgate/src/parting.rs`): the edges between a face towards -D and one that is not,
 kept where a point just beside them in the projection plane has no part under it, with the
 ends of the chains joined along mesh edges where the outline steps along D. The independent

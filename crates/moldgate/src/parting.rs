@@ -12,7 +12,9 @@
 //! face that lies on the -D side.
 //!
 //! Such edges also run round holes, pockets, rib ends and threads, where the two halves do
-//! not meet. The parting line keeps the edges on the part's **outline** seen along D: an
+//! not meet. By default ([`PartingRule::Longest`], the paper's path, cheap beside the rays)
+//! the parting line is the longest connected loop of them. With [`PartingRule::Outline`] it
+//! keeps the edges on the part's **outline** seen along D: an
 //! edge is on it when, in the projection plane, a point just beside its middle (1e-6 of the
 //! projected box diagonal, on either side) is covered by no triangle of the part. Those
 //! edges are chained into loops (connected sets of edges); the parting line is, for each
