@@ -166,6 +166,10 @@ pub struct LocateArgs {
     /// The paper's rule that R_gate be below the wall thickness.
     #[arg(long, value_enum, default_value = "require")]
     pub thickness_rule: ThicknessArg,
+    /// When the thickness rule leaves no node, take the gate of the largest gate radius that
+    /// fits (searched below R_gate and reported either way).
+    #[arg(long)]
+    pub fit_radius: bool,
     /// Keep only nodes whose circle is flat within --flat-tol.
     #[arg(long)]
     pub require_flat: bool,
@@ -352,6 +356,7 @@ impl LocateArgs {
                 ThicknessArg::Require => ThicknessChoice::Require,
                 ThicknessArg::Ignore => ThicknessChoice::Ignore,
             },
+            fit_radius: self.fit_radius,
             require_flat: self.require_flat,
             flat_tol: self.flat_tol,
             aesthetic: self.aesthetic,

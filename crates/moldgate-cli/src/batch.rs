@@ -490,7 +490,7 @@ struct Row {
     exit_code: u8,
     /// Unit the file was read in.
     units: String,
-    /// Demolding direction as given.
+    /// Demolding direction as given, or for `auto` the direction chosen ("-z (auto)").
     demold: String,
     /// Triangles after welding.
     triangles: Option<u64>,
@@ -519,6 +519,16 @@ struct Row {
     error: Option<String>,
 }
 
+/// An axis as "+x" .. "-z", any other direction as its three components.
+fn direction_name(d: [f64; 3]) -> String {
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        if d[i].abs() == 1.0 {
+            return format!("{}{axis}", if d[i] > 0.0 { "+" } else { "-" });
+        }
+    }
+    format!("{:.4},{:.4},{:.4}", d[0], d[1], d[2])
+}
+
 impl Row {
     fn new(part: &Part, o: &Outcome) -> Row {
         let file = part.path.display().to_string();
@@ -545,7 +555,10 @@ impl Row {
             },
             exit_code: code,
             units: part.settings.units.to_string(),
-            demold: part.demold.clone(),
+            demold: match r.and_then(|r| r.demold_auto.as_ref()) {
+                Some(auto) => format!("{} (auto)", direction_name(auto.candidate().direction)),
+                None => part.demold.clone(),
+            },
             triangles: r.map(|r| r.mesh.triangles),
             gate_x_mm: gate.map(|g| g.point[0]),
             gate_y_mm: gate.map(|g| g.point[1]),

@@ -272,6 +272,23 @@ pub fn render(r: &Report) -> String {
         };
         fill(&mut s, f, label);
     }
+    if let Some(f) = &r.radius_fit {
+        let _ = match (f.radius_mm, &f.gate) {
+            (Some(radius), Some(g)) => writeln!(
+                s,
+                "largest gate radius that fits: {radius:.3} mm (R_gate {:.3} mm refused by the thickness rule), gate {} mm, {:.3} mm from the centre of mass{}",
+                f.refused_mm,
+                v3(g.point),
+                g.distance_3d_mm,
+                if f.accepted { ", taken (--fit-radius)" } else { "; --fit-radius takes it" }
+            ),
+            _ => writeln!(
+                s,
+                "largest gate radius that fits: none down to {:.3} mm (R_gate {:.3} mm refused by the thickness rule)",
+                f.floor_mm, f.refused_mm
+            ),
+        };
+    }
     match &r.gate {
         Some(g) => {
             let mode = match (g.strategy, g.mode) {

@@ -594,6 +594,24 @@ fn manifest_gives_each_part_its_unit_and_direction() {
 }
 
 #[test]
+fn summary_says_the_direction_demold_auto_chose() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    std::fs::create_dir(root.join("m")).unwrap();
+    // A 40 x 30 x 4 mm plate: every axis is free of undercut, z is the shallowest draw.
+    std::fs::write(
+        root.join("m/plate.stl"),
+        binary(&box_facets([0.0; 3], [40.0, 30.0, 4.0])),
+    )
+    .unwrap();
+    let out = moldgate(root, &["locate", "m", "--json", "--demold", "auto"]);
+    assert_code(&out, OK);
+    let rows = json_lines(&stdout(&out));
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0]["demold"], "+z (auto)", "{}", rows[0]);
+}
+
+#[test]
 fn bad_manifests_are_usage_errors_naming_the_place() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path();

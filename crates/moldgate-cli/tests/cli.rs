@@ -1122,3 +1122,54 @@ fn demold_auto_warns_when_every_direction_has_undercuts() {
         "{text}"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// The largest gate radius that fits
+
+#[test]
+fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
+    // The cap's wall is 1.6 mm: a 2.5 mm gate fails the thickness rule, and the bisection
+    // (from 0.25 mm, 8 steps of (2.5 - 0.25) / 256 = 0.0088 mm) finds just under 1.6 mm.
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["locate", "--sample", "cap", "--gate-radius", "2.5"];
+    let out = moldgate(dir.path(), &args);
+    assert_fails(
+        &out,
+        NO_GATE,
+        &["largest gate radius that fits is 1.5", "--fit-radius"],
+    );
+    let text = stdout(&out);
+    assert!(
+        text.contains("largest gate radius that fits: 1.5"),
+        "{text}"
+    );
+    let out = moldgate(dir.path(), &[&args[..], &["--json"]].concat());
+    assert_fails(&out, NO_GATE, &["walls thicker than 2.500 mm"]);
+    let r: Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert!(r["gate"].is_null());
+    let fit = &r["radius_fit"];
+    let radius = fit["radius_mm"].as_f64().unwrap();
+    assert!(radius < 1.6 && radius > 1.6 - 0.0088, "{fit}");
+    assert_eq!(fit["refused_mm"].as_f64(), Some(2.5));
+    assert!(fit["reason"]
+        .as_str()
+        .unwrap()
+        .contains("walls thicker than 2.500 mm"));
+    assert_eq!(fit["accepted"], false);
+    assert!(r["no_gate_reason"]
+        .as_str()
+        .unwrap()
+        .contains("--fit-radius"));
+    // Taken: the gate is that one, the refusal a warning.
+    let r = json(&moldgate(
+        dir.path(),
+        &[&args[..], &["--fit-radius", "--json"]].concat(),
+    ));
+    assert_eq!(r["gate"]["point"], fit["gate"]["point"]);
+    assert_eq!(r["radius_fit"]["accepted"], true);
+    assert!(r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().contains("R_gate = 2.500 mm")));
+}

@@ -293,6 +293,30 @@ pub struct Report {
     /// The directions tried by `--demold auto` (present when it was used).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub demold_auto: Option<AutoDemold>,
+    /// The largest gate radius that fits, when the thickness rule removed every node
+    /// (present only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radius_fit: Option<RadiusFitReport>,
+}
+
+/// The largest gate radius that fits where the paper's thickness rule left no node
+/// ([`crate::gate::RadiusFit`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct RadiusFitReport {
+    /// The gate radius the rule refused, mm.
+    pub refused_mm: f64,
+    /// Why it was refused: which rule removed the last nodes.
+    pub reason: String,
+    /// The largest radius found to fit, mm, or `null` when none down to `floor_mm` fits.
+    pub radius_mm: Option<f64>,
+    /// The gate it gives.
+    pub gate: Option<GateReport>,
+    /// The smallest radius tried, mm.
+    pub floor_mm: f64,
+    /// Projections the search ran.
+    pub probes: usize,
+    /// Whether that gate is the answer (`--fit-radius`).
+    pub accepted: bool,
 }
 
 /// Statistics of [`crate::thickness::WallThickness`] and the value at the gate.
@@ -449,6 +473,15 @@ impl Report {
             fill: None,
             wall_thickness: None,
             demold_auto: None,
+            radius_fit: analysis.radius_fit.as_ref().map(|f| RadiusFitReport {
+                refused_mm: f.refused_mm,
+                reason: f.reason.clone(),
+                radius_mm: f.radius_mm,
+                gate: f.gate.as_ref().map(GateReport::from),
+                floor_mm: f.floor_mm,
+                probes: f.probes,
+                accepted: f.accepted,
+            }),
         }
     }
 

@@ -22,10 +22,17 @@
 //! [`auto_direction`] tries the three axis lines and the three principal axes of the surface
 //! (the eigenvectors of the area-weighted covariance of its points, Eq. 3-5's weights; a
 //! principal axis within 1e-6 rad of an axis or of another candidate is dropped). It picks the
-//! line with the least undercut area; lines within 1e-9 of the total area of each other are a
-//! tie, broken by the smallest extent of the part along the line (the shallowest draw: a
-//! plate opens along its thickness), then by the order tried (x, y, z, then principal axes
-//! by decreasing spread).
+//! line with the least undercut area, where lines whose undercut areas differ by at most
+//! [`TIE_SHARE`] (1 %) of the part's surface area are a **tie**: the areas of a ray test on
+//! a tessellated part move by that much with the tessellation, so a flat tile with 61.5 mm^2
+//! along x and 61.7 mm^2 along its thickness z does not open sideways. Among the tied lines:
+//!
+//! 1. the smallest extent of the part along the line wins (the shallowest draw: a plate opens
+//!    along its thickness), extents within [`TIE_SHARE`] of each other being equal;
+//! 2. then a line on which a gate qualifies, when the caller can tell
+//!    ([`auto_direction_checked`] takes a closure, e.g. one that runs [`crate::locate`]; it is
+//!    asked only about lines still tied, at most once each);
+//! 3. then the order tried (x, y, z, then principal axes by decreasing spread).
 //!
 //! **Sign.** D and -D mould alike, so the sign follows the project's convention (the shared
 //! parts' `SOURCES.md`): D points to the open or core side, which is the side away from the
@@ -49,6 +56,10 @@ use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
 use crate::raycast::{Bvh, Ray};
+
+/// Undercut areas (and extents) within this share of the part's surface area (extent) of
+/// each other are a tie in [`auto_direction`].
+pub const TIE_SHARE: f64 = 0.01;
 
 /// |n · D| at or below which a facet is parallel to D (about 0.06 degrees of draft).
 pub const PARALLEL_TOLERANCE: f64 = 1e-3;
@@ -79,39 +90,61 @@ pub fn undercut(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling) -> Und
     } else {
         0.0
     };
-    let (total, blocked) = (0..mesh.triangles.len())
+    // Fixed blocks of triangles, each summed in order, then the blocks summed in order: the
+    // total does not depend on the number of threads or on scheduling.
+    let n = mesh.triangles.len();
+    let blocks: Vec<(f64, f64)> = (0..n.div_ceil(SUM_BLOCK))
         .into_par_iter()
-        .with_min_len(256)
-        .map(|t| {
-            let corners = mesh.corners(t);
-            let [a, b, c] = corners;
-            let cross = (b - a).cross(c - a);
-            let area = 0.5 * cross.length();
-            if !(area.is_finite() && area > 0.0) {
-                return (0.0, 0.0);
-            }
-            let facing = (cross / (2.0 * area)).dot(d);
-            if facing.abs() <= PARALLEL_TOLERANCE {
-                return (area, 0.0);
-            }
-            let dir = if facing > 0.0 { d } else { -d };
-            let (mut samples, mut hits) = (0u32, 0u32);
-            sampling.for_each(corners, |p| {
-                samples += 1;
-                let ray = Ray::new(p, dir)
-                    .within(min_hit, f64::INFINITY)
-                    .skipping(t as u32);
-                if bvh.any_hit(&ray) {
-                    hits += 1;
-                }
-            });
-            (area, area * hits as f64 / samples.max(1) as f64)
+        .map(|b| {
+            (b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(n))
+                .map(|t| facet_undercut(mesh, bvh, t, d, min_hit, sampling))
+                .fold((0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1))
         })
-        .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+        .collect();
+    let (total, blocked) = blocks
+        .iter()
+        .fold((0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
     Undercut {
         area_mm2: blocked,
         share: if total > 0.0 { blocked / total } else { 0.0 },
     }
+}
+
+/// Triangles per block of the undercut sum (the blocks are fixed, so is the sum).
+const SUM_BLOCK: usize = 1024;
+
+/// Area of facet `t` and its blocked part for the line `d`.
+fn facet_undercut(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    t: usize,
+    d: DVec3,
+    min_hit: f64,
+    sampling: Sampling,
+) -> (f64, f64) {
+    let corners = mesh.corners(t);
+    let [a, b, c] = corners;
+    let cross = (b - a).cross(c - a);
+    let area = 0.5 * cross.length();
+    if !(area.is_finite() && area > 0.0) {
+        return (0.0, 0.0);
+    }
+    let facing = (cross / (2.0 * area)).dot(d);
+    if facing.abs() <= PARALLEL_TOLERANCE {
+        return (area, 0.0);
+    }
+    let dir = if facing > 0.0 { d } else { -d };
+    let (mut samples, mut hits) = (0u32, 0u32);
+    sampling.for_each(corners, |p| {
+        samples += 1;
+        let ray = Ray::new(p, dir)
+            .within(min_hit, f64::INFINITY)
+            .skipping(t as u32);
+        if bvh.any_hit(&ray) {
+            hits += 1;
+        }
+    });
+    (area, area * hits as f64 / samples.max(1) as f64)
 }
 
 /// Where a candidate line came from.
@@ -134,8 +167,11 @@ pub struct Candidate {
     /// Its undercut.
     #[serde(flatten)]
     pub undercut: Undercut,
-    /// Extent of the part along it, mm (the tie-break).
+    /// Extent of the part along it, mm (the first tie-break).
     pub extent_mm: f64,
+    /// Whether a gate qualifies on it, when the tie-break asked (the second tie-break);
+    /// `None` when it was not asked.
+    pub gate_qualifies: Option<bool>,
 }
 
 /// The result of [`auto_direction`].
@@ -145,6 +181,9 @@ pub struct AutoDemold {
     pub chosen: usize,
     /// Every candidate, in the order tried.
     pub tried: Vec<Candidate>,
+    /// Undercut areas within this many mm^2 of the least were a tie ([`TIE_SHARE`] of the
+    /// surface area).
+    pub tie_mm2: f64,
 }
 
 impl AutoDemold {
@@ -171,6 +210,17 @@ pub fn auto_direction_with(
     mesh: &Mesh,
     bvh: &Bvh,
     sampling: Sampling,
+) -> Result<AutoDemold, DemoldError> {
+    auto_direction_checked(mesh, bvh, sampling, |_| true)
+}
+
+/// [`auto_direction_with`] whose second tie-break asks `gate_qualifies` whether a gate
+/// qualifies on a direction (e.g. by running [`crate::locate`] along it).
+pub fn auto_direction_checked(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    sampling: Sampling,
+    mut gate_qualifies: impl FnMut(Direction) -> bool,
 ) -> Result<AutoDemold, DemoldError> {
     let centres = Centres::of(mesh);
     if !(centres.area_mm2.is_finite() && centres.area_mm2 > 0.0) {
@@ -220,19 +270,42 @@ pub fn auto_direction_with(
                 kind,
                 undercut: undercut(mesh, bvh, direction, sampling),
                 extent_mm: hi - lo,
+                gate_qualifies: None,
             }
         })
         .collect();
-    let tie = 1e-9 * centres.area_mm2;
-    let mut chosen = 0;
-    for (i, c) in tried.iter().enumerate().skip(1) {
-        let best = &tried[chosen];
-        let (a, b) = (c.undercut.area_mm2, best.undercut.area_mm2);
-        if a < b - tie || (a <= b + tie && c.extent_mm < best.extent_mm * (1.0 - 1e-9)) {
-            chosen = i;
+    let mut tried = tried;
+    let tie = TIE_SHARE * centres.area_mm2;
+    let least = tried
+        .iter()
+        .map(|c| c.undercut.area_mm2)
+        .fold(f64::INFINITY, f64::min);
+    let mut tied: Vec<usize> = (0..tried.len())
+        .filter(|&i| tried[i].undercut.area_mm2 <= least + tie)
+        .collect();
+    let shallowest = tied
+        .iter()
+        .map(|&i| tried[i].extent_mm)
+        .fold(f64::INFINITY, f64::min);
+    tied.retain(|&i| tried[i].extent_mm <= shallowest * (1.0 + TIE_SHARE));
+    let mut chosen = tied[0];
+    if tied.len() > 1 {
+        for &i in &tied {
+            let ok = gate_qualifies(
+                Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line"),
+            );
+            tried[i].gate_qualifies = Some(ok);
+            if ok {
+                chosen = i;
+                break;
+            }
         }
     }
-    Ok(AutoDemold { chosen, tried })
+    Ok(AutoDemold {
+        chosen,
+        tried,
+        tie_mm2: tie,
+    })
 }
 
 /// Principal axes of the surface: unit eigenvectors of the area-weighted covariance of its

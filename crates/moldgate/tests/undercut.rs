@@ -138,3 +138,81 @@ fn nothing_to_evaluate_is_an_error() {
     let mesh = moldgate::Mesh::default();
     assert!(auto_direction(&mesh, Sampling::Centroid).is_err());
 }
+
+#[test]
+fn the_undercut_sum_is_the_same_on_any_number_of_threads() {
+    // The cover's x line has thousands of blocked facets spread over several sum blocks.
+    let mesh = samples::sample("cover").unwrap().subdivided().subdivided();
+    let bvh = Bvh::new(&mesh);
+    let runs: Vec<(f64, f64)> = [1, 2, 3, 8]
+        .iter()
+        .map(|&threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let u = pool.install(|| undercut(&mesh, &bvh, dir("+x"), Sampling::Centroid));
+            (u.area_mm2, u.share)
+        })
+        .collect();
+    assert!(runs[0].0 > 0.0);
+    for r in &runs {
+        assert_eq!(r.0.to_bits(), runs[0].0.to_bits(), "{runs:?}");
+        assert_eq!(r.1.to_bits(), runs[0].1.to_bits(), "{runs:?}");
+    }
+}
+
+#[test]
+fn near_ties_go_to_the_shallowest_draw() {
+    // A 30 x 30 x 4 plate with a 2 x 2 x 1 notch cut into the middle of its +x side, near the
+    // top: along z the notch's floor and ceiling are blocked (8 mm^2), along x nothing. The
+    // 8 mm^2 are 0.36 % of the 2224 mm^2 surface: a tie, and the 4 mm draw along z beats the
+    // 30 mm one along x.
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [30.0, 30.0, 4.0]);
+    part.subtract([28.0, 14.0, 1.5], [30.0, 16.0, 2.5]);
+    let mesh = part.mesh();
+    let bvh = Bvh::new(&mesh);
+    let z = undercut(&mesh, &bvh, dir("z"), Sampling::Centroid);
+    assert!((z.area_mm2 - 8.0).abs() < 1e-9, "{z:?}");
+    assert_eq!(
+        undercut(&mesh, &bvh, dir("x"), Sampling::Centroid).area_mm2,
+        0.0
+    );
+    let auto = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    let c = auto.candidate();
+    assert!(z.share < moldgate::undercut::TIE_SHARE, "{z:?}");
+    assert!(
+        DVec3::from_array(c.direction).dot(DVec3::Z).abs() > 1.0 - 1e-12,
+        "{auto:#?}"
+    );
+    assert!((c.undercut.area_mm2 - 8.0).abs() < 1e-9);
+}
+
+#[test]
+fn lines_tied_in_undercut_and_draw_go_to_one_where_a_gate_qualifies() {
+    // A 20 mm cube: every line is free of undercut and 20 mm deep. Without a gate check the
+    // first line tried (x) wins; a check that accepts only z picks z, and asks only about the
+    // tied lines, in order, until one qualifies.
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [20.0, 20.0, 20.0]);
+    let mesh = part.mesh();
+    let bvh = Bvh::new(&mesh);
+    let plain = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    assert_eq!(plain.candidate().direction, [1.0, 0.0, 0.0]);
+    let mut asked = Vec::new();
+    let checked =
+        moldgate::undercut::auto_direction_checked(&mesh, &bvh, Sampling::Centroid, |d| {
+            asked.push(d.vector().to_array());
+            d.vector().z.abs() == 1.0
+        })
+        .unwrap();
+    assert_eq!(
+        checked.candidate().direction,
+        [0.0, 0.0, 1.0],
+        "{checked:#?}"
+    );
+    assert_eq!(asked, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    assert_eq!(checked.candidate().gate_qualifies, Some(true));
+    assert_eq!(checked.tried[0].gate_qualifies, Some(false));
+}

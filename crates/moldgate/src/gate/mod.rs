@@ -15,6 +15,7 @@ use crate::frame::{Direction, Frame};
 use crate::keepout::Region;
 use crate::math::{DVec2, DVec3};
 use crate::mesh::LoadedMesh;
+pub use crate::parting::PartingRule;
 use crate::parting::{AestheticGate, PartingLine};
 use projection::{Hit, Projection, RayLattice};
 pub use quadrature::{auto_spacing, Grid, Spacing};
@@ -43,6 +44,52 @@ pub enum ThicknessRule {
     /// Thickness is measured and reported but does not remove candidates.
     Ignore,
 }
+
+/// What [`locate`] does when the thickness rule removes every node that passed the others.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ThicknessFallback {
+    /// No gate; the analysis says the largest gate radius that fits ([`Analysis::radius_fit`])
+    /// and the gate it gives.
+    #[default]
+    Report,
+    /// The gate is the one of the largest gate radius that fits (the rule that removed the
+    /// last nodes at R_gate is still said in [`Analysis::warnings`]).
+    LargestFitting,
+}
+
+/// The search for the largest gate radius that fits where the thickness rule removed every
+/// node: bisection over R below R_gate, on the grid of R_gate.
+///
+/// A radius *fits* when some node qualifies with it under every rule in force. The search
+/// tries R_gate / [`FIT_FLOOR_DIVISOR`] first (none fitting there: no radius is given), then
+/// halves the interval between the largest radius known to fit and the smallest known not
+/// to, [`FIT_STEPS`] times: at most 1 + [`FIT_STEPS`] runs of the projection, each as costly
+/// as the first, and a radius within (R_gate - floor) / 2^[`FIT_STEPS`] of the largest
+/// fitting one (if fitting is monotone in R; it need not be, the radius found fits anyway).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadiusFit {
+    /// The gate radius the thickness rule refused, mm.
+    pub refused_mm: f64,
+    /// The smallest radius tried, mm.
+    pub floor_mm: f64,
+    /// The largest radius found to fit, mm, if any.
+    pub radius_mm: Option<f64>,
+    /// The gate that radius gives.
+    pub gate: Option<Gate>,
+    /// Projections run by the search.
+    pub probes: usize,
+    /// Which rule removed the last nodes at the refused radius (the sentence of
+    /// [`Analysis::why_no_candidate`] without the search's result).
+    pub reason: String,
+    /// Whether the fitting gate is the answer ([`ThicknessFallback::LargestFitting`]).
+    pub accepted: bool,
+}
+
+/// The search's smallest radius is R_gate divided by this.
+pub const FIT_FLOOR_DIVISOR: f64 = 10.0;
+/// Bisection steps of the search.
+pub const FIT_STEPS: usize = 8;
 
 /// Whether a flat seat is required.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -86,6 +133,10 @@ pub struct LocateOptions {
     pub nearest: Nearest,
     /// Wall-thickness rule. Default [`ThicknessRule::Require`].
     pub thickness_rule: ThicknessRule,
+    /// When that rule removes every node. Default [`ThicknessFallback::Report`].
+    pub thickness_fallback: ThicknessFallback,
+    /// Which edges make the parting line. Default [`PartingRule::Longest`].
+    pub parting: PartingRule,
     /// Flat-seat rule. Default [`FlatRule::Report`].
     pub flat_rule: FlatRule,
     /// Flatness tolerance along D in mm. Default `None`: 0.1 R_gate.
@@ -212,6 +263,8 @@ impl Default for LocateOptions {
             centre: CentreKind::Surface,
             nearest: Nearest::Surface3d,
             thickness_rule: ThicknessRule::Require,
+            thickness_fallback: ThicknessFallback::Report,
+            parting: PartingRule::Longest,
             flat_rule: FlatRule::Report,
             flat_tolerance_mm: None,
             mode: GateMode::Paper,
@@ -324,6 +377,9 @@ pub struct Analysis {
     pub parting: PartingLine,
     /// The point of the parting line nearest the centre.
     pub aesthetic_gate: Option<AestheticGate>,
+    /// The largest gate radius that fits, searched when the thickness rule removed every
+    /// node that passed the other rules (`None` otherwise).
+    pub radius_fit: Option<RadiusFit>,
     /// Time per stage.
     pub times: StageTimes,
     /// Warnings about the analysis (not the mesh).
@@ -371,8 +427,37 @@ impl Analysis {
         }
     }
 
-    /// One sentence saying which rule removed the last nodes.
+    /// One sentence saying which rule removed the last nodes, with the largest gate radius
+    /// that fits when it was the thickness rule, and what to try.
     pub fn why_no_candidate(&self) -> String {
+        let mut s = self.rule_that_removed_the_last_nodes();
+        if let Some(fit) = self.radius_fit.as_ref().filter(|f| !f.accepted) {
+            s += &match (fit.radius_mm, &fit.gate) {
+                (Some(r_fit), Some(g)) => format!(
+                    "; the largest gate radius that fits is {r_fit:.3} mm, with the gate at ({:.3}, {:.3}, {:.3}) mm on a wall {} thick (--fit-radius takes it)",
+                    g.point.x,
+                    g.point.y,
+                    g.point.z,
+                    g.disc_thickness_mm
+                        .map_or("of unknown".into(), |t| format!("{t:.3} mm")),
+                ),
+                _ => format!("; no gate radius down to {:.3} mm fits", fit.floor_mm),
+            };
+        }
+        s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
+        // A part whose size suggests other units fails for that reason more often than any.
+        let across =
+            DVec2::from_array(self.grid.box_hi).distance(DVec2::from_array(self.grid.box_lo));
+        if crate::mesh::units::size_is_suspicious(across) {
+            s += &format!(
+                "; the part is {across:.4} mm across as read: if the file is not in millimetres, pass --units (in, cm or m)"
+            );
+        }
+        s
+    }
+
+    /// The counts of the rules in force, up to the one that removed the last nodes.
+    fn rule_that_removed_the_last_nodes(&self) -> String {
         let c = &self.counts;
         let r = self.options.gate_radius_mm;
         let mut s = format!(
@@ -394,17 +479,65 @@ impl Analysis {
         if c.cosmetic > 0 {
             s += &format!("; {} lie on cosmetic faces", c.cosmetic);
         }
-        s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
-        // A part whose size suggests other units fails for that reason more often than any.
-        let across =
-            DVec2::from_array(self.grid.box_hi).distance(DVec2::from_array(self.grid.box_lo));
-        if crate::mesh::units::size_is_suspicious(across) {
-            s += &format!(
-                "; the part is {across:.4} mm across as read: if the file is not in millimetres, pass --units (in, cm or m)"
-            );
-        }
         s
     }
+
+    /// True when the thickness rule removed every node that passed the other rules.
+    fn thickness_removed_all(&self) -> bool {
+        let c = &self.counts;
+        self.options.thickness_rule == ThicknessRule::Require
+            && self.options.mode == GateMode::Paper
+            && self.grid_gate.is_none()
+            && c.circle_on_part > 0
+            && c.thicker_than_radius + c.thickness_unknown == 0
+    }
+}
+
+/// Searches the largest gate radius below `analysis`'s that fits (see [`RadiusFit`]).
+fn largest_fitting_radius(
+    part: &LoadedMesh,
+    analysis: &Analysis,
+) -> Result<RadiusFit, OptionsError> {
+    let refused = analysis.options.gate_radius_mm;
+    let options = LocateOptions {
+        spacing: Spacing::Mm(analysis.grid.spacing),
+        thickness_fallback: ThicknessFallback::Report,
+        mode: GateMode::Paper,
+        ..analysis.options.clone()
+    };
+    let mut probes = 0;
+    let mut gate_at = |r: f64| -> Result<Option<Gate>, OptionsError> {
+        probes += 1;
+        let o = LocateOptions {
+            gate_radius_mm: r,
+            ..options.clone()
+        };
+        Ok(locate_once(part, &o)?.grid_gate)
+    };
+    let floor = refused / FIT_FLOOR_DIVISOR;
+    let mut best = gate_at(floor)?.map(|g| (floor, g));
+    if best.is_some() {
+        let (mut lo, mut hi) = (floor, refused);
+        for _ in 0..FIT_STEPS {
+            let mid = 0.5 * (lo + hi);
+            match gate_at(mid)? {
+                Some(g) => {
+                    lo = mid;
+                    best = Some((mid, g));
+                }
+                None => hi = mid,
+            }
+        }
+    }
+    Ok(RadiusFit {
+        refused_mm: refused,
+        floor_mm: floor,
+        radius_mm: best.map(|b| b.0),
+        gate: best.map(|b| b.1),
+        probes,
+        reason: analysis.rule_that_removed_the_last_nodes(),
+        accepted: false,
+    })
 }
 
 /// Locates the gate on a loaded part: the paper's algorithm, end to end.
@@ -412,6 +545,28 @@ impl Analysis {
 /// Does no I/O. Fails only on invalid options; a part where no node qualifies is an
 /// [`Analysis`] whose [`Analysis::gate`] says why.
 pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
+    let start = Instant::now();
+    let mut analysis = locate_once(part, options)?;
+    if analysis.thickness_removed_all() {
+        let mut fit = largest_fitting_radius(part, &analysis)?;
+        if options.thickness_fallback == ThicknessFallback::LargestFitting {
+            if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
+                analysis.warnings.push(format!(
+                    "no node passes the thickness rule with R_gate = {:.3} mm ({}); the gate is the one of the largest radius that fits, {r_fit:.3} mm",
+                    fit.refused_mm, fit.reason
+                ));
+                analysis.grid_gate = Some(gate);
+                fit.accepted = true;
+            }
+        }
+        analysis.radius_fit = Some(fit);
+        analysis.times.total_s = start.elapsed().as_secs_f64();
+    }
+    Ok(analysis)
+}
+
+/// [`locate`] without the radius search.
+fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
     let mesh = &part.mesh;
     let r = options.gate_radius_mm;
     options.validate()?;
@@ -506,7 +661,10 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
             let centre = centres.get(options.centre).unwrap_or(centres.surface);
             times.centre_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let parting = PartingLine::new(mesh, &part.topology, &frame);
+            let parting = match options.parting {
+                PartingRule::Longest => PartingLine::new(mesh, &part.topology, &frame),
+                PartingRule::Outline => PartingLine::outline(mesh, &part.topology, &frame),
+            };
             // Keep-out regions apply to the parting-line gate too (cosmetic faces do not:
             // the line is the boundary between the two halves).
             let aesthetic_gate = parting.nearest_allowed(mesh, &frame, centre, 0.25 * r, |p| {
@@ -626,6 +784,7 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
         other_rule_gate,
         parting,
         aesthetic_gate,
+        radius_fit: None,
         times,
         warnings,
     })

@@ -252,7 +252,7 @@ pub(crate) fn root(parent: &mut [u32], mut x: u32) -> u32 {
 }
 
 /// Union-find over vertices: the parent links after joining the corners of every triangle.
-fn joined_vertices(mesh: &Mesh) -> Vec<u32> {
+pub(crate) fn joined_vertices(mesh: &Mesh) -> Vec<u32> {
     let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
     for tri in &mesh.triangles {
         let mut r0 = root(&mut parent, tri[0]);

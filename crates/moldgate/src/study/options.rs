@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::OptionsError;
 use crate::flow::{ColourBy, FillOptions, FlowOptions, Objective, Strategy};
-use crate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
+use crate::gate::{FlatRule, Nearest, Spacing, ThicknessFallback, ThicknessRule};
 use crate::material::{self, name};
 use crate::report::RadiusSource;
 use crate::study::StudyError;
@@ -157,6 +157,9 @@ pub struct StudyOptions {
     pub nearest: NearestChoice,
     /// The paper's rule that R_gate be below the wall thickness. Default `require`.
     pub thickness_rule: ThicknessChoice,
+    /// When the thickness rule leaves no node, take the gate of the largest gate radius that
+    /// fits (searched below R_gate and reported either way). Default false.
+    pub fit_radius: bool,
     /// Keep only nodes whose circle is flat within `flat_tol`. Default false.
     pub require_flat: bool,
     /// Flatness tolerance along the demolding direction, mm. Default 0.1 R_gate.
@@ -210,6 +213,7 @@ impl Default for StudyOptions {
             centre: CentreChoice::Surface,
             nearest: NearestChoice::ThreeD,
             thickness_rule: ThicknessChoice::Require,
+            fit_radius: false,
             require_flat: false,
             flat_tol: None,
             aesthetic: false,
@@ -410,6 +414,12 @@ impl StudyOptions {
             thickness_rule: match self.thickness_rule {
                 ThicknessChoice::Require => ThicknessRule::Require,
                 ThicknessChoice::Ignore => ThicknessRule::Ignore,
+            },
+            parting: crate::gate::PartingRule::Longest,
+            thickness_fallback: if self.fit_radius {
+                ThicknessFallback::LargestFitting
+            } else {
+                ThicknessFallback::Report
             },
             flat_rule: if self.require_flat {
                 FlatRule::Require

@@ -12,7 +12,7 @@ use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
 use crate::study::{Demold, Hooks, Settings, Stage, StudyError};
 use crate::thickness::{wall_thickness_with, ThicknessOptions, WallThickness};
-use crate::undercut::auto_direction_with;
+use crate::undercut::auto_direction_checked;
 
 /// One gate of the answer, as pictures and 3D files show it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,8 +79,16 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         Some(bvh) if auto_demold => {
             enter(Stage::Demold)?;
             let t = Instant::now();
-            let auto =
-                auto_direction_with(mesh, bvh, Sampling::Centroid).map_err(StudyError::Demold)?;
+            // Lines still tied after the shallowest draw go to one on which a gate qualifies.
+            let gate_qualifies = |d| {
+                let o = crate::LocateOptions {
+                    direction: d,
+                    ..options.clone()
+                };
+                crate::locate(part, &o).is_ok_and(|a| a.gate().is_ok())
+            };
+            let auto = auto_direction_checked(mesh, bvh, Sampling::Centroid, gate_qualifies)
+                .map_err(StudyError::Demold)?;
             demold_s = Some(t.elapsed().as_secs_f64());
             options.direction = auto.direction();
             Some(auto)
