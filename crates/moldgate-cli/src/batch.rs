@@ -16,7 +16,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
+
+use moldgate::batch_row::{BatchRow, Status};
 
 use moldgate::mesh::Units;
 use moldgate::report::Report;
@@ -139,10 +141,10 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     })?;
     progress.finish();
 
-    let rows: Vec<Row> = parts
+    let rows: Vec<BatchRow> = parts
         .iter()
         .zip(&outcomes)
-        .map(|(p, o)| Row::new(p, o))
+        .map(|(p, o)| row(p, o))
         .collect();
     let mut failures: Vec<Failure> = Vec::new();
     if let (Some(path), Some(format)) = (&b.summary, summary_format) {
@@ -423,86 +425,25 @@ fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-/// One line of the summary.
-#[derive(Debug, Serialize)]
-struct Row {
-    /// The input file as given.
-    file: String,
-    /// `ok`, `no_gate`, `input_error`, `option_error`, `output_error` or `internal_error`.
-    status: &'static str,
-    /// The part's own exit code, as `moldgate locate FILE` would give.
-    exit_code: u8,
-    /// Unit the file was read in.
-    units: String,
-    /// Demolding direction as given.
-    demold: String,
-    /// Triangles after welding.
-    triangles: Option<u64>,
-    /// The gate, mm.
-    gate_x_mm: Option<f64>,
-    /// The gate, mm.
-    gate_y_mm: Option<f64>,
-    /// The gate, mm.
-    gate_z_mm: Option<f64>,
-    /// 3D distance from the gate to the centre of mass, mm.
-    distance_mm: Option<f64>,
-    /// R_gate, mm.
-    gate_radius_mm: Option<f64>,
-    /// Grid nodes.
-    nodes: Option<usize>,
-    /// Nodes whose disc lies on the part.
-    circle_on_part: Option<usize>,
-    /// Nodes passing every rule.
-    qualifying: Option<usize>,
-    /// Seconds to load and analyse the part (varies from run to run).
-    time_s: f64,
-    /// Why the part failed, or null.
-    error: Option<String>,
-}
-
-impl Row {
-    fn new(part: &Part, o: &Outcome) -> Row {
-        let file = part.path.display().to_string();
-        let r = o.report.as_ref();
-        let gate = r.and_then(|r| r.gate.as_ref());
-        let code = o.failure.as_ref().map_or(0, |f| f.code);
-        // Messages of the loader start with the path; the row has it in `file` already.
-        let error = o.failure.as_ref().map(|f| {
-            f.message
-                .strip_prefix(&format!("{file}: "))
-                .unwrap_or(&f.message)
-                .to_string()
-        });
-        Row {
-            status: match code {
-                0 => "ok",
-                2 => "option_error",
-                3 => "input_error",
-                4 => "no_gate",
-                5 => "output_error",
-                _ => "internal_error",
-            },
-            exit_code: code,
-            units: part.settings.units.to_string(),
-            demold: part.demold.clone(),
-            triangles: r.map(|r| r.mesh.triangles),
-            gate_x_mm: gate.map(|g| g.point[0]),
-            gate_y_mm: gate.map(|g| g.point[1]),
-            gate_z_mm: gate.map(|g| g.point[2]),
-            distance_mm: gate.map(|g| g.distance_3d_mm),
-            gate_radius_mm: r.map(|r| r.options.gate_radius_mm),
-            nodes: r.map(|r| r.counts.nodes),
-            circle_on_part: r.map(|r| r.counts.circle_on_part),
-            qualifying: r.map(|r| r.counts.qualifying),
-            time_s: (o.time_s * 1e4).round() / 1e4,
-            error,
-            file,
-        }
-    }
+/// The summary's row of one part (the library's [`BatchRow`], shared with the other front
+/// ends).
+fn row(part: &Part, o: &Outcome) -> BatchRow {
+    let failure = o
+        .failure
+        .as_ref()
+        .map(|f| (Status::from_exit_code(f.code), f.message.as_str()));
+    BatchRow::new(
+        &part.path.display().to_string(),
+        part.settings.units,
+        &part.demold,
+        o.report.as_ref(),
+        failure,
+        o.time_s,
+    )
 }
 
 /// The rows as JSON Lines.
-fn json_lines(rows: &[Row]) -> Result<String, Failure> {
+fn json_lines(rows: &[BatchRow]) -> Result<String, Failure> {
     let mut out = String::new();
     for row in rows {
         out += &serde_json::to_string(row).map_err(|e| Failure {
@@ -514,13 +455,13 @@ fn json_lines(rows: &[Row]) -> Result<String, Failure> {
     Ok(out)
 }
 
-/// The CSV header, in the order of [`Row`]'s fields.
+/// The CSV header, in the order of [`BatchRow`]'s fields.
 const CSV_HEADER: &str = "file,status,exit_code,units,demold,triangles,gate_x_mm,gate_y_mm,\
 gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,time_s,error";
 
 /// The rows as CSV (RFC 4180: fields with a comma, quote or line break are quoted, quotes
 /// doubled); a missing value is an empty field.
-fn csv(rows: &[Row]) -> String {
+fn csv(rows: &[BatchRow]) -> String {
     fn field(out: &mut String, s: &str) {
         if s.contains([',', '"', '\n', '\r']) {
             out.push('"');
@@ -538,7 +479,7 @@ fn csv(rows: &[Row]) -> String {
     for r in rows {
         let fields = [
             r.file.clone(),
-            r.status.to_string(),
+            r.status.name().to_string(),
             r.exit_code.to_string(),
             r.units.clone(),
             r.demold.clone(),
@@ -566,7 +507,7 @@ fn csv(rows: &[Row]) -> String {
 }
 
 /// The human table, and a closing count unless `quiet`.
-fn table(rows: &[Row], quiet: bool) -> String {
+fn table(rows: &[BatchRow], quiet: bool) -> String {
     let width = rows
         .iter()
         .map(|r| r.file.chars().count())
@@ -589,7 +530,7 @@ fn table(rows: &[Row], quiet: bool) -> String {
             out,
             "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}",
             r.file,
-            r.status.replace('_', " "),
+            r.status.name().replace('_', " "),
             dash(r.triangles.map(|t| t.to_string())),
             dash(gate),
             dash(r.distance_mm.map(|d| format!("{d:.3}"))),
@@ -637,9 +578,9 @@ mod tests {
 
     #[test]
     fn csv_quotes_what_needs_it() {
-        let row = Row {
+        let row = BatchRow {
             file: "a, \"b\".stl".into(),
-            status: "input_error",
+            status: Status::InputError,
             exit_code: 3,
             units: "mm".into(),
             demold: "0,0,1".into(),
@@ -667,9 +608,9 @@ mod tests {
     #[test]
     fn csv_header_matches_the_row_fields() {
         // The JSON keys of a row, in order, are the CSV header.
-        let row = Row {
+        let row = BatchRow {
             file: String::new(),
-            status: "ok",
+            status: Status::Ok,
             exit_code: 0,
             units: String::new(),
             demold: String::new(),
