@@ -320,3 +320,92 @@ impl LocateArgs {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The library's defaults are the command line's: a bare `locate FILE` gives
+    /// `StudyOptions::default()`, so every front end starts from the same options.
+    #[test]
+    fn the_defaults_are_the_library_s() {
+        let cli = Cli::try_parse_from(["moldgate", "locate", "part.stl"]).unwrap();
+        let Command::Locate(a) = cli.command else {
+            panic!("not locate")
+        };
+        assert_eq!(a.study_options(), StudyOptions::default());
+    }
+
+    #[test]
+    fn every_flag_reaches_its_field() {
+        let cli = Cli::try_parse_from([
+            "moldgate",
+            "locate",
+            "p.stl",
+            "--demold",
+            "-y",
+            "--material",
+            "ABS",
+            "--n",
+            "0.3",
+            "--t-melt",
+            "200",
+            "--t-wall",
+            "40",
+            "--gamma-opt",
+            "9000",
+            "--mu-opt",
+            "11",
+            "--k",
+            "0.2",
+            "--gate-radius",
+            "1.1",
+            "--spacing",
+            "0.7",
+            "--grid-offset",
+            "0.25",
+            "--circle-points",
+            "8",
+            "--centre",
+            "volume",
+            "--nearest",
+            "2d",
+            "--thickness-rule",
+            "ignore",
+            "--require-flat",
+            "--flat-tol",
+            "0.05",
+            "--aesthetic",
+            "--max-nodes",
+            "1000",
+            "--keep-out",
+            "sphere:0,0,0,1",
+            "--cosmetic",
+            "+z",
+            "--fill",
+            "--objective",
+            "resistance",
+            "--gates",
+            "3",
+            "--cell",
+            "0.9",
+            "--wall-thickness",
+        ])
+        .unwrap();
+        let Command::Locate(a) = cli.command else {
+            panic!("not locate")
+        };
+        let json = serde_json::json!({
+            "demold": "-y", "material": "ABS", "n": 0.3, "t_melt": 200.0, "t_wall": 40.0,
+            "gamma_opt": 9000.0, "mu_opt": 11.0, "k": 0.2, "gate_radius": 1.1,
+            "spacing": 0.7, "grid_offset": 0.25, "circle_points": 8, "centre": "volume",
+            "nearest": "2d", "thickness_rule": "ignore", "require_flat": true,
+            "flat_tol": 0.05, "aesthetic": true, "max_nodes": 1000,
+            "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
+            "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
+            "wall_thickness": true
+        });
+        let from_json: StudyOptions = serde_json::from_value(json).unwrap();
+        assert_eq!(a.study_options(), from_json);
+    }
+}

@@ -8,6 +8,7 @@ use moldgate::study::Hooks;
 use crate::analyse::{analyse, failure, settings, Analysed, Source};
 use crate::args::LocateArgs;
 use crate::output::{print_stdout, refuse_input, write_atomic};
+use crate::progress::Progress;
 use crate::summary;
 use crate::Failure;
 
@@ -35,7 +36,16 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
         (None, Some(name)) => Source::Sample(name),
         (None, None) => return Err(Failure::usage("give a mesh file or --sample NAME")),
     };
-    let Analysed { part, study } = analyse(source, &settings, &Hooks::default())?;
+    // A long study shows its stages on a terminal, like a batch its parts.
+    let progress = Progress::start_study(!a.batch.quiet);
+    let observer = |p| progress.study(p);
+    let hooks = Hooks {
+        progress: Some(&observer),
+        cancel: None,
+    };
+    let analysed = analyse(source, &settings, &hooks);
+    progress.finish();
+    let Analysed { part, study } = analysed?;
     let json = study.report_json().map_err(|e| failure(&e, ""))?;
     if let Some(out) = &a.output {
         write_atomic(out, json.as_bytes())?;

@@ -91,8 +91,22 @@ fn main() -> ExitCode {
         Err(e) => {
             // Clap's message, on one line: its first line, less clap's own prefix.
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid command line");
-            let first = first.trim_start_matches("error: ");
+            let mut first = text
+                .lines()
+                .next()
+                .unwrap_or("invalid command line")
+                .trim_start_matches("error: ")
+                .to_string();
+            // A list after the colon (the missing arguments) goes on the same line.
+            if first.ends_with(':') {
+                let items: Vec<&str> = text
+                    .lines()
+                    .skip(1)
+                    .map(str::trim)
+                    .take_while(|l| !l.is_empty())
+                    .collect();
+                first = format!("{first} {}", items.join(", "));
+            }
             let _ = writeln!(
                 std::io::stderr(),
                 "moldgate: error: {first} (see moldgate --help)"

@@ -12,8 +12,9 @@ use crate::args::LocateArgs;
 use crate::output::{refuse_input, same_file, write_atomic};
 use crate::Failure;
 
-/// Checks every output path before any work: none is the input, no two are the same file,
-/// and each one's folder exists.
+/// Checks every output path before any work: `--png`, `--glb` and `--report` end in their
+/// format's extension, none is the input, no two are the same file, and each one's folder
+/// exists.
 pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
     let outputs: Vec<(&str, &PathBuf)> = [
         ("--output", a.output.as_ref()),
@@ -41,6 +42,23 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
                 "{}: cannot write: folder {} does not exist",
                 path.display(),
                 dir.display()
+            )));
+        }
+    }
+    for (flag, path, extensions) in [
+        ("--png", a.png.as_ref(), &["png"][..]),
+        ("--glb", a.glb.as_ref(), &["glb"][..]),
+        ("--report", a.report.as_ref(), &["html", "htm"][..]),
+    ] {
+        let Some(path) = path else { continue };
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
+            return Err(Failure::usage(format!(
+                "{flag} {}: the file name must end in .{} (it writes that format only)",
+                path.display(),
+                extensions.join(" or .")
             )));
         }
     }

@@ -1,4 +1,5 @@
-//! A one-line progress bar on stderr for long batch runs.
+//! A one-line progress bar on stderr for long runs: the parts of a batch, or the stages of
+//! one part's study (fed by the library's progress hook).
 //!
 //! It is drawn only when stderr is a terminal, the caller allows it (`--quiet` does not), and
 //! the run has lasted [`DELAY`]: short runs and redirected stderr never see it. A thread
@@ -8,7 +9,7 @@
 use std::io::{IsTerminal, Write};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError, Sender};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -19,9 +20,15 @@ const REDRAW: Duration = Duration::from_millis(100);
 /// Width of the bar in characters.
 const WIDTH: usize = 30;
 
-/// Counts finished parts and, for long runs on a terminal, shows them.
+/// Steps of a study's bar (its fraction in thousandths).
+const STUDY_STEPS: usize = 1000;
+
+/// Counts finished parts (or a study's progress) and, for long runs on a terminal, shows
+/// them.
 pub struct Progress {
     done: Arc<AtomicUsize>,
+    /// The stage under way, for a study's bar; empty for a batch.
+    stage: Arc<Mutex<&'static str>>,
     stop: Option<Sender<()>>,
     thread: Option<JoinHandle<()>>,
 }
@@ -29,16 +36,28 @@ pub struct Progress {
 impl Progress {
     /// Starts counting `total` parts; draws only if `allowed` and stderr is a terminal.
     pub fn start(total: usize, allowed: bool) -> Progress {
+        Progress::start_with(total, allowed, "")
+    }
+
+    /// Starts the bar of one part's study; [`Progress::study`] moves it.
+    pub fn start_study(allowed: bool) -> Progress {
+        Progress::start_with(STUDY_STEPS, allowed, "load")
+    }
+
+    fn start_with(total: usize, allowed: bool, first: &'static str) -> Progress {
         let done = Arc::new(AtomicUsize::new(0));
+        let stage = Arc::new(Mutex::new(first));
         if !allowed || !std::io::stderr().is_terminal() {
             return Progress {
                 done,
+                stage,
                 stop: None,
                 thread: None,
             };
         }
         let (stop, stopped) = mpsc::channel::<()>();
         let counter = Arc::clone(&done);
+        let label = Arc::clone(&stage);
         let thread = std::thread::spawn(move || {
             let start = Instant::now();
             // Nothing is drawn if the run ends within DELAY.
@@ -47,7 +66,13 @@ impl Progress {
                 _ => return,
             }
             loop {
-                draw(counter.load(Ordering::Relaxed), total, start.elapsed());
+                let stage = *label.lock().unwrap_or_else(|e| e.into_inner());
+                draw(
+                    counter.load(Ordering::Relaxed),
+                    total,
+                    stage,
+                    start.elapsed(),
+                );
                 match stopped.recv_timeout(REDRAW) {
                     Err(RecvTimeoutError::Timeout) => continue,
                     _ => break,
@@ -58,9 +83,17 @@ impl Progress {
         });
         Progress {
             done,
+            stage,
             stop: Some(stop),
             thread: Some(thread),
         }
+    }
+
+    /// Where the study is (the library's progress hook).
+    pub fn study(&self, p: moldgate::study::Progress) {
+        let steps = (p.fraction.clamp(0.0, 1.0) * STUDY_STEPS as f64) as usize;
+        self.done.store(steps, Ordering::Relaxed);
+        *self.stage.lock().unwrap_or_else(|e| e.into_inner()) = p.stage.name();
     }
 
     /// One more part is finished.
@@ -87,11 +120,17 @@ impl Drop for Progress {
     }
 }
 
-/// `\r[=========>          ] 7/18 parts, 1.4 s`
-fn draw(done: usize, total: usize, elapsed: Duration) {
+/// `\r[=========>          ] 7/18 parts, 1.4 s`, or for a study
+/// `\r[=========>          ] fill, 1.4 s`.
+fn draw(done: usize, total: usize, stage: &str, elapsed: Duration) {
+    let what = if stage.is_empty() {
+        format!("{done}/{total} parts")
+    } else {
+        stage.replace('_', " ")
+    };
     let _ = write!(
         std::io::stderr(),
-        "\r\x1b[2K{} {done}/{total} parts, {:.1} s",
+        "\r\x1b[2K{} {what}, {:.1} s",
         bar(done, total),
         elapsed.as_secs_f64()
     );

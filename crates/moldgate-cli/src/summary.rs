@@ -8,9 +8,14 @@ fn v3(p: [f64; 3]) -> String {
     format!("({:.3}, {:.3}, {:.3})", p[0], p[1], p[2])
 }
 
-fn mm(x: Option<f64>) -> String {
-    x.map(|v| format!("{v:.2} mm"))
-        .unwrap_or_else(|| "unknown (open mesh)".into())
+/// A thickness in mm, or why it is unknown: on an open mesh the ray may leave through a
+/// hole; on a closed one it did not come out (a facet seen edge-on, a sliver).
+fn mm(x: Option<f64>, open: bool) -> String {
+    match x {
+        Some(v) => format!("{v:.2} mm"),
+        None if open => "unknown (open mesh)".into(),
+        None => "unknown".into(),
+    }
 }
 
 /// One line of a gate's fill.
@@ -139,6 +144,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
 /// Renders the report as a few lines of text.
 pub fn render(r: &Report) -> String {
     let mut s = String::new();
+    let open = r.mesh.open_edges > 0;
     let name = r
         .input
         .path
@@ -221,8 +227,8 @@ pub fn render(r: &Report) -> String {
             "paper gate: {} mm, normal {}, wall {} (disc min {}), {:.3} mm from the centre of mass",
             v3(g.point),
             v3(g.normal),
-            mm(g.thickness_mm),
-            mm(g.disc_thickness_mm),
+            mm(g.thickness_mm, open),
+            mm(g.disc_thickness_mm, open),
             g.distance_3d_mm
         );
     }
@@ -249,7 +255,20 @@ pub fn render(r: &Report) -> String {
                 (_, moldgate::GateMode::Paper) => "paper",
                 (_, moldgate::GateMode::Aesthetic) => "aesthetic",
             };
-            let _ = writeln!(s, "GATE ({mode}): {} mm", v3(g.point));
+            match &g.gates {
+                Some(gates) => {
+                    let points: Vec<String> = gates.iter().map(|g| v3(g.point)).collect();
+                    let _ = writeln!(
+                        s,
+                        "GATES ({} gates, {mode} start): {} mm",
+                        gates.len(),
+                        points.join(", ")
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "GATE ({mode}): {} mm", v3(g.point));
+                }
+            }
         }
         None => {
             let _ = writeln!(
@@ -275,10 +294,13 @@ pub fn render(r: &Report) -> String {
         let _ = writeln!(
             s,
             "wall thickness: min {}, nominal {}, max {}, at the gate {} ({:.1} % of the area unknown)",
-            mm(w.min_mm),
-            mm(w.nominal_mm),
-            mm(w.max_mm),
-            mm(w.at_gate_mm),
+            mm(w.min_mm, open),
+            mm(w.nominal_mm, open),
+            mm(w.max_mm, open),
+            match (&r.paper_gate, w.at_gate_mm) {
+                (None, _) => "none (no gate)".to_string(),
+                (Some(_), x) => mm(x, open),
+            },
             100.0 * w.unknown_area_share
         );
     }
@@ -287,16 +309,36 @@ pub fn render(r: &Report) -> String {
     }
     let t = &r.timings;
     let ms = |x: f64| x * 1e3;
-    let _ = writeln!(
-        s,
-        "time: {:.1} ms (load {:.1}, grid {:.1}, rays {:.1} with the centre of mass {:.1} and the parting line {:.1} alongside, select {:.1})",
-        ms(t.total_s),
-        ms(t.load_s),
+    let mut stages = vec![format!("load {:.1}", ms(t.load_s))];
+    if let Some(x) = t.tree_s {
+        stages.push(format!("ray tree {:.1}", ms(x)));
+    }
+    if let Some(x) = t.demold_s {
+        stages.push(format!("demold auto {:.1}", ms(x)));
+    }
+    stages.push(format!(
+        "grid {:.1}, rays {:.1} with the centre of mass {:.1} and the parting line {:.1} alongside, select {:.1}",
         ms(t.grid_s),
         ms(t.projection_s),
         ms(t.centre_s),
         ms(t.parting_s),
         ms(t.select_s)
-    );
-    s
+    ));
+    if let Some(x) = t.wall_s {
+        stages.push(format!("wall thickness {:.1}", ms(x)));
+    }
+    if let (Some(x), Some(f)) = (t.fill_s, &r.fill) {
+        let ft = &f.times;
+        stages.push(format!(
+            "fill {:.1}: wall samples {:.1}, cells {:.1}, paper gate {:.1}, balanced search {:.1}, several gates {:.1}",
+            ms(x),
+            ms(ft.wall_s),
+            ms(ft.voxels_s),
+            ms(ft.paper_s),
+            ms(ft.balanced_s),
+            ms(ft.several_s)
+        ));
+    }
+    let _ = writeln!(s, "time: {:.1} ms ({})", ms(t.total_s), stages.join(", "));
+    moldgate::report::without_negative_zeros(&s, false)
 }

@@ -97,6 +97,21 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
         r.schema_version
     );
     match &r.gate {
+        Some(g) if g.gates.is_some() => {
+            let gates = g.gates.as_deref().unwrap_or_default();
+            let points: Vec<String> = gates
+                .iter()
+                .map(|g| format!("{} mm", v3(g.point)))
+                .collect();
+            let _ = writeln!(
+                h,
+                "<p class=\"answer\" id=\"answer\">{} gates at <b id=\"gate\">{}</b>, radius \
+                 R = {:.3} mm (see the fill analysis for each one's share).</p>",
+                gates.len(),
+                points.join(", "),
+                r.options.gate_radius_mm
+            );
+        }
         Some(g) => {
             let _ = writeln!(
                 h,
@@ -131,6 +146,7 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
     }
 
     summary_table(&mut h, r);
+    fill_table(&mut h, r);
     counts_table(&mut h, r);
 
     let _ = writeln!(h, "<h2>Warnings</h2>");
@@ -154,7 +170,7 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
         escape(json)
     );
     h.push_str("</body>\n</html>\n");
-    h
+    crate::report::without_negative_zeros(&h, false)
 }
 
 fn row(h: &mut String, key: &str, value: &str) {
@@ -326,23 +342,157 @@ fn counts_table(h: &mut String, r: &Report) {
     let _ = writeln!(h, "</table>");
 }
 
+/// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure.
+fn fill_cells(g: &crate::flow::GateFill) -> String {
+    let limit = match (g.flow_ratio_limit, g.exceeds_flow_ratio) {
+        (Some(m), true) => format!(" <b class=\"warn\">exceeds the material's {m:.0}</b>"),
+        (Some(m), false) => format!(" (material's limit {m:.0})"),
+        (None, _) => " (no limit known for this material)".to_string(),
+    };
+    format!(
+        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{:.1} MPa</td><td class=\"n\">{:.2} mm</td>",
+        v3(g.gate),
+        g.l_max_mm,
+        g.flow_ratio,
+        g.pressure_mpa,
+        g.wall_mm
+    )
+}
+
+/// The fill analysis in words and a table: each gate's flow length, L/t and pressure, the
+/// balanced or several gates, the last places to fill and the weld lines.
+fn fill_table(h: &mut String, r: &Report) {
+    let Some(f) = &r.fill else { return };
+    let _ = writeln!(
+        h,
+        "<h2 id=\"fill\">Fill analysis</h2>\n<p>{} cells of {:.3} mm, nominal wall {:.2} mm \
+         ({}), {} {}; Eq. 1 pressure {:.4} MPa per mm of path.</p>",
+        f.cells,
+        f.cell_mm,
+        f.nominal_wall_mm,
+        match f.wall_source {
+            crate::flow::WallSource::Measured => "measured",
+            crate::flow::WallSource::VolumeOverArea => "estimated as 2V/A",
+        },
+        f.bodies,
+        if f.bodies == 1 { "body" } else { "bodies" },
+        f.pressure_mpa_per_mm
+    );
+    let _ = writeln!(
+        h,
+        "<table id=\"fill-gates\">\n<tr><th>gate</th><th>point</th><th>L_max</th><th>L/t</th>\
+         <th>pressure (Eq. 1)</th><th>wall at the gate</th></tr>"
+    );
+    if let Some(p) = &f.paper {
+        let _ = writeln!(h, "<tr><th>paper gate</th>{}</tr>", fill_cells(p));
+    }
+    if let Some(b) = &f.balanced {
+        let label = if b.is_paper_gate {
+            "balanced gate (the paper gate: no better candidate)".to_string()
+        } else {
+            format!("balanced gate ({:.1} % lower)", b.improvement_pct)
+        };
+        let _ = writeln!(
+            h,
+            "<tr><th>{}</th>{}</tr>",
+            escape(&label),
+            fill_cells(&b.fill)
+        );
+    }
+    let _ = writeln!(h, "</table>");
+    if let Some(m) = &f.several {
+        let _ = writeln!(
+            h,
+            "<p id=\"several\">{} gates together: L_max {:.1} mm, balance {:.2} (smallest share \
+             over the largest).</p>\n<table>\n<tr><th>gate</th><th>point</th><th>share of the \
+             volume</th><th>L_max in its share</th></tr>",
+            m.gates.len(),
+            m.l_max_mm,
+            m.balance
+        );
+        for (i, g) in m.gates.iter().enumerate() {
+            let _ = writeln!(
+                h,
+                "<tr><th>{}</th><td>{} mm</td><td class=\"n\">{:.1} %</td><td class=\"n\">{:.1} mm</td></tr>",
+                i + 1,
+                v3(g.point),
+                100.0 * g.volume_share,
+                g.l_max_mm
+            );
+        }
+        let _ = writeln!(h, "</table>");
+    }
+    let answer = match (&f.strategy, &f.balanced) {
+        (crate::flow::Strategy::Balanced, Some(b)) => Some(&b.fill),
+        _ => f.paper.as_ref(),
+    };
+    if let Some(g) = answer {
+        let last: Vec<String> = g
+            .last_to_fill
+            .iter()
+            .map(|p| format!("{} ({:.1} mm)", v3(p.point), p.flow_length_mm))
+            .collect();
+        let _ = writeln!(
+            h,
+            "<p>Last to fill from the answer's gate: {}.</p>",
+            if last.is_empty() {
+                "none".to_string()
+            } else {
+                last.join(", ")
+            }
+        );
+        if g.weld_lines.is_empty() {
+            let _ = writeln!(h, "<p>Weld lines: none found.</p>");
+        } else {
+            let _ = writeln!(h, "<p>Weld lines:</p>\n<ul>");
+            for w in &g.weld_lines {
+                let _ = writeln!(
+                    h,
+                    "<li>at {} mm, {:.1} mm long, {:.1} mm from the gate, fronts meeting at {:.0}°</li>",
+                    v3(w.point),
+                    w.extent_mm,
+                    w.flow_length_mm,
+                    w.meeting_angle_deg
+                );
+            }
+            let _ = writeln!(h, "</ul>");
+        }
+    }
+}
+
 fn timings_table(h: &mut String, r: &Report) {
     let t = &r.timings;
     let _ = writeln!(h, "<h2>Timings</h2>\n<table>");
-    for (name, s) in [
-        ("Reading the mesh", t.load_s),
-        ("Centre of mass (alongside the rays)", t.centre_s),
-        ("Grid", t.grid_s),
-        ("Rays", t.projection_s),
-        ("Rules and choice", t.select_s),
-        ("Parting line (alongside the rays)", t.parting_s),
-        ("Total", t.total_s),
-    ] {
-        let _ = writeln!(
-            h,
-            "<tr><td>{name}</td><td class=\"n\">{:.1} ms</td></tr>",
-            s * 1e3
-        );
+    let mut rows = vec![("Reading the mesh", Some(t.load_s))];
+    rows.push(("Ray-casting tree", t.tree_s));
+    rows.push(("Automatic demolding direction", t.demold_s));
+    rows.extend([
+        (
+            "Centre of mass (alongside the rays, not added)",
+            Some(t.centre_s),
+        ),
+        ("Grid", Some(t.grid_s)),
+        ("Rays", Some(t.projection_s)),
+        ("Rules and choice", Some(t.select_s)),
+        (
+            "Parting line (alongside the rays, not added)",
+            Some(t.parting_s),
+        ),
+        ("Wall thickness everywhere", t.wall_s),
+        ("Fill analysis", t.fill_s),
+        (
+            "Total (every stage that ran, the overlapping ones once)",
+            Some(t.total_s),
+        ),
+    ]);
+    for (name, s) in rows {
+        if let Some(s) = s {
+            let _ = writeln!(
+                h,
+                "<tr><td>{name}</td><td class=\"n\">{:.1} ms</td></tr>",
+                s * 1e3
+            );
+        }
     }
     let _ = writeln!(h, "</table>");
 }
@@ -374,6 +524,22 @@ mass (or in the plane across D with <code>--nearest 2d</code>).</dd>
 where the mould halves meet. Aesthetic parts (<code>--aesthetic</code>) take the gate on it.</dd>
 <dt>Colour of the part</dt><dd>The field named on the colour bar, in the unit shown there
 (height along D until a flow or thickness analysis provides another field).</dd>
+<dt>Fill analysis</dt><dd>A geometric model of the melt's way through the part: the part as
+cubic cells, and the shortest way from the gate to every cell through the solid.</dd>
+<dt>L_max</dt><dd>The longest flow length: the way the melt travels from the gate to the
+place it reaches last, in mm.</dd>
+<dt>L/t</dt><dd>L_max over the nominal wall thickness. Each material fills reliably only up to
+a ratio (its limit, from design guides); above it the part may not fill.</dd>
+<dt>Pressure (Eq. 1)</dt><dd>The pressure drop of the melt along that way at the optimal
+shear rate, 12 &mu; v L / H&sup2; summed along the path, in MPa.</dd>
+<dt>Balanced gate</dt><dd>The qualifying node whose farthest flow is the shortest (or lowest
+resistance with <code>--objective resistance</code>); the report compares it with the paper
+gate.</dd>
+<dt>Several gates</dt><dd>With <code>--gates K</code>, K gates that together make the longest
+flow as short as possible; each fills its share of the volume.</dd>
+<dt>Last to fill</dt><dd>Places the melt reaches last: where air is trapped and vents go.</dd>
+<dt>Weld lines</dt><dd>Where two melt fronts meet after flowing around an obstacle: a weaker,
+sometimes visible line.</dd>
 </dl>";
 
 #[cfg(test)]

@@ -195,6 +195,22 @@ pub struct ChosenReport {
     pub point: [f64; 3],
     /// 3D distance to the centre of mass, mm.
     pub distance_3d_mm: f64,
+    /// With several gates (`gates` K > 1), the K gates of the answer; `point` is the first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gates: Option<Vec<AnswerGate>>,
+}
+
+/// One gate of a several-gate answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct AnswerGate {
+    /// The gate point, mm.
+    pub point: [f64; 3],
+    /// Outward unit normal of the surface there.
+    pub normal: [f64; 3],
+    /// Share of the reached volume this gate fills first.
+    pub volume_share: f64,
+    /// Largest flow value inside its share, mm.
+    pub l_max_mm: f64,
 }
 
 /// Seconds per stage.
@@ -212,8 +228,20 @@ pub struct Timings {
     pub select_s: f64,
     /// Parting line, computed alongside the rays (this time overlaps `projection_s`).
     pub parting_s: f64,
-    /// Loading and the whole analysis, from start to end (the fill analysis is added to it
-    /// when there is one).
+    /// The ray-casting tree (automatic direction, wall thickness, fill), when built.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tree_s: Option<f64>,
+    /// The automatic demolding direction, when chosen.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub demold_s: Option<f64>,
+    /// The wall thickness everywhere, when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_s: Option<f64>,
+    /// The fill analysis less its tree (its stages are in `fill.times`), when it ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fill_s: Option<f64>,
+    /// Every stage that ran, from loading to the end (the centre of mass and the parting
+    /// line overlap the rays and are counted once, inside the locate stages).
     pub total_s: f64,
 }
 
@@ -300,6 +328,8 @@ impl Report {
             at_gate_mm,
             time_s,
         });
+        self.timings.wall_s = Some(time_s);
+        self.timings.total_s += time_s;
         self
     }
 
@@ -390,6 +420,7 @@ impl Report {
                 strategy: Strategy::Paper,
                 point: g.point().to_array(),
                 distance_3d_mm: g.point().distance(analysis.centre),
+                gates: None,
             }),
             no_gate_reason: chosen.err().map(|e| e.to_string()),
             paper_gate: analysis.grid_gate.as_ref().map(GateReport::from),
@@ -403,6 +434,10 @@ impl Report {
                 projection_s: t.projection_s,
                 select_s: t.select_s,
                 parting_s: t.parting_s,
+                tree_s: None,
+                demold_s: None,
+                wall_s: None,
+                fill_s: None,
                 total_s: load_s + t.total_s,
             },
             fill: None,
@@ -422,10 +457,82 @@ impl Report {
             gate.distance_3d_mm = p.distance(centre);
         }
         let t = &fill.times;
-        self.timings.total_s +=
-            t.tree_s + t.wall_s + t.voxels_s + t.paper_s + t.balanced_s + t.several_s;
+        let fill_s = t.wall_s + t.voxels_s + t.paper_s + t.balanced_s + t.several_s;
+        self.timings.fill_s = Some(fill_s);
+        self.timings.total_s += fill_s;
         self.warnings.extend(fill.warnings.iter().cloned());
         self.fill = Some(fill);
         self
+    }
+}
+
+/// `text` with every negative zero number (`-0`, `-0.0`, `-0.000`) written without its
+/// sign, so a value that rounds to zero never reads `-0.000`. With `json`, text inside
+/// double-quoted strings is left alone (escapes honoured).
+pub fn without_negative_zeros(text: &str, json: bool) -> String {
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut in_string = false;
+    let mut start = 0;
+    let mut i = 0;
+    while i < b.len() {
+        let c = b[i];
+        if json && in_string {
+            if c == b'\\' {
+                i += 2;
+                continue;
+            }
+            in_string = c != b'"';
+        } else if json && c == b'"' {
+            in_string = true;
+        } else if c == b'-' && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.')) {
+            // A number made of zeros only, ending at something that is not a digit.
+            let mut j = i + 1;
+            while j < b.len() && (b[j] == b'0' || b[j] == b'.') {
+                j += 1;
+            }
+            let zeros = j > i + 1
+                && b[i + 1] == b'0'
+                && b[i + 1..j].iter().all(|&d| d == b'0' || d == b'.');
+            let ends = j == b.len() || !(b[j].is_ascii_digit() || b[j] == b'e' || b[j] == b'E');
+            if zeros && ends {
+                out.push_str(&text[start..i]);
+                start = i + 1;
+            }
+        }
+        i += 1;
+    }
+    out.push_str(&text[start.min(text.len())..]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::without_negative_zeros;
+
+    #[test]
+    fn negative_zeros_lose_their_sign_and_nothing_else_changes() {
+        for (text, want) in [
+            ("(-0.000, 1.000, -0.000)", "(0.000, 1.000, 0.000)"),
+            ("x -0.0,", "x 0.0,"),
+            ("-0", "0"),
+            (
+                "-0.001 -10 -0.5 a-0 1e-0 -00.01",
+                "-0.001 -10 -0.5 a-0 1e-0 -00.01",
+            ),
+        ] {
+            assert_eq!(without_negative_zeros(text, false), want);
+        }
+        assert_eq!(
+            without_negative_zeros("(-0.000, -0.000)", false),
+            "(0.000, 0.000)"
+        );
+        assert_eq!(
+            without_negative_zeros(
+                r#"{"a": -0.0, "p": "x -0.0 \" -0", "b": [-0.0, -1.0]}"#,
+                true
+            ),
+            r#"{"a": 0.0, "p": "x -0.0 \" -0", "b": [0.0, -1.0]}"#
+        );
     }
 }

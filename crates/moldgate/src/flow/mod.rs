@@ -912,7 +912,8 @@ pub struct FillAnalysis {
     pub warnings: Vec<String>,
     /// Seconds per stage.
     pub times: FlowTimes,
-    /// Fill order of the answer's gate per mesh vertex (0 at the gate, 1 last), for pictures.
+    /// Fill order of the answer's gate per mesh vertex (0 at the gate, 1 last), for pictures;
+    /// with several gates, of all of them together.
     #[serde(skip)]
     pub fill_order_per_vertex: Vec<f32>,
     /// The answer's gate point.
@@ -1171,7 +1172,15 @@ pub fn analyse(
         (Strategy::Balanced, Some((b, Some(f)))) => (DVec3::from_array(b.fill.gate), f),
         _ => (gate, &paper_fields),
     };
-    let fill_order_per_vertex = per_vertex(&domain, mesh, &fields.fill.t);
+    // With several gates the picture's fill order is that of all of them together.
+    let fill_order_per_vertex = match &several {
+        Some(m) => {
+            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+            let field = march(&domain.voxels, &sources, Some(&domain.fill_cost));
+            per_vertex(&domain, mesh, &field.t)
+        }
+        None => per_vertex(&domain, mesh, &fields.fill.t),
+    };
     Ok(FillAnalysis {
         cell_mm: h,
         cells: domain.voxels.len(),

@@ -270,6 +270,13 @@ impl StudyOptions {
     /// Validates the options once; a material name is looked up in `user` (by
     /// [`Material::name`], any case) before the built-ins.
     pub fn validate_with(&self, user: &[Material]) -> Result<Settings, StudyError> {
+        if self.aesthetic && self.strategy == StrategyChoice::Balanced {
+            return Err(StudyError::Conflict {
+                first: "strategy",
+                second: "aesthetic",
+                why: "the balanced gate is a grid node chosen by the fill, the aesthetic gate the point of the parting line nearest the centre of mass; choose one",
+            });
+        }
         let material = self.material(user)?;
         let demold = if self.auto_demold() {
             Demold::Auto
@@ -443,5 +450,169 @@ impl StudyOptions {
             },
             gates: self.gates,
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_empty_object_is_the_defaults() {
+        let json: StudyOptions = serde_json::from_str("{}").unwrap();
+        let toml: StudyOptions = toml::from_str("").unwrap();
+        assert_eq!(json, StudyOptions::default());
+        assert_eq!(toml, StudyOptions::default());
+        let s = json.validate().unwrap();
+        assert_eq!(s.locate, LocateOptions::default());
+        assert_eq!(s.material, Material::builtin("PP").unwrap());
+        assert_eq!(s.demold, Demold::Given(Direction::PLUS_Z));
+        assert_eq!(s.fill, None);
+        assert!(!s.wall_thickness);
+    }
+
+    #[test]
+    fn json_and_toml_give_the_same_options() {
+        let json: StudyOptions = serde_json::from_str(
+            r#"{ "material": "abs", "demold": "-y", "gate_radius": 1.5, "spacing": 0.5,
+                 "centre": "volume", "nearest": "2d", "thickness_rule": "ignore",
+                 "keep_out": ["sphere:0,0,0,2"], "cosmetic": "+y", "fill": true,
+                 "strategy": "balanced", "objective": "resistance", "gates": 1,
+                 "cell": 0.8, "wall_thickness": true }"#,
+        )
+        .unwrap();
+        let toml: StudyOptions = toml::from_str(
+            r#"material = "abs"
+demold = "-y"
+gate_radius = 1.5
+spacing = 0.5
+centre = "volume"
+nearest = "2d"
+thickness_rule = "ignore"
+keep_out = ["sphere:0,0,0,2"]
+cosmetic = "+y"
+fill = true
+strategy = "balanced"
+objective = "resistance"
+gates = 1
+cell = 0.8
+wall_thickness = true
+"#,
+        )
+        .unwrap();
+        assert_eq!(json, toml);
+        let s = json.validate().unwrap();
+        assert_eq!(s.material.name, "ABS");
+        assert_eq!(s.locate.gate_radius_mm, 1.5);
+        assert_eq!(s.radius_source, RadiusSource::Forced);
+        assert_eq!(s.locate.spacing, Spacing::Mm(0.5));
+        assert_eq!(s.locate.centre, CentreKind::Volume);
+        assert_eq!(s.locate.nearest, Nearest::Plane2d);
+        assert_eq!(s.locate.thickness_rule, ThicknessRule::Ignore);
+        assert_eq!(s.locate.keep_out.len(), 1);
+        assert!(s.locate.cosmetic.is_some());
+        let fill = s.fill.unwrap();
+        assert_eq!(fill.strategy, Strategy::Balanced);
+        assert_eq!(fill.objective, Objective::Resistance);
+        assert_eq!(fill.flow.cell_mm, Some(0.8));
+    }
+
+    #[test]
+    fn unknown_fields_are_refused_by_name() {
+        let e = serde_json::from_str::<StudyOptions>(r#"{ "gate_radus": 1 }"#).unwrap_err();
+        assert!(e.to_string().contains("unknown field `gate_radus`"), "{e}");
+        let e = toml::from_str::<StudyOptions>("spacng = 1.0").unwrap_err();
+        assert!(e.to_string().contains("unknown field `spacng`"), "{e}");
+        let e = serde_json::from_str::<StudyOptions>(r#"{ "nearest": "4d" }"#).unwrap_err();
+        assert!(e.to_string().contains("4d"), "{e}");
+    }
+
+    #[test]
+    fn a_material_is_a_name_or_every_parameter() {
+        let o: StudyOptions = serde_json::from_str(
+            r#"{ "material": { "name": "mine", "n": 0.3, "t_melt": 220, "t_wall": 40,
+                 "gamma_opt": 9000, "mu_opt": 12, "k": 0.2 }, "mu_opt": 15 }"#,
+        )
+        .unwrap();
+        let m = o.validate().unwrap().material;
+        assert_eq!(m.name, "mine (modified)");
+        assert_eq!(m.mu_opt, 15.0);
+        assert_eq!(m.max_flow_ratio, None);
+        let user = [Material {
+            name: "Mine".into(),
+            ..Material::builtin("PC").unwrap()
+        }];
+        let o: StudyOptions = serde_json::from_str(r#"{ "material": "MINE" }"#).unwrap();
+        assert_eq!(o.validate_with(&user).unwrap().material.name, "Mine");
+        let e = o.validate().unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "unknown material 'MINE' (known: PP, ABS, PC)"
+        );
+        let o: StudyOptions =
+            serde_json::from_str(r#"{ "strategy": "balanced", "aesthetic": true }"#).unwrap();
+        let e = o.validate().unwrap_err().to_string();
+        assert!(
+            e.starts_with("strategy and aesthetic cannot be used together"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn bad_values_name_their_field() {
+        let cases = [
+            (
+                r#"{ "gate_radius": 0 }"#,
+                "gate_radius must be a positive number, got 0",
+            ),
+            (
+                r#"{ "spacing": -1 }"#,
+                "spacing must be a positive number, got -1",
+            ),
+            (
+                r#"{ "circle_points": 2 }"#,
+                "circle_points must be at least 3, got 2",
+            ),
+            (
+                r#"{ "flat_tol": -1 }"#,
+                "flat_tol must be zero or positive, got -1",
+            ),
+            (r#"{ "max_nodes": 0 }"#, "max_nodes must be between 1"),
+            (r#"{ "gates": 0 }"#, "gates must be at least 1"),
+            (r#"{ "gates": 65 }"#, "gates must be at most 64, got 65"),
+            (r#"{ "cell": 0 }"#, "cell must be a positive number, got 0"),
+            (
+                r#"{ "demold": "sideways" }"#,
+                "demold: cannot read demolding direction",
+            ),
+            (
+                r#"{ "keep_out": ["cube:1"] }"#,
+                "keep_out: cannot read keep-out region",
+            ),
+            (
+                r#"{ "cosmetic": "0,0,0" }"#,
+                "cosmetic: the demolding direction must be",
+            ),
+            (r#"{ "n": -1 }"#, "n must be a positive finite number"),
+        ];
+        for (json, message) in cases {
+            let o: StudyOptions = serde_json::from_str(json).unwrap();
+            let e = o.validate().unwrap_err().to_string();
+            assert!(e.starts_with(message) || e.contains(message), "{json}: {e}");
+        }
+    }
+
+    #[test]
+    fn fill_is_implied_by_balanced_and_several_gates() {
+        for json in [
+            r#"{ "strategy": "balanced" }"#,
+            r#"{ "gates": 3 }"#,
+            r#"{ "fill": true }"#,
+        ] {
+            let o: StudyOptions = serde_json::from_str(json).unwrap();
+            assert!(o.validate().unwrap().fill.is_some(), "{json}");
+        }
+        let o: StudyOptions = serde_json::from_str(r#"{ "demold": " AUTO " }"#).unwrap();
+        assert_eq!(o.validate().unwrap().demold, Demold::Auto);
     }
 }

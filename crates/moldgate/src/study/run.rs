@@ -8,7 +8,7 @@ use crate::math::DVec3;
 use crate::mesh::LoadedMesh;
 use crate::raycast::{Bvh, Sampling};
 use crate::render::RenderOptions;
-use crate::report::{Input, Report};
+use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
 use crate::study::{Demold, Hooks, Settings, Stage, StudyError};
 use crate::thickness::{wall_thickness_with, ThicknessOptions, WallThickness};
@@ -38,6 +38,10 @@ pub struct Study {
     material_name: String,
     size: (usize, usize),
 }
+
+/// Fewer grid nodes on the part than this (10 x 10) draw a warning: the grid is too coarse
+/// for the gate to mean much.
+pub const MIN_NODES_ON_PART: usize = 100;
 
 /// The usual share of each stage in the time of a study (for [`crate::study::Progress`]).
 fn fraction(stage: Stage) -> f64 {
@@ -69,18 +73,27 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         None
     };
     let mut options = s.locate.clone();
+    let mut demold_s = None;
     let auto = match &bvh {
         Some(bvh) if auto_demold => {
             enter(Stage::Demold)?;
+            let t = Instant::now();
             let auto =
                 auto_direction_with(mesh, bvh, Sampling::Centroid).map_err(StudyError::Demold)?;
+            demold_s = Some(t.elapsed().as_secs_f64());
             options.direction = auto.direction();
             Some(auto)
         }
         _ => None,
     };
     enter(Stage::Locate)?;
-    let analysis = crate::locate(part, &options).map_err(StudyError::Locate)?;
+    let mut analysis = crate::locate(part, &options).map_err(StudyError::Locate)?;
+    if analysis.counts.centre_hits < MIN_NODES_ON_PART {
+        analysis.warnings.push(format!(
+            "only {} grid nodes fall on the part (spacing {:.3} mm): the gate is a coarse guess; use a smaller spacing",
+            analysis.counts.centre_hits, analysis.grid.spacing
+        ));
+    }
     // The full wall map only when asked for; the fill analysis measures its own samples.
     let wall = match (&bvh, s.wall_thickness) {
         (Some(bvh), true) => {
@@ -134,7 +147,16 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         fill_order = Some(std::mem::take(&mut fill.fill_order_per_vertex));
         report = report.with_fill(fill, analysis.centre);
     }
-    let (gates, subtitle) = answer_gates(part, &analysis, &report, bvh.as_ref());
+    // The tree serves several stages: counted once, on its own.
+    if bvh.is_some() {
+        report.timings.tree_s = Some(tree_s);
+        report.timings.total_s += tree_s;
+    }
+    if let Some(d) = demold_s {
+        report.timings.demold_s = Some(d);
+        report.timings.total_s += d;
+    }
+    let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
     let wall_per_vertex = wall.as_ref().map(|(w, _)| w.per_vertex(mesh));
     if let Some(p) = hooks.progress {
         p(crate::study::Progress {
@@ -155,13 +177,21 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     })
 }
 
+/// The outward normal of the surface at `p`: that of the nearest triangle (zero without a
+/// tree or when no triangle is near).
+fn normal_at(part: &LoadedMesh, bvh: Option<&Bvh>, p: DVec3) -> DVec3 {
+    let reach = part.mesh.bounds().size().length().max(1.0);
+    bvh.and_then(|b| b.nearest_within(p, reach))
+        .map_or(DVec3::ZERO, |hit| part.mesh.normal(hit.triangle as usize))
+}
+
 /// The gates of the answer and the picture's second title line: the paper's (or the
-/// aesthetic) gate, the balanced gate under `strategy = "balanced"`, or every gate of a
-/// several-gate layout.
+/// aesthetic) gate, the balanced gate under `strategy = "balanced"`, or the K gates of a
+/// several-gate layout (which also become the report's `gate`, each with its normal).
 fn answer_gates(
     part: &LoadedMesh,
     analysis: &Analysis,
-    report: &Report,
+    report: &mut Report,
     bvh: Option<&Bvh>,
 ) -> (Vec<GateMarker>, String) {
     let r = analysis.options.gate_radius_mm;
@@ -173,40 +203,56 @@ fn answer_gates(
         point: p,
         normal: match chosen {
             ChosenGate::Paper(g) => g.normal,
-            ChosenGate::Aesthetic(_) => DVec3::ZERO,
+            ChosenGate::Aesthetic(_) => normal_at(part, bvh, p),
         },
     }];
     let mut subtitle = format!(
         "gate ({:.2}, {:.2}, {:.2}) mm, R = {:.2} mm",
         p.x, p.y, p.z, r
     );
-    let normal_at = |_p: DVec3| DVec3::ZERO;
-    let _ = (part, bvh);
-    if let Some(g) = &report.gate {
-        if g.strategy == Strategy::Balanced {
-            let p = DVec3::from_array(g.point);
-            gates[0] = GateMarker {
-                point: p,
-                normal: normal_at(p),
-            };
-            subtitle = format!(
-                "balanced gate ({:.2}, {:.2}, {:.2}) mm, R = {r:.2} mm",
-                g.point[0], g.point[1], g.point[2]
-            );
-        }
+    let several = report.fill.as_ref().and_then(|f| f.several.clone());
+    let Some(g) = report.gate.as_mut() else {
+        return (gates, subtitle);
+    };
+    if g.strategy == Strategy::Balanced {
+        let p = DVec3::from_array(g.point);
+        gates[0] = GateMarker {
+            point: p,
+            normal: normal_at(part, bvh, p),
+        };
+        subtitle = format!(
+            "balanced gate ({:.2}, {:.2}, {:.2}) mm, R = {r:.2} mm",
+            g.point[0], g.point[1], g.point[2]
+        );
     }
-    if let Some(several) = report.fill.as_ref().and_then(|f| f.several.as_ref()) {
-        gates = several
+    if let Some(several) = several {
+        let answer: Vec<AnswerGate> = several
             .gates
             .iter()
-            .map(|g| {
-                let p = DVec3::from_array(g.point);
-                GateMarker {
-                    point: p,
-                    normal: normal_at(p),
-                }
+            .map(|s| AnswerGate {
+                point: s.point,
+                normal: normal_at(part, bvh, DVec3::from_array(s.point)).to_array(),
+                volume_share: s.volume_share,
+                l_max_mm: s.l_max_mm,
             })
             .collect();
+        gates = answer
+            .iter()
+            .map(|a| GateMarker {
+                point: DVec3::from_array(a.point),
+                normal: DVec3::from_array(a.normal),
+            })
+            .collect();
+        if let Some(first) = answer.first() {
+            g.point = first.point;
+            g.distance_3d_mm = DVec3::from_array(first.point).distance(analysis.centre);
+        }
+        subtitle = format!(
+            "{} gates, L_max {:.1} mm, R = {r:.2} mm",
+            answer.len(),
+            several.l_max_mm
+        );
+        g.gates = Some(answer);
     }
     (gates, subtitle)
 }
@@ -230,10 +276,11 @@ impl Study {
         self.report.timings.total_s += load_s;
     }
 
-    /// The report as pretty JSON with a final newline (what `locate --json` prints).
+    /// The report as pretty JSON with a final newline (what `locate --json` prints); no
+    /// number is written as a negative zero.
     pub fn report_json(&self) -> Result<String, StudyError> {
         serde_json::to_string_pretty(&self.report)
-            .map(|s| s + "\n")
+            .map(|s| crate::report::without_negative_zeros(&s, true) + "\n")
             .map_err(|e| StudyError::Encode(e.to_string()))
     }
 

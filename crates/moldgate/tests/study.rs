@@ -1,0 +1,156 @@
+//! `moldgate::study` on the built-in samples: the same report as the stages called one by
+//! one, the optional parts reachable, progress in order, cancellation honoured.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+
+use moldgate::report::{Input, RadiusSource, Report};
+use moldgate::study::{study, study_with, Hooks, Progress, Stage, StudyError, StudyOptions};
+use moldgate::{locate, LoadedMesh};
+
+fn sample(name: &str) -> LoadedMesh {
+    moldgate::mesh::from_generated(moldgate::samples::sample(name).unwrap())
+}
+
+fn options(json: &str) -> StudyOptions {
+    serde_json::from_str(json).unwrap()
+}
+
+/// The report as JSON less its times.
+fn timeless(r: &Report) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(m) => {
+                m.retain(|k, _| !matches!(k.as_str(), "timings" | "times" | "time_s"));
+                m.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut v = serde_json::to_value(r).unwrap();
+    strip(&mut v);
+    v
+}
+
+#[test]
+fn a_default_study_is_the_paper_s_locate() {
+    for info in moldgate::samples::SAMPLES {
+        let part = sample(info.name);
+        let s = study(&part, &StudyOptions::default()).unwrap();
+        let analysis = locate(&part, &moldgate::LocateOptions::default()).unwrap();
+        let input = Input {
+            path: None,
+            sample: None,
+            bytes: 0,
+        };
+        let direct = Report::new(
+            input,
+            &part.stats,
+            &part.warnings,
+            &moldgate::Material::builtin("PP").unwrap(),
+            RadiusSource::Material,
+            &analysis,
+            0.0,
+        );
+        assert_eq!(timeless(s.report()), timeless(&direct), "{}", info.name);
+        assert_eq!(s.qualifying_points(), &analysis.qualifying_points[..]);
+        assert_eq!(s.gates().len(), usize::from(analysis.gate().is_ok()));
+        assert!(s.fill_order().is_none() && s.wall_thickness_per_vertex().is_none());
+        let json: serde_json::Value = serde_json::from_str(&s.report_json().unwrap()).unwrap();
+        assert_eq!(json["schema_version"], 1);
+    }
+}
+
+#[test]
+fn per_vertex_fields_and_outputs_of_a_full_study() {
+    let part = sample("plate");
+    let s = study(
+        &part,
+        &options(r#"{ "fill": true, "wall_thickness": true, "gates": 2, "demold": "auto" }"#),
+    )
+    .unwrap();
+    let n = part.mesh.vertices.len();
+    assert_eq!(s.fill_order().unwrap().len(), n);
+    assert_eq!(s.wall_thickness_per_vertex().unwrap().len(), n);
+    assert!(s.report().demold_auto.is_some());
+    assert_eq!(s.gates().len(), 2);
+    for g in s.gates() {
+        assert!((g.normal.length() - 1.0).abs() < 1e-9, "{g:?}");
+    }
+    let png = s.png(&part, "plate").unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let glb = s.glb(&part, "plate").unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    let page = s.html(Some(&png)).unwrap();
+    assert!(page.contains("2 gates at"));
+    // Another part is refused.
+    let other = sample("cover");
+    assert!(matches!(
+        s.png(&other, "cover"),
+        Err(StudyError::OtherPart { .. })
+    ));
+}
+
+#[test]
+fn progress_comes_in_order_and_ends_at_one() {
+    let part = sample("plate");
+    let seen = Mutex::new(Vec::new());
+    let observer = |p: Progress| seen.lock().unwrap().push(p);
+    let hooks = Hooks {
+        progress: Some(&observer),
+        cancel: None,
+    };
+    let settings = options(r#"{ "fill": true, "wall_thickness": true, "demold": "auto" }"#)
+        .validate()
+        .unwrap();
+    study_with(&part, &settings, &hooks).unwrap();
+    let seen = seen.into_inner().unwrap();
+    let stages: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+    assert_eq!(
+        stages,
+        [
+            Stage::Tree,
+            Stage::Demold,
+            Stage::Locate,
+            Stage::WallThickness,
+            Stage::Fill,
+            Stage::Report,
+            Stage::Report
+        ]
+    );
+    assert!(seen.windows(2).all(|w| w[0].fraction <= w[1].fraction));
+    assert_eq!(seen.last().unwrap().fraction, 1.0);
+}
+
+#[test]
+fn a_cancelled_study_stops_before_the_next_stage() {
+    let part = sample("plate");
+    let settings = options(r#"{ "fill": true }"#).validate().unwrap();
+    let cancel = AtomicBool::new(true);
+    let hooks = Hooks {
+        progress: None,
+        cancel: Some(&cancel),
+    };
+    match study_with(&part, &settings, &hooks) {
+        Err(StudyError::Cancelled { stage }) => assert_eq!(stage, Stage::Tree),
+        other => panic!("{other:?}"),
+    }
+    // Cancelled while locating: the fill never starts.
+    let cancel = AtomicBool::new(false);
+    let observer = |p: Progress| {
+        if p.stage == Stage::Locate {
+            cancel.store(true, Ordering::Relaxed);
+        }
+    };
+    let hooks = Hooks {
+        progress: Some(&observer),
+        cancel: Some(&cancel),
+    };
+    match study_with(&part, &settings, &hooks) {
+        Err(e @ StudyError::Cancelled { .. }) => {
+            assert_eq!(e.to_string(), "cancelled before the fill stage")
+        }
+        other => panic!("{other:?}"),
+    }
+}
