@@ -274,8 +274,7 @@ pub fn panic_for_test(py: Python<'_>) -> PyResult<()> {
 pub struct Gate {
     /// Gate point on the surface, mm (numpy, 3).
     point: Py<PyArray1<f64>>,
-    /// Outward unit normal there (numpy, 3); zero when not known (balanced and several
-    /// gates).
+    /// Outward unit normal there (numpy, 3); zero when no triangle is near.
     normal: Py<PyArray1<f64>>,
     /// Gate radius R_gate, mm.
     radius_mm: f64,

@@ -49,7 +49,28 @@ def test_dask_rows_equal_the_cli_batch_rows(parts_dir, cli, tmp_path):
     assert rows_without_times(rows) == rows_without_times(expected)
     assert len(rows) == len(list(parts_dir.glob("*.[sS][tT][lL]"))) + 2
     assert [r["status"] for r in rows[-2:]] == ["input_error", "input_error"]
-    assert sum(r["status"] == "ok" for r in rows) >= len(rows) - 4
+    assert any(r["status"] == "ok" for r in rows)
+    assert not any(r["status"] == "internal_error" for r in rows)
+
+
+def test_a_manifest_gives_each_part_its_unit_and_direction(parts_dir, cli, tmp_path):
+    from dask.distributed import Client
+
+    manifest = tmp_path / "parts.toml"
+    manifest.write_text(
+        f'[[part]]\nfile = "{parts_dir / "trimesh_ADIS16480_meters_ascii.STL"}"\nunits = "m"\ndemold = "+y"\n'
+        f'[[part]]\nfile = "{parts_dir / "prusa_lcd_knob.stl"}"\n'
+        f'[[part]]\nfile = "{parts_dir / "watchy_yatari_bottom.stl"}"\ndemold = "-z"\n'
+    )
+    summary = tmp_path / "cli.jsonl"
+    run_cli(cli, "locate", "--manifest", manifest, "--summary", summary, check=False)
+    expected = [json.loads(line) for line in summary.read_text().splitlines()]
+    ex = example()
+    with Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
+        rows = ex.run(client, ex.read_manifest(str(manifest)), {})
+    assert rows_without_times(rows) == rows_without_times(expected)
+    assert [r["units"] for r in rows] == ["m", "mm", "mm"]
+    assert [r["demold"] for r in rows] == ["+y", "+z", "-z"]
 
 
 def test_bad_options_stop_the_batch_before_any_task(tmp_path):
