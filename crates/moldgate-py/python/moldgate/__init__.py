@@ -226,7 +226,8 @@ def study(
     - ``step_tolerance_mm=None``: see :func:`load`.
     - ``allow_no_gate=False``: when no position qualifies, return the study (its ``gate``
       is None and ``report["no_gate_reason"]`` says why) instead of raising
-      :class:`NoGateError`.
+      :class:`NoGateError`. A layout of ``gates=K`` that finds too few positions has no
+      study to return and raises :class:`NoGateError` either way.
 
     An unknown option name or a bad value raises :class:`OptionsError` with the
     library's message.
