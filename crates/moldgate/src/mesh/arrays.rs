@@ -29,7 +29,7 @@ pub const MAX_TRIANGLES: usize = u32::MAX as usize - 1;
 /// let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
 /// let part = from_arrays(&v, &t, Units::Cm).unwrap();
 /// assert_eq!(part.stats.triangles, 4);
-/// assert_eq!(part.mesh.vertices[1].x, 10.0);
+/// assert_eq!(part.stats.bounds_max, [10.0, 10.0, 10.0]); // read in cm
 /// assert!(from_arrays(&v, &[[0, 1, 4]], Units::Mm).is_err());
 /// ```
 pub fn from_arrays(
