@@ -2,11 +2,12 @@
 """The README's table of the paper gate against the balanced gate on the shared parts.
 
 Runs `moldgate locate PART --demold D --units U --fill --json` on every shared part (natural
-demolding direction from ../shared/data/parts/SOURCES.md, PP, default options otherwise)
-and prints a Markdown table: flow length L_max, L/t, Eq. 1 pressure for both gates, the
-improvement, the field runs of the balanced search and the fill-analysis time (ray tree,
-wall thickness, voxels, paper-gate fields and balanced search, from the report's own
-timings; best of --runs).
+demolding direction from ../shared/data/parts/SOURCES.md or $MOLDGATE_PARTS, PP, default options otherwise)
+and prints a Markdown table: bodies, flow length L_max, L/t, Eq. 1 pressure and estimated
+fill time for both gates, the improvement, the field runs of the balanced search and the
+fill-analysis time (ray tree, wall thickness, voxels, paper-gate fields and balanced search,
+from the report's own timings; best of --runs). Every row has the header's column count
+(checked); the binary is $CARGO_TARGET_DIR/release/moldgate unless --binary is given.
 
     cargo build --release -p moldgate-cli
     python3 scripts/fill_table.py [--runs 3] [--objective length|resistance]
@@ -24,7 +25,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from speed import NATURAL  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PARTS = os.path.join(ROOT, "..", "shared", "data", "parts")
+PARTS = os.environ.get("MOLDGATE_PARTS", os.path.join(ROOT, "..", "shared", "data", "parts"))
 
 
 def units(stem):
@@ -39,12 +40,22 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--objective", default="length")
-    ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "moldgate"))
+    target = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+    ap.add_argument("--binary", default=os.path.join(target, "release", "moldgate"))
     args = ap.parse_args()
     if not os.path.isdir(PARTS):
         sys.exit(f"no shared parts at {PARTS}")
-    print("| part | triangles | cells | paper L_max mm | L/t | ΔP MPa | balanced L_max mm | L/t | ΔP MPa | better by | runs | fill ms |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    header = ["part", "triangles", "bodies", "cells", "paper L_max mm", "L/t", "ΔP MPa",
+              "fill s", "balanced L_max mm", "L/t", "ΔP MPa", "fill s", "better by", "runs",
+              "fill ms"]
+
+    def row(cells):
+        if len(cells) != len(header):
+            sys.exit(f"a row of {len(cells)} columns for {len(header)}: {cells}")
+        print("| " + " | ".join(str(c) for c in cells) + " |")
+
+    print("| " + " | ".join(header) + " |")
+    print("|---|" + "---:|" * (len(header) - 1))
     worse = []
     for name in sorted(os.listdir(PARTS)):
         stem, ext = os.path.splitext(name)
@@ -65,17 +76,18 @@ def main():
             s = t["tree_s"] + t["wall_s"] + t["voxels_s"] + t["paper_s"] + t["balanced_s"]
             best = s if best is None else min(best, s)
         if report is None:
-            print(f"| {stem} | | | {reason} | | | | | | | | |")
+            row([stem, reason] + [""] * (len(header) - 2))
             continue
         f = report["fill"]
         p, b = f["paper"], f["balanced"]
         bf = b["fill"]
         if bf["l_max_mm"] > p["l_max_mm"] + 1e-9:
             worse.append(stem)
-        print(f"| {stem} | {report['mesh']['triangles']} | {f['cells']} | {p['l_max_mm']:.1f} | "
-              f"{p['flow_ratio']:.0f} | {p['pressure_mpa']:.1f} | {bf['l_max_mm']:.1f} | "
-              f"{bf['flow_ratio']:.0f} | {bf['pressure_mpa']:.1f} | {b['improvement_pct']:.1f} % | "
-              f"{b['search']['runs']} | {best * 1e3:.0f} |")
+        row([stem, report["mesh"]["triangles"], f["bodies"], f["cells"],
+             f"{p['l_max_mm']:.1f}", f"{p['flow_ratio']:.0f}", f"{p['pressure_mpa']:.1f}",
+             f"{p['fill_time_s']:.3f}", f"{bf['l_max_mm']:.1f}", f"{bf['flow_ratio']:.0f}",
+             f"{bf['pressure_mpa']:.1f}", f"{bf['fill_time_s']:.3f}",
+             f"{b['improvement_pct']:.1f} %", b["search"]["runs"], f"{best * 1e3:.0f}"])
     if worse:
         sys.exit(f"balanced gate worse than the paper gate on: {', '.join(worse)}")
 

@@ -2,7 +2,6 @@
 //! read from its file (or made from a sample), [`moldgate::study_with`] run on it, and the
 //! library's errors mapped to exit codes.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 use std::time::Instant;
@@ -12,6 +11,7 @@ use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::render::RenderError;
 use moldgate::report::Input;
 use moldgate::study::{self, Hooks, Study, StudyError};
+use moldgate::OptionsError;
 
 use crate::args::LocateArgs;
 use crate::formats::MeshKind;
@@ -61,9 +61,14 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
             flag(first),
             flag(second)
         )),
-        StudyError::UnknownMaterial { .. } | StudyError::Material(_) | StudyError::Locate(_) => {
-            Failure::usage(e.to_string())
+        StudyError::UnknownMaterial { .. } => {
+            Failure::usage(format!("{e} (`moldgate materials` lists them all)"))
         }
+        // The part's fault, not an option's: an input error that names the file.
+        StudyError::Locate(
+            l @ (OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. }),
+        ) => Failure::input(format!("{part}: {l}")),
+        StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
         StudyError::Fill(f) => Failure::usage(f.to_string()),
@@ -105,17 +110,18 @@ impl Source<'_> {
 /// Reads a mesh file and gives its size in bytes; every failure names the file.
 pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
     let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
-    if path.is_dir() {
-        return Err(fail(&"is a folder, not a mesh file"));
-    }
-    let file = File::open(path).map_err(|e| fail(&format_args!("cannot open: {e}")))?;
+    let file = crate::files::open_regular(path).map_err(|e| fail(&e))?;
     let len = file
         .metadata()
         .map_err(|e| fail(&format_args!("cannot read: {e}")))?
         .len();
     drop(file);
-    // Opened once per reading thread for large binary files.
-    let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
+    // Opened once per reading thread for large binary files, each time checked again.
+    let open = || {
+        crate::files::open_regular(path)
+            .map(|f| BufReader::with_capacity(1 << 16, f))
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    };
     let part = match crate::formats::mesh_kind(path) {
         MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
         MeshKind::Obj => open()

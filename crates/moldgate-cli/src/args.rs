@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use moldgate::study::{
-    CentreChoice, MaterialChoice, NearestChoice, ObjectiveChoice, StrategyChoice, StudyOptions,
-    ThicknessChoice,
+    CentreChoice, ColorByChoice, MaterialChoice, NearestChoice, ObjectiveChoice, StrategyChoice,
+    StudyOptions, ThicknessChoice,
 };
 
 /// Where to put the injection gate of a plastic part, from its triangle mesh.
@@ -26,7 +26,8 @@ pub enum Command {
     Locate(Box<LocateArgs>),
     /// Write a built-in sample part as a binary STL.
     Sample(SampleArgs),
-    /// List the built-in materials and their gate radii (Eq. 7-8, Table 1).
+    /// List the built-in materials (the paper's Table 1 and typical grades): gate radius
+    /// (Eq. 7-8), L/t limit, and with --json every value's source.
     Materials(MaterialsArgs),
 }
 
@@ -72,6 +73,18 @@ pub enum ObjectiveArg {
     Resistance,
 }
 
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ColorByArg {
+    /// Flow length from the gate, mm.
+    FlowLength,
+    /// Estimated fill time from the gate, s.
+    FillOrder,
+    /// Wall thickness, mm.
+    Wall,
+    /// Height along the demolding direction.
+    Height,
+}
+
 #[derive(Debug, Args)]
 pub struct LocateArgs {
     /// The part: an STL (binary or ASCII), OBJ or PLY file, read by its extension (.stl,
@@ -98,7 +111,9 @@ pub struct LocateArgs {
         value_name = "DIR"
     )]
     pub demold: String,
-    /// Material: PP, ABS, PC (the paper's Table 1) or one from --materials-file.
+    /// Material: PP, ABS, PC (the paper's Table 1), a built-in grade such as PA66-GF30
+    /// (`moldgate materials` lists them; case and separators are ignored) or one from
+    /// --materials-file, which wins over a built-in of the same name.
     #[arg(long, default_value = "PP")]
     pub material: String,
     /// TOML file of user materials: one table per material with n, t_melt, t_wall,
@@ -179,6 +194,9 @@ pub struct LocateArgs {
     /// What the balanced gate and several gates minimise.
     #[arg(long, value_enum, default_value = "length")]
     pub objective: ObjectiveArg,
+    /// What pictures of the fill are coloured by.
+    #[arg(long = "color-by", value_enum, default_value = "fill-order")]
+    pub color_by: ColorByArg,
     /// Number of gates that together minimise the worst flow (implies --fill).
     #[arg(long, default_value_t = 1, value_name = "K")]
     pub gates: usize,
@@ -229,9 +247,13 @@ pub struct SampleArgs {
 
 #[derive(Debug, Args)]
 pub struct MaterialsArgs {
-    /// Also list the materials of this TOML file.
+    /// Also list the materials of this TOML file (one of the same name as a built-in
+    /// replaces it).
     #[arg(long, value_name = "FILE")]
     pub materials_file: Option<PathBuf>,
+    /// Print every parameter with its source as JSON instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Options of `locate` for several parts.
@@ -315,6 +337,12 @@ impl LocateArgs {
                 ObjectiveArg::Resistance => ObjectiveChoice::Resistance,
             },
             gates: self.gates,
+            color_by: match self.color_by {
+                ColorByArg::FlowLength => ColorByChoice::FlowLength,
+                ColorByArg::FillOrder => ColorByChoice::FillOrder,
+                ColorByArg::Wall => ColorByChoice::Wall,
+                ColorByArg::Height => ColorByChoice::Height,
+            },
             cell: self.cell,
             wall_thickness: self.wall_thickness,
         }
@@ -387,6 +415,8 @@ mod tests {
             "resistance",
             "--gates",
             "3",
+            "--color-by",
+            "wall",
             "--cell",
             "0.9",
             "--wall-thickness",
@@ -403,7 +433,7 @@ mod tests {
             "flat_tol": 0.05, "aesthetic": true, "max_nodes": 1000,
             "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
             "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
-            "wall_thickness": true
+            "wall_thickness": true, "color_by": "wall"
         });
         let from_json: StudyOptions = serde_json::from_value(json).unwrap();
         assert_eq!(a.study_options(), from_json);

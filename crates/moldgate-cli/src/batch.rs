@@ -16,9 +16,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::Deserialize;
-
-use moldgate::batch_row::{BatchRow, Status};
+use serde::{Deserialize, Serialize};
 
 use moldgate::mesh::Units;
 use moldgate::report::Report;
@@ -67,6 +65,9 @@ struct Part {
     settings: Settings,
     /// The demolding direction as written (command line or manifest).
     demold: String,
+    /// Why a folder's entry is not read (a FIFO, a folder, a link that points nowhere), or
+    /// `None` for a part to analyse.
+    skipped: Option<String>,
 }
 
 /// What came of one part.
@@ -108,11 +109,12 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     let base = settings(&a)?;
     let summary_format = b.summary.as_deref().map(summary_format).transpose()?;
     let mut parts = Vec::new();
-    for path in expand(&a.files)? {
+    for (path, skipped) in expand(&a.files)? {
         parts.push(Part {
             path,
             settings: base.clone(),
             demold: a.demold.clone(),
+            skipped,
         });
     }
     if let Some(m) = &b.manifest {
@@ -141,10 +143,10 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     })?;
     progress.finish();
 
-    let rows: Vec<BatchRow> = parts
+    let rows: Vec<Row> = parts
         .iter()
         .zip(&outcomes)
-        .map(|(p, o)| row(p, o))
+        .map(|(p, o)| Row::new(p, o))
         .collect();
     let mut failures: Vec<Failure> = Vec::new();
     if let (Some(path), Some(format)) = (&b.summary, summary_format) {
@@ -161,10 +163,12 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     } else {
         print_stdout(&table(&rows, b.quiet))?;
     }
-    // The end report: one line per failed part, in input order.
+    // The end report: one line per failed part or skipped entry, in input order.
     for row in &rows {
-        if let Some(reason) = &row.error {
-            eprintln!("moldgate: error: {}: {reason}", row.file);
+        match (&row.error, row.status) {
+            (Some(reason), "skipped") => eprintln!("moldgate: skipped {}: {reason}", row.file),
+            (Some(reason), _) => eprintln!("moldgate: error: {}: {reason}", row.file),
+            _ => {}
         }
     }
     for f in &failures {
@@ -198,6 +202,13 @@ pub fn exit_code(codes: impl IntoIterator<Item = u8>) -> u8 {
 
 /// Analyses one part and writes its report; a panic is this part's internal error.
 fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
+    if part.skipped.is_some() {
+        return Outcome {
+            report: None,
+            failure: None,
+            time_s: 0.0,
+        };
+    }
     let t = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         analyse(Source::File(&part.path), &part.settings, &Hooks::default())
@@ -259,25 +270,52 @@ fn summary_format(path: &Path) -> Result<SummaryFormat, Failure> {
     }
 }
 
-/// The inputs in order: each file as given; each folder's `.stl`, `.obj` and `.ply` files
-/// (any case, not in subfolders) sorted by name. A folder that cannot be listed or holds no
-/// mesh file is an
-/// error of the command line, found before any work.
-fn expand(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
+/// The inputs in order: each file as given; each folder's entries named `.stl`, `.obj` and
+/// `.ply` (any case, not in subfolders) sorted by name. An entry of such a name that is not a
+/// regular file (a FIFO, a folder, a link that points nowhere) comes with the reason it is
+/// skipped, so the batch reports it instead of dropping it or hanging on it. A folder that
+/// cannot be listed or holds no mesh file is an error of the command line, found before any
+/// work.
+fn expand(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Option<String>)>, Failure> {
     let mut out = Vec::new();
     for input in inputs {
         if !input.is_dir() {
-            out.push(input.clone());
+            out.push((input.clone(), None));
             continue;
         }
         let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", input.display()));
-        let mut found: Vec<PathBuf> = std::fs::read_dir(input)
+        let mut found: Vec<(PathBuf, Option<String>)> = std::fs::read_dir(input)
             .map_err(|e| fail(&format_args!("cannot list the folder: {e}")))?
             .filter_map(|entry| entry.ok().map(|e| e.path()))
-            .filter(|p| crate::formats::is_mesh_file(p) && p.is_file())
+            .filter(|p| crate::formats::is_mesh_file(p))
+            .map(|p| {
+                let skipped = match std::fs::metadata(&p) {
+                    Ok(m) if m.is_file() => None,
+                    Ok(m) => Some(format!(
+                        "is {}, not a mesh file",
+                        crate::files::file_kind(&m)
+                    )),
+                    Err(_) if p.is_symlink() => {
+                        Some("is a symbolic link that points nowhere".into())
+                    }
+                    Err(e) => Some(format!("cannot read: {e}")),
+                };
+                (p, skipped)
+            })
             .collect();
-        if found.is_empty() {
-            return Err(fail(&"is a folder holding no .stl, .obj or .ply file"));
+        if found.iter().all(|(_, skipped)| skipped.is_some()) {
+            let skipped: Vec<String> = found
+                .iter()
+                .filter_map(|(p, why)| Some(format!("{} {}", p.display(), why.as_ref()?)))
+                .collect();
+            return Err(fail(&format_args!(
+                "is a folder holding no .stl, .obj or .ply file{}",
+                if skipped.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (skipped: {})", skipped.join("; "))
+                }
+            )));
         }
         found.sort();
         out.extend(found);
@@ -338,6 +376,7 @@ fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>
             path: folder.join(&entry.file),
             settings,
             demold: entry.demold.unwrap_or_else(|| demold.to_string()),
+            skipped: None,
         });
     }
     Ok(parts)
@@ -351,7 +390,11 @@ fn check_outputs(
     summary: Option<&Path>,
 ) -> Result<Vec<Option<PathBuf>>, Failure> {
     let same_file = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_path_buf());
-    let inputs: HashSet<PathBuf> = parts.iter().map(|p| same_file(&p.path)).collect();
+    let inputs: HashSet<PathBuf> = parts
+        .iter()
+        .filter(|p| p.skipped.is_none())
+        .map(|p| same_file(&p.path))
+        .collect();
     let refuse = |out: &Path| {
         if inputs.contains(&same_file(out)) {
             Err(Failure::output(format!(
@@ -384,6 +427,10 @@ fn check_outputs(
     let mut taken: BTreeMap<String, &Path> = BTreeMap::new();
     let mut outputs = Vec::with_capacity(parts.len());
     for part in parts {
+        if part.skipped.is_some() {
+            outputs.push(None);
+            continue;
+        }
         let stem = part
             .path
             .file_stem()
@@ -419,31 +466,103 @@ fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
     if !folder.is_dir() {
         return Err(fail(&format_args!("{} is not a folder", folder.display())));
     }
-    let probe = folder.join(format!(".moldgate-probe.{}.tmp", std::process::id()));
-    std::fs::File::create(&probe).map_err(|e| fail(&format_args!("cannot write: {e}")))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
+    // Created exclusively under a random name, removed when dropped.
+    crate::output::temporary_in(folder)
+        .map(drop)
+        .map_err(|e| fail(&format_args!("cannot write: {e}")))
 }
 
-/// The summary's row of one part (the library's [`BatchRow`], shared with the other front
-/// ends).
-fn row(part: &Part, o: &Outcome) -> BatchRow {
-    let failure = o
-        .failure
-        .as_ref()
-        .map(|f| (Status::from_exit_code(f.code), f.message.as_str()));
-    BatchRow::new(
-        &part.path.display().to_string(),
-        part.settings.units,
-        &part.demold,
-        o.report.as_ref(),
-        failure,
-        o.time_s,
-    )
+/// One line of the summary.
+#[derive(Debug, Serialize)]
+struct Row {
+    /// The input file as given.
+    file: String,
+    /// `ok`, `no_gate`, `input_error`, `option_error`, `output_error`, `internal_error`, or
+    /// `skipped` for a folder's entry that is not a regular file (a FIFO, a folder, a link
+    /// that points nowhere).
+    status: &'static str,
+    /// The part's own exit code, as `moldgate locate FILE` would give; 0 for a skipped
+    /// entry, which does not change the batch's exit code.
+    exit_code: u8,
+    /// Unit the file was read in.
+    units: String,
+    /// Demolding direction as given.
+    demold: String,
+    /// Triangles after welding.
+    triangles: Option<u64>,
+    /// The gate, mm.
+    gate_x_mm: Option<f64>,
+    /// The gate, mm.
+    gate_y_mm: Option<f64>,
+    /// The gate, mm.
+    gate_z_mm: Option<f64>,
+    /// 3D distance from the gate to the centre of mass, mm.
+    distance_mm: Option<f64>,
+    /// R_gate, mm.
+    gate_radius_mm: Option<f64>,
+    /// Grid nodes.
+    nodes: Option<usize>,
+    /// Nodes whose disc lies on the part.
+    circle_on_part: Option<usize>,
+    /// Nodes passing every rule.
+    qualifying: Option<usize>,
+    /// The report's warnings (units in doubt, open mesh, dropped facets ...), joined by
+    /// ` | `; null when the part failed or had none.
+    warnings: Option<String>,
+    /// Seconds to load and analyse the part (varies from run to run).
+    time_s: f64,
+    /// Why the part failed, or null.
+    error: Option<String>,
+}
+
+impl Row {
+    fn new(part: &Part, o: &Outcome) -> Row {
+        let file = part.path.display().to_string();
+        let r = o.report.as_ref();
+        let gate = r.and_then(|r| r.gate.as_ref());
+        let code = o.failure.as_ref().map_or(0, |f| f.code);
+        // Messages of the loader start with the path; the row has it in `file` already.
+        let error = o.failure.as_ref().map(|f| {
+            f.message
+                .strip_prefix(&format!("{file}: "))
+                .unwrap_or(&f.message)
+                .to_string()
+        });
+        let error = error.or_else(|| part.skipped.clone());
+        Row {
+            status: match code {
+                _ if part.skipped.is_some() => "skipped",
+                0 => "ok",
+                2 => "option_error",
+                3 => "input_error",
+                4 => "no_gate",
+                5 => "output_error",
+                _ => "internal_error",
+            },
+            exit_code: code,
+            units: part.settings.units.to_string(),
+            demold: part.demold.clone(),
+            triangles: r.map(|r| r.mesh.triangles),
+            gate_x_mm: gate.map(|g| g.point[0]),
+            gate_y_mm: gate.map(|g| g.point[1]),
+            gate_z_mm: gate.map(|g| g.point[2]),
+            distance_mm: gate.map(|g| g.distance_3d_mm),
+            gate_radius_mm: r.map(|r| r.options.gate_radius_mm),
+            nodes: r.map(|r| r.counts.nodes),
+            circle_on_part: r.map(|r| r.counts.circle_on_part),
+            qualifying: r.map(|r| r.counts.qualifying),
+            warnings: r
+                .filter(|r| !r.warnings.is_empty())
+                .map(|r| r.warnings.join(" | ")),
+            time_s: (o.time_s * 1e4).round() / 1e4,
+            error,
+            file,
+        }
+    }
 }
 
 /// The rows as JSON Lines.
-fn json_lines(rows: &[BatchRow]) -> Result<String, Failure> {
+fn json_lines(rows: &[Row]) -> Result<String, Failure> {
     let mut out = String::new();
     for row in rows {
         out += &serde_json::to_string(row).map_err(|e| Failure {
@@ -455,13 +574,13 @@ fn json_lines(rows: &[BatchRow]) -> Result<String, Failure> {
     Ok(out)
 }
 
-/// The CSV header, in the order of [`BatchRow`]'s fields.
+/// The CSV header, in the order of [`Row`]'s fields.
 const CSV_HEADER: &str = "file,status,exit_code,units,demold,triangles,gate_x_mm,gate_y_mm,\
-gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,time_s,error";
+gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,warnings,time_s,error";
 
 /// The rows as CSV (RFC 4180: fields with a comma, quote or line break are quoted, quotes
 /// doubled); a missing value is an empty field.
-fn csv(rows: &[BatchRow]) -> String {
+fn csv(rows: &[Row]) -> String {
     fn field(out: &mut String, s: &str) {
         if s.contains([',', '"', '\n', '\r']) {
             out.push('"');
@@ -479,7 +598,7 @@ fn csv(rows: &[BatchRow]) -> String {
     for r in rows {
         let fields = [
             r.file.clone(),
-            r.status.name().to_string(),
+            r.status.to_string(),
             r.exit_code.to_string(),
             r.units.clone(),
             r.demold.clone(),
@@ -492,6 +611,7 @@ fn csv(rows: &[BatchRow]) -> String {
             opt(r.nodes),
             opt(r.circle_on_part),
             opt(r.qualifying),
+            r.warnings.clone().unwrap_or_default(),
             r.time_s.to_string(),
             r.error.clone().unwrap_or_default(),
         ];
@@ -506,8 +626,26 @@ fn csv(rows: &[BatchRow]) -> String {
     out
 }
 
+/// A row's warnings in the table: a warning about the units in full (it changes the answer),
+/// else the first one, cut to fit, and how many more.
+fn short_warning(joined: &str) -> String {
+    let all: Vec<&str> = joined.split(" | ").collect();
+    let units = all.iter().find(|w| w.contains("--units"));
+    let first = units.unwrap_or(&all[0]);
+    let mut shown: String = first.chars().take(100).collect();
+    if units.is_none() && shown.len() < first.len() {
+        shown += "...";
+    } else {
+        shown = first.to_string();
+    }
+    if all.len() > 1 {
+        shown += &format!(" (+{} more)", all.len() - 1);
+    }
+    shown
+}
+
 /// The human table, and a closing count unless `quiet`.
-fn table(rows: &[BatchRow], quiet: bool) -> String {
+fn table(rows: &[Row], quiet: bool) -> String {
     let width = rows
         .iter()
         .map(|r| r.file.chars().count())
@@ -517,7 +655,7 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7}",
+        "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7}  warnings",
         "part", "status", "triangles", "gate x, y, z (mm)", "dist mm", "R mm", "time s"
     );
     let dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
@@ -528,25 +666,31 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}",
+            "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}  {}",
             r.file,
-            r.status.name().replace('_', " "),
+            r.status.replace('_', " "),
             dash(r.triangles.map(|t| t.to_string())),
             dash(gate),
             dash(r.distance_mm.map(|d| format!("{d:.3}"))),
             dash(r.gate_radius_mm.map(|d| format!("{d:.3}"))),
             r.time_s,
+            r.warnings.as_deref().map_or(String::new(), short_warning),
         );
     }
     if !quiet {
-        let ok = rows.iter().filter(|r| r.exit_code == 0).count();
+        let skipped = rows.iter().filter(|r| r.status == "skipped").count();
+        let ok = rows.iter().filter(|r| r.status == "ok").count();
         let no_gate = rows.iter().filter(|r| r.exit_code == 4).count();
-        let failed = rows.len() - ok - no_gate;
-        let _ = writeln!(
+        let failed = rows.len() - skipped - ok - no_gate;
+        let _ = write!(
             out,
             "{} parts: {ok} with a gate, {no_gate} without, {failed} failed",
-            rows.len()
+            rows.len() - skipped
         );
+        if skipped > 0 {
+            let _ = write!(out, ", {skipped} skipped (not regular files)");
+        }
+        out.push('\n');
     }
     out
 }
@@ -578,9 +722,9 @@ mod tests {
 
     #[test]
     fn csv_quotes_what_needs_it() {
-        let row = BatchRow {
+        let row = Row {
             file: "a, \"b\".stl".into(),
-            status: Status::InputError,
+            status: "input_error",
             exit_code: 3,
             units: "mm".into(),
             demold: "0,0,1".into(),
@@ -593,6 +737,7 @@ mod tests {
             nodes: None,
             circle_on_part: None,
             qualifying: None,
+            warnings: None,
             time_s: 0.5,
             error: Some("line 3: bad\nthing".into()),
         };
@@ -601,16 +746,16 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,0.5,\"line 3: bad\nthing\""
+            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,,0.5,\"line 3: bad\nthing\""
         );
     }
 
     #[test]
     fn csv_header_matches_the_row_fields() {
         // The JSON keys of a row, in order, are the CSV header.
-        let row = BatchRow {
+        let row = Row {
             file: String::new(),
-            status: Status::Ok,
+            status: "ok",
             exit_code: 0,
             units: String::new(),
             demold: String::new(),
@@ -623,6 +768,7 @@ mod tests {
             nodes: None,
             circle_on_part: None,
             qualifying: None,
+            warnings: None,
             time_s: 0.0,
             error: None,
         };

@@ -10,6 +10,7 @@ mod alloc;
 mod analyse;
 mod args;
 mod batch;
+mod files;
 mod formats;
 mod glb;
 mod locate;
@@ -114,6 +115,8 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // A signal that ends the run removes the temporary files of its outputs.
+    output::clean_up_on_signals();
     // A panic is a bug: report it on one line with exit code 1, not Rust's 101.
     std::panic::set_hook(Box::new(|info| {
         let _ = writeln!(

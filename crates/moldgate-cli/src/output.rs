@@ -1,7 +1,10 @@
-//! Writing files whole or not at all, and never over the input; printing results on stdout.
+//! Writing files whole or not at all, never over the input and never through a planted
+//! link; printing results on stdout.
 
-use std::io::Write;
-use std::path::Path;
+use std::io::{ErrorKind, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::{Duration, SystemTime};
 
 use crate::Failure;
 
@@ -40,41 +43,199 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
-/// file is either the old one or the complete new one, never a half-written one.
+/// The prefix of every temporary file the command makes: `.moldgate-tmp-` and random
+/// characters. A file of this prefix left by a run that was killed is removed by the next
+/// run that writes in the same folder (see [`sweep_stale`]).
+pub const TEMP_PREFIX: &str = ".moldgate-tmp-";
+
+/// Temporary files older than this are leftovers of a run that was killed.
+const STALE_AFTER: Duration = Duration::from_secs(3600);
+
+/// The temporary files being written, removed by [`remove_temporaries`] when a signal ends
+/// the process.
+static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Folders already swept of stale temporary files by this process.
+static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Writes `bytes` to `path`, whole or not at all where the file system allows it:
+///
+/// - a new file or a regular file: through an exclusively created temporary file of
+///   unpredictable name in the same folder ([`TEMP_PREFIX`]), then a rename, so the file is
+///   either the old one or the complete new one;
+/// - a symbolic link: the same, in the folder of the file it finally points to, which is
+///   replaced while the link stays (a link to a special file writes into that file; a link
+///   that points nowhere is refused);
+/// - a FIFO or a character device (`/dev/null`, `/dev/stdout`, a terminal): opened and
+///   written into as a stream, never replaced;
+/// - a folder, a block device or a socket: refused.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
-    let fail =
-        |e: std::io::Error| Failure::output(format!("{}: cannot write: {e}", path.display()));
-    let dir = match path.parent() {
+    let fail = |e: &dyn std::fmt::Display| {
+        Failure::output(format!("{}: cannot write: {e}", path.display()))
+    };
+    let target = match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == ErrorKind::NotFound => path.to_path_buf(),
+        Err(e) => return Err(fail(&e)),
+        Ok(m) if m.file_type().is_symlink() => match std::fs::metadata(path) {
+            Err(e) if e.kind() == ErrorKind::NotFound => {
+                return Err(fail(&"it is a symbolic link that points nowhere"))
+            }
+            Err(e) => return Err(fail(&e)),
+            Ok(m) if m.is_file() => path.canonicalize().map_err(|e| fail(&e))?,
+            Ok(m) => return write_special(path, &m, bytes),
+        },
+        Ok(m) if m.is_file() => path.to_path_buf(),
+        Ok(m) => return write_special(path, &m, bytes),
+    };
+    let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    if path.is_dir() {
+    if target.file_name().is_none() {
         return Err(Failure::output(format!(
-            "{}: is a folder, not a file",
+            "{}: not a file name",
             path.display()
         )));
     }
-    let name = path
-        .file_name()
-        .ok_or_else(|| Failure::output(format!("{}: not a file name", path.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(fail(e));
-    }
-    Ok(())
+    sweep_stale(dir);
+    let mut tmp = temporary_in(dir).map_err(|e| fail(&e))?;
+    let registered = tmp.path().to_path_buf();
+    register(&registered);
+    let result = tmp
+        .as_file_mut()
+        .write_all(bytes)
+        .and_then(|_| tmp.as_file().sync_all())
+        .and_then(|_| tmp.persist(&target).map(drop).map_err(|e| e.error));
+    // On an error the temporary file is removed when `tmp` is dropped.
+    unregister(&registered);
+    result.map_err(|e| fail(&e))
 }
+
+/// A new temporary file in `dir`: created exclusively (`O_EXCL`, so a link planted under
+/// its name is never followed) under a random name of [`TEMP_PREFIX`].
+pub fn temporary_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(TEMP_PREFIX).rand_bytes(12);
+    // The mode `File::create` gives (0666 less the umask), not tempfile's private 0600:
+    // the temporary file becomes the output.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(dir)
+}
+
+/// Writes into a FIFO or a character device as a stream; refuses the other special files.
+fn write_special(path: &Path, m: &std::fs::Metadata, bytes: &[u8]) -> Result<(), Failure> {
+    let fail = |e: &dyn std::fmt::Display| {
+        Failure::output(format!("{}: cannot write: {e}", path.display()))
+    };
+    let kind = crate::files::file_kind(m);
+    if !matches!(kind, "a FIFO" | "a character device") {
+        return Err(fail(&format_args!("it is {kind}, not a file")));
+    }
+    // Not `create`: a special file is written into, never made or truncated.
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map_err(|e| fail(&e))?;
+    match file.write_all(bytes).and_then(|_| file.flush()) {
+        // A reader that has gone away (a FIFO's): the rest is simply not wanted.
+        Err(e) if e.kind() == ErrorKind::BrokenPipe => Ok(()),
+        r => r.map_err(|e| fail(&e)),
+    }
+}
+
+fn register(tmp: &Path) {
+    let mut list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
+    list.push(tmp.to_path_buf());
+}
+
+fn unregister(tmp: &Path) {
+    let mut list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(i) = list.iter().position(|p| p == tmp) {
+        list.swap_remove(i);
+    }
+}
+
+/// Removes the temporary files being written (called when a signal ends the process; a
+/// file already renamed into place is simply not found).
+pub fn remove_temporaries() {
+    let list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
+    for p in list.iter() {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// Removes from `dir`, once per process, the temporary files that runs killed by a signal
+/// they could not catch (SIGKILL, a power cut) left behind: regular files (not links) of
+/// [`TEMP_PREFIX`], owned by this user, last changed more than an hour ago.
+pub fn sweep_stale(dir: &Path) {
+    let key = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    {
+        let mut swept = SWEPT.lock().unwrap_or_else(|e| e.into_inner());
+        if swept.contains(&key) {
+            return;
+        }
+        swept.push(key);
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let now = SystemTime::now();
+    for entry in entries.flatten() {
+        if !entry.file_name().to_string_lossy().starts_with(TEMP_PREFIX) {
+            continue;
+        }
+        // `DirEntry::metadata` does not follow links.
+        let Ok(m) = entry.metadata() else { continue };
+        let old = m
+            .modified()
+            .ok()
+            .and_then(|t| now.duration_since(t).ok())
+            .is_some_and(|age| age > STALE_AFTER);
+        if m.file_type().is_file() && owned_by_me(&m) && old {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+#[cfg(unix)]
+fn owned_by_me(m: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    m.uid() == unsafe { libc::geteuid() }
+}
+
+#[cfg(not(unix))]
+fn owned_by_me(_: &std::fs::Metadata) -> bool {
+    true
+}
+
+/// Removes the temporary files being written when SIGINT, SIGTERM or SIGHUP ends the
+/// process, then ends it as the signal would have (same exit status). A thread waits for
+/// the signals, so the clean-up runs outside the signal handler.
+#[cfg(unix)]
+pub fn clean_up_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        return;
+    };
+    let spawned = std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            if let Some(signal) = signals.forever().next() {
+                remove_temporaries();
+                let _ = signal_hook::low_level::emulate_default_handler(signal);
+                std::process::exit(128 + signal);
+            }
+        });
+    drop(spawned);
+}
+
+#[cfg(not(unix))]
+pub fn clean_up_on_signals() {}
 
 /// Writes `text` on stdout. A reader that has gone away (`moldgate ... | head`) is not an
 /// error: the rest of the output is simply not wanted.

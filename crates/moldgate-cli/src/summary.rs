@@ -27,14 +27,14 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     };
     let _ = writeln!(
         s,
-        "  {label} {}: wall {:.2} mm, L_max {:.1} mm (mean {:.1}), L/t {:.0}{limit}, pressure {:.1} MPa (Eq. 1), fill order max {:.1}",
+        "  {label} {}: wall across {:.2} mm, L_max {:.1} mm (mean {:.1}), L/t {:.0}{limit}, pressure {:.1} MPa (Eq. 1), fill time {:.3} s (estimate)",
         v3(g.gate),
-        g.wall_mm,
+        g.wall_across_mm,
         g.l_max_mm,
         g.l_mean_mm,
         g.flow_ratio,
         g.pressure_mpa,
-        g.fill_max
+        g.fill_time_s
     );
 }
 
@@ -57,8 +57,9 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
         let _ = writeln!(
             s,
-            "  wall at {} surface samples: min {}, 5 % {}, median {}, 95 % {}, max {} mm",
+            "  wall at {} surface samples ({} slivers left out): min {}, 5 % {}, median {}, 95 % {}, max {} mm",
             w.samples,
+            w.slivers,
             mm(w.min_mm),
             mm(w.p05_mm),
             mm(w.nominal_mm),
@@ -71,10 +72,11 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
             let _ = writeln!(
                 s,
-                "    last to fill #{}: {} at {:.1} mm",
+                "    last to fill #{}: {} at {:.1} mm, {:.3} s",
                 i + 1,
                 v3(q.point),
-                q.flow_length_mm
+                q.flow_length_mm,
+                q.fill_time_s
             );
         }
         for w in p.weld_lines.iter().take(3) {
@@ -102,7 +104,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
                 "    minimises {} by {:.1} % ({} field runs{})",
                 match f.objective {
                     moldgate::flow::Objective::Length => "L_max",
-                    moldgate::flow::Objective::Resistance => "the fill-order maximum",
+                    moldgate::flow::Objective::Resistance => "the fill time",
                 },
                 b.improvement_pct,
                 b.search.runs,
@@ -138,6 +140,25 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
                 g.l_max_mm
             );
         }
+    }
+    for b in &f.body_gates {
+        let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
+            (Some(g), Some(l), Some(t)) => {
+                format!("gate {} (qualifying node nearest its centre of mass), L_max {l:.1} mm, fill time {t:.3} s", v3(g))
+            }
+            _ => "no qualifying node on it: no gate".into(),
+        };
+        let _ = writeln!(
+            s,
+            "  body {} ({:.1} % of the volume{}): {gate}",
+            b.body,
+            100.0 * b.volume_share,
+            if b.is_answer_body {
+                ", the answer's"
+            } else {
+                ""
+            }
+        );
     }
 }
 
@@ -182,13 +203,17 @@ pub fn render(r: &Report) -> String {
     let o = &r.options;
     let _ = writeln!(
         s,
-        "material {}: R_gate = {:.4} mm{}",
+        "material {}: R_gate = {:.4} mm{}{}",
         r.material.material.name,
         o.gate_radius_mm,
         match o.gate_radius_source {
             moldgate::report::RadiusSource::Material => " (Eq. 8)",
             moldgate::report::RadiusSource::Forced => " (forced)",
-        }
+        },
+        // Family values are a starting point, not a grade's data: say so where they are used.
+        moldgate::material::typical_note(&r.material.material)
+            .map(|note| format!(" {note}"))
+            .unwrap_or_default()
     );
     let _ = writeln!(
         s,
@@ -224,7 +249,7 @@ pub fn render(r: &Report) -> String {
     if let Some(g) = &r.paper_gate {
         let _ = writeln!(
             s,
-            "paper gate: {} mm, normal {}, wall {} (disc min {}), {:.3} mm from the centre of mass",
+            "paper gate: {} mm, normal {}, wall along D {} (disc min {}), {:.3} mm from the centre of mass",
             v3(g.point),
             v3(g.normal),
             mm(g.thickness_mm, open),
@@ -293,7 +318,7 @@ pub fn render(r: &Report) -> String {
     if let Some(w) = &r.wall_thickness {
         let _ = writeln!(
             s,
-            "wall thickness: min {}, nominal {}, max {}, at the gate {} ({:.1} % of the area unknown)",
+            "wall thickness: min {}, nominal {}, max {}, across at the gate {} ({:.1} % of the area unknown)",
             mm(w.min_mm, open),
             mm(w.nominal_mm, open),
             mm(w.max_mm, open),
@@ -303,6 +328,13 @@ pub fn render(r: &Report) -> String {
             },
             100.0 * w.unknown_area_share
         );
+        if let Some(m) = w.sliver_min_mm {
+            let _ = writeln!(
+                s,
+                "  {} sliver facets (thinner than 5 % of the nominal, down to {m:.4} mm) left out of the min",
+                w.slivers
+            );
+        }
     }
     for w in &r.warnings {
         let _ = writeln!(s, "warning: {w}");

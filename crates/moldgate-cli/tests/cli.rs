@@ -466,9 +466,32 @@ fn unknown_sample() {
 fn unknown_material() {
     let out = moldgate(
         &std::env::temp_dir(),
-        &["locate", "--sample", "plate", "--material", "PEEK"],
+        &["locate", "--sample", "plate", "--material", "PA77"],
     );
-    assert_fails(&out, USAGE, &["unknown material 'PEEK'", "PP, ABS, PC"]);
+    assert_fails(
+        &out,
+        USAGE,
+        &["unknown material 'PA77'; closest: PA6, PA66, PA66-GF30"],
+    );
+}
+
+#[test]
+fn material_names_ignore_case_and_separators() {
+    for spelling in ["pa66-gf30", "PA66 GF30", "pa66gf30"] {
+        let report = json(&moldgate(
+            &std::env::temp_dir(),
+            &[
+                "locate",
+                "--sample",
+                "plate",
+                "--material",
+                spelling,
+                "--json",
+            ],
+        ));
+        assert_eq!(report["material"]["name"], "PA66-GF30", "{spelling}");
+        assert_eq!(report["material"]["max_flow_ratio"], 150.0);
+    }
 }
 
 const MY_PP: &str =
@@ -486,10 +509,93 @@ fn unknown_material_lists_the_user_materials_too() {
             "--materials-file",
             "materials.toml",
             "--material",
-            "PEEK",
+            "MyPX",
         ],
     );
-    assert_fails(&out, USAGE, &["unknown material 'PEEK'", "MyPP"]);
+    assert_fails(&out, USAGE, &["unknown material 'MyPX'; closest: MyPP"]);
+}
+
+#[test]
+fn the_summary_says_when_values_are_typical_of_a_family() {
+    let summary = |material: &str| {
+        assert_ok(&moldgate(
+            &std::env::temp_dir(),
+            &["locate", "--sample", "plate", "--material", material],
+        ))
+    };
+    let peek = summary("peek");
+    assert!(
+        peek.contains(
+            "material PEEK: R_gate = 0.9278 mm (Eq. 8) from typical high-temperature family values"
+        ),
+        "{peek}"
+    );
+    // The HTML report gives the same basis beside the material.
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--material",
+            "peek",
+            "--report",
+            "r.html",
+        ],
+    ));
+    let html = std::fs::read_to_string(dir.path().join("r.html")).unwrap();
+    assert!(
+        html.contains("(Eq. 7), from typical high-temperature family values"),
+        "no basis in the report's material row"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&moldgate(
+        dir.path(),
+        &["locate", "--sample", "plate", "--report", "r.html"],
+    ));
+    let html = std::fs::read_to_string(dir.path().join("r.html")).unwrap();
+    assert!(!html.contains("family values"));
+    // The paper's values are Table 1's, not a family's.
+    let pp = summary("PP");
+    assert!(
+        pp.contains("material PP: R_gate = 1.4254 mm (Eq. 8)\n"),
+        "{pp}"
+    );
+}
+
+/// A user material of a built-in's name (ignoring case and separators) wins over it.
+#[test]
+fn user_material_overrides_a_built_in() {
+    let text = MY_PP.replace("[MyPP]", "[\"pa-66\"]");
+    let (dir, _) = part("materials.toml", text.as_bytes());
+    let args = [
+        "locate",
+        "--sample",
+        "plate",
+        "--materials-file",
+        "materials.toml",
+        "--material",
+        "PA66",
+        "--json",
+    ];
+    let report = json(&moldgate(dir.path(), &args));
+    assert_eq!(report["material"]["name"], "pa-66");
+    assert_eq!(report["material"]["n"], 0.3);
+    let listed = assert_ok(&moldgate(
+        dir.path(),
+        &["materials", "--materials-file", "materials.toml"],
+    ));
+    let rows: Vec<&str> = listed
+        .lines()
+        .filter(|l| l.starts_with("PA66") || l.starts_with("pa-66"))
+        .collect();
+    assert_eq!(rows.len(), 2, "{listed}");
+    assert!(
+        rows[0].starts_with("pa-66 ") && rows[0].contains(" user "),
+        "{listed}"
+    );
+    assert!(rows[1].starts_with("PA66-GF30 "), "{listed}");
 }
 
 #[test]
@@ -713,7 +819,7 @@ fn output_is_written_whole_as_json_without_temporary_files() {
 
     let text = std::fs::read_to_string(dir.path().join("out.json")).unwrap();
     let report: Value = serde_json::from_str(&text).unwrap();
-    assert_eq!(report["schema_version"], 1);
+    assert_eq!(report["schema_version"], 2);
     assert_eq!(report["input"]["path"], "part.stl");
     assert_eq!(report["input"]["bytes"], 84 + 12 * 50);
     assert_eq!(report["mesh"]["format"], "stl_binary");
@@ -737,7 +843,7 @@ fn output_is_written_whole_as_json_without_temporary_files() {
 fn json_on_stdout_matches_the_summary() {
     let (dir, _) = part("part.stl", ascii(&block()).as_bytes());
     let report = json(&moldgate(dir.path(), &["locate", "part.stl", "--json"]));
-    assert_eq!(report["schema_version"], 1);
+    assert_eq!(report["schema_version"], 2);
     assert_eq!(report["mesh"]["format"], "stl_ascii");
     assert_eq!(report["mesh"]["units"], "mm");
     assert_eq!(
@@ -775,7 +881,7 @@ fn units_metres_scale_the_part_and_millimetres_warn() {
     let out = moldgate(dir.path(), &["locate", "metres.stl", "--json"]);
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     let warnings = report["warnings"].to_string();
-    assert!(warnings.contains("--units m"), "{warnings}");
+    assert!(warnings.contains("--units in, cm or m"), "{warnings}");
 }
 
 #[test]
@@ -826,21 +932,74 @@ fn sample_list_names_every_sample() {
 #[test]
 fn materials_lists_the_built_in_materials() {
     let listed = assert_ok(&moldgate(&std::env::temp_dir(), &["materials"]));
-    let names: Vec<&str> = listed
+    let rows: Vec<Vec<&str>> = listed
         .lines()
         .skip(1)
-        .filter_map(|l| l.split_whitespace().next())
+        .map(|l| l.split_whitespace().collect())
         .collect();
-    assert_eq!(names, ["PP", "ABS", "PC"]);
-    // The last column is Eq. 8's gate radius: Table 1 prints 1.4, 1.9 and 1.5 mm.
-    let radii: Vec<f64> = listed
-        .lines()
-        .skip(1)
-        .map(|l| l.split_whitespace().last().unwrap().parse().unwrap())
-        .collect();
-    for (r, printed) in radii.iter().zip([1.4, 1.9, 1.5]) {
-        assert!(((r * 10.0).round() / 10.0 - printed).abs() < 1e-12, "{r}");
+    assert!(rows.len() >= 20, "{listed}");
+    let names: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(names[..3], ["PP", "ABS", "PC"]);
+    // The second column is Eq. 8's gate radius: the paper's Table 1 gives these unrounded.
+    for (row, exact) in rows.iter().zip([1.4254, 1.9154, 1.4615]) {
+        assert_eq!(row[1].parse::<f64>().unwrap(), exact, "{row:?}");
+        assert_eq!(row[3], "paper", "{row:?}");
     }
+    for row in &rows[3..] {
+        assert_eq!(row[3], "typical", "{row:?}");
+        let r: f64 = row[1].parse().unwrap();
+        assert!((0.3..=4.0).contains(&r), "{row:?}");
+        assert!(row[2].parse::<f64>().unwrap() > 0.0, "{row:?}");
+    }
+}
+
+#[test]
+fn materials_json_gives_every_value_with_its_source() {
+    let listing = json(&moldgate(&std::env::temp_dir(), &["materials", "--json"]));
+    assert_eq!(listing["schema_version"], 1);
+    let materials = listing["materials"].as_array().unwrap();
+    assert!(materials.len() >= 20);
+    for m in materials {
+        for parameter in [
+            "n",
+            "t_melt",
+            "t_wall",
+            "gamma_opt",
+            "mu_opt",
+            "k",
+            "max_flow_ratio",
+        ] {
+            assert!(m[parameter].as_f64().unwrap() > 0.0, "{m}");
+            let source = m["sources"][parameter].as_str().unwrap();
+            assert!(!source.is_empty(), "{m}");
+        }
+        assert!(m["typical"].is_boolean() && m["family"].is_string(), "{m}");
+        assert_eq!(m["origin"], "built-in");
+    }
+    let pc = &materials[2];
+    assert_eq!(pc["name"], "PC");
+    assert_eq!(pc["sources"]["mu_opt"], "the paper, Table 1");
+    assert!((pc["gate_radius_mm"].as_f64().unwrap() - 1.4615).abs() < 1e-4);
+}
+
+/// docs/materials.md shows the library as `moldgate materials` prints it.
+#[test]
+fn materials_doc_matches_the_library() {
+    let doc = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../docs/materials.md"
+    ))
+    .unwrap();
+    let start = doc
+        .find("<!-- materials table: begin -->\n```text\n")
+        .unwrap();
+    let block = &doc[start..];
+    let block = &block[block.find("```text\n").unwrap() + 8..block.find("```\n<!--").unwrap()];
+    let listed = assert_ok(&moldgate(&std::env::temp_dir(), &["materials"]));
+    assert_eq!(
+        block, listed,
+        "regenerate the table of docs/materials.md with `moldgate materials`"
+    );
 }
 
 #[test]

@@ -50,7 +50,7 @@ fn fill_reports_both_gates_and_the_balanced_one_never_does_worse() {
             "l_mean_mm",
             "flow_ratio",
             "pressure_mpa",
-            "fill_max",
+            "fill_time_s",
         ] {
             assert!(g[key].as_f64().unwrap() > 0.0, "{key}: {g}");
         }
@@ -191,9 +191,66 @@ fn bad_fill_options_are_refused_with_one_line() {
             "--spacing",
             "40",
             "--gates",
-            "50",
+            "20",
         ],
         4,
         "gates asked for",
     );
+}
+
+#[test]
+fn heavy_fill_options_are_refused_before_the_work_with_the_number_and_the_limit() {
+    fails(
+        &["locate", "--sample", "cover", "--fill", "--cell", "1000"],
+        2,
+        "larger than 0.1 of the part's diagonal",
+    );
+    fails(
+        &["locate", "--sample", "cover", "--gates", "1000"],
+        2,
+        "--gates must be at most 32, got 1000",
+    );
+    fails(
+        &["locate", "--sample", "cover", "--fill", "--cell", "0.05"],
+        2,
+        "over the limit of",
+    );
+}
+
+#[test]
+fn color_by_chooses_the_field_of_the_pictures() {
+    let dir = std::env::temp_dir().join(format!("moldgate-color-by-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for by in ["flow-length", "fill-order", "wall", "height"] {
+        let png = dir.join(format!("{by}.png"));
+        let out = moldgate(&[
+            "locate",
+            "--sample",
+            "cover",
+            "--fill",
+            "--color-by",
+            by,
+            "--png",
+            png.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{by}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+    }
+    fails(
+        &[
+            "locate",
+            "--sample",
+            "cover",
+            "--fill",
+            "--color-by",
+            "rainbow",
+        ],
+        2,
+        "--color-by",
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -137,10 +137,11 @@ fn an_unknown_extension_is_read_as_stl() {
     let (stl, mesh) = sample("cap");
     write(dir.path(), "cap.mesh", &stl);
     assert_eq!(report(dir.path(), "cap.mesh").1, "stl_binary");
-    // An OBJ under another name is not guessed: the STL reader refuses it.
+    // An OBJ under another name is not guessed: it is refused, named as an OBJ, with the
+    // extension to give it.
     write(dir.path(), "cap.txt", obj(&mesh));
     let out = moldgate(dir.path(), &["locate", "cap.txt"]);
-    assert_input_error(&out, &["cap.txt", "STL"]);
+    assert_input_error(&out, &["cap.txt", "Wavefront OBJ", ".obj extension"]);
 }
 
 #[test]

@@ -76,7 +76,7 @@ def study_row(path: str, units: str, demold: str, options: dict) -> dict:
 def failed_row(path: str, units: str, demold: str, why: str) -> dict:
     """The row of a task that did not come back (a lost worker, a time-out)."""
     keys = ["triangles", "gate_x_mm", "gate_y_mm", "gate_z_mm", "distance_mm",
-            "gate_radius_mm", "nodes", "circle_on_part", "qualifying"]
+            "gate_radius_mm", "nodes", "circle_on_part", "qualifying", "warnings"]
     row = {"file": path, "status": "internal_error", "exit_code": 1, "units": units,
            "demold": demold}
     row.update({k: None for k in keys})

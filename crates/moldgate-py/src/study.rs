@@ -446,11 +446,31 @@ impl Study {
         })
     }
 
-    /// Fill order per vertex of `part.vertices` (0 at the gate, 1 last, NaN where the melt
-    /// does not reach), float32; None unless the fill ran (`fill=True`).
+    /// Fill order per vertex of `part.vertices`: the estimated fill time divided by its
+    /// largest value (0 at the gate, 1 last, NaN where the melt does not reach), float32;
+    /// None unless the fill ran with `color_by="fill_order"` (the default).
     #[getter]
     fn fill_order<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
-        self.study.fill_order().map(|f| PyArray1::from_slice(py, f))
+        let t = self.study.fill_time_per_vertex()?;
+        let max = t
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0f32, f32::max);
+        let order = t
+            .iter()
+            .map(|&v| if max > 0.0 { v / max } else { v })
+            .collect();
+        Some(PyArray1::from_vec(py, order))
+    }
+
+    /// Estimated fill time per vertex of `part.vertices`, s (NaN where the melt does not
+    /// reach), float32; None unless the fill ran with `color_by="fill_order"`.
+    #[getter]
+    fn fill_time<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
+        self.study
+            .fill_time_per_vertex()
+            .map(|f| PyArray1::from_slice(py, f))
     }
 
     /// Wall thickness per vertex of `part.vertices`, mm (NaN where unknown), float32; None

@@ -23,7 +23,11 @@ fn main() {
         1.0
     };
     let h = args.get(4).map_or_else(
-        || flow::cell_size(&part.mesh, nominal, &flow::FlowOptions::default()),
+        || {
+            flow::cell_size(&part.mesh, nominal, &flow::FlowOptions::default())
+                .expect("a cell size within the limits")
+                .0
+        },
         |s| s.parse().unwrap(),
     );
     let t = Instant::now();

@@ -23,6 +23,9 @@ pub enum Status {
     OutputError,
     /// A defect of moldgate (1).
     InternalError,
+    /// A folder's entry that is not a regular file (0: it does not change a batch's exit
+    /// code).
+    Skipped,
 }
 
 impl Status {
@@ -41,7 +44,7 @@ impl Status {
     /// The exit code of the status.
     pub fn exit_code(self) -> u8 {
         match self {
-            Status::Ok => 0,
+            Status::Ok | Status::Skipped => 0,
             Status::InternalError => 1,
             Status::OptionError => 2,
             Status::InputError => 3,
@@ -59,6 +62,7 @@ impl Status {
             Status::OptionError => "option_error",
             Status::OutputError => "output_error",
             Status::InternalError => "internal_error",
+            Status::Skipped => "skipped",
         }
     }
 }
@@ -94,6 +98,8 @@ pub struct BatchRow {
     pub circle_on_part: Option<usize>,
     /// Nodes passing every rule.
     pub qualifying: Option<usize>,
+    /// The report's warnings joined by ` | `; null when the part failed or had none.
+    pub warnings: Option<String>,
     /// Seconds to load and analyse the part, to 0.1 ms (varies from run to run).
     pub time_s: f64,
     /// Why the part failed, or null.
@@ -130,6 +136,9 @@ impl BatchRow {
             nodes: report.map(|r| r.counts.nodes),
             circle_on_part: report.map(|r| r.counts.circle_on_part),
             qualifying: report.map(|r| r.counts.qualifying),
+            warnings: report
+                .filter(|r| !r.warnings.is_empty())
+                .map(|r| r.warnings.join(" | ")),
             time_s: (time_s * 1e4).round() / 1e4,
             error: failure.map(|(_, m)| m.strip_prefix(&prefix).unwrap_or(m).to_string()),
         }

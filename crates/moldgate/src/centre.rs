@@ -71,12 +71,19 @@ impl Centres {
         }
         let size = bounds.diagonal();
         let volume_centre = if volume.abs() > 1e-9 * size * size * size {
-            Some(origin + volume_moment / volume)
+            Some(origin + volume_moment / volume).filter(|c| c.is_finite())
         } else {
             None
         };
+        // Loading refuses meshes without area, and takes areas about the same box centre, so
+        // `area` is positive here; the box centre stands in should it ever not be.
+        let surface = if area > 0.0 {
+            origin + area_moment / area // Eq. 5
+        } else {
+            origin
+        };
         Centres {
-            surface: origin + area_moment / area, // Eq. 5
+            surface,
             area_mm2: area,
             volume: volume_centre,
             volume_mm3: volume,

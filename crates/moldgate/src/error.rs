@@ -119,6 +119,29 @@ pub enum LoadError {
     /// A file whose format is not supported.
     #[error("unsupported mesh format: {0}")]
     Unsupported(String),
+    /// A coordinate beyond [`crate::mesh::MAX_COORDINATE_MM`] once in millimetres: no
+    /// moulded part is that large, and squares and sums of such numbers overflow.
+    #[error(
+        "{place}: a coordinate of {value:.4e} ({mm:.4e} mm) is beyond the limit of ±{limit_mm:.0e} mm; the file is not a part in these units"
+    )]
+    OutOfRange {
+        /// Where the coordinate is.
+        place: Place,
+        /// The value as read, in file units.
+        value: f64,
+        /// The value in millimetres.
+        mm: f64,
+        /// The limit in millimetres.
+        limit_mm: f64,
+    },
+    /// A file that is another kind of file than a mesh, recognised by its first bytes.
+    #[error("this is {what}, not a mesh: {advice}")]
+    NotAMesh {
+        /// What the file is, with its article ("a STEP file (ISO-10303-21)").
+        what: &'static str,
+        /// What to do instead.
+        advice: &'static str,
+    },
 }
 
 /// An analysis option that is out of range.
@@ -182,6 +205,96 @@ pub enum OptionsError {
         /// The smallest spacing within the limit.
         min_spacing_mm: f64,
     },
+    /// A count option above its stated limit.
+    #[error("{option} must be at most {limit}, got {value}")]
+    AboveLimit {
+        /// The option's name.
+        option: &'static str,
+        /// Its value.
+        value: u64,
+        /// The largest value accepted.
+        limit: u64,
+    },
+    /// The rays' hit records of the largest grid allowed would take more memory than the
+    /// budget.
+    #[error(
+        "a node limit of {max_nodes} with {circle_points} circle points can need {} MiB for the ray hits (up to {runs} sets of one 24-byte and {circle_points} 8-byte records a node), more than the budget of {} MiB; lower the node limit (--max-nodes) to at most {nodes_within} or use fewer circle points",
+        .bytes >> 20, .budget >> 20
+    )]
+    RayMemory {
+        /// The node limit.
+        max_nodes: u64,
+        /// Points on each node's circle.
+        circle_points: u64,
+        /// Sets of hits drawn apart (one per thread, up to a limit).
+        runs: u64,
+        /// Bytes the hits could take.
+        bytes: u64,
+        /// The budget in bytes.
+        budget: u64,
+        /// The largest node limit within the budget with these circle points.
+        nodes_within: u64,
+    },
+    /// The automatic spacing gives too many nodes: the part is too large for its gate (most
+    /// often a file in other units than the ones it was read in).
+    #[error(
+        "the part spans {span_mm:.4e} mm, so the automatic spacing of {spacing_mm} mm gives {nodes} nodes, more than the limit of {limit}; check --units, or give a spacing of at least {} mm",
+        rounded_up(*.min_spacing_mm)
+    )]
+    PartTooLarge {
+        /// The longest side of the projected box, in mm.
+        span_mm: f64,
+        /// The automatic spacing.
+        spacing_mm: f64,
+        /// Nodes it would give.
+        nodes: u64,
+        /// The node limit.
+        limit: u64,
+        /// The smallest spacing within the limit.
+        min_spacing_mm: f64,
+    },
+    /// The triangles overlap so deeply along the demolding direction that the rays would
+    /// cost more than the budget: not the surface of a moulded part (random or repeated
+    /// triangles).
+    #[error(
+        "the triangles overlap about {depth:.0} deep along the demolding direction (the rays would make about {ray_tests:.2e} ray-triangle tests, more than the budget of {budget:.1e}); the surface of a moulded part is crossed a few times by each ray, so this mesh holds overlapping or random triangles"
+    )]
+    OverlappingSurface {
+        /// Mean number of triangles over a node of the projected box.
+        depth: f64,
+        /// Estimated ray-triangle tests (lattice points covered, over every lattice).
+        ray_tests: f64,
+        /// The budget of tests.
+        budget: f64,
+    },
+}
+
+/// The most characters of the input an error message quotes.
+pub const EXCERPT_CHARS: usize = 40;
+
+/// A short, printable excerpt of input bytes for an error message: at most
+/// [`EXCERPT_CHARS`] characters (then `...` and the full length), with control characters,
+/// escape sequences and invalid UTF-8 written as escapes (`\u{1b}`, `\u{fffd}`), so nothing
+/// read from a file can move the terminal's cursor or make a message longer than a line.
+pub fn excerpt(bytes: &[u8]) -> String {
+    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(4 * EXCERPT_CHARS)]);
+    let mut out = String::new();
+    let mut cut = bytes.len() > 4 * EXCERPT_CHARS;
+    for (n, c) in text.chars().enumerate() {
+        if n == EXCERPT_CHARS {
+            cut = true;
+            break;
+        }
+        if c.is_control() || c == '\u{feff}' || c == '\u{fffd}' {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    if cut {
+        out += &format!("... ({} bytes)", bytes.len());
+    }
+    out
 }
 
 /// Why no gate could be placed.
@@ -216,6 +329,18 @@ fn rounded_up(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn excerpts_are_short_and_escape_control_bytes() {
+        assert_eq!(excerpt(b"facet"), "facet");
+        let ansi = excerpt(b"\x1b[31mred\x07\r\n");
+        assert!(!ansi.chars().any(|c| c.is_control()), "{ansi}");
+        assert!(ansi.contains("\\u{1b}[31mred"), "{ansi}");
+        let long = excerpt(&vec![b'9'; 100_000_000]);
+        assert!(long.len() < 80, "{long}");
+        assert!(long.ends_with("... (100000000 bytes)"), "{long}");
+        assert!(!excerpt(&[0xff, 0xfe, b'a']).chars().any(|c| c.is_control()));
+    }
 
     #[test]
     fn suggested_spacing_is_rounded_up_to_four_significant_digits() {

@@ -216,9 +216,13 @@ fn summary_table(h: &mut String, r: &Report) {
         h,
         "Material",
         &format!(
-            "{}: melt velocity {:.4} m/s (Eq. 7)",
+            "{}: melt velocity {:.4} m/s (Eq. 7){}",
             escape(&r.material.material.name),
-            r.material.melt_velocity_m_s
+            r.material.melt_velocity_m_s,
+            // The summary's note: family values are a starting point, not a grade's data.
+            crate::material::typical_note(&r.material.material)
+                .map(|note| format!(", {}", escape(&note)))
+                .unwrap_or_default()
         ),
     );
     row(
@@ -274,12 +278,34 @@ fn summary_table(h: &mut String, r: &Report) {
             h,
             "Grid gate",
             &format!(
-                "{} mm, normal {}, wall {} (thinnest under the disc {}), {}",
+                "{} mm, normal {}, wall along D {} (thinnest under the disc {}), {}",
                 v3(g.point),
                 v3(g.normal),
                 wall(g.thickness_mm),
                 wall(g.disc_thickness_mm),
                 if g.flat { "flat" } else { "not flat" }
+            ),
+        );
+    }
+    if let Some(w) = &r.wall_thickness {
+        let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.3} mm"));
+        let slivers = match w.sliver_min_mm {
+            Some(m) => format!(
+                "; {} sliver facets (thinner than 5 % of the nominal, down to {m:.4} mm) left \
+                 out of the min",
+                w.slivers
+            ),
+            None => String::new(),
+        };
+        row(
+            h,
+            "Wall thickness everywhere",
+            &format!(
+                "min {}, nominal {}, max {}, across at the gate {}{slivers}",
+                mm(w.min_mm),
+                mm(w.nominal_mm),
+                mm(w.max_mm),
+                mm(w.at_gate_mm)
             ),
         );
     }
@@ -342,7 +368,8 @@ fn counts_table(h: &mut String, r: &Report) {
     let _ = writeln!(h, "</table>");
 }
 
-/// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure.
+/// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure,
+/// the estimated fill time and the wall across at the gate.
 fn fill_cells(g: &crate::flow::GateFill) -> String {
     let limit = match (g.flow_ratio_limit, g.exceeds_flow_ratio) {
         (Some(m), true) => format!(" <b class=\"warn\">exceeds the material's {m:.0}</b>"),
@@ -350,12 +377,13 @@ fn fill_cells(g: &crate::flow::GateFill) -> String {
         (None, _) => " (no limit known for this material)".to_string(),
     };
     format!(
-        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{:.1} MPa</td><td class=\"n\">{:.2} mm</td>",
+        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{:.1} MPa</td><td class=\"n\">{:.3} s</td><td class=\"n\">{:.2} mm</td>",
         v3(g.gate),
         g.l_max_mm,
         g.flow_ratio,
         g.pressure_mpa,
-        g.wall_mm
+        g.fill_time_s,
+        g.wall_across_mm
     )
 }
 
@@ -366,7 +394,7 @@ fn fill_table(h: &mut String, r: &Report) {
     let _ = writeln!(
         h,
         "<h2 id=\"fill\">Fill analysis</h2>\n<p>{} cells of {:.3} mm, nominal wall {:.2} mm \
-         ({}), {} {}; Eq. 1 pressure {:.4} MPa per mm of path.</p>",
+         ({}), {} {}{}; Eq. 1 pressure {:.4} MPa per mm of path.</p>",
         f.cells,
         f.cell_mm,
         f.nominal_wall_mm,
@@ -376,12 +404,38 @@ fn fill_table(h: &mut String, r: &Report) {
         },
         f.bodies,
         if f.bodies == 1 { "body" } else { "bodies" },
+        if f.stray_bodies > 0 {
+            format!(
+                " ({} stray {} left out: below 0.1 % of the area)",
+                f.stray_bodies,
+                if f.stray_bodies == 1 {
+                    "body"
+                } else {
+                    "bodies"
+                }
+            )
+        } else {
+            String::new()
+        },
         f.pressure_mpa_per_mm
     );
+    if let Some(w) = &f.wall {
+        let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2} mm"));
+        let _ = writeln!(
+            h,
+            "<p>Wall across the surface at {} samples: min {} ({} slivers thinner than 5 % of \
+             the median left out), median {}, max {}.</p>",
+            w.samples,
+            mm(w.min_mm),
+            w.slivers,
+            mm(w.nominal_mm),
+            mm(w.max_mm)
+        );
+    }
     let _ = writeln!(
         h,
         "<table id=\"fill-gates\">\n<tr><th>gate</th><th>point</th><th>L_max</th><th>L/t</th>\
-         <th>pressure (Eq. 1)</th><th>wall at the gate</th></tr>"
+         <th>pressure (Eq. 1)</th><th>fill time (estimate)</th><th>wall across at the gate</th></tr>"
     );
     if let Some(p) = &f.paper {
         let _ = writeln!(h, "<tr><th>paper gate</th>{}</tr>", fill_cells(p));
@@ -401,11 +455,16 @@ fn fill_table(h: &mut String, r: &Report) {
     }
     let _ = writeln!(h, "</table>");
     if let Some(m) = &f.several {
+        // With the resistance objective the several-gate values are fill times.
+        let (what, unit, digits) = match f.objective {
+            crate::flow::Objective::Length => ("L_max", "mm", 1),
+            crate::flow::Objective::Resistance => ("fill time", "s", 3),
+        };
         let _ = writeln!(
             h,
-            "<p id=\"several\">{} gates together: L_max {:.1} mm, balance {:.2} (smallest share \
-             over the largest).</p>\n<table>\n<tr><th>gate</th><th>point</th><th>share of the \
-             volume</th><th>L_max in its share</th></tr>",
+            "<p id=\"several\">{} gates together: {what} {:.digits$} {unit}, balance {:.2} \
+             (smallest share over the largest).</p>\n<table>\n<tr><th>gate</th><th>point</th>\
+             <th>share of the volume</th><th>{what} in its share</th></tr>",
             m.gates.len(),
             m.l_max_mm,
             m.balance
@@ -413,11 +472,40 @@ fn fill_table(h: &mut String, r: &Report) {
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
                 h,
-                "<tr><th>{}</th><td>{} mm</td><td class=\"n\">{:.1} %</td><td class=\"n\">{:.1} mm</td></tr>",
+                "<tr><th>{}</th><td>{} mm</td><td class=\"n\">{:.1} %</td><td class=\"n\">{:.digits$} {unit}</td></tr>",
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
                 g.l_max_mm
+            );
+        }
+        let _ = writeln!(h, "</table>");
+    }
+    if !f.body_gates.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
+             centre of mass):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
+             <th>gate</th><th>L_max</th><th>fill time (estimate)</th></tr>"
+        );
+        for b in &f.body_gates {
+            let cells = match (b.gate, b.l_max_mm, b.fill_time_s) {
+                (Some(g), Some(l), Some(t)) => format!(
+                    "<td>{} mm</td><td class=\"n\">{l:.1} mm</td><td class=\"n\">{t:.3} s</td>",
+                    v3(g)
+                ),
+                _ => "<td colspan=\"3\">no qualifying node on it: no gate</td>".to_string(),
+            };
+            let _ = writeln!(
+                h,
+                "<tr><th>{}{}</th><td class=\"n\">{:.1} %</td>{cells}</tr>",
+                b.body,
+                if b.is_answer_body {
+                    " (the answer's)"
+                } else {
+                    ""
+                },
+                100.0 * b.volume_share
             );
         }
         let _ = writeln!(h, "</table>");
@@ -430,7 +518,14 @@ fn fill_table(h: &mut String, r: &Report) {
         let last: Vec<String> = g
             .last_to_fill
             .iter()
-            .map(|p| format!("{} ({:.1} mm)", v3(p.point), p.flow_length_mm))
+            .map(|p| {
+                format!(
+                    "{} ({:.1} mm, {:.3} s)",
+                    v3(p.point),
+                    p.flow_length_mm,
+                    p.fill_time_s
+                )
+            })
             .collect();
         let _ = writeln!(
             h,
@@ -532,12 +627,25 @@ place it reaches last, in mm.</dd>
 a ratio (its limit, from design guides); above it the part may not fill.</dd>
 <dt>Pressure (Eq. 1)</dt><dd>The pressure drop of the melt along that way at the optimal
 shear rate, 12 &mu; v L / H&sup2; summed along the path, in MPa.</dd>
+<dt>Fill time (estimate)</dt><dd>When the melt front reaches a place, in seconds: the way
+from the gate, each mm weighted by the wall's resistance ((H_ref/H)^((n+1)/n), thin walls
+slow the front), over the front speed of Eq. 7. Comparable between gates and parts; a
+geometric estimate, not a simulation.</dd>
+<dt>Wall along D, wall across</dt><dd>The paper's wall at the gate is measured along the
+demolding direction D; the fill reads the wall across the surface (along the inverted
+normal), as the flow sees it. The two differ where the gate sits near a rib or step.</dd>
+<dt>Slivers</dt><dd>Facets thinner than 5 % of the nominal wall (films such as a 0.01 mm
+step): not mouldable walls, counted apart from the minimum.</dd>
+<dt>Bodies</dt><dd>The mesh's separate pieces. Melt never flows from one body to another: a
+part of several bodies needs a gate per body; tiny stray bodies (loose facets) are left
+out.</dd>
 <dt>Balanced gate</dt><dd>The qualifying node whose farthest flow is the shortest (or lowest
 resistance with <code>--objective resistance</code>); the report compares it with the paper
 gate.</dd>
 <dt>Several gates</dt><dd>With <code>--gates K</code>, K gates that together make the longest
 flow as short as possible; each fills its share of the volume.</dd>
-<dt>Last to fill</dt><dd>Places the melt reaches last: where air is trapped and vents go.</dd>
+<dt>Last to fill</dt><dd>Places the melt reaches last, with their flow length and fill time:
+where air is trapped and vents go.</dd>
 <dt>Weld lines</dt><dd>Where two melt fronts meet after flowing around an obstacle: a weaker,
 sometimes visible line.</dd>
 </dl>";

@@ -4,6 +4,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::OptionsError;
 
+pub mod library;
+pub mod name;
+
+pub use library::{entry_of, find, library, typical_note, MaterialInfo, ParameterSources};
+
 /// The rheological and thermal parameters of a thermoplastic, in the units of the paper's
 /// Table 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -26,37 +31,22 @@ pub struct Material {
     pub k: f64,
     /// Largest flow-length-to-wall-thickness ratio L/t the melt fills reliably
     /// (dimensionless), or `None` when unknown. Not in the paper; the built-in values are
-    /// the usual design-guide figures (PP 250, ABS 175, PC 125), inside the typical ranges
-    /// PP 250-300, ABS 150-200, PC 100-150 given by Plastwise's flow-path guide
-    /// (<https://plastwise.com/en/tools/flow-path>).
+    /// design-guide figures, each with its source in [`MaterialInfo::sources`] (for the
+    /// paper's three: PP 250, ABS 175, PC 125, inside the typical ranges PP 250-300,
+    /// ABS 150-200, PC 100-150 of Plastwise's flow-path guide,
+    /// <https://plastwise.com/en/tools/flow-path>).
     #[serde(default)]
     pub max_flow_ratio: Option<f64>,
 }
 
-/// The built-in materials: the paper's Table 1 (cases 1, 3 and 5).
+/// The paper's Table 1 materials (cases 1, 3 and 5), the first three of [`library()`].
 pub const BUILTIN: [&str; 3] = ["PP", "ABS", "PC"];
 
 impl Material {
-    /// A material of the paper's Table 1 by name (any case), or `None`.
+    /// A material of the built-in library (the paper's Table 1 and typical grades) by name
+    /// or alias, ignoring case and separators, or `None`. [`find`] gives its sources too.
     pub fn builtin(name: &str) -> Option<Material> {
-        let (n, t_melt, t_wall, gamma_opt, mu_opt, k, ratio) =
-            match name.to_ascii_uppercase().as_str() {
-                "PP" => (0.2718, 230.0, 50.0, 10_000.0, 9.88, 0.15, 250.0),
-                // Table 1 gives mu = 30.93 for case 3 and 30.96 for case 4; both round to 1.9 mm.
-                "ABS" => (0.2354, 230.0, 50.0, 5_000.0, 30.93, 0.18, 175.0),
-                "PC" => (0.1869, 305.0, 95.0, 8_000.0, 42.85, 0.24, 125.0),
-                _ => return None,
-            };
-        Some(Material {
-            name: name.to_ascii_uppercase(),
-            n,
-            t_melt,
-            t_wall,
-            gamma_opt,
-            mu_opt,
-            k,
-            max_flow_ratio: Some(ratio),
-        })
+        find(name).map(|info| info.material.clone())
     }
 
     /// Checks that every parameter is positive and finite and that the melt is hotter than
@@ -162,6 +152,6 @@ mod tests {
         let mut m = Material::builtin("PP").unwrap();
         m.n = f64::NAN;
         assert!(m.validate().is_err());
-        assert!(Material::builtin("PEEK").is_none());
+        assert!(Material::builtin("PA77").is_none());
     }
 }

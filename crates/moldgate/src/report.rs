@@ -17,7 +17,7 @@ use crate::undercut::AutoDemold;
 use crate::CentreKind;
 
 /// Version of the report's schema.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Where the part came from.
 #[derive(Debug, Clone, Serialize)]
@@ -298,8 +298,12 @@ pub struct Report {
 /// Statistics of [`crate::thickness::WallThickness`] and the value at the gate.
 #[derive(Debug, Clone, Serialize)]
 pub struct WallThicknessReport {
-    /// Smallest known thickness, mm.
+    /// Smallest known thickness that is not a sliver, mm.
     pub min_mm: Option<f64>,
+    /// Facets thinner than 5 % of the nominal wall (slivers), left out of `min_mm`.
+    pub slivers: usize,
+    /// The smallest sliver, mm (`null` without slivers).
+    pub sliver_min_mm: Option<f64>,
     /// Area-weighted median, mm.
     pub nominal_mm: Option<f64>,
     /// Largest known thickness, mm.
@@ -322,6 +326,8 @@ impl Report {
             .and_then(|g| w.at_triangle(g.triangle as usize));
         self.wall_thickness = Some(WallThicknessReport {
             min_mm: w.min_mm,
+            slivers: w.slivers,
+            sliver_min_mm: w.sliver_min_mm,
             nominal_mm: w.nominal_mm,
             max_mm: w.max_mm,
             unknown_area_share: w.unknown_area_share,

@@ -293,3 +293,359 @@ fn a_gate_fills_only_its_own_body_and_says_so() {
         f.warnings
     );
 }
+
+/// The fill analysis of `mesh` located along +z with default options but `flow`.
+fn analyse_with(
+    mesh: &Mesh,
+    flow: flow::FlowOptions,
+) -> Result<flow::FillAnalysis, flow::FillError> {
+    let part = moldgate::mesh::from_generated(mesh.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    flow::analyse(
+        mesh,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions {
+            flow,
+            ..flow::FillOptions::default()
+        },
+    )
+}
+
+/// Distance from `p` to the nearest triangle of `mesh` (brute force, exact: the plane's
+/// foot when it falls inside the triangle, else the nearest edge).
+fn distance_to_surface(mesh: &Mesh, p: [f64; 3]) -> f64 {
+    let p = DVec3::from_array(p);
+    (0..mesh.triangles.len())
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            let n = (b - a).cross(c - a);
+            let mut best = f64::INFINITY;
+            if n.length() > 0.0 {
+                let n = n.normalize();
+                let foot = p - n * n.dot(p - a);
+                let inside = [(a, b), (b, c), (c, a)]
+                    .iter()
+                    .all(|&(u, v)| (v - u).cross(foot - u).dot(n) >= 0.0);
+                if inside {
+                    best = foot.distance(p);
+                }
+            }
+            for (u, v) in [(a, b), (b, c), (c, a)] {
+                best = best.min(moldgate::math::nearest_on_segment(u, v, p).distance(p));
+            }
+            best
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn lid_a_third_of_a_cell_above_its_box_is_a_body_of_its_own() {
+    // A box and a lid 0.2 mm beside it: cells of 0.6 mm take both surfaces, but melt never
+    // jumps the gap.
+    let mut two = boxes(&[([0.0, 0.0, 0.0], [40.0, 20.0, 10.0], true)]);
+    let lid = boxes(&[([40.2, 0.0, 0.0], [80.2, 20.0, 2.0], true)]);
+    let base = two.vertices.len() as u32;
+    two.vertices.extend(&lid.vertices);
+    two.triangles
+        .extend(lid.triangles.iter().map(|t| t.map(|v| v + base)));
+    let f = analyse_with(
+        &two,
+        flow::FlowOptions {
+            cell_mm: Some(0.6),
+            ..flow::FlowOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(f.bodies, 2);
+    let p = f.paper.as_ref().unwrap();
+    // The gate fills its own body only: the box holds 10 of 12 parts of the volume.
+    let box_share = 10.0 / 12.0;
+    let own = if p.gate[0] < 40.1 {
+        box_share
+    } else {
+        1.0 - box_share
+    };
+    assert!((p.reached_share - own).abs() < 1e-6, "{}", p.reached_share);
+    assert!(f.warnings.iter().any(|w| w.contains("feeds body")));
+    // A gate per body, each on its own body, each filling it.
+    assert_eq!(f.body_gates.len(), 2);
+    let shares: f64 = f.body_gates.iter().map(|b| b.volume_share).sum();
+    assert!((shares - 1.0).abs() < 1e-9);
+    for b in &f.body_gates {
+        let g = b.gate.expect("a qualifying node on each body");
+        let on_lid = g[0] > 40.1;
+        assert_eq!(on_lid, b.volume_share < 0.5, "{b:?}");
+        assert!(b.l_max_mm.unwrap() > 0.0);
+    }
+    assert_eq!(f.body_gates.iter().filter(|b| b.is_answer_body).count(), 1);
+}
+
+#[test]
+fn zero_area_loose_facets_are_stray_not_bodies() {
+    let mut plate = boxes(&[([0.0, 0.0, 0.0], [40.0, 20.0, 3.0], true)]);
+    // Three loose facets with collinear corners.
+    for k in 0..3 {
+        let base = plate.vertices.len() as u32;
+        let x = 5.0 + 10.0 * k as f64;
+        plate.vertices.extend([
+            DVec3::new(x, 30.0, 1.0),
+            DVec3::new(x + 1.0, 30.0, 1.0),
+            DVec3::new(x + 2.0, 30.0, 1.0),
+        ]);
+        plate.triangles.push([base, base + 1, base + 2]);
+    }
+    let f = analyse_with(&plate, flow::FlowOptions::default()).unwrap();
+    assert_eq!((f.bodies, f.stray_bodies), (1, 3));
+    assert!(f.body_gates.is_empty());
+    let p = f.paper.as_ref().unwrap();
+    assert!((p.reached_share - 1.0).abs() < 1e-9, "{}", p.reached_share);
+}
+
+#[test]
+fn fill_time_at_the_last_place_converges_with_the_cell_on_the_cover() {
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let at = |h: f64| {
+        let f = analyse_with(
+            &cover,
+            flow::FlowOptions {
+                cell_mm: Some(h),
+                ..flow::FlowOptions::default()
+            },
+        )
+        .unwrap();
+        let p = f.paper.unwrap();
+        (p.fill_time_s, p.l_max_mm)
+    };
+    let (t1, l1) = at(0.8);
+    let (t2, l2) = at(0.5);
+    let change = (t1 - t2).abs() / t2;
+    eprintln!(
+        "fill time {t1:.4} s at 0.8 mm, {t2:.4} s at 0.5 mm ({:.1} %); L_max {l1:.1}, {l2:.1}",
+        100.0 * change
+    );
+    assert!(t2 > 0.0 && change < 0.05, "{t1} vs {t2}");
+}
+
+#[test]
+fn places_reported_on_the_part_lie_on_its_surface() {
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let f = analyse_with(&cover, flow::FlowOptions::default()).unwrap();
+    let p = f.paper.as_ref().unwrap();
+    let mut places = vec![p.farthest, p.gate];
+    places.extend(p.last_to_fill.iter().map(|q| q.point));
+    places.extend(p.weld_lines.iter().map(|w| w.point));
+    if let Some(b) = &f.balanced {
+        places.push(b.fill.gate);
+        places.extend(b.fill.last_to_fill.iter().map(|q| q.point));
+    }
+    assert!(places.len() > 3);
+    for q in places {
+        let d = distance_to_surface(&cover, q);
+        assert!(d < 0.05, "{q:?} is {d} mm off the surface");
+    }
+}
+
+#[test]
+fn fill_refuses_a_cell_larger_than_a_tenth_of_the_part() {
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let e = analyse_with(
+        &cover,
+        flow::FlowOptions {
+            cell_mm: Some(1000.0),
+            ..flow::FlowOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("larger than 0.1 of the part's diagonal"),
+        "{e}"
+    );
+}
+
+#[test]
+fn fill_refuses_a_fine_cell_over_the_solid_cell_limit_before_the_work() {
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let t = std::time::Instant::now();
+    let e = analyse_with(
+        &cover,
+        flow::FlowOptions {
+            cell_mm: Some(0.05),
+            ..flow::FlowOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(e, flow::FillError::TooLarge { .. }), "{e}");
+    eprintln!("{e} ({:.0} ms)", t.elapsed().as_secs_f64() * 1e3);
+}
+
+#[test]
+fn fill_refuses_more_gates_than_its_limit() {
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let part = moldgate::mesh::from_generated(cover.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    let e = flow::analyse(
+        &cover,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions {
+            gates: 1000,
+            ..flow::FillOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("over the limit of 32"), "{e}");
+}
+
+#[test]
+fn fill_box_with_far_corner_is_bounded() {
+    // A closed 12-facet box with one corner moved to z = 1e5: its triangles are slivers
+    // 1e5 mm long, which squared sampling turned into 1e10 samples each.
+    let mut mesh = boxes(&[([0.0, 0.0, 0.0], [10.0, 10.0, 10.0], true)]);
+    assert_eq!(mesh.triangles.len(), 12);
+    let corner = mesh
+        .vertices
+        .iter()
+        .position(|v| *v == DVec3::new(10.0, 10.0, 10.0))
+        .unwrap();
+    mesh.vertices[corner].z = 1e5;
+    let t = std::time::Instant::now();
+    let f = analyse_with(&mesh, flow::FlowOptions::default());
+    let s = t.elapsed().as_secs_f64();
+    match &f {
+        Ok(f) => eprintln!("{} cells of {} mm in {s:.2} s", f.cells, f.cell_mm),
+        Err(e) => eprintln!("{e} in {s:.2} s"),
+    }
+    // The samples grow with area and perimeter: at most 3 (2 A / s^2 + 4 P / s + 4) per
+    // triangle at spacing s = h / 2, never with the square of the longest edge.
+    let h = 1.0;
+    let s2 = (h / 2.0) * (h / 2.0);
+    let bound: f64 = (0..12)
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            let perimeter = a.distance(b) + b.distance(c) + c.distance(a);
+            3.0 * (2.0 * area / s2 + 4.0 * perimeter / (h / 2.0) + 4.0)
+        })
+        .sum();
+    let samples = flow::voxel::samples_for(&mesh, h, None);
+    assert!(samples < bound, "{samples} vs {bound}");
+    assert!(
+        f.is_ok() || matches!(f, Err(flow::FillError::TooLarge { .. })),
+        "{f:?}"
+    );
+}
+
+#[test]
+fn fill_spiky_integer_heights_are_bounded() {
+    // A height field of 30 x 30 quads whose z are integers up to 65535 (as a PLY with
+    // integer coordinates gives): long thin triangles over a tall, narrow box.
+    let n = 30usize;
+    let mut vertices = Vec::new();
+    let mut state = 12345u64;
+    for j in 0..=n {
+        for i in 0..=n {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let z = ((state >> 33) % 65536) as f64;
+            vertices.push(DVec3::new(i as f64, j as f64, z));
+        }
+    }
+    let mut triangles = Vec::new();
+    for j in 0..n as u32 {
+        for i in 0..n as u32 {
+            let v = j * (n as u32 + 1) + i;
+            let w = v + n as u32 + 1;
+            triangles.push([v, v + 1, w + 1]);
+            triangles.push([v, w + 1, w]);
+        }
+    }
+    let mesh = Mesh {
+        vertices,
+        triangles,
+    };
+    let options = flow::FlowOptions::default();
+    let t = std::time::Instant::now();
+    let f = analyse_with(&mesh, options.clone());
+    let s = t.elapsed().as_secs_f64();
+    match &f {
+        Ok(f) => {
+            eprintln!("{} cells of {} mm in {s:.2} s", f.cells, f.cell_mm);
+            assert!(f.cells as f64 <= options.max_solid_cells);
+        }
+        Err(e) => eprintln!("{e} in {s:.2} s"),
+    }
+    assert!(
+        f.is_ok()
+            || matches!(
+                f,
+                Err(flow::FillError::TooLarge { .. }) | Err(flow::FillError::NoGate(_))
+            ),
+        "{f:?}"
+    );
+}
+
+/// The balanced search's own numbers agree: a proven search's bound is at most its value,
+/// and its value is the objective of the fill it reports.
+pub fn check_search(name: &str, f: &flow::FillAnalysis) -> Vec<String> {
+    let mut failures = Vec::new();
+    if let Some(b) = &f.balanced {
+        let s = &b.search;
+        let reported = match f.objective {
+            Objective::Length => b.fill.l_max_mm,
+            Objective::Resistance => b.fill.fill_time_s,
+        };
+        if s.value != reported {
+            failures.push(format!(
+                "{name}: search value {} but the gate's {reported}",
+                s.value
+            ));
+        }
+        if s.lower_bound > s.value {
+            failures.push(format!(
+                "{name}: lower bound {} above the value {} (proven {})",
+                s.lower_bound, s.value, s.proven
+            ));
+        }
+    }
+    failures
+}
+
+#[test]
+fn balanced_search_bound_and_value_agree_on_every_sample() {
+    let mut failures = Vec::new();
+    for s in moldgate::samples::SAMPLES {
+        let mesh = moldgate::samples::sample(s.name).unwrap();
+        for objective in [Objective::Length, Objective::Resistance] {
+            let part = moldgate::mesh::from_generated(mesh.clone());
+            let Ok(analysis) = moldgate::locate(&part, &moldgate::LocateOptions::default()) else {
+                continue;
+            };
+            if analysis.gate().is_err() {
+                continue;
+            }
+            let f = flow::analyse(
+                &mesh,
+                &analysis,
+                &pp(),
+                flow::Walls::Estimate,
+                &flow::FillOptions {
+                    objective,
+                    ..flow::FillOptions::default()
+                },
+            )
+            .unwrap();
+            let b = &f.balanced.as_ref().unwrap().search;
+            eprintln!(
+                "{} {objective:?}: value {:.3}, bound {:.3}, proven {}",
+                s.name, b.value, b.lower_bound, b.proven
+            );
+            failures.extend(check_search(s.name, &f));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}

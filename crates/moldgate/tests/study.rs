@@ -56,9 +56,9 @@ fn a_default_study_is_the_paper_s_locate() {
         assert_eq!(timeless(s.report()), timeless(&direct), "{}", info.name);
         assert_eq!(s.qualifying_points(), &analysis.qualifying_points[..]);
         assert_eq!(s.gates().len(), usize::from(analysis.gate().is_ok()));
-        assert!(s.fill_order().is_none() && s.wall_thickness_per_vertex().is_none());
+        assert!(s.fill_time_per_vertex().is_none() && s.wall_thickness_per_vertex().is_none());
         let json: serde_json::Value = serde_json::from_str(&s.report_json().unwrap()).unwrap();
-        assert_eq!(json["schema_version"], 1);
+        assert_eq!(json["schema_version"], 2);
     }
 }
 
@@ -71,7 +71,15 @@ fn per_vertex_fields_and_outputs_of_a_full_study() {
     )
     .unwrap();
     let n = part.mesh.vertices.len();
-    assert_eq!(s.fill_order().unwrap().len(), n);
+    assert_eq!(s.fill_time_per_vertex().unwrap().len(), n);
+    // Only the pictured field is computed: the fill time by default.
+    assert!(s.flow_length_per_vertex().is_none() && s.fill_wall_per_vertex().is_none());
+    let f = s.fill_field().unwrap();
+    assert_eq!(
+        (f.name.as_str(), f.unit.as_str()),
+        ("fill time (estimate)", "s")
+    );
+    assert!(f.per_vertex.iter().any(|v| v.is_finite() && *v > 0.0));
     assert_eq!(s.wall_thickness_per_vertex().unwrap().len(), n);
     assert!(s.report().demold_auto.is_some());
     assert_eq!(s.gates().len(), 2);

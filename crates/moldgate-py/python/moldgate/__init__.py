@@ -142,6 +142,7 @@ _OPTION_NAMES = (
     "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest",
     "thickness_rule", "require_flat", "flat_tol", "aesthetic", "max_nodes", "keep_out",
     "cosmetic", "fill", "strategy", "objective", "gates", "cell", "wall_thickness",
+    "color_by",
 )
 
 
@@ -175,6 +176,7 @@ def study(
     gates: int = 1,
     cell: Optional[float] = None,
     wall_thickness: bool = False,
+    color_by: str = "fill_order",
     units: str = "mm",
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
@@ -216,6 +218,8 @@ def study(
     - ``gates=1``: number of gates that together minimise the worst flow (1 to 64).
     - ``cell=None``: flow-analysis cell size, mm.
     - ``wall_thickness=False``: measure the wall thickness everywhere.
+    - ``color_by="fill_order"``: what pictures of the fill are coloured by:
+      ``fill_order`` (the estimated fill time), ``flow_length``, ``wall`` or ``height``.
 
     And for this call:
 

@@ -60,6 +60,8 @@ class Study:
     @property
     def fill_order(self) -> Optional[npt.NDArray[np.float32]]: ...
     @property
+    def fill_time(self) -> Optional[npt.NDArray[np.float32]]: ...
+    @property
     def wall_thickness(self) -> Optional[npt.NDArray[np.float32]]: ...
     @property
     def qualifying_points(self) -> npt.NDArray[np.float64]: ...
@@ -103,6 +105,7 @@ def study(
     gates: int = 1,
     cell: Optional[float] = None,
     wall_thickness: bool = False,
+    color_by: str = "fill_order",
     units: str = "mm",
     materials_file: Optional[_Path] = None,
     step_tolerance_mm: Optional[float] = None,

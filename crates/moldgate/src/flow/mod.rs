@@ -3,11 +3,27 @@
 //! path (the balanced gate) or several gates that share the part.
 //!
 //! **Model.** The part is voxelised ([`voxel`]): the solid cells of its inside plus the cells
-//! its surface passes through. The melt flows from cell to cell, never through air; parts of
-//! the mesh that touch no common cell are separate bodies, and a gate fills only its own.
+//! its surface passes through. The melt flows from cell to cell, never through air. The
+//! bodies are the mesh's connected sets of triangles ([`Bodies`]); each cell belongs to the
+//! body that made it and cells of different bodies are never neighbours, so a gate fills
+//! only its own body at any cell size, and a part of several bodies gets a gate per body
+//! (the paper's rule on each: its qualifying node nearest its centre of mass). Bodies of
+//! less than [`STRAY_BODY_AREA_SHARE`] of the area are stray and left out.
 //! Arrival fields are marched over the cells ([`march`]): the flow length is the length of
 //! the shortest path through the solid; the fill order weights each millimetre by the flow
 //! resistance of the wall it crosses.
+//!
+//! **Fill time.** The fill order is reported as an estimated fill time in seconds: the
+//! resistance-weighted path (mm of nominal wall) over the Eq. 7 front velocity v. A raw
+//! weighted length or a 0..1 rank would not compare across parts (the same number means a
+//! different time at a different wall and material) and a rank hides how late the last
+//! place is; seconds do both, and the Eq. 7 velocity is the paper's own. It converges as the
+//! cells shrink because the weights depend on the measured wall only (floored at
+//! [`MIN_WALL_OF_NOMINAL`] of H_ref, slivers read as the nominal wall), not on the cell.
+//! It is an estimate (a front at constant speed slowed by thin walls), not a simulation.
+//!
+//! **Limits.** [`FlowOptions`] bounds the grid, the solid cells, the surface samples, the
+//! gates and the several-gate search; each is checked before the work it bounds.
 //!
 //! **Resistance (derivation).** In a slit of thickness H, a power-law melt (index n,
 //! consistency K) has a mean velocity
@@ -33,6 +49,7 @@ use serde::Serialize;
 
 use crate::material::Material;
 use crate::math::DVec3;
+use crate::mesh::topology::body_of_triangle;
 use crate::mesh::Mesh;
 use crate::raycast::Bvh;
 pub use march::{march, Field, Source};
@@ -49,13 +66,31 @@ pub enum Objective {
     Resistance,
 }
 
-/// Options of the fill analysis.
+/// Options of the fill analysis, with the limits that bound its work. Every limit is
+/// checked before the work it bounds: a cell size the user set is refused when it breaks
+/// one ([`FillError::TooLarge`]); a cell size chosen from the part is coarsened until it
+/// keeps them (with a warning).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlowOptions {
     /// Cell side in mm; `None` chooses it from the part (see [`cell_size`]).
     pub cell_mm: Option<f64>,
-    /// Largest dense grid, in cells. Default 24 million (about 100 MB of index).
+    /// Largest dense grid, in cells (solid or not). Default 24 million (about 200 MB of
+    /// index and flags while voxelising).
     pub max_cells: f64,
+    /// Largest count of solid cells, estimated before voxelising as V / h^3 + 2 A / h^2
+    /// (volume and area of the part) and counted after. Each solid cell costs about 200
+    /// bytes (neighbour table, walls, costs, the fields of a search). Default 5 million
+    /// (about 1 GB).
+    pub max_solid_cells: f64,
+    /// Largest count of surface samples (see [`voxel::samples_for`]). Default 200 million
+    /// (about 2 s of sampling).
+    pub max_samples: f64,
+    /// Most gates of a several-gate layout. Default 32.
+    pub max_gates: usize,
+    /// Largest work of the several-gate search, in cell visits: solid cells times the
+    /// marches it may run (2 per added gate and 3 per gate in each of its 8 rounds).
+    /// Default 2 billion (a minute or two on two cores).
+    pub max_march_cells: f64,
 }
 
 impl Default for FlowOptions {
@@ -63,36 +98,225 @@ impl Default for FlowOptions {
         FlowOptions {
             cell_mm: None,
             max_cells: 24.0e6,
+            max_solid_cells: 5.0e6,
+            max_samples: 200.0e6,
+            max_gates: 32,
+            max_march_cells: 2.0e9,
         }
     }
 }
 
+/// The largest cell, as a fraction of the part's box diagonal: coarser cells cannot tell
+/// the part's shape (its last place to fill could be anywhere in a cell larger than it).
+pub const MAX_CELL_OF_DIAGONAL: f64 = 0.1;
+
+/// Volume (absolute) and area of the kept triangles of `mesh`.
+fn volume_and_area(mesh: &Mesh, keep: &[u32]) -> (f64, f64) {
+    let (v, a) = keep
+        .par_iter()
+        .enumerate()
+        .filter(|(_, &b)| b != u32::MAX)
+        .map(|(t, _)| {
+            let [p, q, r] = mesh.corners(t);
+            (p.dot(q.cross(r)) / 6.0, 0.5 * (q - p).cross(r - p).length())
+        })
+        .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+    (v.abs(), a)
+}
+
+/// The first limit of `options` a voxelisation at `h` would break, as the error.
+fn check_limits(
+    mesh: &Mesh,
+    body_of: &[u32],
+    h: f64,
+    volume_area: (f64, f64),
+    options: &FlowOptions,
+) -> Result<(), FillError> {
+    let dense = Voxels::cells_for(&mesh.bounds(), h);
+    if dense > options.max_cells {
+        return Err(FillError::too_large(
+            "grid cells",
+            dense,
+            options.max_cells,
+            h,
+        ));
+    }
+    let (v, a) = volume_area;
+    let solid = v / (h * h * h) + 2.0 * a / (h * h);
+    if solid > options.max_solid_cells {
+        return Err(FillError::too_large(
+            "solid cells (estimated)",
+            solid,
+            options.max_solid_cells,
+            h,
+        ));
+    }
+    let keep: Vec<bool> = body_of.iter().map(|&b| b != u32::MAX).collect();
+    let samples = voxel::samples_for(mesh, h, Some(&keep));
+    if samples > options.max_samples {
+        return Err(FillError::too_large(
+            "surface samples",
+            samples,
+            options.max_samples,
+            h,
+        ));
+    }
+    Ok(())
+}
+
 /// The cell side: half the nominal wall (a wall is two cells across, and the surface cells
-/// add about one more), at most 1/120 of the part's diagonal, and no finer than `max_cells`
-/// allows.
-pub fn cell_size(mesh: &Mesh, nominal_wall_mm: f64, options: &FlowOptions) -> f64 {
-    let bounds = mesh.bounds();
-    let h = options
-        .cell_mm
-        .unwrap_or_else(|| (nominal_wall_mm / 2.0).min(bounds.diagonal() / 120.0));
-    // The grid's cell count falls as h^-3.
-    let n = Voxels::cells_for(&bounds, h);
+/// add about one more), at most 1/120 of the part's diagonal; coarsened (by 5 % steps) until
+/// it keeps the limits of `options`. A cell size given in `options` is checked instead:
+/// refused when larger than [`MAX_CELL_OF_DIAGONAL`] of the diagonal or when it breaks a
+/// limit. Returns the side and, when it was coarsened, the limit that made it so.
+pub fn cell_size(
+    mesh: &Mesh,
+    nominal_wall_mm: f64,
+    options: &FlowOptions,
+) -> Result<(f64, Option<FillError>), FillError> {
+    let body_of = vec![0u32; mesh.triangles.len()];
+    choose_cell(mesh, &body_of, nominal_wall_mm, options)
+}
+
+fn choose_cell(
+    mesh: &Mesh,
+    body_of: &[u32],
+    nominal_wall_mm: f64,
+    options: &FlowOptions,
+) -> Result<(f64, Option<FillError>), FillError> {
+    let diagonal = mesh.bounds().diagonal();
+    let volume_area = volume_and_area(mesh, body_of);
+    if let Some(h) = options.cell_mm {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(FillError::Option(format!(
+                "the cell size must be a positive number, got {h}"
+            )));
+        }
+        if h > MAX_CELL_OF_DIAGONAL * diagonal {
+            return Err(FillError::Option(format!(
+                "a cell of {h} mm is larger than {} of the part's diagonal ({:.3} mm): at most {:.3} mm",
+                MAX_CELL_OF_DIAGONAL,
+                diagonal,
+                MAX_CELL_OF_DIAGONAL * diagonal
+            )));
+        }
+        check_limits(mesh, body_of, h, volume_area, options)?;
+        return Ok((h, None));
+    }
+    let mut h = (nominal_wall_mm / 2.0).min(diagonal / 120.0);
+    if !(h.is_finite() && h > 0.0) {
+        return Err(FillError::Option(format!(
+            "no cell size fits a part of diagonal {diagonal} mm"
+        )));
+    }
+    // The grid's cell count falls as h^-3: jump close, then step.
+    let n = Voxels::cells_for(&mesh.bounds(), h);
     if n > options.max_cells {
-        h * (n / options.max_cells).cbrt() * 1.01
-    } else {
-        h
+        h *= (n / options.max_cells).cbrt();
+    }
+    let mut first = None;
+    for _ in 0..400 {
+        match check_limits(mesh, body_of, h, volume_area, options) {
+            Ok(()) => return Ok((h, first)),
+            Err(e) => {
+                first.get_or_insert(e);
+                h *= 1.05;
+            }
+        }
+        if h > MAX_CELL_OF_DIAGONAL * diagonal {
+            break;
+        }
+    }
+    Err(first.unwrap_or_else(|| FillError::Option("no cell size keeps the limits".into())))
+}
+
+/// Bodies whose area is below this share of the part's area are stray (loose facets,
+/// zero-area slivers): they make no cells, need no gate and are not counted as bodies.
+pub const STRAY_BODY_AREA_SHARE: f64 = 1e-3;
+
+/// The bodies of a mesh as the fill analysis sees them.
+#[derive(Debug, Clone)]
+pub struct Bodies {
+    /// Body of each triangle, numbered from 0 by first appearance; `u32::MAX` for the
+    /// triangles of stray bodies.
+    pub of_triangle: Vec<u32>,
+    /// Number of bodies kept.
+    pub count: usize,
+    /// Number of stray bodies (area below [`STRAY_BODY_AREA_SHARE`] of the part's).
+    pub stray: usize,
+    /// Volume of each body (absolute signed volume of its triangles), mm^3.
+    pub volume_mm3: Vec<f64>,
+    /// Centre of mass of each body (of its volume; of its area when the volume is zero).
+    pub centre: Vec<DVec3>,
+}
+
+impl Bodies {
+    /// The mesh's bodies (connected sets of triangles, [`body_of_triangle`]), the stray ones
+    /// dropped.
+    pub fn of(mesh: &Mesh) -> Bodies {
+        let label = body_of_triangle(mesh);
+        let n = label.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
+        let mut area = vec![0.0f64; n];
+        let mut volume = vec![0.0f64; n];
+        let mut moment = vec![DVec3::ZERO; n];
+        let mut area_moment = vec![DVec3::ZERO; n];
+        for (t, &b) in label.iter().enumerate() {
+            let [p, q, r] = mesh.corners(t);
+            let a = 0.5 * (q - p).cross(r - p).length();
+            let v = p.dot(q.cross(r)) / 6.0;
+            area[b as usize] += a;
+            volume[b as usize] += v;
+            // The tetrahedron (0, p, q, r) has its centroid at (p + q + r) / 4.
+            moment[b as usize] += (p + q + r) * (v / 4.0);
+            area_moment[b as usize] += (p + q + r) * (a / 3.0);
+        }
+        let total: f64 = area.iter().sum();
+        let mut renumber = vec![u32::MAX; n];
+        let mut count = 0u32;
+        let (mut volume_mm3, mut centre) = (Vec::new(), Vec::new());
+        for b in 0..n {
+            if area[b] >= STRAY_BODY_AREA_SHARE * total && area[b] > 0.0 {
+                renumber[b] = count;
+                count += 1;
+                volume_mm3.push(volume[b].abs());
+                centre.push(if volume[b].abs() > 1e-12 * total.powf(1.5) {
+                    moment[b] / volume[b]
+                } else {
+                    area_moment[b] / area[b]
+                });
+            }
+        }
+        Bodies {
+            of_triangle: label.iter().map(|&b| renumber[b as usize]).collect(),
+            count: count as usize,
+            stray: n - count as usize,
+            volume_mm3,
+            centre,
+        }
     }
 }
+
+/// The thinnest wall the costs see, as a share of the nominal wall. Thinner readings come
+/// mostly from edges, chamfers and slivers, where a ray meets a neighbouring face; a front
+/// does not squeeze through such a place but goes around it, which the march finds as the
+/// cheaper path. A floor fixed to H_ref (not to the cell) keeps the fill time converging
+/// as the cells shrink: with a floor of h, finer cells let thinner readings in and the
+/// fill-order maximum grew from 108 to 3279 on deskhop_case_bottom between cells of 0.91
+/// and 0.45 mm.
+pub const MIN_WALL_OF_NOMINAL: f64 = 0.5;
 
 /// The voxelised part with its wall thickness and the costs of the three fields.
 #[derive(Debug, Clone)]
 pub struct Domain {
     /// The solid cells.
     pub voxels: Voxels,
-    /// Connected component (body) of each cell.
+    /// Body of each cell (the mesh body that made it, [`Voxels::body`]).
     pub body: Vec<u32>,
-    /// Number of bodies.
+    /// Number of bodies (one more than the largest body number of a cell).
     pub bodies: usize,
+    /// Volume of each body, mm^3: its cells' volume, or the mesh's volume of the body
+    /// when [`analyse`] knows it (closed bodies).
+    pub body_volume_mm3: Vec<f64>,
     /// Nominal wall thickness H_ref, mm.
     pub nominal_wall_mm: f64,
     /// Wall thickness per cell, mm.
@@ -108,8 +332,10 @@ pub struct Domain {
 impl Domain {
     /// Voxelises `mesh` at `h` mm. `triangle_wall_mm` gives the wall thickness of each
     /// triangle (NaN where unknown); cells take the thickness of their triangle, and unknown
-    /// values take the nominal wall. The thickness is clamped to [h, 100 H_ref] so costs
-    /// stay finite.
+    /// values and slivers (below [`crate::thickness::SLIVER_OF_NOMINAL`] of H_ref) take the
+    /// nominal wall. The thickness is clamped to
+    /// [[`MIN_WALL_OF_NOMINAL`] H_ref, 100 H_ref] so the costs stay finite and do not
+    /// depend on the cell size.
     pub fn new(
         mesh: &Mesh,
         h: f64,
@@ -133,8 +359,13 @@ impl Domain {
         material: &Material,
     ) -> Domain {
         let h = voxels.h;
-        let (body, bodies) = voxels.components();
-        let lo = h.min(nominal_wall_mm);
+        let body = voxels.body.clone();
+        let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
+        let mut body_volume_mm3 = vec![0.0; bodies];
+        for &b in &body {
+            body_volume_mm3[b as usize] += h * h * h;
+        }
+        let lo = MIN_WALL_OF_NOMINAL * nominal_wall_mm;
         let wall_mm: Vec<f32> = voxels
             .triangle
             .iter()
@@ -142,7 +373,10 @@ impl Domain {
                 let w = triangle_wall_mm
                     .and_then(|w| w.get(t as usize).copied())
                     .map(f64::from)
-                    .filter(|w| w.is_finite() && *w > 0.0)
+                    // Slivers are films, not walls (see [`crate::thickness`]): unknown.
+                    .filter(|w| {
+                        w.is_finite() && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
+                    })
                     .unwrap_or(nominal_wall_mm);
                 w.clamp(lo, 100.0 * nominal_wall_mm) as f32
             })
@@ -161,6 +395,7 @@ impl Domain {
             voxels,
             body,
             bodies,
+            body_volume_mm3,
             nominal_wall_mm,
             wall_mm,
             n,
@@ -183,13 +418,16 @@ impl Domain {
     }
 }
 
-/// A point and the value of a field there.
+/// A point and the value of the fields there.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PointValue {
-    /// Position, mm.
+    /// Position, mm: on the part's surface (the nearest point of the cell's triangle) in
+    /// [`analyse`]'s results; the cell centre from [`fill_from`].
     pub point: [f64; 3],
     /// Flow length from the gate, mm.
     pub flow_length_mm: f64,
+    /// Estimated fill time when the front arrives, s (see [`GateFill::fill_time_s`]).
+    pub fill_time_s: f64,
 }
 
 /// A place where two melt fronts meet head on, an estimate of a weld line.
@@ -212,20 +450,28 @@ pub struct WeldLine {
 pub struct GateFill {
     /// The gate, mm.
     pub gate: [f64; 3],
-    /// The body it feeds (cell component number).
+    /// The body it feeds (see [`Bodies`]).
     pub body: u32,
-    /// Share of all solid cells it reaches (below 1 when the part has several bodies).
+    /// Share of the part's volume it reaches: each body's volume times the share of its
+    /// cells reached, over the whole volume (below 1 when the part has several bodies).
     pub reached_share: f64,
-    /// Wall thickness at the gate (of its cell), mm.
-    pub wall_mm: f64,
+    /// Wall thickness across the surface at the gate, mm: the wall of the triangle of the
+    /// gate's cell, measured along its inverted normal ([`crate::thickness`]'s rule), as the
+    /// flow resistance sees it. (The paper's wall at the gate, `wall_along_d_mm` of the
+    /// gate, is measured along the demolding direction instead.)
+    pub wall_across_mm: f64,
     /// Largest flow length, mm.
     pub l_max_mm: f64,
     /// Mean flow length over the volume it reaches, mm.
     pub l_mean_mm: f64,
-    /// The point reached last by flow length.
+    /// The point reached last by flow length (on the surface, as [`PointValue::point`]).
     pub farthest: [f64; 3],
-    /// Largest fill-order value (mm of nominal wall).
-    pub fill_max: f64,
+    /// Estimated fill time of the last place to fill, s: the fill-order field (each mm
+    /// weighted by the flow resistance of its wall, (H_ref / H)^((n+1)/n)) over the Eq. 7
+    /// front velocity. It is the time a front moving at the Eq. 7 velocity through the
+    /// nominal wall would take, slowed where walls are thinner; comparable across parts and
+    /// converging as the cells shrink.
+    pub fill_time_s: f64,
     /// L_max over the nominal wall.
     pub flow_ratio: f64,
     /// The material's limit of that ratio, if known.
@@ -246,8 +492,14 @@ pub struct GateFill {
 pub struct GateFields {
     /// Flow length.
     pub length: Field,
-    /// Fill order (resistance-weighted).
+    /// Fill order (resistance-weighted), mm of nominal wall; times [`seconds_per_mm`] it is
+    /// the fill time.
     pub fill: Field,
+}
+
+/// Seconds per mm of fill-order path: 1 / v with v the Eq. 7 front velocity.
+pub fn seconds_per_mm(material: &Material) -> f64 {
+    1e-3 / material.melt_velocity_m_s()
 }
 
 /// Eq. 1 pressure factor: ΔP = factor · T_2 with T_2 in mm, result in MPa.
@@ -280,24 +532,37 @@ pub fn fill_from(
         .collect();
     let (far, l_max) = argmax(&length.t);
     let l_mean = reached.iter().map(|&c| length.t[c as usize]).sum::<f64>() / reached.len() as f64;
-    let fill_max = argmax(&fill.t).1;
+    let per_mm = seconds_per_mm(material);
+    let fill_time_s = argmax(&fill.t).1 * per_mm;
+    let mut reached_volume = vec![0usize; domain.bodies];
+    let mut cells = vec![0usize; domain.bodies];
+    for c in 0..v.len() {
+        let b = domain.body[c] as usize;
+        cells[b] += 1;
+        reached_volume[b] += length.t[c].is_finite() as usize;
+    }
+    let total_volume: f64 = domain.body_volume_mm3.iter().sum();
+    let reached_share = (0..domain.bodies)
+        .map(|b| domain.body_volume_mm3[b] * reached_volume[b] as f64 / cells[b].max(1) as f64)
+        .sum::<f64>()
+        / total_volume.max(f64::MIN_POSITIVE);
     let p_max = argmax(&pressure.t).1;
     let flow_ratio = l_max / domain.nominal_wall_mm;
     let limit = material.max_flow_ratio;
     let gate_fill = GateFill {
         gate: point.to_array(),
         body: domain.body[src.cell as usize],
-        reached_share: reached.len() as f64 / v.len() as f64,
-        wall_mm: domain.wall_mm[src.cell as usize] as f64,
+        reached_share,
+        wall_across_mm: domain.wall_mm[src.cell as usize] as f64,
         l_max_mm: l_max,
         l_mean_mm: l_mean,
         farthest: v.centre(far).to_array(),
-        fill_max,
+        fill_time_s,
         flow_ratio,
         flow_ratio_limit: limit,
         exceeds_flow_ratio: limit.is_some_and(|m| flow_ratio > m),
         pressure_mpa: p_max * pressure_factor_mpa_per_mm(material, domain.nominal_wall_mm),
-        last_to_fill: last_to_fill(v, &fill.t, &length.t, 5),
+        last_to_fill: last_to_fill(v, &fill.t, &length.t, per_mm, 5),
         weld_lines: weld_lines(v, &length.t),
     };
     Some((gate_fill, GateFields { length, fill }))
@@ -316,7 +581,13 @@ pub fn argmax(t: &[f64]) -> (u32, f64) {
 
 /// Local maxima of `order` over the 26 neighbours, highest first, at least a tenth of the
 /// largest flow length apart, at most `count` of them.
-fn last_to_fill(v: &Voxels, order: &[f64], length: &[f64], count: usize) -> Vec<PointValue> {
+fn last_to_fill(
+    v: &Voxels,
+    order: &[f64],
+    length: &[f64],
+    seconds_per_mm: f64,
+    count: usize,
+) -> Vec<PointValue> {
     let offsets = voxel::neighbour_offsets();
     let mut maxima: Vec<u32> = (0..v.len() as u32)
         .filter(|&c| {
@@ -344,6 +615,7 @@ fn last_to_fill(v: &Voxels, order: &[f64], length: &[f64], count: usize) -> Vec<
             out.push(PointValue {
                 point: p.to_array(),
                 flow_length_mm: length[c as usize],
+                fill_time_s: order[c as usize] * seconds_per_mm,
             });
             if out.len() == count {
                 break;
@@ -855,6 +1127,9 @@ pub struct FillOptions {
     pub objective: Objective,
     /// Number of gates; 1 is the single-gate analysis.
     pub gates: usize,
+    /// What pictures of the fill are coloured by (read by the front ends through
+    /// [`FillAnalysis::field`]; default the fill time).
+    pub colour_by: ColourBy,
 }
 
 /// The balanced gate and its fill.
@@ -888,8 +1163,13 @@ pub struct FillAnalysis {
     pub cell_mm: f64,
     /// Solid cells.
     pub cells: usize,
-    /// Bodies (connected groups of cells).
+    /// Bodies of the mesh (connected sets of triangles, [`Bodies`]), stray ones not counted.
     pub bodies: usize,
+    /// Stray bodies left out: area below [`STRAY_BODY_AREA_SHARE`] of the part's (loose
+    /// facets, zero-area slivers).
+    pub stray_bodies: usize,
+    /// With several bodies, a gate for each (a gate fills only its own body).
+    pub body_gates: Vec<BodyGate>,
     /// Nominal wall H_ref, mm.
     pub nominal_wall_mm: f64,
     /// Where the cell walls came from.
@@ -912,10 +1192,10 @@ pub struct FillAnalysis {
     pub warnings: Vec<String>,
     /// Seconds per stage.
     pub times: FlowTimes,
-    /// Fill order of the answer's gate per mesh vertex (0 at the gate, 1 last), for pictures;
-    /// with several gates, of all of them together.
+    /// The answer's fields per mesh vertex, for pictures (see [`FillAnalysis::field`]); with
+    /// several gates, the flow length and fill time of all of them together.
     #[serde(skip)]
-    pub fill_order_per_vertex: Vec<f32>,
+    pub per_vertex: VertexFields,
     /// The answer's gate point.
     #[serde(skip)]
     pub answer: Option<DVec3>,
@@ -943,6 +1223,95 @@ pub enum FillError {
     /// Bad option.
     #[error("{0}")]
     Option(String),
+    /// The work would break a limit of [`FlowOptions`]; nothing was allocated.
+    #[error("{what}: {count:.3e} at a cell of {cell_mm:.4} mm, over the limit of {limit:.3e} (FlowOptions); choose a coarser cell")]
+    TooLarge {
+        /// What is counted.
+        what: &'static str,
+        /// The count the work would reach.
+        count: f64,
+        /// The limit.
+        limit: f64,
+        /// The cell side it was counted at, mm.
+        cell_mm: f64,
+    },
+}
+
+impl FillError {
+    pub(crate) fn too_large(what: &'static str, count: f64, limit: f64, cell_mm: f64) -> Self {
+        FillError::TooLarge {
+            what,
+            count,
+            limit,
+            cell_mm,
+        }
+    }
+}
+
+/// The gate of one body of a part with several.
+#[derive(Debug, Clone, Serialize)]
+pub struct BodyGate {
+    /// The body.
+    pub body: u32,
+    /// Its share of the part's volume.
+    pub volume_share: f64,
+    /// Its centre of mass, mm.
+    pub centre_of_mass: [f64; 3],
+    /// The gate: the body's qualifying node nearest its centre of mass (the paper's rule
+    /// applied to the body); `None` when no qualifying node lies on the body.
+    pub gate: Option<[f64; 3]>,
+    /// True for the body of the answer's gate.
+    pub is_answer_body: bool,
+    /// Largest flow length from that gate over its body, mm.
+    pub l_max_mm: Option<f64>,
+    /// Estimated fill time of the body from that gate, s.
+    pub fill_time_s: Option<f64>,
+}
+
+/// What a picture is coloured by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ColourBy {
+    /// Flow length from the answer's gate, mm.
+    FlowLength,
+    /// Estimated fill time from the answer's gate, s.
+    #[default]
+    FillTime,
+    /// Wall thickness the fill analysis used, mm.
+    Wall,
+    /// Height along the demolding direction (the scene's own colouring, no fill field).
+    Height,
+}
+
+/// The answer's fields per mesh vertex (NaN where the vertex's cell is unreached); only the
+/// one of [`FillOptions::colour_by`] is filled, the others are empty.
+#[derive(Debug, Clone, Default)]
+pub struct VertexFields {
+    /// Flow length, mm.
+    pub flow_length_mm: Vec<f32>,
+    /// Estimated fill time, s.
+    pub fill_time_s: Vec<f32>,
+    /// Wall thickness of the cell, mm.
+    pub wall_mm: Vec<f32>,
+}
+
+impl FillAnalysis {
+    /// The colour field of the answer's gate for pictures, in real units (the colour bar
+    /// spans the values' real minimum and maximum).
+    /// `None` for [`ColourBy::Height`], which the scene draws itself. Empty values unless
+    /// `by` is the analysis's [`FillOptions::colour_by`].
+    pub fn field(&self, by: ColourBy) -> Option<crate::scene::Field> {
+        let (name, unit, values) = match by {
+            ColourBy::FlowLength => ("flow length", "mm", &self.per_vertex.flow_length_mm),
+            ColourBy::FillTime => ("fill time (estimate)", "s", &self.per_vertex.fill_time_s),
+            ColourBy::Wall => ("wall thickness", "mm", &self.per_vertex.wall_mm),
+            ColourBy::Height => return None,
+        };
+        Some(crate::scene::Field {
+            name: name.into(),
+            unit: unit.into(),
+            per_vertex: values.clone(),
+        })
+    }
 }
 
 /// Where the fill analysis takes the wall thickness from.
@@ -962,8 +1331,11 @@ pub enum Walls<'a> {
 pub struct WallSummary {
     /// Samples measured (surface cells).
     pub samples: usize,
-    /// Smallest known value, mm.
+    /// Smallest known value that is not a sliver (below
+    /// [`crate::thickness::SLIVER_OF_NOMINAL`] of the median), mm.
     pub min_mm: Option<f64>,
+    /// Samples thinner than that (slivers), left out of `min_mm`.
+    pub slivers: usize,
     /// 5th percentile, mm (robust to slivers at small features).
     pub p05_mm: Option<f64>,
     /// The nominal wall: median of the samples (each stands for one cell of surface), mm.
@@ -979,8 +1351,9 @@ pub struct WallSummary {
 }
 
 /// Runs the fill analysis of a located part: fields from the paper gate, the balanced gate
-/// (always computed, so the report can compare), and several gates when asked for.
-/// `triangle_wall_mm` is the measured wall per triangle when available.
+/// (always computed, so the report can compare), several gates when asked for, and a gate
+/// per body when the part has several. Every limit of [`FlowOptions`] is checked before the
+/// work it bounds.
 pub fn analyse(
     mesh: &Mesh,
     analysis: &crate::gate::Analysis,
@@ -992,31 +1365,46 @@ pub fn analyse(
         .gate()
         .map_err(|e| FillError::NoGate(e.to_string()))?
         .point();
-    if let Some(h) = options.flow.cell_mm {
-        if !(h.is_finite() && h > 0.0) {
-            return Err(FillError::Option(format!(
-                "the cell size must be a positive number, got {h}"
-            )));
-        }
+    if options.gates > options.flow.max_gates {
+        return Err(FillError::Option(format!(
+            "{} gates asked for, over the limit of {}",
+            options.gates, options.flow.max_gates
+        )));
     }
     let mut warnings = Vec::new();
     let mut times = FlowTimes::default();
     let t = Instant::now();
+    let bodies = Bodies::of(mesh);
     let c = &analysis.centres;
     let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
         2.0 * c.volume_mm3 / c.area_mm2
     } else {
         mesh.bounds().diagonal() / 100.0
     };
-    let h = cell_size(
+    let (h, coarsened) = choose_cell(
         mesh,
+        &bodies.of_triangle,
         match walls {
             Walls::Given(_, n) if n.is_finite() && n > 0.0 => n,
             _ => estimate,
         },
         &options.flow,
-    );
-    let voxels = Voxels::new(mesh, h);
+    )?;
+    if let Some(why) = coarsened {
+        warnings.push(format!(
+            "flow cells coarsened to {h:.4} mm to keep a limit ({why})"
+        ));
+    }
+    // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
+    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
+    if voxels.len() as f64 > options.flow.max_solid_cells {
+        return Err(FillError::too_large(
+            "solid cells",
+            voxels.len() as f64,
+            options.flow.max_solid_cells,
+            h,
+        ));
+    }
     let mut measured = None;
     let (per_triangle, nominal, wall_source, wall) = match walls {
         Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
@@ -1060,18 +1448,29 @@ pub fn analyse(
             nominal / 2.0
         ));
     }
-    let domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
+    let mut domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
+    // The mesh's volume of each body when every body is closed (its cells' volume else).
+    if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
+        domain.body_volume_mm3 = bodies.volume_mm3.clone();
+    }
     times.wall_s = wall.as_ref().map_or(0.0, |w| w.time_s);
     times.voxels_s = seconds(t) - times.wall_s;
-    if domain.bodies > 1 {
+    if bodies.count > 1 {
         warnings.push(format!(
-            "the part has {} separate bodies; a gate fills only its own body",
-            domain.bodies
+            "the part has {} separate bodies; a gate fills only its own body (see the gate per body)",
+            bodies.count
+        ));
+    }
+    if bodies.stray > 0 {
+        warnings.push(format!(
+            "{} stray bodies (area below {} % of the part's) left out of the fill",
+            bodies.stray,
+            100.0 * STRAY_BODY_AREA_SHARE
         ));
     }
 
     let t = Instant::now();
-    let (paper, paper_fields) =
+    let (mut paper, paper_fields) =
         fill_from(&domain, gate, material).ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
     if paper.reached_share < 0.999 {
         warnings.push(format!(
@@ -1090,9 +1489,11 @@ pub fn analyse(
         .filter_map(|&p| domain.source(p))
         .collect();
     let first = domain.source(gate).expect("checked by fill_from");
-    let objective_value = |f: &GateFill| match options.objective {
-        Objective::Length => f.l_max_mm,
-        Objective::Resistance => f.fill_max,
+    let per_mm = seconds_per_mm(material);
+    // The objective in its reported units: L_max in mm, or the fill time in s.
+    let (objective_value, scale): (fn(&GateFill) -> f64, f64) = match options.objective {
+        Objective::Length => (|f| f.l_max_mm, 1.0),
+        Objective::Resistance => (|f| f.fill_time_s, per_mm),
     };
     let start = match options.objective {
         Objective::Length => &paper_fields.length,
@@ -1102,12 +1503,18 @@ pub fn analyse(
         .map(|search| {
             let point = candidates[search.candidate].point;
             let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
+            // The search marches from cell centres; the reported gate is the candidate's
+            // surface point, whose field differs by up to a cell. The search reports the
+            // value of the fill it gives, and the bound it proved capped at that value.
+            let bound = search.lower_bound * scale;
             if objective_value(&fill) >= objective_value(&paper) {
                 // Within the discretisation the paper gate is as good (it is a candidate
                 // itself unless it is the aesthetic gate): keep it, so the balanced gate
                 // never does worse than the paper gate.
+                let value = objective_value(&paper);
                 let search = Balanced {
-                    value: objective_value(&paper),
+                    value,
+                    lower_bound: bound.min(value),
                     ..search
                 };
                 let fill = BalancedFill {
@@ -1118,8 +1525,13 @@ pub fn analyse(
                 };
                 (fill, None)
             } else {
-                let improvement_pct =
-                    100.0 * (1.0 - objective_value(&fill) / objective_value(&paper));
+                let value = objective_value(&fill);
+                let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
+                let search = Balanced {
+                    value,
+                    lower_bound: bound.min(value),
+                    ..search
+                };
                 let fill = BalancedFill {
                     fill,
                     search,
@@ -1144,25 +1556,41 @@ pub fn analyse(
                 available: 0,
             })?,
         };
+        let k = options.gates as f64;
+        let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k + 1.0);
+        if work > options.flow.max_march_cells {
+            return Err(FillError::too_large(
+                "cell visits of the several-gate search",
+                work,
+                options.flow.max_march_cells,
+                h,
+            ));
+        }
         let available = candidates
             .iter()
             .filter(|s| {
                 domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
             })
             .count();
-        Some(
-            several_gates(
-                &domain,
-                &candidates,
-                options.objective,
-                start,
-                options.gates,
-            )
-            .ok_or(FillError::TooFewCandidates {
-                asked: options.gates,
-                available,
-            })?,
+        let mut layout = several_gates(
+            &domain,
+            &candidates,
+            options.objective,
+            start,
+            options.gates,
         )
+        .ok_or(FillError::TooFewCandidates {
+            asked: options.gates,
+            available,
+        })?;
+        if options.objective == Objective::Resistance {
+            // Reported in seconds, like the single gate's objective.
+            layout.l_max_mm *= per_mm;
+            for g in &mut layout.gates {
+                g.l_max_mm *= per_mm;
+            }
+        }
+        Some(layout)
     } else {
         None
     };
@@ -1172,19 +1600,47 @@ pub fn analyse(
         (Strategy::Balanced, Some((b, Some(f)))) => (DVec3::from_array(b.fill.gate), f),
         _ => (gate, &paper_fields),
     };
-    // With several gates the picture's fill order is that of all of them together.
-    let fill_order_per_vertex = match &several {
-        Some(m) => {
-            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
-            let field = march(&domain.voxels, &sources, Some(&domain.fill_cost));
-            per_vertex(&domain, mesh, &field.t)
-        }
-        None => per_vertex(&domain, mesh, &fields.fill.t),
+    let answer_body = domain.source(answer).map(|s| domain.body[s.cell as usize]);
+    let body_gates = if domain.bodies > 1 {
+        gates_per_body(&domain, &bodies, analysis, material, answer_body)
+    } else {
+        Vec::new()
     };
+    // Only the field the pictures show (a pass over the vertices each).
+    let mut per_vertex = VertexFields::default();
+    // With several gates the pictured flow length or fill time is that of all of them
+    // together: one more march from every gate at once.
+    let all_gates = |cost: Option<&[f32]>| {
+        several.as_ref().map(|m| {
+            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+            march(&domain.voxels, &sources, cost)
+        })
+    };
+    match options.colour_by {
+        ColourBy::FlowLength => {
+            let field = all_gates(None);
+            let t = field.as_ref().map_or(&fields.length.t, |f| &f.t);
+            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, t, 1.0)
+        }
+        ColourBy::FillTime => {
+            let field = all_gates(Some(&domain.fill_cost));
+            let t = field.as_ref().map_or(&fields.fill.t, |f| &f.t);
+            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, t, per_mm)
+        }
+        ColourBy::Wall => per_vertex.wall_mm = per_vertex_of_cells(&domain, mesh, &domain.wall_mm),
+        ColourBy::Height => {}
+    }
+    snap_places(&domain, mesh, &mut paper);
+    let mut balanced = balanced.map(|(b, _)| b);
+    if let Some(b) = &mut balanced {
+        snap_places(&domain, mesh, &mut b.fill);
+    }
     Ok(FillAnalysis {
         cell_mm: h,
         cells: domain.voxels.len(),
-        bodies: domain.bodies,
+        bodies: bodies.count,
+        stray_bodies: bodies.stray,
+        body_gates,
         nominal_wall_mm: nominal,
         wall_source,
         wall,
@@ -1192,13 +1648,79 @@ pub fn analyse(
         strategy: options.strategy,
         pressure_mpa_per_mm: pressure_factor_mpa_per_mm(material, nominal),
         paper: Some(paper),
-        balanced: balanced.map(|(b, _)| b),
+        balanced,
         several,
         warnings,
         times,
-        fill_order_per_vertex,
+        per_vertex,
         answer: Some(answer),
     })
+}
+
+/// The gate of every body: the paper's rule on the body, its qualifying node nearest its
+/// centre of mass, with its flow length and fill time over the body.
+fn gates_per_body(
+    domain: &Domain,
+    bodies: &Bodies,
+    analysis: &crate::gate::Analysis,
+    material: &Material,
+    answer_body: Option<u32>,
+) -> Vec<BodyGate> {
+    let total: f64 = domain.body_volume_mm3.iter().sum();
+    (0..domain.bodies as u32)
+        .map(|b| {
+            let centre = bodies
+                .centre
+                .get(b as usize)
+                .copied()
+                .unwrap_or(DVec3::ZERO);
+            let gate = analysis
+                .qualifying_points
+                .iter()
+                .filter(|&&p| {
+                    domain
+                        .source(p)
+                        .is_some_and(|s| domain.body[s.cell as usize] == b)
+                })
+                .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
+                .copied();
+            let fill = gate.and_then(|g| fill_from(domain, g, material));
+            BodyGate {
+                body: b,
+                volume_share: domain.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE),
+                centre_of_mass: centre.to_array(),
+                gate: gate.map(|g| g.to_array()),
+                is_answer_body: answer_body == Some(b),
+                l_max_mm: fill.as_ref().map(|f| f.0.l_max_mm),
+                fill_time_s: fill.as_ref().map(|f| f.0.fill_time_s),
+            }
+        })
+        .collect()
+}
+
+/// The point of the part's surface nearest cell `c`'s centre, on the cell's triangle (a
+/// surface cell's own, an interior cell's nearest surface cell's).
+fn on_surface(domain: &Domain, mesh: &Mesh, p: [f64; 3]) -> [f64; 3] {
+    let p = DVec3::from_array(p);
+    let snapped = domain
+        .voxels
+        .cell_near(p)
+        .map(|c| domain.voxels.triangle[c as usize])
+        .filter(|&t| (t as usize) < mesh.triangles.len())
+        .map(|t| crate::thickness::nearest_on_triangle(mesh.corners(t as usize), p));
+    snapped.unwrap_or(p).to_array()
+}
+
+/// Moves the places a fill reports (last to fill, farthest point, weld lines) onto the
+/// part's surface.
+fn snap_places(domain: &Domain, mesh: &Mesh, fill: &mut GateFill) {
+    fill.farthest = on_surface(domain, mesh, fill.farthest);
+    for q in &mut fill.last_to_fill {
+        q.point = on_surface(domain, mesh, q.point);
+    }
+    for w in &mut fill.weld_lines {
+        w.point = on_surface(domain, mesh, w.point);
+    }
 }
 
 /// Statistics of the surface cells' walls: each surface cell is one sample, the value of its
@@ -1220,9 +1742,12 @@ fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSu
         (!values.is_empty())
             .then(|| values[((values.len() - 1) as f64 * f).round() as usize] as f64)
     };
+    let sliver = q(0.5).map_or(0.0, |n| crate::thickness::SLIVER_OF_NOMINAL * n);
+    let slivers = values.iter().take_while(|&&v| (v as f64) < sliver).count();
     WallSummary {
         samples,
-        min_mm: q(0.0),
+        min_mm: values.get(slivers).map(|&v| v as f64),
+        slivers,
         p05_mm: q(0.05),
         nominal_mm: q(0.5),
         p95_mm: q(0.95),
@@ -1246,10 +1771,9 @@ fn nearest_candidate(candidates: &[Source], p: DVec3) -> Option<usize> {
     })
 }
 
-/// A field per mesh vertex, normalised to 0..1 over its finite values (NaN where the vertex's
+/// A field per mesh vertex in real units (`scale` times the field; NaN where the vertex's
 /// cell is unreached).
-fn per_vertex(domain: &Domain, mesh: &Mesh, t: &[f64]) -> Vec<f32> {
-    let max = argmax(t).1.max(f64::MIN_POSITIVE);
+fn per_vertex_of(domain: &Domain, mesh: &Mesh, t: &[f64], scale: f64) -> Vec<f32> {
     mesh.vertices
         .par_iter()
         .map(|&p| {
@@ -1258,7 +1782,20 @@ fn per_vertex(domain: &Domain, mesh: &Mesh, t: &[f64]) -> Vec<f32> {
                 .cell_near(p)
                 .map(|c| t[c as usize])
                 .filter(|x| x.is_finite())
-                .map_or(f32::NAN, |x| (x / max) as f32)
+                .map_or(f32::NAN, |x| (x * scale) as f32)
+        })
+        .collect()
+}
+
+/// A per-cell value per mesh vertex (NaN where no cell is near).
+fn per_vertex_of_cells(domain: &Domain, mesh: &Mesh, values: &[f32]) -> Vec<f32> {
+    mesh.vertices
+        .par_iter()
+        .map(|&p| {
+            domain
+                .voxels
+                .cell_near(p)
+                .map_or(f32::NAN, |c| values[c as usize])
         })
         .collect()
 }

@@ -5,12 +5,20 @@
 //!   of cell centres crosses the triangles, entering through faces whose normal points down
 //!   and leaving through faces whose normal points up; a column whose crossings do not sum
 //!   to zero, as on an open mesh, fills nothing), or
-//! - the surface passes through it (every triangle is sampled at spacing at most h/2 and
-//!   the cell of each sample is marked).
+//! - the surface passes through it (every triangle is covered by rows of samples parallel
+//!   to its longest edge, rows and samples at most h/2 apart, and the cell of each sample is
+//!   marked; the count grows with the triangle's area and perimeter, and is bounded before
+//!   the work by [`samples_for`]).
 //!
 //! The surface cells keep walls thinner than a cell connected, and make an open mesh a
-//! shell of cells the melt can still flow along. The price is that two walls closer than
-//! one cell touch: choose `h` below the gap you care about.
+//! shell of cells the melt can still flow along.
+//!
+//! **Bodies.** Each cell belongs to one body of the mesh (a connected set of triangles,
+//! [`crate::mesh::topology::body_of_triangle`]): a surface cell to the body of its triangle,
+//! an interior cell to the body whose surface its column entered. Two cells of different
+//! bodies are never neighbours, whatever the cell size: melt does not jump the air between
+//! a lid and its box, even where they share a cell. (A cell crossed by two bodies' surfaces
+//! goes to one of them.)
 //!
 //! The grid origin is shifted by a small irrational fraction of a cell so that cell centres
 //! do not fall exactly on the axis-aligned faces and edges of CAD meshes.
@@ -45,6 +53,9 @@ pub struct Voxels {
     pub triangle: Vec<u32>,
     /// Whether the surface passes through each solid cell.
     pub surface: Vec<bool>,
+    /// The body of each solid cell (the body of the triangle that made it); cells of
+    /// different bodies are never neighbours.
+    pub body: Vec<u32>,
     /// Cells whose centre is inside the surface (the rest are surface cells only).
     pub interior_cells: usize,
     /// Columns whose crossings did not close (open mesh), filled with surface cells only.
@@ -69,10 +80,98 @@ pub(crate) fn neighbour_offsets() -> [([i32; 3], f64); 26] {
     out
 }
 
+/// A column's crossing of the surface: ((column, body), z, +1 entering / -1 leaving,
+/// triangle).
+type Crossing = ((u32, u32), f64, i8, u32);
+
+/// Smallest spacing of surface samples, in cells: every triangle is covered by rows at most
+/// this far apart, with samples at most this far apart along each row.
+const SAMPLE_STEP: f64 = 0.5;
+
+/// The corners of triangle `t` as (base start, base end, apex), the base its longest edge.
+fn base_and_apex(mesh: &Mesh, t: usize) -> (DVec3, DVec3, DVec3) {
+    let [a, b, c] = mesh.corners(t);
+    let (ab, bc, ca) = (a.distance(b), b.distance(c), c.distance(a));
+    if ab >= bc && ab >= ca {
+        (a, b, c)
+    } else if bc >= ca {
+        (b, c, a)
+    } else {
+        (c, a, b)
+    }
+}
+
+/// Rows and samples per row (at most) that cover triangle `t` at spacing `step`: the rows
+/// run parallel to the longest edge, so the count grows with the triangle's area and
+/// perimeter, not with the square of its longest edge (a sliver 1e5 mm long and 0.1 mm
+/// wide needs one row, not 1e10 samples).
+fn sample_grid(mesh: &Mesh, t: usize, step: f64) -> (usize, usize) {
+    let (a, b, c) = base_and_apex(mesh, t);
+    let base = a.distance(b);
+    let height = if base > 0.0 {
+        (b - a).cross(c - a).length() / base
+    } else {
+        0.0
+    };
+    let rows = (height / step).ceil().clamp(1.0, 1e15) as usize;
+    let per_row = (base / step).ceil().clamp(1.0, 1e15) as usize + 1;
+    (rows, per_row)
+}
+
+/// Upper bound of the surface samples a voxelisation at `h` takes over the triangles
+/// `keep` marks (all when `None`), computed without sampling.
+pub fn samples_for(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
+    (0..mesh.triangles.len())
+        .into_par_iter()
+        .filter(|&t| keep.is_none_or(|k| k[t]))
+        .map(|t| {
+            let (rows, per_row) = sample_grid(mesh, t, SAMPLE_STEP * h);
+            (rows as f64 + 1.0) * per_row as f64
+        })
+        .sum()
+}
+
 impl Voxels {
-    /// Voxelises `mesh` with cells of side `h` mm. The caller keeps the cell count sane (see
-    /// [`Voxels::cells_for`]).
+    /// Voxelises `mesh` with cells of side `h` mm, each body of the mesh its own. The caller keeps
+    /// the work sane: [`Voxels::bounded`] checks the limits before it allocates.
     pub fn new(mesh: &Mesh, h: f64) -> Voxels {
+        Self::build(mesh, h, &crate::mesh::topology::body_of_triangle(mesh))
+    }
+
+    /// Voxelises the triangles whose `body_of` is not `u32::MAX`, each cell labelled with
+    /// the body whose triangle passes through it or whose inside holds its centre; cells of
+    /// different bodies are never neighbours. Refuses, before allocating, a grid of more than
+    /// `limits.max_cells` cells or more than `limits.max_samples` surface samples.
+    pub fn bounded(
+        mesh: &Mesh,
+        h: f64,
+        body_of: &[u32],
+        limits: &super::FlowOptions,
+    ) -> Result<Voxels, super::FillError> {
+        let keep: Vec<bool> = body_of.iter().map(|&b| b != EMPTY).collect();
+        let dense = Self::cells_for(&mesh.bounds(), h);
+        if dense > limits.max_cells {
+            return Err(super::FillError::too_large(
+                "grid cells",
+                dense,
+                limits.max_cells,
+                h,
+            ));
+        }
+        let samples = samples_for(mesh, h, Some(&keep));
+        if samples > limits.max_samples {
+            return Err(super::FillError::too_large(
+                "surface samples",
+                samples,
+                limits.max_samples,
+                h,
+            ));
+        }
+        Ok(Self::build(mesh, h, body_of))
+    }
+
+    /// [`Voxels::bounded`] without the checks, for a caller that made them.
+    pub(crate) fn build(mesh: &Mesh, h: f64, body_of: &[u32]) -> Voxels {
         let bounds = mesh.bounds();
         let (origin, dims) = Self::layout(&bounds, h);
         let n_cells = dims[0] * dims[1] * dims[2];
@@ -86,26 +185,27 @@ impl Voxels {
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
         };
 
-        // Surface cells: samples at most h/2 apart over every triangle.
+        // Surface cells: rows of samples at most h/2 apart over every triangle.
+        let step = SAMPLE_STEP * h;
         let mut owner = vec![EMPTY; n_cells];
-        let marks: Vec<Vec<(u32, u32)>> = mesh
-            .triangles
+        let marks: Vec<Vec<(u32, u32)>> = (0..mesh.triangles.len())
+            .collect::<Vec<_>>()
             .par_chunks(4096)
-            .enumerate()
-            .map(|(chunk, tris)| {
+            .map(|ts| {
                 let mut out = Vec::new();
-                for (k, _) in tris.iter().enumerate() {
-                    let t = chunk * 4096 + k;
-                    let [a, b, c] = mesh.corners(t);
-                    let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
-                    let n = ((longest / (0.5 * h)).ceil() as usize).max(1);
+                for &t in ts {
+                    if body_of[t] == EMPTY {
+                        continue;
+                    }
+                    let (a, b, c) = base_and_apex(mesh, t);
+                    let (rows, per_row) = sample_grid(mesh, t, step);
                     let mut last = usize::MAX;
-                    for i in 0..=n {
-                        for j in 0..=n - i {
-                            let p = a
-                                + (b - a) * (i as f64 / n as f64)
-                                + (c - a) * (j as f64 / n as f64);
-                            let cell = cell_of(p);
+                    for r in 0..=rows {
+                        let s = r as f64 / rows as f64;
+                        let (p, q) = (a + (c - a) * s, b + (c - b) * s);
+                        let n = (((1.0 - s) * (per_row - 1) as f64).ceil() as usize).max(1);
+                        for j in 0..=n {
+                            let cell = cell_of(p + (q - p) * (j as f64 / n as f64));
                             if cell != last {
                                 out.push((cell as u32, t as u32));
                                 last = cell;
@@ -123,18 +223,21 @@ impl Voxels {
         }
         drop(marks);
 
-        // Interior cells: winding number along +Z columns through the cell centres.
-        let (inside, open_columns) = Self::interior(mesh, origin, h, dims);
+        // Interior cells: winding number along +Z columns through the cell centres; each
+        // holds the triangle the column entered its body through.
+        let (inside, open_columns) = Self::interior(mesh, origin, h, dims, body_of);
 
         let mut index = vec![EMPTY; n_cells];
         let mut cells = Vec::new();
         let mut dense = Vec::new();
         let mut triangle = Vec::new();
         let mut surface_flags = Vec::new();
+        let mut body = Vec::new();
         let mut interior_cells = 0;
         for (i, slot) in index.iter_mut().enumerate() {
             let surface = owner[i] != EMPTY;
-            if surface || inside[i] {
+            let entered = inside[i];
+            if surface || entered != EMPTY {
                 *slot = cells.len() as u32;
                 let x = i % dims[0];
                 let y = (i / dims[0]) % dims[1];
@@ -143,9 +246,12 @@ impl Voxels {
                 dense.push(i as u32);
                 triangle.push(owner[i]);
                 surface_flags.push(surface);
-                interior_cells += inside[i] as usize;
+                body.push(body_of[if surface { owner[i] } else { entered } as usize]);
+                interior_cells += (entered != EMPTY) as usize;
             }
         }
+        drop(inside);
+        drop(owner);
         let mut voxels = Voxels {
             origin,
             h,
@@ -156,6 +262,7 @@ impl Voxels {
             table: Vec::new(),
             triangle,
             surface: surface_flags,
+            body,
             interior_cells,
             open_columns,
         };
@@ -183,16 +290,29 @@ impl Voxels {
         (origin, dims)
     }
 
-    /// Cells whose centres are inside the surface, and the count of open columns.
-    fn interior(mesh: &Mesh, origin: DVec3, h: f64, dims: [usize; 3]) -> (Vec<bool>, usize) {
+    /// For each grid cell whose centre is inside the surface, the triangle its column
+    /// entered through (`EMPTY` elsewhere), and the count of open columns. Each body's
+    /// columns close on their own, so bodies that overlap or nest are filled each by its own
+    /// crossings.
+    fn interior(
+        mesh: &Mesh,
+        origin: DVec3,
+        h: f64,
+        dims: [usize; 3],
+        body_of: &[u32],
+    ) -> (Vec<u32>, usize) {
         let [nx, ny, nz] = dims;
-        // Crossings (column, z, +1 entering / -1 leaving), gathered per triangle.
-        let crossings: Vec<Vec<(u32, f64, i8)>> = mesh
-            .triangles
+        // Crossings (column and body, z, +1 entering / -1 leaving, triangle), per triangle.
+        let crossings: Vec<Vec<Crossing>> = (0..mesh.triangles.len())
+            .collect::<Vec<_>>()
             .par_chunks(4096)
-            .map(|tris| {
+            .map(|ts| {
                 let mut out = Vec::new();
-                for tri in tris {
+                for &t in ts {
+                    if body_of[t] == EMPTY {
+                        continue;
+                    }
+                    let tri = mesh.triangles[t];
                     let p = tri.map(|v| mesh.vertices[v as usize]);
                     let q = p.map(|v| DVec2::new(v.x, v.y));
                     let area = orient2d(q[0], q[1], q[2]);
@@ -220,7 +340,8 @@ impl Voxels {
                             };
                             if inside {
                                 let z = (w0 * p[0].z + w1 * p[1].z + w2 * p[2].z) / area;
-                                out.push(((j as usize * nx + i as usize) as u32, z, sign));
+                                let col = (j as usize * nx + i as usize) as u32;
+                                out.push(((col, body_of[t]), z, sign, t as u32));
                             }
                         }
                     }
@@ -228,9 +349,9 @@ impl Voxels {
                 out
             })
             .collect();
-        let mut all: Vec<(u32, f64, i8)> = crossings.into_iter().flatten().collect();
+        let mut all: Vec<Crossing> = crossings.into_iter().flatten().collect();
         all.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
-        let mut inside = vec![false; nx * ny * nz];
+        let mut inside = vec![EMPTY; nx * ny * nz];
         let mut open_columns = 0;
         let mut start = 0;
         while start < all.len() {
@@ -243,16 +364,21 @@ impl Voxels {
             if run.iter().map(|c| c.2 as i32).sum::<i32>() != 0 {
                 open_columns += 1;
             } else {
-                let (i, j) = (col as usize % nx, col as usize / nx);
+                let (i, j) = (col.0 as usize % nx, col.0 as usize / nx);
                 let mut winding = 0i32;
+                let mut run_triangle = EMPTY;
                 for pair in run.windows(2) {
+                    let entered = winding == 0;
                     winding += pair[0].2 as i32;
+                    if entered && winding != 0 {
+                        run_triangle = pair[0].3;
+                    }
                     if winding != 0 {
                         let k0 = ((pair[0].1 - origin.z) / h).ceil().max(0.0) as usize;
                         let k1 = ((pair[1].1 - origin.z) / h).floor();
                         if k1 >= 0.0 {
                             for k in k0..=(k1 as usize).min(nz - 1) {
-                                inside[(k * ny + j) * nx + i] = true;
+                                inside[(k * ny + j) * nx + i] = run_triangle;
                             }
                         }
                     }
@@ -296,7 +422,17 @@ impl Voxels {
             .collect();
         self.dense
             .par_iter()
-            .map(|&d| std::array::from_fn(|k| self.index[(d as isize + strides[k]) as usize]))
+            .zip(&self.body)
+            .map(|(&d, &b)| {
+                std::array::from_fn(|k| {
+                    let n = self.index[(d as isize + strides[k]) as usize];
+                    if n != EMPTY && self.body[n as usize] == b {
+                        n
+                    } else {
+                        EMPTY
+                    }
+                })
+            })
             .collect()
     }
 
@@ -324,7 +460,7 @@ impl Voxels {
     pub fn neighbour(&self, c: u32, o: [i32; 3]) -> Option<u32> {
         let i = self.dense[c as usize] as isize + self.stride(o);
         let n = self.index[i as usize];
-        (n != EMPTY).then_some(n)
+        (n != EMPTY && self.body[n as usize] == self.body[c as usize]).then_some(n)
     }
 
     /// Offset in the dense grid of a step `o`.
@@ -338,7 +474,7 @@ impl Voxels {
     #[inline]
     pub fn neighbour_at(&self, c: u32, stride: isize) -> Option<u32> {
         let n = self.index[(self.dense[c as usize] as isize + stride) as usize];
-        (n != EMPTY).then_some(n)
+        (n != EMPTY && self.body[n as usize] == self.body[c as usize]).then_some(n)
     }
 
     /// The solid cell nearest `p`: the cell containing it if solid, else the nearest solid

@@ -101,6 +101,104 @@ pub struct LocateOptions {
     pub cosmetic: Option<Direction>,
 }
 
+/// The most points a node's circle may have: one a degree, far more than the rule needs
+/// (16 is the default) and a bound on the circle lattices' memory and time.
+pub const MAX_CIRCLE_POINTS: usize = 360;
+
+/// The largest node limit accepted ([`LocateOptions::max_nodes`]).
+pub const MAX_NODES_LIMIT: usize = 20_000_000;
+
+/// The memory the rays' hit records may take, in bytes (3 GiB): with up to
+/// [`projection::MAX_RUNS`] sets of hits, one 24-byte record a node and one 8-byte record a
+/// node and circle point. The default 4 million nodes and 16 circle points need 2.3 GiB at
+/// most (four sets), 1.1 GiB on two threads.
+pub const RAY_MEMORY_BUDGET_BYTES: u64 = 3 << 30;
+
+/// The most ray-triangle tests the rays may make, summed over the node and circle
+/// lattices: the lattice points inside every triangle's projection, estimated from the
+/// triangles' projected areas before any ray is cast. A part whose surface each ray
+/// crosses a few times stays far below it (the 352k-triangle shared part, default grid of
+/// 9,393 nodes: at most 3.0e4 a lattice by its surface area, 5e5 in all); 1.17 million
+/// random triangles over a 100 mm box would make 1.5e10, which took over 300 s on two
+/// threads, so the budget is of the order of 20 s of rays.
+pub const RAY_TEST_BUDGET: f64 = 1e9;
+
+impl LocateOptions {
+    /// Checks every option against its range and stated limit before any work: a front end
+    /// calls it when it builds the options, and [`locate`] calls it again.
+    pub fn validate(&self) -> Result<(), OptionsError> {
+        let r = self.gate_radius_mm;
+        if !(r.is_finite() && r > 0.0) {
+            return Err(OptionsError::NonPositive {
+                option: "gate radius",
+                value: r,
+            });
+        }
+        if self.circle_points == 0 {
+            return Err(OptionsError::NonPositive {
+                option: "circle points",
+                value: 0.0,
+            });
+        }
+        for (option, value, limit) in [
+            ("circle points", self.circle_points, MAX_CIRCLE_POINTS),
+            ("the node limit", self.max_nodes, MAX_NODES_LIMIT),
+        ] {
+            if value > limit {
+                return Err(OptionsError::AboveLimit {
+                    option,
+                    value: value as u64,
+                    limit: limit as u64,
+                });
+            }
+        }
+        if self.max_nodes == 0 {
+            return Err(OptionsError::NonPositive {
+                option: "the node limit",
+                value: 0.0,
+            });
+        }
+        if let Spacing::Mm(h) = self.spacing {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(OptionsError::NonPositive {
+                    option: "spacing",
+                    value: h,
+                });
+            }
+        }
+        if !self.grid_offset.is_finite() {
+            return Err(OptionsError::NonPositive {
+                option: "grid offset",
+                value: self.grid_offset,
+            });
+        }
+        if let Some(t) = self.flat_tolerance_mm {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(OptionsError::NonPositive {
+                    option: "flatness tolerance",
+                    value: t,
+                });
+            }
+        }
+        // The worst case: the largest grid allowed, with the most sets of hits any machine
+        // draws, so that options valid here are valid everywhere.
+        let per_node = 24 + 8 * self.circle_points as u64;
+        let runs = projection::MAX_RUNS as u64;
+        let bytes = self.max_nodes as u64 * per_node * runs;
+        if bytes > RAY_MEMORY_BUDGET_BYTES {
+            return Err(OptionsError::RayMemory {
+                max_nodes: self.max_nodes as u64,
+                circle_points: self.circle_points as u64,
+                runs,
+                bytes,
+                budget: RAY_MEMORY_BUDGET_BYTES,
+                nodes_within: RAY_MEMORY_BUDGET_BYTES / (per_node * runs),
+            });
+        }
+        Ok(())
+    }
+}
+
 impl Default for LocateOptions {
     fn default() -> Self {
         LocateOptions {
@@ -296,7 +394,16 @@ impl Analysis {
         if c.cosmetic > 0 {
             s += &format!("; {} lie on cosmetic faces", c.cosmetic);
         }
-        s + " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)"
+        s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
+        // A part whose size suggests other units fails for that reason more often than any.
+        let across =
+            DVec2::from_array(self.grid.box_hi).distance(DVec2::from_array(self.grid.box_lo));
+        if crate::mesh::units::size_is_suspicious(across) {
+            s += &format!(
+                "; the part is {across:.4} mm across as read: if the file is not in millimetres, pass --units (in, cm or m)"
+            );
+        }
+        s
     }
 }
 
@@ -307,14 +414,7 @@ impl Analysis {
 pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
     let mesh = &part.mesh;
     let r = options.gate_radius_mm;
-    for (option, value) in [
-        ("gate radius", r),
-        ("circle points", options.circle_points as f64),
-    ] {
-        if !(value.is_finite() && value > 0.0) {
-            return Err(OptionsError::NonPositive { option, value });
-        }
-    }
+    options.validate()?;
     let start = Instant::now();
     let mut warnings = Vec::new();
     let mut times = StageTimes::default();
@@ -337,7 +437,26 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
         Spacing::Auto => auto_spacing(hi - lo, r),
         Spacing::Mm(h) => h,
     };
-    let grid = Grid::new(lo, hi, spacing, options.grid_offset, options.max_nodes)?;
+    let grid = match Grid::new(lo, hi, spacing, options.grid_offset, options.max_nodes) {
+        // The automatic spacing is the gate's size: a grid too large for it is the part's
+        // size at fault (most often its units), not an option's.
+        Err(OptionsError::GridTooLarge {
+            nodes,
+            limit,
+            min_spacing_mm,
+            ..
+        }) if options.spacing == Spacing::Auto => {
+            return Err(OptionsError::PartTooLarge {
+                span_mm: (hi - lo).max_element(),
+                spacing_mm: spacing,
+                nodes,
+                limit,
+                min_spacing_mm,
+            })
+        }
+        grid => grid?,
+    };
+    check_ray_tests(part, &frame, &grid, options.circle_points, lo, hi)?;
     let flat_tolerance_mm = options.flat_tolerance_mm.unwrap_or(0.1 * r);
     if !(flat_tolerance_mm.is_finite() && flat_tolerance_mm >= 0.0) {
         return Err(OptionsError::NonPositive {
@@ -509,6 +628,52 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
         aesthetic_gate,
         times,
         warnings,
+    })
+}
+
+/// Refuses a part whose triangles overlap so deeply along the demolding direction that the
+/// rays would make more than [`RAY_TEST_BUDGET`] ray-triangle tests. A triangle covers
+/// about (projected area / spacing^2) rays of each lattice; the surface area bounds the sum
+/// of projected areas, so for most parts the check costs nothing, and the projected areas
+/// are summed (one pass over the triangles) only when the bound is over the budget.
+fn check_ray_tests(
+    part: &LoadedMesh,
+    frame: &Frame,
+    grid: &Grid,
+    circle_points: usize,
+    lo: DVec2,
+    hi: DVec2,
+) -> Result<(), OptionsError> {
+    let lattices = (1 + circle_points) as f64;
+    let per_area = lattices / (grid.spacing * grid.spacing);
+    if part.stats.area_mm2 * per_area <= RAY_TEST_BUDGET {
+        return Ok(());
+    }
+    let mesh = &part.mesh;
+    let projected: f64 = mesh
+        .triangles
+        .par_chunks(16 * 1024)
+        .map(|block| {
+            block
+                .iter()
+                .map(|&[a, b, c]| {
+                    let [a, b, c] = [a, b, c].map(|v| frame.project(mesh.vertices[v as usize]));
+                    0.5 * crate::math::orient2d(a, b, c).abs()
+                })
+                .sum::<f64>()
+        })
+        .collect::<Vec<f64>>()
+        .iter()
+        .sum();
+    let ray_tests = projected * per_area;
+    if ray_tests <= RAY_TEST_BUDGET {
+        return Ok(());
+    }
+    let span = hi - lo;
+    Err(OptionsError::OverlappingSurface {
+        depth: projected / (span.x * span.y).max(grid.spacing * grid.spacing),
+        ray_tests,
+        budget: RAY_TEST_BUDGET,
     })
 }
 

@@ -189,7 +189,7 @@ impl Projection {
 
 /// At most this many sets of hits are drawn apart and merged; each holds its own copy of
 /// every lattice's hits.
-const MAX_RUNS: usize = 4;
+pub const MAX_RUNS: usize = 4;
 
 /// Triangles in a block of the projection's work queue.
 const BLOCK: usize = 4096;

@@ -7,9 +7,22 @@
 pub mod arrays;
 pub mod obj;
 pub mod ply;
+pub mod sniff;
 pub mod stl;
+pub mod text;
 pub mod topology;
 pub mod units;
+
+/// The largest coordinate accepted, in millimetres once converted from the file's units:
+/// a kilometre of part is far beyond any mould, and below this the squares and sums of the
+/// analysis (areas, moments, distances) stay finite and precise. A file with a coordinate
+/// beyond it is refused at load with the coordinate's place.
+pub const MAX_COORDINATE_MM: f64 = 1e9;
+
+/// The most corners a polygon (an OBJ or PLY face, an ASCII STL facet) may have before it
+/// is fanned into triangles: real meshes use triangles and quads, CAD exports rarely more
+/// than a few dozen, and a fan of millions of triangles over one polygon is not a surface.
+pub const MAX_POLYGON_CORNERS: usize = 4096;
 
 use std::io::BufRead;
 
@@ -136,6 +149,10 @@ pub struct MeshStats {
     pub triangles: u64,
     /// Facets dropped because two corners welded to the same vertex.
     pub collapsed_facets: u64,
+    /// Triangles dropped because an earlier triangle has the same three vertices (in any
+    /// order): a repeated facet adds no surface, and stacks of them multiply the cost of
+    /// the rays.
+    pub duplicate_triangles: u64,
     /// Kept triangles with zero area (three distinct but collinear corners).
     pub zero_area_triangles: u64,
     /// Edges used by one triangle only (0 on a closed mesh).
@@ -177,7 +194,7 @@ pub struct LoadedMesh {
 /// Binary is recognised by its size (84 + 50 n bytes for the n triangles its header declares)
 /// before the word `solid` is looked at, since many binary files start with it.
 pub fn read_stl(reader: impl BufRead, len: u64, units: Units) -> Result<LoadedMesh, LoadError> {
-    let raw = stl::read(reader, len)?;
+    let raw = stl::read(reader, len, units)?;
     finish(raw, units)
 }
 
@@ -189,7 +206,7 @@ where
     R: BufRead + std::io::Seek,
     F: Fn() -> std::io::Result<R> + Sync,
 {
-    let raw = stl::read_reopen(open, len)?;
+    let raw = stl::read_reopen(open, len, units)?;
     finish(raw, units)
 }
 
@@ -197,13 +214,13 @@ where
 /// into triangles, and the triangles are welded like an STL's facets, so the same part saved
 /// as STL and OBJ loads to the same mesh and stats (format aside).
 pub fn read_obj(reader: impl BufRead, units: Units) -> Result<LoadedMesh, LoadError> {
-    finish(obj::read(reader)?, units)
+    finish(obj::read(reader, units)?, units)
 }
 
 /// Reads a PLY (ASCII or binary, format 1.0) from `reader`, converting it to millimetres.
 /// Polygons are fanned into triangles, and the triangles are welded like an STL's facets.
 pub fn read_ply(reader: impl BufRead, units: Units) -> Result<LoadedMesh, LoadError> {
-    finish(ply::read(reader)?, units)
+    finish(ply::read(reader, units)?, units)
 }
 
 /// Builds a [`LoadedMesh`] from generated geometry in millimetres.
@@ -251,6 +268,26 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         mut warnings,
     } = raw;
     mesh.scale(units.mm_per_unit());
+    let mut topology = Topology::new(&mesh);
+    // A repeated triangle makes its edges non-manifold, so a mesh without such edges has
+    // none (but for a mesh of two copies of one triangle): only then are they looked for.
+    let duplicate_triangles = if topology.non_manifold_edges > 0 || mesh.triangles.len() <= 2 {
+        drop_duplicates(&mut mesh.triangles)
+    } else {
+        0
+    };
+    if duplicate_triangles > 0 {
+        topology = Topology::new(&mesh);
+        warnings.push(format!(
+            "{duplicate_triangles} triangles repeat an earlier triangle's three vertices and were dropped"
+        ));
+    }
+    // Areas are taken relative to the box centre, as the centre of mass takes them, so that
+    // a part far from the origin does not get a non-zero area from cancellation here and a
+    // zero one there (the readers keep every coordinate within MAX_COORDINATE_MM, so the
+    // products stay finite).
+    let bounds = mesh.bounds();
+    let origin = bounds.centre();
     // Summed in fixed blocks, in parallel, and the blocks' sums in order: the same area
     // whatever the number of threads.
     const BLOCK: usize = 16 * 1024;
@@ -261,7 +298,7 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         .map(|(b, block)| {
             let (mut area, mut zero_area) = (0.0, 0u64);
             for t in b * BLOCK..b * BLOCK + block.len() {
-                let [a, b, c] = mesh.corners(t);
+                let [a, b, c] = mesh.corners(t).map(|p| p - origin);
                 let a2 = (b - a).cross(c - a).length();
                 zero_area += u64::from(a2 == 0.0);
                 area += 0.5 * a2;
@@ -276,8 +313,6 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
             facets: facets_read,
         });
     }
-    let topology = Topology::new(&mesh);
-    let bounds = mesh.bounds();
     if collapsed_facets > 0 {
         warnings.push(format!(
             "{collapsed_facets} degenerate facets (two corners at the same point) were dropped"
@@ -318,6 +353,7 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         vertices: mesh.vertices.len() as u64,
         triangles: mesh.triangles.len() as u64,
         collapsed_facets,
+        duplicate_triangles,
         zero_area_triangles: zero_area,
         open_edges: topology.open_edges,
         non_manifold_edges: topology.non_manifold_edges,
@@ -332,6 +368,34 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         warnings,
         topology,
     })
+}
+
+/// Drops every triangle whose three vertices (in any order) are an earlier triangle's,
+/// keeping the order of the others; returns how many were dropped.
+fn drop_duplicates(triangles: &mut Vec<[u32; 3]>) -> u64 {
+    let key = |t: &[u32; 3]| {
+        let mut k = *t;
+        k.sort_unstable();
+        k
+    };
+    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+    order.par_sort_unstable_by_key(|&i| (key(&triangles[i as usize]), i));
+    let mut dropped = vec![false; triangles.len()];
+    let mut count = 0;
+    for pair in order.windows(2) {
+        if key(&triangles[pair[0] as usize]) == key(&triangles[pair[1] as usize]) {
+            dropped[pair[1] as usize] = true;
+            count += 1;
+        }
+    }
+    if count > 0 {
+        let mut i = 0;
+        triangles.retain(|_| {
+            i += 1;
+            !dropped[i - 1]
+        });
+    }
+    count
 }
 
 /// Welds identical corner positions into shared vertices as facets arrive.

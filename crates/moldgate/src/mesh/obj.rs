@@ -12,8 +12,9 @@
 
 use std::io::BufRead;
 
-use super::{Format, RawMesh, Welder};
-use crate::error::{LoadError, Place};
+use super::text::Lines;
+use super::{sniff, Format, RawMesh, Units, Welder, MAX_COORDINATE_MM, MAX_POLYGON_CORNERS};
+use crate::error::{excerpt, LoadError, Place};
 use crate::math::DVec3;
 
 /// Statements that do not change the triangle surface.
@@ -57,24 +58,25 @@ const SKIPPED: &[&[u8]] = &[
     b"csh",
 ];
 
-/// Reads an OBJ from `reader` into a welded mesh in file units.
-pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
+/// Reads an OBJ written in `units` from `reader` into a welded mesh in file units.
+pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError> {
+    let head = reader.fill_buf()?;
+    if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false) {
+        return Err(e);
+    }
+    let limit = MAX_COORDINATE_MM / units.mm_per_unit();
+    let mut lines = Lines::new(reader);
     let mut welder = Welder::with_capacity(1024);
     let mut positions: Vec<DVec3> = Vec::new();
     let mut corners: Vec<usize> = Vec::new();
     let mut facets = 0u64;
     let mut line = Vec::new();
-    let mut line_no = 0u64;
     let syntax = |line: u64, message: String| LoadError::Syntax {
         place: Place::Line(line),
         message,
     };
-    loop {
-        line.clear();
-        if reader.read_until(b'\n', &mut line)? == 0 {
-            break;
-        }
-        line_no += 1;
+    while lines.next_into(&mut line)? {
+        let line_no = lines.line_no;
         let content = match line.iter().position(|&b| b == b'#') {
             Some(hash) => &line[..hash],
             None => &line[..],
@@ -96,6 +98,14 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                         )
                     })?;
                     *value = number(tok, line_no)?;
+                    if value.abs() > limit {
+                        return Err(LoadError::OutOfRange {
+                            place: Place::Line(line_no),
+                            value: *value,
+                            mm: *value * units.mm_per_unit(),
+                            limit_mm: MAX_COORDINATE_MM,
+                        });
+                    }
                 }
                 // An optional w, or per-vertex colours: numbers we do not use.
                 for tok in tokens {
@@ -106,6 +116,14 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
             b"f" => {
                 corners.clear();
                 for tok in tokens {
+                    if corners.len() == MAX_POLYGON_CORNERS {
+                        return Err(syntax(
+                            line_no,
+                            format!(
+                                "face has more than {MAX_POLYGON_CORNERS} corners, the limit of a polygon"
+                            ),
+                        ));
+                    }
                     corners.push(corner(tok, positions.len(), line_no)?);
                 }
                 if corners.len() < 3 {
@@ -131,10 +149,7 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
             other => {
                 return Err(syntax(
                     line_no,
-                    format!(
-                        "unknown OBJ statement '{}'",
-                        String::from_utf8_lossy(&other[..other.len().min(40)])
-                    ),
+                    format!("unknown OBJ statement '{}'", excerpt(other)),
                 ));
             }
         }
@@ -153,7 +168,7 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
 
 /// A finite coordinate.
 fn number(tok: &[u8], line: u64) -> Result<f64, LoadError> {
-    let shown = || String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
+    let shown = || excerpt(tok);
     let value = std::str::from_utf8(tok)
         .ok()
         .and_then(|s| s.parse::<f64>().ok())
@@ -177,7 +192,7 @@ fn corner(tok: &[u8], defined: usize, line: u64) -> Result<usize, LoadError> {
         place: Place::Line(line),
         message,
     };
-    let shown = || String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
+    let shown = || excerpt(tok);
     let index = tok.split(|&b| b == b'/').next().unwrap_or_default();
     let i: i64 = std::str::from_utf8(index)
         .ok()
@@ -201,7 +216,7 @@ mod tests {
     use super::*;
 
     fn read_str(text: &str) -> Result<RawMesh, LoadError> {
-        read(text.as_bytes())
+        read(text.as_bytes(), Units::Mm)
     }
 
     fn line_of(err: LoadError) -> u64 {

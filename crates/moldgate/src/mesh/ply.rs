@@ -11,8 +11,9 @@
 
 use std::io::{BufRead, ErrorKind};
 
-use super::{Format, RawMesh, Welder};
-use crate::error::{LoadError, Place};
+use super::text::Lines;
+use super::{sniff, Format, RawMesh, Units, Welder, MAX_COORDINATE_MM, MAX_POLYGON_CORNERS};
+use crate::error::{excerpt, LoadError, Place};
 use crate::math::DVec3;
 
 /// A PLY scalar type.
@@ -105,13 +106,14 @@ fn syntax(place: Place, message: impl Into<String>) -> LoadError {
     }
 }
 
-/// At most this many words of a bad token are quoted in a message.
+/// A bad token, quoted short and escaped.
 fn shown(tok: &[u8]) -> String {
-    String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned()
+    excerpt(tok)
 }
 
-/// Reads a PLY from `reader` into a welded mesh in file units.
-pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
+/// Reads a PLY written in `units` from `reader` into a welded mesh in file units.
+pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError> {
+    let limit = MAX_COORDINATE_MM / units.mm_per_unit();
     let (encoding, elements, lines, bytes) = read_header(&mut reader)?;
     let vertex_count = elements
         .iter()
@@ -119,9 +121,12 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
         .map_or(0, |e| e.count);
     let mut body = match encoding {
         Encoding::Ascii => Body::Ascii {
-            reader,
+            lines: {
+                let mut body = Lines::new(reader);
+                body.line_no = lines;
+                body
+            },
             line: Vec::new(),
-            line_no: lines,
             pos: 0,
         },
         _ => Body::Binary {
@@ -134,6 +139,11 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
     for element in &elements {
+        // A binary element without properties takes no bytes: however large its count, there
+        // is nothing to read (counting through 10^15 of them would never end).
+        if element.properties.is_empty() && !matches!(body, Body::Ascii { .. }) {
+            continue;
+        }
         for index in 0..element.count {
             let what = Instance {
                 element: &element.name,
@@ -151,6 +161,14 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                                 place,
                                 format!("{what} has a non-finite coordinate ({value})"),
                             ));
+                        }
+                        if value.abs() > limit {
+                            return Err(LoadError::OutOfRange {
+                                place,
+                                value,
+                                mm: value * units.mm_per_unit(),
+                                limit_mm: MAX_COORDINATE_MM,
+                            });
                         }
                         xyz[axis] = value;
                     }
@@ -177,6 +195,14 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                             return Err(syntax(
                                 place,
                                 format!("{what} has {n} corners, a face needs at least 3"),
+                            ));
+                        }
+                        if n > MAX_POLYGON_CORNERS as u64 {
+                            return Err(syntax(
+                                place,
+                                format!(
+                                    "{what} has {n} corners, more than {MAX_POLYGON_CORNERS}, the limit of a polygon"
+                                ),
                             ));
                         }
                         corners.clear();
@@ -238,28 +264,35 @@ pub fn read(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
 /// Reads the header up to and including `end_header`: the encoding, the elements, the
 /// number of header lines and of header bytes.
 fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64, u64), LoadError> {
+    let head = reader.fill_buf()?;
+    if !head.starts_with(b"ply") {
+        if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false) {
+            return Err(e);
+        }
+    }
+    let mut lines = Lines::new(reader);
     let mut line = Vec::new();
-    let mut line_no = 0u64;
-    let mut bytes = 0u64;
+    let mut line_no;
     let mut encoding = None;
     let mut elements: Vec<Element> = Vec::new();
     loop {
-        line.clear();
-        let n = reader.read_until(b'\n', &mut line)?;
-        if n == 0 {
-            if line_no == 0 {
+        if !lines.next_into(&mut line)? {
+            if lines.line_no == 0 {
                 return Err(LoadError::Empty);
             }
             return Err(syntax(
-                Place::Line(line_no),
+                Place::Line(lines.line_no),
                 "the file ends inside the PLY header (no end_header)",
             ));
         }
-        bytes += n as u64;
-        line_no += 1;
+        line_no = lines.line_no;
         let place = Place::Line(line_no);
-        let text =
-            std::str::from_utf8(&line).map_err(|_| syntax(place, "the PLY header is not text"))?;
+        let text = std::str::from_utf8(&line).map_err(|_| {
+            syntax(
+                place,
+                format!("the PLY header is not text: '{}'", excerpt(&line)),
+            )
+        })?;
         let mut words = text.split_ascii_whitespace();
         let keyword = words.next().unwrap_or("");
         if line_no == 1 {
@@ -283,7 +316,7 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                             place,
                             format!(
                                 "unknown PLY format '{}': expected ascii, binary_little_endian or binary_big_endian",
-                                other.unwrap_or("")
+                                shown(other.unwrap_or("").as_bytes())
                             ),
                         ))
                     }
@@ -295,7 +328,7 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                             place,
                             format!(
                                 "unsupported PLY version '{}': expected 1.0",
-                                other.unwrap_or("")
+                                shown(other.unwrap_or("").as_bytes())
                             ),
                         ))
                     }
@@ -310,7 +343,10 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                 let count: u64 = count.parse().map_err(|_| {
                     syntax(
                         place,
-                        format!("element count '{count}' is not a whole number"),
+                        format!(
+                            "element count '{}' is not a whole number",
+                            shown(count.as_bytes())
+                        ),
                     )
                 })?;
                 if (name == "vertex" || name == "face") && elements.iter().any(|e| e.name == name) {
@@ -334,8 +370,12 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                 };
                 let scalar = |word: Option<&str>| {
                     let word = word.unwrap_or("");
-                    Scalar::parse(word)
-                        .ok_or_else(|| syntax(place, format!("unknown PLY type '{word}'")))
+                    Scalar::parse(word).ok_or_else(|| {
+                        syntax(
+                            place,
+                            format!("unknown PLY type '{}'", shown(word.as_bytes())),
+                        )
+                    })
                 };
                 let first = words.next();
                 let kind = if first == Some("list") {
@@ -411,7 +451,7 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
             "element face has no 'property list ... vertex_indices'",
         ));
     }
-    Ok((encoding, elements, line_no, bytes))
+    Ok((encoding, elements, line_no, lines.bytes))
 }
 
 /// One instance of an element, for messages: `vertex 12`, `face 3`.
@@ -430,9 +470,8 @@ impl std::fmt::Display for Instance<'_> {
 enum Body<R> {
     /// One element instance per line.
     Ascii {
-        reader: R,
+        lines: Lines<R>,
         line: Vec<u8>,
-        line_no: u64,
         pos: usize,
     },
     /// Packed values.
@@ -447,31 +486,23 @@ impl<R: BufRead> Body<R> {
     /// Where the next value is.
     fn place(&self) -> Place {
         match self {
-            Body::Ascii { line_no, .. } => Place::Line(*line_no),
+            Body::Ascii { lines, .. } => Place::Line(lines.line_no),
             Body::Binary { offset, .. } => Place::Byte(*offset),
         }
     }
 
     /// Starts an instance: in ASCII, moves to the next line that is not blank.
     fn begin(&mut self, what: &Instance) -> Result<(), LoadError> {
-        let Body::Ascii {
-            reader,
-            line,
-            line_no,
-            pos,
-        } = self
-        else {
+        let Body::Ascii { lines, line, pos } = self else {
             return Ok(());
         };
         loop {
-            line.clear();
-            if reader.read_until(b'\n', line)? == 0 {
+            if !lines.next_into(line)? {
                 return Err(syntax(
-                    Place::Line(*line_no),
+                    Place::Line(lines.line_no),
                     format!("the file ends before {what}"),
                 ));
             }
-            *line_no += 1;
             *pos = 0;
             if line.iter().any(|b| !b.is_ascii_whitespace()) {
                 return Ok(());
@@ -481,13 +512,10 @@ impl<R: BufRead> Body<R> {
 
     /// Ends an instance: in ASCII, its line must hold nothing more.
     fn end(&mut self, what: &Instance) -> Result<(), LoadError> {
-        if let Body::Ascii {
-            line, line_no, pos, ..
-        } = self
-        {
+        if let Body::Ascii { lines, line, pos } = self {
             if line[*pos..].iter().any(|b| !b.is_ascii_whitespace()) {
                 return Err(syntax(
-                    Place::Line(*line_no),
+                    Place::Line(lines.line_no),
                     format!("too many values on the line of {what}"),
                 ));
             }
@@ -498,10 +526,8 @@ impl<R: BufRead> Body<R> {
     /// The next value, of type `ty`.
     fn value(&mut self, ty: Scalar, what: &Instance) -> Result<f64, LoadError> {
         match self {
-            Body::Ascii {
-                line, line_no, pos, ..
-            } => {
-                let place = Place::Line(*line_no);
+            Body::Ascii { lines, line, pos } => {
+                let place = Place::Line(lines.line_no);
                 let rest = &line[*pos..];
                 let start = rest
                     .iter()
@@ -575,20 +601,14 @@ impl<R: BufRead> Body<R> {
     /// A warning when data follows the last element.
     fn trailing(&mut self) -> Result<Option<String>, LoadError> {
         match self {
-            Body::Ascii {
-                reader,
-                line,
-                line_no,
-                ..
-            } => loop {
-                line.clear();
-                if reader.read_until(b'\n', line)? == 0 {
+            Body::Ascii { lines, line, .. } => loop {
+                if !lines.next_into(line)? {
                     return Ok(None);
                 }
-                *line_no += 1;
                 if line.iter().any(|b| !b.is_ascii_whitespace()) {
                     return Ok(Some(format!(
-                        "the PLY file continues after its last element (line {line_no}); the rest was ignored"
+                        "the PLY file continues after its last element (line {}); the rest was ignored",
+                        lines.line_no
                     )));
                 }
             },
@@ -623,7 +643,7 @@ mod tests {
     #[test]
     fn ascii_quad_is_fanned_and_extra_properties_skipped() {
         let text = format!("{HEADER}0 0 0 9\n1 0 0 9\n1 1 0 9\n0 1 0 9\n4 0 1 2 3\n0 1\n");
-        let raw = read(text.as_bytes()).unwrap();
+        let raw = read(text.as_bytes(), Units::Mm).unwrap();
         assert_eq!(raw.format, Format::PlyAscii);
         assert_eq!(raw.mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(raw.mesh.vertices[2], DVec3::new(1.0, 1.0, 0.0));
@@ -654,12 +674,12 @@ mod tests {
             let mut rows = good.map(String::from).to_vec();
             rows[row] = bad.to_string();
             let text = format!("{HEADER}{}\n", rows.join("\n"));
-            let err = read(text.as_bytes()).unwrap_err();
+            let err = read(text.as_bytes(), Units::Mm).unwrap_err();
             assert_eq!(place_of(err), Place::Line(line), "{bad:?}");
         }
         let short = format!("{HEADER}0 0 0 9\n");
         assert_eq!(
-            place_of(read(short.as_bytes()).unwrap_err()),
+            place_of(read(short.as_bytes(), Units::Mm).unwrap_err()),
             Place::Line(15)
         );
     }
@@ -686,7 +706,7 @@ mod tests {
                 4,
             ),
         ] {
-            let err = read(header.as_bytes()).unwrap_err();
+            let err = read(header.as_bytes(), Units::Mm).unwrap_err();
             assert_eq!(place_of(err), Place::Line(line), "{header:?}");
         }
     }
@@ -707,7 +727,7 @@ mod tests {
         for i in [0u32, 1, 2] {
             data.extend(i.to_be_bytes());
         }
-        let raw = read(&data[..]).unwrap();
+        let raw = read(&data[..], Units::Mm).unwrap();
         assert_eq!(raw.format, Format::PlyBinaryBigEndian);
         assert_eq!(raw.mesh.triangles, vec![[0, 1, 2]]);
         assert_eq!(raw.mesh.vertices[1], DVec3::X);
@@ -717,23 +737,26 @@ mod tests {
         let at = (body + 81) as usize;
         bad[at..at + 4].copy_from_slice(&3u32.to_be_bytes());
         assert_eq!(
-            place_of(read(&bad[..]).unwrap_err()),
+            place_of(read(&bad[..], Units::Mm).unwrap_err()),
             Place::Byte(body + 81)
         );
         // Cut inside the face's second index.
         let cut = &data[..(body + 72 + 1 + 6) as usize];
-        assert_eq!(place_of(read(cut).unwrap_err()), Place::Byte(body + 77));
+        assert_eq!(
+            place_of(read(cut, Units::Mm).unwrap_err()),
+            Place::Byte(body + 77)
+        );
         // A NaN coordinate: vertex 1's y.
         let mut nan = data.clone();
         let at = (body + 32) as usize;
         nan[at..at + 8].copy_from_slice(&f64::NAN.to_be_bytes());
         assert_eq!(
-            place_of(read(&nan[..]).unwrap_err()),
+            place_of(read(&nan[..], Units::Mm).unwrap_err()),
             Place::Byte(body + 32)
         );
         // Extra bytes are a warning.
         let mut long = data.clone();
         long.extend([0u8; 5]);
-        assert_eq!(read(&long[..]).unwrap().warnings.len(), 1);
+        assert_eq!(read(&long[..], Units::Mm).unwrap().warnings.len(), 1);
     }
 }

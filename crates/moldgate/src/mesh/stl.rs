@@ -14,15 +14,17 @@ use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 
 use rayon::prelude::*;
 
-use super::{Format, Mesh, RawMesh, Welder};
-use crate::error::{LoadError, Place};
+use super::text::Lines;
+use super::{sniff, Format, Mesh, RawMesh, Units, Welder, MAX_COORDINATE_MM, MAX_POLYGON_CORNERS};
+use crate::error::{excerpt, LoadError, Place};
 use crate::math::DVec3;
 
 const HEADER: u64 = 84;
 const RECORD: u64 = 50;
 
-/// Reads an STL of `len` bytes.
-pub fn read(mut reader: impl BufRead, len: u64) -> Result<RawMesh, LoadError> {
+/// Reads an STL of `len` bytes written in `units` (whose coordinates must lie within
+/// [`MAX_COORDINATE_MM`] once in millimetres).
+pub fn read(mut reader: impl BufRead, len: u64, units: Units) -> Result<RawMesh, LoadError> {
     if len == 0 {
         return Err(LoadError::Empty);
     }
@@ -39,11 +41,14 @@ pub fn read(mut reader: impl BufRead, len: u64) -> Result<RawMesh, LoadError> {
     if let Some(n) = declared {
         let expected = HEADER + RECORD * n;
         if len >= expected && len - expected <= 2 {
-            return read_binary((&head[..]).chain(reader), n);
+            return read_binary((&head[..]).chain(reader), n, units);
         }
     }
     if looks_ascii(&head) {
-        return read_ascii((&head[..]).chain(reader));
+        return read_ascii((&head[..]).chain(reader), units);
+    }
+    if let Some(e) = sniff::not_a_mesh(&head, true) {
+        return Err(e);
     }
     let Some(declared) = declared else {
         return Err(LoadError::TruncatedHeader { len });
@@ -67,22 +72,50 @@ pub fn read(mut reader: impl BufRead, len: u64) -> Result<RawMesh, LoadError> {
     }
 }
 
-/// True when the file starts (after white space) with `solid` and its first bytes hold no
-/// control characters, which the floats of a binary STL almost always do.
+/// True when the file starts (after a byte-order mark and white space) with `solid`, and
+/// either its first bytes hold no control characters, which the floats of a binary STL
+/// almost always do, or the keywords `facet` and `vertex` follow in the first kilobyte (an
+/// ASCII file with a stray control character: the ASCII reader then names its line).
 fn looks_ascii(head: &[u8]) -> bool {
+    let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
     let text = head.trim_ascii_start();
+    let has = |word: &[u8]| {
+        head.windows(word.len())
+            .any(|w| w.eq_ignore_ascii_case(word))
+    };
     text.len() >= 5
         && text[..5].eq_ignore_ascii_case(b"solid")
-        && head
-            .iter()
-            .all(|&b| b >= 0x20 || matches!(b, b'\t' | b'\n' | b'\r' | 0x0c))
+        && (sniff::is_text(head) || (has(b"facet") && has(b"vertex")))
 }
 
-fn read_binary(mut reader: impl Read, declared: u64) -> Result<RawMesh, LoadError> {
+/// The largest coordinate of a file in `units`, in those units.
+fn coordinate_limit(units: Units) -> f64 {
+    MAX_COORDINATE_MM / units.mm_per_unit()
+}
+
+/// The error for a coordinate `value` (in `units`) that is not finite or beyond the limit.
+pub(super) fn bad_coordinate(place: Place, triangle: u64, value: f64, units: Units) -> LoadError {
+    if value.is_finite() {
+        LoadError::OutOfRange {
+            place,
+            value,
+            mm: value * units.mm_per_unit(),
+            limit_mm: MAX_COORDINATE_MM,
+        }
+    } else {
+        LoadError::NonFinite {
+            place,
+            triangle,
+            value,
+        }
+    }
+}
+
+fn read_binary(mut reader: impl Read, declared: u64, units: Units) -> Result<RawMesh, LoadError> {
     let mut header = [0u8; HEADER as usize];
     reader.read_exact(&mut header)?;
     let mut welder = Welder::with_capacity(declared as usize);
-    weld_records(reader, 0..declared, &mut welder)?;
+    weld_records(reader, 0..declared, &mut welder, units)?;
     Ok(binary_mesh(welder.finish(), declared))
 }
 
@@ -106,8 +139,11 @@ fn weld_records(
     mut reader: impl Read,
     range: std::ops::Range<u64>,
     welder: &mut Welder,
+    units: Units,
 ) -> Result<(), LoadError> {
     const CHUNK: usize = 4096;
+    // NaN, the infinities and the out of range refused by one test a coordinate.
+    let limit = coordinate_limit(units) as f32;
     let mut buf = vec![0u8; CHUNK * RECORD as usize];
     let mut done = range.start;
     while done < range.end {
@@ -122,12 +158,13 @@ fn weld_records(
                 for (j, c) in xyz.iter_mut().enumerate() {
                     let at = 12 + 12 * k + 4 * j;
                     let v = f32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]]);
-                    if !v.is_finite() {
-                        return Err(LoadError::NonFinite {
-                            place: Place::Byte(HEADER + RECORD * triangle + at as u64),
+                    if v.is_nan() || v.abs() > limit {
+                        return Err(bad_coordinate(
+                            Place::Byte(HEADER + RECORD * triangle + at as u64),
                             triangle,
-                            value: v as f64,
-                        });
+                            v as f64,
+                            units,
+                        ));
                     }
                     *c = v as f64;
                 }
@@ -150,7 +187,7 @@ const PARALLEL_MIN_TRIANGLES: u64 = 32 * 1024;
 /// merged in order. Vertices are numbered by first appearance in the file, as the
 /// single-threaded reader numbers them, so the result is the same. Anything else is read by
 /// [`read`] through one handle.
-pub fn read_reopen<R, F>(open: F, len: u64) -> Result<RawMesh, LoadError>
+pub fn read_reopen<R, F>(open: F, len: u64, units: Units) -> Result<RawMesh, LoadError>
 where
     R: BufRead + Seek,
     F: Fn() -> std::io::Result<R> + Sync,
@@ -167,7 +204,7 @@ where
         let expected = HEADER + RECORD * n;
         n >= PARALLEL_MIN_TRIANGLES && runs > 1 && len >= expected && len - expected <= 2
     }) else {
-        return read(first, len);
+        return read(first, len, units);
     };
     drop(first);
     let per_run = n.div_ceil(runs);
@@ -181,7 +218,7 @@ where
             // joined to it without reallocating (room never written costs no memory).
             let room = if r == 0 { n } else { 0 };
             let mut welder = Welder::for_run((range.end - range.start) as usize, room as usize);
-            weld_records(reader, range, &mut welder)?;
+            weld_records(reader, range, &mut welder, units)?;
             Ok(welder)
         })
         .collect();
@@ -203,7 +240,9 @@ enum Expect {
     Endfacet,
 }
 
-fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
+fn read_ascii(reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError> {
+    let limit = coordinate_limit(units);
+    let mut lines = Lines::new(reader);
     let mut welder = Welder::with_capacity(1024);
     let mut expect = Expect::Solid;
     let mut line_no = 0u64;
@@ -218,18 +257,14 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
         place: Place::Line(line),
         message,
     };
-    loop {
-        line.clear();
-        if reader.read_until(b'\n', &mut line)? == 0 {
-            break;
-        }
-        line_no += 1;
+    while lines.next_into(&mut line)? {
+        line_no = lines.line_no;
         let tokens = line
             .split(|b| b.is_ascii_whitespace())
             .filter(|t| !t.is_empty());
         for tok in tokens {
             let is = |word: &str| tok.eq_ignore_ascii_case(word.as_bytes());
-            let shown = || String::from_utf8_lossy(tok).into_owned();
+            let shown = || excerpt(tok);
             match expect {
                 Expect::Solid => {
                     if !is("solid") {
@@ -297,6 +332,14 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                 }
                 Expect::VertexOrEndloop => {
                     if is("vertex") {
+                        if corners.len() == MAX_POLYGON_CORNERS {
+                            return Err(syntax(
+                                line_no,
+                                format!(
+                                    "facet {facets} has more than {MAX_POLYGON_CORNERS} corners, the limit of a polygon"
+                                ),
+                            ));
+                        }
                         expect = Expect::VertexValues(0);
                     } else if is("endloop") {
                         if corners.len() < 3 {
@@ -315,12 +358,8 @@ fn read_ascii(mut reader: impl BufRead) -> Result<RawMesh, LoadError> {
                 }
                 Expect::VertexValues(i) => {
                     let v = parse_number(tok, line_no)?;
-                    if !v.is_finite() {
-                        return Err(LoadError::NonFinite {
-                            place: Place::Line(line_no),
-                            triangle: facets,
-                            value: v,
-                        });
+                    if v.is_nan() || v.abs() > limit {
+                        return Err(bad_coordinate(Place::Line(line_no), facets, v, units));
                     }
                     xyz[i as usize] = v;
                     expect = if i == 2 {
@@ -385,10 +424,7 @@ fn parse_number(tok: &[u8], line: u64) -> Result<f64, LoadError> {
         .and_then(|s| s.parse::<f64>().ok())
         .ok_or_else(|| LoadError::Syntax {
             place: Place::Line(line),
-            message: format!(
-                "expected a number, found '{}'",
-                String::from_utf8_lossy(tok)
-            ),
+            message: format!("expected a number, found '{}'", excerpt(tok)),
         })
 }
 

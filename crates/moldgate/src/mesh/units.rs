@@ -62,19 +62,34 @@ impl FromStr for Units {
     }
 }
 
+/// Parts smaller than this across (bounding-box diagonal, mm) get a warning that the file
+/// may be in other units: a part 5 inches long read as millimetres is 5 mm long, and a
+/// moulded part under a centimetre across is rare enough to deserve the question.
+pub const SMALL_PART_MM: f64 = 10.0;
+
+/// Parts larger than this across (mm) get a warning that the file may be in other units.
+pub const LARGE_PART_MM: f64 = 2000.0;
+
+/// True when a part of this diagonal (mm) is outside the plausible range of moulded parts,
+/// so that the units it was read in are in doubt.
+pub fn size_is_suspicious(diagonal_mm: f64) -> bool {
+    !(SMALL_PART_MM..=LARGE_PART_MM).contains(&diagonal_mm)
+}
+
 /// A warning when a part measured in millimetres has a size that suggests another unit, or
-/// `None` when the size is plausible for a moulded part (2 mm to 2 m across).
+/// `None` when the size is plausible for a moulded part ([`SMALL_PART_MM`] to
+/// [`LARGE_PART_MM`] across).
 pub fn size_warning(diagonal_mm: f64, units: Units) -> Option<String> {
-    if diagonal_mm < 2.0 {
+    if diagonal_mm < SMALL_PART_MM {
         let hint = if units == Units::Mm {
-            "; if the file is in metres or inches, pass --units m or --units in"
+            "; if the file is in inches, centimetres or metres, pass --units in, cm or m"
         } else {
             ""
         };
         Some(format!(
             "the part is only {diagonal_mm:.4} mm across (read as {units}){hint}"
         ))
-    } else if diagonal_mm > 2000.0 {
+    } else if diagonal_mm > LARGE_PART_MM {
         Some(format!(
             "the part is {diagonal_mm:.0} mm across (read as {units}), large for a moulded part; check --units"
         ))

@@ -26,8 +26,8 @@ mod run;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 pub use options::{
-    CentreChoice, Demold, MaterialChoice, NearestChoice, ObjectiveChoice, Settings, StrategyChoice,
-    StudyOptions, ThicknessChoice, MAX_GATES, MAX_NODES_LIMIT,
+    CentreChoice, ColorByChoice, Demold, MaterialChoice, NearestChoice, ObjectiveChoice, Settings,
+    StrategyChoice, StudyOptions, ThicknessChoice, MAX_NODES_LIMIT,
 };
 pub use run::{GateMarker, Study};
 
@@ -150,18 +150,23 @@ pub enum StudyError {
         /// Why.
         why: &'static str,
     },
-    /// A material name that is neither a user material nor a built-in one.
-    #[error("unknown material '{name}' (known: {known})")]
+    /// A material name that is neither a user material nor a built-in one (nor an alias of
+    /// one), case and separators ignored.
+    #[error("unknown material '{name}'; closest: {}", closest.join(", "))]
     UnknownMaterial {
         /// The name asked for.
         name: String,
-        /// The names known, comma-separated.
-        known: String,
+        /// The closest known names, closest first ([`crate::material::name::closest_of`]):
+        /// the user's materials and the library's, aliases ranking their material.
+        closest: Vec<String>,
     },
     /// A material parameter out of range.
     #[error("{0}")]
     Material(OptionsError),
-    /// An option the gate location refuses (a grid too large for `max_nodes`).
+    /// What the gate location refuses: an option above its limit or over the ray memory
+    /// budget ([`crate::LocateOptions::validate`], at validation), or the part itself at the
+    /// locate stage (a grid too large for `max_nodes`, [`OptionsError::PartTooLarge`],
+    /// [`OptionsError::OverlappingSurface`]).
     #[error("{0}")]
     Locate(OptionsError),
     /// The automatic demolding direction could not be chosen.

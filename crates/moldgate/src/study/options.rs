@@ -9,22 +9,21 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::OptionsError;
-use crate::flow::{FillOptions, FlowOptions, Objective, Strategy};
+use crate::flow::{ColourBy, FillOptions, FlowOptions, Objective, Strategy};
 use crate::gate::{FlatRule, Nearest, Spacing, ThicknessRule};
+use crate::material::{self, name};
 use crate::report::RadiusSource;
 use crate::study::StudyError;
 use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
 
-/// The largest grid accepted, in nodes. With 16 circle points a node costs 17 rays of 24
-/// bytes, so this is about 8 GB: far beyond a useful grid (the default limit is 4 million
-/// nodes), and a bound that keeps an absurd `max_nodes` from reaching the allocator.
-pub const MAX_NODES_LIMIT: usize = 20_000_000;
+/// The largest grid accepted, in nodes: the gate location's own limit, so that a study and
+/// [`crate::locate`] refuse the same values.
+pub use crate::gate::MAX_NODES_LIMIT;
 
-/// The largest number of gates of a several-gate layout.
-pub const MAX_GATES: usize = 64;
-
-/// A material: a built-in name (`"PP"`, `"ABS"`, `"PC"`, any case), a name of the user
-/// materials given to [`StudyOptions::validate_with`], or every parameter of a material.
+/// A material: a name of the built-in library (`"PP"`, `"pa66-gf30"`, an alias such as
+/// `"HDPE"`; case and separators ignored), a name of the user materials given to
+/// [`StudyOptions::validate_with`] (which win over a built-in of the same name), or every
+/// parameter of a material.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum MaterialChoice {
@@ -97,6 +96,22 @@ pub enum ObjectiveChoice {
     Resistance,
 }
 
+/// What pictures of the fill are coloured by (`color_by`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ColorByChoice {
+    /// Flow length from the gate, mm.
+    FlowLength,
+    /// Estimated fill time from the gate, s (`fill_time` is accepted too).
+    #[default]
+    #[serde(alias = "fill_time")]
+    FillOrder,
+    /// Wall thickness the fill analysis used, mm.
+    Wall,
+    /// Height along the demolding direction.
+    Height,
+}
+
 /// Every option of a study, as a front end receives it: the command line's `locate` flags
 /// in snake case, with the command line's defaults. Unknown fields are refused.
 ///
@@ -134,7 +149,7 @@ pub struct StudyOptions {
     pub spacing: Option<f64>,
     /// Grid shift as a fraction of the spacing along both axes. Default 0.
     pub grid_offset: f64,
-    /// Points on each node's circle. Default 16.
+    /// Points on each node's circle, 3 to [`crate::gate::MAX_CIRCLE_POINTS`]. Default 16.
     pub circle_points: usize,
     /// Which centre of mass the gate is placed by. Default `surface`.
     pub centre: CentreChoice,
@@ -148,7 +163,9 @@ pub struct StudyOptions {
     pub flat_tol: Option<f64>,
     /// Put the gate on the parting line, nearest the centre of mass. Default false.
     pub aesthetic: bool,
-    /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`]). Default 4 000 000.
+    /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`], and within the ray
+    /// memory budget [`crate::gate::RAY_MEMORY_BUDGET_BYTES`] with `circle_points`). Default
+    /// 4 000 000.
     pub max_nodes: usize,
     /// Regions no gate may reach into: `box:x0,y0,z0,x1,y1,z1` or `sphere:x,y,z,r` (mm).
     pub keep_out: Vec<String>,
@@ -162,9 +179,12 @@ pub struct StudyOptions {
     pub strategy: StrategyChoice,
     /// What the balanced gate and several gates minimise. Default `length`.
     pub objective: ObjectiveChoice,
-    /// Number of gates that together minimise the worst flow (1 to [`MAX_GATES`]).
-    /// Default 1.
+    /// Number of gates that together minimise the worst flow (1 to
+    /// [`FlowOptions::max_gates`], 32 by default). Default 1.
     pub gates: usize,
+    /// What pictures of the fill are coloured by. Default `fill_order` (the estimated fill
+    /// time, s).
+    pub color_by: ColorByChoice,
     /// Side of the flow-analysis cells, mm. Default: half the nominal wall, at most 1/120
     /// of the part's diagonal.
     pub cell: Option<f64>,
@@ -200,6 +220,7 @@ impl Default for StudyOptions {
             strategy: StrategyChoice::Paper,
             objective: ObjectiveChoice::Length,
             gates: 1,
+            color_by: ColorByChoice::FillOrder,
             cell: None,
             wall_thickness: false,
         }
@@ -232,6 +253,45 @@ pub struct Settings {
     pub wall_thickness: bool,
     /// The fill analysis, when asked for.
     pub fill: Option<FillOptions>,
+}
+
+/// How many names an unknown material is answered with.
+const SUGGESTIONS: usize = 3;
+
+/// The material called `query`, case and separators ignored: the user's first, then the
+/// built-in library's (names and aliases); an unknown name fails with the
+/// [`SUGGESTIONS`] closest known names.
+fn lookup(query: &str, user: &[Material]) -> Result<Material, StudyError> {
+    if let Some(m) = user.iter().find(|m| name::same(&m.name, query)) {
+        return Ok(m.clone());
+    }
+    if let Some(info) = material::find(query) {
+        return Ok(info.material.clone());
+    }
+    // Aliases count for closeness, but the answer is the material's own name; a built-in
+    // that a user material of its name replaces is not offered.
+    let shadowed =
+        |i: &&material::MaterialInfo| user.iter().any(|m| name::same(&m.name, &i.material.name));
+    let known = user
+        .iter()
+        .map(|m| (m.name.as_str(), m.name.as_str()))
+        .chain(
+            material::library()
+                .iter()
+                .filter(|i| !shadowed(i))
+                .flat_map(|i| {
+                    std::iter::once(&i.material.name)
+                        .chain(&i.aliases)
+                        .map(|spelling| (spelling.as_str(), i.material.name.as_str()))
+                }),
+        );
+    Err(StudyError::UnknownMaterial {
+        name: query.to_string(),
+        closest: name::closest_of(query, known, SUGGESTIONS)
+            .into_iter()
+            .map(String::from)
+            .collect(),
+    })
 }
 
 fn invalid(field: &'static str, message: impl Into<String>) -> StudyError {
@@ -268,7 +328,8 @@ impl StudyOptions {
     }
 
     /// Validates the options once; a material name is looked up in `user` (by
-    /// [`Material::name`], any case) before the built-ins.
+    /// [`Material::name`]) before the built-in library (names and aliases), case and
+    /// separators ignored, so a user material wins over a built-in of the same name.
     pub fn validate_with(&self, user: &[Material]) -> Result<Settings, StudyError> {
         if self.aesthetic && self.strategy == StrategyChoice::Balanced {
             return Err(StudyError::Conflict {
@@ -365,6 +426,9 @@ impl StudyOptions {
             keep_out,
             cosmetic,
         };
+        // The gate location's limits (circle points, the ray memory budget), checked here
+        // so that every front end refuses the same options before any work.
+        locate.validate().map_err(StudyError::Locate)?;
         Ok(Settings {
             material,
             locate,
@@ -380,20 +444,7 @@ impl StudyOptions {
     fn material(&self, user: &[Material]) -> Result<Material, StudyError> {
         let mut m = match &self.material {
             MaterialChoice::Parameters(m) => m.clone(),
-            MaterialChoice::Name(name) => user
-                .iter()
-                .find(|m| m.name.eq_ignore_ascii_case(name))
-                .cloned()
-                .or_else(|| Material::builtin(name))
-                .ok_or_else(|| StudyError::UnknownMaterial {
-                    name: name.clone(),
-                    known: crate::material::BUILTIN
-                        .iter()
-                        .map(|s| s.to_string())
-                        .chain(user.iter().map(|m| m.name.clone()))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                })?,
+            MaterialChoice::Name(name) => lookup(name, user)?,
         };
         let overrides = [
             (&mut m.n, self.n),
@@ -422,10 +473,14 @@ impl StudyOptions {
         if self.gates == 0 {
             return Err(invalid("gates", "must be at least 1"));
         }
-        if self.gates > MAX_GATES {
+        let flow = FlowOptions {
+            cell_mm: self.cell,
+            ..FlowOptions::default()
+        };
+        if self.gates > flow.max_gates {
             return Err(invalid(
                 "gates",
-                format!("must be at most {MAX_GATES}, got {}", self.gates),
+                format!("must be at most {}, got {}", flow.max_gates, self.gates),
             ));
         }
         if let Some(h) = self.cell {
@@ -436,10 +491,7 @@ impl StudyOptions {
             return Ok(None);
         }
         Ok(Some(FillOptions {
-            flow: FlowOptions {
-                cell_mm: self.cell,
-                ..FlowOptions::default()
-            },
+            flow,
             strategy: match self.strategy {
                 StrategyChoice::Paper => Strategy::Paper,
                 StrategyChoice::Balanced => Strategy::Balanced,
@@ -449,6 +501,12 @@ impl StudyOptions {
                 ObjectiveChoice::Resistance => Objective::Resistance,
             },
             gates: self.gates,
+            colour_by: match self.color_by {
+                ColorByChoice::FlowLength => ColourBy::FlowLength,
+                ColorByChoice::FillOrder => ColourBy::FillTime,
+                ColorByChoice::Wall => ColourBy::Wall,
+                ColorByChoice::Height => ColourBy::Height,
+            },
         }))
     }
 }
@@ -478,7 +536,7 @@ mod tests {
                  "centre": "volume", "nearest": "2d", "thickness_rule": "ignore",
                  "keep_out": ["sphere:0,0,0,2"], "cosmetic": "+y", "fill": true,
                  "strategy": "balanced", "objective": "resistance", "gates": 1,
-                 "cell": 0.8, "wall_thickness": true }"#,
+                 "cell": 0.8, "wall_thickness": true, "color_by": "flow_length" }"#,
         )
         .unwrap();
         let toml: StudyOptions = toml::from_str(
@@ -497,6 +555,7 @@ objective = "resistance"
 gates = 1
 cell = 0.8
 wall_thickness = true
+color_by = "flow_length"
 "#,
         )
         .unwrap();
@@ -515,6 +574,15 @@ wall_thickness = true
         assert_eq!(fill.strategy, Strategy::Balanced);
         assert_eq!(fill.objective, Objective::Resistance);
         assert_eq!(fill.flow.cell_mm, Some(0.8));
+        assert_eq!(fill.colour_by, ColourBy::FlowLength);
+        // The default pictures the fill time; `fill_time` names it too.
+        let o: StudyOptions = serde_json::from_str(r#"{ "fill": true }"#).unwrap();
+        assert_eq!(
+            o.validate().unwrap().fill.unwrap().colour_by,
+            ColourBy::FillTime
+        );
+        let o: StudyOptions = serde_json::from_str(r#"{ "color_by": "fill_time" }"#).unwrap();
+        assert_eq!(o.color_by, ColorByChoice::FillOrder);
     }
 
     #[test]
@@ -545,15 +613,81 @@ wall_thickness = true
         let o: StudyOptions = serde_json::from_str(r#"{ "material": "MINE" }"#).unwrap();
         assert_eq!(o.validate_with(&user).unwrap().material.name, "Mine");
         let e = o.validate().unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "unknown material 'MINE' (known: PP, ABS, PC)"
+        assert!(
+            e.to_string()
+                .starts_with("unknown material 'MINE'; closest: "),
+            "{e}"
         );
         let o: StudyOptions =
             serde_json::from_str(r#"{ "strategy": "balanced", "aesthetic": true }"#).unwrap();
         let e = o.validate().unwrap_err().to_string();
         assert!(
             e.starts_with("strategy and aesthetic cannot be used together"),
+            "{e}"
+        );
+    }
+
+    fn material_named(name: &str, user: &[Material]) -> Result<Material, StudyError> {
+        let o = StudyOptions {
+            material: MaterialChoice::Name(name.into()),
+            ..StudyOptions::default()
+        };
+        o.validate_with(user).map(|s| s.material)
+    }
+
+    #[test]
+    fn built_in_names_ignore_case_and_separators_and_take_aliases() {
+        let grade = material::find("PA66-GF30").unwrap();
+        for spelling in ["pa66-gf30", "PA66 GF30", "pa66gf30", "PA6.6-GF30"] {
+            assert_eq!(
+                material_named(spelling, &[]).unwrap(),
+                grade.material,
+                "{spelling}"
+            );
+        }
+        let hd = material_named("hdpe", &[]).unwrap();
+        assert_eq!(hd, material::find("PE-HD").unwrap().material);
+        assert_eq!(hd.name, "PE-HD");
+    }
+
+    #[test]
+    fn a_user_material_wins_over_the_built_in_of_its_name() {
+        // The user's "pa-66" is the built-in PA66 once case and separators are ignored.
+        let mine = Material {
+            name: "pa-66".into(),
+            ..Material::builtin("PC").unwrap()
+        };
+        let user = [mine.clone()];
+        assert_eq!(material_named("PA66", &user).unwrap(), mine);
+        assert_eq!(material_named("Pa 66", &user).unwrap(), mine);
+        // Other names still reach the library.
+        assert_eq!(material_named("PA6", &user).unwrap().name, "PA6");
+        assert_ne!(material_named("PA66", &[]).unwrap(), mine);
+        // The replaced built-in is not offered beside the user's material.
+        let e = material_named("PA67", &user).unwrap_err().to_string();
+        assert_eq!(e, "unknown material 'PA67'; closest: PA6, pa-66, PA66-GF30");
+    }
+
+    #[test]
+    fn an_unknown_material_names_the_closest_ones() {
+        let e = material_named("PA77", &[]).unwrap_err();
+        let StudyError::UnknownMaterial { name, closest } = &e else {
+            panic!("{e}")
+        };
+        assert_eq!(name, "PA77");
+        assert_eq!(closest, &["PA6", "PA66", "PA66-GF30"]);
+        assert_eq!(
+            e.to_string(),
+            "unknown material 'PA77'; closest: PA6, PA66, PA66-GF30"
+        );
+        // The user's materials are among the candidates.
+        let user = [Material {
+            name: "MyPP".into(),
+            ..Material::builtin("PP").unwrap()
+        }];
+        let e = material_named("MyPX", &user).unwrap_err().to_string();
+        assert!(
+            e.starts_with("unknown material 'MyPX'; closest: MyPP"),
             "{e}"
         );
     }
@@ -579,7 +713,7 @@ wall_thickness = true
             ),
             (r#"{ "max_nodes": 0 }"#, "max_nodes must be between 1"),
             (r#"{ "gates": 0 }"#, "gates must be at least 1"),
-            (r#"{ "gates": 65 }"#, "gates must be at most 64, got 65"),
+            (r#"{ "gates": 33 }"#, "gates must be at most 32, got 33"),
             (r#"{ "cell": 0 }"#, "cell must be a positive number, got 0"),
             (
                 r#"{ "demold": "sideways" }"#,

@@ -32,7 +32,8 @@ pub struct Study {
     analysis: Analysis,
     wall: Option<WallThickness>,
     wall_per_vertex: Option<Vec<f32>>,
-    fill_order: Option<Vec<f32>>,
+    /// What the fill's pictures are coloured by, when the fill ran.
+    colour_by: Option<flow::ColourBy>,
     gates: Vec<GateMarker>,
     subtitle: String,
     material_name: String,
@@ -142,9 +143,8 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     if let Some((w, time_s)) = &wall {
         report = report.with_wall_thickness(w, *time_s);
     }
-    let mut fill_order = None;
-    if let Some(mut fill) = fill {
-        fill_order = Some(std::mem::take(&mut fill.fill_order_per_vertex));
+    let colour_by = s.fill.as_ref().map(|o| o.colour_by);
+    if let Some(fill) = fill {
         report = report.with_fill(fill, analysis.centre);
     }
     // The tree serves several stages: counted once, on its own.
@@ -169,7 +169,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         analysis,
         wall: wall.map(|(w, _)| w),
         wall_per_vertex,
-        fill_order,
+        colour_by,
         gates,
         subtitle,
         material_name: s.material.name.clone(),
@@ -294,10 +294,30 @@ impl Study {
         self.report.fill.as_ref()
     }
 
-    /// Fill order of the answer's gate per mesh vertex (0 at the gate, 1 last; NaN where the
-    /// melt does not reach), when the fill ran.
-    pub fn fill_order(&self) -> Option<&[f32]> {
-        self.fill_order.as_deref()
+    /// The field the fill's pictures are coloured by (`color_by`), with its name and unit:
+    /// per mesh vertex, NaN where the melt does not reach; `None` without the fill or when
+    /// the pictures show the height along D.
+    pub fn fill_field(&self) -> Option<Field> {
+        self.fill()?.field(self.colour_by?)
+    }
+
+    /// Estimated fill time per mesh vertex, s (NaN where the melt does not reach; with
+    /// several gates, of all of them together), when the fill ran with `color_by =
+    /// "fill_order"` (the default).
+    pub fn fill_time_per_vertex(&self) -> Option<&[f32]> {
+        non_empty(&self.fill()?.per_vertex.fill_time_s)
+    }
+
+    /// Flow length per mesh vertex, mm (NaN where the melt does not reach), when the fill
+    /// ran with `color_by = "flow_length"`.
+    pub fn flow_length_per_vertex(&self) -> Option<&[f32]> {
+        non_empty(&self.fill()?.per_vertex.flow_length_mm)
+    }
+
+    /// The wall the fill analysis used per mesh vertex, mm, when the fill ran with
+    /// `color_by = "wall"`.
+    pub fn fill_wall_per_vertex(&self) -> Option<&[f32]> {
+        non_empty(&self.fill()?.per_vertex.wall_mm)
     }
 
     /// The wall thickness everywhere, when it was measured (`wall_thickness = true`).
@@ -333,8 +353,8 @@ impl Study {
         }
     }
 
-    /// What pictures and 3D files show: the part coloured by the fill order when the fill
-    /// ran (by height along D otherwise), the answer's gates, the centre of mass, the
+    /// What pictures and 3D files show: the part coloured by the fill's `color_by` field
+    /// when the fill ran (by height along D otherwise, or with `color_by = "height"`), the answer's gates, the centre of mass, the
     /// parting line, the qualifying points. `title` is the first title line (the file's
     /// name).
     pub fn scene<'a>(
@@ -344,12 +364,8 @@ impl Study {
     ) -> Result<Scene<'a>, StudyError> {
         self.check_part(part)?;
         let mut scene = Scene::new(&part.mesh, &self.analysis, title);
-        if let Some(f) = &self.fill_order {
-            scene = scene.with_field(Field {
-                name: "fill order (0 gate, 1 last)".into(),
-                unit: String::new(),
-                per_vertex: f.clone(),
-            });
+        if let Some(f) = self.fill_field() {
+            scene = scene.with_field(f);
         }
         let r = self.analysis.options.gate_radius_mm;
         scene.gates = self
@@ -393,4 +409,8 @@ impl From<FillError> for StudyError {
     fn from(e: FillError) -> Self {
         StudyError::Fill(e)
     }
+}
+
+fn non_empty(values: &[f32]) -> Option<&[f32]> {
+    (!values.is_empty()).then_some(values)
 }

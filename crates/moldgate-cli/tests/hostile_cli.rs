@@ -1,0 +1,160 @@
+//! Hostile and odd input end to end: the exit code and the one-line message a user sees.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn moldgate(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_moldgate"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// A binary STL of a tetrahedron with corner at the origin and legs `s`.
+fn tetrahedron(s: f32) -> Vec<u8> {
+    let (a, b, c, d) = ([0.0, 0.0, 0.0], [s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]);
+    let facets = [[a, c, b], [a, b, d], [a, d, c], [b, c, d]];
+    let mut out = vec![b' '; 80];
+    out.extend(4u32.to_le_bytes());
+    for f in facets {
+        out.extend([0u8; 12]);
+        for c in f.iter().flatten() {
+            out.extend(c.to_le_bytes());
+        }
+        out.extend([0u8; 2]);
+    }
+    out
+}
+
+#[test]
+fn part_too_large_for_the_automatic_spacing_is_an_input_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("huge.stl");
+    std::fs::write(&path, tetrahedron(2e8)).unwrap();
+    let out = moldgate(&["locate", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("huge.stl") && stderr.contains("--units"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("inf"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn overlapping_triangles_are_an_input_error_naming_the_file() {
+    // 300 random triangles over 30 corners of a 100 mm cube: each ray crosses about a
+    // hundred of them, over the ray-test budget at a 0.06 mm spacing.
+    let mut state = 7u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        state >> 11
+    };
+    let corners: Vec<[f32; 3]> = (0..30)
+        .map(|_| [0; 3].map(|_: i32| (next() % 100_000) as f32 / 1000.0))
+        .collect();
+    let mut out = vec![b' '; 80];
+    out.extend(300u32.to_le_bytes());
+    let mut n = 0;
+    while n < 300 {
+        let t = [0; 3].map(|_: i32| (next() % 30) as usize);
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            continue;
+        }
+        out.extend([0u8; 12]);
+        for c in t.iter().flat_map(|&i| corners[i]) {
+            out.extend(c.to_le_bytes());
+        }
+        out.extend([0u8; 2]);
+        n += 1;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("soup.stl");
+    std::fs::write(&path, out).unwrap();
+    let out = moldgate(&["locate", path.to_str().unwrap(), "--spacing", "0.06"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("soup.stl") && stderr.contains("overlap"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn option_over_its_memory_budget_is_refused_before_loading() {
+    // The file does not exist: the options are refused first.
+    let out = moldgate(&["locate", "missing.stl", "--circle-points", "1000000"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("at most 360"), "{stderr}");
+    let out = moldgate(&["locate", "missing.stl", "--max-nodes", "20000000"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("MiB"), "{stderr}");
+}
+
+#[test]
+fn step_file_is_named_as_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("part.step");
+    std::fs::write(
+        &path,
+        b"ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\n",
+    )
+    .unwrap();
+    let out = moldgate(&["locate", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("STEP file"), "{stderr}");
+}
+
+fn shared_parts() -> Option<PathBuf> {
+    let dir = std::env::var_os("MOLDGATE_PARTS").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/parts"),
+        PathBuf::from,
+    );
+    dir.join("trimesh_featuretype_inches.STL")
+        .exists()
+        .then_some(dir)
+}
+
+#[test]
+fn odd_unit_parts_are_warned_in_the_batch_table_and_summary() {
+    let Some(dir) = shared_parts() else {
+        eprintln!("skipped: the shared parts are absent (set MOLDGATE_PARTS)");
+        return;
+    };
+    let out_dir = tempfile::tempdir().unwrap();
+    let csv = out_dir.path().join("summary.csv");
+    let inches = dir.join("trimesh_featuretype_inches.STL");
+    let metres = dir.join("trimesh_ADIS16480_meters_ascii.STL");
+    let out = moldgate(&[
+        "locate",
+        inches.to_str().unwrap(),
+        metres.to_str().unwrap(),
+        "--summary",
+        csv.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    // Both fail to find a gate at this size, and say the units may be why.
+    assert_eq!(out.status.code(), Some(4), "{stdout}{stderr}");
+    assert_eq!(stdout.matches("--units").count(), 2, "{stdout}");
+    assert_eq!(
+        stderr.matches("not in millimetres, pass --units").count(),
+        2,
+        "{stderr}"
+    );
+    let summary = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = summary.lines().next().unwrap().split(',').collect();
+    assert!(header.contains(&"warnings"), "{summary}");
+    assert_eq!(
+        summary.matches("--units in, cm or m").count(),
+        2,
+        "{summary}"
+    );
+}

@@ -1,0 +1,370 @@
+//! Inputs that are not regular files, and outputs that must touch nothing but the file asked
+//! for: FIFOs and folders named like meshes, device and FIFO outputs, symbolic links,
+//! temporary files under planted links, and temporary files left by a killed run.
+#![cfg(unix)]
+
+mod common;
+
+use std::os::unix::fs::{symlink, FileTypeExt};
+use std::os::unix::process::ExitStatusExt;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant, SystemTime};
+
+use common::*;
+
+const TEMP_PREFIX: &str = ".moldgate-tmp-";
+
+fn mkfifo(path: &Path) {
+    let status = Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo runs");
+    assert!(status.success(), "mkfifo {}", path.display());
+}
+
+fn spawn(dir: &Path, args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_moldgate"))
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the moldgate binary runs")
+}
+
+/// Waits for `child` at most `limit`; kills it and fails the test if it is still running.
+fn finish_within(mut child: Child, limit: Duration, what: &str) -> std::process::Output {
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what}: still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn sample(dir: &Path, name: &str, file: &str) {
+    let out = moldgate(dir, &["sample", name, "-o", file]);
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+}
+
+fn temporaries(dir: &Path) -> Vec<String> {
+    listing(dir)
+        .into_iter()
+        .filter(|n| n.starts_with(TEMP_PREFIX))
+        .collect()
+}
+
+#[test]
+fn fifo_input_is_refused_without_waiting() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("part.stl"));
+    let child = spawn(dir.path(), &["locate", "part.stl"]);
+    let out = finish_within(child, Duration::from_secs(60), "locate on a FIFO");
+    assert_eq!(out.status.code(), Some(INPUT));
+    assert!(
+        stderr(&out).contains("part.stl: is a FIFO, not a mesh file"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn fifo_input_in_a_batch_fails_its_row_and_the_summary_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "good.stl");
+    mkfifo(&dir.path().join("pipe.stl"));
+    let child = spawn(
+        dir.path(),
+        &["locate", "pipe.stl", "good.stl", "--summary", "s.jsonl"],
+    );
+    let out = finish_within(child, Duration::from_secs(120), "a batch with a FIFO");
+    assert_eq!(out.status.code(), Some(INPUT), "{}", stderr(&out));
+    let summary = std::fs::read_to_string(dir.path().join("s.jsonl")).unwrap();
+    let rows: Vec<serde_json::Value> = summary
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["status"], "input_error");
+    assert_eq!(rows[0]["error"], "is a FIFO, not a mesh file");
+    assert_eq!(rows[1]["status"], "ok");
+}
+
+#[test]
+fn folder_entries_that_are_not_regular_files_are_skipped_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let parts = dir.path().join("parts");
+    std::fs::create_dir(&parts).unwrap();
+    sample(&parts, "plate", "a.stl");
+    mkfifo(&parts.join("b.stl"));
+    std::fs::create_dir(parts.join("c.stl")).unwrap();
+    symlink("nowhere.stl", parts.join("d.ply")).unwrap();
+    symlink("a.stl", parts.join("e.stl")).unwrap(); // a link to a file is a part
+    let child = spawn(dir.path(), &["locate", "parts", "--summary", "s.csv"]);
+    let out = finish_within(child, Duration::from_secs(120), "a folder with a FIFO");
+    // Skipped entries do not change the exit code.
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    let err = stderr(&out);
+    for line in [
+        "moldgate: skipped parts/b.stl: is a FIFO, not a mesh file",
+        "moldgate: skipped parts/c.stl: is a folder, not a mesh file",
+        "moldgate: skipped parts/d.ply: is a symbolic link that points nowhere",
+    ] {
+        assert!(err.contains(line), "{line} not in {err}");
+    }
+    assert!(
+        stdout(&out).contains("2 parts: 2 with a gate, 0 without, 0 failed, 3 skipped"),
+        "{}",
+        stdout(&out)
+    );
+    let csv = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    let statuses: Vec<(&str, &str)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let mut f = l.split(',');
+            (f.next().unwrap(), f.next().unwrap())
+        })
+        .collect();
+    assert_eq!(
+        statuses,
+        [
+            ("parts/a.stl", "ok"),
+            ("parts/b.stl", "skipped"),
+            ("parts/c.stl", "skipped"),
+            ("parts/d.ply", "skipped"),
+            ("parts/e.stl", "ok"),
+        ]
+    );
+}
+
+#[test]
+fn folder_of_only_special_entries_is_an_error_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("b.stl"));
+    let child = spawn(dir.path(), &["locate", "."]);
+    let out = finish_within(child, Duration::from_secs(60), "a folder of a FIFO");
+    assert_eq!(out.status.code(), Some(INPUT));
+    assert!(
+        stderr(&out).contains("holding no .stl, .obj or .ply file (skipped: ./b.stl is a FIFO"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn output_to_dev_null_writes_into_it_and_keeps_the_device() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    for args in [
+        &["locate", "part.stl", "-o", "/dev/null"][..],
+        &["locate", "part.stl", "--glb", "/dev/null"][..],
+    ] {
+        let out = moldgate(dir.path(), args);
+        assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+        let m = std::fs::symlink_metadata("/dev/null").unwrap();
+        assert!(m.file_type().is_char_device(), "/dev/null was replaced");
+    }
+    let out = moldgate(dir.path(), &["sample", "plate", "-o", "/dev/null"]);
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    assert!(std::fs::symlink_metadata("/dev/null")
+        .unwrap()
+        .file_type()
+        .is_char_device());
+}
+
+#[test]
+fn output_to_dev_stdout_is_streamed() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let out = moldgate(
+        dir.path(),
+        &["locate", "part.stl", "--json", "-o", "/dev/stdout"],
+    );
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(text.contains("\"schema_version\""), "{text}");
+}
+
+#[test]
+fn output_to_a_fifo_is_streamed_into_it() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let fifo = dir.path().join("out.json");
+    mkfifo(&fifo);
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read(fifo).unwrap())
+    };
+    let child = spawn(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
+    let out = finish_within(child, Duration::from_secs(60), "-o FIFO");
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    let bytes = reader.join().unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+    assert!(report["gate"].is_object());
+    assert!(std::fs::symlink_metadata(&fifo)
+        .unwrap()
+        .file_type()
+        .is_fifo());
+    assert!(temporaries(dir.path()).is_empty());
+}
+
+#[test]
+fn output_through_a_symlink_replaces_its_target_and_keeps_the_link() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    std::fs::write(elsewhere.join("report.json"), "old").unwrap();
+    symlink("elsewhere/report.json", dir.path().join("out.json")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    let link = std::fs::symlink_metadata(dir.path().join("out.json")).unwrap();
+    assert!(link.file_type().is_symlink(), "the link was replaced");
+    let text = std::fs::read_to_string(elsewhere.join("report.json")).unwrap();
+    assert!(text.contains("\"schema_version\""));
+    assert!(temporaries(dir.path()).is_empty() && temporaries(&elsewhere).is_empty());
+}
+
+#[test]
+fn output_to_a_dangling_symlink_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    symlink("missing/report.json", dir.path().join("out.json")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
+    assert_eq!(out.status.code(), Some(OUTPUT));
+    assert!(
+        stderr(&out).contains("out.json: cannot write: it is a symbolic link that points nowhere"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+/// Plants links at the temporary names the command used to take (`.NAME.PID.tmp`,
+/// `.moldgate-probe.PID.tmp`) as soon as the process exists, and checks that the file they
+/// point to is untouched.
+#[test]
+fn temporary_files_never_follow_a_planted_link() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let victim = dir.path().join("victim.txt");
+    std::fs::write(&victim, "precious").unwrap();
+    let outs = dir.path().join("outs");
+    std::fs::create_dir(&outs).unwrap();
+    for args in [
+        &["locate", "part.stl", "-o", "out.json"][..],
+        &[
+            "locate",
+            "part.stl",
+            "--out-dir",
+            "outs",
+            "--summary",
+            "outs/s.csv",
+        ][..],
+    ] {
+        let child = spawn(dir.path(), args);
+        let pid = child.id();
+        for (folder, name) in [
+            (dir.path(), format!(".out.json.{pid}.tmp")),
+            (outs.as_path(), format!(".moldgate-probe.{pid}.tmp")),
+            (outs.as_path(), format!(".part.json.{pid}.tmp")),
+            (outs.as_path(), format!(".s.csv.{pid}.tmp")),
+        ] {
+            let _ = symlink(&victim, folder.join(name));
+        }
+        let out = finish_within(child, Duration::from_secs(60), "locate");
+        assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious");
+    }
+    assert!(std::fs::read_to_string(dir.path().join("out.json"))
+        .unwrap()
+        .contains("\"gate\""));
+    assert!(outs.join("part.json").is_file());
+}
+
+#[test]
+fn stale_temporary_files_are_swept_by_the_next_write() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let old = SystemTime::now() - Duration::from_secs(2 * 3600);
+    let age = |name: &str, when: SystemTime| {
+        let f = std::fs::File::options()
+            .write(true)
+            .open(dir.path().join(name))
+            .unwrap();
+        f.set_modified(when).unwrap();
+    };
+    for name in [".moldgate-tmp-old", ".moldgate-tmp-fresh", ".other-old.tmp"] {
+        std::fs::write(dir.path().join(name), "x").unwrap();
+    }
+    age(".moldgate-tmp-old", old);
+    age(".other-old.tmp", old);
+    // A link of the prefix is never followed nor removed, whatever its target's age.
+    std::fs::write(dir.path().join("victim"), "precious").unwrap();
+    age("victim", old);
+    symlink("victim", dir.path().join(".moldgate-tmp-link")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    assert_eq!(
+        temporaries(dir.path()),
+        [".moldgate-tmp-fresh", ".moldgate-tmp-link"]
+    );
+    assert!(dir.path().join(".other-old.tmp").exists());
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("victim")).unwrap(),
+        "precious"
+    );
+}
+
+/// A real kill during a large write: the GLB of a part of half a million triangles, the
+/// signal sent as soon as the temporary file appears. SIGINT, SIGTERM and SIGHUP each
+/// remove it and end the process as the signal would.
+#[test]
+fn killed_during_a_large_write_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = moldgate::samples::sample("cover")
+        .unwrap()
+        .subdivided()
+        .subdivided()
+        .subdivided();
+    let mut stl = Vec::new();
+    mesh.write_stl(&mut stl).unwrap();
+    std::fs::write(dir.path().join("big.stl"), stl).unwrap();
+    for signal in [libc::SIGTERM, libc::SIGINT, libc::SIGHUP] {
+        let mut landed = false;
+        for _try in 0..6 {
+            let mut child = spawn(dir.path(), &["locate", "big.stl", "--glb", "big.glb"]);
+            let mut seen = false;
+            while child.try_wait().unwrap().is_none() {
+                if !temporaries(dir.path()).is_empty() {
+                    seen = true;
+                    // SAFETY: kill(2) on the pid of our own child.
+                    unsafe { libc::kill(child.id() as i32, signal) };
+                    break;
+                }
+                std::thread::sleep(Duration::from_micros(200));
+            }
+            let status = child.wait().unwrap();
+            assert!(
+                temporaries(dir.path()).is_empty(),
+                "signal {signal}: left {:?}",
+                temporaries(dir.path())
+            );
+            if seen && status.signal() == Some(signal) {
+                landed = true;
+                break;
+            }
+        }
+        assert!(
+            landed,
+            "signal {signal}: no kill landed during the write in 6 tries"
+        );
+        let _ = std::fs::remove_file(dir.path().join("big.glb"));
+    }
+}

@@ -1,0 +1,503 @@
+//! Hostile and odd input: every cost a file or an option controls is bounded and checked
+//! before the work, every number an analysis gives is finite or the part is refused with the
+//! reason, and messages quote the input short and escaped. Each test builds the smallest
+//! input that shows its point.
+
+mod common;
+
+use std::io::Cursor;
+
+use moldgate::error::{LoadError, Place};
+use moldgate::gate::{Spacing, MAX_CIRCLE_POINTS};
+use moldgate::math::DVec3;
+use moldgate::mesh::{
+    from_generated, read_obj, read_ply, read_stl, LoadedMesh, Mesh, Units, MAX_POLYGON_CORNERS,
+};
+use moldgate::study::{study, StudyError, StudyOptions};
+use moldgate::{locate, LocateOptions, OptionsError};
+
+use common::SplitMix;
+
+fn stl(bytes: &[u8]) -> Result<LoadedMesh, LoadError> {
+    read_stl(Cursor::new(bytes), bytes.len() as u64, Units::Mm)
+}
+
+fn obj(text: &[u8]) -> Result<LoadedMesh, LoadError> {
+    read_obj(Cursor::new(text), Units::Mm)
+}
+
+/// A binary STL of the given facets.
+fn binary_stl(facets: &[[[f32; 3]; 3]]) -> Vec<u8> {
+    let mut out = vec![b' '; 80];
+    out.extend((facets.len() as u32).to_le_bytes());
+    for f in facets {
+        out.extend([0u8; 12]);
+        for c in f.iter().flatten() {
+            out.extend(c.to_le_bytes());
+        }
+        out.extend([0u8; 2]);
+    }
+    out
+}
+
+/// The four facets of a tetrahedron with corner `o` and legs `s`.
+fn tetrahedron(o: [f32; 3], s: f32) -> Vec<[[f32; 3]; 3]> {
+    let [x, y, z] = o;
+    let (a, b, c, d) = ([x, y, z], [x + s, y, z], [x, y + s, z], [x, y, z + s]);
+    vec![[a, c, b], [a, b, d], [a, d, c], [b, c, d]]
+}
+
+const TETRA_ASCII: &str = "solid t\nfacet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 0 10 0\n\
+vertex 10 0 0\nendloop\nendfacet\nfacet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 10 0 0\n\
+vertex 0 0 10\nendloop\nendfacet\nfacet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 0 0 10\n\
+vertex 0 10 0\nendloop\nendfacet\nfacet normal 0 0 0\nouter loop\nvertex 10 0 0\nvertex 0 10 0\n\
+vertex 0 0 10\nendloop\nendfacet\nendsolid t\n";
+
+fn message_is_one_short_clean_line(e: &impl std::fmt::Display) {
+    let m = e.to_string();
+    assert!(m.len() < 400, "{} bytes: {m}", m.len());
+    assert!(!m.chars().any(|c| c.is_control()), "{m:?}");
+}
+
+// 1. Overlapping triangles -------------------------------------------------------------------
+
+#[test]
+fn overlapping_triangles_are_refused_before_the_rays() {
+    // 300 random triangles over 30 corners of a 100 mm cube: each ray crosses about a
+    // hundred of them. At 0.06 mm that is over 1e9 ray-triangle tests.
+    let mut rng = SplitMix(7);
+    let mut coord = || (rng.next() >> 11) as f64 / (1u64 << 53) as f64 * 100.0;
+    let vertices: Vec<DVec3> = (0..30)
+        .map(|_| DVec3::new(coord(), coord(), coord()))
+        .collect();
+    let mut rng = SplitMix(8);
+    let mut triangles = Vec::new();
+    while triangles.len() < 300 {
+        let t = [0, 1, 2].map(|_| (rng.next() % 30) as u32);
+        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+            triangles.push(t);
+        }
+    }
+    let part = from_generated(Mesh {
+        vertices,
+        triangles,
+    });
+    let options = |h: f64| LocateOptions {
+        spacing: Spacing::Mm(h),
+        ..LocateOptions::default()
+    };
+    let err = locate(&part, &options(0.06)).unwrap_err();
+    let OptionsError::OverlappingSurface {
+        depth, ray_tests, ..
+    } = err
+    else {
+        panic!("expected OverlappingSurface, got {err:?}");
+    };
+    assert!(depth > 20.0 && ray_tests > 1e9, "{depth} {ray_tests}");
+    message_is_one_short_clean_line(&err);
+    // The same triangles on a coarse grid are within the budget.
+    assert!(locate(&part, &options(2.0)).is_ok());
+}
+
+#[test]
+fn duplicate_triangles_are_dropped_at_weld_time() {
+    let mut text = b"v 0 0 0\nv 50 0 0\nv 0 50 0\nv 50 50 10\n".to_vec();
+    for _ in 0..1000 {
+        text.extend(b"f 1 2 3\nf 2 4 3\nf 3 2 1\n");
+    }
+    let part = obj(&text).unwrap();
+    assert_eq!(part.stats.facets_read, 3000);
+    assert_eq!(part.stats.triangles, 2);
+    assert_eq!(part.stats.duplicate_triangles, 2998);
+    assert_eq!(part.mesh.triangles, vec![[0, 1, 2], [1, 3, 2]]);
+    assert!(part
+        .warnings
+        .iter()
+        .any(|w| w.contains("2998 triangles repeat")));
+    // A file of two copies of one triangle has no non-manifold edge, and is caught too.
+    let twice = obj(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 3\n").unwrap();
+    assert_eq!(twice.stats.duplicate_triangles, 1);
+}
+
+// 2. One enormous polygon, line or token -----------------------------------------------------
+
+#[test]
+fn enormous_polygon_is_refused_naming_its_line() {
+    let n = MAX_POLYGON_CORNERS + 1;
+    let mut text = String::new();
+    for i in 0..n {
+        let a = i as f64 / n as f64 * std::f64::consts::TAU;
+        text += &format!("v {} {} 0\n", a.cos(), a.sin());
+    }
+    let corners: Vec<String> = (1..=n).map(|i| i.to_string()).collect();
+    text += &format!("f {}\n", corners.join(" "));
+    let err = obj(text.as_bytes()).unwrap_err();
+    assert!(
+        matches!(&err, LoadError::Syntax { place: Place::Line(l), message }
+            if *l == n as u64 + 1 && message.contains("limit of a polygon")),
+        "{err}"
+    );
+    // A PLY face declaring more corners is refused before they are read.
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n\
+         0 0 0\n1 0 0\n0 1 0\n25000000 0 1 2\n"
+        .to_string();
+    let err = read_ply(Cursor::new(ply), Units::Mm).unwrap_err();
+    assert!(
+        matches!(&err, LoadError::Syntax { place: Place::Line(13), message }
+            if message.contains("limit of a polygon")),
+        "{err}"
+    );
+    // An ASCII STL facet too.
+    let mut facet = String::from("solid s\nfacet normal 0 0 0\nouter loop\n");
+    for _ in 0..n {
+        facet += "vertex 0 0 0\n";
+    }
+    let err = stl(facet.as_bytes()).unwrap_err();
+    assert!(err.to_string().contains("limit of a polygon"), "{err}");
+}
+
+#[test]
+fn enormous_line_is_refused_naming_it_and_quoted_short() {
+    // An ASCII STL on one line of more than a mebibyte.
+    let mut one_line = b"solid s ".to_vec();
+    one_line.extend(
+        TETRA_ASCII
+            .replace('\n', " ")
+            .as_bytes()
+            .iter()
+            .cycle()
+            .take(2 << 20),
+    );
+    let err = stl(&one_line).unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            LoadError::Syntax {
+                place: Place::Line(1),
+                ..
+            }
+        ),
+        "{err}"
+    );
+    message_is_one_short_clean_line(&err);
+    // A token of 500 kB on a line within the limit is quoted in a few dozen characters.
+    let mut token = b"v 0 0 0\nv 1 ".to_vec();
+    token.extend(std::iter::repeat_n(b'7', 500_000));
+    token.extend(b"x 0\n");
+    let err = obj(&token).unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            LoadError::Syntax {
+                place: Place::Line(2),
+                ..
+            }
+        ),
+        "{err}"
+    );
+    message_is_one_short_clean_line(&err);
+}
+
+// 3. Options that size memory ----------------------------------------------------------------
+
+#[test]
+fn options_that_size_memory_are_checked_against_their_budget() {
+    assert_eq!(LocateOptions::default().validate(), Ok(()));
+    let too_many_points = LocateOptions {
+        circle_points: 1_000_000,
+        ..LocateOptions::default()
+    };
+    assert!(matches!(
+        too_many_points.validate(),
+        Err(OptionsError::AboveLimit { limit, .. }) if limit == MAX_CIRCLE_POINTS as u64
+    ));
+    let huge_grid = LocateOptions {
+        max_nodes: 20_000_000,
+        ..LocateOptions::default()
+    };
+    let err = huge_grid.validate().unwrap_err();
+    let OptionsError::RayMemory {
+        bytes,
+        budget,
+        nodes_within,
+        ..
+    } = err
+    else {
+        panic!("expected RayMemory, got {err:?}");
+    };
+    assert!(
+        bytes > budget && nodes_within >= 4_000_000,
+        "{nodes_within}"
+    );
+    let within = LocateOptions {
+        max_nodes: nodes_within as usize,
+        ..LocateOptions::default()
+    };
+    assert_eq!(within.validate(), Ok(()));
+    // locate checks them too, before any work.
+    let part = from_generated(moldgate::samples::sample("plate").expect("a plate sample"));
+    assert!(locate(&part, &too_many_points).is_err());
+}
+
+#[test]
+fn a_study_checks_the_same_budgets_when_its_options_are_validated() {
+    let refused = |json: &str| {
+        let o: StudyOptions = serde_json::from_str(json).unwrap();
+        o.validate().unwrap_err()
+    };
+    assert!(matches!(
+        refused(r#"{ "circle_points": 1000 }"#),
+        StudyError::Locate(OptionsError::AboveLimit { limit, .. }) if limit == MAX_CIRCLE_POINTS as u64
+    ));
+    assert!(matches!(
+        refused(r#"{ "max_nodes": 20000000 }"#),
+        StudyError::Locate(OptionsError::RayMemory { .. })
+    ));
+    // One node limit: the study's is the gate location's.
+    assert_eq!(
+        moldgate::study::MAX_NODES_LIMIT,
+        moldgate::gate::MAX_NODES_LIMIT
+    );
+    // A part too large for the automatic spacing is refused at the locate stage.
+    let part = stl(&binary_stl(&tetrahedron([0.0; 3], 2e8))).unwrap();
+    let Err(err) = study(&part, &StudyOptions::default()) else {
+        panic!("a part 2e8 mm across was studied");
+    };
+    assert!(
+        matches!(err, StudyError::Locate(OptionsError::PartTooLarge { .. })),
+        "{err:?}"
+    );
+}
+
+// 4. Numbers that are not numbers ------------------------------------------------------------
+
+#[test]
+fn coordinates_beyond_the_limit_are_refused_at_load_with_their_place() {
+    let mut far = tetrahedron([0.0; 3], 10.0);
+    far[2][1][1] = 2e9;
+    let err = stl(&binary_stl(&far)).unwrap_err();
+    // Facet 2, corner 1, y: 84 + 2 x 50 + 12 + 12 + 4.
+    assert!(
+        matches!(
+            err,
+            LoadError::OutOfRange {
+                place: Place::Byte(212),
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    message_is_one_short_clean_line(&err);
+    let ascii = TETRA_ASCII.replacen("vertex 0 10 0", "vertex 0 1e154 0", 1);
+    assert!(matches!(
+        stl(ascii.as_bytes()).unwrap_err(),
+        LoadError::OutOfRange {
+            place: Place::Line(5),
+            ..
+        }
+    ));
+    assert!(matches!(
+        obj(b"v 0 0 0\nv 3.5e41 0 0\n").unwrap_err(),
+        LoadError::OutOfRange {
+            place: Place::Line(2),
+            ..
+        }
+    ));
+    // The limit is in millimetres: 2e6 is accepted in mm and refused in metres.
+    let bytes = binary_stl(&tetrahedron([0.0; 3], 2e6));
+    assert!(stl(&bytes).is_ok());
+    let in_metres = read_stl(Cursor::new(&bytes), bytes.len() as u64, Units::M);
+    assert!(matches!(in_metres, Err(LoadError::OutOfRange { .. })));
+}
+
+#[test]
+fn every_number_of_an_analysis_is_finite_for_a_part_far_from_the_origin() {
+    // A 64 mm tetrahedron 1e8 mm from the origin (f32 steps of 8 mm there): the centre is
+    // taken about the box centre, so nothing cancels to zero or NaN.
+    let part = stl(&binary_stl(&tetrahedron([1e8, -1e8, 1e8], 64.0))).unwrap();
+    assert!(part.stats.area_mm2.is_finite() && part.stats.area_mm2 > 0.0);
+    let options = LocateOptions {
+        gate_radius_mm: 1.0,
+        thickness_rule: moldgate::gate::ThicknessRule::Ignore,
+        ..LocateOptions::default()
+    };
+    let a = locate(&part, &options).unwrap();
+    assert!(a.centre.is_finite() && a.centres.surface.is_finite());
+    // Eq. 5 on the four faces: three right triangles of area s^2/2 and one of sqrt(3) s^2/2.
+    let (s, r3) = (64.0, 3f64.sqrt());
+    let along = |face_sum: f64| face_sum / (3.0 + r3);
+    let expected = DVec3::new(1e8, -1e8, 1e8) + DVec3::splat(along(s / 3.0 * (2.0 + r3)));
+    assert!(
+        (a.centres.surface - expected).length() < 1.0,
+        "{}",
+        a.centres.surface
+    );
+    let g = a.grid_gate.expect("a gate on the slanted face");
+    assert!(g.distance_3d.is_finite() && g.distance_2d.is_finite() && g.point.is_finite());
+}
+
+// 5. A grid too large for the part -----------------------------------------------------------
+
+#[test]
+fn grid_too_large_for_the_automatic_spacing_blames_the_part() {
+    // 2e8 mm across, read with the gate-sized automatic spacing.
+    let part = stl(&binary_stl(&tetrahedron([0.0; 3], 2e8))).unwrap();
+    let err = locate(&part, &LocateOptions::default()).unwrap_err();
+    let OptionsError::PartTooLarge { min_spacing_mm, .. } = err else {
+        panic!("expected PartTooLarge, got {err:?}");
+    };
+    assert!(min_spacing_mm.is_finite());
+    let m = err.to_string();
+    assert!(m.contains("--units") && !m.contains("inf"), "{m}");
+    // An explicit spacing that is too fine stays the option's fault.
+    let fine = LocateOptions {
+        spacing: Spacing::Mm(1.0),
+        ..LocateOptions::default()
+    };
+    assert!(matches!(
+        locate(&part, &fine),
+        Err(OptionsError::GridTooLarge { .. })
+    ));
+}
+
+// 6. Messages --------------------------------------------------------------------------------
+
+#[test]
+fn messages_quote_input_escaped() {
+    for bad in [
+        &b"v 0 0 0\n\x1b[2J\x1b[31mgotcha 1\n"[..],
+        b"v 0 0 \x1b]0;title\x07\n",
+        b"v 0 0 0\nf 1 \xff\xfe\x9b 2\n",
+    ] {
+        let err = obj(bad).unwrap_err();
+        message_is_one_short_clean_line(&err);
+    }
+    let mut stl_text = TETRA_ASCII.replacen("outer loop", "outer \x1b[2Jloop", 1);
+    let err = stl(stl_text.as_bytes()).unwrap_err();
+    message_is_one_short_clean_line(&err);
+    stl_text = TETRA_ASCII.replacen("endloop", &"\u{85}".repeat(300), 1);
+    message_is_one_short_clean_line(&stl(stl_text.as_bytes()).unwrap_err());
+}
+
+// 7. Byte-order marks, control characters, CR line ends --------------------------------------
+
+#[test]
+fn byte_order_mark_before_solid_is_read() {
+    let text = format!("\u{feff}{TETRA_ASCII}");
+    let part = stl(text.as_bytes()).unwrap();
+    assert_eq!(part.stats.triangles, 4);
+}
+
+#[test]
+fn control_character_early_in_ascii_stl_is_named() {
+    // A stray control character in the solid's name: read, the name is skipped.
+    let text = TETRA_ASCII.replacen("solid t", "solid t\x01\x02", 1);
+    assert_eq!(stl(text.as_bytes()).unwrap().stats.triangles, 4);
+    // In a keyword: an ASCII error at its line, not a binary STL of 540 million triangles.
+    let text = TETRA_ASCII.replacen("outer loop", "outer\x00loop", 1);
+    let err = stl(text.as_bytes()).unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            LoadError::Syntax {
+                place: Place::Line(3),
+                ..
+            }
+        ),
+        "{err}"
+    );
+    message_is_one_short_clean_line(&err);
+}
+
+#[test]
+fn cr_only_line_endings_are_read() {
+    let text = TETRA_ASCII.replace('\n', "\r");
+    let part = stl(text.as_bytes()).unwrap();
+    assert_eq!(part.stats.triangles, 4);
+    assert!(part.warnings.is_empty(), "{:?}", part.warnings);
+    let bad = TETRA_ASCII
+        .replacen("vertex 0 0 10", "vertex 0 0 x", 1)
+        .replace('\n', "\r");
+    assert!(matches!(
+        stl(bad.as_bytes()).unwrap_err(),
+        LoadError::Syntax {
+            place: Place::Line(13),
+            ..
+        }
+    ));
+    let obj_cr = obj(b"v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r").unwrap();
+    assert_eq!(obj_cr.stats.triangles, 1);
+}
+
+// 8. Files that are not meshes ---------------------------------------------------------------
+
+#[test]
+fn files_that_are_not_meshes_are_named_by_their_first_bytes() {
+    let pad = |head: &[u8]| {
+        let mut b = head.to_vec();
+        b.extend(std::iter::repeat_n(0x41u8, 300));
+        b.extend([0u8, 1, 2, 3, 0xff]);
+        b
+    };
+    let iges = format!("{:<72}S{:>7}\n", "an IGES model", 1);
+    for (bytes, name) in [
+        (pad(b"ISO-10303-21;\nHEADER;\n"), "STEP"),
+        (
+            pad(b"PK\x03\x04\x14\x00\x00\x00\x08\x00[Content_Types].xml"),
+            "3MF",
+        ),
+        (pad(b"PK\x03\x04\x14\x00\x00\x00\x08\x00model.stl"), "ZIP"),
+        (pad(b"\x1f\x8b\x08\x00"), "gzip"),
+        (pad(b"%PDF-1.4\n"), "PDF"),
+        (pad(b"\x89PNG\r\n\x1a\n"), "PNG"),
+        (pad(iges.as_bytes()), "IGES"),
+        (
+            b"just a note about the part\n".repeat(10),
+            "not an ASCII STL",
+        ),
+    ] {
+        let err = stl(&bytes).unwrap_err();
+        assert!(
+            matches!(&err, LoadError::NotAMesh { what, .. } if what.contains(name)),
+            "{name}: {err}"
+        );
+        message_is_one_short_clean_line(&err);
+    }
+    // Given to the OBJ and PLY readers too.
+    assert!(matches!(
+        obj(&pad(b"PK\x03\x04")).unwrap_err(),
+        LoadError::NotAMesh { .. }
+    ));
+    assert!(matches!(
+        read_ply(Cursor::new(pad(b"\x1f\x8b\x08\x00")), Units::Mm).unwrap_err(),
+        LoadError::NotAMesh { .. }
+    ));
+}
+
+// 9. Units -----------------------------------------------------------------------------------
+
+#[test]
+fn inch_sized_part_read_as_mm_is_warned() {
+    // A 5 x 2.5 x 1.4 "mm" block, the size of a part drawn in inches.
+    let part = stl(&binary_stl(&tetrahedron([0.0; 3], 4.0))).unwrap();
+    assert!(
+        part.warnings.iter().any(|w| w.contains("--units in")),
+        "{:?}",
+        part.warnings
+    );
+    // The shared inch part, when present.
+    let dir = std::env::var_os("MOLDGATE_PARTS").map_or_else(
+        || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/parts"),
+        std::path::PathBuf::from,
+    );
+    let path = dir.join("trimesh_featuretype_inches.STL");
+    let Ok(bytes) = std::fs::read(&path) else {
+        eprintln!("skipped the shared inch part: {} is absent", path.display());
+        return;
+    };
+    let part = stl(&bytes).unwrap();
+    assert!(part.warnings.iter().any(|w| w.contains("--units")));
+    let as_inches = read_stl(Cursor::new(&bytes), bytes.len() as u64, Units::In).unwrap();
+    assert!(!as_inches.warnings.iter().any(|w| w.contains("--units")));
+}
