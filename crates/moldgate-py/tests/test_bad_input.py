@@ -67,11 +67,11 @@ def test_an_object_without_arrays():
     [
         ({"gate_raduis": 2.0}, "unknown field `gate_raduis`, expected one of `demold`"),
         ({"gates": 0}, "gates must be at least 1"),
-        ({"gates": 65}, "gates must be at most 64, got 65"),
+        ({"gates": 65}, r"gates must be at most \d+, got 65"),
         ({"gates": 1.5}, "invalid type: floating point `1.5`, expected usize"),
         ({"demold": "sideways"}, "demold: cannot read demolding direction 'sideways'"),
         ({"demold": "0,0,0"}, "demolding direction must be a non-zero"),
-        ({"material": "WOOD"}, r"unknown material 'WOOD' \(known: PP, ABS, PC\)"),
+        ({"material": "WOOD"}, r"unknown material 'WOOD'"),
         ({"strategy": "best"}, "unknown variant `best`, expected `paper` or `balanced`"),
         ({"keep_out": ["cube:1,2,3"]}, "keep_out: cannot read keep-out region 'cube:1,2,3'"),
         ({"spacing": -1.0}, "spacing must be a positive number, got -1"),

@@ -215,7 +215,7 @@ def study(
       lines, balanced gate); implied by ``strategy="balanced"`` and ``gates > 1``.
     - ``strategy="paper"``: ``paper`` or ``balanced`` (the gate minimising the objective).
     - ``objective="length"``: ``length`` or ``resistance``.
-    - ``gates=1``: number of gates that together minimise the worst flow (1 to 64).
+    - ``gates=1``: number of gates that together minimise the worst flow (1 to the library's limit).
     - ``cell=None``: flow-analysis cell size, mm.
     - ``wall_thickness=False``: measure the wall thickness everywhere.
     - ``color_by="fill_order"``: what pictures of the fill are coloured by:
