@@ -184,6 +184,7 @@ pub fn render(r: &Report) -> String {
             moldgate::mesh::Format::PlyBinaryLittleEndian => "binary PLY (little-endian)",
             moldgate::mesh::Format::PlyBinaryBigEndian => "binary PLY (big-endian)",
             moldgate::mesh::Format::Generated => "generated",
+            moldgate::mesh::Format::Arrays => "arrays",
         },
         m.units,
         m.triangles,

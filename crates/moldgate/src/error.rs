@@ -88,6 +88,34 @@ pub enum LoadError {
         /// How many facets were read.
         facets: u64,
     },
+    /// A vertex of an array mesh with a NaN or infinite coordinate.
+    #[error("vertex {vertex} has a non-finite coordinate ({value})")]
+    NonFiniteVertex {
+        /// 0-based vertex index.
+        vertex: u64,
+        /// The offending value.
+        value: f64,
+    },
+    /// A triangle of an array mesh with a vertex index outside the vertex array.
+    #[error("triangle {triangle} uses vertex {index}, outside the {vertices} vertices (0 to {})", vertices.saturating_sub(1))]
+    IndexOutOfRange {
+        /// 0-based triangle index.
+        triangle: u64,
+        /// The offending index.
+        index: i64,
+        /// How many vertices there are.
+        vertices: u64,
+    },
+    /// More vertices or triangles than a mesh may have.
+    #[error("{count} {what}, more than the limit of {limit}")]
+    TooLarge {
+        /// `vertices` or `triangles`.
+        what: &'static str,
+        /// How many were given.
+        count: u64,
+        /// The limit.
+        limit: u64,
+    },
     /// A file whose format is not supported.
     #[error("unsupported mesh format: {0}")]
     Unsupported(String),

@@ -32,6 +32,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod batch_row;
 pub mod centre;
 pub mod clock;
 pub mod colormap;

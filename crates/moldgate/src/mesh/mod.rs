@@ -4,6 +4,7 @@
 //! byte offset or triangle). Defects that do not stop the work (degenerate facets, open edges,
 //! several bodies) are counted in [`MeshStats`] beside the mesh.
 
+pub mod arrays;
 pub mod obj;
 pub mod ply;
 pub mod sniff;
@@ -30,6 +31,7 @@ use serde::Serialize;
 
 use crate::error::LoadError;
 use crate::math::{Aabb, DVec3};
+pub use arrays::from_arrays;
 pub use topology::Topology;
 pub use units::Units;
 
@@ -123,6 +125,9 @@ pub enum Format {
     PlyBinaryBigEndian,
     /// Made by moldgate's own code (a sample part).
     Generated,
+    /// Vertex and triangle arrays handed over by a program ([`from_arrays`]): numpy arrays,
+    /// a trimesh mesh, a STEP file tessellated by the Python package.
+    Arrays,
 }
 
 /// What loading found in a file, beside the mesh itself.

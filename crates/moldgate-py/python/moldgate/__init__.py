@@ -1,0 +1,292 @@
+"""moldgate: where to put the injection gate of a plastic part, from its triangle mesh.
+
+    >>> import moldgate
+    >>> part = moldgate.load("cover.stl")                 # STL, OBJ, PLY (STEP/IGES with gmsh)
+    >>> s = moldgate.study(part, demold="+z", material="ABS", fill=True)
+    >>> s.gate.point, s.gate.distance_mm                   # numpy (3,), mm
+    >>> s.report["counts"]["qualifying"]                    # the JSON report as a dict
+    >>> open("cover.png", "wb").write(s.png())
+
+A part can also come from arrays (``moldgate.Part(vertices, faces)``) or from any object
+with ``.vertices`` and ``.faces`` such as a ``trimesh.Trimesh``. Every option of
+:func:`study` is a field of the library's study options, named like the command line's
+flags (``--gate-radius`` is ``gate_radius``) with the same defaults.
+
+Errors are :class:`LoadError`, :class:`OptionsError` and :class:`NoGateError` (all
+``ValueError``), with the library's message and place; a defect of moldgate is an
+:class:`InternalError` (a ``RuntimeError``), never a crash. Loading and studying release
+the GIL, so threads study parts in parallel.
+"""
+
+from __future__ import annotations
+
+import json as _json
+import os as _os
+import time as _time
+from typing import Any, Iterable, Mapping, Optional, Sequence, Union
+
+from . import _moldgate
+from ._moldgate import (
+    Gate,
+    InternalError,
+    LoadError,
+    NoGateError,
+    OptionsError,
+    Part,
+    Study,
+    __version__,
+    sample,
+)
+
+__all__ = [
+    "Gate",
+    "InternalError",
+    "LoadError",
+    "NoGateError",
+    "OptionsError",
+    "Part",
+    "Study",
+    "batch_row",
+    "check_options",
+    "default_options",
+    "load",
+    "materials",
+    "sample",
+    "study",
+    "STEP_EXTENSIONS",
+]
+
+#: File extensions read through gmsh (the ``step`` extra).
+STEP_EXTENSIONS = (".step", ".stp", ".iges", ".igs")
+
+
+def _is_step(path: Union[str, "_os.PathLike[str]"]) -> bool:
+    return _os.fspath(path).lower().endswith(STEP_EXTENSIONS)
+
+
+def load(
+    path: Union[str, "_os.PathLike[str]"],
+    units: str = "mm",
+    *,
+    step_tolerance_mm: Optional[float] = None,
+) -> Part:
+    """Reads a mesh file into a :class:`Part`.
+
+    STL (binary or ASCII), OBJ and PLY are read by moldgate's own readers, by extension
+    (STL for any other). ``units`` is the file's unit: ``mm``, ``cm``, ``m`` or ``in``.
+
+    STEP and IGES (``.step``, ``.stp``, ``.iges``, ``.igs``) are tessellated by gmsh,
+    installed with ``pip install "moldgate[step]"``; their coordinates come out in mm
+    whatever unit the file declares, so ``units`` must stay ``"mm"``.
+    ``step_tolerance_mm`` is the largest triangle edge, in mm (gmsh's
+    ``Mesh.MeshSizeMax``; default: the part's diagonal / 50); curved faces also get at
+    least 24 triangles per full turn (``Mesh.MeshSizeFromCurvature``), so they follow
+    the shape at any size.
+
+    Raises :class:`LoadError` (with the file and place) for a file that cannot be read.
+    """
+    if _is_step(path):
+        from . import _step
+
+        if units.lower() != "mm":
+            raise OptionsError(
+                f"units: a STEP or IGES file carries its own unit and is read in mm; got {units!r}"
+            )
+        started = _time.perf_counter()
+        vertices, faces = _step.tessellate(_os.fspath(path), step_tolerance_mm)
+        return _step.part_from_tessellation(path, vertices, faces, _time.perf_counter() - started)
+    if step_tolerance_mm is not None:
+        raise OptionsError("step_tolerance_mm applies to STEP and IGES files only")
+    return _moldgate.load(_os.fspath(path), units)
+
+
+def default_options() -> dict:
+    """The default study options (the command line's defaults), as a dict."""
+    return _json.loads(_moldgate.default_options())
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars and arrays as plain Python values, for JSON."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not an option value")
+
+
+def _options_json(options: Mapping[str, Any]) -> str:
+    options = dict(options)
+    if isinstance(options.get("keep_out"), str):
+        options["keep_out"] = [options["keep_out"]]
+    elif options.get("keep_out") is not None and not isinstance(options["keep_out"], list):
+        options["keep_out"] = list(options["keep_out"])
+    try:
+        return _json.dumps(options, default=_plain)
+    except (TypeError, ValueError) as e:
+        raise OptionsError(f"cannot read the options: {e}") from None
+
+
+def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
+    _moldgate.check_units(units)
+    if isinstance(part, Part):
+        return part
+    if isinstance(part, (str, _os.PathLike)):
+        return load(part, units, step_tolerance_mm=step_tolerance_mm)
+    return Part.from_trimesh(part, units)
+
+
+# The options of a study, with the command line's defaults (a test checks them against
+# the library's). Keep the signature of `study` in step with this list.
+_OPTION_NAMES = (
+    "demold", "material", "n", "t_melt", "t_wall", "gamma_opt", "mu_opt", "k",
+    "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest",
+    "thickness_rule", "require_flat", "flat_tol", "aesthetic", "max_nodes", "keep_out",
+    "cosmetic", "fill", "strategy", "objective", "gates", "cell", "wall_thickness",
+    "color_by", "fit_radius",
+)
+
+
+def study(
+    part: Union[Part, str, "_os.PathLike[str]", Any],
+    *,
+    demold: str = "+z",
+    material: Union[str, Mapping[str, Any]] = "PP",
+    n: Optional[float] = None,
+    t_melt: Optional[float] = None,
+    t_wall: Optional[float] = None,
+    gamma_opt: Optional[float] = None,
+    mu_opt: Optional[float] = None,
+    k: Optional[float] = None,
+    gate_radius: Optional[float] = None,
+    spacing: Optional[float] = None,
+    grid_offset: float = 0.0,
+    circle_points: int = 16,
+    centre: str = "surface",
+    nearest: str = "3d",
+    thickness_rule: str = "require",
+    require_flat: bool = False,
+    flat_tol: Optional[float] = None,
+    aesthetic: bool = False,
+    max_nodes: int = 4000000,
+    keep_out: Sequence[str] = (),
+    cosmetic: Optional[str] = None,
+    fill: bool = False,
+    strategy: str = "paper",
+    objective: str = "length",
+    gates: int = 1,
+    cell: Optional[float] = None,
+    wall_thickness: bool = False,
+    color_by: str = "fill_order",
+    fit_radius: bool = False,
+    units: str = "mm",
+    materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
+    step_tolerance_mm: Optional[float] = None,
+    allow_no_gate: bool = False,
+    **unknown: Any,
+) -> Study:
+    """Studies a part: the gate of the paper's method, and what was asked for on top.
+
+    ``part`` is a :class:`Part`, a path (read by :func:`load` in ``units``), or any
+    object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``, read in place).
+
+    Options (the command line's ``locate`` flags in snake case, same defaults):
+
+    - ``demold="+z"``: demolding direction, ``+x``, ``-y``, ... or ``"x,y,z"``; ``"auto"``
+      picks the axis or principal axis with the least undercut.
+    - ``material="PP"``: a built-in (``PP``, ``ABS``, ``PC``, see :func:`materials`), a
+      name from ``materials_file``, or a dict of every parameter (``n``, ``t_melt``,
+      ``t_wall``, ``gamma_opt``, ``mu_opt``, ``k``; optional ``name``,
+      ``max_flow_ratio``).
+    - ``n``, ``t_melt``, ``t_wall``, ``gamma_opt``, ``mu_opt``, ``k`` (None): overrides of
+      one material parameter (SI units, temperatures in C).
+    - ``gate_radius=None``: R_gate in mm instead of Eq. 8.
+    - ``spacing=None``: grid spacing, mm (default min(R_gate, longest side / 100)).
+    - ``grid_offset=0.0``: grid shift as a fraction of the spacing.
+    - ``circle_points=16``: points on each node's circle.
+    - ``centre="surface"``: ``surface`` (Eq. 5) or ``volume`` centre of mass.
+    - ``nearest="3d"``: ``3d`` or ``2d`` (in the projection plane) distance to it.
+    - ``thickness_rule="require"``: ``require`` (walls thicker than R_gate) or ``ignore``.
+    - ``require_flat=False``, ``flat_tol=None``: only flat circles (within 0.1 R_gate).
+    - ``aesthetic=False``: the gate on the parting line.
+    - ``max_nodes=4000000``: largest grid accepted.
+    - ``keep_out=()``: regions no gate may reach, ``"box:x0,y0,z0,x1,y1,z1"`` or
+      ``"sphere:x,y,z,r"`` (mm).
+    - ``cosmetic=None``: the visible side (a direction): no gate on faces turned to it.
+    - ``fill=False``: the fill analysis (flow length, fill order, Eq. 1 pressure, weld
+      lines, balanced gate); implied by ``strategy="balanced"`` and ``gates > 1``.
+    - ``strategy="paper"``: ``paper`` or ``balanced`` (the gate minimising the objective).
+    - ``objective="length"``: ``length`` or ``resistance``.
+    - ``gates=1``: number of gates that together minimise the worst flow (1 to the library's limit).
+    - ``cell=None``: flow-analysis cell size, mm.
+    - ``wall_thickness=False``: measure the wall thickness everywhere.
+    - ``color_by="fill_order"``: what pictures of the fill are coloured by:
+      ``fill_order`` (the estimated fill time), ``flow_length``, ``wall`` or ``height``.
+    - ``fit_radius=False``: when the paper's thickness rule removes every node, take the
+      largest gate radius that fits instead of answering with no gate.
+
+    And for this call:
+
+    - ``units="mm"``: unit of a path or arrays given as ``part`` (a :class:`Part` keeps
+      the unit it was read in).
+    - ``materials_file=None``: a TOML file of user materials (the command line's
+      ``--materials-file``).
+    - ``step_tolerance_mm=None``: see :func:`load`.
+    - ``allow_no_gate=False``: when no position qualifies, return the study (its ``gate``
+      is None and ``report["no_gate_reason"]`` says why) instead of raising
+      :class:`NoGateError`. A layout of ``gates=K`` that finds too few positions has no
+      study to return and raises :class:`NoGateError` either way.
+
+    An unknown option name or a bad value raises :class:`OptionsError` with the
+    library's message.
+    """
+    given = locals()
+    options = {name: given[name] for name in _OPTION_NAMES}
+    options["keep_out"] = list(keep_out) if not isinstance(keep_out, str) else [keep_out]
+    options.update(unknown)
+    options_json = _options_json(options)
+    p = _part(part, units, step_tolerance_mm)
+    mf = _os.fspath(materials_file) if materials_file is not None else None
+    s = _moldgate.study(p, options_json, mf)
+    if s.gate is None and not allow_no_gate:
+        reason = s.report.get("no_gate_reason") or "no position qualifies for a gate"
+        raise NoGateError(f"{p.path or 'part'}: {reason}")
+    return s
+
+
+def batch_row(
+    path: Union[str, "_os.PathLike[str]"],
+    *,
+    units: str = "mm",
+    materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
+    **options: Any,
+) -> dict:
+    """Loads and studies one file and gives its row of a batch summary: the row that
+    ``moldgate locate DIR --summary x.jsonl`` writes for it (``file``, ``status``,
+    ``exit_code``, ``units``, ``demold``, ``triangles``, the gate, ``distance_mm``,
+    ``gate_radius_mm``, the counts, ``time_s``, ``error``).
+
+    A part that fails (a file that cannot be read, no gate) is a row with its status and
+    reason, never an exception; refused options raise :class:`OptionsError`, since they
+    would fail every part. ``options`` are those of :func:`study`.
+    """
+    mf = _os.fspath(materials_file) if materials_file is not None else None
+    return _json.loads(
+        _moldgate.batch_row(_os.fspath(path), _options_json(options), mf, units, None)
+    )
+
+
+def check_options(
+    *, materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None, **options: Any
+) -> None:
+    """Checks study options (those of :func:`study`) without a part: raises
+    :class:`OptionsError` with the library's message for an unknown name or a bad value."""
+    mf = _os.fspath(materials_file) if materials_file is not None else None
+    _moldgate.check_options(_options_json(options), mf)
+
+
+def materials(materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None) -> list:
+    """The built-in materials (the paper's Table 1), then those of ``materials_file``
+    (TOML, one table per material), each a dict of its parameters with the melt velocity
+    (Eq. 7, ``melt_velocity_m_s``) and the gate radius (Eq. 8, ``gate_radius_mm``)."""
+    mf = _os.fspath(materials_file) if materials_file is not None else None
+    return _moldgate.materials(mf)

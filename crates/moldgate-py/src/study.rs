@@ -1,0 +1,510 @@
+//! Studies: options from JSON (the library's `StudyOptions`), user materials, the study
+//! and what it gives (report, gates, pictures, per-vertex fields), batch rows.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyList};
+
+use moldgate::batch_row::{BatchRow, Status};
+use moldgate::flow::FillError;
+use moldgate::render::RenderError;
+use moldgate::report::Input;
+use moldgate::study::{Hooks, MaterialChoice, Settings, StudyError, StudyOptions};
+use moldgate::Material;
+
+use crate::part::{units, Part};
+use crate::{detached, guarded, OptionsError, PyErrBox};
+
+/// A JSON text as Python objects.
+pub(crate) fn json_to_py<'py>(py: Python<'py>, json: &str) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (json,))
+}
+
+/// serde_json's message without the place in the JSON text, which the user did not write.
+fn serde_message(e: &serde_json::Error) -> String {
+    let s = e.to_string();
+    match s.rfind(" at line ") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+/// Reads a TOML file of user materials, each named by its table (the command line's
+/// `--materials-file`).
+fn read_materials(path: &Path) -> Result<Vec<Material>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let table: BTreeMap<String, Material> = toml::from_str(&text).map_err(|e| {
+        let place = e
+            .span()
+            .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
+            .unwrap_or_default();
+        format!(
+            "{}: {place}{}",
+            path.display(),
+            e.message().trim_end_matches('.')
+        )
+    })?;
+    let mut out = Vec::with_capacity(table.len());
+    for (name, mut m) in table {
+        m.name = name;
+        m.validate()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        out.push(m);
+    }
+    Ok(out)
+}
+
+/// The options from their JSON form; a material given in full is read on its own so that a
+/// missing parameter is named.
+fn options(json: &str) -> Result<StudyOptions, String> {
+    let mut value: serde_json::Value = serde_json::from_str(json).map_err(|e| serde_message(&e))?;
+    let material = match value.get_mut("material") {
+        Some(m) if m.is_object() => {
+            let m: Material = serde_json::from_value(m.take())
+                .map_err(|e| format!("material: {}", serde_message(&e)))?;
+            value["material"] = serde_json::Value::String(String::new());
+            Some(m)
+        }
+        _ => None,
+    };
+    let mut o: StudyOptions = serde_json::from_value(value).map_err(|e| serde_message(&e))?;
+    if let Some(mut m) = material {
+        if m.name.is_empty() {
+            m.name = "user material".into();
+        }
+        o.material = MaterialChoice::Parameters(m);
+    }
+    Ok(o)
+}
+
+/// Options and user materials validated into the library's settings.
+fn settings(json: &str, materials_file: Option<&Path>) -> Result<Settings, String> {
+    let o = options(json)?;
+    let user = match materials_file {
+        Some(p) => read_materials(p)?,
+        None => Vec::new(),
+    };
+    o.validate_with(&user).map_err(|e| e.to_string())
+}
+
+/// The exception of a study that could not be made, and the batch status it stands for
+/// (the command line's exit codes for the same errors).
+fn study_error(e: &StudyError) -> (Status, PyErrBox) {
+    let m = e.to_string();
+    match e {
+        StudyError::Invalid { .. }
+        | StudyError::Parse { .. }
+        | StudyError::Conflict { .. }
+        | StudyError::UnknownMaterial { .. }
+        | StudyError::Material(_)
+        | StudyError::Locate(_) => (Status::OptionError, PyErrBox::Options(m)),
+        StudyError::Fill(FillError::TooFewCandidates { .. }) => {
+            (Status::NoGate, PyErrBox::NoGate(m))
+        }
+        StudyError::Fill(_) => (Status::OptionError, PyErrBox::Options(m)),
+        StudyError::Demold(_) | StudyError::Render(RenderError::EmptyMesh) => {
+            (Status::InputError, PyErrBox::Load(m))
+        }
+        StudyError::Glb(_) => (Status::OutputError, PyErrBox::Internal(m)),
+        StudyError::Cancelled { .. }
+        | StudyError::Render(_)
+        | StudyError::OtherPart { .. }
+        | StudyError::Encode(_) => (Status::InternalError, PyErrBox::Internal(m)),
+    }
+}
+
+/// study(part, options_json, materials_file=None)
+/// --
+///
+/// Studies a part with options given as the JSON form of `StudyOptions`. Use
+/// `moldgate.study`, which takes the options as keyword arguments.
+#[pyfunction]
+#[pyo3(signature = (part, options_json, materials_file = None))]
+pub fn study(
+    py: Python<'_>,
+    part: Py<Part>,
+    options_json: &str,
+    materials_file: Option<PathBuf>,
+) -> PyResult<Study> {
+    let settings = guarded(|| {
+        settings(options_json, materials_file.as_deref()).map_err(OptionsError::new_err)
+    })?;
+    let p = part.get();
+    let mesh = p.mesh.clone();
+    let (input, load_s) = (p.input.clone(), p.load_s);
+    let study = detached(py, || {
+        let mut s = moldgate::study_with(&mesh, &settings, &Hooks::default())
+            .map_err(|e| study_error(&e).1)?;
+        s.set_input(input, load_s);
+        Ok(s)
+    })?;
+    Ok(Study { study, part })
+}
+
+/// batch_row(path, options_json, materials_file=None, units="mm", demold=None)
+/// --
+///
+/// Loads and studies one file and gives its batch summary row as one line of JSON, the
+/// row of `moldgate locate DIR --summary x.jsonl`. A part that fails is a failed row;
+/// options that are refused raise `OptionsError` (they would fail every part).
+#[pyfunction]
+#[pyo3(signature = (path, options_json, materials_file = None, units = "mm", demold = None))]
+pub fn batch_row(
+    py: Python<'_>,
+    path: PathBuf,
+    options_json: &str,
+    materials_file: Option<PathBuf>,
+    units: &str,
+    demold: Option<String>,
+) -> PyResult<String> {
+    let u = self::units(units)?;
+    let settings = guarded(|| {
+        settings(options_json, materials_file.as_deref()).map_err(OptionsError::new_err)
+    })?;
+    let demold = match demold {
+        Some(d) => d,
+        None => options(options_json)
+            .map(|o| o.demold)
+            .map_err(OptionsError::new_err)?,
+    };
+    let file = path.display().to_string();
+    let t = Instant::now();
+    let row = py.detach(|| {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let (mesh, input) = match crate::part::read_file(&path, u) {
+                Ok((mesh, bytes)) => (
+                    mesh,
+                    Input {
+                        path: Some(file.clone()),
+                        sample: None,
+                        bytes,
+                    },
+                ),
+                Err(m) => return Err((Status::InputError, m)),
+            };
+            let load_s = t.elapsed().as_secs_f64();
+            // The messages of the command line's batch for the same errors.
+            let mut s = moldgate::study_with(&mesh, &settings, &Hooks::default()).map_err(|e| {
+                let (status, _) = study_error(&e);
+                match &e {
+                    StudyError::Demold(d) => (status, format!("{file}: --demold auto: {d}")),
+                    _ => (status, e.to_string()),
+                }
+            })?;
+            s.set_input(input, load_s);
+            Ok(s.into_report())
+        }))
+        .unwrap_or_else(|_| {
+            Err((
+                Status::InternalError,
+                "internal error, please report it (see the panic message above)".into(),
+            ))
+        })
+    });
+    let time_s = t.elapsed().as_secs_f64();
+    let row = match &row {
+        Ok(report) => BatchRow::studied(&file, u, &demold, report, time_s),
+        Err((status, m)) => BatchRow::new(&file, u, &demold, None, Some((*status, m)), time_s),
+    };
+    Ok(row.to_json())
+}
+
+/// materials(materials_file=None)
+/// --
+///
+/// The built-in materials (the paper's Table 1), then those of `materials_file`, each a
+/// dict of its parameters with the melt velocity of Eq. 7 and the gate radius of Eq. 8.
+#[pyfunction]
+#[pyo3(signature = (materials_file = None))]
+pub fn materials<'py>(
+    py: Python<'py>,
+    materials_file: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyList>> {
+    let mut all: Vec<Material> = moldgate::material::BUILTIN
+        .iter()
+        .filter_map(|n| Material::builtin(n))
+        .collect();
+    if let Some(p) = &materials_file {
+        all.extend(read_materials(p).map_err(OptionsError::new_err)?);
+    }
+    let list = PyList::empty(py);
+    for m in all {
+        let d = json_to_py(py, &serde_json::to_string(&m).unwrap_or_default())?;
+        let d = d.cast_into::<PyDict>()?;
+        d.set_item("melt_velocity_m_s", m.melt_velocity_m_s())?;
+        d.set_item("gate_radius_mm", m.gate_radius_mm())?;
+        list.append(d)?;
+    }
+    Ok(list)
+}
+
+/// check_options(options_json, materials_file=None)
+/// --
+///
+/// Validates options as a study would, raising `OptionsError`; no part is needed.
+#[pyfunction]
+#[pyo3(signature = (options_json, materials_file = None))]
+pub fn check_options(options_json: &str, materials_file: Option<PathBuf>) -> PyResult<()> {
+    guarded(|| {
+        settings(options_json, materials_file.as_deref())
+            .map(|_| ())
+            .map_err(OptionsError::new_err)
+    })
+}
+
+/// The JSON form of the default options (the command line's defaults).
+#[pyfunction]
+pub fn default_options() -> String {
+    serde_json::to_string(&StudyOptions::default()).unwrap_or_default()
+}
+
+/// Panics inside the library's boundary: the test that a panic becomes an exception.
+#[pyfunction]
+pub fn panic_for_test(py: Python<'_>) -> PyResult<()> {
+    detached(py, || -> Result<(), PyErrBox> { panic!("a test panic") })
+}
+
+/// One gate of the answer.
+#[pyclass(frozen, get_all, module = "moldgate")]
+pub struct Gate {
+    /// Gate point on the surface, mm (numpy, 3).
+    point: Py<PyArray1<f64>>,
+    /// Outward unit normal there (numpy, 3); zero when no triangle is near.
+    normal: Py<PyArray1<f64>>,
+    /// Gate radius R_gate, mm.
+    radius_mm: f64,
+    /// 3D distance to the centre of mass, mm (None for the extra gates of a layout).
+    distance_mm: Option<f64>,
+    /// Wall thickness along the demolding direction at the gate, mm (the paper gate's;
+    /// None where unknown).
+    wall_mm: Option<f64>,
+    /// `paper` or `aesthetic`.
+    mode: String,
+    /// `paper` or `balanced`.
+    strategy: String,
+}
+
+#[pymethods]
+impl Gate {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        let p: Vec<f64> = self.point.bind(py).to_vec().unwrap_or_default();
+        format!(
+            "<moldgate.Gate ({:.3}, {:.3}, {:.3}) mm, R = {:.3} mm, {}>",
+            p[0], p[1], p[2], self.radius_mm, self.strategy
+        )
+    }
+}
+
+/// A finished study of one part.
+#[pyclass(frozen, module = "moldgate")]
+pub struct Study {
+    study: moldgate::Study,
+    part: Py<Part>,
+}
+
+impl Study {
+    fn title(&self) -> String {
+        match &self.part.get().input.path {
+            Some(p) => Path::new(p)
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| p.clone()),
+            None => "part".into(),
+        }
+    }
+
+    fn gate_objects<'py>(&self, py: Python<'py>) -> PyResult<Vec<Gate>> {
+        let r = self.study.report();
+        let radius = r.options.gate_radius_mm;
+        let (mode, strategy, distance) = match &r.gate {
+            Some(g) => (
+                serde_json::to_value(g.mode).ok(),
+                serde_json::to_value(g.strategy).ok(),
+                Some(g.distance_3d_mm),
+            ),
+            None => return Ok(Vec::new()),
+        };
+        let name = |v: Option<serde_json::Value>| {
+            v.and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default()
+        };
+        let (mode, strategy) = (name(mode), name(strategy));
+        let wall = r.paper_gate.as_ref().and_then(|g| g.thickness_mm);
+        self.study
+            .gates()
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                Ok(Gate {
+                    point: PyArray1::from_slice(py, &g.point.to_array()).unbind(),
+                    normal: PyArray1::from_slice(py, &g.normal.to_array()).unbind(),
+                    radius_mm: radius,
+                    distance_mm: if i == 0 { distance } else { None },
+                    wall_mm: if i == 0 && strategy == "paper" {
+                        wall
+                    } else {
+                        None
+                    },
+                    mode: mode.clone(),
+                    strategy: strategy.clone(),
+                })
+            })
+            .collect()
+    }
+}
+
+#[pymethods]
+impl Study {
+    /// The gate of the answer (the first of several), or None when no position qualifies
+    /// (then `report["no_gate_reason"]` says why).
+    #[getter]
+    fn gate(&self, py: Python<'_>) -> PyResult<Option<Gate>> {
+        Ok(self.gate_objects(py)?.into_iter().next())
+    }
+
+    /// Every gate of the answer: one, or the K gates of `gates=K`; empty without a gate.
+    #[getter]
+    fn gates(&self, py: Python<'_>) -> PyResult<Vec<Gate>> {
+        self.gate_objects(py)
+    }
+
+    /// The report as a dict: the JSON of `moldgate locate --json` (docs/json-schema.md).
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.to_json()?)
+    }
+
+    /// The report as pretty JSON with a final newline, as `moldgate locate --json` prints it.
+    fn to_json(&self) -> PyResult<String> {
+        self.study
+            .report_json()
+            .map_err(|e| study_error(&e).1.into_py_err())
+    }
+
+    /// The part that was studied.
+    #[getter]
+    fn part(&self, py: Python<'_>) -> Py<Part> {
+        self.part.clone_ref(py)
+    }
+
+    /// png(title=None)
+    /// --
+    ///
+    /// The 1600x900 PNG picture (view along the demolding direction and an isometric
+    /// view) as bytes; `title` defaults to the file's name.
+    #[pyo3(signature = (title = None))]
+    fn png<'py>(&self, py: Python<'py>, title: Option<String>) -> PyResult<Bound<'py, PyBytes>> {
+        let title = title.unwrap_or_else(|| self.title());
+        let mesh = self.part.get().mesh.clone();
+        let bytes = detached(py, || {
+            self.study.png(&mesh, title).map_err(|e| study_error(&e).1)
+        })?;
+        Ok(PyBytes::new(py, &bytes))
+    }
+
+    /// glb(title=None)
+    /// --
+    ///
+    /// The study as binary glTF 2.0 (a .glb file's bytes).
+    #[pyo3(signature = (title = None))]
+    fn glb<'py>(&self, py: Python<'py>, title: Option<String>) -> PyResult<Bound<'py, PyBytes>> {
+        let title = title.unwrap_or_else(|| self.title());
+        let mesh = self.part.get().mesh.clone();
+        let bytes = detached(py, || {
+            self.study.glb(&mesh, title).map_err(|e| study_error(&e).1)
+        })?;
+        Ok(PyBytes::new(py, &bytes))
+    }
+
+    /// html(picture=True)
+    /// --
+    ///
+    /// The self-contained HTML report (no scripts, no fetches), with the PNG picture in it
+    /// unless `picture=False`.
+    #[pyo3(signature = (picture = true))]
+    fn html(&self, py: Python<'_>, picture: bool) -> PyResult<String> {
+        let title = self.title();
+        let mesh = self.part.get().mesh.clone();
+        detached(py, || {
+            let png = if picture {
+                Some(
+                    self.study
+                        .png(&mesh, title)
+                        .map_err(|e| study_error(&e).1)?,
+                )
+            } else {
+                None
+            };
+            self.study
+                .html(png.as_deref())
+                .map_err(|e| study_error(&e).1)
+        })
+    }
+
+    /// Fill order per vertex of `part.vertices`: the estimated fill time divided by its
+    /// largest value (0 at the gate, 1 last, NaN where the melt does not reach), float32;
+    /// None unless the fill ran with `color_by="fill_order"` (the default).
+    #[getter]
+    fn fill_order<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
+        let t = self.study.fill_time_per_vertex()?;
+        let max = t
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0f32, f32::max);
+        let order = t
+            .iter()
+            .map(|&v| if max > 0.0 { v / max } else { v })
+            .collect();
+        Some(PyArray1::from_vec(py, order))
+    }
+
+    /// Estimated fill time per vertex of `part.vertices`, s (NaN where the melt does not
+    /// reach), float32; None unless the fill ran with `color_by="fill_order"`.
+    #[getter]
+    fn fill_time<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
+        self.study
+            .fill_time_per_vertex()
+            .map(|f| PyArray1::from_slice(py, f))
+    }
+
+    /// Wall thickness per vertex of `part.vertices`, mm (NaN where unknown), float32; None
+    /// unless `wall_thickness=True`.
+    #[getter]
+    fn wall_thickness<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
+        self.study
+            .wall_thickness_per_vertex()
+            .map(|f| PyArray1::from_slice(py, f))
+    }
+
+    /// Surface points of every node that qualifies as a gate position, (k, 3) float64, mm.
+    #[getter]
+    fn qualifying_points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows: Vec<Vec<f64>> = self
+            .study
+            .qualifying_points()
+            .iter()
+            .map(|p| p.to_array().to_vec())
+            .collect();
+        if rows.is_empty() {
+            return Ok(numpy::PyArray2::zeros(py, (0, 3), false));
+        }
+        PyArray2::from_vec2(py, &rows).map_err(|e| crate::InternalError::new_err(e.to_string()))
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(match self.gate(py)? {
+            Some(g) => format!(
+                "<moldgate.Study of {}: gate {}>",
+                self.title(),
+                g.__repr__(py)
+            ),
+            None => format!("<moldgate.Study of {}: no gate>", self.title()),
+        })
+    }
+}

@@ -1,0 +1,105 @@
+"""Bad input: each case a clear exception with the library's message and place."""
+
+import numpy as np
+import pytest
+
+import moldgate
+
+V = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
+F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+@pytest.mark.parametrize(
+    "vertices, faces, message",
+    [
+        (V[:, :2], F, r"vertices must be an \(n, 3\) array, got shape \[4, 2\]"),
+        (V.ravel(), F, r"vertices must be an \(n, 3\) array, got shape \[12\]"),
+        (V, F[:, :2], r"faces must be an \(m, 3\) array"),
+        (V, F.reshape(2, 2, 3), r"faces must be an \(m, 3\) array"),
+        (V, F.astype(float), "faces must be an integer array, got float64"),
+        (V, F.astype(bool), "faces must be an integer array, got bool"),
+        (V.astype(str), F, "vertices must be numbers"),
+        ([[0, 0, "a"]] * 4, F, "vertices must be numbers"),
+    ],
+)
+def test_wrong_shape_or_dtype(vertices, faces, message):
+    with pytest.raises(moldgate.LoadError, match=message):
+        moldgate.Part(vertices, faces)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_non_finite_coordinates_name_the_vertex(value):
+    v = V.copy()
+    v[2, 1] = value
+    with pytest.raises(moldgate.LoadError, match=rf"vertex 2 has a non-finite coordinate \({'NaN' if np.isnan(value) else ''}"):
+        moldgate.Part(v, F)
+
+
+@pytest.mark.parametrize("bad", [4, 1000, -1])
+def test_face_indices_out_of_range_name_the_triangle(bad):
+    f = F.copy()
+    f[3, 1] = bad
+    with pytest.raises(moldgate.LoadError, match=rf"triangle 3 uses vertex {bad}, outside the 4 vertices \(0 to 3\)"):
+        moldgate.Part(V, f)
+
+
+def test_unsigned_indices_beyond_int64():
+    f = F.astype(np.uint64)
+    f[0, 0] = np.iinfo(np.uint64).max
+    with pytest.raises(moldgate.LoadError, match="out of range"):
+        moldgate.Part(V, f)
+
+
+def test_an_empty_part():
+    with pytest.raises(moldgate.LoadError, match=r"no facet has a non-zero area \(0 facets read\)"):
+        moldgate.Part(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
+    with pytest.raises(moldgate.LoadError, match="no facet has a non-zero area"):
+        moldgate.Part(V, [[0, 1, 1]])
+
+
+def test_an_object_without_arrays():
+    with pytest.raises(moldgate.LoadError, match="cannot study a int"):
+        moldgate.study(42)
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"gate_raduis": 2.0}, "unknown field `gate_raduis`, expected one of `demold`"),
+        ({"gates": 0}, "gates must be at least 1"),
+        ({"gates": 65}, r"gates must be at most \d+, got 65"),
+        ({"gates": 1.5}, "invalid type: floating point `1.5`, expected usize"),
+        ({"demold": "sideways"}, "demold: cannot read demolding direction 'sideways'"),
+        ({"demold": "0,0,0"}, "demolding direction must be a non-zero"),
+        ({"material": "WOOD"}, r"unknown material 'WOOD'"),
+        ({"strategy": "best"}, "unknown variant `best`, expected `paper` or `balanced`"),
+        ({"keep_out": ["cube:1,2,3"]}, "keep_out: cannot read keep-out region 'cube:1,2,3'"),
+        ({"spacing": -1.0}, "spacing must be a positive number, got -1"),
+        ({"max_nodes": 0}, "max_nodes must be between 1 and"),
+        ({"n": -0.3}, "n must be a positive finite number, got -0.3"),
+        ({"units": "furlong"}, "units: unknown unit 'furlong'"),
+        ({"fill": "yes"}, "invalid type: string \"yes\", expected a boolean"),
+    ],
+)
+def test_unknown_option_name_or_value(options, message):
+    with pytest.raises(moldgate.OptionsError, match=message):
+        moldgate.study(moldgate.sample("plate"), **options)
+
+
+def test_a_missing_file_is_named(tmp_path):
+    missing = tmp_path / "nope.stl"
+    with pytest.raises(moldgate.LoadError, match=rf"{missing}: cannot open: No such file"):
+        moldgate.load(missing)
+    with pytest.raises(moldgate.LoadError, match="is a folder, not a mesh file"):
+        moldgate.study(tmp_path)
+
+
+def test_a_bad_mesh_file_names_its_place(tmp_path):
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    with pytest.raises(moldgate.LoadError, match=rf"{bad}: line 4"):
+        moldgate.load(bad)
+    empty = tmp_path / "empty.stl"
+    empty.write_bytes(b"")
+    with pytest.raises(moldgate.LoadError, match="empty file"):
+        moldgate.load(empty)
