@@ -174,9 +174,12 @@ mod tests {
             [0.0, 1.0, 0.0],
             [-0.0, 0.0, 0.0],
         ];
+        // Vertex 3 welds onto vertex 0: the second facet collapses, and the third becomes a
+        // repeat of the first (dropped and counted, as when reading a file).
         let part = from_arrays(&v, &[[0, 1, 2], [3, 1, 0], [3, 2, 1]], Units::Mm).unwrap();
         assert_eq!(part.stats.vertices, 3);
-        assert_eq!(part.stats.triangles, 2);
+        assert_eq!(part.stats.triangles, 1);
+        assert_eq!(part.stats.duplicate_triangles, 1);
         assert_eq!(part.stats.collapsed_facets, 1);
         assert!(part.warnings.iter().any(|w| w.contains("1 degenerate")));
     }
