@@ -116,8 +116,12 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    // A signal that ends the run removes the temporary files of its outputs.
-    output::clean_up_on_signals();
+    // A signal that ends the run removes the temporary files of its outputs. The service
+    // writes no files and stops on SIGTERM and Ctrl-C by itself, after the requests in
+    // flight.
+    if !matches!(cli.command, Command::Serve(_)) {
+        output::clean_up_on_signals();
+    }
     // A panic is a bug: report it on one line with exit code 1, not Rust's 101.
     std::panic::set_hook(Box::new(|info| {
         let _ = writeln!(

@@ -161,6 +161,8 @@ fn aesthetic_gate_lands_on_the_rim_of_the_knob() {
     let options = LocateOptions {
         direction: dir("+z"),
         mode: moldgate::GateMode::Aesthetic,
+        // The outline rule (the default is still the longest loop, see parting.rs).
+        parting: moldgate::gate::PartingRule::Outline,
         ..LocateOptions::default()
     };
     let a = locate(&part, &options).unwrap();
