@@ -27,7 +27,7 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     };
     let _ = writeln!(
         s,
-        "  {label} {}: wall across {:.2} mm, L_max {:.1} mm (mean {:.1}), L/t {:.0}{limit}, pressure {:.1} MPa (Eq. 1), fill time {:.3} s (estimate)",
+        "  {label} {}: wall across {:.2} mm, longest flow {:.1} mm (mean {:.1}), flow/wall {:.0}{limit}, pressure {:.1} MPa, fill time {:.3} s (estimate)",
         v3(g.gate),
         g.wall_across_mm,
         g.l_max_mm,
@@ -93,7 +93,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         Some(b) if b.is_paper_gate => {
             let _ = writeln!(
                 s,
-                "  balanced gate: the paper gate (no candidate does better, {} field runs)",
+                "  balanced gate: the paper gate (no candidate does better, {} flow fields)",
                 b.search.runs
             );
         }
@@ -101,9 +101,9 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             fill_line(s, "balanced gate", &b.fill);
             let _ = writeln!(
                 s,
-                "    minimises {} by {:.1} % ({} field runs{})",
+                "    shortens {} by {:.1} % ({} flow fields{})",
                 match f.objective {
-                    moldgate::flow::Objective::Length => "L_max",
+                    moldgate::flow::Objective::Length => "the longest flow",
                     moldgate::flow::Objective::Resistance => "the fill time",
                 },
                 b.improvement_pct,
@@ -125,7 +125,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     if let Some(m) = &f.several {
         let _ = writeln!(
             s,
-            "  {} gates: L_max {:.1} mm, balance {:.2} (smallest share / largest)",
+            "  {} gates: longest flow {:.1} mm, balance {:.2} (smallest share / largest)",
             m.gates.len(),
             m.l_max_mm,
             m.balance
@@ -133,7 +133,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "    gate {}: {} fills {:.1} % of the volume, L_max {:.1} mm",
+                "    gate {}: {} fills {:.1} % of the volume, longest flow {:.1} mm",
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
@@ -144,7 +144,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("gate {} (qualifying node nearest its centre of mass), L_max {l:.1} mm, fill time {t:.3} s", v3(g))
+                format!("gate {} (qualifying node nearest its centre of mass), longest flow {l:.1} mm, fill time {t:.3} s", v3(g))
             }
             _ => "no qualifying node on it: no gate".into(),
         };
@@ -203,11 +203,11 @@ pub fn render(r: &Report) -> String {
     let o = &r.options;
     let _ = writeln!(
         s,
-        "material {}: R_gate = {:.4} mm{}{}",
+        "material {}: gate radius {:.4} mm{}{}",
         r.material.material.name,
         o.gate_radius_mm,
         match o.gate_radius_source {
-            moldgate::report::RadiusSource::Material => " (Eq. 8)",
+            moldgate::report::RadiusSource::Material => " (from the material)",
             moldgate::report::RadiusSource::Forced => " (forced)",
         },
         // Family values are a starting point, not a grade's data: say so where they are used.
@@ -228,8 +228,8 @@ pub fn render(r: &Report) -> String {
         s,
         "centre of mass ({}): {}",
         match r.centre_of_mass.kind {
-            moldgate::CentreKind::Surface => "surface, Eq. 5",
-            moldgate::CentreKind::Volume => "volume",
+            moldgate::CentreKind::Surface => "of the surface",
+            moldgate::CentreKind::Volume => "of the volume",
         },
         v3(r.centre_of_mass.used)
     );
@@ -277,7 +277,7 @@ pub fn render(r: &Report) -> String {
         let _ = match (f.radius_mm, &f.gate) {
             (Some(radius), Some(g)) => writeln!(
                 s,
-                "largest gate radius that fits: {radius:.3} mm (R_gate {:.3} mm refused by the thickness rule), gate {} mm, {:.3} mm from the centre of mass{}",
+                "largest gate radius that fits: {radius:.3} mm (the material's {:.3} mm is thicker than the wall allows), gate {} mm, {:.3} mm from the centre of mass{}",
                 f.refused_mm,
                 v3(g.point),
                 g.distance_3d_mm,
@@ -285,7 +285,7 @@ pub fn render(r: &Report) -> String {
             ),
             _ => writeln!(
                 s,
-                "largest gate radius that fits: none down to {:.3} mm (R_gate {:.3} mm refused by the thickness rule)",
+                "largest gate radius that fits: none down to {:.3} mm (the material's {:.3} mm is thicker than the wall allows)",
                 f.floor_mm, f.refused_mm
             ),
         };

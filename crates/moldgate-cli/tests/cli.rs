@@ -526,7 +526,7 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
     let peek = summary("peek");
     assert!(
         peek.contains(
-            "material PEEK: R_gate = 0.9278 mm (Eq. 8) from typical high-temperature family values"
+            "material PEEK: gate radius 0.9278 mm (from the material) from typical high-temperature family values"
         ),
         "{peek}"
     );
@@ -559,7 +559,7 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
     // The paper's values are Table 1's, not a family's.
     let pp = summary("PP");
     assert!(
-        pp.contains("material PP: R_gate = 1.4254 mm (Eq. 8)\n"),
+        pp.contains("material PP: gate radius 1.4254 mm (from the material)\n"),
         "{pp}"
     );
 }
