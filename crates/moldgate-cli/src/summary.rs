@@ -236,7 +236,7 @@ pub fn render(r: &Report) -> String {
     let c = &r.counts;
     let _ = writeln!(
         s,
-        "nodes: {} -> {} hit -> {} with the whole circle on the part -> {} thicker than R ({} unknown); {} flat; {} qualify",
+        "nodes: {} on the grid -> {} on the part -> {} with the whole gate disc on the part -> {} with a wall thicker than the radius ({} unknown); {} flat; {} qualify",
         c.nodes, c.centre_hits, c.circle_on_part, c.thicker_than_radius, c.thickness_unknown, c.flat, c.qualifying
     );
     if c.kept_out + c.cosmetic > 0 {
