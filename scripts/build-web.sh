@@ -3,7 +3,7 @@
 # page with Vite. Installs what it needs on a fresh machine (the wasm32 target, the npm
 # packages pinned by web/package-lock.json). web/dist is one static folder with relative paths.
 # wasm-opt (npm binaryen) is not used: measured, it took 2 minutes and saved 1.3 % of the
-# gzipped size with no gain in speed (README, "In the browser").
+# gzipped size with no gain in speed (docs/web.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The README's table of the paper gate against the balanced gate on the shared parts.
+"""The table in docs/fill-analysis.md of the paper gate against the balanced gate on the shared parts.
 
 Runs `moldgate locate PART --demold D --units U --fill --json` on every shared part (natural
 demolding direction from ../shared/data/parts/SOURCES.md or $MOLDGATE_PARTS, PP, default options otherwise)

@@ -6,7 +6,7 @@
 //! tables, the edge table) at scattered places. On 4 KiB pages each first touch is a fault
 //! and each scattered read may miss the address cache (the TLB); a 2 MiB page is one fault
 //! and one TLB entry. On a 352k-triangle part this takes the process from about 7,700 page
-//! faults to 2,600 and the whole command about a tenth faster (README, "Speed").
+//! faults to 2,600 and the whole command about a tenth faster (docs/performance.md).
 //!
 //! Only the whole 2 MiB pages inside a block are advised, so a block never holds more
 //! memory than its own size rounded up to 4 KiB: peak resident memory does not grow. When

@@ -1,6 +1,6 @@
 //! The `moldgate` command: parses arguments, reads files, calls the library, prints.
 //!
-//! Exit codes (also in the README):
+//! Exit codes (also in docs/cli.md):
 //! 0 success; 1 unexpected internal error; 2 invalid command line or option value;
 //! 3 input file missing, unreadable or malformed; 4 no node qualifies for a gate;
 //! 5 output cannot be written.
