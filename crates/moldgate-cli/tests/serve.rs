@@ -627,6 +627,23 @@ fn a_client_sending_its_head_a_byte_a_second_is_cut_off_while_others_are_served(
 }
 
 #[test]
+fn a_head_over_64_kib_is_431() {
+    // The documented limit.
+    assert_eq!(moldgate_serve::MAX_HEAD_BYTES, 64 << 10);
+    let s = start(&[]);
+    let big = "a".repeat(moldgate_serve::MAX_HEAD_BYTES + 1);
+    let mut c = connect(s.addr);
+    c.write_all(head("GET", "/healthz", &[("x-big", &big)], None).as_bytes())
+        .unwrap();
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_eq!(r.status, 431);
+    // Just under the limit is read.
+    let fits = "a".repeat(moldgate_serve::MAX_HEAD_BYTES - 200);
+    let r = request(s.addr, "GET", "/healthz", &[("x-big", &fits)], &[]);
+    assert_eq!(r.status, 200);
+}
+
+#[test]
 fn connections_over_the_bound_wait_until_one_closes() {
     let s = start(&["--connections", "2", "--header-timeout", "3"]);
     let request = |c: &mut std::net::TcpStream| {
