@@ -7,7 +7,8 @@
 //!    (load + study, in this process) and one connection's latency, so the service's
 //!    overhead is a measured figure;
 //! 2. the 352k-triangle shared part (demold +y): one request against the whole command
-//!    `moldgate locate FILE --demold +y --json`, medians of 5;
+//!    `moldgate locate FILE --demold +y --json` and the library in this process, reading
+//!    in one pass and in parallel runs, interleaved, medians of 9;
 //! 3. resident memory after 1,000 and after 10,000 requests (cover, 16 connections);
 //! 4. a flood of 64 concurrent 100 MB uploads (a generated 2M-triangle binary STL):
 //!    the answers by status, and the server's peak resident memory (sampled from /proc
@@ -129,15 +130,58 @@ fn throughput(server: &Server, name: &str, stl: &[u8], demold: &str) {
     );
 }
 
+/// The library in this process on the bytes of a file (demold +y): load, study, JSON; read
+/// in one pass (`read_stl`) or, as the service and the command line read, in parallel runs
+/// (`read_stl_reopen`).
+fn library_once(stl: &[u8], parallel: bool) -> f64 {
+    let options: moldgate::StudyOptions =
+        serde_json::from_value(serde_json::json!({ "demold": "+y" })).unwrap();
+    let t = Instant::now();
+    let len = stl.len() as u64;
+    let units = moldgate::mesh::Units::Mm;
+    let part = if parallel {
+        moldgate::mesh::read_stl_reopen(|| Ok(std::io::Cursor::new(stl)), len, units)
+    } else {
+        moldgate::mesh::read_stl(std::io::Cursor::new(stl), len, units)
+    }
+    .unwrap();
+    let json = moldgate::study(&part, &options)
+        .unwrap()
+        .report_json()
+        .unwrap();
+    std::hint::black_box(json.len());
+    t.elapsed().as_secs_f64()
+}
+
+/// The server's own time for its last request, ms, from its log line ("... 812.3ms").
+fn last_logged_ms(server: &Server) -> f64 {
+    let log = server.log.lock().unwrap();
+    log.iter()
+        .rev()
+        .find_map(|l| {
+            l.strip_prefix("moldgate: POST /v1/study 200 ")?
+                .rsplit(' ')
+                .next()
+        })
+        .and_then(|ms| ms.strip_suffix("ms")?.parse().ok())
+        .unwrap_or(f64::NAN)
+}
+
+/// The 352k part, 9 rounds, each running in turn (so a phase of the machine touches all
+/// alike): one request, the whole command, the library reading in one pass and in
+/// parallel runs. Medians, and the server's own time (its log line: from the request's head
+/// to its answer, upload included).
 fn large_part(server: &Server, binary: &str, file: &Path) {
     let stl = std::fs::read(file).unwrap();
     let path = "/v1/study?demold=%2By";
-    let mut service = Vec::new();
-    let mut cli = Vec::new();
-    for _ in 0..5 {
+    let (mut service, mut logged, mut cli, mut one_pass, mut runs) =
+        (vec![], vec![], vec![], vec![], vec![]);
+    for _ in 0..9 {
         let (l, e, _) = run_load(server.addr, path, &stl, 1, 1);
         assert_eq!(e, 0);
         service.push(l[0]);
+        std::thread::sleep(Duration::from_millis(50));
+        logged.push(last_logged_ms(server) / 1e3);
         let t = Instant::now();
         let out = std::process::Command::new(binary)
             .args(["locate", file.to_str().unwrap(), "--demold", "+y", "--json"])
@@ -145,11 +189,16 @@ fn large_part(server: &Server, binary: &str, file: &Path) {
             .unwrap();
         assert!(out.status.success());
         cli.push(t.elapsed().as_secs_f64());
+        one_pass.push(library_once(&stl, false));
+        runs.push(library_once(&stl, true));
     }
     println!(
-        "352k part, one request (upload + study + answer): {:.0} ms; the whole command `locate --demold +y --json`: {:.0} ms (medians of 5)",
+        "352k part (medians of 9, interleaved): one request (upload + study + answer) {:.0} ms, of which the server's own {:.0} ms; the whole command `locate --demold +y --json` {:.0} ms; the library in this process on the bytes (load + study + JSON) {:.0} ms reading in parallel runs, {:.0} ms in one pass",
         median(service) * 1e3,
-        median(cli) * 1e3
+        median(logged) * 1e3,
+        median(cli) * 1e3,
+        median(runs) * 1e3,
+        median(one_pass) * 1e3,
     );
 }
 

@@ -286,6 +286,14 @@ pub struct ServeArgs {
     /// Largest grid a request may ask for, in nodes.
     #[arg(long, default_value_t = 4_000_000, value_name = "N")]
     pub max_nodes: usize,
+    /// Time limit for receiving a request's line and headers, seconds, from the accept (or
+    /// the previous answer on a kept-alive connection); past it the connection is closed
+    /// without an answer.
+    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    pub header_timeout: f64,
+    /// Connections open at once; more wait in the listen queue until one closes.
+    #[arg(long, default_value_t = 512, value_name = "N")]
+    pub connections: usize,
     /// The browser app's built folder, served at / (default web/dist when it exists).
     #[arg(long, value_name = "DIR")]
     pub web_dir: Option<PathBuf>,

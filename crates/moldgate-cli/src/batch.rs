@@ -16,8 +16,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
+use moldgate::batch_row::{BatchRow, Status};
 use moldgate::mesh::Units;
 use moldgate::report::Report;
 use moldgate::study::{Demold, Hooks};
@@ -143,15 +144,15 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     })?;
     progress.finish();
 
-    let rows: Vec<Row> = parts
+    let rows: Vec<BatchRow> = parts
         .iter()
         .zip(&outcomes)
-        .map(|(p, o)| Row::new(p, o))
+        .map(|(p, o)| row(p, o))
         .collect();
     let mut failures: Vec<Failure> = Vec::new();
     if let (Some(path), Some(format)) = (&b.summary, summary_format) {
         let text = match format {
-            SummaryFormat::JsonLines => json_lines(&rows)?,
+            SummaryFormat::JsonLines => json_lines(&rows),
             SummaryFormat::Csv => csv(&rows),
         };
         if let Err(f) = write_atomic(path, text.as_bytes()) {
@@ -159,14 +160,16 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
         }
     }
     if a.json {
-        print_stdout(&json_lines(&rows)?)?;
+        print_stdout(&json_lines(&rows))?;
     } else {
         print_stdout(&table(&rows, b.quiet))?;
     }
     // The end report: one line per failed part or skipped entry, in input order.
     for row in &rows {
         match (&row.error, row.status) {
-            (Some(reason), "skipped") => eprintln!("moldgate: skipped {}: {reason}", row.file),
+            (Some(reason), Status::Skipped) => {
+                eprintln!("moldgate: skipped {}: {reason}", row.file)
+            }
             (Some(reason), _) => eprintln!("moldgate: error: {}: {reason}", row.file),
             _ => {}
         }
@@ -476,49 +479,6 @@ fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
         .map_err(|e| fail(&format_args!("cannot write: {e}")))
 }
 
-/// One line of the summary.
-#[derive(Debug, Serialize)]
-struct Row {
-    /// The input file as given.
-    file: String,
-    /// `ok`, `no_gate`, `input_error`, `option_error`, `output_error`, `internal_error`, or
-    /// `skipped` for a folder's entry that is not a regular file (a FIFO, a folder, a link
-    /// that points nowhere).
-    status: &'static str,
-    /// The part's own exit code, as `moldgate locate FILE` would give; 0 for a skipped
-    /// entry, which does not change the batch's exit code.
-    exit_code: u8,
-    /// Unit the file was read in.
-    units: String,
-    /// Demolding direction as given, or for `auto` the direction chosen ("-z (auto)").
-    demold: String,
-    /// Triangles after welding.
-    triangles: Option<u64>,
-    /// The gate, mm.
-    gate_x_mm: Option<f64>,
-    /// The gate, mm.
-    gate_y_mm: Option<f64>,
-    /// The gate, mm.
-    gate_z_mm: Option<f64>,
-    /// 3D distance from the gate to the centre of mass, mm.
-    distance_mm: Option<f64>,
-    /// R_gate, mm.
-    gate_radius_mm: Option<f64>,
-    /// Grid nodes.
-    nodes: Option<usize>,
-    /// Nodes whose disc lies on the part.
-    circle_on_part: Option<usize>,
-    /// Nodes passing every rule.
-    qualifying: Option<usize>,
-    /// The report's warnings (units in doubt, open mesh, dropped facets ...), joined by
-    /// ` | `; null when the part failed or had none.
-    warnings: Option<String>,
-    /// Seconds to load and analyse the part (varies from run to run).
-    time_s: f64,
-    /// Why the part failed, or null.
-    error: Option<String>,
-}
-
 /// An axis as "+x" .. "-z", any other direction as its three components.
 fn direction_name(d: [f64; 3]) -> String {
     for (i, axis) in ["x", "y", "z"].iter().enumerate() {
@@ -529,75 +489,47 @@ fn direction_name(d: [f64; 3]) -> String {
     format!("{:.4},{:.4},{:.4}", d[0], d[1], d[2])
 }
 
-impl Row {
-    fn new(part: &Part, o: &Outcome) -> Row {
-        let file = part.path.display().to_string();
-        let r = o.report.as_ref();
-        let gate = r.and_then(|r| r.gate.as_ref());
-        let code = o.failure.as_ref().map_or(0, |f| f.code);
-        // Messages of the loader start with the path; the row has it in `file` already.
-        let error = o.failure.as_ref().map(|f| {
-            f.message
-                .strip_prefix(&format!("{file}: "))
-                .unwrap_or(&f.message)
-                .to_string()
-        });
-        let error = error.or_else(|| part.skipped.clone());
-        Row {
-            status: match code {
-                _ if part.skipped.is_some() => "skipped",
-                0 => "ok",
-                2 => "option_error",
-                3 => "input_error",
-                4 => "no_gate",
-                5 => "output_error",
-                _ => "internal_error",
-            },
-            exit_code: code,
-            units: part.settings.units.to_string(),
-            demold: match r.and_then(|r| r.demold_auto.as_ref()) {
-                Some(auto) => format!("{} (auto)", direction_name(auto.candidate().direction)),
-                None => part.demold.clone(),
-            },
-            triangles: r.map(|r| r.mesh.triangles),
-            gate_x_mm: gate.map(|g| g.point[0]),
-            gate_y_mm: gate.map(|g| g.point[1]),
-            gate_z_mm: gate.map(|g| g.point[2]),
-            distance_mm: gate.map(|g| g.distance_3d_mm),
-            gate_radius_mm: r.map(|r| r.options.gate_radius_mm),
-            nodes: r.map(|r| r.counts.nodes),
-            circle_on_part: r.map(|r| r.counts.circle_on_part),
-            qualifying: r.map(|r| r.counts.qualifying),
-            warnings: r
-                .filter(|r| !r.warnings.is_empty())
-                .map(|r| r.warnings.join(" | ")),
-            time_s: (o.time_s * 1e4).round() / 1e4,
-            error,
-            file,
-        }
-    }
+/// The summary's row of one part: the library's [`BatchRow`], with the direction chosen for
+/// `auto` ("-z (auto)") and a folder's skipped entry as its own status.
+fn row(part: &Part, o: &Outcome) -> BatchRow {
+    let file = part.path.display().to_string();
+    let report = o.report.as_ref();
+    let failure = match (&part.skipped, &o.failure) {
+        (Some(reason), _) => Some((Status::Skipped, reason.as_str())),
+        (None, Some(f)) => Some((Status::from_exit_code(f.code), f.message.as_str())),
+        (None, None) => None,
+    };
+    let demold = match report.and_then(|r| r.demold_auto.as_ref()) {
+        Some(auto) => format!("{} (auto)", direction_name(auto.candidate().direction)),
+        None => part.demold.clone(),
+    };
+    BatchRow::new(
+        &file,
+        part.settings.units,
+        &demold,
+        report,
+        failure,
+        o.time_s,
+    )
 }
 
 /// The rows as JSON Lines.
-fn json_lines(rows: &[Row]) -> Result<String, Failure> {
+fn json_lines(rows: &[BatchRow]) -> String {
     let mut out = String::new();
     for row in rows {
-        out += &serde_json::to_string(row).map_err(|e| Failure {
-            code: 1,
-            message: format!("cannot encode the summary: {e}"),
-        })?;
+        out += &row.to_json();
         out.push('\n');
     }
-    Ok(out)
+    out
 }
 
-/// The CSV header, in the order of [`Row`]'s fields.
+/// The CSV header, in the order of [`BatchRow`]'s fields.
 const CSV_HEADER: &str = "file,status,exit_code,units,demold,triangles,gate_x_mm,gate_y_mm,\
 gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,warnings,time_s,error";
 
 /// The rows as CSV (RFC 4180: fields with a comma, quote or line break are quoted, quotes
 /// doubled); a missing value is an empty field.
-fn csv(rows: &[Row]) -> String {
+fn csv(rows: &[BatchRow]) -> String {
     fn field(out: &mut String, s: &str) {
         if s.contains([',', '"', '\n', '\r']) {
             out.push('"');
@@ -615,7 +547,7 @@ fn csv(rows: &[Row]) -> String {
     for r in rows {
         let fields = [
             r.file.clone(),
-            r.status.to_string(),
+            r.status.name().to_string(),
             r.exit_code.to_string(),
             r.units.clone(),
             r.demold.clone(),
@@ -662,7 +594,7 @@ fn short_warning(joined: &str) -> String {
 }
 
 /// The human table, and a closing count unless `quiet`.
-fn table(rows: &[Row], quiet: bool) -> String {
+fn table(rows: &[BatchRow], quiet: bool) -> String {
     let width = rows
         .iter()
         .map(|r| r.file.chars().count())
@@ -685,7 +617,7 @@ fn table(rows: &[Row], quiet: bool) -> String {
             out,
             "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}  {}",
             r.file,
-            r.status.replace('_', " "),
+            r.status.name().replace('_', " "),
             dash(r.triangles.map(|t| t.to_string())),
             dash(gate),
             dash(r.distance_mm.map(|d| format!("{d:.3}"))),
@@ -695,8 +627,8 @@ fn table(rows: &[Row], quiet: bool) -> String {
         );
     }
     if !quiet {
-        let skipped = rows.iter().filter(|r| r.status == "skipped").count();
-        let ok = rows.iter().filter(|r| r.status == "ok").count();
+        let skipped = rows.iter().filter(|r| r.status == Status::Skipped).count();
+        let ok = rows.iter().filter(|r| r.status == Status::Ok).count();
         let no_gate = rows.iter().filter(|r| r.exit_code == 4).count();
         let failed = rows.len() - skipped - ok - no_gate;
         let _ = write!(
@@ -739,9 +671,9 @@ mod tests {
 
     #[test]
     fn csv_quotes_what_needs_it() {
-        let row = Row {
+        let row = BatchRow {
             file: "a, \"b\".stl".into(),
-            status: "input_error",
+            status: Status::InputError,
             exit_code: 3,
             units: "mm".into(),
             demold: "0,0,1".into(),
@@ -770,9 +702,9 @@ mod tests {
     #[test]
     fn csv_header_matches_the_row_fields() {
         // The JSON keys of a row, in order, are the CSV header.
-        let row = Row {
+        let row = BatchRow {
             file: String::new(),
-            status: "ok",
+            status: Status::Ok,
             exit_code: 0,
             units: String::new(),
             demold: String::new(),

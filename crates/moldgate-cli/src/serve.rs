@@ -46,6 +46,12 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
             a.max_nodes
         )));
     }
+    if a.connections == 0 || a.connections > 1 << 16 {
+        return Err(Failure::usage(format!(
+            "--connections must be between 1 and 65536, got {}",
+            a.connections
+        )));
+    }
     let web_dir = match a.web_dir {
         Some(d) if !d.is_dir() => {
             return Err(Failure::input(format!(
@@ -65,6 +71,8 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
             timeout: seconds("--timeout", a.timeout)?,
             read_timeout: seconds("--read-timeout", a.read_timeout)?,
             max_nodes: a.max_nodes,
+            header_timeout: seconds("--header-timeout", a.header_timeout)?,
+            connections: a.connections,
         },
         web_dir,
     };

@@ -548,6 +548,151 @@ fn a_slow_client_gets_408() {
     writer.join().unwrap();
 }
 
+/// What a client that has sent part of a request head reads: the seconds until the server
+/// closed the connection, and the bytes it answered before (none when cut off silently).
+fn wait_for_close(c: &mut std::net::TcpStream, limit: Duration) -> (Duration, Vec<u8>) {
+    use std::io::Read;
+    let t = Instant::now();
+    c.set_read_timeout(Some(limit)).unwrap();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 512];
+    loop {
+        match c.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => got.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break,
+            Err(e) => panic!(
+                "the connection was not closed within {limit:?} ({e}); read {:?}",
+                String::from_utf8_lossy(&got)
+            ),
+        }
+    }
+    (t.elapsed(), got)
+}
+
+#[test]
+fn a_client_sending_its_head_a_byte_a_second_is_cut_off_while_others_are_served() {
+    let s = start(&["--header-timeout", "3"]);
+    let stl = sample_stl("cover");
+    let mut slow = connect(s.addr);
+    let mut idle = connect(s.addr);
+    let mut out = slow.try_clone().unwrap();
+    let writer = std::thread::spawn(move || {
+        let head = head("GET", "/healthz", &[], None);
+        let mut sent = 0;
+        for b in head.as_bytes() {
+            if out.write_all(&[*b]).is_err() {
+                break;
+            }
+            sent += 1;
+            std::thread::sleep(Duration::from_secs(1));
+        }
+        sent
+    });
+    // Meanwhile the others are served, without waiting for the slow one's limit.
+    let t = Instant::now();
+    for _ in 0..3 {
+        assert_alive(s.addr);
+        assert_eq!(study_stl(s.addr, "", &stl).status, 200);
+    }
+    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
+    // The slow one, and one that sends nothing, are closed at the limit without an answer.
+    for c in [&mut slow, &mut idle] {
+        let (after, answer) = wait_for_close(c, Duration::from_secs(10));
+        assert!(answer.is_empty(), "{}", String::from_utf8_lossy(&answer));
+        assert!(
+            after < Duration::from_secs(6),
+            "closed after {after:?} (limit 3 s)"
+        );
+    }
+    let sent = writer.join().unwrap();
+    assert!(
+        (1..=6).contains(&sent),
+        "{sent} bytes sent before the close"
+    );
+    let t = Instant::now();
+    while s.log_text().matches("did not arrive within 3 s").count() < 2 && t.elapsed().as_secs() < 5
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(
+        s.log_text()
+            .matches("did not arrive within 3 s (--header-timeout)")
+            .count(),
+        2,
+        "{}",
+        s.log_text()
+    );
+    assert_alive(s.addr);
+}
+
+#[test]
+fn a_head_over_64_kib_is_431() {
+    // The documented limit.
+    assert_eq!(moldgate_serve::MAX_HEAD_BYTES, 64 << 10);
+    let s = start(&[]);
+    let big = "a".repeat(moldgate_serve::MAX_HEAD_BYTES + 1);
+    let mut c = connect(s.addr);
+    c.write_all(head("GET", "/healthz", &[("x-big", &big)], None).as_bytes())
+        .unwrap();
+    let r = read_response(&mut BufReader::new(c)).unwrap();
+    assert_eq!(r.status, 431);
+    // Just under the limit is read.
+    let fits = "a".repeat(moldgate_serve::MAX_HEAD_BYTES - 200);
+    let r = request(s.addr, "GET", "/healthz", &[("x-big", &fits)], &[]);
+    assert_eq!(r.status, 200);
+}
+
+#[test]
+fn connections_over_the_bound_wait_until_one_closes() {
+    let s = start(&["--connections", "2", "--header-timeout", "3"]);
+    let request = |c: &mut std::net::TcpStream| {
+        c.write_all(head("GET", "/healthz", &[("connection", "close")], None).as_bytes())
+            .unwrap();
+    };
+    // Two idle connections hold both slots: a third is connected by the kernel but not
+    // answered.
+    let held: Vec<_> = (0..2).map(|_| connect(s.addr)).collect();
+    std::thread::sleep(Duration::from_millis(300));
+    let mut third = connect(s.addr);
+    request(&mut third);
+    third
+        .set_read_timeout(Some(Duration::from_secs(1)))
+        .unwrap();
+    let mut reader = BufReader::new(third.try_clone().unwrap());
+    let waiting = read_response(&mut reader);
+    assert!(
+        waiting
+            .as_ref()
+            .is_err_and(|e| e.kind() == std::io::ErrorKind::WouldBlock
+                || e.kind() == std::io::ErrorKind::TimedOut),
+        "{waiting:?}"
+    );
+    // One goes: the third is answered.
+    let t = Instant::now();
+    drop(held);
+    third
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    let r = read_response(&mut reader).unwrap();
+    assert_eq!(r.status, 200);
+    assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
+    drop((reader, third));
+    // Idle holders never give their slots back on their own: the header timeout takes them.
+    let held: Vec<_> = (0..2).map(|_| connect(s.addr)).collect();
+    std::thread::sleep(Duration::from_millis(300));
+    let t = Instant::now();
+    let r = get(s.addr, "/healthz");
+    assert_eq!(r.status, 200);
+    let waited = t.elapsed();
+    assert!(
+        waited > Duration::from_secs(1) && waited < Duration::from_secs(6),
+        "answered after {waited:?} (the holders are cut at 3 s)"
+    );
+    drop(held);
+    assert_alive(s.addr);
+}
+
 #[test]
 fn requests_beyond_the_queue_are_503() {
     let s = start(&["--analyses", "1", "--queue", "1"]);
@@ -683,6 +828,10 @@ fn bad_limits_are_refused_at_start() {
         &["serve", "--max-upload", "0"],
         &["serve", "--timeout", "0"],
         &["serve", "--max-nodes", "0"],
+        &["serve", "--connections", "0"],
+        &["serve", "--connections", "70000"],
+        &["serve", "--header-timeout", "0"],
+        &["serve", "--header-timeout", "nan"],
     ] {
         let out = moldgate(dir.path(), args);
         assert_eq!(out.status.code(), Some(common::USAGE), "{args:?}");

@@ -6,7 +6,11 @@
 //! The service is safe under load by construction:
 //! - a request body is refused by its `Content-Length` before it is read when it is over
 //!   [`Limits::max_upload`], and a streamed body is cut at that size;
-//! - a body must arrive within [`Limits::read_timeout`] (408 otherwise);
+//! - a body must arrive within [`Limits::read_timeout`] (408 otherwise), and a request's
+//!   line and headers within [`Limits::header_timeout`] (the connection is closed
+//!   otherwise);
+//! - at most [`Limits::connections`] connections are open at once; more wait in the
+//!   listen queue until one closes;
 //! - at most [`Limits::analyses`] studies run at once, on blocking threads (never on the
 //!   async workers), with at most [`Limits::queue`] more admitted and waiting; a request
 //!   beyond that is refused at once with 503, before its body is read, so the memory held
@@ -24,6 +28,7 @@
 #![deny(missing_docs)]
 
 mod body;
+mod connection;
 mod error;
 mod log;
 mod openapi;
@@ -37,6 +42,7 @@ use std::time::Duration;
 
 use tokio::sync::Semaphore;
 
+pub use connection::MAX_HEAD_BYTES;
 pub use error::ApiError;
 pub use openapi::OPENAPI;
 pub use routes::{Route, ROUTES};
@@ -57,6 +63,13 @@ pub struct Limits {
     /// Largest grid a study may ask for, nodes (`--max-nodes`). Default 4,000,000 (the
     /// command line's default `max_nodes`).
     pub max_nodes: usize,
+    /// Time limit for receiving a request's line and headers, from the accept or from the
+    /// end of the previous answer on a kept-alive connection (`--header-timeout`); past it
+    /// the connection is closed without an answer. Default 30 s.
+    pub header_timeout: Duration,
+    /// Connections open at once (`--connections`); more wait in the listen queue until
+    /// one closes. Default 512.
+    pub connections: usize,
 }
 
 impl Default for Limits {
@@ -68,6 +81,8 @@ impl Default for Limits {
             timeout: Duration::from_secs(60),
             read_timeout: Duration::from_secs(60),
             max_nodes: 4_000_000,
+            header_timeout: Duration::from_secs(30),
+            connections: 512,
         }
     }
 }
@@ -151,6 +166,9 @@ pub fn run(config: Config) -> Result<(), ServeError> {
     if config.limits.max_upload == 0 {
         return Err(ServeError::Limit("--max-upload"));
     }
+    if config.limits.connections == 0 {
+        return Err(ServeError::Limit("--connections"));
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -161,12 +179,9 @@ pub fn run(config: Config) -> Result<(), ServeError> {
             .await
             .map_err(ServeError::Bind)?;
         let addr = listener.local_addr().map_err(ServeError::Io)?;
-        let app = router(config.limits, config.web_dir.as_deref());
+        let app = router(config.limits.clone(), config.web_dir.as_deref());
         eprintln!("moldgate: listening on http://{addr}");
-        axum::serve(listener, app)
-            .with_graceful_shutdown(shutdown_signal())
-            .await
-            .map_err(ServeError::Io)?;
+        connection::serve(listener, app, &config.limits, shutdown_signal()).await;
         eprintln!("moldgate: stopped");
         Ok(())
     })

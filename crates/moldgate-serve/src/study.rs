@@ -358,9 +358,14 @@ pub fn guarded<T>(f: impl FnOnce() -> Result<T, ApiError>) -> Result<T, ApiError
 }
 
 fn load(upload: &Upload, units: Units) -> Result<LoadedMesh, ApiError> {
-    let reader = Cursor::new(&upload.bytes[..]);
+    let bytes = &upload.bytes[..];
+    let reader = Cursor::new(bytes);
     match upload.format {
-        Format::Stl => mesh::read_stl(reader, upload.bytes.len() as u64, units),
+        // Through cursors of its own per reading thread, a large binary STL is read and
+        // welded in parallel runs, as the command line reads a file.
+        Format::Stl => {
+            mesh::read_stl_reopen(|| Ok(Cursor::new(bytes)), upload.bytes.len() as u64, units)
+        }
         Format::Obj => mesh::read_obj(reader, units),
         Format::Ply => mesh::read_ply(reader, units),
     }
