@@ -28,7 +28,11 @@ fn main() {
         .and_then(|mut f| f.read_to_end(&mut bytes))
         .expect("read the part");
     let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
-    assert_eq!(bytes.len(), 84 + RECORD * n, "a binary STL of 84 + 50 n bytes");
+    assert_eq!(
+        bytes.len(),
+        84 + RECORD * n,
+        "a binary STL of 84 + 50 n bytes"
+    );
     let records = &bytes[84..];
     let x_of = |rec: &[u8], k: usize| {
         let at = 12 + 12 * k;

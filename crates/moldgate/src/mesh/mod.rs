@@ -632,3 +632,103 @@ impl Welder {
         (self.mesh, self.collapsed)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Positions on a small lattice (many repeats), with -0.0 beside 0.0 and neighbours one
+    /// bit apart, from a seeded generator.
+    fn corners(n: usize, seed: u64) -> Vec<DVec3> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 33) as u32
+        };
+        (0..n)
+            .map(|_| {
+                let mut c = [0.0f64; 3];
+                for x in &mut c {
+                    let r = next();
+                    *x = match r % 8 {
+                        0 => 0.0,
+                        1 => -0.0,
+                        2 => f64::from_bits(1.0f64.to_bits() + u64::from(r % 3)),
+                        _ => f64::from(r % 11) * 0.5 - 2.0,
+                    };
+                }
+                DVec3::from_array(c)
+            })
+            .collect()
+    }
+
+    /// The vertices and triangle corners welding must give: positions numbered by first
+    /// appearance, compared by bits with -0.0 read as 0.0.
+    fn brute_force(corners: &[DVec3]) -> (Vec<[u64; 3]>, Vec<u32>) {
+        let mut seen: Vec<[u64; 3]> = Vec::new();
+        let numbers = corners
+            .iter()
+            .map(|&p| {
+                let bits = position_bits(p);
+                match seen.iter().position(|&s| s == bits) {
+                    Some(v) => v as u32,
+                    None => {
+                        seen.push(bits);
+                        (seen.len() - 1) as u32
+                    }
+                }
+            })
+            .collect();
+        (seen, numbers)
+    }
+
+    #[test]
+    fn welding_with_hash_bits_in_the_slots_matches_brute_force_through_every_growth() {
+        for seed in 0..4 {
+            let all = corners(3 * 4000, seed);
+            let (expected_vertices, expected) = brute_force(&all);
+            // A welder sized for one facet grows many times, and each growth changes how
+            // many hash bits a slot holds.
+            let mut welder = Welder::with_capacity(1);
+            let mut kept = Vec::new();
+            for (f, facet) in all.chunks_exact(3).enumerate() {
+                welder.push([facet[0], facet[1], facet[2]]);
+                let e = &expected[3 * f..3 * f + 3];
+                if e[0] != e[1] && e[1] != e[2] && e[0] != e[2] {
+                    kept.push([e[0], e[1], e[2]]);
+                }
+            }
+            let (mesh, collapsed) = welder.finish();
+            let bits: Vec<[u64; 3]> = mesh.vertices.iter().map(|&p| position_bits(p)).collect();
+            assert_eq!(bits, expected_vertices, "seed {seed}");
+            assert_eq!(mesh.triangles, kept, "seed {seed}");
+            assert_eq!(collapsed as usize, all.len() / 3 - kept.len());
+        }
+    }
+
+    #[test]
+    fn joined_runs_weld_as_one_welder() {
+        let all = corners(3 * 6000, 7);
+        let mut one = Welder::with_capacity(6000);
+        for facet in all.chunks_exact(3) {
+            one.push([facet[0], facet[1], facet[2]]);
+        }
+        let (whole, whole_collapsed) = one.finish();
+        let runs: Vec<Welder> = all
+            .chunks(3 * 1500)
+            .map(|run| {
+                let mut w = Welder::for_run(run.len() / 3, 6000);
+                for facet in run.chunks_exact(3) {
+                    w.push([facet[0], facet[1], facet[2]]);
+                }
+                w
+            })
+            .collect();
+        let (joined, joined_collapsed) = Welder::join(runs);
+        assert_eq!(joined.vertices, whole.vertices);
+        assert_eq!(joined.triangles, whole.triangles);
+        assert_eq!(joined_collapsed, whole_collapsed);
+    }
+}
