@@ -16,9 +16,10 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-part = os.path.join(
-    ROOT, "..", "shared", "data", "parts", "esp32s3box_bottom_housing_352k.stl"
-)
+# The shared parts beside the repository (or beside the folder of work trees).
+part = next((p for p in (os.path.join(ROOT, *[".."] * up, "shared", "data", "parts",
+                                      "esp32s3box_bottom_housing_352k.stl") for up in (1, 2))
+             if os.path.exists(p)), "")
 if len(sys.argv) < 3 or not os.path.exists(part):
     sys.exit("usage: interleave.py RUNS BINARY [BINARY ...] (needs ../shared/data/parts)")
 runs = int(sys.argv[1])

@@ -1,0 +1,171 @@
+#!/usr/bin/env python3
+"""The speed table: what each option costs, as a ratio to plain `moldgate locate`, in one run.
+
+Every round runs each command once, in a random order (so the machine's slow and fast
+phases fall on all of them alike), and the table gives, per command, the median whole-command
+time and the median of its per-round ratio to plain locate in the same round:
+
+    plain locate            moldgate locate PART --demold D
+    --fill, --strategy balanced, --gates 3, --wall-thickness, --demold auto, --png FILE
+    reference Embree rays   the Python reference's ray call (trimesh `intersects_first`,
+                            Embree through embreex) with one ray per facet along its
+                            inverted normal, as --wall-thickness casts: the call only,
+                            timed inside a Python process that has already loaded the mesh
+    parse floor             a streaming parse of the binary STL that only sums the
+                            coordinates (crates/moldgate/examples/parse_floor.rs): the
+                            least any command that reads the file can take
+
+The last line gives plain locate against the floor (the target is at most 6). The load
+average is printed before and after. The reference row needs ../shared/reference's Python
+dependencies (trimesh, embreex) in the Python given by --reference-python (default: this
+one); without them it prints why it is left out.
+
+    cargo build --release -p moldgate-cli
+    cargo build --release -p moldgate --example parse_floor
+    python3 scripts/speed_table.py [--runs 11] [--part PART.stl] [--demold +y]
+        [--binary target/release/moldgate] [--floor target/release/examples/parse_floor]
+        [--reference-python PYTHON] [--only NAME,...]
+
+Standard library only.
+"""
+
+import argparse
+import os
+import random
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHARED = next((p for p in (os.path.join(ROOT, *[".."] * up, "shared") for up in (1, 2))
+               if os.path.isdir(p)), os.path.join(ROOT, "..", "shared"))
+DEFAULT_PART = os.path.join(SHARED, "data", "parts", "esp32s3box_bottom_housing_352k.stl")
+TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+
+# The reference's ray call, run in its own Python: load once (not timed), then time the
+# Embree call for one ray per facet from just inside the facet along the inverted normal.
+EMBREE = r"""
+import sys, time
+import numpy as np
+import trimesh
+mesh = trimesh.load(sys.argv[1], force="mesh")
+assert type(mesh.ray).__module__.endswith("ray_pyembree"), type(mesh.ray).__module__
+n = mesh.face_normals
+o = mesh.triangles_center - n * (1e-6 * mesh.scale)
+mesh.ray.intersects_first(o[:1000], -n[:1000])  # build the scene (not timed)
+t = time.perf_counter()
+hit = mesh.ray.intersects_first(o, -n)
+print(time.perf_counter() - t, int((hit >= 0).sum()), len(hit))
+"""
+
+
+def loadavg():
+    one, five, fifteen = os.getloadavg()
+    return f"{one:.2f} {five:.2f} {fifteen:.2f}"
+
+
+def timed(cmd):
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def embree_call(python, part):
+    out = subprocess.run([python, "-c", EMBREE, part], check=True, capture_output=True,
+                         text=True).stdout.split()
+    return float(out[0])
+
+
+def reference_reason(python):
+    """Why the reference row cannot run, or None when it can."""
+    if not os.path.isdir(os.path.join(SHARED, "reference")):
+        return f"no reference folder at {os.path.join(SHARED, 'reference')}"
+    probe = subprocess.run(
+        [python, "-c", "import trimesh, embreex, numpy, scipy; "
+         "import trimesh.ray.ray_pyembree"], capture_output=True, text=True)
+    if probe.returncode != 0:
+        last = (probe.stderr.strip().splitlines() or ["?"])[-1]
+        return f"{python} lacks the reference's dependencies ({last}); " \
+               "pip install trimesh numpy scipy embreex rtree"
+    return None
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--part", default=DEFAULT_PART)
+    ap.add_argument("--demold", default="+y")
+    ap.add_argument("--runs", type=int, default=11, help="rounds (default 11)")
+    ap.add_argument("--binary", default=os.path.join(TARGET, "release", "moldgate"))
+    ap.add_argument("--floor", default=os.path.join(TARGET, "release", "examples",
+                                                    "parse_floor"))
+    ap.add_argument("--reference-python", default=sys.executable)
+    ap.add_argument("--only", help="comma-separated row names to run besides plain locate")
+    args = ap.parse_args()
+
+    for path, build in ((args.binary, "cargo build --release -p moldgate-cli"),
+                        (args.floor, "cargo build --release -p moldgate --example parse_floor")):
+        if not os.path.exists(path):
+            sys.exit(f"{path} not found: {build} (or give its path)")
+    if not os.path.exists(args.part):
+        sys.exit(f"part not found: {args.part}")
+
+    png = os.path.join(tempfile.mkdtemp(prefix="speed-table-"), "part.png")
+    plain = [args.binary, "locate", args.part, "--demold", args.demold]
+    rows = [
+        ("plain locate", lambda: timed(plain)),
+        ("--fill", lambda: timed(plain + ["--fill"])),
+        ("--strategy balanced", lambda: timed(plain + ["--strategy", "balanced"])),
+        ("--gates 3", lambda: timed(plain + ["--gates", "3"])),
+        ("--wall-thickness", lambda: timed(plain + ["--wall-thickness"])),
+        ("reference Embree rays", None),
+        ("--demold auto", lambda: timed([args.binary, "locate", args.part, "--demold", "auto"])),
+        ("--png", lambda: timed(plain + ["--png", png])),
+        ("parse floor", lambda: timed([args.floor, args.part])),
+    ]
+    notes = []
+    reason = reference_reason(args.reference_python)
+    if reason is None:
+        python = args.reference_python
+        rows[5] = (rows[5][0], lambda: embree_call(python, args.part))
+    else:
+        notes.append(f"reference Embree rays: left out: {reason}")
+        rows.pop(5)
+    if args.only:
+        keep = {"plain locate", *args.only.split(",")}
+        rows = [r for r in rows if r[0] in keep]
+
+    print(f"part: {os.path.basename(args.part)}, demold {args.demold}; {args.runs} rounds, "
+          f"{os.cpu_count()} cores; binary {args.binary}")
+    print(f"load average before: {loadavg()}")
+    for _, run in rows:  # warm the page cache and the reference's imports
+        run()
+    times = {name: [] for name, _ in rows}
+    rng = random.Random(1)
+    for _ in range(args.runs):
+        order = list(rows)
+        rng.shuffle(order)
+        for name, run in order:
+            times[name].append(run())
+    print(f"load average after:  {loadavg()}")
+    print()
+    print("| command | median ms (min-max) | ratio to plain locate (median of rounds) |")
+    print("|---|---:|---:|")
+    base = times["plain locate"]
+    for name, _ in rows:
+        t = times[name]
+        ratio = statistics.median(x / y for x, y in zip(t, base))
+        print(f"| {name} | {statistics.median(t) * 1e3:.1f} ({min(t) * 1e3:.1f}-"
+              f"{max(t) * 1e3:.1f}) | {ratio:.2f} |")
+    if "parse floor" in times:
+        floor = times["parse floor"]
+        ratio = statistics.median(x / y for x, y in zip(base, floor))
+        print()
+        print(f"plain locate / parse floor: {ratio:.2f} (median of rounds; target at most 6)")
+    for note in notes:
+        print(note)
+
+
+if __name__ == "__main__":
+    main()
