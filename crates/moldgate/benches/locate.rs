@@ -7,7 +7,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use moldgate::mesh::{self, Units};
 use moldgate::raycast::{Bvh, Sampling};
 use moldgate::thickness::{wall_thickness_with, CrossCheck, ThicknessOptions};
-use moldgate::undercut::auto_direction_with;
+use moldgate::undercut::auto_direction;
 use moldgate::{locate, LocateOptions};
 
 fn parts_dir() -> Option<PathBuf> {
@@ -61,7 +61,7 @@ fn bench_real(c: &mut Criterion) {
         b.iter(|| wall_thickness_with(&part.mesh, &bvh, &rays_only))
     });
     group.bench_function("demold_auto", |b| {
-        b.iter(|| auto_direction_with(&part.mesh, &bvh, Sampling::Centroid).unwrap())
+        b.iter(|| auto_direction(&part.mesh, Sampling::Centroid).unwrap())
     });
     group.finish();
 }

@@ -21,7 +21,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use moldgate::mesh::{self, Units};
-use moldgate::raycast::{Bvh, Sampling};
+use moldgate::raycast::Sampling;
 use moldgate::undercut::{auto_direction_checked, TIE_SHARE};
 use moldgate::{locate, Direction, Frame, LocateOptions};
 
@@ -111,8 +111,7 @@ fn main() {
             a.parting.edges_all
         );
         let t = Instant::now();
-        let bvh = Bvh::new(&part.mesh);
-        let auto = auto_direction_checked(&part.mesh, &bvh, Sampling::Centroid, |d| {
+        let auto = auto_direction_checked(&part.mesh, Sampling::Centroid, |d| {
             locate(
                 &part,
                 &LocateOptions {
@@ -126,8 +125,7 @@ fn main() {
         .unwrap();
         let auto_s = t.elapsed().as_secs_f64();
         let c = auto.candidate();
-        let natural_undercut =
-            moldgate::undercut::undercut(&part.mesh, &bvh, d, Sampling::Centroid);
+        let natural_undercut = moldgate::undercut::undercut(&part.mesh, d, Sampling::Centroid);
         let line_same = moldgate::math::DVec3::from_array(c.direction)
             .dot(d.vector())
             .abs()
@@ -202,6 +200,6 @@ of the least are a tie, broken by the shallowest draw (extents within 1 %), then
 a gate qualifies along the line (the command line asks `locate`), then by the order tried.
 The natural direction is the one `SOURCES.md` gives (its ADIS16480 line has no sign: +y is
 used). D and -D mould alike: `same line` compares lines; the sign follows the open side.
-Times: `auto s` is the choice (tree, six ray tests, gate checks for ties), `locate s` one
+Times: `auto s` is the choice (up to six lines of drawn rays, gate checks for ties), `locate s` one
 plain `locate` along the natural direction, on this machine's 2 shared cores.
 ";

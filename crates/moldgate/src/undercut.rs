@@ -17,6 +17,13 @@
 //! give the same area (the same facets are tested along the same rays), so each line is
 //! evaluated once.
 //!
+//! The rays of a line are all parallel, so [`undercut`] answers them the way the gate's
+//! projection answers its lattice (drawing each triangle into the rays it covers, exact in
+//! f64, a ray through an edge shared by two triangles meeting exactly one of them), not by
+//! tracing each ray through a tree of boxes; [`undercut_by_rays`] traces them (f32, a
+//! tolerance at edges) and is kept as the independent check. The two agree but at rays that
+//! graze an edge or a vertex.
+//!
 //! # The automatic direction
 //!
 //! [`auto_direction`] tries the three axis lines and the three principal axes of the surface
@@ -51,7 +58,8 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::centre::Centres;
-use crate::frame::Direction;
+use crate::frame::{Direction, Frame};
+use crate::gate::projection::{self, PointRay};
 use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
@@ -82,22 +90,93 @@ pub struct Undercut {
 }
 
 /// Undercut area of the part for a mould opening along `d` (and -`d`, which is the same).
-pub fn undercut(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling) -> Undercut {
-    let d = d.vector();
+///
+/// Every ray of one line is parallel to it, so they are answered all at once by drawing the
+/// triangles into them ([`crate::gate::projection::blocked`], the gate's rasteriser at the
+/// rays' scattered start points) instead of tracing each through a tree.
+pub fn undercut(mesh: &Mesh, d: Direction, sampling: Sampling) -> Undercut {
+    let line = d.vector();
+    let min_hit = min_hit(mesh);
+    let n = mesh.triangles.len();
+    let facets: Vec<Facing> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|t| facing(mesh, t, line))
+        .collect();
+    // The rays of each facet that faces a side, in facet order: `first[t]..first[t + 1]`.
+    let mut rays = Vec::with_capacity(n);
+    let mut first = Vec::with_capacity(n + 1);
+    for (t, f) in facets.iter().enumerate() {
+        first.push(rays.len());
+        if let Facing::Side { up, .. } = *f {
+            sampling.for_each(mesh.corners(t), |p| {
+                rays.push(PointRay {
+                    origin: p,
+                    triangle: t as u32,
+                    up,
+                })
+            });
+        }
+    }
+    first.push(rays.len());
+    let blocked = projection::blocked(
+        &mesh.vertices,
+        &Frame::new(d),
+        &mesh.triangles,
+        &rays,
+        min_hit,
+    );
+    sum_blocks(n, |t| {
+        let (from, to) = (first[t], first[t + 1]);
+        let hits = blocked[from..to].iter().filter(|&&b| b).count();
+        facets[t].blocked(hits, to - from)
+    })
+}
+
+/// [`undercut`] by tracing every ray through a tree: the same rule, slower; kept as the
+/// independent check of the drawn rays.
+pub fn undercut_by_rays(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling) -> Undercut {
+    let line = d.vector();
+    let min_hit = min_hit(mesh);
+    sum_blocks(mesh.triangles.len(), |t| {
+        let f = facing(mesh, t, line);
+        let Facing::Side { up, .. } = f else {
+            return f.blocked(0, 1);
+        };
+        let dir = if up { line } else { -line };
+        let (mut samples, mut hits) = (0usize, 0usize);
+        sampling.for_each(mesh.corners(t), |p| {
+            samples += 1;
+            let ray = Ray::new(p, dir)
+                .within(min_hit, f64::INFINITY)
+                .skipping(t as u32);
+            if bvh.any_hit(&ray) {
+                hits += 1;
+            }
+        });
+        f.blocked(hits, samples)
+    })
+}
+
+/// Hits nearer than this along a ray are ignored: 1e-6 of the box diagonal.
+fn min_hit(mesh: &Mesh) -> f64 {
     let diagonal = mesh.bounds().diagonal();
-    let min_hit = if diagonal.is_finite() {
+    if diagonal.is_finite() {
         1e-6 * diagonal
     } else {
         0.0
-    };
-    // Fixed blocks of triangles, each summed in order, then the blocks summed in order: the
-    // total does not depend on the number of threads or on scheduling.
-    let n = mesh.triangles.len();
+    }
+}
+
+/// Sums (area, blocked area) over the facets in fixed blocks of triangles, each summed in
+/// order, then the blocks in order: the total does not depend on the number of threads or
+/// on scheduling.
+fn sum_blocks(n: usize, facet: impl Fn(usize) -> (f64, f64) + Sync) -> Undercut {
     let blocks: Vec<(f64, f64)> = (0..n.div_ceil(SUM_BLOCK))
         .into_par_iter()
         .map(|b| {
             (b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(n))
-                .map(|t| facet_undercut(mesh, bvh, t, d, min_hit, sampling))
+                .map(&facet)
                 .fold((0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1))
         })
         .collect();
@@ -113,38 +192,44 @@ pub fn undercut(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling) -> Und
 /// Triangles per block of the undercut sum (the blocks are fixed, so is the sum).
 const SUM_BLOCK: usize = 1024;
 
-/// Area of facet `t` and its blocked part for the line `d`.
-fn facet_undercut(
-    mesh: &Mesh,
-    bvh: &Bvh,
-    t: usize,
-    d: DVec3,
-    min_hit: f64,
-    sampling: Sampling,
-) -> (f64, f64) {
-    let corners = mesh.corners(t);
-    let [a, b, c] = corners;
+/// How a facet sits against a line.
+#[derive(Debug, Clone, Copy)]
+enum Facing {
+    /// No area (or not a finite one): counts for nothing.
+    Nothing,
+    /// Parallel to the line: never an undercut.
+    Parallel { area: f64 },
+    /// Facing +line (`up`) or -line: tested along it.
+    Side { area: f64, up: bool },
+}
+
+impl Facing {
+    /// (area, blocked area) when `hits` of its `samples` rays are blocked.
+    fn blocked(self, hits: usize, samples: usize) -> (f64, f64) {
+        match self {
+            Facing::Nothing => (0.0, 0.0),
+            Facing::Parallel { area } => (area, 0.0),
+            Facing::Side { area, .. } => (area, area * hits as f64 / samples.max(1) as f64),
+        }
+    }
+}
+
+fn facing(mesh: &Mesh, t: usize, line: DVec3) -> Facing {
+    let [a, b, c] = mesh.corners(t);
     let cross = (b - a).cross(c - a);
     let area = 0.5 * cross.length();
     if !(area.is_finite() && area > 0.0) {
-        return (0.0, 0.0);
+        return Facing::Nothing;
     }
-    let facing = (cross / (2.0 * area)).dot(d);
-    if facing.abs() <= PARALLEL_TOLERANCE {
-        return (area, 0.0);
-    }
-    let dir = if facing > 0.0 { d } else { -d };
-    let (mut samples, mut hits) = (0u32, 0u32);
-    sampling.for_each(corners, |p| {
-        samples += 1;
-        let ray = Ray::new(p, dir)
-            .within(min_hit, f64::INFINITY)
-            .skipping(t as u32);
-        if bvh.any_hit(&ray) {
-            hits += 1;
+    let along = (cross / (2.0 * area)).dot(line);
+    if along.abs() <= PARALLEL_TOLERANCE {
+        Facing::Parallel { area }
+    } else {
+        Facing::Side {
+            area,
+            up: along > 0.0,
         }
-    });
-    (area, area * hits as f64 / samples.max(1) as f64)
+    }
 }
 
 /// Where a candidate line came from.
@@ -202,23 +287,13 @@ impl AutoDemold {
 /// Tries the axis lines and the principal axes and picks the one with the least undercut
 /// area (see the module for the rule, the tie-break and the sign).
 pub fn auto_direction(mesh: &Mesh, sampling: Sampling) -> Result<AutoDemold, DemoldError> {
-    auto_direction_with(mesh, &Bvh::new(mesh), sampling)
+    auto_direction_checked(mesh, sampling, |_| true)
 }
 
-/// [`auto_direction`] with a tree already built over `mesh`.
-pub fn auto_direction_with(
-    mesh: &Mesh,
-    bvh: &Bvh,
-    sampling: Sampling,
-) -> Result<AutoDemold, DemoldError> {
-    auto_direction_checked(mesh, bvh, sampling, |_| true)
-}
-
-/// [`auto_direction_with`] whose second tie-break asks `gate_qualifies` whether a gate
+/// [`auto_direction`] whose second tie-break asks `gate_qualifies` whether a gate
 /// qualifies on a direction (e.g. by running [`crate::locate`] along it).
 pub fn auto_direction_checked(
     mesh: &Mesh,
-    bvh: &Bvh,
     sampling: Sampling,
     mut gate_qualifies: impl FnMut(Direction) -> bool,
 ) -> Result<AutoDemold, DemoldError> {
@@ -268,7 +343,7 @@ pub fn auto_direction_checked(
             Candidate {
                 direction: direction.vector().to_array(),
                 kind,
-                undercut: undercut(mesh, bvh, direction, sampling),
+                undercut: undercut(mesh, direction, sampling),
                 extent_mm: hi - lo,
                 gate_qualifies: None,
             }

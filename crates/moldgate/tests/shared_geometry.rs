@@ -17,7 +17,7 @@ use std::path::PathBuf;
 use moldgate::gate::{ThicknessFallback, ThicknessRule};
 use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::raycast::{Bvh, Sampling};
-use moldgate::undercut::auto_direction_with;
+use moldgate::undercut::auto_direction;
 use moldgate::{locate, Direction, Frame, LocateOptions, Material};
 
 /// The shared parts with their natural demolding direction (`SOURCES.md`).
@@ -191,7 +191,7 @@ fn flat_tile_opens_along_its_thickness() {
         return skip(test);
     }
     let part = load("framework_desktop_blank_tile.stl");
-    let auto = auto_direction_with(&part.mesh, &Bvh::new(&part.mesh), Sampling::Centroid).unwrap();
+    let auto = auto_direction(&part.mesh, Sampling::Centroid).unwrap();
     assert_eq!(auto.candidate().direction, [0.0, 0.0, -1.0], "{auto:#?}");
 }
 
@@ -202,7 +202,6 @@ fn demold_auto_is_bit_identical_on_1_2_3_and_8_threads() {
         return skip(test);
     }
     let part = load("prusa_lcd_knob.stl");
-    let bvh = Bvh::new(&part.mesh);
     let runs: Vec<Vec<u64>> = [1, 2, 3, 8]
         .iter()
         .map(|&n| {
@@ -210,7 +209,7 @@ fn demold_auto_is_bit_identical_on_1_2_3_and_8_threads() {
                 .num_threads(n)
                 .build()
                 .unwrap();
-            let auto = pool.install(|| auto_direction_with(&part.mesh, &bvh, Sampling::Centroid));
+            let auto = pool.install(|| auto_direction(&part.mesh, Sampling::Centroid));
             auto.unwrap()
                 .tried
                 .iter()
@@ -290,4 +289,70 @@ fn abs_gate_that_the_thickness_rule_refuses_gets_the_largest_fitting_radius() {
     )
     .unwrap();
     assert!(off.radius_fit.is_none());
+}
+
+/// The automatic direction of every shared part is the one in `docs/demold-auto.md` (the
+/// table `examples/geometry_tables.rs` writes), and its undercut area by drawn rays is the
+/// traced rays' one to within a tenth of the tie.
+#[test]
+fn demold_auto_matches_the_table_of_the_shared_parts() {
+    let test = "demold_auto_matches_the_table_of_the_shared_parts";
+    if parts_dir().is_none() {
+        return skip(test);
+    }
+    let table = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../docs/demold-auto.md"),
+    )
+    .unwrap();
+    let mut checked = 0;
+    for (file, _) in PARTS {
+        let row = table
+            .lines()
+            .find(|l| l.starts_with(&format!("| {file} |")))
+            .unwrap_or_else(|| panic!("{file} is not in docs/demold-auto.md"));
+        let want = dir(row.split('|').nth(3).unwrap().trim());
+        let part = load(file);
+        if cfg!(debug_assertions) && part.mesh.triangles.len() > 100_000 {
+            println!("{test}: {file} skipped in a debug build (too slow); run with --release");
+            continue;
+        }
+        let auto =
+            moldgate::undercut::auto_direction_checked(&part.mesh, Sampling::Centroid, |d| {
+                locate(
+                    &part,
+                    &LocateOptions {
+                        direction: d,
+                        parting: moldgate::gate::PartingRule::Outline,
+                        ..LocateOptions::default()
+                    },
+                )
+                .is_ok_and(|a| a.gate().is_ok())
+            })
+            .unwrap();
+        assert_eq!(
+            auto.candidate().direction,
+            want.vector().to_array(),
+            "{file}: {auto:#?}"
+        );
+        let traced = moldgate::undercut::undercut_by_rays(
+            &part.mesh,
+            &Bvh::new(&part.mesh),
+            auto.direction(),
+            Sampling::Centroid,
+        );
+        let drawn = auto.candidate().undercut.area_mm2;
+        println!(
+            "{file:40} {:?} drawn {drawn:.2} mm^2, traced {:.2} mm^2, tie {:.1}",
+            want.vector(),
+            traced.area_mm2,
+            auto.tie_mm2
+        );
+        assert!(
+            (drawn - traced.area_mm2).abs() <= 0.1 * auto.tie_mm2,
+            "{file}: drawn {drawn}, traced {traced:?}, tie {}",
+            auto.tie_mm2
+        );
+        checked += 1;
+    }
+    assert!(checked >= 17);
 }

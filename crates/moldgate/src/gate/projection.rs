@@ -14,7 +14,7 @@
 //! On an outline edge, where both triangles fold onto the same side, a grazing ray belongs to
 //! both or to neither; triangles seen exactly edge-on (zero projected area) are skipped.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
@@ -368,6 +368,279 @@ fn draw_blocks(
             }
         }
     }
+}
+
+/// A ray of [`blocked`]: from a point straight up or down the demolding direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointRay {
+    /// Start point, mm.
+    pub origin: DVec3,
+    /// The triangle the ray starts on: never a hit.
+    pub triangle: u32,
+    /// Along +d (`true`) or -d (`false`).
+    pub up: bool,
+}
+
+/// A [`PointRay`] in the plane, in the order of its cell.
+#[derive(Clone, Copy)]
+struct PlacedRay {
+    at: DVec2,
+    height: f64,
+    triangle: u32,
+    up: bool,
+    /// Index in the input.
+    ray: u32,
+}
+
+/// How the rays of a cell are sorted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Axis {
+    /// Not sorted (at most [`CROWDED`] rays).
+    Unsorted,
+    /// By u.
+    U,
+    /// By w.
+    W,
+}
+
+/// Cells with more rays than this are sorted along an axis.
+const CROWDED: usize = 8;
+
+/// Triangles per task of [`blocked`].
+const POINT_BLOCK: usize = 2048;
+
+/// For every ray, whether it meets a triangle other than its own farther than `min_hit`
+/// along it: the any-hit test of rays that are all parallel to d, answered like the
+/// lattice's rays are (see the module), only at scattered points.
+///
+/// The rays' start points are sorted into a uniform grid of cells of the projection plane
+/// (about one ray a cell); each triangle is tested against the rays of the cells its
+/// projected box covers, with the same edge functions and top-left rule as the lattice, so a
+/// ray through an edge shared by two triangles meets exactly one of them. Triangles are taken
+/// in blocks on every thread; a ray is blocked when any triangle blocks it, so the answer
+/// does not depend on the order or on the number of threads.
+pub fn blocked(
+    vertices: &[DVec3],
+    frame: &Frame,
+    triangles: &[[u32; 3]],
+    rays: &[PointRay],
+    min_hit: f64,
+) -> Vec<bool> {
+    if rays.is_empty() {
+        return Vec::new();
+    }
+    let planar: Vec<(DVec2, f64)> = rays
+        .par_iter()
+        .with_min_len(4096)
+        .map(|r| (frame.project(r.origin), frame.height(r.origin)))
+        .collect();
+    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    for (q, _) in &planar {
+        if q.is_finite() {
+            lo = lo.min(*q);
+            hi = hi.max(*q);
+        }
+    }
+    if !(lo.x <= hi.x && lo.y <= hi.y) {
+        return vec![false; rays.len()];
+    }
+    // About one ray a cell, at most 4096 cells a side.
+    let size = hi - lo;
+    let area = (size.x * size.y).max(f64::MIN_POSITIVE);
+    let mut cell = (area / rays.len() as f64).sqrt();
+    let longest = size.x.max(size.y);
+    if !(cell.is_finite() && cell > 0.0) || longest / cell > 4096.0 {
+        cell = (longest / 4096.0).max(f64::MIN_POSITIVE);
+    }
+    let inv = 1.0 / cell;
+    let n_u = ((size.x * inv) as usize + 1).min(4097);
+    let n_w = ((size.y * inv) as usize + 1).min(4097);
+    let cell_of = |q: DVec2| -> usize {
+        if !q.is_finite() {
+            return usize::MAX;
+        }
+        let i = (((q.x - lo.x) * inv) as usize).min(n_u - 1);
+        let j = (((q.y - lo.y) * inv) as usize).min(n_w - 1);
+        j * n_u + i
+    };
+    // Counting sort of the rays by cell (rays at non-finite points are never blocked).
+    let cells: Vec<usize> = planar.iter().map(|(q, _)| cell_of(*q)).collect();
+    let mut start = vec![0u32; n_u * n_w + 1];
+    for &c in &cells {
+        if c != usize::MAX {
+            start[c + 1] += 1;
+        }
+    }
+    for c in 0..n_u * n_w {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let placed_len = start[n_u * n_w] as usize;
+    let mut placed = vec![
+        PlacedRay {
+            at: DVec2::ZERO,
+            height: 0.0,
+            triangle: 0,
+            up: false,
+            ray: 0,
+        };
+        placed_len
+    ];
+    for (k, &c) in cells.iter().enumerate() {
+        if c == usize::MAX {
+            continue;
+        }
+        let slot = fill[c] as usize;
+        fill[c] += 1;
+        placed[slot] = PlacedRay {
+            at: planar[k].0,
+            height: planar[k].1,
+            triangle: rays[k].triangle,
+            up: rays[k].up,
+            ray: k as u32,
+        };
+    }
+    // A crowded cell (the rays of faces nearly parallel to d fall in thin strips, and so do
+    // those faces' triangles) has its rays sorted across the strip, along the axis they spread
+    // least on, so that a triangle tests only those in its box along it, found by bisection.
+    let mut axis = vec![Axis::Unsorted; n_u * n_w];
+    {
+        let mut rest: &mut [PlacedRay] = &mut placed;
+        let mut cells_of: Vec<(&mut [PlacedRay], &mut Axis)> = Vec::new();
+        for (c, a) in axis.iter_mut().enumerate() {
+            let len = (start[c + 1] - start[c]) as usize;
+            let (cell, tail) = rest.split_at_mut(len);
+            rest = tail;
+            if len > CROWDED {
+                cells_of.push((cell, a));
+            }
+        }
+        cells_of.into_par_iter().for_each(|(cell, a)| {
+            let (lo, hi) = cell.iter().fold(
+                (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+                |(lo, hi), r| (lo.min(r.at), hi.max(r.at)),
+            );
+            let spread = hi - lo;
+            *a = if spread.x >= spread.y {
+                Axis::W
+            } else {
+                Axis::U
+            };
+            match *a {
+                Axis::U => cell.sort_unstable_by(|p, q| p.at.x.total_cmp(&q.at.x)),
+                _ => cell.sort_unstable_by(|p, q| p.at.y.total_cmp(&q.at.y)),
+            }
+        });
+    }
+    // Per cell, the lowest start of a ray going up and the highest of one going down: a
+    // triangle entirely below the one and above the other blocks no ray of the cell.
+    let reach: Vec<(f64, f64)> = (0..n_u * n_w)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|c| {
+            placed[start[c] as usize..start[c + 1] as usize]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(up, down), r| {
+                    if r.up {
+                        (up.min(r.height), down)
+                    } else {
+                        (up, down.max(r.height))
+                    }
+                })
+        })
+        .collect();
+    let hit: Vec<AtomicBool> = (0..placed_len).map(|_| AtomicBool::new(false)).collect();
+    triangles
+        .par_chunks(POINT_BLOCK)
+        .enumerate()
+        .for_each(|(b, block)| {
+            for (k, tri) in block.iter().enumerate() {
+                let t = (b * POINT_BLOCK + k) as u32;
+                let [a, bb, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
+                let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
+                    continue;
+                };
+                let Some((i0, i1)) = cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
+                else {
+                    continue;
+                };
+                let Some((j0, j1)) = cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
+                else {
+                    continue;
+                };
+                let [ha, hb, hc] = triangle.h;
+                let (top, bottom) = (ha.max(hb).max(hc), ha.min(hb).min(hc));
+                let [bc, ca, ab] = triangle.edges();
+                let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
+                for c in (j0..=j1).flat_map(|j| j * n_u + i0..=j * n_u + i1) {
+                    let (up, down) = reach[c];
+                    if top - up <= min_hit && down - bottom <= min_hit {
+                        continue;
+                    }
+                    let (mut from, mut to) = (start[c] as usize, start[c + 1] as usize);
+                    let cell = &placed[from..to];
+                    let (first, last) = match axis[c] {
+                        Axis::Unsorted => (0, cell.len()),
+                        Axis::U => (
+                            cell.partition_point(|r| r.at.x < triangle.lo.x),
+                            cell.partition_point(|r| r.at.x <= triangle.hi.x),
+                        ),
+                        Axis::W => (
+                            cell.partition_point(|r| r.at.y < triangle.lo.y),
+                            cell.partition_point(|r| r.at.y <= triangle.hi.y),
+                        ),
+                    };
+                    to = from + last.max(first);
+                    from += first;
+                    for (r, done) in placed[from..to].iter().zip(&hit[from..to]) {
+                        // Cheap rejections first: the triangle's box, its heights, and rays
+                        // already blocked.
+                        let s = r.at;
+                        if s.x < triangle.lo.x
+                            || s.x > triangle.hi.x
+                            || s.y < triangle.lo.y
+                            || s.y > triangle.hi.y
+                            || r.triangle == t
+                        {
+                            continue;
+                        }
+                        let reaches = if r.up {
+                            top - r.height > min_hit
+                        } else {
+                            r.height - bottom > min_hit
+                        };
+                        if !reaches || done.load(Ordering::Relaxed) {
+                            continue;
+                        }
+                        let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
+                        if inside(e_bc, &bc) & inside(e_ca, &ca) & inside(e_ab, &ab) {
+                            let h = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
+                            let along = if r.up { h - r.height } else { r.height - h };
+                            if along > min_hit {
+                                done.store(true, Ordering::Relaxed);
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    let mut out = vec![false; rays.len()];
+    for (r, h) in placed.iter().zip(&hit) {
+        out[r.ray as usize] = h.load(Ordering::Relaxed);
+    }
+    out
+}
+
+/// The cells `from..=to` of a row of `n` cells of width `1 / inv` from `lo` (the last one
+/// reaching `hi`) that the interval [a, b] overlaps, by the arithmetic that put the rays in
+/// their cells; `None` when it misses the row.
+#[inline]
+fn cell_range(lo: f64, hi: f64, inv: f64, n: usize, a: f64, b: f64) -> Option<(usize, usize)> {
+    if !(a <= hi && b >= lo) {
+        return None;
+    }
+    let cell = |x: f64| (((x.max(lo) - lo) * inv) as usize).min(n - 1);
+    Some((cell(a), cell(b)))
 }
 
 /// A vertex as (u, w, height along d).

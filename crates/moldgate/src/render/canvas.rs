@@ -180,11 +180,25 @@ impl Canvas {
         data[i + 3] = 255;
     }
 
-    /// Sets pixel (x, y) to `colour`.
-    pub fn set(&mut self, x: u32, y: u32, colour: Rgb) {
-        let i = 4 * (y as usize * self.width() as usize + x as usize);
+    /// Writes `pixels`, rows of `w` pixels, with its top-left corner at (x, y); rows or
+    /// pixels beyond the canvas are left out.
+    pub fn put(&mut self, x: u32, y: u32, w: u32, pixels: &[Rgb]) {
+        let (cw, ch) = (self.width() as usize, self.height() as usize);
+        let (x, y, w) = (x as usize, y as usize, w as usize);
+        if w == 0 || x >= cw {
+            return;
+        }
         let data = self.pixmap.data_mut();
-        data[i..i + 4].copy_from_slice(&[colour[0], colour[1], colour[2], 255]);
+        for (r, row) in pixels.chunks(w).enumerate() {
+            if y + r >= ch {
+                break;
+            }
+            let start = 4 * ((y + r) * cw + x);
+            let len = row.len().min(cw - x);
+            for (dst, src) in data[start..start + 4 * len].chunks_exact_mut(4).zip(row) {
+                dst.copy_from_slice(&[src[0], src[1], src[2], 255]);
+            }
+        }
     }
 
     /// The colour of pixel (x, y).
@@ -365,7 +379,10 @@ impl Canvas {
         let mut encoder = png::Encoder::new(&mut out, self.width(), self.height());
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
-        encoder.set_compression(png::Compression::Balanced);
+        // Deflate level 1 with the adaptive filter: on the 352k part's picture 7 times faster
+        // than the default level 6, for a file 30 % larger (docs/performance.md).
+        encoder.set_deflate_compression(png::DeflateCompression::Level(1));
+        encoder.set_filter(png::Filter::Adaptive);
         let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
         writer.write_image_data(&rgb).map_err(|e| e.to_string())?;
         writer.finish().map_err(|e| e.to_string())?;

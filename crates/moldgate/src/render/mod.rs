@@ -4,8 +4,9 @@
 //!
 //! The part is drawn by our own z-buffer (`raster.rs`) at 2x2 samples per pixel; overlays
 //! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/`, and the
-//! PNG is encoded by the `png` crate. Everything runs in a fixed order (the two views on two threads, each drawn
-//! by one), so the same scene gives the same bytes.
+//! PNG is encoded by the `png` crate (deflate level 1). The two views are drawn
+//! and coloured on two threads, then the overlays in a fixed order, so the same scene gives
+//! the same bytes.
 //!
 //! ```
 //! use moldgate::render::{png, RenderOptions};
@@ -189,21 +190,27 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             camera: fit_camera(scene, kind, layout.plot_area(panel)),
         })
         .collect();
+    let diagonal = bounds_diagonal(scene);
+    // Each panel is drawn and coloured on its own thread (its rows coloured in parallel);
+    // the overlays then go on the one canvas in a fixed order.
     let draw = |v: &View| {
         let light =
             (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75).normalize();
-        rasterise(mesh, &t, &v.camera, v.panel, SAMPLES, light)
-    };
-    let (a, b) = rayon::join(|| draw(&views[0]), || draw(&views[1]));
-    let layers = [a, b];
-
-    let mut canvas =
-        Canvas::new(width, height, WHITE).ok_or(RenderError::Size { width, height })?;
-    let diagonal = bounds_diagonal(scene);
-    for (view, layer) in views.iter().zip(&layers) {
-        let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
+        let layer = rasterise(mesh, &t, &v.camera, v.panel, SAMPLES, light);
+        let sample_mm = 1.0 / (v.camera.scale * SAMPLES as f64);
         let crease = (6.0 * sample_mm).max(0.003 * diagonal) as f32;
-        layer.resolve(&mut canvas, |t| lut.colour(t), VIEW_BACKGROUND, crease);
+        let pixels = layer.pixels(|t| lut.colour(t), VIEW_BACKGROUND, crease);
+        (layer, pixels)
+    };
+    let ((a, pixels_a), ((b, pixels_b), canvas)) = rayon::join(
+        || draw(&views[0]),
+        || rayon::join(|| draw(&views[1]), || Canvas::new(width, height, WHITE)),
+    );
+    let mut canvas = canvas.ok_or(RenderError::Size { width, height })?;
+    let layers = [a, b];
+    for ((view, layer), pixels) in views.iter().zip(&layers).zip([pixels_a, pixels_b]) {
+        let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
+        canvas.put(view.panel.x, view.panel.y, view.panel.w, &pixels);
         let tolerance = (4.0 * sample_mm).max(0.005 * diagonal);
         draw_overlays(&mut canvas, scene, view, layer, tolerance, k);
         canvas.stroke_rect(

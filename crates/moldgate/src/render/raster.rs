@@ -4,7 +4,7 @@
 use crate::math::{DVec2, DVec3};
 use crate::mesh::Mesh;
 
-use super::canvas::{Canvas, Rgb};
+use super::canvas::Rgb;
 
 /// An orthographic camera mapping millimetres to pixels of the canvas.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -191,16 +191,16 @@ impl Layer {
         }
     }
 
-    /// Colours the samples (`colour_of(t)` times the shade; an outline where the depth
-    /// jumps by more than `crease_mm` or the part ends), averages each pixel's samples and
-    /// writes them over `background` into the canvas.
-    pub fn resolve(
+    /// The panel's pixels, rows of `rect.w`: the samples coloured (`colour_of(t)` times the
+    /// shade; an outline where the depth jumps by more than `crease_mm` or the part ends)
+    /// over `background` and averaged per pixel, the rows in parallel.
+    pub fn pixels(
         &self,
-        canvas: &mut Canvas,
-        colour_of: impl Fn(f32) -> [f32; 3],
+        colour_of: impl Fn(f32) -> [f32; 3] + Sync,
         background: Rgb,
         crease_mm: f32,
-    ) {
+    ) -> Vec<Rgb> {
+        use rayon::prelude::*;
         let (w, h) = (self.w, self.h);
         let outline = |i: usize, x: usize, y: usize| -> bool {
             let d = self.depth[i];
@@ -216,8 +216,13 @@ impl Layer {
         let bg = background.map(|c| c as f32);
         let ss = self.ss as usize;
         let n = (ss * ss) as f32;
-        for py in 0..self.rect.h as usize {
-            for px in 0..self.rect.w as usize {
+        let width = self.rect.w as usize;
+        let mut out = vec![[0u8; 3]; width * self.rect.h as usize];
+        if width == 0 {
+            return out;
+        }
+        out.par_chunks_mut(width).enumerate().for_each(|(py, row)| {
+            for (px, pixel) in row.iter_mut().enumerate() {
                 let mut sum = [0.0f32; 3];
                 for sy in py * ss..(py + 1) * ss {
                     for sx in px * ss..(px + 1) * ss {
@@ -238,10 +243,10 @@ impl Layer {
                         }
                     }
                 }
-                let colour = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
-                canvas.set(self.rect.x + px as u32, self.rect.y + py as u32, colour);
+                *pixel = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
             }
-        }
+        });
+        out
     }
 }
 

@@ -59,10 +59,10 @@ fn fraction(stage: Stage) -> f64 {
 pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Study, StudyError> {
     let mesh = &part.mesh;
     let enter = |stage: Stage| hooks.enter(stage, fraction(stage));
-    // One ray-casting tree serves the automatic direction and the wall thickness (which the
-    // fill analysis uses for its flow resistance).
+    // One ray-casting tree serves the wall thickness and the fill analysis (for its flow
+    // resistance); the automatic direction draws its rays without one.
     let auto_demold = s.demold == Demold::Auto;
-    let wants_tree = auto_demold || s.wall_thickness || s.fill.is_some();
+    let wants_tree = s.wall_thickness || s.fill.is_some();
     let mut tree_s = 0.0;
     let bvh = if wants_tree {
         enter(Stage::Tree)?;
@@ -75,8 +75,8 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     };
     let mut options = s.locate.clone();
     let mut demold_s = None;
-    let auto = match &bvh {
-        Some(bvh) if auto_demold => {
+    let auto = match auto_demold {
+        true => {
             enter(Stage::Demold)?;
             let t = Instant::now();
             // Lines still tied after the shallowest draw go to one on which a gate qualifies.
@@ -87,13 +87,13 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 };
                 crate::locate(part, &o).is_ok_and(|a| a.gate().is_ok())
             };
-            let auto = auto_direction_checked(mesh, bvh, Sampling::Centroid, gate_qualifies)
+            let auto = auto_direction_checked(mesh, Sampling::Centroid, gate_qualifies)
                 .map_err(StudyError::Demold)?;
             demold_s = Some(t.elapsed().as_secs_f64());
             options.direction = auto.direction();
             Some(auto)
         }
-        _ => None,
+        false => None,
     };
     enter(Stage::Locate)?;
     let mut analysis = crate::locate(part, &options).map_err(StudyError::Locate)?;
@@ -164,6 +164,14 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         report.timings.demold_s = Some(d);
         report.timings.total_s += d;
     }
+    // An aesthetic gate's normal is the nearest triangle's, found in a tree: built here when
+    // the automatic direction (which used to build one) needed none.
+    let bvh = match bvh {
+        None if auto_demold && matches!(analysis.gate(), Ok(ChosenGate::Aesthetic(_))) => {
+            Some(Bvh::new(mesh))
+        }
+        bvh => bvh,
+    };
     let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
     let wall_per_vertex = wall.as_ref().map(|(w, _)| w.per_vertex(mesh));
     if let Some(p) = hooks.progress {
