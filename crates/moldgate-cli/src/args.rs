@@ -55,7 +55,7 @@ pub enum NearestArg {
 pub enum PartingLineArg {
     /// The closed outer rim of each body seen along D.
     Outline,
-    /// The longest loop of the edges between the two sides (the rule of earlier versions).
+    /// The longest loop of the edges between the two sides.
     Longest,
 }
 
@@ -188,7 +188,7 @@ pub struct LocateArgs {
     #[arg(long)]
     pub aesthetic: bool,
     /// Which edges make the parting line (and so where --aesthetic puts the gate).
-    #[arg(long, value_enum, default_value = "outline")]
+    #[arg(long, value_enum, default_value = "longest")]
     pub parting_line: PartingLineArg,
     /// Largest grid accepted, in nodes.
     #[arg(long, default_value_t = 4_000_000)]
@@ -456,7 +456,7 @@ mod tests {
             "0.05",
             "--aesthetic",
             "--parting-line",
-            "longest",
+            "outline",
             "--max-nodes",
             "1000",
             "--keep-out",
@@ -483,7 +483,7 @@ mod tests {
             "gamma_opt": 9000.0, "mu_opt": 11.0, "k": 0.2, "gate_radius": 1.1,
             "spacing": 0.7, "grid_offset": 0.25, "circle_points": 8, "centre": "volume",
             "nearest": "2d", "thickness_rule": "ignore", "require_flat": true,
-            "flat_tol": 0.05, "aesthetic": true, "parting_line": "longest", "max_nodes": 1000,
+            "flat_tol": 0.05, "aesthetic": true, "parting_line": "outline", "max_nodes": 1000,
             "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
             "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
             "wall_thickness": true, "color_by": "wall"

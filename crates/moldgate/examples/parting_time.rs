@@ -60,7 +60,10 @@ fn main() {
     println!(
         "{path} {direction:?}: {} triangles, {rounds} paired rounds, load average {}",
         part.mesh.triangles.len(),
-        load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
     );
     println!(
         "  longest: median {:.2} ms, {:.1} mm, closed {}",

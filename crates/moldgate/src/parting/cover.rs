@@ -144,7 +144,8 @@ impl<'a> Cover<'a> {
             return None;
         }
         let mut lowest: Option<f64> = None;
-        for &t in &self.items[self.start[s as usize] as usize..self.start[s as usize + 1] as usize] {
+        for &t in &self.items[self.start[s as usize] as usize..self.start[s as usize + 1] as usize]
+        {
             if self.body.is_some_and(|b| b[t as usize] != body) {
                 continue;
             }
@@ -173,7 +174,14 @@ impl<'a> Cover<'a> {
 /// Calls `f` with each cell a projected triangle overlaps, row by row: in each row, the x
 /// range of the triangle clipped to the row's slab (a thin sliver crossing the grid touches
 /// few cells per row, not its whole bounding box).
-fn for_cells(t: &[DVec2; 3], lo: DVec2, cell: f64, n_u: usize, n_w: usize, f: &mut dyn FnMut(usize)) {
+fn for_cells(
+    t: &[DVec2; 3],
+    lo: DVec2,
+    cell: f64,
+    n_u: usize,
+    n_w: usize,
+    f: &mut dyn FnMut(usize),
+) {
     let index = |x: f64, n: usize| (((x / cell).floor().max(0.0)) as usize).min(n - 1);
     let (y_lo, y_hi) = (
         t[0].y.min(t[1].y).min(t[2].y),

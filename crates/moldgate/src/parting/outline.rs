@@ -76,7 +76,9 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
                 of[v as usize].store(b, Ordering::Relaxed);
             }
         });
-        of.into_iter().map(AtomicU32::into_inner).collect::<Vec<u32>>()
+        of.into_iter()
+            .map(AtomicU32::into_inner)
+            .collect::<Vec<u32>>()
     });
     let body_of = |v: u32| body_of_vertex.as_ref().map_or(0, |b| b[v as usize]);
     let diagonal = mesh.bounds().diagonal();
