@@ -52,6 +52,14 @@ pub enum NearestArg {
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum PartingLineArg {
+    /// The closed outer rim of each body seen along D.
+    Outline,
+    /// The longest loop of the edges between the two sides.
+    Longest,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ThicknessArg {
     /// Keep only nodes whose wall is thicker than R_gate (the paper's rule).
     Require,
@@ -179,6 +187,9 @@ pub struct LocateArgs {
     /// Put the gate on the parting line, nearest the centre of mass (aesthetic parts).
     #[arg(long)]
     pub aesthetic: bool,
+    /// Which edges make the parting line (and so where --aesthetic puts the gate).
+    #[arg(long, value_enum, default_value = "longest")]
+    pub parting_line: PartingLineArg,
     /// Largest grid accepted, in nodes.
     #[arg(long, default_value_t = 4_000_000)]
     pub max_nodes: usize,
@@ -368,6 +379,10 @@ impl LocateArgs {
             require_flat: self.require_flat,
             flat_tol: self.flat_tol,
             aesthetic: self.aesthetic,
+            parting_line: match self.parting_line {
+                PartingLineArg::Outline => moldgate::parting::PartingRule::Outline,
+                PartingLineArg::Longest => moldgate::parting::PartingRule::Longest,
+            },
             max_nodes: self.max_nodes,
             keep_out: self.keep_out.clone(),
             cosmetic: self.cosmetic.clone(),
@@ -448,6 +463,8 @@ mod tests {
             "--flat-tol",
             "0.05",
             "--aesthetic",
+            "--parting-line",
+            "outline",
             "--max-nodes",
             "1000",
             "--keep-out",
@@ -474,7 +491,7 @@ mod tests {
             "gamma_opt": 9000.0, "mu_opt": 11.0, "k": 0.2, "gate_radius": 1.1,
             "spacing": 0.7, "grid_offset": 0.25, "circle_points": 8, "centre": "volume",
             "nearest": "2d", "thickness_rule": "ignore", "require_flat": true,
-            "flat_tol": 0.05, "aesthetic": true, "max_nodes": 1000,
+            "flat_tol": 0.05, "aesthetic": true, "parting_line": "outline", "max_nodes": 1000,
             "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
             "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
             "wall_thickness": true, "color_by": "wall"

@@ -1024,6 +1024,38 @@ fn aesthetic_mode_gives_the_parting_line_gate() {
 }
 
 #[test]
+fn parting_line_rule_is_chosen_by_flag() {
+    // Both rules give the cover's rim at z = 0, closed, 400 mm.
+    for rule in ["longest", "outline"] {
+        let report = json(&moldgate(
+            &std::env::temp_dir(),
+            &[
+                "locate",
+                "--sample",
+                "cover",
+                "--aesthetic",
+                "--parting-line",
+                rule,
+                "--json",
+            ],
+        ));
+        let line = &report["parting_line"];
+        assert!(
+            (line["length_mm"].as_f64().unwrap() - 400.0).abs() < 1e-9,
+            "{rule}: {line}"
+        );
+        assert_eq!(line["closed"], true, "{rule}");
+        assert!(point(&report["gate"]["point"])[2].abs() < 1e-9, "{rule}");
+    }
+    let out = moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "cover", "--parting-line", "widest"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--parting-line"));
+}
+
+#[test]
 fn a_closed_stdout_is_not_a_crash() {
     // Regression: `moldgate materials | head -0` panicked in print!. The reader is closed
     // before the child writes (it has to start first), so its write fails with a broken pipe.

@@ -75,19 +75,72 @@ fn dir(s: &str) -> Direction {
     s.parse().unwrap()
 }
 
-/// Parting length against the outline perimeter: (length, perimeter, loops closed).
-fn parting_vs_outline(part: &LoadedMesh, d: Direction, cells: usize) -> (f64, f64, bool) {
+/// The outline rule's line and the outline perimeter from the raster.
+fn parting_vs_outline(part: &LoadedMesh, d: Direction, cells: usize) -> (moldgate::Analysis, f64) {
     let a = locate(
         part,
         &LocateOptions {
             direction: d,
+            mode: moldgate::GateMode::Aesthetic,
+            thickness_rule: ThicknessRule::Ignore,
             parting: moldgate::gate::PartingRule::Outline,
             ..LocateOptions::default()
         },
     )
     .unwrap();
     let perimeter = outline::outline_perimeter(&part.mesh, &Frame::new(d), cells);
-    (a.parting.length_mm, perimeter, a.parting.closed)
+    (a, perimeter)
+}
+
+/// Checks the kept loops independently of the library's flags: every vertex of the kept
+/// edges has exactly two of them, and there is one loop (connected set) per rim.
+fn loops_are_closed_cycles(line: &moldgate::parting::PartingLine) -> Result<(), String> {
+    let mut degree = std::collections::HashMap::<u32, u32>::new();
+    let mut parent = std::collections::HashMap::<u32, u32>::new();
+    fn find(parent: &mut std::collections::HashMap<u32, u32>, v: u32) -> u32 {
+        let p = *parent.entry(v).or_insert(v);
+        if p == v {
+            v
+        } else {
+            let r = find(parent, p);
+            parent.insert(v, r);
+            r
+        }
+    }
+    for &[a, b] in &line.edges {
+        *degree.entry(a).or_default() += 1;
+        *degree.entry(b).or_default() += 1;
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        parent.insert(ra.max(rb), ra.min(rb));
+    }
+    if let Some((v, d)) = degree.iter().find(|(_, &d)| d != 2) {
+        return Err(format!("vertex {v} has {d} edges of the line"));
+    }
+    let vertices: Vec<u32> = degree.keys().copied().collect();
+    let mut roots: Vec<u32> = vertices.iter().map(|&v| find(&mut parent, v)).collect();
+    roots.sort_unstable();
+    roots.dedup();
+    if roots.len() != line.rims.len() {
+        return Err(format!(
+            "{} cycles for {} rims",
+            roots.len(),
+            line.rims.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Whether the aesthetic gate lies on an edge of the parting line.
+fn gate_on_line(part: &LoadedMesh, a: &moldgate::Analysis) -> bool {
+    let g = a.aesthetic_gate.expect("an aesthetic gate").point;
+    let scale = part.mesh.bounds().diagonal();
+    a.parting.edges.iter().any(|&[p, q]| {
+        let (p, q) = (
+            part.mesh.vertices[p as usize],
+            part.mesh.vertices[q as usize],
+        );
+        moldgate::math::nearest_on_segment(p, q, g).distance(g) < 1e-9 * scale
+    })
 }
 
 #[test]
@@ -101,9 +154,19 @@ fn parting_line_is_the_outline_on_the_samples() {
         ("bracket", "+z"),
     ] {
         let part = mesh::from_generated(moldgate::samples::sample(name).unwrap());
-        let (length, perimeter, closed) = parting_vs_outline(&part, dir(d), 600);
-        println!("{name} {d}: parting {length:.2} mm, outline {perimeter:.2} mm, closed {closed}");
-        assert!(closed, "{name} {d}");
+        let (a, perimeter) = parting_vs_outline(&part, dir(d), 600);
+        let length = a.parting.length_mm;
+        println!(
+            "{name} {d}: parting {length:.2} mm, outline {perimeter:.2} mm, closed {}",
+            a.parting.closed
+        );
+        assert!(a.parting.closed, "{name} {d}");
+        assert_eq!(loops_are_closed_cycles(&a.parting), Ok(()), "{name} {d}");
+        assert_eq!(a.parting.rims.len(), 1, "{name} {d}: one body, one rim");
+        assert!(
+            gate_on_line(&part, &a),
+            "{name} {d}: the aesthetic gate is on the line"
+        );
         assert!(
             (length - perimeter).abs() < 0.005 * perimeter,
             "{name} {d}: {length} vs {perimeter}"
@@ -111,23 +174,30 @@ fn parting_line_is_the_outline_on_the_samples() {
     }
 }
 
-/// Parts whose parting line is not yet within 5 % of their outline's perimeter, with the
-/// ratio measured when they were listed (docs/parting-line.md): where the outline steps along
-/// D through walls whose own edges do not separate the two sides, the bridges between the
-/// chain ends either close the loop short of the outline (the knob, 0.56: its rim circle is
-/// closed across the three tabs) or join chains that also run along features seen edge-on
-/// (the others, 1.08 to 2.3, and then often left open).
+/// Parts whose parting line by the outline rule is not yet within 5 % of their outline's
+/// perimeter, with the ratio measured (docs/parting-line.md). These are failures of the
+/// rule, not parts whose parting line is truly elsewhere: on each of them a designer would
+/// put the line on the outer rim.
 const NOT_THE_RIM: &[&str] = &[
-    "esp32s3box_top_housing.stl",         // 1.99, open
-    "esp32s3box_bottom_housing_352k.stl", // 2.31, open
-    "watchy_yatari_bottom.stl",           // 1.08, closed
-    "watchy_yatari_top.stl",              // 1.09, closed
-    "framework_expansion_card_shell.stl", // 1.46, open
-    "sc64_shell_back.stl",                // 1.59, open
-    "prusa_psu_cover_mk3_ascii.stl",      // 1.11, box open, lid closed
-    "prusa_lcd_knob.stl",                 // 0.56, closed
-    "comma_ram_connector_cap.stl",        // 1.76, open
-    "comma2_injection_molded_mount.stl",  // 1.98, open
+    // 0.03: the rim edges of the rounded corners are lost, a small loop is kept.
+    "comma2_injection_molded_mount.stl",
+    // 0.03 and 0.10: the fine rounded corners' rim edges are lost (chains do not join).
+    "esp32s3box_bottom_housing_352k.stl",
+    "esp32s3box_top_housing.stl",
+    // 0.04: as the housings.
+    "framework_desktop_top_cover_121k.stl",
+    // 0.56, closed: the loop is the knob's circle, closed across the three tabs (their
+    // chains are not joined to the circle's).
+    "prusa_lcd_knob.stl",
+    // 1.050, closed: just over; not examined yet.
+    "framework_expansion_card_shell.stl",
+    // 0.53: the box body's rim is lost, the lid's kept.
+    "prusa_psu_cover_mk3_ascii.stl",
+    // 0.11: as the housings.
+    "sc64_shell_back.stl",
+    // 1.08, 1.09, closed: the loop takes in edges seen edge-on along the rim.
+    "watchy_yatari_bottom.stl",
+    "watchy_yatari_top.stl",
 ];
 
 #[test]
@@ -139,49 +209,68 @@ fn parting_line_is_the_outline_on_the_shared_parts() {
     let mut failures = Vec::new();
     for (file, d) in PARTS {
         let part = load(file);
-        let (length, perimeter, closed) = parting_vs_outline(&part, dir(d), 1500);
+        let (a, perimeter) = parting_vs_outline(&part, dir(d), 1500);
+        let length = a.parting.length_mm;
         let ratio = length / perimeter;
-        println!("{file} {d}: parting {length:.1} mm, outline {perimeter:.1} mm, ratio {ratio:.3}, closed {closed}");
-        if !NOT_THE_RIM.contains(&file) && (ratio - 1.0).abs() > 0.05 {
+        let closed = loops_are_closed_cycles(&a.parting);
+        println!("{file} {d}: parting {length:.1} mm, outline {perimeter:.1} mm, ratio {ratio:.3}, closed {closed:?}, rims {}", a.parting.rims.len());
+        if !gate_on_line(&part, &a) {
+            failures.push(format!(
+                "{file}: the aesthetic gate is not on the parting line"
+            ));
+        }
+        if NOT_THE_RIM.contains(&file) {
+            continue;
+        }
+        if (ratio - 1.0).abs() > 0.05 {
             failures.push(format!(
                 "{file}: parting {length:.1} vs outline {perimeter:.1}"
             ));
+        }
+        if let Err(e) = closed {
+            failures.push(format!("{file}: {e}"));
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-#[test]
-fn aesthetic_gate_lands_on_the_rim_of_the_knob() {
-    let test = "aesthetic_gate_lands_on_the_rim_of_the_knob";
-    if parts_dir().is_none() {
-        return skip(test);
-    }
-    let part = load("prusa_lcd_knob.stl");
+/// The aesthetic gate is on the outline: just outside it in the plane there is no part,
+/// just inside there is.
+fn aesthetic_gate_lands_on_the_rim(file: &str, d: &str) {
+    let part = load(file);
     let options = LocateOptions {
-        direction: dir("+z"),
+        direction: dir(d),
         mode: moldgate::GateMode::Aesthetic,
-        // The outline rule (the default is still the longest loop, see parting.rs).
         parting: moldgate::gate::PartingRule::Outline,
         ..LocateOptions::default()
     };
     let a = locate(&part, &options).unwrap();
     let g = a.gate().unwrap().point();
-    // On the outline: a point just outside it in the plane has no part beneath it.
     let frame = a.frame;
     let q = frame.project(g);
     let c = frame.project(a.centre);
-    let out = q + (q - c).normalize() * 0.05;
+    let out = (q - c).normalize() * 0.05;
     let bvh = Bvh::new(&part.mesh);
     let hit = |p: moldgate::math::DVec2| {
         let origin = frame.point(p, 1e3);
         bvh.any_hit(&moldgate::raycast::Ray::new(origin, -frame.d))
     };
+    assert!(hit(q - out), "{file}: inside the outline the part is there");
     assert!(
-        hit(q - (q - c).normalize() * 0.05),
-        "inside the outline the part is there"
+        !hit(q + out),
+        "{file}: just outside the gate there is no part: {g:?}"
     );
-    assert!(!hit(out), "just outside the gate there is no part: {g:?}");
+}
+
+#[test]
+fn aesthetic_gate_lands_on_the_rim_of_the_knob_and_the_screw_cap() {
+    let test = "aesthetic_gate_lands_on_the_rim_of_the_knob_and_the_screw_cap";
+    if parts_dir().is_none() {
+        return skip(test);
+    }
+    aesthetic_gate_lands_on_the_rim("prusa_lcd_knob.stl", "+z");
+    // Not on the thread: the cap's thread is inside its outline.
+    aesthetic_gate_lands_on_the_rim("screwcap_oralb_75ml_ascii.stl", "+z");
 }
 
 #[test]

@@ -142,7 +142,7 @@ _OPTION_NAMES = (
     "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest",
     "thickness_rule", "require_flat", "flat_tol", "aesthetic", "max_nodes", "keep_out",
     "cosmetic", "fill", "strategy", "objective", "gates", "cell", "wall_thickness",
-    "color_by", "fit_radius",
+    "color_by", "fit_radius", "parting_line",
 )
 
 
@@ -178,6 +178,7 @@ def study(
     wall_thickness: bool = False,
     color_by: str = "fill_order",
     fit_radius: bool = False,
+    parting_line: str = "longest",
     units: str = "mm",
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
@@ -208,6 +209,8 @@ def study(
     - ``thickness_rule="require"``: ``require`` (walls thicker than R_gate) or ``ignore``.
     - ``require_flat=False``, ``flat_tol=None``: only flat circles (within 0.1 R_gate).
     - ``aesthetic=False``: the gate on the parting line.
+    - ``parting_line="longest"``: ``longest`` (the longest loop of the edges between the
+      two sides) or ``outline`` (the closed outer rim of each body seen along D).
     - ``max_nodes=4000000``: largest grid accepted.
     - ``keep_out=()``: regions no gate may reach, ``"box:x0,y0,z0,x1,y1,z1"`` or
       ``"sphere:x,y,z,r"`` (mm).
