@@ -7,11 +7,11 @@
 //!
 //! PARTS_DIR holds the parts and their `SOURCES.md` (natural demolding directions). The
 //! parting line (natural direction, default options) is set against the perimeter of the
-//! part's outline from a raster of its projected triangles (`tests/common/outline.rs`); the
+//! part's outline from a raster of its projected triangles (`tests/it/common/outline.rs`); the
 //! automatic direction against the natural one, with a gate check for tied lines as the
 //! command line does it.
 
-#[path = "../tests/common/outline.rs"]
+#[path = "../tests/it/common/outline.rs"]
 mod outline;
 
 use std::fmt::Write as _;
@@ -182,7 +182,7 @@ figure is the perimeter of the outer outline of the projected triangles, from a 
 1500 cells along the longer side with 4 x 4 samples per cell, holes filled, contour traced
 by marching squares (`crates/moldgate/tests/common/outline.rs`). The two agree within 5 %
 where the parting line is the rim; the parts listed in `NOT_THE_RIM` of
-`crates/moldgate/tests/shared_geometry.rs` do not yet (the loop closes across a step of the
+`crates/moldgate/tests/it/shared_geometry.rs` do not yet (the loop closes across a step of the
 outline, or takes in edges of features seen edge-on), and say so.
 
 Before, the line was the longest connected chain of those edges, on or off the outline:
