@@ -37,8 +37,8 @@ for optional in trimesh "dask[distributed]" gmsh; do
     fi
 done
 
-# The command-line binary, for the tests that compare the package with it: the test build
-# (`cargo test` has built it already).
+# The command-line binary, for the tests that compare the package with it: $MOLDGATE_CLI
+# (scripts/test passes the one `cargo test` built), else the test build.
 if [ -z "${MOLDGATE_CLI:-}" ]; then
     if cargo build -q -p moldgate-cli; then
         export MOLDGATE_CLI=$target/debug/moldgate

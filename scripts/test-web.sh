@@ -13,10 +13,15 @@ if [ ! -x "$chromium" ]; then
     apt-get install -y chromium || { apt-get update && apt-get install -y chromium; }
 fi
 
-# The reference answers come from the test build of the command line (`cargo test` has built
-# it already; the library is optimised in it), not from a second, release build.
-echo "test-web: cargo build -p moldgate-cli"
-cargo build -p moldgate-cli
+# The reference answers come from the test build of the command line (the library is
+# optimised in it), not from a second, release build: $MOLDGATE_BIN (scripts/test passes the
+# one `cargo test` built), else `cargo build -p moldgate-cli`.
+bin=${MOLDGATE_BIN:-}
+if [ -z "$bin" ]; then
+    echo "test-web: cargo build -p moldgate-cli"
+    cargo build -p moldgate-cli
+    bin=$target_dir/debug/moldgate
+fi
 
 scripts/build-web.sh
 
@@ -27,5 +32,5 @@ if [ ! -f tools/gltf-validator/node_modules/.package-lock.json ] ||
 fi
 
 cd web
-MOLDGATE_BIN=$target_dir/debug/moldgate CHROMIUM=$chromium \
+MOLDGATE_BIN=$bin CHROMIUM=$chromium \
     node --test --test-concurrency=1 tests/glue.test.mjs tests/app.test.mjs
