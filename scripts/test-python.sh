@@ -22,8 +22,14 @@ fi
 pip() { "$venv/bin/python" -m pip --disable-pip-version-check -q "$@"; }
 
 pip install pytest numpy || fail "cannot install pytest and numpy"
-echo "test-python: building and installing ./crates/moldgate-py"
-pip install ./crates/moldgate-py || fail "cannot build or install the moldgate package"
+# The test build is cargo's dev profile (the library optimised, as in every test build), so
+# the extension module reuses what `cargo test` compiled in the same target folder instead
+# of compiling the library again in release; MOLDGATE_PY_PROFILE=release tests the wheel as
+# users get it (pyproject.toml).
+profile=${MOLDGATE_PY_PROFILE:-dev}
+echo "test-python: building ($profile profile) and installing ./crates/moldgate-py"
+MATURIN_PEP517_ARGS="--profile $profile" CARGO_TARGET_DIR=$target pip install ./crates/moldgate-py \
+    || fail "cannot build or install the moldgate package"
 
 for optional in trimesh "dask[distributed]" gmsh; do
     if ! pip install "$optional"; then
@@ -31,10 +37,11 @@ for optional in trimesh "dask[distributed]" gmsh; do
     fi
 done
 
-# The command-line binary, for the tests that compare the package with it.
+# The command-line binary, for the tests that compare the package with it: $MOLDGATE_CLI
+# (scripts/test passes the one `cargo test` built), else the test build.
 if [ -z "${MOLDGATE_CLI:-}" ]; then
-    if cargo build --release -q -p moldgate-cli; then
-        export MOLDGATE_CLI=$target/release/moldgate
+    if cargo build -q -p moldgate-cli; then
+        export MOLDGATE_CLI=$target/debug/moldgate
     else
         echo "test-python: the moldgate binary did not build; the comparisons with it will skip"
     fi

@@ -1,9 +1,6 @@
-//! The OBJ reader on arbitrary bytes: an error or a mesh, never a panic.
+//! The OBJ reader on arbitrary bytes: an error or a mesh, never a panic (`moldgate_fuzz::read_obj`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use moldgate::mesh::{read_obj, Units};
 
-fuzz_target!(|data: &[u8]| {
-    let _ = read_obj(data, Units::Mm);
-});
+fuzz_target!(|data: &[u8]| moldgate_fuzz::read_obj(data));

@@ -1,9 +1,6 @@
-//! The PLY reader on arbitrary bytes: an error or a mesh, never a panic.
+//! The PLY reader on arbitrary bytes: an error or a mesh, never a panic (`moldgate_fuzz::read_ply`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use moldgate::mesh::{read_ply, Units};
 
-fuzz_target!(|data: &[u8]| {
-    let _ = read_ply(data, Units::Mm);
-});
+fuzz_target!(|data: &[u8]| moldgate_fuzz::read_ply(data));

@@ -21,7 +21,7 @@
 //!
 //! `LOAD_ONLY=throughput,large,memory,flood` runs only the phases named.
 
-#[path = "../tests/common/http.rs"]
+#[path = "../tests/it/common/http.rs"]
 mod http;
 
 use std::io::{BufReader, Write};

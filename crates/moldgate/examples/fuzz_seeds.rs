@@ -8,7 +8,7 @@
 //! four option bytes of that target, the first of which picks the reader).
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use moldgate::samples::BoxUnion;
 use moldgate::Mesh;
@@ -195,11 +195,10 @@ fn open(mesh: &Mesh) -> Mesh {
     m
 }
 
-fn main() -> std::io::Result<()> {
-    let root: PathBuf = std::env::args_os()
-        .nth(1)
-        .map(Into::into)
-        .unwrap_or_else(|| "fuzz/seeds".into());
+/// The seeds, as (target, file name, bytes): each file under its reader's target, and again
+/// under `analyse` behind that target's four option bytes. The library's tests replay these
+/// through the targets (`tests/it/fuzz_regressions.rs`).
+pub fn seeds() -> Vec<(&'static str, String, Vec<u8>)> {
     let mut stl: Vec<(String, Vec<u8>)> = Vec::new();
     let mut obj_files: Vec<(String, Vec<u8>)> = Vec::new();
     let mut ply_files: Vec<(String, Vec<u8>)> = Vec::new();
@@ -235,27 +234,36 @@ fn main() -> std::io::Result<()> {
             ply_files.push((format!("{name}-truncated-le.ply"), le));
         }
     }
-    let write = |dir: &Path, files: &[(String, Vec<u8>)], prefix: Option<u8>| {
-        std::fs::create_dir_all(dir)?;
-        for (i, (name, bytes)) in files.iter().enumerate() {
-            let mut data = Vec::new();
-            if let Some(kind) = prefix {
-                // The reader, a direction, 16 circle points, and a fill variant per file.
-                data.extend_from_slice(&[kind, i as u8, 16, (i * 7) as u8]);
-            }
-            data.extend_from_slice(bytes);
-            std::fs::write(dir.join(name), data)?;
+    let mut seeds = Vec::new();
+    for (target, kind, files) in [
+        ("read_stl", 0, &stl),
+        ("read_obj", 1, &obj_files),
+        ("read_ply", 2, &ply_files),
+    ] {
+        for (name, bytes) in files {
+            seeds.push((target, name.clone(), bytes.clone()));
         }
-        Ok::<_, std::io::Error>(())
-    };
-    write(&root.join("read_stl"), &stl, None)?;
-    write(&root.join("read_obj"), &obj_files, None)?;
-    write(&root.join("read_ply"), &ply_files, None)?;
-    let analyse = root.join("analyse");
-    write(&analyse, &stl, Some(0))?;
-    write(&analyse, &obj_files, Some(1))?;
-    write(&analyse, &ply_files, Some(2))?;
-    let count = stl.len() + obj_files.len() + ply_files.len();
-    eprintln!("wrote {} seeds in {}", 2 * count, root.display());
+        for (i, (name, bytes)) in files.iter().enumerate() {
+            // The reader, a direction, 16 circle points, and a fill variant per file.
+            let mut data = vec![kind, i as u8, 16, (i * 7) as u8];
+            data.extend_from_slice(bytes);
+            seeds.push(("analyse", name.clone(), data));
+        }
+    }
+    seeds
+}
+
+fn main() -> std::io::Result<()> {
+    let root: PathBuf = std::env::args_os()
+        .nth(1)
+        .map(Into::into)
+        .unwrap_or_else(|| "fuzz/seeds".into());
+    let seeds = seeds();
+    for (target, name, bytes) in &seeds {
+        let dir = root.join(target);
+        std::fs::create_dir_all(&dir)?;
+        std::fs::write(dir.join(name), bytes)?;
+    }
+    eprintln!("wrote {} seeds in {}", seeds.len(), root.display());
     Ok(())
 }

@@ -2,14 +2,12 @@
 //! is self-contained and renders in headless Chromium (skipped, with the reason printed, when
 //! `chromium` is not installed), and bad output paths fail with one line and write nothing.
 
-mod common;
-
 use std::process::{Command, Output, Stdio};
 
 use serde_json::Value;
 use tempfile::TempDir;
 
-use common::*;
+use crate::common::*;
 
 /// Asserts exit code `code` and one line `moldgate: error: ...` on stderr holding `needle`.
 #[track_caller]

@@ -1,5 +1,7 @@
 //! Helpers shared by the library's integration tests.
 
+pub mod outline;
+
 /// A small deterministic generator (SplitMix64), so failures replay.
 pub struct SplitMix(pub u64);
 

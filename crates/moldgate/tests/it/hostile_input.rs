@@ -3,8 +3,6 @@
 //! reason, and messages quote the input short and escaped. Each test builds the smallest
 //! input that shows its point.
 
-mod common;
-
 use std::io::Cursor;
 
 use moldgate::error::{LoadError, Place};
@@ -16,7 +14,7 @@ use moldgate::mesh::{
 use moldgate::study::{study, StudyError, StudyOptions};
 use moldgate::{locate, LocateOptions, OptionsError};
 
-use common::SplitMix;
+use crate::common::SplitMix;
 
 fn stl(bytes: &[u8]) -> Result<LoadedMesh, LoadError> {
     read_stl(Cursor::new(bytes), bytes.len() as u64, Units::Mm)

@@ -5,15 +5,13 @@
 //! Exit codes of a batch: the most serious of its parts, internal (1) > output (5) > input (3)
 //! > option (2) > no gate (4); 0 when every part has a gate.
 
-mod common;
-
 use std::path::Path;
 use std::process::Output;
 
 use serde_json::Value;
 use tempfile::TempDir;
 
-use common::*;
+use crate::common::*;
 
 const SAMPLES: [&str; 5] = ["plate", "cover", "cap", "tray", "bracket"];
 

@@ -3,15 +3,13 @@
 //! temporary files under planted links, and temporary files left by a killed run.
 #![cfg(unix)]
 
-mod common;
-
 use std::os::unix::fs::{symlink, FileTypeExt};
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime};
 
-use common::*;
+use crate::common::*;
 
 const TEMP_PREFIX: &str = ".moldgate-tmp-";
 

@@ -6,15 +6,13 @@
 //! 2 command line or option value (a bad materials file included), 3 input file missing,
 //! unreadable or malformed, 4 no gate, 5 output.
 
-mod common;
-
 use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
 
 use serde_json::Value;
 use tempfile::TempDir;
 
-use common::*;
+use crate::common::*;
 
 const SAMPLES: [&str; 5] = ["plate", "cover", "cap", "tray", "bracket"];
 

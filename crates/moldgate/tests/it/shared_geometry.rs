@@ -5,10 +5,7 @@
 //! a test whose parts are missing says so and passes without checking anything. Run with
 //! `--nocapture` for the per-part tables.
 
-#[allow(dead_code)]
-mod common;
-#[path = "common/outline.rs"]
-mod outline;
+use crate::common::outline;
 
 use std::fs::File;
 use std::io::BufReader;

@@ -3,8 +3,6 @@
 //! batch mode take every format, and every malformed file ends with exit code 3 and one line
 //! on stderr naming the file and the place (line, or byte offset in a binary PLY).
 
-mod common;
-
 use std::fmt::Write as _;
 use std::path::Path;
 use std::process::Output;
@@ -13,7 +11,7 @@ use moldgate::mesh::{read_stl, Mesh, Units};
 use serde_json::Value;
 use tempfile::TempDir;
 
-use common::*;
+use crate::common::*;
 
 /// Asserts exit code 3 and one stderr line `moldgate: error: ...` holding every needle.
 #[track_caller]

@@ -3,14 +3,12 @@
 //! same file as `-o`) ends with one line on stderr, the documented exit code and nothing
 //! half-written. Exit codes as in main.rs: 2 command line, 3 input, 4 no gate, 5 output.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 use serde_json::Value;
 
-use common::*;
+use crate::common::*;
 
 /// Asserts exit code `code` with exactly one stderr line `moldgate: error: ...` that
 /// contains every one of `needles`.

@@ -3,14 +3,12 @@
 //!
 //! The files are built in code, so each test shows the bytes it feeds the reader.
 
-mod common;
-
 use std::io::Cursor;
 
 use moldgate::error::{LoadError, Place};
 use moldgate::mesh::{read_stl, Format, LoadedMesh, Units};
 
-use common::SplitMix;
+use crate::common::SplitMix;
 
 /// A facet as its three corners, in the file's units.
 type Facet = [[f32; 3]; 3];

@@ -1,6 +1,8 @@
 //! Helpers shared by the CLI's integration tests: the documented exit codes, running the
-//! binary, and reading what it left behind. Each test binary uses part of them.
+//! binary, and reading what it left behind; `http` is the service's client.
 #![allow(dead_code)]
+
+pub mod http;
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};

@@ -5,15 +5,13 @@
 //! The files are written in code from a built-in sample saved as binary STL and read back, so
 //! every coordinate is an f32 value that each format holds exactly.
 
-mod common;
-
 use std::fmt::Write as _;
 
 use moldgate::error::{LoadError, Place};
 use moldgate::mesh::{read_obj, read_ply, read_stl, Format, LoadedMesh, Mesh, Units};
 use moldgate::{locate, samples, LocateOptions};
 
-use common::SplitMix;
+use crate::common::SplitMix;
 
 /// The sample `name` as it reads back from a binary STL.
 fn sample_via_stl(name: &str) -> (Vec<u8>, LoadedMesh) {

@@ -2,17 +2,13 @@
 //! report against `locate --json`, the picture, the GLB, and every kind of bad input and
 //! fault, each followed by a check that the server still serves.
 
-mod common;
-#[path = "common/http.rs"]
-mod http;
-
 use std::io::{BufReader, Write};
 use std::net::SocketAddr;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use common::moldgate;
-use http::{connect, get, head, read_response, request, study_stl, Server};
+use crate::common::http::{self, connect, get, head, read_response, request, study_stl, Server};
+use crate::common::{self, moldgate};
 use serde_json::Value;
 
 const BIN: &str = env!("CARGO_BIN_EXE_moldgate");
