@@ -37,6 +37,7 @@ SETS = {
     "default": [],
     "fill": ["--fill"],
     "gates2": ["--fill", "--gates", "2"],
+    "gates3": ["--fill", "--gates", "3"],
     "balanced": ["--strategy", "balanced"],
     "aesthetic": ["--aesthetic"],
     "auto": ["--demold", "auto"],

@@ -961,9 +961,17 @@ pub fn several_gates(
     // Local improvement: each gate to the centre of its share, kept while the overall worst
     // value falls.
     let mut worst = argmax(&field.t).1;
+    // Moves kept so far, and for each gate the count at which it was last examined without
+    // moving: while no move is kept, the same gate meets the same field and layout again
+    // and would stay, so its three marches are not run again.
+    let mut moves = 0usize;
+    let mut stayed_at: Vec<Option<usize>> = vec![None; k];
     for _round in 0..8 {
         let mut improved = false;
         for g in 0..k {
+            if stayed_at[g] == Some(moves) {
+                continue;
+            }
             let share: Vec<u32> = (0..v.len() as u32)
                 .filter(|&c| field.source[c as usize] == g as u32)
                 .collect();
@@ -1011,6 +1019,7 @@ pub fn several_gates(
                 })
                 .expect("non-empty");
             if try_c == chosen[g] {
+                stayed_at[g] = Some(moves);
                 continue;
             }
             let mut trial = chosen.clone();
@@ -1029,6 +1038,9 @@ pub fn several_gates(
                 chosen = trial;
                 field = trial_field;
                 improved = true;
+                moves += 1;
+            } else {
+                stayed_at[g] = Some(moves);
             }
         }
         if !improved {
