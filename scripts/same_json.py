@@ -6,12 +6,13 @@ For refactors that must not change behaviour: runs `A locate ... --json` and
 direction from SOURCES.md, PP, default options otherwise) with several option sets, and
 compares the exit codes and the reports, less their time keys (`timings`, `times`,
 `time_s`), which vary from run to run. Prints one line per difference (its first differing
-path) and a count. `--rel-tol` accepts floating-point noise (the undercut areas of
+path) and a count. `--ignore` leaves more keys out (such as `runs`, the marches a search took, after a change
+that makes the same answer with fewer). `--rel-tol` accepts floating-point noise (the undercut areas of
 `--demold auto` are summed in parallel in an order that varies from run to run, so even one
 binary differs from itself in their last bits).
 
     python3 scripts/same_json.py BASE_BINARY NEW_BINARY [--parts DIR] [--sets NAME,...]
-        [--jobs N] [--skip-large]
+        [--jobs N] [--skip-large] [--ignore KEY,...]
 
 Standard library only. Exits 1 when any report differs, 0 when all are the same.
 """
@@ -37,6 +38,7 @@ SETS = {
     "default": [],
     "fill": ["--fill"],
     "gates2": ["--fill", "--gates", "2"],
+    "gates3": ["--fill", "--gates", "3"],
     "balanced": ["--strategy", "balanced"],
     "aesthetic": ["--aesthetic"],
     "auto": ["--demold", "auto"],
@@ -124,10 +126,13 @@ def main():
     ap.add_argument("--sets", default=",".join(SETS))
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--skip-large", action="store_true")
+    ap.add_argument("--ignore", default="",
+                    help="more keys to leave out of the comparison, comma-separated")
     ap.add_argument("--rel-tol", type=float, default=0.0,
                     help="accept numbers this close (relative); 0, the default, is exact")
     args = ap.parse_args()
     BASE = args.base
+    TIME_KEYS.update(k for k in args.ignore.split(",") if k)
     global REL_TOL
     REL_TOL = args.rel_tol
     sets = args.sets.split(",")

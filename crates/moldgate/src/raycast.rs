@@ -5,7 +5,9 @@
 //! thickness, along ±D from every facet for undercuts), so they need a tree of boxes.
 //!
 //! The tree is built once per mesh with a binned surface-area heuristic (12 bins per axis,
-//! leaves of at most 4 triangles; the top levels are built on both threads). Boxes and
+//! leaves of at most 4 triangles; the top levels are built on both threads; the three axes
+//! are binned in one pass over a node's triangles, and a child's box comes from the union of
+//! its parent's bins, so each level reads its triangles twice: bins, then partition). Boxes and
 //! triangles are stored in `f32`, relative to the centre of the mesh's box, to halve the
 //! memory read per ray; queries take and return `f64`. The tree knows only boxes and triangle
 //! numbers: what a hit means (wall, undercut) is the caller's business.
@@ -21,6 +23,7 @@ use std::cmp::Ordering;
 
 use glam::Vec3;
 use rayon::join;
+use rayon::prelude::*;
 
 use crate::math::DVec3;
 use crate::mesh::Mesh;
@@ -162,6 +165,7 @@ impl Bvh {
         };
         let local = |v: DVec3| (v - origin).as_vec3();
         let mut items: Vec<Item> = (0..mesh.triangles.len())
+            .into_par_iter()
             .map(|t| {
                 let [a, b, c] = mesh.corners(t).map(local);
                 let min = a.min(b).min(c);
@@ -182,7 +186,7 @@ impl Bvh {
                 count: 0,
             }]
         } else {
-            build(&mut items, 0)
+            build(&mut items, 0, None)
         };
         // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
         // must not be lost to the rounding of the slab test, and the edge slack of the
@@ -203,7 +207,7 @@ impl Bvh {
         }
         let ids: Vec<u32> = items.iter().map(|i| i.id).collect();
         let tris = ids
-            .iter()
+            .par_iter()
             .map(|&t| {
                 let [a, b, c] = mesh.corners(t as usize).map(local);
                 Tri {
@@ -551,19 +555,48 @@ fn closest_on_triangle(tri: &Tri, p: Vec3) -> Vec3 {
 
 /// Builds the subtree over `items` (reordered in place into leaf order); node links are
 /// relative to the returned vector, triangle links relative to `first`.
-fn build(items: &mut [Item], first: usize) -> Vec<Node> {
+fn build(items: &mut [Item], first: usize, known: Option<Extent>) -> Vec<Node> {
     let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
-    build_into(items, first, &mut nodes);
+    build_into(items, first, &mut nodes, known);
     nodes
 }
 
-fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>) {
-    let mut bounds = Bounds::EMPTY;
-    let mut centres = Bounds::EMPTY;
-    for it in items.iter() {
-        bounds.grow(it.min, it.max);
-        centres.grow(it.centre, it.centre);
+/// The box of some items and the box of their centres.
+#[derive(Clone, Copy)]
+struct Extent {
+    bounds: Bounds,
+    centres: Bounds,
+}
+
+impl Extent {
+    const EMPTY: Extent = Extent {
+        bounds: Bounds::EMPTY,
+        centres: Bounds::EMPTY,
+    };
+
+    fn of(items: &[Item]) -> Extent {
+        let mut e = Extent::EMPTY;
+        for it in items {
+            e.add(it);
+        }
+        e
     }
+
+    fn add(&mut self, it: &Item) {
+        self.bounds.grow(it.min, it.max);
+        self.centres.grow(it.centre, it.centre);
+    }
+
+    fn join(&mut self, other: &Extent) {
+        self.bounds.grow(other.bounds.min, other.bounds.max);
+        self.centres.grow(other.centres.min, other.centres.max);
+    }
+}
+
+/// Builds the node of `items` and its subtree; `known` is their extent when the parent's
+/// split already found it (the union of its bins, exactly what a pass over them gives).
+fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Option<Extent>) {
+    let Extent { bounds, centres } = known.unwrap_or_else(|| Extent::of(items));
     let me = nodes.len();
     nodes.push(Node {
         min: bounds.min.to_array(),
@@ -574,22 +607,29 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>) {
     if items.len() <= LEAF_SIZE {
         return;
     }
-    let Some(mid) = split(items, &bounds, &centres) else {
+    let Some((mid, sides)) = split(items, &bounds, &centres) else {
         return; // Every centre in one place: a (large) leaf is the only way.
+    };
+    let (l_known, r_known) = match sides {
+        Some((l, r)) => (Some(l), Some(r)),
+        None => (None, None),
     };
     let (left, right) = items.split_at_mut(mid);
     nodes[me].count = 0;
     if left.len() + right.len() > PARALLEL_MIN {
-        let (l, r) = join(|| build(left, first), || build(right, first + mid));
+        let (l, r) = join(
+            || build(left, first, l_known),
+            || build(right, first + mid, r_known),
+        );
         let base = nodes.len();
         append(nodes, l, base);
         nodes[me].link = nodes.len() as u32;
         let base = nodes.len();
         append(nodes, r, base);
     } else {
-        build_into(left, first, nodes);
+        build_into(left, first, nodes, l_known);
         nodes[me].link = nodes.len() as u32;
-        build_into(right, first + mid, nodes);
+        build_into(right, first + mid, nodes, r_known);
     }
 }
 
@@ -603,32 +643,46 @@ fn append(nodes: &mut Vec<Node>, sub: Vec<Node>, base: usize) {
     }));
 }
 
-/// Partitions `items` by the cheapest binned surface-area split; the size of the first part,
-/// or `None` when no split beats a leaf and the leaf is small enough, or no split exists.
-fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> Option<usize> {
+/// Partitions `items` by the cheapest binned surface-area split; the size of the first part
+/// and, when the split was binned, the extents of the two parts; or `None` when no split
+/// beats a leaf and the leaf is small enough, or no split exists. The three axes are binned
+/// in one pass over the items.
+fn split(
+    items: &mut [Item],
+    bounds: &Bounds,
+    centres: &Bounds,
+) -> Option<(usize, Option<(Extent, Extent)>)> {
     let extent = centres.max - centres.min;
-    let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
+    let (mut axes_of, mut n_axes) = ([0usize; 3], 0);
     for axis in 0..3 {
-        if extent[axis].partial_cmp(&0.0) != Some(Ordering::Greater) {
-            continue;
+        if extent[axis].partial_cmp(&0.0) == Some(Ordering::Greater) {
+            axes_of[n_axes] = axis;
+            n_axes += 1;
         }
-        let lo = centres.min[axis];
-        let scale = BINS as f32 / extent[axis];
-        let bin_of = |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
-        let mut boxes = [Bounds::EMPTY; BINS];
-        let mut counts = [0usize; BINS];
-        for it in items.iter() {
-            let b = bin_of(it.centre[axis]);
-            boxes[b].grow(it.min, it.max);
-            counts[b] += 1;
+    }
+    let axes = &axes_of[..n_axes];
+    let lo = centres.min;
+    let scale = Vec3::splat(BINS as f32) / extent;
+    let bin_of = |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as usize).min(BINS - 1);
+    let mut bins = [[Extent::EMPTY; BINS]; 3];
+    let mut counts = [[0usize; BINS]; 3];
+    for it in items.iter() {
+        for &axis in axes {
+            let b = bin_of(axis, it.centre[axis]);
+            bins[axis][b].add(it);
+            counts[axis][b] += 1;
         }
+    }
+    let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
+    for &axis in axes {
+        let (boxes, counts) = (&bins[axis], &counts[axis]);
         // Sweep from the right, then from the left, to price every plane between bins.
         let mut right_area = [0f32; BINS];
         let mut acc = Bounds::EMPTY;
         let mut n = 0;
         let mut right_count = [0usize; BINS];
         for b in (1..BINS).rev() {
-            acc.grow(boxes[b].min, boxes[b].max);
+            acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
             n += counts[b];
             right_area[b] = acc.half_area();
             right_count[b] = n;
@@ -636,7 +690,7 @@ fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> Option<usize>
         let mut acc = Bounds::EMPTY;
         let mut n = 0;
         for b in 0..BINS - 1 {
-            acc.grow(boxes[b].min, boxes[b].max);
+            acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
             n += counts[b];
             let (nl, nr) = (n, right_count[b + 1]);
             if nl == 0 || nr == 0 {
@@ -644,27 +698,25 @@ fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> Option<usize>
             }
             let cost = acc.half_area() * nl as f32 + right_area[b + 1] * nr as f32;
             if best.is_none_or(|(c, _, _)| cost < c) {
-                let plane = lo + (b + 1) as f32 / scale;
+                let plane = lo[axis] + (b + 1) as f32 / scale[axis];
                 best = Some((cost, axis, plane));
             }
         }
     }
     let Some((cost, axis, plane)) = best else {
         // Centres all equal: halve the list so that leaves stay small.
-        return (items.len() > LEAF_SIZE).then_some(items.len() / 2);
+        return (items.len() > LEAF_SIZE).then_some((items.len() / 2, None));
     };
     let leaf_cost = bounds.half_area() * items.len() as f32;
     if cost >= leaf_cost && items.len() <= 4 * LEAF_SIZE {
         return None;
     }
     // Partition in place by the chosen plane, with the binning's own arithmetic.
-    let lo = centres.min[axis];
-    let scale = BINS as f32 / extent[axis];
-    let cut = (((plane - lo) * scale).round()) as usize;
+    let cut = (((plane - lo[axis]) * scale[axis]).round()) as usize;
     let mut i = 0;
     let mut j = items.len();
     while i < j {
-        let b = (((items[i].centre[axis] - lo) * scale) as usize).min(BINS - 1);
+        let b = bin_of(axis, items[i].centre[axis]);
         if b < cut {
             i += 1;
         } else {
@@ -672,7 +724,16 @@ fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> Option<usize>
             items.swap(i, j);
         }
     }
-    (i > 0 && i < items.len()).then_some(i)
+    // The parts are the bins below and above the cut: their extents are the bins' unions.
+    let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
+    for (b, e) in bins[axis].iter().enumerate() {
+        if b < cut {
+            left.join(e);
+        } else {
+            right.join(e);
+        }
+    }
+    (i > 0 && i < items.len()).then_some((i, Some((left, right))))
 }
 
 #[cfg(test)]

@@ -961,74 +961,130 @@ pub fn several_gates(
     // Local improvement: each gate to the centre of its share, kept while the overall worst
     // value falls.
     let mut worst = argmax(&field.t).1;
+    // What examining gate g finds, from the layout `chosen` and its field: the move to the
+    // centre of its share, if there is one to try, with the trial's field.
+    let examine = |g: usize, field: &Field, chosen: &[usize]| -> Examined {
+        let share: Vec<u32> = (0..v.len() as u32)
+            .filter(|&c| field.source[c as usize] == g as u32)
+            .collect();
+        if share.is_empty() {
+            return Examined::Empty;
+        }
+        // The share's two ends: its cell farthest from the gate, x1, and its cell farthest
+        // from x1, x2. The candidate nearest to both (least of the larger distance) is the
+        // centre of the share's longest path.
+        let x1 = share
+            .iter()
+            .copied()
+            .max_by(|&a, &b| {
+                field.t[a as usize]
+                    .total_cmp(&field.t[b as usize])
+                    .then(b.cmp(&a))
+            })
+            .expect("non-empty");
+        let at = |c: u32| Source {
+            point: v.centre(c),
+            cell: c,
+        };
+        let from_x1 = march(v, &[at(x1)], cost);
+        let x2 = share
+            .iter()
+            .copied()
+            .filter(|&c| from_x1.t[c as usize].is_finite())
+            .max_by(|&a, &b| {
+                from_x1.t[a as usize]
+                    .total_cmp(&from_x1.t[b as usize])
+                    .then(b.cmp(&a))
+            })
+            .unwrap_or(x1);
+        let from_x2 = march(v, &[at(x2)], cost);
+        let &try_c = pool
+            .iter()
+            .filter(|&&i| i == chosen[g] || !chosen.contains(&i))
+            .min_by(|&&a, &&b| {
+                let f = |i: usize| {
+                    let c = candidates[i].cell as usize;
+                    from_x1.t[c].max(from_x2.t[c])
+                };
+                f(a).total_cmp(&f(b)).then(a.cmp(&b))
+            })
+            .expect("non-empty");
+        if try_c == chosen[g] {
+            return Examined::Stays { runs: 2 };
+        }
+        let mut trial = chosen.to_vec();
+        trial[g] = try_c;
+        let sources: Vec<Source> = trial.iter().map(|&i| candidates[i]).collect();
+        let trial_field = march(v, &sources, cost);
+        Examined::Tries {
+            trial,
+            field: trial_field,
+        }
+    };
+    // Moves kept so far, and for each gate the count at which it was last examined without
+    // moving: while no move is kept, the same gate meets the same field and layout again
+    // and would stay, so its three marches are not run again.
+    let mut moves = 0usize;
+    let mut stayed_at: Vec<Option<usize>> = vec![None; k];
     for _round in 0..8 {
         let mut improved = false;
-        for g in 0..k {
-            let share: Vec<u32> = (0..v.len() as u32)
-                .filter(|&c| field.source[c as usize] == g as u32)
-                .collect();
-            if share.is_empty() {
+        let mut g = 0;
+        while g < k {
+            if stayed_at[g] == Some(moves) {
+                g += 1;
                 continue;
             }
-            // The share's two ends: its cell farthest from the gate, x1, and its cell
-            // farthest from x1, x2. The candidate nearest to both (least of the larger
-            // distance) is the centre of the share's longest path.
-            let x1 = share
-                .iter()
-                .copied()
-                .max_by(|&a, &b| {
-                    field.t[a as usize]
-                        .total_cmp(&field.t[b as usize])
-                        .then(b.cmp(&a))
-                })
-                .expect("non-empty");
-            let at = |c: u32| Source {
-                point: v.centre(c),
-                cell: c,
+            // The next gate is examined at the same time, from the same layout: its finding
+            // stands when gate g keeps its place (the layout is then unchanged), and is
+            // dropped, uncounted, when g moves. The answer and the runs are those of one
+            // gate after the other.
+            let next = (g + 1..k).find(|&h| stayed_at[h] != Some(moves));
+            let (first, second) = match next {
+                Some(h) => {
+                    let (a, b) = rayon::join(
+                        || examine(g, &field, &chosen),
+                        || examine(h, &field, &chosen),
+                    );
+                    (a, Some((h, b)))
+                }
+                None => (examine(g, &field, &chosen), None),
             };
-            let from_x1 = march(v, &[at(x1)], cost);
-            let x2 = share
-                .iter()
-                .copied()
-                .filter(|&c| from_x1.t[c as usize].is_finite())
-                .max_by(|&a, &b| {
-                    from_x1.t[a as usize]
-                        .total_cmp(&from_x1.t[b as usize])
-                        .then(b.cmp(&a))
-                })
-                .unwrap_or(x1);
-            let from_x2 = march(v, &[at(x2)], cost);
-            runs += 2;
-            let &try_c = pool
-                .iter()
-                .filter(|&&i| i == chosen[g] || !chosen.contains(&i))
-                .min_by(|&&a, &&b| {
-                    let f = |i: usize| {
-                        let c = candidates[i].cell as usize;
-                        from_x1.t[c].max(from_x2.t[c])
-                    };
-                    f(a).total_cmp(&f(b)).then(a.cmp(&b))
-                })
-                .expect("non-empty");
-            if try_c == chosen[g] {
-                continue;
-            }
-            let mut trial = chosen.clone();
-            trial[g] = try_c;
-            let sources: Vec<Source> = trial.iter().map(|&i| candidates[i]).collect();
-            let trial_field = march(v, &sources, cost);
-            runs += 1;
-            let trial_worst = argmax(&trial_field.t).1;
-            // Keep the move when the overall worst value does not grow and the sum of the
-            // shares' worst values falls (a gate may improve its share while another
-            // share still sets the overall worst).
-            if trial_worst <= worst + 1e-9
-                && share_sum(&trial_field, k) < share_sum(&field, k) - 1e-9
-            {
-                worst = trial_worst;
-                chosen = trial;
-                field = trial_field;
-                improved = true;
+            for (gate, found) in std::iter::once((g, first)).chain(second) {
+                g = gate + 1;
+                let kept = match found {
+                    Examined::Empty => false,
+                    Examined::Stays { runs: r } => {
+                        runs += r;
+                        stayed_at[gate] = Some(moves);
+                        false
+                    }
+                    Examined::Tries {
+                        trial,
+                        field: trial_field,
+                    } => {
+                        runs += 3;
+                        let trial_worst = argmax(&trial_field.t).1;
+                        // Keep the move when the overall worst value does not grow and the
+                        // sum of the shares' worst values falls (a gate may improve its share
+                        // while another share still sets the overall worst).
+                        if trial_worst <= worst + 1e-9
+                            && share_sum(&trial_field, k) < share_sum(&field, k) - 1e-9
+                        {
+                            worst = trial_worst;
+                            chosen = trial;
+                            field = trial_field;
+                            moves += 1;
+                            true
+                        } else {
+                            stayed_at[gate] = Some(moves);
+                            false
+                        }
+                    }
+                };
+                if kept {
+                    improved = true;
+                    break;
+                }
             }
         }
         if !improved {
@@ -1069,6 +1125,16 @@ pub fn several_gates(
         balance,
         runs,
     })
+}
+
+/// What examining one gate of a several-gate layout found.
+enum Examined {
+    /// Its share is empty.
+    Empty,
+    /// It stays: the centre of its share is where it is (`runs` marches).
+    Stays { runs: usize },
+    /// It would move: the layout with the move and its field (three marches).
+    Tries { trial: Vec<usize>, field: Field },
 }
 
 /// The sum over the `k` shares of a multi-source field of their largest values.

@@ -63,17 +63,26 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // resistance); the automatic direction draws its rays without one.
     let auto_demold = s.demold == Demold::Auto;
     let wants_tree = s.wall_thickness || s.fill.is_some();
-    let mut tree_s = 0.0;
-    let bvh = if wants_tree {
-        enter(Stage::Tree)?;
+    let build_tree = || {
         let t = Instant::now();
         let bvh = Bvh::new(mesh);
-        tree_s = t.elapsed().as_secs_f64();
-        Some(bvh)
-    } else {
-        None
+        (bvh, t.elapsed().as_secs_f64())
     };
     let mut options = s.locate.clone();
+    // With the demolding direction given, the gate does not need the tree: both are built
+    // at once (on a machine of two threads the tree costs about as much as the gate).
+    let (bvh, tree_s, located) = if wants_tree && !auto_demold {
+        enter(Stage::Tree)?;
+        enter(Stage::Locate)?;
+        let ((bvh, tree_s), located) = rayon::join(build_tree, || crate::locate(part, &options));
+        (Some(bvh), tree_s, Some(located))
+    } else if wants_tree {
+        enter(Stage::Tree)?;
+        let (bvh, tree_s) = build_tree();
+        (Some(bvh), tree_s, None)
+    } else {
+        (None, 0.0, None)
+    };
     let mut demold_s = None;
     let auto = match auto_demold {
         true => {
@@ -95,8 +104,14 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         }
         false => None,
     };
-    enter(Stage::Locate)?;
-    let mut analysis = crate::locate(part, &options).map_err(StudyError::Locate)?;
+    let located = match located {
+        Some(located) => located,
+        None => {
+            enter(Stage::Locate)?;
+            crate::locate(part, &options)
+        }
+    };
+    let mut analysis = located.map_err(StudyError::Locate)?;
     if analysis.counts.centre_hits < MIN_NODES_ON_PART {
         analysis.warnings.push(format!(
             "only {} grid nodes fall on the part (spacing {:.3} mm): the gate is a coarse guess; use a smaller spacing",

@@ -1,0 +1,85 @@
+//! Best-of-N time of each stage of the fill analysis on one part, and of one march:
+//! `fill_stages PART.stl DEMOLD [REPEATS]`. Run with `RAYON_NUM_THREADS=1` for the work of
+//! one thread.
+use std::time::Instant;
+
+use moldgate::flow::{self, FillOptions, Strategy, Walls};
+use moldgate::raycast::Bvh;
+use moldgate::{locate, LocateOptions, Material};
+
+fn best<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut out = None;
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats {
+        let t = Instant::now();
+        let r = f();
+        best = best.min(t.elapsed().as_secs_f64() * 1e3);
+        out = Some(r);
+    }
+    (best, out.expect("one run"))
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let file = std::fs::File::open(&args[1]).expect("open the part");
+    let len = file.metadata().expect("metadata").len();
+    let part = moldgate::mesh::read_stl(
+        std::io::BufReader::new(file),
+        len,
+        moldgate::mesh::Units::Mm,
+    )
+    .expect("load");
+    let repeats: usize = args.get(3).map_or(5, |s| s.parse().expect("repeats"));
+    let options = LocateOptions {
+        direction: args[2].parse().expect("demold"),
+        ..LocateOptions::default()
+    };
+    let analysis = locate(&part, &options).expect("locate");
+    let pp = Material::builtin("PP").expect("PP");
+    let (tree_ms, bvh) = best(repeats, || Bvh::new(&part.mesh));
+    println!("tree {tree_ms:.1} ms");
+    for (name, gates, strategy) in [
+        ("fill", 1, Strategy::Paper),
+        ("balanced", 1, Strategy::Balanced),
+        ("gates 3", 3, Strategy::Paper),
+    ] {
+        let o = FillOptions {
+            gates,
+            strategy,
+            ..FillOptions::default()
+        };
+        let (ms, f) = best(repeats, || {
+            flow::analyse(&part.mesh, &analysis, &pp, Walls::Measure(&bvh), &o).expect("fill")
+        });
+        let t = f.times;
+        println!(
+            "{name}: {ms:.1} ms (voxels {:.1}, wall {:.1}, paper {:.1}, balanced {:.1}, several {:.1}); cells {}, runs {} + {}",
+            t.voxels_s * 1e3,
+            t.wall_s * 1e3,
+            t.paper_s * 1e3,
+            t.balanced_s * 1e3,
+            t.several_s * 1e3,
+            f.cells,
+            f.balanced.as_ref().map_or(0, |b| b.search.runs),
+            f.several.as_ref().map_or(0, |s| s.runs),
+        );
+    }
+    let nominal = 1.5;
+    let h = flow::cell_size(&part.mesh, nominal, &flow::FlowOptions::default())
+        .expect("cell")
+        .0;
+    let domain = flow::Domain::new(&part.mesh, h, None, nominal, &pp);
+    let src = domain
+        .source(analysis.gate().expect("gate").point())
+        .expect("source");
+    let (ms, f) = best(repeats * 4, || flow::march(&domain.voxels, &[src], None));
+    println!(
+        "one march {ms:.2} ms on {} cells, L_max {:.4}",
+        domain.voxels.len(),
+        flow::argmax(&f.t).1
+    );
+    let (ms, _) = best(repeats * 4, || {
+        flow::march(&domain.voxels, &[src], Some(&domain.fill_cost))
+    });
+    println!("one march with a cost {ms:.2} ms");
+}
