@@ -79,6 +79,7 @@ fuzz_target!(|data: &[u8]| {
             },
             gates: 1 + usize::from((fill >> 2) % 3),
             colour_by: Default::default(),
+            placed: Vec::new(),
         };
         let bvh = Bvh::new(&part.mesh);
         let walls = if fill & 32 == 0 {
