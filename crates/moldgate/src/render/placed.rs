@@ -3,7 +3,7 @@
 //! diamond at its centre (filled when the gate qualifies, hollow when it fails a rule) and
 //! a label, so they are never mistaken for the answer's red discs.
 
-use super::canvas::{Align, Canvas, Rgb, TextStyle};
+use super::canvas::{text_width, Align, Canvas, Rgb, TextStyle};
 use super::{gate_outline, View, BLACK, WHITE};
 use crate::scene::Scene;
 
@@ -37,14 +37,17 @@ pub(super) fn draw_placed(canvas: &mut Canvas, scene: &Scene, view: &View, k: f3
         let label = format!(
             "your gate {}{}",
             i + 1,
-            if g.qualifies { "" } else { " (fails a rule)" }
+            if g.qualifies { "" } else { " (fails)" }
         );
-        canvas.text(
-            x + r + 12.0 * k,
-            y + r + 20.0 * k,
-            &label,
-            &TextStyle::new(15.0 * k, colour).bold().halo(WHITE),
-            Align::Left,
-        );
+        let style = TextStyle::new(15.0 * k, colour).bold().halo(WHITE);
+        // Beside the disc, on the side that keeps the label inside the panel.
+        let right_edge = (view.panel.x + view.panel.w) as f32 - 8.0 * k;
+        let fits_right = x + r + 12.0 * k + text_width(&label, &style) < right_edge;
+        let (tx, align) = if fits_right {
+            (x + r + 12.0 * k, Align::Left)
+        } else {
+            (x - r - 12.0 * k, Align::Right)
+        };
+        canvas.text(tx, y + r + 20.0 * k, &label, &style, align);
     }
 }

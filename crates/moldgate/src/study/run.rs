@@ -335,7 +335,12 @@ impl Study {
     /// per mesh vertex, NaN where the melt does not reach; `None` without the fill or when
     /// the pictures show the height along D.
     pub fn fill_field(&self) -> Option<Field> {
-        self.fill()?.field(self.colour_by?)
+        let mut field = self.fill()?.field(self.colour_by?)?;
+        // With the designer's gates placed, the field is theirs (see `FillOptions::placed`).
+        if self.fill()?.placed.is_some() && field.name != "wall thickness" {
+            field.name = format!("{} from your gates", field.name);
+        }
+        Some(field)
     }
 
     /// Estimated fill time per mesh vertex, s (NaN where the melt does not reach; with
