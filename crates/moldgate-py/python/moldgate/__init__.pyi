@@ -107,6 +107,7 @@ def study(
     wall_thickness: bool = False,
     color_by: str = "fill_order",
     fit_radius: bool = False,
+    gate_at: Sequence[Union[str, Sequence[float]]] = (),
     units: str = "mm",
     materials_file: Optional[_Path] = None,
     step_tolerance_mm: Optional[float] = None,
