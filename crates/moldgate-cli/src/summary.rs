@@ -418,12 +418,7 @@ fn rule_words(rule: moldgate::study::judge::FailedRule) -> &'static str {
 
 /// The designer's gates: each one's verdict, then the fill of their layout beside the
 /// paper gate's and the balanced gate's (the fill always searches the balanced gate).
-fn placed_gates(
-    s: &mut String,
-    r: &Report,
-    p: &moldgate::study::judge::PlacedGates,
-    open: bool,
-) {
+fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGates, open: bool) {
     let n = p.gates.len();
     let _ = writeln!(
         s,
@@ -433,7 +428,11 @@ fn placed_gates(
     let _ = writeln!(
         s,
         "  {:<12} {:<28} {:>8}  {:<22} {}",
-        "gate", "on the surface (mm)", "moved", "wall along D (disc)", "the paper's rules (disc of R_gate)"
+        "gate",
+        "on the surface (mm)",
+        "moved",
+        "wall along D (disc)",
+        "the paper's rules (disc of R_gate)"
     );
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match (g.failed_rule, &g.why) {
@@ -505,7 +504,11 @@ fn placed_gates(
     };
     row(
         s,
-        if n == 1 { "your gate" } else { "your gates together" },
+        if n == 1 {
+            "your gate"
+        } else {
+            "your gates together"
+        },
         fill,
     );
     if let Some(f) = &r.fill {
@@ -514,7 +517,11 @@ fn placed_gates(
         }
         match &f.balanced {
             Some(b) if b.is_paper_gate => {
-                let _ = writeln!(s, "  {:<30} the paper gate (no candidate does better)", "balanced gate");
+                let _ = writeln!(
+                    s,
+                    "  {:<30} the paper gate (no candidate does better)",
+                    "balanced gate"
+                );
             }
             Some(b) => row(s, "balanced gate", &b.fill),
             None => {}

@@ -263,13 +263,32 @@ fn gates_placed_with_gate_at_are_judged_in_every_output() {
     // The bracket: a base 60 x 40 x 5 and an upright 5 x 40 x 50. One point 2 mm above the
     // base, one above the upright's top, one beside the upright's face (not seen along +z).
     let args = [
-        "locate", "--sample", "bracket", "--fill", "--gate-at", "30,20,7", "--gate-at",
-        "2.5,20,52", "--gate-at", "5.5,20,30", "--png", &png, "--glb", &glb, "--report", &html,
-        "-o", &report,
+        "locate",
+        "--sample",
+        "bracket",
+        "--fill",
+        "--gate-at",
+        "30,20,7",
+        "--gate-at",
+        "2.5,20,52",
+        "--gate-at",
+        "5.5,20,30",
+        "--png",
+        &png,
+        "--glb",
+        &glb,
+        "--report",
+        &html,
+        "-o",
+        &report,
     ];
     let out = moldgate(&args);
     let summary = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     println!("{summary}");
     for needle in [
         "your gate 1  (30.000, 20.000, 5.000)       2.00 mm  5.00 mm",
@@ -298,7 +317,10 @@ fn gates_placed_with_gate_at_are_judged_in_every_output() {
     let glb = std::fs::read(&glb).unwrap();
     let text = String::from_utf8_lossy(&glb);
     for i in 1..=3 {
-        assert!(text.contains(&format!("\"name\":\"your gate {i}\"")), "node {i}");
+        assert!(
+            text.contains(&format!("\"name\":\"your gate {i}\"")),
+            "node {i}"
+        );
     }
     assert!(text.contains("\"placed_gates\""));
     let html = std::fs::read_to_string(&html).unwrap();
@@ -330,5 +352,9 @@ fn bad_gate_at_values_name_the_flag() {
     for _ in 0..33 {
         args.extend(["--gate-at", "30,20,5"]);
     }
-    fails(&args, 2, "--gate-at is given 33 times, over the limit of 32 gates");
+    fails(
+        &args,
+        2,
+        "--gate-at is given 33 times, over the limit of 32 gates",
+    );
 }

@@ -63,16 +63,31 @@ fn each_rule_is_named_where_it_fails() {
     let [corner, side, below] = &p.gates[..] else {
         panic!("{p:?}")
     };
-    assert_eq!(corner.failed_rule, Some(FailedRule::CircleOffPart), "{corner:?}");
+    assert_eq!(
+        corner.failed_rule,
+        Some(FailedRule::CircleOffPart),
+        "{corner:?}"
+    );
     assert!(corner.seen_along_d && !corner.qualifies);
     assert!(corner.why.as_deref().unwrap().contains("circle of radius"));
-    assert_eq!(side.failed_rule, Some(FailedRule::NotSeenAlongD), "{side:?}");
+    assert_eq!(
+        side.failed_rule,
+        Some(FailedRule::NotSeenAlongD),
+        "{side:?}"
+    );
     assert!(close(side.moved_mm, 0.5, 1e-12));
     assert_eq!(side.point, [40.0, 15.0, 5.0]);
     assert_eq!(side.normal, [1.0, 0.0, 0.0]);
     // Below the part: the bottom face, under the top one along D.
-    assert_eq!(below.failed_rule, Some(FailedRule::NotSeenAlongD), "{below:?}");
-    assert!(below.why.as_deref().unwrap().contains("10.000 mm above it"), "{below:?}");
+    assert_eq!(
+        below.failed_rule,
+        Some(FailedRule::NotSeenAlongD),
+        "{below:?}"
+    );
+    assert!(
+        below.why.as_deref().unwrap().contains("10.000 mm above it"),
+        "{below:?}"
+    );
     assert!(close(below.moved_mm, 2.0, 1e-12));
 
     // A plate 3 mm thick under a gate of radius 4: the wall rule, with the numbers.
@@ -102,7 +117,11 @@ fn each_rule_is_named_where_it_fails() {
 fn a_point_far_from_the_part_is_refused_with_the_distance_and_the_limit() {
     let part = block([0.0, 0.0, 0.0], [40.0, 30.0, 10.0]);
     // The diagonal is sqrt(40^2 + 30^2 + 10^2) = 50.99 mm: the limit is 5.099 mm.
-    let e = study(&part, &options(r#"{ "gate_at": ["20,15,10", "20,15,20"] }"#)).unwrap_err();
+    let e = study(
+        &part,
+        &options(r#"{ "gate_at": ["20,15,10", "20,15,20"] }"#),
+    )
+    .unwrap_err();
     let StudyError::Invalid { field, message } = &e else {
         panic!("{e}")
     };
@@ -139,8 +158,16 @@ fn a_placed_gate_fills_as_the_march_says() {
     // Eq. 1 on the uniform plate: the pressure factor times the path.
     let fill = s.report().fill.as_ref().unwrap();
     let eq1 = fill.pressure_mpa_per_mm * f.l_max_mm;
-    assert!((f.pressure_mpa - eq1).abs() / eq1 < 0.02, "{} vs {eq1}", f.pressure_mpa);
-    assert!(close(f.flow_ratio, f.l_max_mm / fill.nominal_wall_mm, 1e-12));
+    assert!(
+        (f.pressure_mpa - eq1).abs() / eq1 < 0.02,
+        "{} vs {eq1}",
+        f.pressure_mpa
+    );
+    assert!(close(
+        f.flow_ratio,
+        f.l_max_mm / fill.nominal_wall_mm,
+        1e-12
+    ));
     // Placed at the paper gate's own point, the fill is the paper gate's: the same march.
     let paper = fill.paper.as_ref().unwrap();
     let at = paper.gate;
@@ -185,7 +212,10 @@ fn a_layout_of_the_k_gate_answer_s_points_gives_its_l_max() {
             several.l_max_mm
         );
         for (g, share) in p.gates.iter().zip(&several.gates) {
-            assert!(close(g.volume_share.unwrap(), share.volume_share, 1e-9), "{name}");
+            assert!(
+                close(g.volume_share.unwrap(), share.volume_share, 1e-9),
+                "{name}"
+            );
         }
         // The pictures show the designer's layout.
         assert_eq!(s.placed_gates().len(), k);
@@ -197,17 +227,33 @@ fn two_gates_at_the_quarter_points_of_a_bar_halve_its_flow_length() {
     // A bar 200 x 20 x 4: one gate at the middle reaches the ends at about 100 mm; gates at
     // the quarter points reach about 50 mm, each filling half.
     let bar = block([0.0, 0.0, 0.0], [200.0, 20.0, 4.0]);
-    let one = study(&bar, &options(r#"{ "gate_at": ["100,10,4"], "fill": true }"#)).unwrap();
+    let one = study(
+        &bar,
+        &options(r#"{ "gate_at": ["100,10,4"], "fill": true }"#),
+    )
+    .unwrap();
     let two = study(
         &bar,
         &options(r#"{ "gate_at": ["50,10,4", "150,10,4"], "fill": true }"#),
     )
     .unwrap();
-    let l1 = one.report().placed_gates.as_ref().unwrap().fill.as_ref().unwrap().l_max_mm;
+    let l1 = one
+        .report()
+        .placed_gates
+        .as_ref()
+        .unwrap()
+        .fill
+        .as_ref()
+        .unwrap()
+        .l_max_mm;
     let p2 = two.report().placed_gates.as_ref().unwrap();
     let l2 = p2.fill.as_ref().unwrap().l_max_mm;
     let corner = |dx: f64| (dx * dx + 10.0f64.powi(2) + 4.0f64.powi(2)).sqrt();
-    println!("one gate {l1:.3} (straight {:.3}), two {l2:.3} ({:.3})", corner(100.0), corner(50.0));
+    println!(
+        "one gate {l1:.3} (straight {:.3}), two {l2:.3} ({:.3})",
+        corner(100.0),
+        corner(50.0)
+    );
     assert!((l1 - corner(100.0)).abs() / corner(100.0) < 0.02, "{l1}");
     assert!((l2 - corner(50.0)).abs() / corner(50.0) < 0.02, "{l2}");
     for g in &p2.gates {
@@ -215,5 +261,8 @@ fn two_gates_at_the_quarter_points_of_a_bar_halve_its_flow_length() {
     }
     // Where the two fronts meet, at x = 100, is a weld line.
     let welds = &p2.fill.as_ref().unwrap().weld_lines;
-    assert!(welds.iter().any(|w| (w.point[0] - 100.0).abs() < 3.0), "{welds:?}");
+    assert!(
+        welds.iter().any(|w| (w.point[0] - 100.0).abs() < 3.0),
+        "{welds:?}"
+    );
 }

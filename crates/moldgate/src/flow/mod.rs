@@ -1664,8 +1664,8 @@ pub fn analyse(
     let placed = match options.placed.as_slice() {
         [] => None,
         points => {
-            let (mut fill, fields, shares) = fill_from_all(&domain, points, material)
-                .ok_or_else(|| {
+            let (mut fill, fields, shares) =
+                fill_from_all(&domain, points, material).ok_or_else(|| {
                     let p = points
                         .iter()
                         .find(|&&p| domain.source(p).is_none())

@@ -26,8 +26,8 @@ use crate::math::{DVec2, DVec3};
 use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
-use raster::{rasterise, Layer};
 pub use placed::PLACED_COLOUR;
+use raster::{rasterise, Layer};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -295,7 +295,11 @@ fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
         hi = hi.max(q);
     };
     scene.mesh.vertices.iter().for_each(|&p| grow(p));
-    for g in scene.gates.iter().chain(scene.placed.iter().map(|p| &p.marker)) {
+    for g in scene
+        .gates
+        .iter()
+        .chain(scene.placed.iter().map(|p| &p.marker))
+    {
         grow(g.point + right * g.radius_mm);
         grow(g.point - right * g.radius_mm);
         grow(g.point + up * g.radius_mm);

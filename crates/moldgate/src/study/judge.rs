@@ -187,7 +187,10 @@ fn nearest_point(mesh: &Mesh, p: DVec3) -> Option<(u32, DVec3)> {
 
 /// Judges each snapped gate by the paper's rules with the options of `analysis`.
 pub(crate) fn judge(mesh: &Mesh, analysis: &Analysis, snapped: &[Snapped]) -> PlacedGates {
-    let gates: Vec<PlacedGate> = snapped.iter().map(|s| judge_one(mesh, analysis, s)).collect();
+    let gates: Vec<PlacedGate> = snapped
+        .iter()
+        .map(|s| judge_one(mesh, analysis, s))
+        .collect();
     PlacedGates {
         all_qualify: gates.iter().all(|g| g.qualifies),
         gates,
@@ -289,7 +292,8 @@ impl PlacedGates {
     pub(crate) fn with_fill(mut self, fill: Option<PlacedFill>, reason: Option<&str>) -> Self {
         match fill {
             Some(f) => {
-                for ((g, share), wall) in self.gates.iter_mut().zip(&f.shares).zip(&f.wall_across_mm)
+                for ((g, share), wall) in
+                    self.gates.iter_mut().zip(&f.shares).zip(&f.wall_across_mm)
                 {
                     g.volume_share = Some(share.volume_share);
                     g.l_max_mm = Some(share.l_max_mm);
@@ -309,6 +313,9 @@ impl PlacedGates {
 
     /// The snapped points, in order.
     pub fn points(&self) -> Vec<DVec3> {
-        self.gates.iter().map(|g| DVec3::from_array(g.point)).collect()
+        self.gates
+            .iter()
+            .map(|g| DVec3::from_array(g.point))
+            .collect()
     }
 }

@@ -12,10 +12,10 @@ use crate::error::OptionsError;
 use crate::flow::{ColourBy, FillOptions, FlowOptions, Objective, Strategy};
 use crate::gate::{FlatRule, Nearest, Spacing, ThicknessFallback, ThicknessRule};
 use crate::material::{self, name};
-use crate::report::RadiusSource;
-use crate::study::StudyError;
 use crate::math::DVec3;
 use crate::mesh::MAX_COORDINATE_MM;
+use crate::report::RadiusSource;
+use crate::study::StudyError;
 use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
 
 /// The largest grid accepted, in nodes: the gate location's own limit, so that a study and
