@@ -390,6 +390,9 @@ pub fn render(r: &Report) -> String {
             ms(ft.balanced_s),
             ms(ft.several_s)
         ));
+        if r.placed_gates.is_some() {
+            stages.push(format!("your gates' fill {:.1}", ms(ft.placed_s)));
+        }
     }
     let _ = writeln!(s, "time: {:.1} ms ({})", ms(t.total_s), stages.join(", "));
     moldgate::report::without_negative_zeros(&s, false)
