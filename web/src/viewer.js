@@ -188,7 +188,10 @@ export class Viewer {
     ray.setFromCamera(ndc, this.camera);
     const hit = ray.intersectObject(part, true)[0];
     if (!hit) return null;
-    const p = this.root.worldToLocal(hit.point.clone());
+    // The file's root node, `moldgate`, holds the turn to D up and the scale to metres: in
+    // its frame the point is the part's own, in mm.
+    const frame = this.nodes.get("moldgate") ?? this.root;
+    const p = frame.worldToLocal(hit.point.clone());
     return [p.x, p.y, p.z];
   }
 

@@ -232,8 +232,8 @@ describe("moldgate in the browser", () => {
     assert.equal(await studySample(page, "plate"), "done");
     await page.click("#view-d");
     const box = await page.$eval("#viewport canvas", (e) => e.getBoundingClientRect().toJSON());
-    // Left of the centre, on the plate's top face (the hole is to the right of it, at x = 20).
-    const at = { x: box.width * 0.35, y: box.height * 0.5 };
+    // The middle of the view is the middle of the plate's top face, 20 mm from the hole.
+    const at = { x: box.width * 0.5, y: box.height * 0.5 };
     // A plain click places nothing; a shift-click starts a study with the gate.
     const before = await page.$eval("#app", (e) => e.dataset.run);
     await page.click("#viewport canvas", { position: at });
@@ -244,7 +244,7 @@ describe("moldgate in the browser", () => {
     const expected = cli(["locate", "--sample", "plate", "--fill", "--gate-at", placed[0].asked]);
     const g = expected.placed_gates.gates[0];
     assert.equal(placed[0].qualifies, String(g.qualifies));
-    assert.equal(placed[0].qualifies, "true", "a point of the top face, away from the hole, qualifies");
+    assert.equal(placed[0].qualifies, "true", `a point of the top face, away from the hole, qualifies: ${JSON.stringify(placed[0])}`);
     assert.ok(Number(placed[0].moved) < 1e-6, `moved ${placed[0].moved}`);
     for (const [i, a] of ["x", "y", "z"].entries()) {
       assert.ok(Math.abs(Number(placed[0][a]) - g.point[i]) <= TOLERANCE_MM, `${a}: ${placed[0][a]} against ${g.point[i]}`);
@@ -254,7 +254,7 @@ describe("moldgate in the browser", () => {
     assert.equal(lmax, expected.placed_gates.fill.l_max_mm);
     assert.ok(await page.evaluate(() => document.getElementById("placed-result") !== null));
     // A second shift-click makes a layout of two; clearing them studies the part alone.
-    const right = { x: box.width * 0.5, y: box.height * 0.3 };
+    const right = { x: box.width * 0.5, y: box.height * 0.62 };
     assert.equal(await settled(page, () => page.click("#viewport canvas", { position: right, modifiers: ["Shift"] })), "done");
     assert.equal(await page.$$eval("#placed-list li", (ls) => ls.length), 2);
     assert.equal(await settled(page, () => page.click("#clear-placed")), "done");
