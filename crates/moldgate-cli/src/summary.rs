@@ -430,12 +430,8 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     let _ = writeln!(
         s,
-        "  {:<12} {:<28} {:>8}  {:<22} {}",
-        "gate",
-        "on the surface (mm)",
-        "moved",
-        "wall along D (disc)",
-        "the paper's rules (disc of R_gate)"
+        "  {:<12} {:<28} {:>8}  {:<22} the paper's rules (disc of R_gate)",
+        "gate", "on the surface (mm)", "moved", "wall along D (disc)",
     );
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match (g.failed_rule, &g.why) {

@@ -621,8 +621,16 @@ fn placed_gates_are_named_nodes_standing_along_their_normals() {
     ] {
         let node = g.node(name).unwrap_or_else(|| panic!("no node {name}"));
         let extras = &node["extras"];
-        assert_eq!(extras["normal"], serde_json::json!(normal.to_array()), "{name}");
-        assert_eq!(extras["point_mm"], serde_json::json!(point.to_array()), "{name}");
+        assert_eq!(
+            extras["normal"],
+            serde_json::json!(normal.to_array()),
+            "{name}"
+        );
+        assert_eq!(
+            extras["point_mm"],
+            serde_json::json!(point.to_array()),
+            "{name}"
+        );
         assert_eq!(extras["qualifies"], qualifies, "{name}");
         // The cylinder: every vertex within R of the axis through the point along the
         // normal, between the surface and R/2 above it.
@@ -631,7 +639,10 @@ fn placed_gates_are_named_nodes_standing_along_their_normals() {
             let v = dvec(*q) - point;
             let along = v.dot(normal);
             let off = (v - normal * along).length();
-            assert!(along > -1e-4 && along < 0.5 * r + 1e-4, "{name}: height {along}");
+            assert!(
+                along > -1e-4 && along < 0.5 * r + 1e-4,
+                "{name}: height {along}"
+            );
             assert!(off < r + 1e-4, "{name}: {off}");
         }
     }
@@ -647,6 +658,9 @@ fn placed_gates_are_named_nodes_standing_along_their_normals() {
             let dir = tempfile::tempdir().unwrap();
             validate(&script, dir.path(), "placed", &bytes);
         }
-        Err(why) => skip_or_fail("placed_gates_are_named_nodes_standing_along_their_normals", &why),
+        Err(why) => skip_or_fail(
+            "placed_gates_are_named_nodes_standing_along_their_normals",
+            &why,
+        ),
     }
 }
