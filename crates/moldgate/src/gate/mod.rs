@@ -842,30 +842,66 @@ fn circle_lattices(nodes: &RayLattice, r: f64, k: usize) -> Vec<RayLattice> {
         .collect()
 }
 
-/// The rays of one node at `node_uw` in the projection plane (not necessarily on the grid)
-/// and of its circle, with the options and frame of `analysis`: what [`locate`] casts for
-/// each grid node, for a gate placed anywhere ([`crate::study::judge`]).
+/// The rays of a node at each of `nodes_uw` in the projection plane (not necessarily on the
+/// grid) and of its circle, with the options and frame of `analysis`: what [`locate`] casts
+/// for each grid node, for gates placed anywhere ([`crate::study::judge`]). One pass over
+/// the triangles keeps, for each node, those whose projected box meets its disc's square;
+/// each node's rays are then cast against those alone.
 pub(crate) fn rays_at(
     mesh: &crate::mesh::Mesh,
     analysis: &Analysis,
-    node_uw: DVec2,
-) -> (Hit, NodeVerdict) {
-    let node = RayLattice {
-        origin: node_uw,
-        spacing: analysis.grid.spacing,
-        n_u: 1,
-        n_w: 1,
-    };
+    nodes_uw: &[DVec2],
+) -> Vec<(Hit, NodeVerdict)> {
     let o = &analysis.options;
-    let circles = circle_lattices(&node, o.gate_radius_mm, o.circle_points);
-    let hits = projection::cast(
-        &mesh.vertices,
-        &analysis.frame,
-        &mesh.triangles,
-        &node,
-        &circles,
-    );
-    (hits.nodes[0], judge(0, &hits, analysis.flat_tolerance_mm))
+    let frame = &analysis.frame;
+    let r = o.gate_radius_mm;
+    let n = nodes_uw.len();
+    let lists: Vec<Vec<[u32; 3]>> = mesh
+        .triangles
+        .par_chunks(4096)
+        .map(|chunk| {
+            let mut lists = vec![Vec::new(); n];
+            for &tri in chunk {
+                let [a, b, c] = tri.map(|v| frame.project(mesh.vertices[v as usize]));
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                for (list, q) in lists.iter_mut().zip(nodes_uw) {
+                    // A margin beyond R so that round-off never drops a triangle the rays meet.
+                    let reach = r * (1.0 + 1e-6) + 1e-6 * (1.0 + q.abs().max_element());
+                    if lo.x <= q.x + reach
+                        && hi.x >= q.x - reach
+                        && lo.y <= q.y + reach
+                        && hi.y >= q.y - reach
+                    {
+                        list.push(tri);
+                    }
+                }
+            }
+            lists
+        })
+        .reduce(
+            || vec![Vec::new(); n],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    x.extend(y);
+                }
+                a
+            },
+        );
+    nodes_uw
+        .iter()
+        .zip(&lists)
+        .map(|(&uw, triangles)| {
+            let node = RayLattice {
+                origin: uw,
+                spacing: analysis.grid.spacing,
+                n_u: 1,
+                n_w: 1,
+            };
+            let circles = circle_lattices(&node, r, o.circle_points);
+            let hits = projection::cast(&mesh.vertices, frame, triangles, &node, &circles);
+            (hits.nodes[0], judge(0, &hits, analysis.flat_tolerance_mm))
+        })
+        .collect()
 }
 
 /// What the rays of one node found.

@@ -133,12 +133,17 @@ pub(crate) fn snap_limit_mm(mesh: &Mesh) -> f64 {
 /// Moves each point to the nearest point of the surface, refusing one farther than
 /// [`snap_limit_mm`].
 pub(crate) fn snap(mesh: &Mesh, points: &[DVec3]) -> Result<Vec<Snapped>, StudyError> {
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
     let limit = snap_limit_mm(mesh);
+    let nearest = nearest_points(mesh, points);
     points
         .iter()
+        .zip(nearest)
         .enumerate()
-        .map(|(i, &p)| {
-            let (triangle, point) = nearest_point(mesh, p).ok_or_else(|| StudyError::Invalid {
+        .map(|(i, (&p, nearest))| {
+            let (triangle, point) = nearest.ok_or_else(|| StudyError::Invalid {
                 field: "gate_at",
                 message: "needs a part with triangles".into(),
             })?;
@@ -165,31 +170,79 @@ pub(crate) fn snap(mesh: &Mesh, points: &[DVec3]) -> Result<Vec<Snapped>, StudyE
         .collect()
 }
 
-/// The triangle nearest `p` and the nearest point on it (lowest index on ties), by brute
-/// force over every triangle: exact, and for the few points a designer places cheaper
-/// than building a tree.
-fn nearest_point(mesh: &Mesh, p: DVec3) -> Option<(u32, DVec3)> {
-    (0..mesh.triangles.len())
-        .into_par_iter()
-        .map(|t| {
-            let q = crate::thickness::nearest_on_triangle(mesh.corners(t), p);
-            (q.distance_squared(p), t as u32, q)
+/// For each point, the triangle nearest it and the nearest point on it (lowest index on
+/// ties), `None` without triangles: exact, over every triangle, and for the few points a
+/// designer places cheaper than building a tree. The nearest vertex bounds the distance,
+/// and a triangle whose box lies beyond the bound (or beyond the best so far) is skipped.
+fn nearest_points(mesh: &Mesh, points: &[DVec3]) -> Vec<Option<(u32, DVec3)>> {
+    let bound: Vec<f64> = points
+        .iter()
+        .map(|&p| {
+            let d2 = mesh
+                .vertices
+                .par_iter()
+                .map(|v| v.distance_squared(p))
+                .reduce(|| f64::INFINITY, f64::min);
+            // Room for the round-off of the exact distance computed later.
+            d2 * (1.0 + 1e-9) + 1e-18
         })
-        .reduce_with(|a, b| {
-            if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
-                b
-            } else {
-                a
+        .collect();
+    type Best = Vec<(f64, u32, DVec3)>;
+    let none = || -> Best { vec![(f64::INFINITY, u32::MAX, DVec3::ZERO); points.len()] };
+    const CHUNK: usize = 4096;
+    let best = mesh
+        .triangles
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(chunk, triangles)| {
+            let mut best = none();
+            for j in 0..triangles.len() {
+                let t = chunk * CHUNK + j;
+                let c = mesh.corners(t);
+                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                for ((b, &p), &bound) in best.iter_mut().zip(points).zip(&bound) {
+                    let outside = (lo - p).max(p - hi).max(DVec3::ZERO).length_squared();
+                    if outside > bound || outside > b.0 {
+                        continue;
+                    }
+                    let q = crate::thickness::nearest_on_triangle(c, p);
+                    let d2 = q.distance_squared(p);
+                    // Triangles come in increasing index: `<` keeps the lowest on ties.
+                    if d2 < b.0 {
+                        *b = (d2, t as u32, q);
+                    }
+                }
             }
+            best
         })
-        .map(|(_, t, q)| (t, q))
+        .reduce(none, |a, b| {
+            a.into_iter()
+                .zip(b)
+                .map(|(x, y)| {
+                    if y.0 < x.0 || (y.0 == x.0 && y.1 < x.1) {
+                        y
+                    } else {
+                        x
+                    }
+                })
+                .collect()
+        });
+    best.into_iter()
+        .map(|(_, t, q)| (t != u32::MAX).then_some((t, q)))
+        .collect()
 }
 
 /// Judges each snapped gate by the paper's rules with the options of `analysis`.
 pub(crate) fn judge(mesh: &Mesh, analysis: &Analysis, snapped: &[Snapped]) -> PlacedGates {
+    let nodes: Vec<_> = snapped
+        .iter()
+        .map(|s| analysis.frame.project(s.point))
+        .collect();
+    let rays = crate::gate::rays_at(mesh, analysis, &nodes);
     let gates: Vec<PlacedGate> = snapped
         .iter()
-        .map(|s| judge_one(mesh, analysis, s))
+        .zip(rays)
+        .map(|(s, (hit, v))| judge_one(mesh, analysis, s, hit, v))
         .collect();
     PlacedGates {
         all_qualify: gates.iter().all(|g| g.qualifies),
@@ -200,12 +253,17 @@ pub(crate) fn judge(mesh: &Mesh, analysis: &Analysis, snapped: &[Snapped]) -> Pl
     }
 }
 
-fn judge_one(mesh: &Mesh, analysis: &Analysis, s: &Snapped) -> PlacedGate {
+fn judge_one(
+    mesh: &Mesh,
+    analysis: &Analysis,
+    s: &Snapped,
+    hit: crate::gate::projection::Hit,
+    v: crate::gate::NodeVerdict,
+) -> PlacedGate {
     let o = &analysis.options;
     let frame = &analysis.frame;
     let r = o.gate_radius_mm;
     let p = s.point;
-    let (hit, v) = crate::gate::rays_at(mesh, analysis, frame.project(p));
     // Seen along D: the node's ray meets the part first at the point's height (to the
     // round-off of the part's size).
     let tolerance = 1e-6 * mesh.bounds().diagonal().max(1.0);
