@@ -113,6 +113,8 @@ function studyOptions() {
   o.demold = $("demold").value === "vector" ? vectorOf("demold") : $("demold").value;
   o.cosmetic = $("cosmetic").value === "vector" ? vectorOf("cosmetic") : $("cosmetic").value || null;
   o.keep_out = $("keep_out").value.split("\n").map((s) => s.trim()).filter(Boolean);
+  // JavaScript writes a number so that it reads back to the same double.
+  o.gate_at = placed.map((p) => p.map(String).join(","));
   if ($("material").value === "custom") {
     const m = { name: "custom" };
     for (const f of materialFields) m[f] = number(`m-${f}`);
@@ -128,6 +130,7 @@ function studyOptions() {
 
 let viewer = null;
 let part = null; // {name, bytes} or {sample}
+let placed = []; // the designer's gates, [x, y, z] mm in the part's frame (shift-click)
 let current = null; // the study shown: {report, name}
 let started = 0;
 
@@ -171,7 +174,26 @@ function clearResults(status) {
   $("status").textContent = status;
 }
 
-async function analyse() {
+/** The library's limit of gates a designer places (`gate_at`). */
+const MAX_GATE_AT = 32;
+
+/** A gate placed by shift-click: judged with the others in a new study, the view kept. */
+function placeGate(point) {
+  if (!part || app.dataset.state === "busy") return;
+  if (placed.length >= MAX_GATE_AT) {
+    $("status").textContent = `At most ${placed.length} gates of your own: clear them to place others.`;
+    return;
+  }
+  placed.push(point);
+  analyse({ keepCamera: true });
+}
+
+function clearPlaced() {
+  placed = [];
+  analyse({ keepCamera: true });
+}
+
+async function analyse({ keepCamera = false } = {}) {
   if (!part) return;
   if (app.dataset.state === "busy") cancelStudy();
   startRun();
@@ -189,11 +211,12 @@ async function analyse() {
   try {
     const r = await ask({ type: "study", bytes, request, colouring }, [bytes]);
     const report = JSON.parse(r.report);
-    const extras = await viewer.show(r.glb);
+    const extras = await viewer.show(r.glb, { keepCamera });
     await new Promise(requestAnimationFrame);
     const total = performance.now() - started;
     current = { report, name: part.sample ?? part.name };
     showReport($("result-body"), report, r.times);
+    $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(extras.field);
     $("downloads").hidden = false;
     $("status").textContent = report.gate
@@ -266,6 +289,7 @@ async function download(what) {
 // ---------------------------------------------------------------- choosing a part
 
 async function openFile(file) {
+  placed = [];
   if (!file) return;
   if (info && file.size > info.maxFileBytes) {
     if (app.dataset.state === "busy") cancelStudy();
@@ -283,6 +307,7 @@ async function openFile(file) {
 }
 
 function openSample(name) {
+  placed = [];
   if (!name) return;
   part = { name: `${name} (sample)`, sample: name };
   $("analyse").disabled = false;
@@ -324,6 +349,7 @@ function wire() {
   for (const layer of ["gates", "centre", "parting", "qualifying"]) {
     $(`layer-${layer}`).addEventListener("change", (e) => viewer.setLayer(layer, e.target.checked));
   }
+  viewer.onPick = placeGate;
   viewer.canvas.addEventListener("keydown", (e) => {
     if (e.key === "r" || e.key === "R") viewer.reset();
     if (e.key === "d" || e.key === "D") viewer.viewAlongD();

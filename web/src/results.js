@@ -161,11 +161,43 @@ function timingsSection(r, page) {
   return section("timings-result", "Time", list("timings", rows));
 }
 
+/** The gates the designer placed (shift-click): each one's verdict by the paper's rules and
+ * the wall under it, and with the fill their layout beside the paper and balanced gates. */
+function placedSection(r) {
+  const p = r.placed_gates;
+  const ol = el("ol", { id: "placed-list" });
+  p.gates.forEach((g, i) => {
+    const verdict = g.qualifies ? "qualifies" : `fails: ${g.why}`;
+    ol.append(el("li", {
+      class: "placed-gate", "data-qualifies": g.qualifies, "data-failed-rule": g.failed_rule ?? "",
+      "data-moved": g.moved_mm, "data-asked": g.asked.join(","), ...xyz(g.point),
+    }, `your gate ${i + 1} at ${v3(g.point)} mm (moved ${mm(g.moved_mm)} onto the surface), wall along D ${mm(g.thickness_mm)}: ${verdict}`));
+  });
+  const content = [ol];
+  const f = p.fill;
+  if (f) {
+    const rows = [[p.gates.length === 1 ? "Your gate" : "Your gates together", f, "placed-fill"]];
+    if (r.fill?.paper) rows.push(["Paper gate", r.fill.paper, "placed-paper"]);
+    if (r.fill?.balanced) rows.push(["Balanced gate", r.fill.balanced.fill, "placed-balanced"]);
+    content.push(list("placed-fill-list", rows.map(([name, g, id]) => [
+      name,
+      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${g.pressure_mpa.toFixed(1)} MPa (Eq. 1), fill ${g.fill_time_s.toFixed(3)} s, ${g.weld_lines.length} weld lines`,
+      { id, "data-value": g.l_max_mm },
+    ])));
+  } else if (p.no_fill_reason) {
+    content.push(el("p", {}, `No fill of your gates: ${p.no_fill_reason}.`));
+  }
+  content.push(el("p", { class: "hint" }, "Shift-click the part to place another gate; gates placed together are one layout."));
+  content.push(el("button", { id: "clear-placed", type: "button" }, "Clear your gates"));
+  return section("placed-result", "Your gates", ...content);
+}
+
 /** Fills `container` with the report's results; `page` holds the page's own timings. */
 export function showReport(container, r, page) {
   container.replaceChildren();
   container.append(r.gate ? gateSection(r) : noGateSection(r));
   if (r.fill) container.append(fillSection(r.fill));
+  if (r.placed_gates) container.append(placedSection(r));
   const warnings = el("ul", { id: "warnings" });
   for (const w of r.warnings) warnings.append(el("li", { class: "warning", "data-warning": w }, w));
   if (r.warnings.length) container.append(section("warnings-result", "Warnings", warnings));

@@ -9,6 +9,7 @@ import {
   DirectionalLight,
   HemisphereLight,
   PerspectiveCamera,
+  Raycaster,
   Scene,
   Sphere,
   Sprite,
@@ -67,6 +68,15 @@ export class Viewer {
     this.ringTexture = gateRingTexture();
     this.root = null;
     this.visible = { gates: true, centre: true, parting: true, qualifying: true };
+
+    // Shift-click on the part places a gate of the designer's: `onPick` gets the point in
+    // the part's own frame, mm (the file's root node turns D up and scales to metres).
+    this.onPick = null;
+    this.canvas.addEventListener("click", (e) => {
+      if (!e.shiftKey || !this.onPick) return;
+      const p = this.pick(e.clientX, e.clientY);
+      if (p) this.onPick(p);
+    });
 
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
@@ -162,6 +172,27 @@ export class Viewer {
       }
     }
     for (const r of this.rings) r.visible = this.visible.gates;
+  }
+
+  /** The point of the part under the pixel (client coordinates), in the part's frame in
+   * mm, or null when the pixel shows no part. */
+  pick(clientX, clientY) {
+    const part = this.nodes?.get("part");
+    if (!part || !this.root) return null;
+    const box = this.canvas.getBoundingClientRect();
+    const ndc = {
+      x: ((clientX - box.left) / box.width) * 2 - 1,
+      y: -((clientY - box.top) / box.height) * 2 + 1,
+    };
+    const ray = new Raycaster();
+    ray.setFromCamera(ndc, this.camera);
+    const hit = ray.intersectObject(part, true)[0];
+    if (!hit) return null;
+    // The file's root node, `moldgate`, holds the turn to D up and the scale to metres: in
+    // its frame the point is the part's own, in mm.
+    const frame = this.nodes.get("moldgate") ?? this.root;
+    const p = frame.worldToLocal(hit.point.clone());
+    return [p.x, p.y, p.z];
   }
 
   /** Looks at the whole part from `direction` (in view axes: D is +Y). */

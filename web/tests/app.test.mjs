@@ -6,7 +6,7 @@ import { existsSync, readFileSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { after, before, describe, test } from "node:test";
 
-import { CLI, PARTS, REPO, analyseAgain, cli, openApp, shown, studyFile, studySample, tempDir } from "./harness.mjs";
+import { CLI, PARTS, REPO, analyseAgain, cli, openApp, settled, shown, studyFile, studySample, tempDir } from "./harness.mjs";
 
 const TMP = tempDir();
 
@@ -224,6 +224,42 @@ describe("moldgate in the browser", () => {
     }
     await page.selectOption("#colouring", "0");
     await page.click("#defaults");
+  });
+
+  test("shift-click places a gate of the designer's, judged and filled as the command line does", async () => {
+    await page.selectOption("#demold", "+z");
+    await page.check("#fill");
+    assert.equal(await studySample(page, "plate"), "done");
+    await page.click("#view-d");
+    const box = await page.$eval("#viewport canvas", (e) => e.getBoundingClientRect().toJSON());
+    // The middle of the view is the middle of the plate's top face, 20 mm from the hole.
+    const at = { x: box.width * 0.5, y: box.height * 0.5 };
+    // A plain click places nothing; a shift-click starts a study with the gate.
+    const before = await page.$eval("#app", (e) => e.dataset.run);
+    await page.click("#viewport canvas", { position: at });
+    assert.equal(await page.$eval("#app", (e) => e.dataset.run), before);
+    assert.equal(await settled(page, () => page.click("#viewport canvas", { position: at, modifiers: ["Shift"] })), "done");
+    const placed = await page.$$eval("#placed-list li", (ls) => ls.map((l) => ({ ...l.dataset })));
+    assert.equal(placed.length, 1);
+    const expected = cli(["locate", "--sample", "plate", "--fill", "--gate-at", placed[0].asked]);
+    const g = expected.placed_gates.gates[0];
+    assert.equal(placed[0].qualifies, String(g.qualifies));
+    assert.equal(placed[0].qualifies, "true", `a point of the top face, away from the hole, qualifies: ${JSON.stringify(placed[0])}`);
+    assert.ok(Number(placed[0].moved) < 1e-6, `moved ${placed[0].moved}`);
+    for (const [i, a] of ["x", "y", "z"].entries()) {
+      assert.ok(Math.abs(Number(placed[0][a]) - g.point[i]) <= TOLERANCE_MM, `${a}: ${placed[0][a]} against ${g.point[i]}`);
+    }
+    assert.ok(Math.abs(g.point[2] - 3) < 1e-6, `on the top face: ${g.point}`);
+    const lmax = await page.$eval("#placed-fill", (e) => Number(e.dataset.value));
+    assert.equal(lmax, expected.placed_gates.fill.l_max_mm);
+    assert.ok(await page.evaluate(() => document.getElementById("placed-result") !== null));
+    // A second shift-click makes a layout of two; clearing them studies the part alone.
+    const right = { x: box.width * 0.5, y: box.height * 0.62 };
+    assert.equal(await settled(page, () => page.click("#viewport canvas", { position: right, modifiers: ["Shift"] })), "done");
+    assert.equal(await page.$$eval("#placed-list li", (ls) => ls.length), 2);
+    assert.equal(await settled(page, () => page.click("#clear-placed")), "done");
+    assert.equal(await page.$("#placed-result"), null);
+    await page.uncheck("#fill");
   });
 
   test("the downloads are the command line's report, a PNG and a valid GLB", async () => {

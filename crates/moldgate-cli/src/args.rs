@@ -225,6 +225,11 @@ pub struct LocateArgs {
     /// report min / nominal / max and the value at the gate.
     #[arg(long)]
     pub wall_thickness: bool,
+    /// A gate you place, x,y,z in mm in the part's frame: moved to the nearest surface
+    /// point and judged by the paper's rules (with --fill, its fill beside the paper and
+    /// balanced gates); repeat for a layout of several gates filled together (at most 32).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub gate_at: Vec<String>,
     /// Print the JSON report on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -404,6 +409,7 @@ impl LocateArgs {
             },
             cell: self.cell,
             wall_thickness: self.wall_thickness,
+            gate_at: self.gate_at.clone(),
         }
     }
 }
@@ -481,6 +487,10 @@ mod tests {
             "--cell",
             "0.9",
             "--wall-thickness",
+            "--gate-at",
+            "1,2,3",
+            "--gate-at",
+            "-4,5,6",
         ])
         .unwrap();
         let Command::Locate(a) = cli.command else {
@@ -494,7 +504,7 @@ mod tests {
             "flat_tol": 0.05, "aesthetic": true, "parting_line": "outline", "max_nodes": 1000,
             "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
             "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
-            "wall_thickness": true, "color_by": "wall"
+            "wall_thickness": true, "color_by": "wall", "gate_at": ["1,2,3", "-4,5,6"]
         });
         let from_json: StudyOptions = serde_json::from_value(json).unwrap();
         assert_eq!(a.study_options(), from_json);

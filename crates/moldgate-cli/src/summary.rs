@@ -273,6 +273,9 @@ pub fn render(r: &Report) -> String {
         };
         fill(&mut s, f, label);
     }
+    if let Some(p) = &r.placed_gates {
+        placed_gates(&mut s, r, p, open);
+    }
     if let Some(f) = &r.radius_fit {
         let _ = match (f.radius_mm, &f.gate) {
             (Some(radius), Some(g)) => writeln!(
@@ -387,7 +390,152 @@ pub fn render(r: &Report) -> String {
             ms(ft.balanced_s),
             ms(ft.several_s)
         ));
+        if r.placed_gates.is_some() {
+            stages.push(format!("your gates' fill {:.1}", ms(ft.placed_s)));
+        }
     }
     let _ = writeln!(s, "time: {:.1} ms ({})", ms(t.total_s), stages.join(", "));
     moldgate::report::without_negative_zeros(&s, false)
+}
+
+/// The wall along D at a gate and the smallest under its disc.
+fn wall(at: Option<f64>, disc: Option<f64>, open: bool) -> String {
+    match (at, disc) {
+        (Some(a), Some(d)) => format!("{a:.2} mm ({d:.2} mm)"),
+        _ => mm(at, open),
+    }
+}
+
+/// A rule the designer's gate fails, in a designer's words.
+fn rule_words(rule: moldgate::study::judge::FailedRule) -> &'static str {
+    use moldgate::study::judge::FailedRule as F;
+    match rule {
+        F::NotSeenAlongD => "not reachable from the +D mould half",
+        F::CircleOffPart => "the gate disc runs off the part",
+        F::ThinWall => "the wall under it is thinner than R_gate",
+        F::NotFlat => "not flat under the disc",
+        F::KeptOut => "in a keep-out region",
+        F::Cosmetic => "on the cosmetic side",
+    }
+}
+
+/// The designer's gates: each one's verdict, then the fill of their layout beside the
+/// paper gate's and the balanced gate's (the fill always searches the balanced gate).
+fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGates, open: bool) {
+    let n = p.gates.len();
+    let _ = writeln!(
+        s,
+        "your gates (--gate-at, moved to the nearest surface point; farther than {:.1} mm is refused):",
+        p.snap_limit_mm
+    );
+    let _ = writeln!(
+        s,
+        "  {:<12} {:<28} {:>8}  {:<22} the paper's rules (disc of R_gate)",
+        "gate", "on the surface (mm)", "moved", "wall along D (disc)",
+    );
+    for (i, g) in p.gates.iter().enumerate() {
+        let verdict = match (g.failed_rule, &g.why) {
+            (None, _) => "qualifies".to_string(),
+            (Some(rule), Some(why)) => format!("FAILS: {} ({why})", rule_words(rule)),
+            (Some(rule), None) => format!("FAILS: {}", rule_words(rule)),
+        };
+        let _ = writeln!(
+            s,
+            "  {:<12} {:<28} {:>5.2} mm  {:<22} {verdict}",
+            format!("your gate {}", i + 1),
+            v3(g.point),
+            g.moved_mm,
+            if g.seen_along_d {
+                wall(g.thickness_mm, g.disc_thickness_mm, open)
+            } else {
+                "-".into()
+            },
+        );
+    }
+    if let Some(g) = &r.paper_gate {
+        let _ = writeln!(
+            s,
+            "  {:<12} {:<28} {:>8}  {:<22} qualifies (the method's proposal)",
+            "paper gate",
+            v3(g.point),
+            "",
+            wall(g.thickness_mm, g.disc_thickness_mm, open)
+        );
+    }
+    let Some(fill) = &p.fill else {
+        if let Some(why) = &p.no_fill_reason {
+            let _ = writeln!(s, "  no fill of your gates: {why}");
+        }
+        return;
+    };
+    let _ = writeln!(
+        s,
+        "  {:<30} {:>9} {:>10} {:>16} {:>10} {:>6}  last to fill",
+        if n == 1 {
+            "fill (rules or not)"
+        } else {
+            "fill, one layout (rules or not)"
+        },
+        "L_max",
+        "pressure",
+        "L/t (limit)",
+        "fill time",
+        "welds"
+    );
+    let row = |s: &mut String, label: &str, g: &moldgate::flow::GateFill| {
+        let ratio = match g.flow_ratio_limit {
+            Some(m) if g.exceeds_flow_ratio => format!("{:.0} OVER {m:.0}", g.flow_ratio),
+            Some(m) => format!("{:.0} ({m:.0})", g.flow_ratio),
+            None => format!("{:.0}", g.flow_ratio),
+        };
+        let last = g
+            .last_to_fill
+            .first()
+            .map_or("-".to_string(), |q| v3(q.point));
+        let _ = writeln!(
+            s,
+            "  {label:<30} {:>6.1} mm {:>6.1} MPa {ratio:>16} {:>8.3} s {:>6}  {last}",
+            g.l_max_mm,
+            g.pressure_mpa,
+            g.fill_time_s,
+            g.weld_lines.len()
+        );
+    };
+    row(
+        s,
+        if n == 1 {
+            "your gate"
+        } else {
+            "your gates together"
+        },
+        fill,
+    );
+    if let Some(f) = &r.fill {
+        if let Some(paper) = &f.paper {
+            row(s, "paper gate", paper);
+        }
+        match &f.balanced {
+            Some(b) if b.is_paper_gate => {
+                let _ = writeln!(
+                    s,
+                    "  {:<30} the paper gate (no candidate does better)",
+                    "balanced gate"
+                );
+            }
+            Some(b) => row(s, "balanced gate", &b.fill),
+            None => {}
+        }
+    }
+    if n > 1 {
+        for (i, g) in p.gates.iter().enumerate() {
+            if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
+                let _ = writeln!(
+                    s,
+                    "    your gate {} fills {:.1} % of the volume first, L_max {l:.1} mm in it",
+                    i + 1,
+                    100.0 * share
+                );
+            }
+        }
+    }
 }

@@ -71,6 +71,28 @@ def test_fill_order_and_several_gates():
     assert 0.0 <= np.nanmin(f) < 0.5 and np.nanmax(f) == pytest.approx(1.0)
 
 
+def test_gates_placed_by_the_designer_are_judged_and_filled(cli):
+    plate = moldgate.sample("plate")  # 100 x 60 x 3 with a hole of radius 8 at (20, 0)
+    s = moldgate.study(plate, fill=True, gate_at=[(-30, 0, 5), np.array([20.0, 0.0, 3.0])])
+    p = s.report["placed_gates"]
+    first, second = p["gates"]
+    assert first["asked"] == [-30.0, 0.0, 5.0]
+    assert first["point"] == pytest.approx([-30.0, 0.0, 3.0])
+    assert first["moved_mm"] == pytest.approx(2.0)
+    assert first["qualifies"] and first["thickness_mm"] == pytest.approx(3.0)
+    # The second is over the hole: it snaps to its rim and its disc runs off the part.
+    assert not second["qualifies"] and second["failed_rule"] in ("circle_off_part", "not_seen_along_d")
+    assert p["fill"]["l_max_mm"] > 0
+    assert first["volume_share"] + second["volume_share"] == pytest.approx(1.0)
+    # "x,y,z" text is the same point; the command line gives the same judgement.
+    t = moldgate.study(plate, fill=True, gate_at=["-30,0,5", "20,0,3"])
+    assert t.report["placed_gates"]["gates"] == p["gates"]
+    if cli is not None:
+        r = run_cli(cli, "locate", "--sample", "plate", "--fill", "--gate-at", "-30,0,5",
+                    "--gate-at", "20,0,3", "--json")
+        assert json.loads(r.stdout)["placed_gates"]["gates"] == p["gates"]
+
+
 def test_pictures_and_files():
     s = moldgate.study(moldgate.sample("cap"))
     assert s.png().startswith(b"\x89PNG\r\n\x1a\n")

@@ -79,6 +79,12 @@ def test_an_object_without_arrays():
         ({"n": -0.3}, "n must be a positive finite number, got -0.3"),
         ({"units": "furlong"}, "units: unknown unit 'furlong'"),
         ({"fill": "yes"}, "invalid type: string \"yes\", expected a boolean"),
+        ({"gate_at": [(1, 2)]}, r"gate_at 1 '1.0,2.0': expected x,y,z \(three numbers in mm\), got 2 values"),
+        ({"gate_at": ["a,b,c"]}, "gate_at 1 'a,b,c': x is not a number"),
+        ({"gate_at": [(1, float("nan"), 0)]}, "gate_at 1 '1.0,nan,0.0': y must be a finite number"),
+        ({"gate_at": [(1, 2, float("inf"))]}, "gate_at 1 '1.0,2.0,inf': z must be a finite number"),
+        ({"gate_at": [(0, 0, 3)] * 33}, "gate_at is given 33 times, over the limit of 32 gates"),
+        ({"gate_at": [(0, 0, 300)]}, r"gate_at 1 \(0.000, 0.000, 300.000\) is 297.000 mm from the part's surface"),
     ],
 )
 def test_unknown_option_name_or_value(options, message):

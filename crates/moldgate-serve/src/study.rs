@@ -582,9 +582,12 @@ mod tests {
             ("keep_out", "box:0,0,0,1,1,1"),
             ("gate_radius", "1.5"),
             ("cosmetic", "-z"),
+            ("gate_at", "10,0,5"),
+            ("gate_at", "-3,2,1e1"),
         ]))
         .unwrap();
         let o = study_options(o).unwrap();
+        assert_eq!(o.gate_at, ["10,0,5", "-3,2,1e1"]);
         assert_eq!(o.gates, 2);
         assert!(o.fill);
         assert_eq!(o.demold, "-1,0,0");

@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | `part` | triangles with POSITION, NORMAL and COLOR_0 | white PBR (metallic 0, roughness 0.7), double-sided, times the vertex colours |
 //! | `gate 1`, `gate 2`, … | a short cylinder of radius R (the gate radius, Eq. 8) and height R/2 standing on the surface along the gate normal | red |
+//! | `your gate 1`, `your gate 2`, … | the gates the designer placed (`gate_at`): the same cylinder along the surface normal; the node's `extras` give the point, the normal and whether it qualifies | pink |
 //! | `centre of mass` | an octahedron, half-diagonal max(R, 1 % of the part's diagonal) | magenta |
 //! | `parting line` | LINES | white, unlit |
 //! | `qualifying nodes` | POINTS at the surface points of the nodes that qualify | orange, unlit |
@@ -83,6 +84,7 @@ const MODE_TRIANGLES: u32 = 4;
 enum Look {
     Part,
     Gate,
+    Placed,
     Centre,
     Parting,
     Qualifying,
@@ -95,6 +97,7 @@ impl Look {
         let (name, srgb, unlit) = match self {
             Look::Part => ("part (vertex colours)", [255, 255, 255], false),
             Look::Gate => ("gate", [220, 20, 40], false),
+            Look::Placed => ("your gate", crate::render::PLACED_COLOUR, false),
             Look::Centre => ("centre of mass", [230, 0, 230], false),
             Look::Parting => ("parting line", [255, 255, 255], true),
             Look::Qualifying => ("qualifying nodes", [255, 140, 0], true),
@@ -157,6 +160,8 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         children.push(doc.node(&name, m));
     }
 
+    placed_gate_nodes(&mut doc, scene, &mut children);
+
     let radius = scene
         .gates
         .first()
@@ -207,6 +212,33 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     doc.nodes.push(root);
     let root_index = doc.nodes.len() - 1;
     doc.finish(scene, root_index)
+}
+
+/// A node per gate the designer placed, named `your gate N`: a cylinder like the answer's
+/// gates, with the point, the normal and the verdict in the node's `extras`.
+fn placed_gate_nodes(doc: &mut Document, scene: &Scene, children: &mut Vec<usize>) {
+    for (i, p) in scene.placed.iter().enumerate() {
+        let g = &p.marker;
+        if !(g.point.is_finite() && g.radius_mm.is_finite() && g.radius_mm > 0.0) {
+            continue;
+        }
+        let axis = if g.normal.length_squared() > 0.0 && g.normal.is_finite() {
+            g.normal.normalize()
+        } else {
+            scene.frame.d
+        };
+        let solid = cylinder(g.point, axis, g.radius_mm, 0.5 * g.radius_mm);
+        let name = format!("your gate {}", i + 1);
+        let m = doc.triangles(&name, &solid, Look::Placed);
+        let node = doc.node(&name, m);
+        doc.nodes[node]["extras"] = json!({
+            "point_mm": finite3(g.point),
+            "normal": finite3(axis),
+            "radius_mm": finite(g.radius_mm),
+            "qualifies": p.qualifies,
+        });
+        children.push(node);
+    }
 }
 
 /// The root node's rotation as a quaternion `[x, y, z, w]`: the frame's (u, w, d) to glTF's
@@ -616,6 +648,12 @@ impl Document {
                     "frame_w": finite3(scene.frame.w),
                     "centre_of_mass_mm": finite3(scene.centre),
                     "gates": gates,
+                    "placed_gates": scene.placed.iter().map(|p| json!({
+                        "point_mm": finite3(p.marker.point),
+                        "normal": finite3(p.marker.normal),
+                        "radius_mm": finite(p.marker.radius_mm),
+                        "qualifies": p.qualifies,
+                    })).collect::<Vec<_>>(),
                     "bounds_mm": bounds_json(bounds),
                     "field": {
                         "name": scene.field.name,
@@ -714,6 +752,7 @@ mod tests {
                         per_vertex: vec![],
                     },
                     gates: vec![],
+                    placed: vec![],
                     centre: DVec3::ZERO,
                     parting: vec![],
                     qualifying: vec![],

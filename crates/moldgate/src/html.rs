@@ -147,6 +147,7 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
 
     summary_table(&mut h, r);
     fill_table(&mut h, r);
+    placed_table(&mut h, r);
     counts_table(&mut h, r);
 
     let _ = writeln!(h, "<h2>Warnings</h2>");
@@ -366,6 +367,117 @@ fn counts_table(h: &mut String, r: &Report) {
         );
     }
     let _ = writeln!(h, "</table>");
+}
+
+/// The designer's gates (`gate_at`): each one's verdict by the paper's rules and the wall
+/// under it, then the fill of their layout beside the paper gate's and the balanced gate's.
+fn placed_table(h: &mut String, r: &Report) {
+    let Some(p) = &r.placed_gates else { return };
+    let _ = writeln!(
+        h,
+        "<h2 id=\"placed-gates\">Your gates</h2>\n<p>{} gate{} placed with <code>--gate-at</code>, \
+         each moved to the nearest point of the surface and judged by the paper's rules with a \
+         disc of R = {:.3} mm; {}.</p>",
+        p.gates.len(),
+        if p.gates.len() == 1 { "" } else { "s" },
+        r.options.gate_radius_mm,
+        if p.all_qualify {
+            "every one qualifies"
+        } else {
+            "<b class=\"warn\">some fail a rule</b>"
+        }
+    );
+    let _ = writeln!(
+        h,
+        "<table>\n<tr><th>Gate</th><th>Given (mm)</th><th>On the surface (mm)</th><th>Moved</th>\
+         <th>Wall along D</th><th>Smallest under the disc</th><th>Verdict</th></tr>"
+    );
+    let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2} mm"));
+    for (i, g) in p.gates.iter().enumerate() {
+        let verdict = match &g.why {
+            None => "qualifies".to_string(),
+            Some(why) => format!("<b class=\"warn\">fails</b>: {}", escape(why)),
+        };
+        let _ = writeln!(
+            h,
+            "<tr class=\"placed\" data-qualifies=\"{}\"><th>your gate {}</th><td>{}</td><td>{}</td>\
+             <td class=\"n\">{:.2} mm</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td>{verdict}</td></tr>",
+            g.qualifies,
+            i + 1,
+            v3(g.asked),
+            v3(g.point),
+            g.moved_mm,
+            mm(g.thickness_mm),
+            mm(g.disc_thickness_mm),
+        );
+    }
+    if let Some(g) = &r.paper_gate {
+        let _ = writeln!(
+            h,
+            "<tr><th>paper gate</th><td></td><td>{}</td><td></td><td class=\"n\">{}</td>\
+             <td class=\"n\">{}</td><td>qualifies (the method's proposal)</td></tr>",
+            v3(g.point),
+            mm(g.thickness_mm),
+            mm(g.disc_thickness_mm),
+        );
+    }
+    let _ = writeln!(h, "</table>");
+    let Some(fill) = &p.fill else {
+        if let Some(why) = &p.no_fill_reason {
+            let _ = writeln!(h, "<p>No fill of your gates: {}.</p>", escape(why));
+        }
+        return;
+    };
+    let _ = writeln!(
+        h,
+        "<table>\n<tr><th>Fill from</th><th>Gate (mm)</th><th>L_max</th><th>L/t</th><th>Pressure (Eq. 1)</th>\
+         <th>Fill time</th><th>Wall across</th><th>Last to fill</th><th>Weld lines</th></tr>"
+    );
+    let line = |h: &mut String, label: &str, g: &crate::flow::GateFill| {
+        let last = g
+            .last_to_fill
+            .first()
+            .map_or("none".to_string(), |q| format!("{} mm", v3(q.point)));
+        let _ = writeln!(
+            h,
+            "<tr><th>{}</th>{}<td>{last}</td><td class=\"n\">{}</td></tr>",
+            escape(label),
+            fill_cells(g),
+            g.weld_lines.len()
+        );
+    };
+    line(
+        h,
+        if p.gates.len() == 1 {
+            "your gate"
+        } else {
+            "your gates together (first shown)"
+        },
+        fill,
+    );
+    if let Some(f) = &r.fill {
+        if let Some(paper) = &f.paper {
+            line(h, "paper gate", paper);
+        }
+        if let Some(b) = &f.balanced {
+            line(h, "balanced gate", &b.fill);
+        }
+    }
+    let _ = writeln!(h, "</table>");
+    if p.gates.len() > 1 {
+        let _ = writeln!(h, "<ul>");
+        for (i, g) in p.gates.iter().enumerate() {
+            if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
+                let _ = writeln!(
+                    h,
+                    "<li>your gate {} fills {:.1} % of the volume first, L_max {l:.1} mm in it</li>",
+                    i + 1,
+                    100.0 * share
+                );
+            }
+        }
+        let _ = writeln!(h, "</ul>");
+    }
 }
 
 /// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure,
@@ -648,6 +760,13 @@ flow as short as possible; each fills its share of the volume.</dd>
 where air is trapped and vents go.</dd>
 <dt>Weld lines</dt><dd>Where two melt fronts meet after flowing around an obstacle: a weaker,
 sometimes visible line.</dd>
+<dt>Your gates (<code>--gate-at</code>)</dt><dd>Gates you place yourself. Each point is moved to
+the nearest point of the part's surface (\"moved\" says how far; a point farther than a tenth of
+the part's diagonal is refused) and judged like a grid node: the same rays and the same rules, the
+first rule it fails named. Several are one layout: with the fill analysis they are opened together,
+each filling the places it reaches first.</dd>
+<dt>Seen along D</dt><dd>Whether the ray along D meets the part first at the gate: a gate on a face
+turned away from D, or under another face, cannot be carried by the mould half on the +D side.</dd>
 </dl>";
 
 #[cfg(test)]

@@ -297,6 +297,10 @@ pub struct Report {
     /// (present only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub radius_fit: Option<RadiusFitReport>,
+    /// The gates the designer placed (`gate_at`), judged by the paper's rules and filled
+    /// as one layout (present only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub placed_gates: Option<crate::study::judge::PlacedGates>,
 }
 
 /// The largest gate radius that fits where the paper's thickness rule left no node
@@ -482,6 +486,7 @@ impl Report {
                 probes: f.probes,
                 accepted: f.accepted,
             }),
+            placed_gates: None,
         }
     }
 
@@ -496,7 +501,7 @@ impl Report {
             gate.distance_3d_mm = p.distance(centre);
         }
         let t = &fill.times;
-        let fill_s = t.wall_s + t.voxels_s + t.paper_s + t.balanced_s + t.several_s;
+        let fill_s = t.wall_s + t.voxels_s + t.paper_s + t.balanced_s + t.several_s + t.placed_s;
         self.timings.fill_s = Some(fill_s);
         self.timings.total_s += fill_s;
         self.warnings.extend(fill.warnings.iter().cloned());

@@ -29,6 +29,16 @@ pub struct Marker {
     pub radius_mm: f64,
 }
 
+/// A gate the designer placed (`gate_at`): its disc, and whether it passes the paper's
+/// rules.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedMarker {
+    /// The disc on the surface.
+    pub marker: Marker,
+    /// Whether it qualifies.
+    pub qualifies: bool,
+}
+
 /// Everything a view of one analysis shows.
 #[derive(Debug, Clone)]
 pub struct Scene<'a> {
@@ -40,6 +50,8 @@ pub struct Scene<'a> {
     pub field: Field,
     /// The chosen gate and any further gates (several-gate runs), first is the main one.
     pub gates: Vec<Marker>,
+    /// The gates the designer placed, in the order given (drawn apart from the answer's).
+    pub placed: Vec<PlacedMarker>,
     /// The centre of mass the gate was placed by.
     pub centre: DVec3,
     /// The parting line as polylines of 3D points.
@@ -98,6 +110,7 @@ impl<'a> Scene<'a> {
                 per_vertex,
             },
             gates,
+            placed: Vec::new(),
             centre: analysis.centre,
             parting: analysis.parting.polylines(mesh),
             qualifying: analysis.qualifying_points.clone(),

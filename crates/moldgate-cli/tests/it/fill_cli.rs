@@ -254,3 +254,107 @@ fn color_by_chooses_the_field_of_the_pictures() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn gates_placed_with_gate_at_are_judged_in_every_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (png, glb, html, report) = (path("b.png"), path("b.glb"), path("b.html"), path("b.json"));
+    // The bracket: a base 60 x 40 x 5 and an upright 5 x 40 x 50. One point 2 mm above the
+    // base, one above the upright's top, one beside the upright's face (not seen along +z).
+    let args = [
+        "locate",
+        "--sample",
+        "bracket",
+        "--fill",
+        "--gate-at",
+        "30,20,7",
+        "--gate-at",
+        "2.5,20,52",
+        "--gate-at",
+        "5.5,20,30",
+        "--png",
+        &png,
+        "--glb",
+        &glb,
+        "--report",
+        &html,
+        "-o",
+        &report,
+    ];
+    let out = moldgate(&args);
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{summary}");
+    for needle in [
+        "your gate 1  (30.000, 20.000, 5.000)       2.00 mm  5.00 mm",
+        "your gate 2  (2.500, 20.000, 50.000)       2.00 mm  50.00 mm",
+        "your gate 3  (5.000, 20.000, 30.000)       0.50 mm  -",
+        "FAILS: not reachable from the +D mould half",
+        "your gates together",
+        "balanced gate",
+        "your gate 3 fills",
+    ] {
+        assert!(summary.contains(needle), "{needle}\n{summary}");
+    }
+    let r: Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let p = &r["placed_gates"];
+    assert_eq!(p["gates"].as_array().unwrap().len(), 3);
+    assert_eq!(p["gates"][0]["qualifies"], true);
+    assert_eq!(p["gates"][1]["qualifies"], true);
+    assert_eq!(p["gates"][2]["failed_rule"], "not_seen_along_d");
+    assert_eq!(point(&p["gates"][2]["normal"]), [1.0, 0.0, 0.0]);
+    assert!(p["fill"]["l_max_mm"].as_f64().unwrap() > 0.0);
+    let shares: f64 = (0..3)
+        .map(|i| p["gates"][i]["volume_share"].as_f64().unwrap())
+        .sum();
+    assert!((shares - 1.0).abs() < 1e-9, "{shares}");
+    // The GLB names each placed gate's node; the page has its section.
+    let glb = std::fs::read(&glb).unwrap();
+    let text = String::from_utf8_lossy(&glb);
+    for i in 1..=3 {
+        assert!(
+            text.contains(&format!("\"name\":\"your gate {i}\"")),
+            "node {i}"
+        );
+    }
+    assert!(text.contains("\"placed_gates\""));
+    let html = std::fs::read_to_string(&html).unwrap();
+    assert!(html.contains("<h2 id=\"placed-gates\">Your gates</h2>"));
+    assert_eq!(html.matches("<tr class=\"placed\"").count(), 3);
+    assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+}
+
+#[test]
+fn bad_gate_at_values_name_the_flag() {
+    let base = ["locate", "--sample", "bracket", "--gate-at"];
+    for (value, needle) in [
+        ("1,2", "--gate-at 1 '1,2': expected x,y,z (three numbers in mm), got 2 values"),
+        ("a,b,c", "--gate-at 1 'a,b,c': x is not a number"),
+        ("1,NaN,2", "--gate-at 1 '1,NaN,2': y must be a finite number"),
+        ("1,2,inf", "--gate-at 1 '1,2,inf': z must be a finite number"),
+        ("1,2,3,4", "got 4 values"),
+        (
+            "30,20,500",
+            "--gate-at 1 (30.000, 20.000, 500.000) is 450.694 mm from the part's surface, over the limit of 8.775 mm",
+        ),
+    ] {
+        let mut args = base.to_vec();
+        args.push(value);
+        fails(&args, 2, needle);
+    }
+    // The limit on their number, checked before any work.
+    let mut args = vec!["locate", "--sample", "bracket"];
+    for _ in 0..33 {
+        args.extend(["--gate-at", "30,20,5"]);
+    }
+    fails(
+        &args,
+        2,
+        "--gate-at is given 33 times, over the limit of 32 gates",
+    );
+}

@@ -114,8 +114,28 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not an option value")
 
 
+def _point_text(point: Any) -> Any:
+    """A gate point as the library reads it: ``"x,y,z"`` text, or a sequence of numbers
+    written exactly (``repr``), so that a bad value meets the library's own message."""
+    if isinstance(point, str):
+        return point
+    try:
+        values = list(point.tolist() if hasattr(point, "tolist") else point)
+    except TypeError:
+        return str(point)
+    return ",".join(repr(float(v)) if isinstance(v, (int, float)) else str(v) for v in values)
+
+
 def _options_json(options: Mapping[str, Any]) -> str:
     options = dict(options)
+    gate_at = options.get("gate_at")
+    if gate_at is not None:
+        if isinstance(gate_at, str) or (
+            hasattr(gate_at, "__len__") and len(gate_at) == 3
+            and all(isinstance(v, (int, float)) for v in gate_at)
+        ):
+            gate_at = [gate_at]
+        options["gate_at"] = [_point_text(p) for p in gate_at]
     if isinstance(options.get("keep_out"), str):
         options["keep_out"] = [options["keep_out"]]
     elif options.get("keep_out") is not None and not isinstance(options["keep_out"], list):
@@ -142,7 +162,7 @@ _OPTION_NAMES = (
     "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest",
     "thickness_rule", "require_flat", "flat_tol", "aesthetic", "max_nodes", "keep_out",
     "cosmetic", "fill", "strategy", "objective", "gates", "cell", "wall_thickness",
-    "color_by", "fit_radius", "parting_line",
+    "color_by", "fit_radius", "parting_line", "gate_at",
 )
 
 
@@ -179,6 +199,7 @@ def study(
     color_by: str = "fill_order",
     fit_radius: bool = False,
     parting_line: str = "longest",
+    gate_at: Sequence[Union[str, Sequence[float]]] = (),
     units: str = "mm",
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
@@ -226,6 +247,10 @@ def study(
       ``fill_order`` (the estimated fill time), ``flow_length``, ``wall`` or ``height``.
     - ``fit_radius=False``: when the paper's thickness rule removes every node, take the
       largest gate radius that fits instead of answering with no gate.
+    - ``gate_at=()``: gates you place, each ``(x, y, z)`` in mm in the part's frame (or
+      ``"x,y,z"``), at most 32: each is moved to the nearest surface point and judged by
+      the paper's rules; with ``fill=True`` they are filled together as one layout.
+      ``.report["placed_gates"]`` has the verdicts (docs/json-schema.md).
 
     And for this call:
 

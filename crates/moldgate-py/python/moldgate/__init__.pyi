@@ -108,6 +108,7 @@ def study(
     color_by: str = "fill_order",
     fit_radius: bool = False,
     parting_line: str = "longest",
+    gate_at: Sequence[Union[str, Sequence[float]]] = (),
     units: str = "mm",
     materials_file: Optional[_Path] = None,
     step_tolerance_mm: Optional[float] = None,

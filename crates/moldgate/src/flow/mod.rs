@@ -516,16 +516,35 @@ pub fn fill_from(
     point: DVec3,
     material: &Material,
 ) -> Option<(GateFill, GateFields)> {
-    let src = domain.source(point)?;
+    fill_from_all(domain, &[point], material).map(|(fill, fields, _)| (fill, fields))
+}
+
+/// Analyses the fill from several gates open together (one layout): the fronts of every
+/// gate are marched at once, so each place is reached from its nearest gate along the flow.
+/// The [`GateFill`] is the layout's (its `gate`, `body` and `wall_across_mm` are the first
+/// gate's); the [`GateShare`]s give each gate's share of the reached volume and its largest
+/// flow length inside it (`candidate` is the gate's index in `points`). `None` when `points`
+/// is empty or a point has no solid cell near it.
+pub fn fill_from_all(
+    domain: &Domain,
+    points: &[DVec3],
+    material: &Material,
+) -> Option<(GateFill, GateFields, Vec<GateShare>)> {
+    let sources: Vec<Source> = points
+        .iter()
+        .map(|&p| domain.source(p))
+        .collect::<Option<_>>()?;
+    let src = *sources.first()?;
     let (length, (fill, pressure)) = rayon::join(
-        || march(&domain.voxels, &[src], None),
+        || march(&domain.voxels, &sources, None),
         || {
             rayon::join(
-                || march(&domain.voxels, &[src], Some(&domain.fill_cost)),
-                || march(&domain.voxels, &[src], Some(&domain.pressure_cost)),
+                || march(&domain.voxels, &sources, Some(&domain.fill_cost)),
+                || march(&domain.voxels, &sources, Some(&domain.pressure_cost)),
             )
         },
     );
+    let point = points[0];
     let v = &domain.voxels;
     let reached: Vec<u32> = (0..v.len() as u32)
         .filter(|&c| length.t[c as usize].is_finite())
@@ -565,7 +584,32 @@ pub fn fill_from(
         last_to_fill: last_to_fill(v, &fill.t, &length.t, per_mm, 5),
         weld_lines: weld_lines(v, &length.t),
     };
-    Some((gate_fill, GateFields { length, fill }))
+    let shares = shares_of(&length, points);
+    Some((gate_fill, GateFields { length, fill }, shares))
+}
+
+/// Each source's share of the cells a multi-source field reaches, and its largest value
+/// inside that share.
+fn shares_of(field: &Field, points: &[DVec3]) -> Vec<GateShare> {
+    let mut count = vec![0usize; points.len()];
+    let mut l_max = vec![0.0f64; points.len()];
+    for (&s, &t) in field.source.iter().zip(&field.t) {
+        if let Some(g) = count.get_mut(s as usize) {
+            *g += 1;
+            l_max[s as usize] = l_max[s as usize].max(t);
+        }
+    }
+    let reached = count.iter().sum::<usize>().max(1);
+    points
+        .iter()
+        .enumerate()
+        .map(|(g, p)| GateShare {
+            candidate: g,
+            point: p.to_array(),
+            volume_share: count[g] as f64 / reached as f64,
+            l_max_mm: l_max[g],
+        })
+        .collect()
 }
 
 /// The cell with the largest finite value and that value (lowest cell on ties).
@@ -1164,6 +1208,8 @@ pub struct FlowTimes {
     pub balanced_s: f64,
     /// Several gates.
     pub several_s: f64,
+    /// The designer's gates (`gate_at`).
+    pub placed_s: f64,
 }
 
 /// Timer helper.
@@ -1196,6 +1242,20 @@ pub struct FillOptions {
     /// What pictures of the fill are coloured by (read by the front ends through
     /// [`FillAnalysis::field`]; default the fill time).
     pub colour_by: ColourBy,
+    /// Gates placed by the designer (surface points, mm), filled together as one layout
+    /// ([`FillAnalysis::placed`]); when given, the pictured field is theirs. Default none.
+    pub placed: Vec<DVec3>,
+}
+
+/// The fill from the gates the designer placed, open together.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlacedFill {
+    /// The layout's fill: L_max, Eq. 1 pressure, L/t, last places to fill, weld lines.
+    pub fill: GateFill,
+    /// Each gate's share of the reached volume and its L_max inside it, in the order given.
+    pub shares: Vec<GateShare>,
+    /// Wall across the surface at each gate, mm (as [`GateFill::wall_across_mm`]).
+    pub wall_across_mm: Vec<f64>,
 }
 
 /// The balanced gate and its fill.
@@ -1254,6 +1314,10 @@ pub struct FillAnalysis {
     pub balanced: Option<BalancedFill>,
     /// Several gates, when more than one was asked for.
     pub several: Option<MultiGate>,
+    /// The fill from the designer's gates ([`FillOptions::placed`]); the report shows it
+    /// beside the judgement of those gates, not here.
+    #[serde(skip)]
+    pub placed: Option<PlacedFill>,
     /// Warnings of the fill analysis.
     pub warnings: Vec<String>,
     /// Seconds per stage.
@@ -1662,9 +1726,44 @@ pub fn analyse(
     };
     times.several_s = seconds(t);
 
+    let t = Instant::now();
+    let placed = match options.placed.as_slice() {
+        [] => None,
+        points => {
+            let (mut fill, fields, shares) =
+                fill_from_all(&domain, points, material).ok_or_else(|| {
+                    let p = points
+                        .iter()
+                        .find(|&&p| domain.source(p).is_none())
+                        .unwrap_or(&points[0]);
+                    FillError::GateOffPart(p.x, p.y, p.z)
+                })?;
+            snap_places(&domain, mesh, &mut fill);
+            let wall_across_mm = points
+                .iter()
+                .filter_map(|&p| domain.source(p))
+                .map(|s| domain.wall_mm[s.cell as usize] as f64)
+                .collect();
+            Some((
+                PlacedFill {
+                    fill,
+                    shares,
+                    wall_across_mm,
+                },
+                fields,
+            ))
+        }
+    };
+    times.placed_s = seconds(t);
+
     let (answer, fields) = match (&options.strategy, &balanced) {
         (Strategy::Balanced, Some((b, Some(f)))) => (DVec3::from_array(b.fill.gate), f),
         _ => (gate, &paper_fields),
+    };
+    // The designer's gates, when placed, are what the pictures show.
+    let (fields, several_pictured) = match &placed {
+        Some((_, f)) => (f, None),
+        None => (fields, several.as_ref()),
     };
     let answer_body = domain.source(answer).map(|s| domain.body[s.cell as usize]);
     let body_gates = if domain.bodies > 1 {
@@ -1677,7 +1776,7 @@ pub fn analyse(
     // With several gates the pictured flow length or fill time is that of all of them
     // together: one more march from every gate at once.
     let all_gates = |cost: Option<&[f32]>| {
-        several.as_ref().map(|m| {
+        several_pictured.map(|m| {
             let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
             march(&domain.voxels, &sources, cost)
         })
@@ -1716,6 +1815,7 @@ pub fn analyse(
         paper: Some(paper),
         balanced,
         several,
+        placed: placed.map(|(p, _)| p),
         warnings,
         times,
         per_vertex,

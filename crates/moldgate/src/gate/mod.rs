@@ -628,15 +628,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         n_u: grid.n_u,
         n_w: grid.n_w,
     };
-    let circle_lattices: Vec<RayLattice> = (0..k)
-        .map(|i| {
-            let theta = std::f64::consts::TAU * i as f64 / k as f64;
-            RayLattice {
-                origin: node_lattice.origin + DVec2::new(theta.cos(), theta.sin()) * r,
-                ..node_lattice
-            }
-        })
-        .collect();
+    let circle_lattices = circle_lattices(&node_lattice, r, k);
     times.grid_s = t.elapsed().as_secs_f64();
 
     // The rays need neither the centre of mass nor the parting line: the two run side by
@@ -836,13 +828,93 @@ fn check_ray_tests(
     })
 }
 
+/// For each of the `k` circle points, the node lattice shifted by
+/// R (cos theta_k, sin theta_k) (Eq. 6).
+fn circle_lattices(nodes: &RayLattice, r: f64, k: usize) -> Vec<RayLattice> {
+    (0..k)
+        .map(|i| {
+            let theta = std::f64::consts::TAU * i as f64 / k as f64;
+            RayLattice {
+                origin: nodes.origin + DVec2::new(theta.cos(), theta.sin()) * r,
+                ..*nodes
+            }
+        })
+        .collect()
+}
+
+/// The rays of a node at each of `nodes_uw` in the projection plane (not necessarily on the
+/// grid) and of its circle, with the options and frame of `analysis`: what [`locate`] casts
+/// for each grid node, for gates placed anywhere ([`crate::study::judge`]). One pass over
+/// the triangles keeps, for each node, those whose projected box meets its disc's square;
+/// each node's rays are then cast against those alone.
+pub(crate) fn rays_at(
+    mesh: &crate::mesh::Mesh,
+    analysis: &Analysis,
+    nodes_uw: &[DVec2],
+) -> Vec<(Hit, NodeVerdict)> {
+    let o = &analysis.options;
+    let frame = &analysis.frame;
+    let r = o.gate_radius_mm;
+    let n = nodes_uw.len();
+    let lists: Vec<Vec<[u32; 3]>> = mesh
+        .triangles
+        .par_chunks(4096)
+        .map(|chunk| {
+            let mut lists = vec![Vec::new(); n];
+            for &tri in chunk {
+                let [a, b, c] = tri.map(|v| frame.project(mesh.vertices[v as usize]));
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                for (list, q) in lists.iter_mut().zip(nodes_uw) {
+                    // A margin beyond R so that round-off never drops a triangle the rays meet.
+                    let reach = r * (1.0 + 1e-6) + 1e-6 * (1.0 + q.abs().max_element());
+                    if lo.x <= q.x + reach
+                        && hi.x >= q.x - reach
+                        && lo.y <= q.y + reach
+                        && hi.y >= q.y - reach
+                    {
+                        list.push(tri);
+                    }
+                }
+            }
+            lists
+        })
+        .reduce(
+            || vec![Vec::new(); n],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    x.extend(y);
+                }
+                a
+            },
+        );
+    nodes_uw
+        .iter()
+        .zip(&lists)
+        .map(|(&uw, triangles)| {
+            let node = RayLattice {
+                origin: uw,
+                spacing: analysis.grid.spacing,
+                n_u: 1,
+                n_w: 1,
+            };
+            let circles = circle_lattices(&node, r, o.circle_points);
+            let hits = projection::cast(&mesh.vertices, frame, triangles, &node, &circles);
+            (hits.nodes[0], judge(0, &hits, analysis.flat_tolerance_mm))
+        })
+        .collect()
+}
+
 /// What the rays of one node found.
 #[derive(Debug, Clone, Copy)]
-struct NodeVerdict {
-    centre_hit: bool,
-    circle_on_part: bool,
-    disc_thickness: Option<f64>,
-    flat: bool,
+pub(crate) struct NodeVerdict {
+    /// The node's own ray meets the part.
+    pub(crate) centre_hit: bool,
+    /// It and every circle ray meet the part.
+    pub(crate) circle_on_part: bool,
+    /// The smallest wall along D under the node and its circle.
+    pub(crate) disc_thickness: Option<f64>,
+    /// Every circle point within the flatness tolerance of the node's height.
+    pub(crate) flat: bool,
 }
 
 fn judge(i: usize, hits: &Projection, flat_tol: f64) -> NodeVerdict {

@@ -20,12 +20,14 @@
 //! ```
 
 mod canvas;
+mod placed;
 mod raster;
 
 use crate::math::{DVec2, DVec3};
 use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
+pub use placed::PLACED_COLOUR;
 use raster::{rasterise, Layer};
 pub use raster::{Camera, PixelRect};
 
@@ -300,7 +302,11 @@ fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
         hi = hi.max(q);
     };
     scene.mesh.vertices.iter().for_each(|&p| grow(p));
-    for g in &scene.gates {
+    for g in scene
+        .gates
+        .iter()
+        .chain(scene.placed.iter().map(|p| &p.marker))
+    {
         grow(g.point + right * g.radius_mm);
         grow(g.point - right * g.radius_mm);
         grow(g.point + up * g.radius_mm);
@@ -493,6 +499,8 @@ fn draw_overlays(
             Align::Left,
         );
     }
+
+    placed::draw_placed(canvas, scene, view, k);
 
     draw_scale_bar(canvas, view, k);
     draw_axes(canvas, scene, view, k);
@@ -923,6 +931,19 @@ fn draw_side_bar(
         c.stroke_circle(sx, cy, r, WHITE, 2.5 * k);
         c.fill_circle(sx, cy, r, GATE_COLOUR);
     });
+    if !scene.placed.is_empty() {
+        item(
+            canvas,
+            &mut y,
+            "your gate (--gate-at): disc outline; diamond filled if it qualifies",
+            &|c, cy| {
+                let r = 9.0 * k;
+                c.stroke_circle(sx, cy, r, BLACK, 5.0 * k);
+                c.stroke_circle(sx, cy, r, PLACED_COLOUR, 3.0 * k);
+                placed::draw_diamond(c, sx, cy, 5.0 * k, true, k);
+            },
+        );
+    }
     item(canvas, &mut y, "centre of mass", &|c, cy| {
         draw_centre_symbol(c, sx, cy, 12.0 * k, k);
     });
@@ -1017,6 +1038,18 @@ mod tests {
                 .sum();
             assert!(d > 150.0, "{e:?}");
         }
+    }
+
+    #[test]
+    fn the_placed_gate_colour_is_not_in_the_colour_map_nor_the_gate_colour() {
+        let lut = Lut::viridis();
+        let far = |a: [f32; 3], b: [u8; 3]| -> f32 {
+            a.iter().zip(b).map(|(a, b)| (a - b as f32).abs()).sum()
+        };
+        for e in lut.0 {
+            assert!(far(e, PLACED_COLOUR) > 150.0, "{e:?}");
+        }
+        assert!(far(GATE_COLOUR.map(f32::from), PLACED_COLOUR) > 150.0);
     }
 
     #[test]

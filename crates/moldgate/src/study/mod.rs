@@ -20,6 +20,7 @@
 //! validated once. [`study_with`] runs validated settings with [`Hooks`]: a progress
 //! observer and a cancellation flag checked between stages.
 
+pub mod judge;
 mod options;
 mod run;
 
@@ -27,7 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 pub use options::{
     CentreChoice, ColorByChoice, Demold, MaterialChoice, NearestChoice, ObjectiveChoice, Settings,
-    StrategyChoice, StudyOptions, ThicknessChoice, MAX_NODES_LIMIT,
+    StrategyChoice, StudyOptions, ThicknessChoice, MAX_GATE_AT, MAX_NODES_LIMIT,
 };
 pub use run::{GateMarker, Study};
 

@@ -12,6 +12,8 @@ use crate::error::OptionsError;
 use crate::flow::{ColourBy, FillOptions, FlowOptions, Objective, Strategy};
 use crate::gate::{FlatRule, Nearest, Spacing, ThicknessFallback, ThicknessRule};
 use crate::material::{self, name};
+use crate::math::DVec3;
+use crate::mesh::MAX_COORDINATE_MM;
 use crate::report::RadiusSource;
 use crate::study::StudyError;
 use crate::{CentreKind, Direction, GateMode, LocateOptions, Material};
@@ -197,6 +199,11 @@ pub struct StudyOptions {
     pub cell: Option<f64>,
     /// Also measure the wall thickness everywhere. Default false.
     pub wall_thickness: bool,
+    /// Gates the designer places, each `"x,y,z"` in mm in the part's frame (at most
+    /// [`MAX_GATE_AT`]): each is moved to the nearest point of the surface and judged by the
+    /// paper's rules; with the fill, they are filled together as one layout
+    /// ([`crate::study::judge`]). Default none.
+    pub gate_at: Vec<String>,
 }
 
 impl Default for StudyOptions {
@@ -232,6 +239,7 @@ impl Default for StudyOptions {
             color_by: ColorByChoice::FillOrder,
             cell: None,
             wall_thickness: false,
+            gate_at: Vec::new(),
         }
     }
 }
@@ -262,7 +270,13 @@ pub struct Settings {
     pub wall_thickness: bool,
     /// The fill analysis, when asked for.
     pub fill: Option<FillOptions>,
+    /// The designer's gates as given (`gate_at`), before they are moved onto the surface.
+    pub gate_at: Vec<DVec3>,
 }
+
+/// The most gates a designer may place (`gate_at`): as many as a several-gate layout
+/// may have ([`FlowOptions::max_gates`]'s default).
+pub const MAX_GATE_AT: usize = 32;
 
 /// How many names an unknown material is answered with.
 const SUGGESTIONS: usize = 3;
@@ -301,6 +315,34 @@ fn lookup(query: &str, user: &[Material]) -> Result<Material, StudyError> {
             .map(String::from)
             .collect(),
     })
+}
+
+/// A point `"x,y,z"` in mm: three finite numbers within [`MAX_COORDINATE_MM`].
+fn read_point(text: &str) -> Result<DVec3, String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!(
+            "expected x,y,z (three numbers in mm), got {} value{}",
+            parts.len(),
+            if parts.len() == 1 { "" } else { "s" }
+        ));
+    }
+    let mut p = [0.0; 3];
+    for (axis, (v, part)) in ["x", "y", "z"].iter().zip(p.iter_mut().zip(&parts)) {
+        let x: f64 = part
+            .parse()
+            .map_err(|_| format!("{axis} is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("{axis} must be a finite number"));
+        }
+        if x.abs() > MAX_COORDINATE_MM {
+            return Err(format!(
+                "{axis} is beyond the coordinate limit of {MAX_COORDINATE_MM:e} mm"
+            ));
+        }
+        *v = x;
+    }
+    Ok(DVec3::from_array(p))
 }
 
 fn invalid(field: &'static str, message: impl Into<String>) -> StudyError {
@@ -347,6 +389,7 @@ impl StudyOptions {
                 why: "the balanced gate is a grid node chosen by the fill, the aesthetic gate the point of the parting line nearest the centre of mass; choose one",
             });
         }
+        let gate_at = self.gate_at()?;
         let material = self.material(user)?;
         let demold = if self.auto_demold() {
             Demold::Auto
@@ -451,7 +494,37 @@ impl StudyOptions {
             demold,
             wall_thickness: self.wall_thickness,
             fill: self.fill_options()?,
+            gate_at,
         })
+    }
+
+    /// The designer's gates read from `"x,y,z"` (mm), their number checked first.
+    fn gate_at(&self) -> Result<Vec<DVec3>, StudyError> {
+        if self.gate_at.len() > MAX_GATE_AT {
+            return Err(invalid(
+                "gate_at",
+                format!(
+                    "is given {} times, over the limit of {MAX_GATE_AT} gates",
+                    self.gate_at.len()
+                ),
+            ));
+        }
+        self.gate_at
+            .iter()
+            .enumerate()
+            .map(|(i, text)| {
+                read_point(text).map_err(|why| {
+                    invalid(
+                        "gate_at",
+                        format!(
+                            "{} '{}': {why}",
+                            i + 1,
+                            crate::error::excerpt(text.as_bytes())
+                        ),
+                    )
+                })
+            })
+            .collect()
     }
 
     /// The material: a user material or a built-in by name, or given in full, then the
@@ -522,6 +595,8 @@ impl StudyOptions {
                 ColorByChoice::Wall => ColourBy::Wall,
                 ColorByChoice::Height => ColourBy::Height,
             },
+            // Set per part, once the designer's gates are on its surface.
+            placed: Vec::new(),
         }))
     }
 }
@@ -743,12 +818,54 @@ color_by = "flow_length"
                 "cosmetic: the demolding direction must be",
             ),
             (r#"{ "n": -1 }"#, "n must be a positive finite number"),
+            (
+                r#"{ "gate_at": ["1,2"] }"#,
+                "gate_at 1 '1,2': expected x,y,z (three numbers in mm), got 2 values",
+            ),
+            (
+                r#"{ "gate_at": ["0,0,0", "a,b,c"] }"#,
+                "gate_at 2 'a,b,c': x is not a number",
+            ),
+            (
+                r#"{ "gate_at": ["1,NaN,0"] }"#,
+                "gate_at 1 '1,NaN,0': y must be a finite number",
+            ),
+            (
+                r#"{ "gate_at": ["1,2,inf"] }"#,
+                "gate_at 1 '1,2,inf': z must be a finite number",
+            ),
+            (
+                r#"{ "gate_at": ["1,2,3e12"] }"#,
+                "gate_at 1 '1,2,3e12': z is beyond the coordinate limit",
+            ),
         ];
         for (json, message) in cases {
             let o: StudyOptions = serde_json::from_str(json).unwrap();
             let e = o.validate().unwrap_err().to_string();
             assert!(e.starts_with(message) || e.contains(message), "{json}: {e}");
         }
+    }
+
+    #[test]
+    fn gates_placed_are_read_and_their_number_is_bounded() {
+        let o: StudyOptions =
+            serde_json::from_str(r#"{ "gate_at": ["1,2,3", " -4.5 , 0 ,1e1 "] }"#).unwrap();
+        let s = o.validate().unwrap();
+        assert_eq!(
+            s.gate_at,
+            vec![DVec3::new(1.0, 2.0, 3.0), DVec3::new(-4.5, 0.0, 10.0)]
+        );
+        let o = StudyOptions {
+            gate_at: vec!["0,0,0".into(); MAX_GATE_AT + 1],
+            ..StudyOptions::default()
+        };
+        let e = o.validate().unwrap_err().to_string();
+        assert_eq!(e, "gate_at is given 33 times, over the limit of 32 gates");
+        let o = StudyOptions {
+            gate_at: vec!["0,0,0".into(); MAX_GATE_AT],
+            ..StudyOptions::default()
+        };
+        assert_eq!(o.validate().unwrap().gate_at.len(), MAX_GATE_AT);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use crate::clock::Instant;
 
-use crate::flow::{self, FillAnalysis, FillError, Strategy};
+use crate::flow::{self, FillAnalysis, FillError, FillOptions, Strategy};
 use crate::gate::{Analysis, ChosenGate};
 use crate::math::DVec3;
 use crate::mesh::LoadedMesh;
@@ -10,7 +10,7 @@ use crate::raycast::{Bvh, Sampling};
 use crate::render::RenderOptions;
 use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
-use crate::study::{Demold, Hooks, Settings, Stage, StudyError};
+use crate::study::{judge, Demold, Hooks, Settings, Stage, StudyError};
 use crate::thickness::{wall_thickness_with, ThicknessOptions, WallThickness};
 use crate::undercut::auto_direction_checked;
 
@@ -35,6 +35,8 @@ pub struct Study {
     /// What the fill's pictures are coloured by, when the fill ran.
     colour_by: Option<flow::ColourBy>,
     gates: Vec<GateMarker>,
+    /// The designer's gates on the surface (`gate_at`).
+    placed: Vec<GateMarker>,
     subtitle: String,
     material_name: String,
     size: (usize, usize),
@@ -59,6 +61,9 @@ fn fraction(stage: Stage) -> f64 {
 pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Study, StudyError> {
     let mesh = &part.mesh;
     let enter = |stage: Stage| hooks.enter(stage, fraction(stage));
+    // The designer's gates onto the surface first: a point far from the part is refused
+    // before any other work.
+    let snapped = judge::snap(mesh, &s.gate_at)?;
     // One ray-casting tree serves the wall thickness and the fill analysis (for its flow
     // resistance); the automatic direction draws its rays without one.
     let auto_demold = s.demold == Demold::Auto;
@@ -128,8 +133,13 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         }
         _ => None,
     };
+    let placed = (!snapped.is_empty()).then(|| judge::judge(mesh, &analysis, &snapped));
     let fill = match &s.fill {
         Some(o) if analysis.gate().is_ok() => {
+            let o = &FillOptions {
+                placed: snapped.iter().map(|g| g.point).collect(),
+                ..o.clone()
+            };
             enter(Stage::Fill)?;
             let walls = match (&wall, &bvh) {
                 (Some((w, _)), _) if w.nominal_mm.is_some() => {
@@ -145,6 +155,14 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         }
         _ => None,
     };
+    let placed = placed.map(|p| match (&s.fill, fill.as_ref()) {
+        (Some(_), Some(f)) => p.with_fill(f.placed.clone(), None),
+        (Some(_), None) => p.with_fill(
+            None,
+            Some("the fill analysis starts from the method's gate, and this part has none"),
+        ),
+        (None, _) => p,
+    });
     enter(Stage::Report)?;
     let input = Input {
         path: None,
@@ -188,6 +206,16 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         bvh => bvh,
     };
     let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
+    let placed_markers = placed.as_ref().map_or(Vec::new(), |p| {
+        p.gates
+            .iter()
+            .map(|g| GateMarker {
+                point: DVec3::from_array(g.point),
+                normal: DVec3::from_array(g.normal),
+            })
+            .collect()
+    });
+    report.placed_gates = placed;
     let wall_per_vertex = wall.as_ref().map(|(w, _)| w.per_vertex(mesh));
     if let Some(p) = hooks.progress {
         p(crate::study::Progress {
@@ -202,6 +230,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         wall_per_vertex,
         colour_by,
         gates,
+        placed: placed_markers,
         subtitle,
         material_name: s.material.name.clone(),
         size: (mesh.vertices.len(), mesh.triangles.len()),
@@ -329,7 +358,12 @@ impl Study {
     /// per mesh vertex, NaN where the melt does not reach; `None` without the fill or when
     /// the pictures show the height along D.
     pub fn fill_field(&self) -> Option<Field> {
-        self.fill()?.field(self.colour_by?)
+        let mut field = self.fill()?.field(self.colour_by?)?;
+        // With the designer's gates placed, the field is theirs (see `FillOptions::placed`).
+        if self.fill()?.placed.is_some() && field.name != "wall thickness" {
+            field.name = format!("{} from your gates", field.name);
+        }
+        Some(field)
     }
 
     /// Estimated fill time per mesh vertex, s (NaN where the melt does not reach; with
@@ -372,6 +406,12 @@ impl Study {
         &self.gates
     }
 
+    /// The gates the designer placed (`gate_at`), moved onto the surface, in the order
+    /// given; their judgement is the report's `placed_gates`.
+    pub fn placed_gates(&self) -> &[GateMarker] {
+        &self.placed
+    }
+
     fn check_part(&self, part: &LoadedMesh) -> Result<(), StudyError> {
         let (vertices, triangles) = self.size;
         if part.mesh.vertices.len() == vertices && part.mesh.triangles.len() == triangles {
@@ -406,6 +446,19 @@ impl Study {
                 point: g.point,
                 normal: g.normal,
                 radius_mm: r,
+            })
+            .collect();
+        scene.placed = self
+            .placed
+            .iter()
+            .zip(self.report.placed_gates.iter().flat_map(|p| &p.gates))
+            .map(|(g, judged)| crate::scene::PlacedMarker {
+                marker: Marker {
+                    point: g.point,
+                    normal: g.normal,
+                    radius_mm: r,
+                },
+                qualifies: judged.qualifies,
             })
             .collect();
         scene.subtitle = self.subtitle.clone();

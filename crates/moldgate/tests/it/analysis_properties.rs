@@ -216,6 +216,7 @@ fn analyse(mesh: Mesh, d: DVec3, c: &Choices) -> Result<(Vec<String>, usize), Te
             },
             gates: c.gates,
             colour_by: Default::default(),
+            placed: Vec::new(),
         };
         let bvh = Bvh::new(&part.mesh);
         let walls = if c.measure_walls {

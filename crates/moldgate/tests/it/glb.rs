@@ -328,6 +328,7 @@ fn cube_has_sharp_edges() {
         frame,
         field,
         gates: vec![],
+        placed: vec![],
         centre: DVec3::splat(5.0),
         parting: vec![],
         qualifying: vec![],
@@ -392,6 +393,7 @@ fn empty_scene(mesh: &Mesh) -> Scene<'_> {
         frame: Frame::new(Direction::PLUS_Z),
         field: empty_field(),
         gates: vec![],
+        placed: vec![],
         centre: DVec3::ZERO,
         parting: vec![],
         qualifying: vec![],
@@ -600,4 +602,65 @@ fn skip_or_fail_shared(path: &Path) {
     let why = format!("{} not found (set MOLDGATE_PARTS)", path.display());
     eprintln!("khronos_validator_accepts_our_files: shared part skipped: {why}");
     println!("khronos_validator_accepts_our_files: shared part skipped: {why}");
+}
+
+#[test]
+fn placed_gates_are_named_nodes_standing_along_their_normals() {
+    // The bracket: a point above the base's top (normal +z) and one beside the upright's
+    // face (normal +x, not seen along D: it fails, and is still shown).
+    let part = sample("bracket");
+    let options: moldgate::StudyOptions =
+        serde_json::from_str(r#"{ "gate_at": ["30,20,7", "5.5,20,30"] }"#).unwrap();
+    let s = moldgate::study(&part, &options).unwrap();
+    let bytes = s.glb(&part, "bracket").unwrap();
+    let g = read_glb(&bytes);
+    let r = s.analysis().options.gate_radius_mm;
+    for (name, point, normal, qualifies) in [
+        ("your gate 1", DVec3::new(30.0, 20.0, 5.0), DVec3::Z, true),
+        ("your gate 2", DVec3::new(5.0, 20.0, 30.0), DVec3::X, false),
+    ] {
+        let node = g.node(name).unwrap_or_else(|| panic!("no node {name}"));
+        let extras = &node["extras"];
+        assert_eq!(
+            extras["normal"],
+            serde_json::json!(normal.to_array()),
+            "{name}"
+        );
+        assert_eq!(
+            extras["point_mm"],
+            serde_json::json!(point.to_array()),
+            "{name}"
+        );
+        assert_eq!(extras["qualifies"], qualifies, "{name}");
+        // The cylinder: every vertex within R of the axis through the point along the
+        // normal, between the surface and R/2 above it.
+        let p = g.vec3(g.attribute(g.primitive(name), "POSITION"));
+        for q in &p {
+            let v = dvec(*q) - point;
+            let along = v.dot(normal);
+            let off = (v - normal * along).length();
+            assert!(
+                along > -1e-4 && along < 0.5 * r + 1e-4,
+                "{name}: height {along}"
+            );
+            assert!(off < r + 1e-4, "{name}: {off}");
+        }
+    }
+    assert_eq!(
+        g.json["asset"]["extras"]["placed_gates"]
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+    match validator() {
+        Ok(script) => {
+            let dir = tempfile::tempdir().unwrap();
+            validate(&script, dir.path(), "placed", &bytes);
+        }
+        Err(why) => skip_or_fail(
+            "placed_gates_are_named_nodes_standing_along_their_normals",
+            &why,
+        ),
+    }
 }

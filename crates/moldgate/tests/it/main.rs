@@ -10,6 +10,7 @@ mod fuzz_regressions;
 mod glb;
 mod hostile_input;
 mod obj_ply_reading;
+mod placed_gates;
 mod render;
 mod shared_geometry;
 mod shared_parts;

@@ -1,0 +1,379 @@
+//! Gates the designer places (`gate_at`), judged as the method judges its own proposals.
+//!
+//! **Snap.** Each point is moved to the nearest point of the part's surface, over every
+//! triangle (exact: the foot on the triangle's plane when it falls inside, else the
+//! nearest point of its edges; ties go to the lowest triangle index). Any face may take
+//! it: the snap is *not* restricted to the faces seen along D. Whether the snapped point
+//! is seen along D (the ray of the paper's projection through it meets the part first
+//! there, so the mould half on the +D side can carry the gate) is reported, and a point
+//! that is not seen fails the first rule. The distance moved is reported; a point farther
+//! than [`SNAP_LIMIT_OF_DIAGONAL`] of the diagonal of the part's box is refused before
+//! any other work, with the distance and the limit.
+//!
+//! **Rules.** The snapped point is a node of its own: the same rays as a grid node (its
+//! own and the Eq. 6 circle of radius R_gate, the Eq. 7-8 radius or the forced one), the
+//! same rules in the same order ([`crate::locate`]'s): the circle on the part, the wall
+//! along D under the disc thicker than R_gate (when the thickness rule is in force), flat
+//! (when required), the keep-out regions, the cosmetic side. The first that fails is
+//! named ([`FailedRule`]). The wall under it is the paper gate's: `thickness_mm` along D
+//! at the point and `disc_thickness_mm` the smallest under the disc.
+//!
+//! **Fill.** With the fill analysis, the gates are one layout: their fronts are marched
+//! together ([`crate::flow::fill_from_all`], the march of the balanced and several gates),
+//! giving L_max, the Eq. 1 pressure, L/t against the material's limit, the last places to
+//! fill and the weld lines of the layout, and each gate's share.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::flow::{GateFill, PlacedFill};
+use crate::gate::{Analysis, FlatRule, ThicknessRule};
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+use crate::study::StudyError;
+
+/// A placed point farther from the surface than this share of the diagonal of the part's
+/// box is refused: it is most likely in other units or another frame.
+pub const SNAP_LIMIT_OF_DIAGONAL: f64 = 0.1;
+
+/// A point moved onto the surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Snapped {
+    /// As given, mm.
+    pub(crate) asked: DVec3,
+    /// The nearest point of the surface, mm.
+    pub(crate) point: DVec3,
+    /// Its triangle.
+    pub(crate) triangle: u32,
+}
+
+/// The first of the paper's rules that a placed gate fails, in the order [`crate::locate`]
+/// applies them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FailedRule {
+    /// The point is not where the ray along D first meets the part: it lies on a face
+    /// turned away from D, or another face lies above it, so the +D mould half cannot
+    /// carry a gate there.
+    NotSeenAlongD,
+    /// Some point of the Eq. 6 circle of radius R_gate is off the part.
+    CircleOffPart,
+    /// The wall along D under the disc is not thicker than R_gate.
+    ThinWall,
+    /// The circle is not flat within the tolerance (only with `require_flat`).
+    NotFlat,
+    /// The disc reaches into a keep-out region.
+    KeptOut,
+    /// The point lies on a face turned towards the cosmetic side.
+    Cosmetic,
+}
+
+/// One gate the designer placed, and the paper's verdict on it.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlacedGate {
+    /// The point as given, mm.
+    pub asked: [f64; 3],
+    /// The nearest point of the surface, where the gate is judged, mm.
+    pub point: [f64; 3],
+    /// How far the point moved to reach the surface, mm.
+    pub moved_mm: f64,
+    /// Outward unit normal of the surface there.
+    pub normal: [f64; 3],
+    /// The triangle it lies on.
+    pub triangle: u32,
+    /// Whether the ray along D meets the part first at this point (see [`FailedRule`]).
+    pub seen_along_d: bool,
+    /// Whether it passes every rule in force, as a qualifying grid node does.
+    pub qualifies: bool,
+    /// The first rule it fails, or `null`.
+    pub failed_rule: Option<FailedRule>,
+    /// The failure in words, with the numbers, or `null`.
+    pub why: Option<String>,
+    /// Wall thickness along D at the point, mm (`null` where the ray never leaves the
+    /// solid, or when the point is not seen along D), as the paper gate's `thickness_mm`.
+    pub thickness_mm: Option<f64>,
+    /// Smallest wall thickness along D under the disc, mm, as the paper gate's
+    /// `disc_thickness_mm`.
+    pub disc_thickness_mm: Option<f64>,
+    /// The circle lies within the flatness tolerance.
+    pub flat: bool,
+    /// 3D distance to the centre of mass, mm.
+    pub distance_3d_mm: f64,
+    /// With the fill: the share of the reached volume this gate fills first.
+    pub volume_share: Option<f64>,
+    /// With the fill: the largest flow length inside its share, mm.
+    pub l_max_mm: Option<f64>,
+    /// With the fill: the wall across the surface at the gate, mm (the fill's
+    /// `wall_across_mm`).
+    pub wall_across_mm: Option<f64>,
+}
+
+/// The designer's gates, judged, and their fill as one layout.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlacedGates {
+    /// The gates in the order given.
+    pub gates: Vec<PlacedGate>,
+    /// Whether every gate qualifies.
+    pub all_qualify: bool,
+    /// How far a point may be from the surface, mm ([`SNAP_LIMIT_OF_DIAGONAL`] of the
+    /// diagonal of the part's box).
+    pub snap_limit_mm: f64,
+    /// The fill of the layout, all gates open together (`gate` is the first gate's point),
+    /// when the fill analysis ran.
+    pub fill: Option<GateFill>,
+    /// Why there is no fill, when there is none.
+    pub no_fill_reason: Option<String>,
+}
+
+/// The distance beyond which a point is refused for `mesh`.
+pub(crate) fn snap_limit_mm(mesh: &Mesh) -> f64 {
+    SNAP_LIMIT_OF_DIAGONAL * mesh.bounds().diagonal()
+}
+
+/// Moves each point to the nearest point of the surface, refusing one farther than
+/// [`snap_limit_mm`].
+pub(crate) fn snap(mesh: &Mesh, points: &[DVec3]) -> Result<Vec<Snapped>, StudyError> {
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let limit = snap_limit_mm(mesh);
+    let nearest = nearest_points(mesh, points);
+    points
+        .iter()
+        .zip(nearest)
+        .enumerate()
+        .map(|(i, (&p, nearest))| {
+            let (triangle, point) = nearest.ok_or_else(|| StudyError::Invalid {
+                field: "gate_at",
+                message: "needs a part with triangles".into(),
+            })?;
+            let moved = point.distance(p);
+            if moved > limit {
+                return Err(StudyError::Invalid {
+                    field: "gate_at",
+                    message: format!(
+                        "{} ({:.3}, {:.3}, {:.3}) is {moved:.3} mm from the part's surface, over the limit of {limit:.3} mm ({} % of the diagonal of the part's box); give the point in mm in the part's frame",
+                        i + 1,
+                        p.x,
+                        p.y,
+                        p.z,
+                        100.0 * SNAP_LIMIT_OF_DIAGONAL
+                    ),
+                });
+            }
+            Ok(Snapped {
+                asked: p,
+                point,
+                triangle,
+            })
+        })
+        .collect()
+}
+
+/// For each point, the triangle nearest it and the nearest point on it (lowest index on
+/// ties), `None` without triangles: exact, over every triangle, and for the few points a
+/// designer places cheaper than building a tree. The nearest vertex bounds the distance,
+/// and a triangle whose box lies beyond the bound (or beyond the best so far) is skipped.
+fn nearest_points(mesh: &Mesh, points: &[DVec3]) -> Vec<Option<(u32, DVec3)>> {
+    let bound: Vec<f64> = points
+        .iter()
+        .map(|&p| {
+            let d2 = mesh
+                .vertices
+                .par_iter()
+                .map(|v| v.distance_squared(p))
+                .reduce(|| f64::INFINITY, f64::min);
+            // Room for the round-off of the exact distance computed later.
+            d2 * (1.0 + 1e-9) + 1e-18
+        })
+        .collect();
+    type Best = Vec<(f64, u32, DVec3)>;
+    let none = || -> Best { vec![(f64::INFINITY, u32::MAX, DVec3::ZERO); points.len()] };
+    const CHUNK: usize = 4096;
+    let best = mesh
+        .triangles
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(chunk, triangles)| {
+            let mut best = none();
+            for j in 0..triangles.len() {
+                let t = chunk * CHUNK + j;
+                let c = mesh.corners(t);
+                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                for ((b, &p), &bound) in best.iter_mut().zip(points).zip(&bound) {
+                    let outside = (lo - p).max(p - hi).max(DVec3::ZERO).length_squared();
+                    if outside > bound || outside > b.0 {
+                        continue;
+                    }
+                    let q = crate::thickness::nearest_on_triangle(c, p);
+                    let d2 = q.distance_squared(p);
+                    // Triangles come in increasing index: `<` keeps the lowest on ties.
+                    if d2 < b.0 {
+                        *b = (d2, t as u32, q);
+                    }
+                }
+            }
+            best
+        })
+        .reduce(none, |a, b| {
+            a.into_iter()
+                .zip(b)
+                .map(|(x, y)| {
+                    if y.0 < x.0 || (y.0 == x.0 && y.1 < x.1) {
+                        y
+                    } else {
+                        x
+                    }
+                })
+                .collect()
+        });
+    best.into_iter()
+        .map(|(_, t, q)| (t != u32::MAX).then_some((t, q)))
+        .collect()
+}
+
+/// Judges each snapped gate by the paper's rules with the options of `analysis`.
+pub(crate) fn judge(mesh: &Mesh, analysis: &Analysis, snapped: &[Snapped]) -> PlacedGates {
+    let nodes: Vec<_> = snapped
+        .iter()
+        .map(|s| analysis.frame.project(s.point))
+        .collect();
+    let rays = crate::gate::rays_at(mesh, analysis, &nodes);
+    let gates: Vec<PlacedGate> = snapped
+        .iter()
+        .zip(rays)
+        .map(|(s, (hit, v))| judge_one(mesh, analysis, s, hit, v))
+        .collect();
+    PlacedGates {
+        all_qualify: gates.iter().all(|g| g.qualifies),
+        gates,
+        snap_limit_mm: snap_limit_mm(mesh),
+        fill: None,
+        no_fill_reason: Some("the fill analysis was not asked for (--fill)".into()),
+    }
+}
+
+fn judge_one(
+    mesh: &Mesh,
+    analysis: &Analysis,
+    s: &Snapped,
+    hit: crate::gate::projection::Hit,
+    v: crate::gate::NodeVerdict,
+) -> PlacedGate {
+    let o = &analysis.options;
+    let frame = &analysis.frame;
+    let r = o.gate_radius_mm;
+    let p = s.point;
+    // Seen along D: the node's ray meets the part first at the point's height (to the
+    // round-off of the part's size).
+    let tolerance = 1e-6 * mesh.bounds().diagonal().max(1.0);
+    let seen = hit.is_hit() && (hit.first - frame.height(p)).abs() <= tolerance;
+    let mut normal = mesh.normal(s.triangle as usize);
+    // As for the paper gate: a face seen along D whose normal points away from D is wound
+    // inside out.
+    if seen && normal.dot(frame.d) < 0.0 {
+        normal = -normal;
+    }
+    let thickness = |t: Option<f64>| t.map_or("unknown".to_string(), |t| format!("{t:.3} mm"));
+    let failed: Option<(FailedRule, String)> = if !seen {
+        Some((
+            FailedRule::NotSeenAlongD,
+            if hit.is_hit() && hit.first > frame.height(p) {
+                format!(
+                    "not seen along D: the part lies {:.3} mm above it along D, so the mould half on the +D side cannot reach it",
+                    hit.first - frame.height(p)
+                )
+            } else {
+                "not seen along D: the point is on the outline or a face turned away from D, so the mould half on the +D side cannot reach it".to_string()
+            },
+        ))
+    } else if !v.circle_on_part {
+        Some((
+            FailedRule::CircleOffPart,
+            format!("its circle of radius {r:.3} mm is not wholly on the part"),
+        ))
+    } else if o.thickness_rule == ThicknessRule::Require && v.disc_thickness.is_some_and(|t| t <= r)
+    {
+        Some((
+            FailedRule::ThinWall,
+            format!(
+                "the wall along D under its disc is {}, not thicker than R_gate = {r:.3} mm",
+                thickness(v.disc_thickness)
+            ),
+        ))
+    } else if o.flat_rule == FlatRule::Require && !v.flat {
+        Some((
+            FailedRule::NotFlat,
+            format!(
+                "its circle is not flat within {:.3} mm along D",
+                analysis.flat_tolerance_mm
+            ),
+        ))
+    } else if o.keep_out.iter().any(|k| k.touches(p, r)) {
+        Some((
+            FailedRule::KeptOut,
+            format!("its disc of radius {r:.3} mm reaches into a keep-out region"),
+        ))
+    } else if o
+        .cosmetic
+        .is_some_and(|c| normal.dot(c.vector()) > crate::keepout::COSMETIC_COS)
+    {
+        Some((
+            FailedRule::Cosmetic,
+            "it lies on a face turned towards the cosmetic side".to_string(),
+        ))
+    } else {
+        None
+    };
+    PlacedGate {
+        asked: s.asked.to_array(),
+        point: p.to_array(),
+        moved_mm: p.distance(s.asked),
+        normal: normal.to_array(),
+        triangle: s.triangle,
+        seen_along_d: seen,
+        qualifies: failed.is_none(),
+        failed_rule: failed.as_ref().map(|f| f.0),
+        why: failed.map(|f| f.1),
+        thickness_mm: if seen { hit.thickness() } else { None },
+        disc_thickness_mm: if seen { v.disc_thickness } else { None },
+        flat: seen && v.flat,
+        distance_3d_mm: p.distance(analysis.centre),
+        volume_share: None,
+        l_max_mm: None,
+        wall_across_mm: None,
+    }
+}
+
+impl PlacedGates {
+    /// Adds the fill of the layout (`None`: the fill did not run, for `reason`).
+    pub(crate) fn with_fill(mut self, fill: Option<PlacedFill>, reason: Option<&str>) -> Self {
+        match fill {
+            Some(f) => {
+                for ((g, share), wall) in
+                    self.gates.iter_mut().zip(&f.shares).zip(&f.wall_across_mm)
+                {
+                    g.volume_share = Some(share.volume_share);
+                    g.l_max_mm = Some(share.l_max_mm);
+                    g.wall_across_mm = Some(*wall);
+                }
+                self.fill = Some(f.fill);
+                self.no_fill_reason = None;
+            }
+            None => {
+                if let Some(r) = reason {
+                    self.no_fill_reason = Some(r.to_string());
+                }
+            }
+        }
+        self
+    }
+
+    /// The snapped points, in order.
+    pub fn points(&self) -> Vec<DVec3> {
+        self.gates
+            .iter()
+            .map(|g| DVec3::from_array(g.point))
+            .collect()
+    }
+}
