@@ -214,6 +214,11 @@ pub struct LocateArgs {
     /// report min / nominal / max and the value at the gate.
     #[arg(long)]
     pub wall_thickness: bool,
+    /// Also score every qualifying node as a gate (the gate-suitability map: L_max, or the
+    /// chosen objective, of a gate at each node, exact or bounded; implies --fill). The
+    /// pictures then show the map.
+    #[arg(long)]
+    pub suitability: bool,
     /// Print the JSON report on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -381,6 +386,7 @@ impl LocateArgs {
             },
             cell: self.cell,
             wall_thickness: self.wall_thickness,
+            suitability: self.suitability,
         }
     }
 }
@@ -456,6 +462,7 @@ mod tests {
             "--cell",
             "0.9",
             "--wall-thickness",
+            "--suitability",
         ])
         .unwrap();
         let Command::Locate(a) = cli.command else {
@@ -469,7 +476,7 @@ mod tests {
             "flat_tol": 0.05, "aesthetic": true, "max_nodes": 1000,
             "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
             "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
-            "wall_thickness": true, "color_by": "wall"
+            "wall_thickness": true, "color_by": "wall", "suitability": true
         });
         let from_json: StudyOptions = serde_json::from_value(json).unwrap();
         assert_eq!(a.study_options(), from_json);

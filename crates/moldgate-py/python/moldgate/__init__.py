@@ -34,6 +34,7 @@ from ._moldgate import (
     OptionsError,
     Part,
     Study,
+    Suitability,
     __version__,
     sample,
 )
@@ -46,6 +47,7 @@ __all__ = [
     "OptionsError",
     "Part",
     "Study",
+    "Suitability",
     "batch_row",
     "check_options",
     "default_options",
@@ -142,7 +144,7 @@ _OPTION_NAMES = (
     "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest",
     "thickness_rule", "require_flat", "flat_tol", "aesthetic", "max_nodes", "keep_out",
     "cosmetic", "fill", "strategy", "objective", "gates", "cell", "wall_thickness",
-    "color_by", "fit_radius",
+    "color_by", "fit_radius", "suitability",
 )
 
 
@@ -178,6 +180,7 @@ def study(
     wall_thickness: bool = False,
     color_by: str = "fill_order",
     fit_radius: bool = False,
+    suitability: bool = False,
     units: str = "mm",
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
@@ -223,6 +226,9 @@ def study(
       ``fill_order`` (the estimated fill time), ``flow_length``, ``wall`` or ``height``.
     - ``fit_radius=False``: when the paper's thickness rule removes every node, take the
       largest gate radius that fits instead of answering with no gate.
+    - ``suitability=False``: score every qualifying node as a gate (the gate-suitability
+      map: the objective of the balanced gate at each node, exact or a lower bound; implies
+      ``fill``); read it as :attr:`Study.suitability`, and the pictures show it.
 
     And for this call:
 

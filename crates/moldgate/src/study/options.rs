@@ -193,6 +193,9 @@ pub struct StudyOptions {
     pub cell: Option<f64>,
     /// Also measure the wall thickness everywhere. Default false.
     pub wall_thickness: bool,
+    /// Score every qualifying node as a gate (the gate-suitability map: the objective of
+    /// the balanced gate at each node, exact or bounded). Default false; implies `fill`.
+    pub suitability: bool,
 }
 
 impl Default for StudyOptions {
@@ -227,6 +230,7 @@ impl Default for StudyOptions {
             color_by: ColorByChoice::FillOrder,
             cell: None,
             wall_thickness: false,
+            suitability: false,
         }
     }
 }
@@ -496,7 +500,10 @@ impl StudyOptions {
         if let Some(h) = self.cell {
             positive("cell", h)?;
         }
-        let wanted = self.fill || self.strategy == StrategyChoice::Balanced || self.gates > 1;
+        let wanted = self.fill
+            || self.strategy == StrategyChoice::Balanced
+            || self.gates > 1
+            || self.suitability;
         if !wanted {
             return Ok(None);
         }
@@ -517,6 +524,7 @@ impl StudyOptions {
                 ColorByChoice::Wall => ColourBy::Wall,
                 ColorByChoice::Height => ColourBy::Height,
             },
+            suitability: self.suitability,
         }))
     }
 }
