@@ -905,7 +905,7 @@ fn draw_side_bar(
         canvas.text(
             x,
             y + 12.0 * k,
-            "lower is a better gate (dark blue best)",
+            "lower is better (dark blue)",
             &label,
             Align::Left,
         );
