@@ -99,6 +99,7 @@ pub fn analyse(data: &[u8]) {
             gates: 1 + usize::from((fill >> 2) % 3),
             colour_by: Default::default(),
             placed: Vec::new(),
+            suitability: false,
         };
         let bvh = Bvh::new(&part.mesh);
         let walls = if fill & 32 == 0 {

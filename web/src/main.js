@@ -62,7 +62,7 @@ function cancelStudy() {
 
 // ---------------------------------------------------------------- the options
 
-const optionIds = ["units", "demold", "strategy", "objective", "gates", "thickness_rule", "fill", "wall_thickness", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
+const optionIds = ["units", "demold", "strategy", "objective", "gates", "thickness_rule", "fill", "wall_thickness", "suitability", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
 const materialFields = ["n", "t_melt", "t_wall", "gamma_opt", "mu_opt", "k", "max_flow_ratio"];
 
 function setDefaults() {
@@ -106,7 +106,7 @@ function vectorOf(prefix) {
 function studyOptions() {
   const o = {};
   for (const id of ["strategy", "objective", "thickness_rule", "centre", "nearest"]) o[id] = $(id).value;
-  for (const id of ["fill", "wall_thickness", "aesthetic", "require_flat"]) o[id] = $(id).checked;
+  for (const id of ["fill", "wall_thickness", "suitability", "aesthetic", "require_flat"]) o[id] = $(id).checked;
   for (const id of ["gate_radius", "spacing", "flat_tol", "cell"]) o[id] = number(id);
   o.grid_offset = number("grid_offset") ?? 0;
   for (const id of ["gates", "circle_points", "max_nodes"]) o[id] = number(id) ?? info.defaults[id];
@@ -218,6 +218,7 @@ async function analyse({ keepCamera = false } = {}) {
     showReport($("result-body"), report, r.times);
     $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(extras.field);
+    showColourBar(extras.suitability ?? extras.field);
     $("downloads").hidden = false;
     $("status").textContent = report.gate
       ? `Gate found for ${part.name} in ${(total / 1000).toFixed(2)} s.`
@@ -258,7 +259,8 @@ async function recolour() {
   setState("busy");
   try {
     const r = await ask({ type: "glb", colouring: Number($("colouring").value) });
-    showColourBar((await viewer.show(r.glb, { keepCamera: true })).field);
+    const extras = await viewer.show(r.glb, { keepCamera: true });
+    showColourBar(extras.suitability ?? extras.field);
     $("error").hidden = true;
   } catch (e) {
     if (e.cancelled) return;

@@ -262,6 +262,22 @@ describe("moldgate in the browser", () => {
     await page.uncheck("#fill");
   });
 
+  test("the gate-suitability map is the command line's and the 3D view shows it", async () => {
+    await page.selectOption("#demold", "+z");
+    await page.check("#suitability");
+    assert.equal(await studySample(page, "cap"), "done");
+    const expected = cli(["locate", "--sample", "cap", "--suitability"]);
+    const map = expected.fill.suitability;
+    const shownMap = await page.$eval("#suitability", (e) => ({ nodes: Number(e.dataset.nodes), exact: Number(e.dataset.exact), best: Number(e.dataset.best) }));
+    assert.equal(shownMap.nodes, map.nodes.length);
+    assert.equal(shownMap.exact, map.exact);
+    assert.equal(shownMap.best, map.nodes[map.best].score);
+    // The colour bar is the map's, spanning its scores.
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("gate suitability"));
+    await page.uncheck("#suitability");
+    await page.click("#defaults");
+  });
+
   test("the downloads are the command line's report, a PNG and a valid GLB", async () => {
     await page.selectOption("#demold", "-z");
     assert.equal(await studySample(page, "cover"), "done");

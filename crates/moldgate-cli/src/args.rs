@@ -230,6 +230,11 @@ pub struct LocateArgs {
     /// balanced gates); repeat for a layout of several gates filled together (at most 32).
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub gate_at: Vec<String>,
+    /// Also score every qualifying node as a gate (the gate-suitability map: L_max, or the
+    /// chosen objective, of a gate at each node, exact or bounded; implies --fill). The
+    /// pictures then show the map.
+    #[arg(long)]
+    pub suitability: bool,
     /// Print the JSON report on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -410,6 +415,7 @@ impl LocateArgs {
             cell: self.cell,
             wall_thickness: self.wall_thickness,
             gate_at: self.gate_at.clone(),
+            suitability: self.suitability,
         }
     }
 }
@@ -491,6 +497,7 @@ mod tests {
             "1,2,3",
             "--gate-at",
             "-4,5,6",
+            "--suitability",
         ])
         .unwrap();
         let Command::Locate(a) = cli.command else {
@@ -504,7 +511,8 @@ mod tests {
             "flat_tol": 0.05, "aesthetic": true, "parting_line": "outline", "max_nodes": 1000,
             "keep_out": ["sphere:0,0,0,1"], "cosmetic": "+z", "fill": true,
             "strategy": "paper", "objective": "resistance", "gates": 3, "cell": 0.9,
-            "wall_thickness": true, "color_by": "wall", "gate_at": ["1,2,3", "-4,5,6"]
+            "wall_thickness": true, "color_by": "wall", "gate_at": ["1,2,3", "-4,5,6"],
+            "suitability": true
         });
         let from_json: StudyOptions = serde_json::from_value(json).unwrap();
         assert_eq!(a.study_options(), from_json);

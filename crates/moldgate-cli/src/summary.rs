@@ -122,6 +122,37 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             );
         }
     }
+    if let Some(m) = &f.suitability {
+        let (what, digits) = match m.objective {
+            moldgate::flow::Objective::Length => ("L_max", 1),
+            moldgate::flow::Objective::Resistance => ("fill time", 3),
+        };
+        let (lo, hi) = m
+            .nodes
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), n| {
+                (a.min(n.score), b.max(n.score))
+            });
+        if let Some(best) = m.best.map(|b| &m.nodes[b]) {
+            let _ = writeln!(
+                s,
+                "  gate suitability: {} nodes scored by the {what} of a gate there, {lo:.digits$} to {hi:.digits$} {} (lower is better); best {} at {:.digits$} {}",
+                m.nodes.len(),
+                m.unit,
+                v3(best.point),
+                best.score,
+                m.unit
+            );
+            let _ = writeln!(
+                s,
+                "    {} exact, the others lower bounds within {} of their upper bounds ({} marches)",
+                m.exact,
+                m.max_gap_pct
+                    .map_or("unbounded".to_string(), |g| format!("{g:.1} %")),
+                m.runs
+            );
+        }
+    }
     if let Some(m) = &f.several {
         let _ = writeln!(
             s,
@@ -392,6 +423,11 @@ pub fn render(r: &Report) -> String {
         ));
         if r.placed_gates.is_some() {
             stages.push(format!("your gates' fill {:.1}", ms(ft.placed_s)));
+        }
+        if let Some(x) = ft.suitability_s {
+            if let Some(last) = stages.last_mut() {
+                last.push_str(&format!(", suitability map {:.1}", ms(x)));
+            }
         }
     }
     let _ = writeln!(s, "time: {:.1} ms ({})", ms(t.total_s), stages.join(", "));

@@ -106,6 +106,7 @@ fn _moldgate(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<part::Part>()?;
     m.add_class::<study::Study>()?;
     m.add_class::<study::Gate>()?;
+    m.add_class::<study::Suitability>()?;
     m.add_function(wrap_pyfunction!(part::load, m)?)?;
     m.add_function(wrap_pyfunction!(part::sample, m)?)?;
     m.add_function(wrap_pyfunction!(part::check_units, m)?)?;

@@ -300,6 +300,41 @@ impl Gate {
     }
 }
 
+/// The gate-suitability map of a study (`suitability=True`): per qualifying node on the
+/// voxelised part, its point and its score (the objective of a gate there, lower is
+/// better), exact or a lower bound with its upper bound.
+#[pyclass(frozen, get_all, module = "moldgate")]
+pub struct Suitability {
+    /// Surface points of the scored nodes, (k, 3) float64, mm.
+    points: Py<PyArray2<f64>>,
+    /// Their scores, (k,) float64, in `unit`.
+    scores: Py<PyArray1<f64>>,
+    /// Upper bounds of the scores, (k,) float64 (equal to the score where exact; NaN where
+    /// unbounded).
+    upper: Py<PyArray1<f64>>,
+    /// Whether each score is exact (else it is a lower bound), (k,) bool.
+    exact: Py<PyArray1<bool>>,
+    /// Index of each node in `Study.qualifying_points`, (k,) int64.
+    nodes: Py<PyArray1<i64>>,
+    /// `mm` (L_max) or `s` (fill time).
+    unit: String,
+    /// `length` or `resistance`.
+    objective: String,
+    /// Row of the best node (least score), or None.
+    best: Option<usize>,
+}
+
+#[pymethods]
+impl Suitability {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "<moldgate.Suitability of {} nodes, {}>",
+            self.scores.bind(py).len().unwrap_or(0),
+            self.unit
+        )
+    }
+}
+
 /// A finished study of one part.
 #[pyclass(frozen, module = "moldgate")]
 pub struct Study {
@@ -480,6 +515,45 @@ impl Study {
         self.study
             .wall_thickness_per_vertex()
             .map(|f| PyArray1::from_slice(py, f))
+    }
+
+    /// The gate-suitability map, when the study ran with `suitability=True` (else None).
+    #[getter]
+    fn suitability(&self, py: Python<'_>) -> PyResult<Option<Suitability>> {
+        let Some(map) = self.study.fill().and_then(|f| f.suitability.as_ref()) else {
+            return Ok(None);
+        };
+        let n = &map.nodes;
+        let points = if n.is_empty() {
+            numpy::PyArray2::zeros(py, (0, 3), false)
+        } else {
+            let rows: Vec<Vec<f64>> = n.iter().map(|x| x.point.to_vec()).collect();
+            PyArray2::from_vec2(py, &rows)
+                .map_err(|e| crate::InternalError::new_err(e.to_string()))?
+        };
+        let column = |f: &dyn Fn(&moldgate::flow::NodeScore) -> f64| {
+            PyArray1::from_vec(py, n.iter().map(f).collect()).unbind()
+        };
+        Ok(Some(Suitability {
+            points: points.unbind(),
+            scores: column(&|x| x.score),
+            upper: column(&|x| x.upper.unwrap_or(f64::NAN)),
+            exact: PyArray1::from_vec(
+                py,
+                n.iter()
+                    .map(|x| x.kind == moldgate::flow::ScoreKind::Exact)
+                    .collect(),
+            )
+            .unbind(),
+            nodes: PyArray1::from_vec(py, n.iter().map(|x| x.node as i64).collect()).unbind(),
+            unit: map.unit.to_string(),
+            objective: match map.objective {
+                moldgate::flow::Objective::Length => "length",
+                moldgate::flow::Objective::Resistance => "resistance",
+            }
+            .to_string(),
+            best: map.best,
+        }))
     }
 
     /// Surface points of every node that qualifies as a gate position, (k, 3) float64, mm.

@@ -93,6 +93,25 @@ def test_gates_placed_by_the_designer_are_judged_and_filled(cli):
         assert json.loads(r.stdout)["placed_gates"]["gates"] == p["gates"]
 
 
+def test_suitability_map_as_numpy_arrays_agrees_with_the_report(cover_stl, cli):
+    s = moldgate.study(cover_stl, material="ABS", suitability=True)
+    m = s.suitability
+    nodes = s.report["fill"]["suitability"]["nodes"]
+    assert m.points.shape == (len(nodes), 3) and m.points.dtype == np.float64
+    assert m.scores.shape == (len(nodes),) and m.exact.dtype == np.bool_
+    assert np.array_equal(m.scores, [n["score"] for n in nodes])
+    assert np.array_equal(m.points, [n["point"] for n in nodes])
+    assert np.array_equal(m.exact, [n["kind"] == "exact" for n in nodes])
+    # Every upper bound is at least its score; the best row has the least score.
+    assert np.all(m.upper[~np.isnan(m.upper)] >= m.scores[~np.isnan(m.upper)])
+    assert m.scores[m.best] == m.scores.min() and m.unit == "mm"
+    # The nodes are qualifying points, and the map is the command line's.
+    assert np.array_equal(s.qualifying_points[m.nodes], m.points)
+    r = run_cli(cli, "locate", cover_stl, "--material", "ABS", "--suitability", "--json")
+    assert without_timings(s.report) == without_timings(json.loads(r.stdout))
+    assert moldgate.study(cover_stl, material="ABS").suitability is None
+
+
 def test_pictures_and_files():
     s = moldgate.study(moldgate.sample("cap"))
     assert s.png().startswith(b"\x89PNG\r\n\x1a\n")

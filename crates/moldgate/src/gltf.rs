@@ -14,6 +14,7 @@
 //! | `centre of mass` | an octahedron, half-diagonal max(R, 1 % of the part's diagonal) | magenta |
 //! | `parting line` | LINES | white, unlit |
 //! | `qualifying nodes` | POINTS at the surface points of the nodes that qualify | orange, unlit |
+//! | `gate suitability` | with the suitability map only: a square of the grid spacing facing +D at each scored node, lifted 2 % of the spacing off the surface, COLOR_0 by its score | unlit, times the vertex colours |
 //!
 //! Nodes with nothing to show (no gate, an empty parting line, no qualifying node) are left
 //! out, and so are the materials nothing uses.
@@ -88,6 +89,7 @@ enum Look {
     Centre,
     Parting,
     Qualifying,
+    Suitability,
 }
 
 impl Look {
@@ -101,6 +103,7 @@ impl Look {
             Look::Centre => ("centre of mass", [230, 0, 230], false),
             Look::Parting => ("parting line", [255, 255, 255], true),
             Look::Qualifying => ("qualifying nodes", [255, 140, 0], true),
+            Look::Suitability => ("gate suitability (vertex colours)", [255, 255, 255], true),
         };
         let [r, g, b] = srgb.map(colormap::srgb_to_linear);
         let mut m = json!({
@@ -122,7 +125,7 @@ impl Look {
     }
 
     fn unlit(self) -> bool {
-        matches!(self, Look::Parting | Look::Qualifying)
+        matches!(self, Look::Parting | Look::Qualifying | Look::Suitability)
     }
 }
 
@@ -201,6 +204,11 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         children.push(doc.node("qualifying nodes", m));
     }
 
+    if let Some(g) = suitability_squares(scene) {
+        let m = doc.triangles("gate suitability", &g, Look::Suitability);
+        children.push(doc.node("gate suitability", m));
+    }
+
     let mut root = json!({
         "name": "moldgate",
         "rotation": rotation_to_y_up(scene),
@@ -239,6 +247,39 @@ fn placed_gate_nodes(doc: &mut Document, scene: &Scene, children: &mut Vec<usize
         });
         children.push(node);
     }
+}
+
+/// The suitability map as squares of the grid spacing facing +D, one per scored node, each
+/// in its score's colour (the map's own range); `None` without a map or a scored node.
+fn suitability_squares(scene: &Scene) -> Option<Geometry> {
+    let field = scene.node_field.as_ref()?;
+    let range = Range::of(&field.per_node)?;
+    let f = scene.frame;
+    let half = 0.5 * scene.grid_spacing_mm;
+    let lift = f.d * (0.02 * scene.grid_spacing_mm);
+    let mut g = Geometry {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        colours: Vec::new(),
+        indices: Vec::new(),
+    };
+    for (&p, &v) in scene.qualifying.iter().zip(&field.per_node) {
+        if !(v.is_finite() && p.is_finite()) {
+            continue;
+        }
+        let rgb = colormap::colour(range.t(v)).map(colormap::srgb_to_linear);
+        let base = g.positions.len() as u32;
+        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            g.positions
+                .push(f32s(p + lift + f.u * (a * half) + f.w * (b * half)));
+            g.normals.push(f32s(f.d));
+            g.colours.push(rgb);
+        }
+        // u x w = d: counter-clockwise seen from +D.
+        g.indices
+            .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+    (!g.indices.is_empty()).then_some(g)
 }
 
 /// The root node's rotation as a quaternion `[x, y, z, w]`: the frame's (u, w, d) to glTF's
@@ -670,6 +711,16 @@ impl Document {
             "accessors": self.accessors,
             "bufferViews": self.views,
         });
+        if let Some(f) = &scene.node_field {
+            let r = Range::of(&f.per_node);
+            document["asset"]["extras"]["suitability"] = json!({
+                "name": f.name,
+                "unit": f.unit,
+                "min": r.map(|r| r.min),
+                "max": r.map(|r| r.max),
+                "colour_map": "viridis, low (a better gate) to high, on the `gate suitability` squares",
+            });
+        }
         // glTF forbids empty arrays: each is written only when it has something.
         if !self.meshes.is_empty() {
             document["meshes"] = json!(self.meshes);
@@ -756,6 +807,7 @@ mod tests {
                     centre: DVec3::ZERO,
                     parting: vec![],
                     qualifying: vec![],
+                    node_field: None,
                     title: String::new(),
                     subtitle: String::new(),
                     grid_spacing_mm: 1.0,

@@ -566,6 +566,7 @@ fn fill_table(h: &mut String, r: &Report) {
         );
     }
     let _ = writeln!(h, "</table>");
+    suitability_text(h, f);
     if let Some(m) = &f.several {
         // With the resistance objective the several-gate values are fill times.
         let (what, unit, digits) = match f.objective {
@@ -667,6 +668,42 @@ fn fill_table(h: &mut String, r: &Report) {
     }
 }
 
+/// The gate-suitability map in words: what is scored, its range, how many scores are exact
+/// and how wide the bounds of the others are.
+fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
+    let Some(m) = &f.suitability else { return };
+    let (what, digits) = match m.objective {
+        crate::flow::Objective::Length => ("L_max", 1),
+        crate::flow::Objective::Resistance => ("fill time", 3),
+    };
+    let unit = m.unit;
+    let (lo, hi) = m
+        .nodes
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), n| {
+            (a.min(n.score), b.max(n.score))
+        });
+    let best = m.best.map(|b| &m.nodes[b]);
+    let _ = writeln!(
+        h,
+        "<p id=\"suitability\">Gate suitability: {} qualifying nodes scored by the {what} of a \
+         gate at each (lower is better; the picture's colours), from {lo:.digits$} to \
+         {hi:.digits$} {unit}. {} scores are exact (to {:.digits$} {unit}), the others lower bounds \
+         whose upper bounds are at most {} above them (median {}). Best node: {}. {} marches.</p>",
+        m.nodes.len(),
+        m.exact,
+        m.tolerance,
+        m.max_gap_pct.map_or("unbounded".to_string(), |g| format!("{g:.1} %")),
+        m.median_gap_pct.map_or("unbounded".to_string(), |g| format!("{g:.1} %")),
+        best.map_or("none".to_string(), |n| format!(
+            "{} mm, {:.digits$} {unit}",
+            v3(n.point),
+            n.score
+        )),
+        m.runs
+    );
+}
+
 fn timings_table(h: &mut String, r: &Report) {
     let t = &r.timings;
     let _ = writeln!(h, "<h2>Timings</h2>\n<table>");
@@ -754,6 +791,13 @@ out.</dd>
 <dt>Balanced gate</dt><dd>The qualifying node whose farthest flow is the shortest (or lowest
 resistance with <code>--objective resistance</code>); the report compares it with the paper
 gate.</dd>
+<dt>Gate suitability</dt><dd>With <code>--suitability</code>, every qualifying node scored by
+the balanced gate's objective: L_max of a gate there in mm (or the fill time with
+<code>--objective resistance</code>), lower is better. The picture colours the qualifying
+region by it (dark blue best, yellow worst; the colour bar spans the scores) and leaves the
+rest of the part grey. A score is exact (a march from the node, to one flow cell) or a lower
+bound from the marches of far points, with an upper bound beside it in the JSON; the best
+node is exact when the balanced search proved its gate.</dd>
 <dt>Several gates</dt><dd>With <code>--gates K</code>, K gates that together make the longest
 flow as short as possible; each fills its share of the volume.</dd>
 <dt>Last to fill</dt><dd>Places the melt reaches last, with their flow length and fill time:

@@ -501,7 +501,13 @@ impl Report {
             gate.distance_3d_mm = p.distance(centre);
         }
         let t = &fill.times;
-        let fill_s = t.wall_s + t.voxels_s + t.paper_s + t.balanced_s + t.several_s + t.placed_s;
+        let fill_s = t.wall_s
+            + t.voxels_s
+            + t.paper_s
+            + t.balanced_s
+            + t.several_s
+            + t.placed_s
+            + t.suitability_s.unwrap_or(0.0);
         self.timings.fill_s = Some(fill_s);
         self.timings.total_s += fill_s;
         self.warnings.extend(fill.warnings.iter().cloned());

@@ -18,6 +18,18 @@ pub struct Field {
     pub per_vertex: Vec<f32>,
 }
 
+/// A scalar per qualifying point (the gate-suitability map), shown as colours over the
+/// qualifying region in place of the part's field (the part is then grey).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeField {
+    /// What the values are, for the colour bar.
+    pub name: String,
+    /// Their unit.
+    pub unit: String,
+    /// One value per point of [`Scene::qualifying`]; NaN where unknown.
+    pub per_node: Vec<f32>,
+}
+
 /// A gate marker: a disc of radius `radius_mm` on the surface at `point`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Marker {
@@ -58,6 +70,9 @@ pub struct Scene<'a> {
     pub parting: Vec<Vec<DVec3>>,
     /// Surface points of the nodes that qualify as gate positions.
     pub qualifying: Vec<DVec3>,
+    /// A value per qualifying point shown over the qualifying region (the gate-suitability
+    /// map), when set with [`Scene::with_node_field`].
+    pub node_field: Option<NodeField>,
     /// Distance between neighbouring grid nodes, mm (each qualifying point stands for a
     /// square of this side).
     pub grid_spacing_mm: f64,
@@ -114,10 +129,23 @@ impl<'a> Scene<'a> {
             centre: analysis.centre,
             parting: analysis.parting.polylines(mesh),
             qualifying: analysis.qualifying_points.clone(),
+            node_field: None,
             grid_spacing_mm: analysis.grid.spacing,
             title: title.into(),
             subtitle,
         }
+    }
+
+    /// The same scene with the qualifying region coloured by `field` (one value per
+    /// qualifying point) and the rest of the part grey; the colour bar is `field`'s.
+    pub fn with_node_field(mut self, field: NodeField) -> Scene<'a> {
+        self.field = Field {
+            name: field.name.clone(),
+            unit: field.unit.clone(),
+            per_vertex: vec![f32::NAN; self.mesh.vertices.len()],
+        };
+        self.node_field = Some(field);
+        self
     }
 
     /// The same scene coloured by another field.

@@ -358,3 +358,40 @@ fn bad_gate_at_values_name_the_flag() {
         "--gate-at is given 33 times, over the limit of 32 gates",
     );
 }
+
+#[test]
+fn suitability_scores_every_qualifying_node_and_leaves_other_runs_unchanged() {
+    let with = json(&["locate", "--sample", "cap", "--suitability", "--json"]);
+    let without = json(&["locate", "--sample", "cap", "--fill", "--json"]);
+    let map = &with["fill"]["suitability"];
+    let nodes = map["nodes"].as_array().unwrap();
+    assert_eq!(
+        nodes.len() as u64 + map["off_part"].as_u64().unwrap(),
+        with["counts"]["qualifying"].as_u64().unwrap()
+    );
+    assert_eq!(map["unit"], "mm");
+    for n in nodes {
+        let (score, upper) = (n["score"].as_f64().unwrap(), n["upper"].as_f64().unwrap());
+        assert!(score > 0.0 && upper >= score, "{n}");
+        assert!(n["kind"] == "exact" || n["kind"] == "lower_bound", "{n}");
+    }
+    // The best node is exact and the balanced gate's value, to the tolerance.
+    let best = &nodes[map["best"].as_u64().unwrap() as usize];
+    let balanced = with["fill"]["balanced"]["search"]["value"]
+        .as_f64()
+        .unwrap();
+    assert_eq!(best["kind"], "exact");
+    assert!(
+        (best["score"].as_f64().unwrap() - balanced).abs()
+            <= 2.0 * map["tolerance"].as_f64().unwrap(),
+        "{best} vs {balanced}"
+    );
+    // Without the option the report has no map and no map timing; the rest is the same.
+    assert!(without["fill"].get("suitability").is_none());
+    assert!(without["fill"]["times"].get("suitability_s").is_none());
+    assert_eq!(
+        with["fill"]["balanced"]["fill"],
+        without["fill"]["balanced"]["fill"]
+    );
+    assert_eq!(with["gate"], without["gate"]);
+}

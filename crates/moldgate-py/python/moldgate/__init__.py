@@ -34,6 +34,7 @@ from ._moldgate import (
     OptionsError,
     Part,
     Study,
+    Suitability,
     __version__,
     sample,
 )
@@ -46,6 +47,7 @@ __all__ = [
     "OptionsError",
     "Part",
     "Study",
+    "Suitability",
     "batch_row",
     "check_options",
     "default_options",
@@ -162,7 +164,7 @@ _OPTION_NAMES = (
     "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest",
     "thickness_rule", "require_flat", "flat_tol", "aesthetic", "max_nodes", "keep_out",
     "cosmetic", "fill", "strategy", "objective", "gates", "cell", "wall_thickness",
-    "color_by", "fit_radius", "parting_line", "gate_at",
+    "color_by", "fit_radius", "parting_line", "gate_at", "suitability",
 )
 
 
@@ -200,6 +202,7 @@ def study(
     fit_radius: bool = False,
     parting_line: str = "longest",
     gate_at: Sequence[Union[str, Sequence[float]]] = (),
+    suitability: bool = False,
     units: str = "mm",
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
@@ -251,6 +254,9 @@ def study(
       ``"x,y,z"``), at most 32: each is moved to the nearest surface point and judged by
       the paper's rules; with ``fill=True`` they are filled together as one layout.
       ``.report["placed_gates"]`` has the verdicts (docs/json-schema.md).
+    - ``suitability=False``: score every qualifying node as a gate (the gate-suitability
+      map: the objective of the balanced gate at each node, exact or a lower bound; implies
+      ``fill``); read it as :attr:`Study.suitability`, and the pictures show it.
 
     And for this call:
 

@@ -40,6 +40,7 @@
 //! Eq. 7.
 
 pub mod march;
+pub mod suitability;
 pub mod voxel;
 
 use crate::clock::Instant;
@@ -53,6 +54,7 @@ use crate::mesh::topology::body_of_triangle;
 use crate::mesh::Mesh;
 use crate::raycast::Bvh;
 pub use march::{march, Field, Source};
+pub use suitability::{NodeScore, ScoreKind, Suitability};
 pub use voxel::Voxels;
 
 /// What the balanced gate minimises.
@@ -1210,6 +1212,9 @@ pub struct FlowTimes {
     pub several_s: f64,
     /// The designer's gates (`gate_at`).
     pub placed_s: f64,
+    /// The gate-suitability map, when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub suitability_s: Option<f64>,
 }
 
 /// Timer helper.
@@ -1242,6 +1247,8 @@ pub struct FillOptions {
     /// What pictures of the fill are coloured by (read by the front ends through
     /// [`FillAnalysis::field`]; default the fill time).
     pub colour_by: ColourBy,
+    /// Also score every qualifying node as a gate ([`suitability`]). Default false.
+    pub suitability: bool,
     /// Gates placed by the designer (surface points, mm), filled together as one layout
     /// ([`FillAnalysis::placed`]); when given, the pictured field is theirs. Default none.
     pub placed: Vec<DVec3>,
@@ -1318,6 +1325,10 @@ pub struct FillAnalysis {
     /// beside the judgement of those gates, not here.
     #[serde(skip)]
     pub placed: Option<PlacedFill>,
+    /// The gate-suitability map of the qualifying nodes, when asked for
+    /// ([`FillOptions::suitability`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub suitability: Option<Suitability>,
     /// Warnings of the fill analysis.
     pub warnings: Vec<String>,
     /// Seconds per stage.
@@ -1677,6 +1688,44 @@ pub fn analyse(
     times.balanced_s = seconds(t);
 
     let t = Instant::now();
+    let suitability = if options.suitability {
+        use suitability::Given;
+        // The paper gate is a node (or, the aesthetic gate, on the parting line: exact for
+        // a node only when it shares its cell).
+        let mut given = vec![Given {
+            field: start,
+            node_cell: Some(first.cell),
+        }];
+        let mut budget = 0;
+        if let Some((b, fields)) = &balanced {
+            budget = 2 * b.search.runs;
+            if let Some(f) = fields {
+                given.push(Given {
+                    field: match options.objective {
+                        Objective::Length => &f.length,
+                        Objective::Resistance => &f.fill,
+                    },
+                    node_cell: Some(candidates[b.search.candidate].cell),
+                });
+            }
+        }
+        let map = suitability::suitability(
+            &domain,
+            &analysis.qualifying_points,
+            options.objective,
+            &given,
+            budget,
+            scale,
+            h,
+            options.flow.max_march_cells,
+        )?;
+        times.suitability_s = Some(seconds(t));
+        Some(map)
+    } else {
+        None
+    };
+
+    let t = Instant::now();
     let several = if options.gates > 1 {
         // Start from the balanced gate (or the paper gate's nearest candidate).
         let start = match &balanced {
@@ -1816,6 +1865,7 @@ pub fn analyse(
         balanced,
         several,
         placed: placed.map(|(p, _)| p),
+        suitability,
         warnings,
         times,
         per_vertex,

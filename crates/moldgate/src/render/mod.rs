@@ -174,7 +174,14 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     }
     let k = (width as f32 / 1600.0).min(height as f32 / 900.0);
     let layout = Layout::new(width, height, k);
-    let range = FieldRange::of(&scene.field.per_vertex);
+    let range = match &scene.node_field {
+        // The map's colours span its nodes' values; the rest of the part is grey.
+        Some(f) => FieldRange {
+            has_missing: true,
+            ..FieldRange::of(&f.per_node)
+        },
+        None => FieldRange::of(&scene.field.per_vertex),
+    };
     let t: Vec<f32> = scene
         .field
         .per_vertex
@@ -214,7 +221,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
         canvas.put(view.panel.x, view.panel.y, view.panel.w, &pixels);
         let tolerance = (4.0 * sample_mm).max(0.005 * diagonal);
-        draw_overlays(&mut canvas, scene, view, layer, tolerance, k);
+        draw_overlays(&mut canvas, scene, view, layer, (tolerance, &range), k);
         canvas.stroke_rect(
             view.panel.x as f32 + 0.5,
             view.panel.y as f32 + 0.5,
@@ -407,11 +414,11 @@ fn draw_overlays(
     scene: &Scene,
     view: &View,
     layer: &Layer,
-    tolerance: f64,
+    (tolerance, range): (f64, &FieldRange),
     k: f32,
 ) {
     let cam = &view.camera;
-    draw_qualifying(canvas, scene, view, layer, tolerance);
+    draw_qualifying(canvas, scene, view, layer, tolerance, range);
 
     // Parting line: seen along D it is the outline of the part, so all of it is shown; in
     // the other view the parts behind the part are dashed.
@@ -530,8 +537,17 @@ fn draw_overlays(
 }
 
 /// The qualifying nodes as a hatched region with a dark edge: each node covers a square of
-/// the grid spacing around it, so the nodes join into the region they stand for.
-fn draw_qualifying(canvas: &mut Canvas, scene: &Scene, view: &View, layer: &Layer, tolerance: f64) {
+/// the grid spacing around it, so the nodes join into the region they stand for. With a
+/// node field (the suitability map) each square is filled with its node's colour instead
+/// of the hatch.
+fn draw_qualifying(
+    canvas: &mut Canvas,
+    scene: &Scene,
+    view: &View,
+    layer: &Layer,
+    tolerance: f64,
+    range: &FieldRange,
+) {
     if scene.qualifying.is_empty() {
         return;
     }
@@ -539,8 +555,13 @@ fn draw_qualifying(canvas: &mut Canvas, scene: &Scene, view: &View, layer: &Laye
     let rect = view.panel;
     let (w, h) = (rect.w as usize, rect.h as usize);
     let mut mask = vec![false; w * h];
+    let lut = Lut::viridis();
+    let mut colour: Vec<Option<Rgb>> = Vec::new();
+    if scene.node_field.is_some() {
+        colour = vec![None; w * h];
+    }
     let half = (scene.grid_spacing_mm * cam.scale * 0.5).max(0.6);
-    for &p in &scene.qualifying {
+    for (i, &p) in scene.qualifying.iter().enumerate() {
         let q = cam.to_pixel(p);
         if !layer.visible(q.x, q.y, cam.depth(p), tolerance) {
             continue;
@@ -552,6 +573,13 @@ fn draw_qualifying(canvas: &mut Canvas, scene: &Scene, view: &View, layer: &Laye
         let y1 = ((y + half).round() as usize).min(h);
         for row in y0..y1 {
             mask[row * w + x0.min(x1)..row * w + x1].fill(true);
+        }
+        if let Some(f) = &scene.node_field {
+            let v = f.per_node.get(i).copied().unwrap_or(f32::NAN);
+            let c = lut.rgb(range.unit(v));
+            for row in y0..y1 {
+                colour[row * w + x0.min(x1)..row * w + x1].fill(Some(c));
+            }
         }
     }
     for y in 0..h {
@@ -570,6 +598,8 @@ fn draw_qualifying(canvas: &mut Canvas, scene: &Scene, view: &View, layer: &Laye
             let (cx, cy) = ((rect.x as usize + x) as i32, (rect.y as usize + y) as i32);
             if edge {
                 canvas.blend(cx, cy, BLACK, 0.85);
+            } else if let Some(c) = colour.get(y * w + x).copied().flatten() {
+                canvas.blend(cx, cy, c, 1.0);
             } else if let Some((c, a)) = hatch(x, y) {
                 canvas.blend(cx, cy, c, a);
             }
@@ -886,12 +916,26 @@ fn draw_side_bar(
             y += bar_h + 14.0 * k;
         }
     }
+    if scene.node_field.is_some() {
+        canvas.text(
+            x,
+            y + 12.0 * k,
+            "lower is better (dark blue)",
+            &label,
+            Align::Left,
+        );
+        y += 22.0 * k;
+    }
     if range.has_missing {
         canvas.fill_rect(x, y, bar_w, 14.0 * k, NO_VALUE_COLOUR, 255);
         canvas.text(
             x + bar_w + 10.0 * k,
             y + 12.0 * k,
-            "no value",
+            if scene.node_field.is_some() {
+                "not a qualifying node"
+            } else {
+                "no value"
+            },
             &label,
             Align::Left,
         );
@@ -956,7 +1000,14 @@ fn draw_side_bar(
         let pts = [[sx - 13.0 * k, cy], [sx + 13.0 * k, cy]];
         c.stroke_polyline(&pts, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
     });
-    let qualifying = format!("qualifying region ({} grid nodes)", scene.qualifying.len());
+    let qualifying = if scene.node_field.is_some() {
+        format!(
+            "qualifying region ({} grid nodes), each coloured by its score",
+            scene.qualifying.len()
+        )
+    } else {
+        format!("qualifying region ({} grid nodes)", scene.qualifying.len())
+    };
     item(canvas, &mut y, &qualifying, &|c, cy| {
         let (w, h) = ((26.0 * k) as i32, (18.0 * k) as i32);
         let (x0, y0) = ((sx - 13.0 * k) as i32, (cy - 9.0 * k) as i32);

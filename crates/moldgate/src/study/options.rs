@@ -204,6 +204,9 @@ pub struct StudyOptions {
     /// paper's rules; with the fill, they are filled together as one layout
     /// ([`crate::study::judge`]). Default none.
     pub gate_at: Vec<String>,
+    /// Score every qualifying node as a gate (the gate-suitability map: the objective of
+    /// the balanced gate at each node, exact or bounded). Default false; implies `fill`.
+    pub suitability: bool,
 }
 
 impl Default for StudyOptions {
@@ -240,6 +243,7 @@ impl Default for StudyOptions {
             cell: None,
             wall_thickness: false,
             gate_at: Vec::new(),
+            suitability: false,
         }
     }
 }
@@ -574,7 +578,10 @@ impl StudyOptions {
         if let Some(h) = self.cell {
             positive("cell", h)?;
         }
-        let wanted = self.fill || self.strategy == StrategyChoice::Balanced || self.gates > 1;
+        let wanted = self.fill
+            || self.strategy == StrategyChoice::Balanced
+            || self.gates > 1
+            || self.suitability;
         if !wanted {
             return Ok(None);
         }
@@ -597,6 +604,7 @@ impl StudyOptions {
             },
             // Set per part, once the designer's gates are on its surface.
             placed: Vec::new(),
+            suitability: self.suitability,
         }))
     }
 }

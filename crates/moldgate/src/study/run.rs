@@ -366,6 +366,27 @@ impl Study {
         Some(field)
     }
 
+    /// The gate-suitability map as a value per qualifying point (NaN for a node off the
+    /// voxelised part), with its name and unit, when the study ran with `suitability`.
+    pub fn suitability_field(&self) -> Option<crate::scene::NodeField> {
+        let map = self.fill()?.suitability.as_ref()?;
+        let mut per_node = vec![f32::NAN; self.analysis.qualifying_points.len()];
+        for n in &map.nodes {
+            if let Some(v) = per_node.get_mut(n.node) {
+                *v = n.score as f32;
+            }
+        }
+        let name = match map.objective {
+            flow::Objective::Length => "gate suitability: L_max of a gate at the node",
+            flow::Objective::Resistance => "gate suitability: fill time of a gate at the node",
+        };
+        Some(crate::scene::NodeField {
+            name: name.into(),
+            unit: map.unit.into(),
+            per_node,
+        })
+    }
+
     /// Estimated fill time per mesh vertex, s (NaN where the melt does not reach; with
     /// several gates, of all of them together), when the fill ran with `color_by =
     /// "fill_order"` (the default).
@@ -437,6 +458,9 @@ impl Study {
         let mut scene = Scene::new(&part.mesh, &self.analysis, title);
         if let Some(f) = self.fill_field() {
             scene = scene.with_field(f);
+        }
+        if let Some(f) = self.suitability_field() {
+            scene = scene.with_node_field(f);
         }
         let r = self.analysis.options.gate_radius_mm;
         scene.gates = self

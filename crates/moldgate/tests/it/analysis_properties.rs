@@ -217,6 +217,8 @@ fn analyse(mesh: Mesh, d: DVec3, c: &Choices) -> Result<(Vec<String>, usize), Te
             gates: c.gates,
             colour_by: Default::default(),
             placed: Vec::new(),
+            // The suitability map rides on the balanced runs: its floats are checked too.
+            suitability: c.balanced,
         };
         let bvh = Bvh::new(&part.mesh);
         let walls = if c.measure_walls {

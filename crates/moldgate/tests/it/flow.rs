@@ -649,3 +649,107 @@ fn balanced_search_bound_and_value_agree_on_every_sample() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// The gate-suitability map against brute force (a march from every qualifying node) on the
+/// samples, for both objectives (the resistance with the measured walls): every lower bound
+/// and upper bound holds to the tolerance, exact scores are the node's own value, the best
+/// node is the brute force's best, and it agrees with the balanced search's value.
+#[test]
+fn suitability_map_bounds_hold_against_brute_force_on_the_samples() {
+    use moldgate::flow::suitability::{suitability, Given, ScoreKind};
+    let mut failures = Vec::new();
+    for (name, demold) in [
+        ("plate", "+z"),
+        ("bracket", "+z"),
+        ("cover", "+z"),
+        ("tray", "+z"),
+        ("cap", "+z"),
+    ] {
+        let mesh = moldgate::samples::sample(name).unwrap();
+        let h = 1.5;
+        let bvh = moldgate::raycast::Bvh::new(&mesh);
+        let walls = moldgate::thickness::wall_thickness_with(&mesh, &bvh, &Default::default());
+        let nominal = walls.nominal_mm.unwrap_or(2.0);
+        let domain = Domain::new(&mesh, h, Some(&walls.per_triangle), nominal, &pp());
+        let part = moldgate::mesh::from_generated(mesh.clone());
+        let options = moldgate::LocateOptions {
+            direction: demold.parse().unwrap(),
+            spacing: moldgate::gate::Spacing::Mm(6.0),
+            ..Default::default()
+        };
+        let analysis = moldgate::locate(&part, &options).unwrap();
+        let points = &analysis.qualifying_points;
+        let (cands, first) = candidates(&mesh, &domain, demold, 6.0);
+        for objective in [Objective::Length, Objective::Resistance] {
+            // As the fill analysis runs it: the balanced gate's field given, twice its runs.
+            let balanced = balanced_gate(&domain, &cands, objective, first, h).unwrap();
+            let cell = cands[balanced.candidate].cell;
+            let centred = Source {
+                point: domain.voxels.centre(cell),
+                cell,
+            };
+            let field = march(&domain.voxels, &[centred], domain.cost(objective));
+            let given = [Given {
+                field: &field,
+                node_cell: Some(cell),
+            }];
+            let budget = 2 * balanced.runs;
+            let map = suitability(&domain, points, objective, &given, budget, 1.0, h, 2e9).unwrap();
+            assert_eq!(map.nodes.len() + map.off_part, points.len());
+            assert!(map.runs <= budget);
+            let sources: Vec<Source> = map
+                .nodes
+                .iter()
+                .map(|n| domain.source(DVec3::from_array(n.point)).unwrap())
+                .collect();
+            let truth = brute_force(&domain, &sources, objective);
+            let tol = map.tolerance;
+            let mut worst_gap = 0.0f64;
+            for (n, &e) in map.nodes.iter().zip(&truth) {
+                worst_gap = worst_gap.max((e - n.score) / e);
+                if n.score > e + tol {
+                    failures.push(format!("{name} {objective:?}: score {} over {e}", n.score));
+                }
+                match n.upper {
+                    Some(u) if u < e - tol => {
+                        failures.push(format!("{name} {objective:?}: upper {u} under {e}"))
+                    }
+                    None => failures.push(format!("{name} {objective:?}: no upper bound")),
+                    _ => {}
+                }
+                if n.kind == ScoreKind::Exact && (n.score - e).abs() > tol {
+                    failures.push(format!("{name} {objective:?}: exact {} vs {e}", n.score));
+                }
+            }
+            let brute_best = truth.iter().copied().fold(f64::INFINITY, f64::min);
+            let best = map.best.unwrap();
+            let proven = map.nodes[best].kind == ScoreKind::Exact;
+            if truth[best] > brute_best + tol {
+                failures.push(format!(
+                    "{name} {objective:?}: best {} vs brute force {brute_best}",
+                    truth[best]
+                ));
+            }
+            // A best node that is exact is the balanced gate's value; a lower bound (the
+            // budget spent first) is at most it.
+            let off = map.nodes[best].score - balanced.value;
+            if off > tol || (proven && off < -tol) {
+                failures.push(format!(
+                    "{name} {objective:?}: map best {} vs balanced {}",
+                    map.nodes[best].score, balanced.value
+                ));
+            }
+            println!(
+                "{name} {objective:?}: {} nodes, {} marches (balanced {}), {} exact, best {} exact: {proven}, largest gap {:.2} %, certified {:?} %",
+                map.nodes.len(),
+                map.runs,
+                balanced.runs,
+                map.exact,
+                map.nodes[best].score,
+                100.0 * worst_gap,
+                map.max_gap_pct
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}

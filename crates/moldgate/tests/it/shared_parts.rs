@@ -970,3 +970,115 @@ fn fill_time_at_the_last_place_converges_with_the_cell_on_a_shared_part() {
     // 108 to 3279 on another part.
     assert!(change < 0.10, "{coarse} vs {fine}");
 }
+
+/// The gate-suitability map of the fill analysis against brute force (a march from every
+/// qualifying node, on the analysis's own cells) on small shared parts, with a coarse grid
+/// so that brute force stays affordable: every score is at most the node's objective and
+/// every upper bound at least it (to the map's tolerance, one cell), exact scores are the
+/// objective, the best node is the brute force's best and, when exact, the balanced gate's.
+#[test]
+fn suitability_map_holds_against_brute_force_on_small_shared_parts() {
+    const TEST: &str = "suitability_map_holds_against_brute_force_on_small_shared_parts";
+    use moldgate::flow::{self, ScoreKind, Source};
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    let mut failures = Vec::new();
+    for file in [
+        "prusa_heatbed_cable_cover_clip_ascii.stl",
+        "screwcap_oralb_75ml_ascii.stl",
+        "prusa_lcd_knob.stl",
+        "framework_expansion_card_shell.stl",
+    ] {
+        let i = PARTS.iter().position(|p| p.file == file).unwrap();
+        let (part, lm) = (&PARTS[i], loaded(parts, i));
+        // A grid of about 25 nodes across the part.
+        let options = LocateOptions {
+            direction: part.direction(),
+            spacing: moldgate::gate::Spacing::Mm(size_mm(lm) / 25.0),
+            ..LocateOptions::default()
+        };
+        let analysis = locate(lm, &options).expect("valid options");
+        if analysis.gate().is_err() {
+            failures.push(format!("{file}: no gate"));
+            continue;
+        }
+        let pp = moldgate::Material::builtin("PP").unwrap();
+        let f = flow::analyse(
+            &lm.mesh,
+            &analysis,
+            &pp,
+            flow::Walls::Estimate,
+            &flow::FillOptions {
+                suitability: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let map = f.suitability.as_ref().unwrap();
+        let bodies = flow::Bodies::of(&lm.mesh);
+        let voxels = flow::Voxels::bounded(
+            &lm.mesh,
+            f.cell_mm,
+            &bodies.of_triangle,
+            &flow::FlowOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(voxels.len(), f.cells, "{file}: the analysis's cells");
+        let truth: Vec<f64> = map
+            .nodes
+            .par_iter()
+            .map(|n| {
+                let c = voxels.cell_near(DVec3::from_array(n.point)).unwrap();
+                let s = Source {
+                    point: voxels.centre(c),
+                    cell: c,
+                };
+                flow::argmax(&flow::march(&voxels, &[s], None).t).1
+            })
+            .collect();
+        let tol = map.tolerance;
+        let mut gaps = Vec::new();
+        for (n, &e) in map.nodes.iter().zip(&truth) {
+            gaps.push((e - n.score) / e);
+            if n.score > e + tol {
+                failures.push(format!("{file}: score {} over {e}", n.score));
+            }
+            if n.upper.is_none_or(|u| u < e - tol) {
+                failures.push(format!("{file}: upper {:?} under {e}", n.upper));
+            }
+            if n.kind == ScoreKind::Exact && (n.score - e).abs() > tol {
+                failures.push(format!("{file}: exact {} vs {e}", n.score));
+            }
+        }
+        let brute_best = truth.iter().copied().fold(f64::INFINITY, f64::min);
+        let best = map.best.unwrap();
+        if truth[best] > brute_best + tol {
+            failures.push(format!(
+                "{file}: best {} vs brute force {brute_best}",
+                truth[best]
+            ));
+        }
+        let b = &f.balanced.as_ref().unwrap().search;
+        let off = map.nodes[best].score - b.value;
+        if off > 2.0 * tol || (map.nodes[best].kind == ScoreKind::Exact && off < -2.0 * tol) {
+            failures.push(format!(
+                "{file}: map best {} vs balanced {}",
+                map.nodes[best].score, b.value
+            ));
+        }
+        gaps.sort_by(f64::total_cmp);
+        println!(
+            "{TEST}: {file}: {} nodes, {} marches (brute force {}), {} exact, gap max {:.2} % median {:.2} %, certified max {:?} %",
+            map.nodes.len(),
+            map.runs,
+            truth.len(),
+            map.exact,
+            100.0 * gaps.last().copied().unwrap_or(0.0),
+            100.0 * gaps[gaps.len() / 2],
+            map.max_gap_pct
+        );
+    }
+    report(TEST, &failures);
+}
