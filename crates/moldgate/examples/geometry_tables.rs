@@ -7,11 +7,11 @@
 //!
 //! PARTS_DIR holds the parts and their `SOURCES.md` (natural demolding directions). The
 //! parting line (natural direction, default options) is set against the perimeter of the
-//! part's outline from a raster of its projected triangles (`tests/common/outline.rs`); the
+//! part's outline from a raster of its projected triangles (`tests/it/common/outline.rs`); the
 //! automatic direction against the natural one, with a gate check for tied lines as the
 //! command line does it.
 
-#[path = "../tests/common/outline.rs"]
+#[path = "../tests/it/common/outline.rs"]
 mod outline;
 
 use std::fmt::Write as _;

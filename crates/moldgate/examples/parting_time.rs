@@ -9,7 +9,7 @@
 //! The stage timed is what `locate` runs for the parting line (the topology is built by the
 //! loader, as in `locate`; the aesthetic gate on the line is not included).
 
-#[path = "../tests/common/outline.rs"]
+#[path = "../tests/it/common/outline.rs"]
 mod outline;
 
 use std::time::Instant;
