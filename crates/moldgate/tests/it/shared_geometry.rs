@@ -391,6 +391,7 @@ fn demold_auto_matches_the_table_of_the_shared_parts() {
     )
     .unwrap();
     let mut checked = 0;
+    let mut skipped = 0;
     for (file, _) in PARTS {
         let row = table
             .lines()
@@ -400,6 +401,7 @@ fn demold_auto_matches_the_table_of_the_shared_parts() {
         let part = load(file);
         if cfg!(debug_assertions) && part.mesh.triangles.len() > 100_000 {
             println!("{test}: {file} skipped in a debug build (too slow); run with --release");
+            skipped += 1;
             continue;
         }
         let auto =
@@ -440,5 +442,9 @@ fn demold_auto_matches_the_table_of_the_shared_parts() {
         );
         checked += 1;
     }
-    assert!(checked >= 17);
+    // Every row of the table is checked, but the large parts in a debug build.
+    assert!(
+        checked + skipped >= 17 && checked >= 15,
+        "{checked} checked, {skipped} skipped"
+    );
 }
