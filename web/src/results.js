@@ -123,7 +123,7 @@ function suitabilityPart(m) {
   const best = m.best === null ? null : m.nodes[m.best];
   const what = m.objective === "resistance" ? "fill time" : "L_max";
   const gap = m.max_gap_pct === null ? "unbounded" : `${m.max_gap_pct.toFixed(1)} %`;
-  return el("div", { id: "suitability", "data-nodes": m.nodes.length, "data-exact": m.exact, "data-best": best ? best.score : "" },
+  return el("div", { id: "suitability-result", "data-nodes": m.nodes.length, "data-exact": m.exact, "data-best": best ? best.score : "" },
     el("p", {}, `Gate suitability: ${m.nodes.length.toLocaleString("en")} qualifying nodes scored by the ${what} of a gate at each, ${lo.toFixed(digits)} to ${hi.toFixed(digits)} ${m.unit} (lower is better; the 3D view colours them, dark blue best).`),
     el("p", {}, best ? `Best node ${v3(best.point)} mm: ${best.score.toFixed(digits)} ${m.unit}. ${m.exact} scores exact, the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
 }

@@ -268,7 +268,7 @@ describe("moldgate in the browser", () => {
     assert.equal(await studySample(page, "cap"), "done");
     const expected = cli(["locate", "--sample", "cap", "--suitability"]);
     const map = expected.fill.suitability;
-    const shownMap = await page.$eval("#suitability", (e) => ({ nodes: Number(e.dataset.nodes), exact: Number(e.dataset.exact), best: Number(e.dataset.best) }));
+    const shownMap = await page.$eval("#suitability-result", (e) => ({ nodes: Number(e.dataset.nodes), exact: Number(e.dataset.exact), best: Number(e.dataset.best) }));
     assert.equal(shownMap.nodes, map.nodes.length);
     assert.equal(shownMap.exact, map.exact);
     assert.equal(shownMap.best, map.nodes[map.best].score);
