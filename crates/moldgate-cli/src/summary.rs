@@ -394,7 +394,13 @@ pub fn render(r: &Report) -> String {
     let ms = |x: f64| x * 1e3;
     let mut stages = vec![format!("load {:.1}", ms(t.load_s))];
     if let Some(x) = t.tree_s {
-        stages.push(format!("ray tree {:.1}", ms(x)));
+        // With the direction given, the tree is built alongside the gate search.
+        let alongside = if r.demold_auto.is_none() {
+            " alongside the gate search"
+        } else {
+            ""
+        };
+        stages.push(format!("ray tree {:.1}{alongside}", ms(x)));
     }
     if let Some(x) = t.demold_s {
         stages.push(format!("demold auto {:.1}", ms(x)));

@@ -212,6 +212,21 @@ fn the_time_line_includes_every_stage_that_ran() {
         "total {} > stages {sum}",
         f("total_s")
     );
+    // With the direction given, the tree is built alongside the gate search: the total
+    // counts at most the tree's time past it, and never the two one after the other.
+    let report: Value = serde_json::from_str(&stdout(&[
+        "locate", "--sample", "plate", "--fill", "--json",
+    ]))
+    .unwrap();
+    let t = &report["timings"];
+    let f = |k: &str| t[k].as_f64().unwrap();
+    let own = f("load_s") + f("grid_s") + f("projection_s") + f("select_s") + f("fill_s");
+    let longer = f("tree_s").max(f("grid_s") + f("projection_s") + f("select_s"));
+    assert!(
+        f("total_s") >= 0.99 * (f("load_s") + longer + f("fill_s")),
+        "{t}"
+    );
+    assert!(f("total_s") <= own + f("tree_s") + 0.01, "{t}");
 }
 
 #[test]
