@@ -101,31 +101,6 @@ fn parse_csv(text: &str) -> Vec<Vec<String>> {
 // ---------------------------------------------------------------------------------------------
 // Building parts
 
-type Facet = [[f32; 3]; 3];
-
-/// The 12 facets of the box `min..max`, wound outwards.
-fn box_facets(min: [f32; 3], max: [f32; 3]) -> Vec<Facet> {
-    let p = |i: usize, j: usize, k: usize| {
-        [
-            [min[0], max[0]][i],
-            [min[1], max[1]][j],
-            [min[2], max[2]][k],
-        ]
-    };
-    let quads = [
-        [p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0)],
-        [p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)],
-        [p(0, 0, 0), p(1, 0, 0), p(1, 0, 1), p(0, 0, 1)],
-        [p(0, 1, 0), p(0, 1, 1), p(1, 1, 1), p(1, 1, 0)],
-        [p(0, 0, 0), p(0, 0, 1), p(0, 1, 1), p(0, 1, 0)],
-        [p(1, 0, 0), p(1, 1, 0), p(1, 1, 1), p(1, 0, 1)],
-    ];
-    quads
-        .iter()
-        .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
-        .collect()
-}
-
 fn binary(facets: &[Facet]) -> Vec<u8> {
     let mut bytes = b"moldgate batch test".to_vec();
     bytes.resize(80, b' ');

@@ -62,6 +62,46 @@ pub fn march(voxels: &Voxels, sources: &[Source], cost: Option<&[f32]>) -> Field
     }
 }
 
+/// Seeds the march: the source cell and its neighbours within 1.5 cells of the point, at
+/// their straight distance times the mean cost; the source cell itself always, even if the
+/// point is off its centre.
+fn seed(
+    voxels: &Voxels,
+    sources: &[Source],
+    c: &impl Fn(u32) -> f64,
+    t: &mut [f64],
+    source: &mut [u32],
+    heap: &mut BinaryHeap<Reverse<u64>>,
+) {
+    let h = voxels.h;
+    let offsets = neighbour_offsets();
+    for (s, src) in sources.iter().enumerate() {
+        let mut seed_cell = |cell: u32| {
+            let d = voxels.centre(cell).distance(src.point);
+            if d <= 1.5 * h {
+                let v = d * 0.5 * (c(src.cell) + c(cell));
+                if v < t[cell as usize] {
+                    t[cell as usize] = v;
+                    source[cell as usize] = s as u32;
+                    heap.push(key(v, cell));
+                }
+            }
+        };
+        seed_cell(src.cell);
+        for &(o, _) in &offsets {
+            if let Some(nb) = voxels.neighbour(src.cell, o) {
+                seed_cell(nb);
+            }
+        }
+        if t[src.cell as usize].is_infinite() {
+            let v = voxels.centre(src.cell).distance(src.point) * c(src.cell);
+            t[src.cell as usize] = v;
+            source[src.cell as usize] = s as u32;
+            heap.push(key(v, src.cell));
+        }
+    }
+}
+
 fn march_with(voxels: &Voxels, sources: &[Source], c: impl Fn(u32) -> f64) -> Field {
     let n = voxels.len();
     let h = voxels.h;
@@ -75,34 +115,7 @@ fn march_with(voxels: &Voxels, sources: &[Source], c: impl Fn(u32) -> f64) -> Fi
     let mut heap = BinaryHeap::new();
     let offsets = neighbour_offsets();
 
-    // Seeds: the source cell and its neighbours within 1.5 cells of the point, at their
-    // straight distance times the mean cost.
-    for (s, src) in sources.iter().enumerate() {
-        let mut seed = |cell: u32| {
-            let d = voxels.centre(cell).distance(src.point);
-            if d <= 1.5 * h {
-                let v = d * 0.5 * (c(src.cell) + c(cell));
-                if v < t[cell as usize] {
-                    t[cell as usize] = v;
-                    source[cell as usize] = s as u32;
-                    heap.push(key(v, cell));
-                }
-            }
-        };
-        seed(src.cell);
-        for &(o, _) in &offsets {
-            if let Some(nb) = voxels.neighbour(src.cell, o) {
-                seed(nb);
-            }
-        }
-        // The source cell itself is always seeded, even if the point is off its centre.
-        if t[src.cell as usize].is_infinite() {
-            let v = voxels.centre(src.cell).distance(src.point) * c(src.cell);
-            t[src.cell as usize] = v;
-            source[src.cell as usize] = s as u32;
-            heap.push(key(v, src.cell));
-        }
-    }
+    seed(voxels, sources, &c, &mut t, &mut source, &mut heap);
 
     // Half the step length of each of the 26 neighbours (the straight step costs its
     // length times the mean of the two cells' costs), and which of them are face
@@ -204,34 +217,7 @@ mod tests {
         let mut heap = BinaryHeap::new();
         let offsets = neighbour_offsets();
 
-        // Seeds: the source cell and its neighbours within 1.5 cells of the point, at their
-        // straight distance times the mean cost.
-        for (s, src) in sources.iter().enumerate() {
-            let mut seed = |cell: u32| {
-                let d = voxels.centre(cell).distance(src.point);
-                if d <= 1.5 * h {
-                    let v = d * 0.5 * (c(src.cell) + c(cell));
-                    if v < t[cell as usize] {
-                        t[cell as usize] = v;
-                        source[cell as usize] = s as u32;
-                        heap.push(key(v, cell));
-                    }
-                }
-            };
-            seed(src.cell);
-            for &(o, _) in &offsets {
-                if let Some(nb) = voxels.neighbour(src.cell, o) {
-                    seed(nb);
-                }
-            }
-            // The source cell itself is always seeded, even if the point is off its centre.
-            if t[src.cell as usize].is_infinite() {
-                let v = voxels.centre(src.cell).distance(src.point) * c(src.cell);
-                t[src.cell as usize] = v;
-                source[src.cell as usize] = s as u32;
-                heap.push(key(v, src.cell));
-            }
-        }
+        seed(voxels, sources, &c, &mut t, &mut source, &mut heap);
 
         // Step lengths of the 26 neighbours, and for each face neighbour (axis k, side), the
         // positions in the table of the two face neighbours of a cell along each axis.
