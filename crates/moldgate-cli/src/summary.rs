@@ -124,7 +124,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     }
     if let Some(m) = &f.suitability {
         let (what, digits) = match m.objective {
-            moldgate::flow::Objective::Length => ("L_max", 1),
+            moldgate::flow::Objective::Length => ("longest flow", 1),
             moldgate::flow::Objective::Resistance => ("fill time", 3),
         };
         let (lo, hi) = m
@@ -454,7 +454,7 @@ fn rule_words(rule: moldgate::study::judge::FailedRule) -> &'static str {
     match rule {
         F::NotSeenAlongD => "not reachable from the +D mould half",
         F::CircleOffPart => "the gate disc runs off the part",
-        F::ThinWall => "the wall under it is thinner than R_gate",
+        F::ThinWall => "the wall under it is thinner than the gate radius",
         F::NotFlat => "not flat under the disc",
         F::KeptOut => "in a keep-out region",
         F::Cosmetic => "on the cosmetic side",
@@ -472,7 +472,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     let _ = writeln!(
         s,
-        "  {:<12} {:<28} {:>8}  {:<22} the paper's rules (disc of R_gate)",
+        "  {:<12} {:<28} {:>8}  {:<22} the paper's rules (disc of the gate radius)",
         "gate", "on the surface (mm)", "moved", "wall along D (disc)",
     );
     for (i, g) in p.gates.iter().enumerate() {
@@ -514,13 +514,13 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
         s,
         "  {:<30} {:>9} {:>10} {:>16} {:>10} {:>6}  last to fill",
         if n == 1 {
-            "fill (rules or not)"
+            "fill (even where a rule fails)"
         } else {
-            "fill, one layout (rules or not)"
+            "fill, one layout"
         },
-        "L_max",
+        "longest",
         "pressure",
-        "L/t (limit)",
+        "flow/wall (limit)",
         "fill time",
         "welds"
     );
@@ -573,7 +573,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
                 let _ = writeln!(
                     s,
-                    "    your gate {} fills {:.1} % of the volume first, L_max {l:.1} mm in it",
+                    "    your gate {} fills {:.1} % of the volume first, longest flow {l:.1} mm in it",
                     i + 1,
                     100.0 * share
                 );

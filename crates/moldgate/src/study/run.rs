@@ -386,8 +386,8 @@ impl Study {
             }
         }
         let name = match map.objective {
-            flow::Objective::Length => "gate suitability: L_max of a gate at the node",
-            flow::Objective::Resistance => "gate suitability: fill time of a gate at the node",
+            flow::Objective::Length => "gate suitability: longest flow from a gate here",
+            flow::Objective::Resistance => "gate suitability: fill time from a gate here",
         };
         Some(crate::scene::NodeField {
             name: name.into(),
