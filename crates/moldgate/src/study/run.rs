@@ -503,9 +503,13 @@ impl Study {
     pub fn png(&self, part: &LoadedMesh, title: impl Into<String>) -> Result<Vec<u8>, StudyError> {
         let mut scene = self.scene(part, title)?;
         let d = self.report.options.demold;
-        scene.subtitle = format!(
-            "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
-            self.material_name, scene.subtitle, d[0], d[1], d[2]
+        // A direction such as -z reads (0.000, 0.000, -1.000), not with negative zeros.
+        scene.subtitle = crate::report::without_negative_zeros(
+            &format!(
+                "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
+                self.material_name, scene.subtitle, d[0], d[1], d[2]
+            ),
+            false,
         );
         crate::render::png(&scene, &RenderOptions::default()).map_err(StudyError::Render)
     }
