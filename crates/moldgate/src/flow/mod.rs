@@ -360,6 +360,27 @@ impl Domain {
         nominal_wall_mm: f64,
         material: &Material,
     ) -> Domain {
+        let cell_wall_mm: Vec<f32> = voxels
+            .triangle
+            .iter()
+            .map(|&t| {
+                triangle_wall_mm
+                    .and_then(|w| w.get(t as usize).copied())
+                    .unwrap_or(f32::NAN)
+            })
+            .collect();
+        Domain::from_cell_walls(voxels, &cell_wall_mm, nominal_wall_mm, material)
+    }
+
+    /// [`Domain::from_voxels`] with the wall measured per cell (NaN where unknown), as
+    /// [`Voxels::chord_walls`] gives it; the same rule for slivers, unknown values and the
+    /// clamp.
+    pub fn from_cell_walls(
+        voxels: Voxels,
+        cell_wall_mm: &[f32],
+        nominal_wall_mm: f64,
+        material: &Material,
+    ) -> Domain {
         let h = voxels.h;
         let body = voxels.body.clone();
         let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
@@ -368,13 +389,10 @@ impl Domain {
             body_volume_mm3[b as usize] += h * h * h;
         }
         let lo = MIN_WALL_OF_NOMINAL * nominal_wall_mm;
-        let wall_mm: Vec<f32> = voxels
-            .triangle
+        let wall_mm: Vec<f32> = cell_wall_mm
             .iter()
-            .map(|&t| {
-                let w = triangle_wall_mm
-                    .and_then(|w| w.get(t as usize).copied())
-                    .map(f64::from)
+            .map(|&w| {
+                let w = Some(f64::from(w))
                     // Slivers are films, not walls (see [`crate::thickness`]): unknown.
                     .filter(|w| {
                         w.is_finite() && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
@@ -950,7 +968,7 @@ pub struct MultiGate {
     pub l_max_mm: f64,
     /// Smallest volume share over the largest (1: perfectly even).
     pub balance: f64,
-    /// Field runs it took.
+    /// Marches it ran (a march from a cell it had marched from before is not run again).
     pub runs: usize,
 }
 
@@ -980,17 +998,10 @@ pub fn several_gates(
     let mut chosen = vec![first];
     let mut field = march(v, &[candidates[first]], cost);
     runs += 1;
+    let from_centre = CentreMarches::new(v, cost);
     while chosen.len() < k {
         let (far, _) = argmax(&field.t);
-        let from_far = march(
-            v,
-            &[Source {
-                point: v.centre(far),
-                cell: far,
-            }],
-            cost,
-        );
-        runs += 1;
+        let from_far = from_centre.of(far);
         let &next = pool
             .iter()
             .filter(|i| !chosen.contains(i))
@@ -1007,6 +1018,7 @@ pub fn several_gates(
     // Local improvement: each gate to the centre of its share, kept while the overall worst
     // value falls.
     let mut worst = argmax(&field.t).1;
+    let trial_runs = std::sync::atomic::AtomicUsize::new(0);
     // What examining gate g finds, from the layout `chosen` and its field: the move to the
     // centre of its share, if there is one to try, with the trial's field.
     let examine = |g: usize, field: &Field, chosen: &[usize]| -> Examined {
@@ -1028,11 +1040,7 @@ pub fn several_gates(
                     .then(b.cmp(&a))
             })
             .expect("non-empty");
-        let at = |c: u32| Source {
-            point: v.centre(c),
-            cell: c,
-        };
-        let from_x1 = march(v, &[at(x1)], cost);
+        let from_x1 = from_centre.of(x1);
         let x2 = share
             .iter()
             .copied()
@@ -1043,7 +1051,7 @@ pub fn several_gates(
                     .then(b.cmp(&a))
             })
             .unwrap_or(x1);
-        let from_x2 = march(v, &[at(x2)], cost);
+        let from_x2 = from_centre.of(x2);
         let &try_c = pool
             .iter()
             .filter(|&&i| i == chosen[g] || !chosen.contains(&i))
@@ -1056,12 +1064,13 @@ pub fn several_gates(
             })
             .expect("non-empty");
         if try_c == chosen[g] {
-            return Examined::Stays { runs: 2 };
+            return Examined::Stays;
         }
         let mut trial = chosen.to_vec();
         trial[g] = try_c;
         let sources: Vec<Source> = trial.iter().map(|&i| candidates[i]).collect();
         let trial_field = march(v, &sources, cost);
+        trial_runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Examined::Tries {
             trial,
             field: trial_field,
@@ -1082,8 +1091,8 @@ pub fn several_gates(
             }
             // The next gate is examined at the same time, from the same layout: its finding
             // stands when gate g keeps its place (the layout is then unchanged), and is
-            // dropped, uncounted, when g moves. The answer and the runs are those of one
-            // gate after the other.
+            // dropped when g moves (its marches from the ends of its share stay kept). The
+            // answer is that of one gate after the other; the runs count every march run.
             let next = (g + 1..k).find(|&h| stayed_at[h] != Some(moves));
             let (first, second) = match next {
                 Some(h) => {
@@ -1099,8 +1108,7 @@ pub fn several_gates(
                 g = gate + 1;
                 let kept = match found {
                     Examined::Empty => false,
-                    Examined::Stays { runs: r } => {
-                        runs += r;
+                    Examined::Stays => {
                         stayed_at[gate] = Some(moves);
                         false
                     }
@@ -1108,7 +1116,6 @@ pub fn several_gates(
                         trial,
                         field: trial_field,
                     } => {
-                        runs += 3;
                         let trial_worst = argmax(&trial_field.t).1;
                         // Keep the move when the overall worst value does not grow and the
                         // sum of the shares' worst values falls (a gate may improve its share
@@ -1169,17 +1176,71 @@ pub fn several_gates(
         gates,
         l_max_mm: worst,
         balance,
-        runs,
+        runs: runs + from_centre.runs() + trial_runs.into_inner(),
     })
+}
+
+/// The marches of a search from cell centres, kept by cell: such a march depends on its
+/// cell alone, so when a gate's share keeps its ends from one examination to the next (the
+/// move of another gate changed little of it), its two marches are not run again. Fields
+/// are dropped oldest first past [`CentreMarches::BYTES`].
+struct CentreMarches<'a> {
+    voxels: &'a Voxels,
+    cost: Option<&'a [f32]>,
+    kept: std::sync::Mutex<std::collections::VecDeque<(u32, std::sync::Arc<Field>)>>,
+    runs: std::sync::atomic::AtomicUsize,
+    capacity: usize,
+}
+
+impl<'a> CentreMarches<'a> {
+    /// Bytes of fields kept at most (12 bytes a cell each).
+    const BYTES: usize = 256 << 20;
+
+    fn new(voxels: &'a Voxels, cost: Option<&'a [f32]>) -> Self {
+        CentreMarches {
+            voxels,
+            cost,
+            kept: Default::default(),
+            runs: Default::default(),
+            capacity: (Self::BYTES / (12 * voxels.len().max(1))).max(2),
+        }
+    }
+
+    /// The field from the centre of cell `c`: kept, or marched (and kept).
+    fn of(&self, c: u32) -> std::sync::Arc<Field> {
+        let lock = || self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, f)) = lock().iter().find(|(at, _)| *at == c) {
+            return f.clone();
+        }
+        let source = Source {
+            point: self.voxels.centre(c),
+            cell: c,
+        };
+        let field = std::sync::Arc::new(march(self.voxels, &[source], self.cost));
+        self.runs
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let mut kept = lock();
+        if kept.len() == self.capacity {
+            kept.pop_front();
+        }
+        kept.push_back((c, field.clone()));
+        field
+    }
+
+    /// Marches run.
+    fn runs(&self) -> usize {
+        self.runs.load(std::sync::atomic::Ordering::Relaxed)
+    }
 }
 
 /// What examining one gate of a several-gate layout found.
 enum Examined {
     /// Its share is empty.
     Empty,
-    /// It stays: the centre of its share is where it is (`runs` marches).
-    Stays { runs: usize },
-    /// It would move: the layout with the move and its field (three marches).
+    /// It stays: the centre of its share is where it is.
+    Stays,
+    /// It would move: the layout with the move and its field (one march of the layout, with
+    /// those from the share's ends).
     Tries { trial: Vec<usize>, field: Field },
 }
 
@@ -1463,6 +1524,10 @@ pub enum Walls<'a> {
     Measure(&'a Bvh),
     /// Given per triangle (NaN where unknown), with the nominal wall.
     Given(&'a [f32], f64),
+    /// Measured along the lines of the flow cells' own grid ([`Voxels::chord_walls`]): no
+    /// tree, one chord per surface cell that a line crosses, the others from their nearest
+    /// measured cell.
+    Chords,
     /// A uniform wall of 2 V / A.
     Estimate,
 }
@@ -1547,6 +1612,7 @@ pub fn analyse(
         ));
     }
     let mut measured = None;
+    let mut cell_walls = None;
     let (per_triangle, nominal, wall_source, wall) = match walls {
         Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
             (Some(w.to_vec()), n, WallSource::Measured, None)
@@ -1578,6 +1644,20 @@ pub fn analyse(
             };
             (None, nominal, source, Some(summary))
         }
+        Walls::Chords => {
+            let t = Instant::now();
+            let (w, _) = voxels.chord_walls(mesh, &bodies.of_triangle);
+            let surface = voxels.surface.iter().zip(&w).filter(|(&s, _)| s);
+            let summary = summarise_samples(surface.map(|(_, &w)| w), seconds(t));
+            let nominal = summary.nominal_mm.unwrap_or(estimate);
+            cell_walls = Some(w);
+            let source = if summary.nominal_mm.is_some() {
+                WallSource::Measured
+            } else {
+                WallSource::VolumeOverArea
+            };
+            (None, nominal, source, Some(summary))
+        }
         _ => (None, estimate, WallSource::VolumeOverArea, None),
     };
     let triangle_walls = per_triangle.as_deref().or(measured.as_deref());
@@ -1589,7 +1669,10 @@ pub fn analyse(
             nominal / 2.0
         ));
     }
-    let mut domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
+    let mut domain = match &cell_walls {
+        Some(w) => Domain::from_cell_walls(voxels, w, nominal, material),
+        None => Domain::from_voxels(voxels, triangle_walls, nominal, material),
+    };
     // The mesh's volume of each body when every body is closed (its cells' volume else).
     if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
         domain.body_volume_mm3 = bodies.volume_mm3.clone();
@@ -1942,15 +2025,18 @@ fn snap_places(domain: &Domain, mesh: &Mesh, fill: &mut GateFill) {
 /// Statistics of the surface cells' walls: each surface cell is one sample, the value of its
 /// triangle.
 fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSummary {
+    let surface = voxels.triangle.iter().zip(&voxels.surface).filter(|(_, &s)| s);
+    summarise_samples(surface.map(|(&t, _)| per_triangle[t as usize]), time_s)
+}
+
+/// Statistics of wall samples (NaN: unknown).
+fn summarise_samples(samples_mm: impl Iterator<Item = f32>, time_s: f64) -> WallSummary {
     let mut values: Vec<f32> = Vec::new();
     let mut samples = 0;
-    for (&t, &s) in voxels.triangle.iter().zip(&voxels.surface) {
-        if s {
-            samples += 1;
-            let v = per_triangle[t as usize];
-            if v.is_finite() {
-                values.push(v);
-            }
+    for v in samples_mm {
+        samples += 1;
+        if v.is_finite() {
+            values.push(v);
         }
     }
     values.sort_by(f32::total_cmp);
