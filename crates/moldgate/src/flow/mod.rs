@@ -360,27 +360,6 @@ impl Domain {
         nominal_wall_mm: f64,
         material: &Material,
     ) -> Domain {
-        let cell_wall_mm: Vec<f32> = voxels
-            .triangle
-            .iter()
-            .map(|&t| {
-                triangle_wall_mm
-                    .and_then(|w| w.get(t as usize).copied())
-                    .unwrap_or(f32::NAN)
-            })
-            .collect();
-        Domain::from_cell_walls(voxels, &cell_wall_mm, nominal_wall_mm, material)
-    }
-
-    /// [`Domain::from_voxels`] with the wall measured per cell (NaN where unknown), as
-    /// [`Voxels::chord_walls`] gives it; the same rule for slivers, unknown values and the
-    /// clamp.
-    pub fn from_cell_walls(
-        voxels: Voxels,
-        cell_wall_mm: &[f32],
-        nominal_wall_mm: f64,
-        material: &Material,
-    ) -> Domain {
         let h = voxels.h;
         let body = voxels.body.clone();
         let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
@@ -389,10 +368,13 @@ impl Domain {
             body_volume_mm3[b as usize] += h * h * h;
         }
         let lo = MIN_WALL_OF_NOMINAL * nominal_wall_mm;
-        let wall_mm: Vec<f32> = cell_wall_mm
+        let wall_mm: Vec<f32> = voxels
+            .triangle
             .iter()
-            .map(|&w| {
-                let w = Some(f64::from(w))
+            .map(|&t| {
+                let w = triangle_wall_mm
+                    .and_then(|w| w.get(t as usize).copied())
+                    .map(f64::from)
                     // Slivers are films, not walls (see [`crate::thickness`]): unknown.
                     .filter(|w| {
                         w.is_finite() && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
@@ -1217,8 +1199,7 @@ impl<'a> CentreMarches<'a> {
             cell: c,
         };
         let field = std::sync::Arc::new(march(self.voxels, &[source], self.cost));
-        self.runs
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut kept = lock();
         if kept.len() == self.capacity {
             kept.pop_front();
@@ -1524,10 +1505,6 @@ pub enum Walls<'a> {
     Measure(&'a Bvh),
     /// Given per triangle (NaN where unknown), with the nominal wall.
     Given(&'a [f32], f64),
-    /// Measured along the lines of the flow cells' own grid ([`Voxels::chord_walls`]): no
-    /// tree, one chord per surface cell that a line crosses, the others from their nearest
-    /// measured cell.
-    Chords,
     /// A uniform wall of 2 V / A.
     Estimate,
 }
@@ -1612,7 +1589,6 @@ pub fn analyse(
         ));
     }
     let mut measured = None;
-    let mut cell_walls = None;
     let (per_triangle, nominal, wall_source, wall) = match walls {
         Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
             (Some(w.to_vec()), n, WallSource::Measured, None)
@@ -1644,20 +1620,6 @@ pub fn analyse(
             };
             (None, nominal, source, Some(summary))
         }
-        Walls::Chords => {
-            let t = Instant::now();
-            let (w, _) = voxels.chord_walls(mesh, &bodies.of_triangle);
-            let surface = voxels.surface.iter().zip(&w).filter(|(&s, _)| s);
-            let summary = summarise_samples(surface.map(|(_, &w)| w), seconds(t));
-            let nominal = summary.nominal_mm.unwrap_or(estimate);
-            cell_walls = Some(w);
-            let source = if summary.nominal_mm.is_some() {
-                WallSource::Measured
-            } else {
-                WallSource::VolumeOverArea
-            };
-            (None, nominal, source, Some(summary))
-        }
         _ => (None, estimate, WallSource::VolumeOverArea, None),
     };
     let triangle_walls = per_triangle.as_deref().or(measured.as_deref());
@@ -1669,10 +1631,7 @@ pub fn analyse(
             nominal / 2.0
         ));
     }
-    let mut domain = match &cell_walls {
-        Some(w) => Domain::from_cell_walls(voxels, w, nominal, material),
-        None => Domain::from_voxels(voxels, triangle_walls, nominal, material),
-    };
+    let mut domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
     // The mesh's volume of each body when every body is closed (its cells' volume else).
     if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
         domain.body_volume_mm3 = bodies.volume_mm3.clone();
@@ -2025,18 +1984,15 @@ fn snap_places(domain: &Domain, mesh: &Mesh, fill: &mut GateFill) {
 /// Statistics of the surface cells' walls: each surface cell is one sample, the value of its
 /// triangle.
 fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSummary {
-    let surface = voxels.triangle.iter().zip(&voxels.surface).filter(|(_, &s)| s);
-    summarise_samples(surface.map(|(&t, _)| per_triangle[t as usize]), time_s)
-}
-
-/// Statistics of wall samples (NaN: unknown).
-fn summarise_samples(samples_mm: impl Iterator<Item = f32>, time_s: f64) -> WallSummary {
     let mut values: Vec<f32> = Vec::new();
     let mut samples = 0;
-    for v in samples_mm {
-        samples += 1;
-        if v.is_finite() {
-            values.push(v);
+    for (&t, &s) in voxels.triangle.iter().zip(&voxels.surface) {
+        if s {
+            samples += 1;
+            let v = per_triangle[t as usize];
+            if v.is_finite() {
+                values.push(v);
+            }
         }
     }
     values.sort_by(f32::total_cmp);
