@@ -950,7 +950,7 @@ pub struct MultiGate {
     pub l_max_mm: f64,
     /// Smallest volume share over the largest (1: perfectly even).
     pub balance: f64,
-    /// Field runs it took.
+    /// Marches it ran (a march from a cell it had marched from before is not run again).
     pub runs: usize,
 }
 
@@ -980,17 +980,10 @@ pub fn several_gates(
     let mut chosen = vec![first];
     let mut field = march(v, &[candidates[first]], cost);
     runs += 1;
+    let from_centre = CentreMarches::new(v, cost);
     while chosen.len() < k {
         let (far, _) = argmax(&field.t);
-        let from_far = march(
-            v,
-            &[Source {
-                point: v.centre(far),
-                cell: far,
-            }],
-            cost,
-        );
-        runs += 1;
+        let from_far = from_centre.of(far);
         let &next = pool
             .iter()
             .filter(|i| !chosen.contains(i))
@@ -1007,6 +1000,7 @@ pub fn several_gates(
     // Local improvement: each gate to the centre of its share, kept while the overall worst
     // value falls.
     let mut worst = argmax(&field.t).1;
+    let trial_runs = std::sync::atomic::AtomicUsize::new(0);
     // What examining gate g finds, from the layout `chosen` and its field: the move to the
     // centre of its share, if there is one to try, with the trial's field.
     let examine = |g: usize, field: &Field, chosen: &[usize]| -> Examined {
@@ -1028,11 +1022,7 @@ pub fn several_gates(
                     .then(b.cmp(&a))
             })
             .expect("non-empty");
-        let at = |c: u32| Source {
-            point: v.centre(c),
-            cell: c,
-        };
-        let from_x1 = march(v, &[at(x1)], cost);
+        let from_x1 = from_centre.of(x1);
         let x2 = share
             .iter()
             .copied()
@@ -1043,7 +1033,7 @@ pub fn several_gates(
                     .then(b.cmp(&a))
             })
             .unwrap_or(x1);
-        let from_x2 = march(v, &[at(x2)], cost);
+        let from_x2 = from_centre.of(x2);
         let &try_c = pool
             .iter()
             .filter(|&&i| i == chosen[g] || !chosen.contains(&i))
@@ -1056,12 +1046,13 @@ pub fn several_gates(
             })
             .expect("non-empty");
         if try_c == chosen[g] {
-            return Examined::Stays { runs: 2 };
+            return Examined::Stays;
         }
         let mut trial = chosen.to_vec();
         trial[g] = try_c;
         let sources: Vec<Source> = trial.iter().map(|&i| candidates[i]).collect();
         let trial_field = march(v, &sources, cost);
+        trial_runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Examined::Tries {
             trial,
             field: trial_field,
@@ -1082,8 +1073,8 @@ pub fn several_gates(
             }
             // The next gate is examined at the same time, from the same layout: its finding
             // stands when gate g keeps its place (the layout is then unchanged), and is
-            // dropped, uncounted, when g moves. The answer and the runs are those of one
-            // gate after the other.
+            // dropped when g moves (its marches from the ends of its share stay kept). The
+            // answer is that of one gate after the other; the runs count every march run.
             let next = (g + 1..k).find(|&h| stayed_at[h] != Some(moves));
             let (first, second) = match next {
                 Some(h) => {
@@ -1099,8 +1090,7 @@ pub fn several_gates(
                 g = gate + 1;
                 let kept = match found {
                     Examined::Empty => false,
-                    Examined::Stays { runs: r } => {
-                        runs += r;
+                    Examined::Stays => {
                         stayed_at[gate] = Some(moves);
                         false
                     }
@@ -1108,7 +1098,6 @@ pub fn several_gates(
                         trial,
                         field: trial_field,
                     } => {
-                        runs += 3;
                         let trial_worst = argmax(&trial_field.t).1;
                         // Keep the move when the overall worst value does not grow and the
                         // sum of the shares' worst values falls (a gate may improve its share
@@ -1169,17 +1158,70 @@ pub fn several_gates(
         gates,
         l_max_mm: worst,
         balance,
-        runs,
+        runs: runs + from_centre.runs() + trial_runs.into_inner(),
     })
+}
+
+/// The marches of a search from cell centres, kept by cell: such a march depends on its
+/// cell alone, so when a gate's share keeps its ends from one examination to the next (the
+/// move of another gate changed little of it), its two marches are not run again. Fields
+/// are dropped oldest first past [`CentreMarches::BYTES`].
+struct CentreMarches<'a> {
+    voxels: &'a Voxels,
+    cost: Option<&'a [f32]>,
+    kept: std::sync::Mutex<std::collections::VecDeque<(u32, std::sync::Arc<Field>)>>,
+    runs: std::sync::atomic::AtomicUsize,
+    capacity: usize,
+}
+
+impl<'a> CentreMarches<'a> {
+    /// Bytes of fields kept at most (12 bytes a cell each).
+    const BYTES: usize = 256 << 20;
+
+    fn new(voxels: &'a Voxels, cost: Option<&'a [f32]>) -> Self {
+        CentreMarches {
+            voxels,
+            cost,
+            kept: Default::default(),
+            runs: Default::default(),
+            capacity: (Self::BYTES / (12 * voxels.len().max(1))).max(2),
+        }
+    }
+
+    /// The field from the centre of cell `c`: kept, or marched (and kept).
+    fn of(&self, c: u32) -> std::sync::Arc<Field> {
+        let lock = || self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, f)) = lock().iter().find(|(at, _)| *at == c) {
+            return f.clone();
+        }
+        let source = Source {
+            point: self.voxels.centre(c),
+            cell: c,
+        };
+        let field = std::sync::Arc::new(march(self.voxels, &[source], self.cost));
+        self.runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let mut kept = lock();
+        if kept.len() == self.capacity {
+            kept.pop_front();
+        }
+        kept.push_back((c, field.clone()));
+        field
+    }
+
+    /// Marches run.
+    fn runs(&self) -> usize {
+        self.runs.load(std::sync::atomic::Ordering::Relaxed)
+    }
 }
 
 /// What examining one gate of a several-gate layout found.
 enum Examined {
     /// Its share is empty.
     Empty,
-    /// It stays: the centre of its share is where it is (`runs` marches).
-    Stays { runs: usize },
-    /// It would move: the layout with the move and its field (three marches).
+    /// It stays: the centre of its share is where it is.
+    Stays,
+    /// It would move: the layout with the move and its field (one march of the layout, with
+    /// those from the share's ends).
     Tries { trial: Vec<usize>, field: Field },
 }
 

@@ -124,6 +124,13 @@ fn base_and_apex(mesh: &Mesh, t: usize) -> (DVec3, DVec3, DVec3) {
 /// perimeter, not with the square of its longest edge (a sliver 1e5 mm long and 0.1 mm
 /// wide needs one row, not 1e10 samples).
 fn sample_grid(mesh: &Mesh, t: usize, step: f64) -> (usize, usize) {
+    let (_, rows, per_row) = sample_rows(mesh, t, step);
+    (rows, per_row)
+}
+
+/// [`sample_grid`] with the corners it found, as [`base_and_apex`] orders them.
+#[inline]
+fn sample_rows(mesh: &Mesh, t: usize, step: f64) -> ((DVec3, DVec3, DVec3), usize, usize) {
     let (a, b, c) = base_and_apex(mesh, t);
     let base = a.distance(b);
     let height = if base > 0.0 {
@@ -131,9 +138,45 @@ fn sample_grid(mesh: &Mesh, t: usize, step: f64) -> (usize, usize) {
     } else {
         0.0
     };
-    let rows = (height / step).ceil().clamp(1.0, 1e15) as usize;
-    let per_row = (base / step).ceil().clamp(1.0, 1e15) as usize + 1;
-    (rows, per_row)
+    // Both quotients are finite and not negative (the coordinates are bounded).
+    let rows = ceil_index(height / step).clamp(1, 1e15 as usize);
+    let per_row = ceil_index(base / step).clamp(1, 1e15 as usize) + 1;
+    ((a, b, c), rows, per_row)
+}
+
+/// `x.floor()` as an index, for `x >= 0` (a truncation, which is the floor there, with no
+/// call into the maths library); 0 below.
+#[inline]
+fn floor_index(x: f64) -> usize {
+    x.max(0.0) as usize
+}
+
+/// `x.ceil().max(0.0)` as an index.
+#[inline]
+fn ceil_index(x: f64) -> usize {
+    let f = x.max(0.0) as usize;
+    f.saturating_add(((f as f64) < x) as usize)
+}
+
+/// `x.floor()`, by truncation where `x` is positive and below 2^52 (no call into the
+/// maths library there).
+#[inline]
+fn floor_value(x: f64) -> f64 {
+    if x > 0.0 && x < 4.5e15 {
+        (x as u64) as f64
+    } else {
+        x.floor()
+    }
+}
+
+/// `x.floor()` as a signed index (truncation for `x >= 0`).
+#[inline]
+fn floor_signed(x: f64) -> isize {
+    if x >= 0.0 {
+        x as isize
+    } else {
+        x.floor() as isize
+    }
 }
 
 /// Upper bound of the surface samples a voxelisation at `h` takes over the triangles
@@ -194,11 +237,11 @@ impl Voxels {
         let (origin, dims) = Self::layout(&bounds, h);
         let n_cells = dims[0] * dims[1] * dims[2];
         let cell_of = |p: DVec3| -> usize {
-            let q = ((p - origin) / h + 0.5).floor();
+            let q = (p - origin) / h + 0.5;
             let c = [
-                (q.x.max(0.0) as usize).min(dims[0] - 1),
-                (q.y.max(0.0) as usize).min(dims[1] - 1),
-                (q.z.max(0.0) as usize).min(dims[2] - 1),
+                floor_index(q.x).min(dims[0] - 1),
+                floor_index(q.y).min(dims[1] - 1),
+                floor_index(q.z).min(dims[2] - 1),
             ];
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
         };
@@ -215,13 +258,12 @@ impl Voxels {
                     if body_of[t] == EMPTY {
                         continue;
                     }
-                    let (a, b, c) = base_and_apex(mesh, t);
-                    let (rows, per_row) = sample_grid(mesh, t, step);
+                    let ((a, b, c), rows, per_row) = sample_rows(mesh, t, step);
                     let mut last = usize::MAX;
                     for r in 0..=rows {
                         let s = r as f64 / rows as f64;
                         let (p, q) = (a + (c - a) * s, b + (c - b) * s);
-                        let n = (((1.0 - s) * (per_row - 1) as f64).ceil() as usize).max(1);
+                        let n = ceil_index((1.0 - s) * (per_row - 1) as f64).max(1);
                         for j in 0..=n {
                             let cell = cell_of(p + (q - p) * (j as f64 / n as f64));
                             if cell != last {
@@ -343,10 +385,10 @@ impl Voxels {
                     let sign: i8 = if area < 0.0 { 1 } else { -1 };
                     let lo = q[0].min(q[1]).min(q[2]);
                     let hi = q[0].max(q[1]).max(q[2]);
-                    let i0 = (((lo.x - origin.x) / h).ceil().max(0.0)) as usize;
-                    let i1 = (((hi.x - origin.x) / h).floor() as isize).min(nx as isize - 1);
-                    let j0 = (((lo.y - origin.y) / h).ceil().max(0.0)) as usize;
-                    let j1 = (((hi.y - origin.y) / h).floor() as isize).min(ny as isize - 1);
+                    let i0 = ceil_index((lo.x - origin.x) / h);
+                    let i1 = floor_signed((hi.x - origin.x) / h).min(nx as isize - 1);
+                    let j0 = ceil_index((lo.y - origin.y) / h);
+                    let j1 = floor_signed((hi.y - origin.y) / h).min(ny as isize - 1);
                     for j in j0 as isize..=j1 {
                         for i in i0 as isize..=i1 {
                             let c = DVec2::new(origin.x + i as f64 * h, origin.y + j as f64 * h);
@@ -394,9 +436,9 @@ impl Voxels {
                         run_triangle = pair[0].3;
                     }
                     if winding != 0 {
-                        let k0 = ((pair[0].1 - origin.z) / h).ceil().max(0.0) as usize;
-                        let k1 = ((pair[1].1 - origin.z) / h).floor();
-                        if k1 >= 0.0 {
+                        let k0 = ceil_index((pair[0].1 - origin.z) / h);
+                        let k1 = floor_signed((pair[1].1 - origin.z) / h);
+                        if k1 >= 0 {
                             for k in k0..=(k1 as usize).min(nz - 1) {
                                 inside[(k * ny + j) * nx + i] = run_triangle;
                             }
@@ -500,7 +542,7 @@ impl Voxels {
     /// The solid cell nearest `p`: the cell containing it if solid, else the nearest solid
     /// cell centre within two cells; `None` when there is none.
     pub fn cell_near(&self, p: DVec3) -> Option<u32> {
-        let q = ((p - self.origin) / self.h + 0.5).floor();
+        let q = ((p - self.origin) / self.h + 0.5).map(floor_value);
         if q.cmpge(DVec3::ZERO).all() {
             let (x, y, z) = (q.x as usize, q.y as usize, q.z as usize);
             if x < self.dims[0] && y < self.dims[1] && z < self.dims[2] {
@@ -567,6 +609,35 @@ impl Voxels {
 mod tests {
     use super::*;
     use crate::samples::sample;
+
+    #[test]
+    fn index_roundings_are_the_maths_library_s() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            -0.5,
+            2.0 - 1e-16,
+            4.5e15,
+            -4.5e15,
+        ];
+        values.extend([f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300]);
+        let mut x = 0.123f64;
+        for _ in 0..10_000 {
+            x = (x * 7919.0 + 0.37).rem_euclid(2000.0);
+            values.extend([x - 1000.0, (x - 1000.0).round(), x * 1e-3]);
+        }
+        for &v in &values {
+            assert_eq!(floor_index(v), v.floor().max(0.0) as usize, "{v}");
+            assert_eq!(ceil_index(v), v.ceil().max(0.0) as usize, "{v}");
+            if v.is_finite() && v.abs() < 1e15 {
+                assert_eq!(floor_signed(v), v.floor() as isize, "{v}");
+            }
+            assert_eq!(floor_value(v).to_bits(), v.floor().to_bits(), "{v}");
+        }
+    }
 
     #[test]
     fn plate_fills_its_volume_to_within_a_layer_of_cells() {
