@@ -55,20 +55,20 @@ pub struct PixelRect {
 
 /// What the z-buffer holds for one panel, at `ss` samples per pixel along each axis.
 ///
-/// A sample is 9 bytes in three arrays that start as zeros, and a zero depth key means "no
-/// part here": the arrays are allocated zeroed (fresh pages from the system, which it
-/// zeroes only when they are first written) rather than filled, so the background costs
-/// neither a fill pass nor its pages.
+/// A sample is 9 bytes in two arrays that start as zeros, and a zero sample means "no part
+/// here": the arrays are allocated zeroed (fresh pages from the system, which it zeroes
+/// only when they are first written) rather than filled, so the background costs neither
+/// a fill pass nor its pages.
 pub struct Layer {
     pub rect: PixelRect,
     pub ss: u32,
     w: usize,
     h: usize,
-    /// Depth of the nearest surface as an order-keeping key ([`depth_key`]), 0 where the
-    /// part is absent.
-    depth: Vec<u32>,
-    /// The facet drawn there (its index in the mesh).
-    facet: Vec<u32>,
+    /// The nearest surface: its depth as an order-keeping key ([`depth_key`]) in the high
+    /// 32 bits, the complement of its facet's index in the low 32 (so that of two facets at
+    /// the same depth the first drawn is the larger sample and stays), 0 where the part is
+    /// absent. One compare of one word is the depth test.
+    sample: Vec<u64>,
     /// Colour-map entry 0..=255 of the field value there.
     lut: Vec<u8>,
     /// Lambert factor per facet, negated when the facet has no field value (drawn grey).
@@ -208,8 +208,7 @@ pub fn rasterise(
         ss,
         w,
         h,
-        depth: vec![0; w * h],
-        facet: vec![0; w * h],
+        sample: vec![0; w * h],
         lut: vec![0; w * h],
         shade: vec![0.0; order.corners.len()],
     };
@@ -251,7 +250,7 @@ pub fn rasterise(
         // at every sample): the facet is drawn grey.
         let has_value = !(ta.is_nan() || tb.is_nan() || tc.is_nan());
         layer.shade[place] = if has_value { shade } else { -shade };
-        let place = place as u32;
+        let facet = !(place as u32) as u64;
         // Barycentric weights from edge functions, normalised by the signed area so either
         // winding works; stepped along each row.
         let dwa = -(c[1] - b[1]) * inv;
@@ -273,11 +272,10 @@ pub fn rasterise(
                 if inside {
                     entered = true;
                     let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
+                    let sample = (z as u64) << 32 | facet;
                     let i = row + x;
-                    let d = layer.depth[i];
-                    if z > d {
-                        layer.depth[i] = z;
-                        layer.facet[i] = place;
+                    if sample > layer.sample[i] {
+                        layer.sample[i] = sample;
                         if has_value {
                             layer.lut[i] = lut_index(tc + wa * dt_a + wb * dt_b);
                         }
@@ -309,7 +307,7 @@ impl Layer {
         if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
             return None;
         }
-        let key = self.depth[sy as usize * self.w + sx as usize];
+        let key = (self.sample[sy as usize * self.w + sx as usize] >> 32) as u32;
         (key != 0).then(|| key_depth(key))
     }
 
@@ -335,10 +333,11 @@ impl Layer {
     ) -> Vec<Rgb> {
         use rayon::prelude::*;
         let (w, h) = (self.w, self.h);
+        let depth = |i: usize| (self.sample[i] >> 32) as u32;
         let outline = |i: usize, x: usize, y: usize| -> bool {
-            let d = key_depth(self.depth[i]);
+            let d = key_depth(depth(i));
             let near = |j: usize| {
-                let e = self.depth[j];
+                let e = depth(j);
                 e == 0 || (key_depth(e) - d).abs() > crease_mm
             };
             (x > 0 && near(i - 1))
@@ -360,10 +359,10 @@ impl Layer {
                 for sy in py * ss..(py + 1) * ss {
                     for sx in px * ss..(px + 1) * ss {
                         let i = sy * w + sx;
-                        let c = if self.depth[i] == 0 {
+                        let c = if self.sample[i] == 0 {
                             bg
                         } else {
-                            let shade = self.shade[self.facet[i] as usize];
+                            let shade = self.shade[!(self.sample[i] as u32) as usize];
                             let base = if shade < 0.0 {
                                 no_value
                             } else {
@@ -485,10 +484,14 @@ mod tests {
         };
         let order = DrawOrder::new(&mesh, &t);
         let layer = rasterise(&order, &square_camera(), rect, 2, DVec3::Z);
-        let covered = layer.depth.iter().filter(|&&d| d != 0).count();
+        let covered = layer.sample.iter().filter(|&&s| s != 0).count();
         // Union of two 40x40-pixel squares overlapping by 20x20, at 2x2 samples per pixel.
         assert_eq!(covered, 4 * (1600 + 1600 - 400));
-        let high = layer.depth.iter().filter(|&&d| d == depth_key(2.0)).count();
+        let high = layer
+            .sample
+            .iter()
+            .filter(|&&s| (s >> 32) as u32 == depth_key(2.0))
+            .count();
         assert_eq!(high, 4 * 1600);
         // In the overlap the value is the higher square's.
         assert_eq!(layer.depth_at(55.0, 45.0), Some(2.0));
