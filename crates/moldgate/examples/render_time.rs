@@ -35,7 +35,9 @@ fn main() {
         ..LocateOptions::default()
     };
     let analysis = locate(&loaded, &options).expect("the analysis runs");
+    let t = Instant::now();
     let scene = Scene::new(&loaded.mesh, &analysis, part.clone());
+    let scene_s = t.elapsed().as_secs_f64();
     let (mut draw, mut encode) = (f64::MAX, f64::MAX);
     let mut bytes = 0;
     for _ in 0..runs {
@@ -47,8 +49,9 @@ fn main() {
         encode = encode.min(t.elapsed().as_secs_f64());
     }
     println!(
-        "{part}: {} triangles, draw {:.1} ms, encode {:.1} ms, {} bytes (best of {runs})",
+        "{part}: {} triangles, scene {:.1} ms, draw {:.1} ms, encode {:.1} ms, {} bytes (best of {runs})",
         loaded.mesh.triangles.len(),
+        scene_s * 1e3,
         draw * 1e3,
         encode * 1e3,
         bytes

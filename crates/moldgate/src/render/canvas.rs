@@ -1,8 +1,10 @@
 //! The picture being drawn: an opaque RGBA pixmap with shapes (tiny-skia, anti-aliased) and
 //! text (fontdue, with the DejaVu Sans subset shipped in `fonts/`).
 
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
+use super::raster::round_non_negative;
 use tiny_skia::{
     FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke, StrokeDash, Transform,
 };
@@ -38,7 +40,7 @@ fn fonts() -> &'static Fonts {
 }
 
 /// Text weight.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Weight {
     Regular,
     Bold,
@@ -135,6 +137,9 @@ pub fn wrap(text: &str, style: &TextStyle, width: f32) -> Vec<String> {
 /// The picture: an opaque pixmap and drawing helpers in pixel coordinates (y down).
 pub struct Canvas {
     pub pixmap: Pixmap,
+    /// Glyph bitmaps drawn so far, by weight, size (its bits) and character: a text with a
+    /// halo draws each glyph nine times, and the labels repeat the same few characters.
+    glyphs: HashMap<(Weight, u32, char), (fontdue::Metrics, Vec<u8>)>,
 }
 
 fn paint(colour: Rgb, alpha: u8) -> Paint<'static> {
@@ -154,7 +159,10 @@ impl Canvas {
             background[2],
             255,
         ));
-        Some(Canvas { pixmap })
+        Some(Canvas {
+            pixmap,
+            glyphs: HashMap::new(),
+        })
     }
 
     pub fn width(&self) -> u32 {
@@ -175,7 +183,7 @@ impl Canvas {
         let data = self.pixmap.data_mut();
         for k in 0..3 {
             let d = data[i + k] as f32;
-            data[i + k] = (d + (colour[k] as f32 - d) * alpha).round() as u8;
+            data[i + k] = round_non_negative(d + (colour[k] as f32 - d) * alpha) as u8;
         }
         data[i + 3] = 255;
     }
@@ -270,16 +278,32 @@ impl Canvas {
         width: f32,
         dash: Option<[f32; 2]>,
     ) {
-        if points.len() < 2 {
-            return;
-        }
+        self.stroke_polylines(std::slice::from_ref(&points), closed, colour, width, dash);
+    }
+
+    /// Open or closed polylines stroked as one path: one pass over the pixels for all of
+    /// them (a parting line of thousands of pieces costs one stroke, not thousands), and
+    /// where they overlap the colour is laid once. Each starts its own dash pattern.
+    pub fn stroke_polylines<P: AsRef<[[f32; 2]]>>(
+        &mut self,
+        lines: &[P],
+        closed: bool,
+        colour: Rgb,
+        width: f32,
+        dash: Option<[f32; 2]>,
+    ) {
         let mut pb = PathBuilder::new();
-        pb.move_to(points[0][0], points[0][1]);
-        for p in &points[1..] {
-            pb.line_to(p[0], p[1]);
-        }
-        if closed {
-            pb.close();
+        for points in lines.iter().map(AsRef::as_ref) {
+            if points.len() < 2 {
+                continue;
+            }
+            pb.move_to(points[0][0], points[0][1]);
+            for p in &points[1..] {
+                pb.line_to(p[0], p[1]);
+            }
+            if closed {
+                pb.close();
+            }
         }
         let Some(path) = pb.finish() else { return };
         let stroke = Stroke {
@@ -346,7 +370,13 @@ impl Canvas {
         let f = font(style.weight);
         let mut pen = x;
         for c in text.chars() {
-            let (m, bitmap) = f.rasterize(shown(f, c), style.size);
+            let c = shown(f, c);
+            let key = (style.weight, style.size.to_bits(), c);
+            // Taken out while it is drawn, so that the canvas can be borrowed.
+            let (m, bitmap) = self
+                .glyphs
+                .remove(&key)
+                .unwrap_or_else(|| f.rasterize(c, style.size));
             let left = (pen + m.xmin as f32).round() as i32;
             let top = (y - m.height as f32 - m.ymin as f32).round() as i32;
             for row in 0..m.height {
@@ -363,6 +393,7 @@ impl Canvas {
                 }
             }
             pen += m.advance_width;
+            self.glyphs.insert(key, (m, bitmap));
         }
     }
 

@@ -3,10 +3,12 @@
 //! region drawn over it, a colour bar, scale bars, orientation axes and a title.
 //!
 //! The part is drawn by our own z-buffer (`raster.rs`) at 2x2 samples per pixel; overlays
-//! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/`, and the
-//! PNG is encoded by the `png` crate (deflate level 1). The two views are drawn
-//! and coloured on two threads, then the overlays in a fixed order, so the same scene gives
-//! the same bytes.
+//! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/` (each
+//! glyph rasterised once a picture), and the PNG is encoded by the `png` crate (deflate
+//! level 1). The two views are drawn and coloured on two threads, then the overlays in a
+//! fixed order, so the same scene gives the same bytes. The parting line is stroked as one
+//! path per style, its pieces joined and its points thinned to within
+//! [`PARTING_TOLERANCE_PX`] of the line (docs/performance.md, "Pictures").
 //!
 //! ```
 //! use moldgate::render::{png, RenderOptions};
@@ -28,7 +30,7 @@ use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
 pub use placed::PLACED_COLOUR;
-use raster::{rasterise, Layer};
+use raster::{rasterise, DrawOrder, Layer};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -200,15 +202,17 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         })
         .collect();
     let diagonal = bounds_diagonal(scene);
+    let order = DrawOrder::new(mesh, &t);
     // Each panel is drawn and coloured on its own thread (its rows coloured in parallel);
     // the overlays then go on the one canvas in a fixed order.
     let draw = |v: &View| {
         let light =
             (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75).normalize();
-        let layer = rasterise(mesh, &t, &v.camera, v.panel, SAMPLES, light);
+        let layer = rasterise(&order, &v.camera, v.panel, SAMPLES, light);
         let sample_mm = 1.0 / (v.camera.scale * SAMPLES as f64);
         let crease = (6.0 * sample_mm).max(0.003 * diagonal) as f32;
-        let pixels = layer.pixels(|t| lut.colour(t), VIEW_BACKGROUND, crease);
+        let no_value = NO_VALUE_COLOUR.map(|c| c as f32);
+        let pixels = layer.pixels(&lut.0, no_value, VIEW_BACKGROUND, crease);
         (layer, pixels)
     };
     let ((a, pixels_a), ((b, pixels_b), canvas)) = rayon::join(
@@ -235,6 +239,9 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     draw_side_bar(&mut canvas, scene, &layout, &range, &lut, k);
     Ok(Picture { canvas, views })
 }
+
+/// How far the stroked parting line may stray from its points, pixels.
+pub const PARTING_TOLERANCE_PX: f32 = 0.1;
 
 /// Samples per pixel along each axis in the z-buffer (anti-aliasing of the part's edges).
 const SAMPLES: u32 = 2;
@@ -398,7 +405,7 @@ impl Lut {
         if t.is_nan() {
             NO_VALUE_COLOUR.map(|c| c as f32)
         } else {
-            self.0[(t.clamp(0.0, 1.0) * 255.0).round() as usize]
+            self.0[raster::lut_index(t) as usize]
         }
     }
 
@@ -431,7 +438,13 @@ fn draw_overlays(
         for pair in line.windows(2) {
             let (p, q) = (pair[0], pair[1]);
             let length_px = (cam.to_pixel(q) - cam.to_pixel(p)).length();
-            let pieces = (length_px / 3.0).ceil().clamp(1.0, 10_000.0) as usize;
+            // Pieces of about 3 pixels each take their visibility from their middle; a run
+            // keeps only the points where it changes (the others lie on the same segment).
+            let pieces = if depth_test {
+                (length_px / 3.0).ceil().clamp(1.0, 10_000.0) as usize
+            } else {
+                1
+            };
             for i in 0..pieces {
                 let a = p.lerp(q, i as f64 / pieces as f64);
                 let b = p.lerp(q, (i + 1) as f64 / pieces as f64);
@@ -439,31 +452,34 @@ fn draw_overlays(
                 let m = cam.to_pixel(mid);
                 let visible = !depth_test || layer.visible(m.x, m.y, cam.depth(mid), tolerance);
                 let pa = cam.to_pixel(a);
-                let pb = cam.to_pixel(b);
+                let pa = [pa.x as f32, pa.y as f32];
                 if visible != run_visible && !run.is_empty() {
+                    run.push(pa);
                     let done = std::mem::take(&mut run);
                     if run_visible { &mut shown } else { &mut hidden }.push(done);
                 }
                 if run.is_empty() {
-                    run.push([pa.x as f32, pa.y as f32]);
+                    run.push(pa);
                 }
-                run.push([pb.x as f32, pb.y as f32]);
                 run_visible = visible;
             }
+            let end = cam.to_pixel(q);
+            run.push([end.x as f32, end.y as f32]);
         }
         if !run.is_empty() {
             if run_visible { &mut shown } else { &mut hidden }.push(run);
         }
     }
-    for line in &hidden {
-        canvas.stroke_polyline(line, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
-    }
-    for line in &shown {
-        canvas.stroke_polyline(line, false, BLACK, 4.5 * k, None);
-    }
-    for line in &shown {
-        canvas.stroke_polyline(line, false, WHITE, 2.0 * k, None);
-    }
+    let simplify = |lines: Vec<Vec<[f32; 2]>>| -> Vec<Vec<[f32; 2]>> {
+        chained(lines)
+            .iter()
+            .map(|l| simplified(l, PARTING_TOLERANCE_PX))
+            .collect()
+    };
+    let (hidden, shown) = (simplify(hidden), simplify(shown));
+    canvas.stroke_polylines(&hidden, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
+    canvas.stroke_polylines(&shown, false, BLACK, 4.5 * k, None);
+    canvas.stroke_polylines(&shown, false, WHITE, 2.0 * k, None);
 
     // Centre of mass under the gate: its cross reaches beyond the disc, so both show when
     // the gate lies right above it.
@@ -534,6 +550,81 @@ fn draw_overlays(
         &TextStyle::new(14.0 * k, GREY),
         Align::Left,
     );
+}
+
+/// `line` less the points within `tolerance` pixels of the line through their neighbours
+/// that are kept (Ramer-Douglas-Peucker): a parting line of a fine mesh has several points
+/// per pixel, and each costs the stroke a round join.
+fn simplified(line: &[[f32; 2]], tolerance: f32) -> Vec<[f32; 2]> {
+    if line.len() < 3 {
+        return line.to_vec();
+    }
+    let mut keep = vec![false; line.len()];
+    keep[0] = true;
+    keep[line.len() - 1] = true;
+    let mut stack = vec![(0, line.len() - 1)];
+    while let Some((first, last)) = stack.pop() {
+        let (a, b) = (line[first], line[last]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let length = (dx * dx + dy * dy).sqrt();
+        let mut far = (0.0f32, first);
+        for (i, p) in line.iter().enumerate().take(last).skip(first + 1) {
+            let (px, py) = (p[0] - a[0], p[1] - a[1]);
+            let d = if length > 0.0 {
+                (px * dy - py * dx).abs() / length
+            } else {
+                (px * px + py * py).sqrt()
+            };
+            if d > far.0 {
+                far = (d, i);
+            }
+        }
+        if far.0 > tolerance {
+            keep[far.1] = true;
+            stack.push((first, far.1));
+            stack.push((far.1, last));
+        }
+    }
+    line.iter()
+        .zip(keep)
+        .filter_map(|(p, k)| k.then_some(*p))
+        .collect()
+}
+
+/// Polylines joined where one ends at a point where another starts or ends, so that they
+/// are stroked as long lines rather than as thousands of short ones, each with its two
+/// round caps (the parting line of a fine mesh comes in pieces of a few edges).
+fn chained(lines: Vec<Vec<[f32; 2]>>) -> Vec<Vec<[f32; 2]>> {
+    let key = |p: [f32; 2]| (p[0].to_bits(), p[1].to_bits());
+    let mut at: rustc_hash::FxHashMap<(u32, u32), Vec<usize>> = Default::default();
+    for (i, line) in lines.iter().enumerate() {
+        at.entry(key(line[0])).or_default().push(i);
+        at.entry(key(line[line.len() - 1])).or_default().push(i);
+    }
+    let mut used = vec![false; lines.len()];
+    let mut out = Vec::new();
+    for start in 0..lines.len() {
+        if used[start] {
+            continue;
+        }
+        used[start] = true;
+        let mut line = lines[start].clone();
+        // Grow at the end, then turn round and grow at the other end.
+        for _ in 0..2 {
+            while let Some(&next) = at[&key(line[line.len() - 1])].iter().find(|&&j| !used[j]) {
+                used[next] = true;
+                let piece = &lines[next];
+                if key(piece[0]) == key(line[line.len() - 1]) {
+                    line.extend_from_slice(&piece[1..]);
+                } else {
+                    line.extend(piece.iter().rev().skip(1));
+                }
+            }
+            line.reverse();
+        }
+        out.push(line);
+    }
+    out
 }
 
 /// The qualifying nodes as a hatched region with a dark edge: each node covers a square of
@@ -1064,6 +1155,37 @@ mod tests {
         assert_eq!(format_step(0.05, 0.05), "0.05");
         assert_eq!(format_step(-0.0, 0.5), "0.0");
         assert_eq!(format_step(12.5, 2.5), "12.5");
+    }
+
+    #[test]
+    fn pieces_of_a_line_are_chained_and_straight_runs_lose_their_inner_points() {
+        // Three pieces of one path, one of them reversed, and a separate piece.
+        let pieces = vec![
+            vec![[0.0, 0.0], [1.0, 0.0]],
+            vec![[3.0, 0.0], [2.0, 0.0], [1.0, 0.0]],
+            vec![[3.0, 0.0], [3.0, 4.0]],
+            vec![[10.0, 10.0], [11.0, 11.0]],
+        ];
+        let lines = chained(pieces);
+        assert_eq!(lines.len(), 2);
+        let long = lines
+            .iter()
+            .find(|l| l.len() == 5)
+            .expect("the joined path");
+        let ends = [long[0], long[4]];
+        assert!(
+            ends.contains(&[0.0, 0.0]) && ends.contains(&[3.0, 4.0]),
+            "{long:?}"
+        );
+        // The collinear points go; the corner stays.
+        let s = simplified(long, 0.1);
+        assert_eq!(s.len(), 3, "{s:?}");
+        assert!(s.contains(&[3.0, 0.0]));
+        // A bump of 0.05 px is within the tolerance, one of 0.5 px is not.
+        let bumpy = [[0.0, 0.0], [5.0, 0.05], [10.0, 0.0]];
+        assert_eq!(simplified(&bumpy, 0.1).len(), 2);
+        let bent = [[0.0, 0.0], [5.0, 0.5], [10.0, 0.0]];
+        assert_eq!(simplified(&bent, 0.1).len(), 3);
     }
 
     #[test]

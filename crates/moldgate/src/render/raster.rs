@@ -54,26 +54,149 @@ pub struct PixelRect {
 }
 
 /// What the z-buffer holds for one panel, at `ss` samples per pixel along each axis.
+///
+/// A sample is 9 bytes in two arrays that start as zeros, and a zero sample means "no part
+/// here": the arrays are allocated zeroed (fresh pages from the system, which it zeroes
+/// only when they are first written) rather than filled, so the background costs neither
+/// a fill pass nor its pages.
 pub struct Layer {
     pub rect: PixelRect,
     pub ss: u32,
     w: usize,
     h: usize,
-    /// Depth of the nearest surface (mm), `-inf` where the part is absent.
-    depth: Vec<f32>,
-    /// Colour-map coordinate 0..=1 (NaN: no value).
-    t: Vec<f32>,
-    /// Lambert factor.
+    /// The nearest surface: its depth as an order-keeping key ([`depth_key`]) in the high
+    /// 32 bits, the complement of its facet's index in the low 32 (so that of two facets at
+    /// the same depth the first drawn is the larger sample and stays), 0 where the part is
+    /// absent. One compare of one word is the depth test.
+    sample: Vec<u64>,
+    /// Colour-map entry 0..=255 of the field value there.
+    lut: Vec<u8>,
+    /// Lambert factor per facet, negated when the facet has no field value (drawn grey).
     shade: Vec<f32>,
 }
 
-const EMPTY: f32 = f32::NEG_INFINITY;
+/// The mesh as the views draw it, built once for both: the triangles in the mesh's order,
+/// each with its unit normal, and the vertices renumbered in the order the triangles first
+/// use them, so that consecutive triangles read neighbouring entries of the projected
+/// vertices. (Drawing the triangles in a spatial order instead, Morton order of the
+/// centroids, was slower on the 352k-triangle housing: its front and back faces then
+/// alternate and the depth test's outcome with them.)
+pub struct DrawOrder {
+    /// Each triangle's corners, as indices into `positions`.
+    corners: Vec<[u32; 3]>,
+    /// Unit normal of each triangle (zero when degenerate).
+    normals: Vec<DVec3>,
+    /// Vertex positions in first-use order.
+    positions: Vec<DVec3>,
+    /// The colour-map coordinate of each of them.
+    t: Vec<f32>,
+}
 
-/// Draws the mesh into a z-buffer covering `rect` of the canvas. `t` is the colour-map
-/// coordinate per vertex; `light` is the unit direction towards the light.
+impl DrawOrder {
+    /// The drawing order of `mesh`, with `t`, the colour-map coordinate per vertex.
+    pub fn new(mesh: &Mesh, t: &[f32]) -> DrawOrder {
+        use rayon::prelude::*;
+        let mut new_index = vec![u32::MAX; mesh.vertices.len()];
+        let mut first_use: Vec<u32> = Vec::with_capacity(mesh.vertices.len());
+        let corners: Vec<[u32; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|tri| {
+                tri.map(|v| {
+                    let slot = &mut new_index[v as usize];
+                    if *slot == u32::MAX {
+                        *slot = first_use.len() as u32;
+                        first_use.push(v);
+                    }
+                    *slot
+                })
+            })
+            .collect();
+        let positions: Vec<DVec3> = first_use
+            .iter()
+            .map(|&v| mesh.vertices[v as usize])
+            .collect();
+        let t = first_use.iter().map(|&v| t[v as usize]).collect();
+        let normals = corners
+            .par_iter()
+            .map(|c| {
+                let [pa, pb, pc] = c.map(|v| positions[v as usize]);
+                (pb - pa).cross(pc - pa).normalize_or_zero()
+            })
+            .collect();
+        DrawOrder {
+            corners,
+            normals,
+            positions,
+            t,
+        }
+    }
+}
+
+/// `x.floor()` for finite `x` within the range of `i32`, without the library call it
+/// compiles to on the baseline x86-64.
+#[inline]
+fn floor(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// `x.ceil()`, as [`floor`].
+#[inline]
+fn ceil(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t < x {
+        t + 1.0
+    } else {
+        t
+    }
+}
+
+/// An unsigned key of a finite depth that orders as the depths do (larger is nearer), and
+/// is never 0: the key of the empty sample. `-0.0` and `0.0` get one key.
+#[inline]
+fn depth_key(z: f32) -> u32 {
+    let bits = (z + 0.0).to_bits();
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    }
+}
+
+/// The depth of a key of [`depth_key`].
+#[inline]
+fn key_depth(key: u32) -> f32 {
+    f32::from_bits(if key >> 31 == 1 {
+        key & 0x7fff_ffff
+    } else {
+        !key
+    })
+}
+
+/// `x.round()` for `0 <= x < 2^24`, without the library call it compiles to on the
+/// baseline x86-64: the fraction `x - trunc(x)` is exact in this range.
+#[inline]
+pub(super) fn round_non_negative(x: f32) -> f32 {
+    let whole = x as u32 as f32;
+    whole + f32::from(u8::from(x - whole >= 0.5))
+}
+
+/// Colour-map entry of a colour-map coordinate (clamped to 0..=1; not NaN).
+#[inline]
+pub(super) fn lut_index(t: f32) -> u8 {
+    round_non_negative(t.clamp(0.0, 1.0) * 255.0) as u8
+}
+
+/// Draws the mesh, as `order` lists it, into a z-buffer covering `rect` of the canvas;
+/// `light` is the unit direction towards the light. Where two triangles give a sample the same depth, the one listed first in the
+/// mesh keeps it, so the picture does not depend on the drawing order.
 pub fn rasterise(
-    mesh: &Mesh,
-    t: &[f32],
+    order: &DrawOrder,
     camera: &Camera,
     rect: PixelRect,
     ss: u32,
@@ -85,14 +208,14 @@ pub fn rasterise(
         ss,
         w,
         h,
-        depth: vec![EMPTY; w * h],
-        t: vec![f32::NAN; w * h],
-        shade: vec![0.0; w * h],
+        sample: vec![0; w * h],
+        lut: vec![0; w * h],
+        shade: vec![0.0; order.corners.len()],
     };
     let s = ss as f64;
     // Vertices in sample coordinates (pixel centres at +0.5) and depth.
-    let projected: Vec<[f32; 3]> = mesh
-        .vertices
+    let projected: Vec<[f32; 3]> = order
+        .positions
         .iter()
         .map(|&p| {
             let q = camera.to_pixel(p);
@@ -103,27 +226,31 @@ pub fn rasterise(
             ]
         })
         .collect();
-    for tri in &mesh.triangles {
-        let [ia, ib, ic] = tri.map(|i| i as usize);
+    let t = &order.t;
+    for (place, (corners, &n)) in order.corners.iter().zip(&order.normals).enumerate() {
+        let [ia, ib, ic] = corners.map(|i| i as usize);
         let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         if area.abs() < 1e-12 || !area.is_finite() {
             continue; // seen edge-on, or degenerate
         }
-        let min_x = a[0].min(b[0]).min(c[0]).floor().max(0.0);
-        let max_x = a[0].max(b[0]).max(c[0]).ceil().min(w as f32 - 1.0);
-        let min_y = a[1].min(b[1]).min(c[1]).floor().max(0.0);
-        let max_y = a[1].max(b[1]).max(c[1]).ceil().min(h as f32 - 1.0);
+        let min_x = floor(a[0].min(b[0]).min(c[0])).max(0.0);
+        let max_x = ceil(a[0].max(b[0]).max(c[0])).min(w as f32 - 1.0);
+        let min_y = floor(a[1].min(b[1]).min(c[1])).max(0.0);
+        let max_y = ceil(a[1].max(b[1]).max(c[1])).min(h as f32 - 1.0);
         if min_x > max_x || min_y > max_y {
             continue;
         }
         // Lambert: the facet normal against the light, both sides lit (meshes are not
         // always consistently oriented).
-        let [pa, pb, pc] = [ia, ib, ic].map(|i| mesh.vertices[i]);
-        let n = (pb - pa).cross(pc - pa).normalize_or_zero();
         let shade = (AMBIENT + DIFFUSE * n.dot(light).abs()) as f32;
         let inv = 1.0 / area;
         let (ta, tb, tc) = (t[ia], t[ib], t[ic]);
+        // A value missing at one corner is missing over the whole facet (it would be NaN
+        // at every sample): the facet is drawn grey.
+        let has_value = !(ta.is_nan() || tb.is_nan() || tc.is_nan());
+        layer.shade[place] = if has_value { shade } else { -shade };
+        let facet = !(place as u32) as u64;
         // Barycentric weights from edge functions, normalised by the signed area so either
         // winding works; stepped along each row.
         let dwa = -(c[1] - b[1]) * inv;
@@ -144,12 +271,14 @@ pub fn rasterise(
                 let inside = wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK;
                 if inside {
                     entered = true;
-                    let z = c[2] + wa * dz_a + wb * dz_b;
+                    let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
+                    let sample = (z as u64) << 32 | facet;
                     let i = row + x;
-                    if z > layer.depth[i] {
-                        layer.depth[i] = z;
-                        layer.t[i] = tc + wa * dt_a + wb * dt_b;
-                        layer.shade[i] = shade;
+                    if sample > layer.sample[i] {
+                        layer.sample[i] = sample;
+                        if has_value {
+                            layer.lut[i] = lut_index(tc + wa * dt_a + wb * dt_b);
+                        }
                     }
                 } else if entered {
                     break; // a triangle's row is one run of samples
@@ -178,8 +307,8 @@ impl Layer {
         if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
             return None;
         }
-        let d = self.depth[sy as usize * self.w + sx as usize];
-        (d > EMPTY).then_some(d)
+        let key = (self.sample[sy as usize * self.w + sx as usize] >> 32) as u32;
+        (key != 0).then(|| key_depth(key))
     }
 
     /// Whether a point at canvas (x, y) with depth `depth` is in front of, or within
@@ -191,22 +320,25 @@ impl Layer {
         }
     }
 
-    /// The panel's pixels, rows of `rect.w`: the samples coloured (`colour_of(t)` times the
-    /// shade; an outline where the depth jumps by more than `crease_mm` or the part ends)
-    /// over `background` and averaged per pixel, the rows in parallel.
+    /// The panel's pixels, rows of `rect.w`: the samples coloured (`lut` entry times the
+    /// shade, `no_value` for a facet without a field value; an outline where the depth
+    /// jumps by more than `crease_mm` or the part ends) over `background` and averaged per
+    /// pixel, the rows in parallel.
     pub fn pixels(
         &self,
-        colour_of: impl Fn(f32) -> [f32; 3] + Sync,
+        lut: &[[f32; 3]; 256],
+        no_value: [f32; 3],
         background: Rgb,
         crease_mm: f32,
     ) -> Vec<Rgb> {
         use rayon::prelude::*;
         let (w, h) = (self.w, self.h);
+        let depth = |i: usize| (self.sample[i] >> 32) as u32;
         let outline = |i: usize, x: usize, y: usize| -> bool {
-            let d = self.depth[i];
+            let d = key_depth(depth(i));
             let near = |j: usize| {
-                let e = self.depth[j];
-                e == EMPTY || (e - d).abs() > crease_mm
+                let e = depth(j);
+                e == 0 || (key_depth(e) - d).abs() > crease_mm
             };
             (x > 0 && near(i - 1))
                 || (x + 1 < w && near(i + 1))
@@ -227,14 +359,19 @@ impl Layer {
                 for sy in py * ss..(py + 1) * ss {
                     for sx in px * ss..(px + 1) * ss {
                         let i = sy * w + sx;
-                        let c = if self.depth[i] == EMPTY {
+                        let c = if self.sample[i] == 0 {
                             bg
                         } else {
-                            let base = colour_of(self.t[i]);
+                            let shade = self.shade[!(self.sample[i] as u32) as usize];
+                            let base = if shade < 0.0 {
+                                no_value
+                            } else {
+                                lut[self.lut[i] as usize]
+                            };
                             let k = if outline(i, sx, sy) {
                                 OUTLINE_FACTOR
                             } else {
-                                self.shade[i]
+                                shade.abs()
                             };
                             base.map(|v| v * k)
                         };
@@ -265,6 +402,44 @@ mod tests {
             centre: DVec2::ZERO,
             scale: 10.0,
             origin: DVec2::new(50.0, 50.0),
+        }
+    }
+
+    #[test]
+    fn depth_keys_order_as_depths_and_round_trip() {
+        let depths = [
+            -1e9f32, -3.5, -1.0, -1e-30, -0.0, 0.0, 1e-30, 0.25, 1.0, 7.5, 1e9,
+        ];
+        for pair in depths.windows(2) {
+            let (a, b) = (depth_key(pair[0]), depth_key(pair[1]));
+            assert!(a != 0 && b != 0);
+            if pair[0] == pair[1] {
+                assert_eq!(a, b, "{pair:?}");
+            } else {
+                assert!(a < b, "{pair:?}");
+            }
+        }
+        for d in depths {
+            assert_eq!(key_depth(depth_key(d)), d + 0.0);
+        }
+    }
+
+    #[test]
+    fn the_rounding_helpers_match_the_library() {
+        let mut x = -300.0f32;
+        while x < 300.0 {
+            assert_eq!(floor(x), x.floor(), "{x}");
+            assert_eq!(ceil(x), x.ceil(), "{x}");
+            if x >= 0.0 {
+                assert_eq!(round_non_negative(x), x.round(), "{x}");
+            }
+            x += 0.0625 + 1e-3;
+        }
+        for x in [0.0f32, 0.5, 1.5, 2.5, 254.5, 0.49999997, 127.49999, 255.0] {
+            assert_eq!(round_non_negative(x), x.round(), "{x}");
+        }
+        for t in [0.0f32, 0.001, 0.5, 0.998, 1.0, 1.2, -0.3] {
+            assert_eq!(lut_index(t) as f32, (t.clamp(0.0, 1.0) * 255.0).round());
         }
     }
 
@@ -307,11 +482,16 @@ mod tests {
             w: 100,
             h: 100,
         };
-        let layer = rasterise(&mesh, &t, &square_camera(), rect, 2, DVec3::Z);
-        let covered = layer.depth.iter().filter(|&&d| d > EMPTY).count();
+        let order = DrawOrder::new(&mesh, &t);
+        let layer = rasterise(&order, &square_camera(), rect, 2, DVec3::Z);
+        let covered = layer.sample.iter().filter(|&&s| s != 0).count();
         // Union of two 40x40-pixel squares overlapping by 20x20, at 2x2 samples per pixel.
         assert_eq!(covered, 4 * (1600 + 1600 - 400));
-        let high = layer.depth.iter().filter(|&&d| d == 2.0).count();
+        let high = layer
+            .sample
+            .iter()
+            .filter(|&&s| (s >> 32) as u32 == depth_key(2.0))
+            .count();
         assert_eq!(high, 4 * 1600);
         // In the overlap the value is the higher square's.
         assert_eq!(layer.depth_at(55.0, 45.0), Some(2.0));
