@@ -18,21 +18,22 @@ use crate::math::DVec3;
 /// The bits of a corner's three coordinates, -0.0 made 0.0.
 pub(super) type Key = [u32; 3];
 
-/// One place of the table: a position's bits and its vertex number ([`EMPTY`] when free).
+/// One place of the table: a position's bits and its vertex number plus one (0 when the
+/// place is free, so that a new table is memory the system hands over already zeroed).
+type Slot = [u32; 4];
+
+/// An entry of the recent-position cache: a key and its vertex number.
 #[derive(Debug, Clone, Copy)]
-#[repr(C, align(16))]
-struct Slot {
+struct Recent {
     key: Key,
     vertex: u32,
 }
 
-const EMPTY: u32 = u32::MAX;
-
-/// A free slot. Its key is a NaN's bits, which the readers refuse before welding, so it
-/// never matches a corner (the recent-position cache relies on that).
-const FREE: Slot = Slot {
+/// An empty cache entry. Its key is a NaN's bits, which the readers refuse before welding,
+/// so it never matches a corner.
+const UNUSED: Recent = Recent {
     key: [u32::MAX; 3],
-    vertex: EMPTY,
+    vertex: u32::MAX,
 };
 
 /// Entries of the direct-mapped cache of recent positions (64 KiB).
@@ -65,10 +66,9 @@ pub struct Welder32 {
     bits: u32,
     /// A small direct-mapped cache of recently welded positions: neighbouring facets of a
     /// file share corners, and a hit here skips the probe of the large table.
-    recent: Vec<Slot>,
-    /// The vertices' keys by vertex number.
-    keys: Vec<Key>,
-    triangles: Vec<[u32; 3]>,
+    recent: Vec<Recent>,
+    /// The welded vertices (widened) and triangles.
+    mesh: Mesh,
     collapsed: u64,
 }
 
@@ -85,11 +85,16 @@ impl Welder32 {
             .trailing_zeros()
             .max(6);
         Welder32 {
-            slots: vec![FREE; 1 << bits],
+            slots: vec![[0; 4]; 1 << bits],
             bits,
-            recent: vec![FREE; RECENT],
-            keys: Vec::with_capacity(vertices),
-            triangles: Vec::with_capacity(room.max(triangles)),
+            recent: vec![UNUSED; RECENT],
+            mesh: Mesh {
+                vertices: Vec::with_capacity({
+                    let t = room.max(triangles);
+                    t / 2 + t / 16 + 16
+                }),
+                triangles: Vec::with_capacity(room.max(triangles)),
+            },
             collapsed: 0,
         }
     }
@@ -104,12 +109,12 @@ impl Welder32 {
         let mask = self.slots.len() - 1;
         let mut at = self.home(hash_of(key));
         loop {
-            let s = self.slots[at];
-            if s.vertex == EMPTY {
+            let [x, y, z, v] = self.slots[at];
+            if v == 0 {
                 return None;
             }
-            if s.key == key {
-                return Some(s.vertex);
+            if [x, y, z] == key {
+                return Some(v - 1);
             }
             at = (at + 1) & mask;
         }
@@ -126,38 +131,35 @@ impl Welder32 {
         let mask = self.slots.len() - 1;
         let mut at = self.home(hash);
         let v = loop {
-            let s = self.slots[at];
-            if s.vertex == EMPTY {
-                let next = self.keys.len() as u32;
-                self.slots[at] = Slot { key, vertex: next };
-                self.keys.push(key);
-                if 4 * self.keys.len() > 3 * self.slots.len() {
+            let [x, y, z, v] = self.slots[at];
+            if v == 0 {
+                let next = self.mesh.vertices.len() as u32;
+                self.slots[at] = [key[0], key[1], key[2], next + 1];
+                self.mesh.vertices.push(widen(key));
+                if 4 * self.mesh.vertices.len() > 3 * self.slots.len() {
                     self.grow();
                 }
                 break next;
             }
-            if s.key == key {
-                break s.vertex;
+            if [x, y, z] == key {
+                break v - 1;
             }
             at = (at + 1) & mask;
         };
-        self.recent[cached] = Slot { key, vertex: v };
+        self.recent[cached] = Recent { key, vertex: v };
         v
     }
 
     fn grow(&mut self) {
         self.bits += 1;
-        self.slots = vec![FREE; 1 << self.bits];
+        let old = std::mem::replace(&mut self.slots, vec![[0; 4]; 1 << self.bits]);
         let mask = self.slots.len() - 1;
-        for (v, &key) in self.keys.iter().enumerate() {
-            let mut at = self.home(hash_of(key));
-            while self.slots[at].vertex != EMPTY {
+        for slot in old.into_iter().filter(|s| s[3] != 0) {
+            let mut at = self.home(hash_of([slot[0], slot[1], slot[2]]));
+            while self.slots[at][3] != 0 {
                 at = (at + 1) & mask;
             }
-            self.slots[at] = Slot {
-                key,
-                vertex: v as u32,
-            };
+            self.slots[at] = slot;
         }
     }
 
@@ -171,21 +173,13 @@ impl Welder32 {
         if a == b || b == c || a == c {
             self.collapsed += 1;
         } else {
-            self.triangles.push([a, b, c]);
+            self.mesh.triangles.push([a, b, c]);
         }
     }
 
-    /// The welded mesh (vertices widened to `f64`) and the number of dropped facets.
+    /// The welded mesh and the number of dropped facets.
     pub fn finish(self) -> (Mesh, u64) {
-        let mut vertices = Vec::with_capacity(self.keys.len());
-        vertices.extend(self.keys.iter().map(|&k| widen(k)));
-        (
-            Mesh {
-                vertices,
-                triangles: self.triangles,
-            },
-            self.collapsed,
-        )
+        (self.mesh, self.collapsed)
     }
 
     /// Joins welders that welded consecutive runs of one file, in file order, into the mesh
@@ -200,19 +194,18 @@ impl Welder32 {
         let Some(mut whole) = runs.next() else {
             return (Mesh::default(), 0);
         };
-        let later: Vec<Welder32> = runs.collect();
-        if later.is_empty() {
-            return whole.finish();
-        }
+        let mut later: Vec<Welder32> = runs.collect();
         const NEW: u64 = u64::MAX;
         // found[i][l]: (earlier run << 32 | its vertex) for vertex l of run i + 1, or NEW.
         let found: Vec<Vec<u64>> = later
             .par_iter()
             .enumerate()
             .map(|(i, run)| {
-                run.keys
+                run.mesh
+                    .vertices
                     .par_iter()
-                    .map(|&key| {
+                    .map(|&p| {
+                        let key = narrow(p);
                         std::iter::once(&whole)
                             .chain(&later[..i])
                             .enumerate()
@@ -224,9 +217,14 @@ impl Welder32 {
                     .collect()
             })
             .collect();
+        // The tables are done with: their memory goes back before the mesh grows.
+        for run in std::iter::once(&mut whole).chain(&mut later) {
+            run.slots = Vec::new();
+            run.recent = Vec::new();
+        }
         // number[i][l]: the number of vertex l of run i + 1 in the whole mesh. A vertex found
         // in an earlier run is new there, so that run has numbered it already.
-        let mut next = whole.keys.len() as u32;
+        let mut next = whole.mesh.vertices.len() as u32;
         let mut number: Vec<Vec<u32>> = Vec::with_capacity(later.len());
         for found in &found {
             let numbered = found
@@ -244,33 +242,32 @@ impl Welder32 {
                 .collect();
             number.push(numbered);
         }
-        let mut vertices = Vec::with_capacity(next as usize);
-        vertices.extend(whole.keys.iter().map(|&k| widen(k)));
-        for (run, found) in later.iter().zip(&found) {
-            vertices.extend(
-                run.keys
+        for ((run, found), number) in later.iter().zip(&found).zip(&number) {
+            whole.mesh.vertices.extend(
+                run.mesh
+                    .vertices
                     .iter()
                     .zip(found)
                     .filter(|(_, &f)| f == NEW)
-                    .map(|(&k, _)| widen(k)),
+                    .map(|(&p, _)| p),
             );
-        }
-        for (run, number) in later.iter().zip(&number) {
-            whole.triangles.par_extend(
-                run.triangles
+            whole.mesh.triangles.par_extend(
+                run.mesh
+                    .triangles
                     .par_iter()
                     .map(|tri| tri.map(|v| number[v as usize])),
             );
             whole.collapsed += run.collapsed;
         }
-        (
-            Mesh {
-                vertices,
-                triangles: whole.triangles,
-            },
-            whole.collapsed,
-        )
+        whole.finish()
     }
+}
+
+/// The key of a welded vertex: its coordinates came from `f32`, so narrowing them back is
+/// exact.
+#[inline]
+fn narrow(p: DVec3) -> Key {
+    p.to_array().map(|x| (x as f32).to_bits())
 }
 
 /// The position of a key in `f64` (exact).
