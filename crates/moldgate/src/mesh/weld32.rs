@@ -195,6 +195,14 @@ impl Welder32 {
             return (Mesh::default(), 0);
         };
         let mut later: Vec<Welder32> = runs.collect();
+        // Only the earlier runs' tables are searched: the last run's goes back now, and
+        // every cache, so that the join holds no more than the welding did.
+        if let Some(last) = later.last_mut() {
+            last.slots = Vec::new();
+        }
+        for run in std::iter::once(&mut whole).chain(&mut later) {
+            run.recent = Vec::new();
+        }
         const NEW: u64 = u64::MAX;
         // found[i][l]: (earlier run << 32 | its vertex) for vertex l of run i + 1, or NEW.
         let found: Vec<Vec<u64>> = later
@@ -220,7 +228,6 @@ impl Welder32 {
         // The tables are done with: their memory goes back before the mesh grows.
         for run in std::iter::once(&mut whole).chain(&mut later) {
             run.slots = Vec::new();
-            run.recent = Vec::new();
         }
         // number[i][l]: the number of vertex l of run i + 1 in the whole mesh. A vertex found
         // in an earlier run is new there, so that run has numbered it already.
