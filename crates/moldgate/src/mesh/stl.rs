@@ -164,7 +164,7 @@ fn weld_records(
                 let triangle = done + i as u64;
                 let (at, v) = (0..9)
                     .map(|n| (12 + 4 * n, corners[n / 3][n % 3]))
-                    .find(|(_, v)| !(v.abs() <= limit))
+                    .find(|(_, v)| v.is_nan() || v.abs() > limit)
                     .expect("a coordinate failed the test");
                 return Err(bad_coordinate(
                     Place::Byte(HEADER + RECORD * triangle + at as u64),
