@@ -63,7 +63,7 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
     } else {
         print_stdout(&summary::render(report))?;
     }
-    match (&report.gate, &report.no_gate_reason) {
+    let outcome = match (&report.gate, &report.no_gate_reason) {
         (None, Some(reason)) => Err(Failure::no_gate(format!(
             "{}: {reason}",
             report
@@ -74,5 +74,10 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
                 .unwrap_or_default()
         ))),
         _ => Ok(()),
-    }
+    };
+    // The process ends next: returning the part's and the study's large blocks to the
+    // system one by one (an unmapping each) is work that nobody waits for.
+    std::mem::forget(part);
+    std::mem::forget(study);
+    outcome
 }

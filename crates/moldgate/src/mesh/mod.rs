@@ -12,6 +12,7 @@ pub mod stl;
 pub mod text;
 pub mod topology;
 pub mod units;
+mod weld32;
 
 /// The largest coordinate accepted, in millimetres once converted from the file's units:
 /// a kilometre of part is far beyond any mould, and below this the squares and sums of the

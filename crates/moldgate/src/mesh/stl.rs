@@ -15,6 +15,7 @@ use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 use rayon::prelude::*;
 
 use super::text::Lines;
+use super::weld32::{key_bits, Welder32};
 use super::{sniff, Format, Mesh, RawMesh, Units, Welder, MAX_COORDINATE_MM, MAX_POLYGON_CORNERS};
 use crate::error::{excerpt, LoadError, Place};
 use crate::math::DVec3;
@@ -114,7 +115,7 @@ pub(super) fn bad_coordinate(place: Place, triangle: u64, value: f64, units: Uni
 fn read_binary(mut reader: impl Read, declared: u64, units: Units) -> Result<RawMesh, LoadError> {
     let mut header = [0u8; HEADER as usize];
     reader.read_exact(&mut header)?;
-    let mut welder = Welder::with_capacity(declared as usize);
+    let mut welder = Welder32::for_run(declared as usize, declared as usize);
     weld_records(reader, 0..declared, &mut welder, units)?;
     Ok(binary_mesh(welder.finish(), declared))
 }
@@ -134,11 +135,11 @@ fn binary_mesh((mesh, collapsed_facets): (Mesh, u64), declared: u64) -> RawMesh 
 }
 
 /// Reads the binary records `range` from `reader`, which is positioned at the first of them,
-/// into `welder`.
+/// into `welder`, on the bits of their `f32` corners.
 fn weld_records(
     mut reader: impl Read,
     range: std::ops::Range<u64>,
-    welder: &mut Welder,
+    welder: &mut Welder32,
     units: Units,
 ) -> Result<(), LoadError> {
     const CHUNK: usize = 4096;
@@ -151,26 +152,28 @@ fn weld_records(
         let bytes = &mut buf[..count * RECORD as usize];
         reader.read_exact(bytes)?;
         for (i, rec) in bytes.chunks_exact(RECORD as usize).enumerate() {
-            let triangle = done + i as u64;
-            let mut corners = [DVec3::ZERO; 3];
-            for (k, corner) in corners.iter_mut().enumerate() {
-                let mut xyz = [0.0f64; 3];
-                for (j, c) in xyz.iter_mut().enumerate() {
+            let corner = |k: usize| -> [f32; 3] {
+                std::array::from_fn(|j| {
                     let at = 12 + 12 * k + 4 * j;
-                    let v = f32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]]);
-                    if v.is_nan() || v.abs() > limit {
-                        return Err(bad_coordinate(
-                            Place::Byte(HEADER + RECORD * triangle + at as u64),
-                            triangle,
-                            v as f64,
-                            units,
-                        ));
-                    }
-                    *c = v as f64;
-                }
-                *corner = DVec3::from_array(xyz);
+                    f32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]])
+                })
+            };
+            let corners = [corner(0), corner(1), corner(2)];
+            // One test for the facet: a NaN fails `<=`, as does anything beyond the limit.
+            if !corners.iter().flatten().all(|v| v.abs() <= limit) {
+                let triangle = done + i as u64;
+                let (at, v) = (0..9)
+                    .map(|n| (12 + 4 * n, corners[n / 3][n % 3]))
+                    .find(|(_, v)| v.is_nan() || v.abs() > limit)
+                    .expect("a coordinate failed the test");
+                return Err(bad_coordinate(
+                    Place::Byte(HEADER + RECORD * triangle + at as u64),
+                    triangle,
+                    v as f64,
+                    units,
+                ));
             }
-            welder.push(corners);
+            welder.push(corners.map(|c| c.map(key_bits)));
         }
         done += count as u64;
     }
@@ -208,7 +211,7 @@ where
     };
     drop(first);
     let per_run = n.div_ceil(runs);
-    let welded: Vec<Result<Welder, LoadError>> = (0..runs)
+    let welded: Vec<Result<Welder32, LoadError>> = (0..runs)
         .into_par_iter()
         .map(|r| {
             let range = (r * per_run).min(n)..((r + 1) * per_run).min(n);
@@ -217,13 +220,13 @@ where
             // The first run's triangle list has room for the whole file: the others are
             // joined to it without reallocating (room never written costs no memory).
             let room = if r == 0 { n } else { 0 };
-            let mut welder = Welder::for_run((range.end - range.start) as usize, room as usize);
+            let mut welder = Welder32::for_run((range.end - range.start) as usize, room as usize);
             weld_records(reader, range, &mut welder, units)?;
             Ok(welder)
         })
         .collect();
     let runs = welded.into_iter().collect::<Result<Vec<_>, _>>()?;
-    Ok(binary_mesh(Welder::join(runs), n))
+    Ok(binary_mesh(Welder32::join(runs), n))
 }
 
 /// What the ASCII parser expects next.
