@@ -228,11 +228,14 @@ impl<'a> Surface<'a> {
     /// A lower bound of the undercut area along `d`: the rays of the largest facets only
     /// (those of `level`), drawn against those facets only. A ray that one of them
     /// blocks is blocked when every triangle is drawn (the same arithmetic, the ray's own
-    /// facet skipped in both), so the bound never exceeds [`Surface::undercut`]; with every
-    /// facet among the largest it is the undercut.
+    /// facet skipped in both), so the bound never exceeds [`Surface::undercut`]. With every
+    /// facet among the largest (a small mesh) it is [`Surface::undercut`].
     fn lower_bound(&self, d: Direction, level: usize) -> Undercut {
-        let line = d.vector();
         let largest = &self.largest[level];
+        if largest.every {
+            return self.undercut(d);
+        }
+        let line = d.vector();
         let mut rays = Vec::new();
         let mut first = Vec::with_capacity(largest.facets.len() + 1);
         for (k, &t) in largest.facets.iter().enumerate() {
