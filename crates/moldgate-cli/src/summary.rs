@@ -360,7 +360,11 @@ pub fn render(r: &Report) -> String {
             .iter()
             .map(|c| {
                 let at_least = if c.evaluated { "" } else { "at least " };
-                format!("{} {at_least}{:.1} mm^2", v3(c.direction), c.undercut.area_mm2)
+                format!(
+                    "{} {at_least}{:.1} mm^2",
+                    v3(c.direction),
+                    c.undercut.area_mm2
+                )
             })
             .collect();
         let _ = writeln!(

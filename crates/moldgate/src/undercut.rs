@@ -164,8 +164,7 @@ impl<'a> Surface<'a> {
             points.extend(p);
         }
         first.push(points.len());
-        let area = sum_blocks(n, |t| facets[t].map_or((0.0, 0.0), |(a, _)| (a, a)))
-            .area_mm2;
+        let area = sum_blocks(n, |t| facets[t].map_or((0.0, 0.0), |(a, _)| (a, a))).area_mm2;
         let mut areas: Vec<f64> = facets.iter().map(|f| f.map_or(0.0, |(a, _)| a)).collect();
         let largest = BOUND_LEVELS
             .iter()
@@ -175,17 +174,12 @@ impl<'a> Surface<'a> {
                 let threshold = if k == 0 || k >= n {
                     0.0
                 } else {
-                    *areas
-                        .select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a))
-                        .1
+                    *areas.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1
                 };
                 let facets: Vec<u32> = (0..n as u32)
                     .filter(|&t| facets[t as usize].is_some_and(|(a, _)| a >= threshold))
                     .collect();
-                let triangles = facets
-                    .iter()
-                    .map(|&t| mesh.triangles[t as usize])
-                    .collect();
+                let triangles = facets.iter().map(|&t| mesh.triangles[t as usize]).collect();
                 Largest {
                     every: facets.len() == n,
                     facets,
@@ -265,7 +259,11 @@ impl<'a> Surface<'a> {
         }
         Undercut {
             area_mm2: area,
-            share: if self.area > 0.0 { area / self.area } else { 0.0 },
+            share: if self.area > 0.0 {
+                area / self.area
+            } else {
+                0.0
+            },
         }
     }
 

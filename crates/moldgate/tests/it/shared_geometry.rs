@@ -311,7 +311,11 @@ fn demold_auto_lines_left_at_a_bound_could_not_have_been_chosen() {
         let least = full.iter().copied().fold(f64::INFINITY, f64::min);
         for (c, &area) in auto.tried.iter().zip(&full) {
             if c.evaluated {
-                assert_eq!(c.undercut.area_mm2.to_bits(), area.to_bits(), "{file}: {c:?}");
+                assert_eq!(
+                    c.undercut.area_mm2.to_bits(),
+                    area.to_bits(),
+                    "{file}: {c:?}"
+                );
             } else {
                 left_out += 1;
                 assert!(c.undercut.area_mm2 <= area, "{file}: {c:?} above {area}");
@@ -334,7 +338,10 @@ fn demold_auto_lines_left_at_a_bound_could_not_have_been_chosen() {
             .unwrap();
         assert_eq!(auto.chosen, chosen, "{file}: {auto:#?} {full:?}");
     }
-    assert!(left_out > 0, "no line was left at its bound: the test shows nothing");
+    assert!(
+        left_out > 0,
+        "no line was left at its bound: the test shows nothing"
+    );
 }
 
 #[test]
