@@ -452,9 +452,9 @@ pub struct Candidate {
     /// Its undercut; a lower bound of it when `evaluated` is false.
     #[serde(flatten)]
     pub undercut: Undercut,
-    /// Whether every ray of the line was drawn. A line whose coarse lower bound already
-    /// exceeds the least undercut by more than the tie is not: it cannot be chosen, and
-    /// `undercut` holds that bound (the undercut is at least that).
+    /// Whether every ray of the line was drawn. A line whose lower bound (the rays of its
+    /// largest facets) already exceeds the least undercut by more than the tie is not: it
+    /// cannot be chosen, and `undercut` holds that bound (the undercut is at least that).
     pub evaluated: bool,
     /// Extent of the part along it, mm (the first tie-break).
     pub extent_mm: f64,
