@@ -176,12 +176,25 @@ impl<'a> Surface<'a> {
                 } else {
                     *areas.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1
                 };
+                // Those above it, then those equal to it in index order up to k in all (so
+                // that a mesh of equal facets does not put all of them in the bound).
+                let above = (0..n)
+                    .filter(|&t| facets[t].is_some_and(|(a, _)| a > threshold))
+                    .count();
+                let mut equal = k.saturating_sub(above);
                 let facets: Vec<u32> = (0..n as u32)
-                    .filter(|&t| facets[t as usize].is_some_and(|(a, _)| a >= threshold))
+                    .filter(|&t| match facets[t as usize] {
+                        Some((a, _)) if a > threshold => true,
+                        Some((a, _)) if a == threshold && equal > 0 => {
+                            equal -= 1;
+                            true
+                        }
+                        _ => false,
+                    })
                     .collect();
                 let triangles = facets.iter().map(|&t| mesh.triangles[t as usize]).collect();
                 Largest {
-                    every: facets.len() == n,
+                    every: k >= n,
                     facets,
                     triangles,
                 }
