@@ -139,14 +139,15 @@ impl<'a> Surface<'a> {
             })
             .collect();
         // Sample points in blocks of facets, then joined in order.
-        let blocks: Vec<(Vec<DVec3>, Vec<u32>)> = (0..n.div_ceil(SUM_BLOCK))
-            .into_par_iter()
-            .map(|b| {
+        let blocks: Vec<(Vec<DVec3>, Vec<u32>)> = facets
+            .par_chunks(SUM_BLOCK)
+            .enumerate()
+            .map(|(b, block)| {
                 let (mut points, mut counts) = (Vec::new(), Vec::new());
-                for t in b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(n) {
+                for (k, f) in block.iter().enumerate() {
                     let before = points.len();
-                    if facets[t].is_some() {
-                        sampling.for_each(mesh.corners(t), |p| points.push(p));
+                    if f.is_some() {
+                        sampling.for_each(mesh.corners(b * SUM_BLOCK + k), |p| points.push(p));
                     }
                     counts.push((points.len() - before) as u32);
                 }
