@@ -220,7 +220,8 @@ export function showReport(container, r, page) {
   if (r.wall_thickness) container.append(wallSection(r.wall_thickness));
   if (r.demold_auto) {
     const ul = el("ul", {});
-    for (const c of r.demold_auto.tried) ul.append(el("li", {}, `${v3(c.direction, 3)}: undercut ${c.undercut.area_mm2.toFixed(1)} mm²`));
+    // The undercut is flattened into each line; a line left at its lower bound says "at least".
+    for (const c of r.demold_auto.tried) ul.append(el("li", {}, `${v3(c.direction, 3)}: undercut ${c.evaluated ? "" : "at least "}${c.area_mm2.toFixed(1)} mm²`));
     container.append(section("demold-auto-result", "Demolding directions tried", ul));
   }
   container.append(timingsSection(r, page));

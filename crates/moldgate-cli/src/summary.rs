@@ -358,7 +358,14 @@ pub fn render(r: &Report) -> String {
         let tried: Vec<String> = auto
             .tried
             .iter()
-            .map(|c| format!("{} {:.1} mm^2", v3(c.direction), c.undercut.area_mm2))
+            .map(|c| {
+                let at_least = if c.evaluated { "" } else { "at least " };
+                format!(
+                    "{} {at_least}{:.1} mm^2",
+                    v3(c.direction),
+                    c.undercut.area_mm2
+                )
+            })
             .collect();
         let _ = writeln!(
             s,

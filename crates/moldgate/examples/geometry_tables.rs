@@ -177,6 +177,8 @@ of the least are a tie, broken by the shallowest draw (extents within 1 %), then
 a gate qualifies along the line (the command line asks `locate`), then by the order tried.
 The natural direction is the one `SOURCES.md` gives (its ADIS16480 line has no sign: +y is
 used). D and -D mould alike: `same line` compares lines; the sign follows the open side.
+A line whose lower bound (the rays of its largest facets) already exceeds the least undercut
+by more than the tie is not drawn ray by ray: the choice is the same (see the module).
 Times: `auto s` is the choice (up to six lines of drawn rays, gate checks for ties), `locate s` one
 plain `locate` along the natural direction, on this machine's 2 shared cores.
 ";

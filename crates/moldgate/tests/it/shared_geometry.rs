@@ -282,6 +282,69 @@ fn flat_tile_opens_along_its_thickness() {
 }
 
 #[test]
+fn demold_auto_lines_left_at_a_bound_could_not_have_been_chosen() {
+    // Lines whose lower bound already exceeds the least undercut by more than the tie are not
+    // drawn ray by ray. Against drawing every line: each line drawn has the undercut of
+    // `undercut` to the bit, each line left out a bound at most its undercut and above the
+    // least by more than the tie, and the choice is the rule's over the full undercuts.
+    let test = "demold_auto_lines_left_at_a_bound_could_not_have_been_chosen";
+    if parts_dir().is_none() {
+        return skip(test);
+    }
+    let mut left_out = 0;
+    for file in [
+        "framework_expansion_card_shell.stl",
+        "prusa_lcd_knob.stl",
+        "watchy_yatari_bottom.stl",
+        "deskhop_case_bottom.stl",
+    ] {
+        let part = load(file);
+        let auto = auto_direction(&part.mesh, Sampling::Centroid).unwrap();
+        let full: Vec<f64> = auto
+            .tried
+            .iter()
+            .map(|c| {
+                let d = Direction::new(moldgate::math::DVec3::from_array(c.direction)).unwrap();
+                moldgate::undercut::undercut(&part.mesh, d, Sampling::Centroid).area_mm2
+            })
+            .collect();
+        let least = full.iter().copied().fold(f64::INFINITY, f64::min);
+        for (c, &area) in auto.tried.iter().zip(&full) {
+            if c.evaluated {
+                assert_eq!(
+                    c.undercut.area_mm2.to_bits(),
+                    area.to_bits(),
+                    "{file}: {c:?}"
+                );
+            } else {
+                left_out += 1;
+                assert!(c.undercut.area_mm2 <= area, "{file}: {c:?} above {area}");
+                assert!(c.undercut.area_mm2 > least + auto.tie_mm2, "{file}: {c:?}");
+            }
+        }
+        // The rule over the full undercuts: least within the tie, then the shallowest draw,
+        // then the first tried (no gate check here).
+        let tied: Vec<usize> = (0..full.len())
+            .filter(|&i| full[i] <= least + auto.tie_mm2)
+            .collect();
+        let shallowest = tied
+            .iter()
+            .map(|&i| auto.tried[i].extent_mm)
+            .fold(f64::INFINITY, f64::min);
+        let chosen = tied
+            .iter()
+            .copied()
+            .find(|&i| auto.tried[i].extent_mm <= shallowest * 1.01)
+            .unwrap();
+        assert_eq!(auto.chosen, chosen, "{file}: {auto:#?} {full:?}");
+    }
+    assert!(
+        left_out > 0,
+        "no line was left at its bound: the test shows nothing"
+    );
+}
+
+#[test]
 fn demold_auto_is_bit_identical_on_1_2_3_and_8_threads() {
     let test = "demold_auto_is_bit_identical_on_1_2_3_and_8_threads";
     if parts_dir().is_none() {
