@@ -31,9 +31,15 @@
 //!    (made perpendicular to the chord) and along the direction perpendicular to both: two
 //!    rays each, ±e, to the walls where they leave the solid. If the smaller of those two
 //!    widths is smaller than t, it is the thickness; if any cross ray leaves
-//!    through a hole, the sample is unknown. Near a convex edge the nearest point is the edge
-//!    face, but across the chord the solid is wide, so the facet keeps its thickness across
-//!    the wall (a ball-based thickness would drop to ~0 there); when q is within the 1e-6
+//!    through a hole, the sample is unknown. Only a width below the smallest found so far
+//!    (at first t) can change the answer, so each cross ray looks no farther than that width
+//!    less what its partner already measured, and a point whose nearest surface is farther
+//!    than half that width is not measured (every cross ray from it is longer). A cross ray
+//!    that meets nothing at all still makes the sample unknown; one whose first hit past that
+//!    length faces it (a ray that was outside the solid) no longer does, nor does the partner
+//!    of a ray that found no wall within the length (it is not cast). Near a convex edge the
+//!    nearest point is the edge face, but across the chord the solid is wide, so the facet
+//!    keeps its thickness across the wall (a ball-based thickness would drop to ~0 there); when q is within the 1e-6
 //!    diagonal of m (the chord runs in a face, as from a sliver along an edge), the chord is
 //!    kept as it is.
 //! 6. The facet's value is the mean of its known samples (NaN if none is known).
@@ -170,6 +176,25 @@ pub fn wall_thickness_of(
         options: *options,
     };
     let min_area = 1e-12 * diagonal * diagonal;
+    // Cast in the tree's leaf order: neighbouring facets send their rays through the same
+    // boxes, which stay in the cache.
+    let order: Vec<u32> = if bvh.len() == mesh.triangles.len() {
+        let mut wanted = vec![false; mesh.triangles.len()];
+        for &t in triangles {
+            if let Some(w) = wanted.get_mut(t as usize) {
+                *w = true;
+            }
+        }
+        let order = bvh.leaf_order();
+        order
+            .iter()
+            .copied()
+            .filter(|&t| wanted[t as usize])
+            .collect()
+    } else {
+        triangles.to_vec()
+    };
+    let triangles = &order[..];
     let values: Vec<f32> = triangles
         .par_iter()
         .with_min_len(256)
@@ -217,9 +242,12 @@ struct Probe<'a> {
 impl Probe<'_> {
     /// Thickness at point `p` of triangle `t` with unit outward normal `n` (rules 2 to 5).
     fn sample(&self, t: u32, p: DVec3, n: DVec3) -> Option<f64> {
-        let (dir, chord) = [-n, n]
-            .into_iter()
-            .find_map(|dir| self.exit(p, dir, Some(t)).map(|len| (dir, len)))?;
+        let (dir, chord) = [-n, n].into_iter().find_map(|dir| {
+            match self.exit(p, dir, Some(t), f64::INFINITY) {
+                Exit::At(len) => Some((dir, len)),
+                Exit::Beyond | Exit::Hole => None,
+            }
+        })?;
         if self.options.cross_check == CrossCheck::Off {
             return Some(chord);
         }
@@ -228,8 +256,10 @@ impl Probe<'_> {
             let m = p + dir * (at * chord);
             // The largest ball around m inside the chord's ends; the nearest surface inside it
             // (by more than 0.1 %) says the chord may run along a wall. Only the midpoint
-            // decides whether to look at all.
-            let reach = chord * at.min(1.0 - at) * (1.0 - 1e-3);
+            // decides whether to look at all. A surface farther from m than half the width
+            // found so far cannot narrow it (every cross ray from m runs at least that far
+            // before it meets a surface), so the ball shrinks to that too.
+            let reach = (chord * at.min(1.0 - at)).min(0.5 * width) * (1.0 - 1e-3);
             let Some(near) = self.bvh.nearest_within(m, reach) else {
                 if k == 0 {
                     return Some(chord);
@@ -244,7 +274,7 @@ impl Probe<'_> {
                 }
                 continue;
             }
-            width = width.min(self.cross_width(m, dir, near.triangle)?);
+            width = width.min(self.cross_width(m, dir, near.triangle, width)?);
         }
         Some(width)
     }
@@ -252,8 +282,10 @@ impl Probe<'_> {
     /// The smallest width of the solid through `m` across the chord direction `dir`: along the
     /// direction to the nearest point of `triangle` (made perpendicular to the chord) and along
     /// the direction perpendicular to both (a chord beside a hole has its nearest surface in
-    /// the hole but its wall the other way). `None` when a cross ray leaves through a hole.
-    fn cross_width(&self, m: DVec3, dir: DVec3, triangle: u32) -> Option<f64> {
+    /// the hole but its wall the other way). Only widths below `limit` matter, so each pair of
+    /// cross rays stops at `limit` (infinity when none is below it); `None` when a cross ray
+    /// leaves through a hole within that length.
+    fn cross_width(&self, m: DVec3, dir: DVec3, triangle: u32, limit: f64) -> Option<f64> {
         // The tree gives the nearest triangle, not its nearest point: found again in f64.
         let q = nearest_on_triangle(self.mesh.corners(triangle as usize), m);
         let e = q - m;
@@ -263,26 +295,41 @@ impl Probe<'_> {
         }
         let mut width = f64::INFINITY;
         for e in [e, dir.cross(e)] {
-            let w = self.exit(m, e, None)? + self.exit(m, -e, None)?;
-            width = width.min(w);
+            let bound = width.min(limit);
+            let there = match self.exit(m, e, None, bound) {
+                Exit::At(d) => d,
+                Exit::Beyond => continue,
+                Exit::Hole => return None,
+            };
+            match self.exit(m, -e, None, bound - there) {
+                Exit::At(d) => width = width.min(there + d),
+                Exit::Beyond => {}
+                Exit::Hole => return None,
+            }
         }
         Some(width)
     }
 
-    /// Distance from `p` along `dir` to where the ray leaves the solid: the first hit, if its
-    /// triangle faces along the ray.
-    fn exit(&self, p: DVec3, dir: DVec3, skip: Option<u32>) -> Option<f64> {
-        self.exit_from(p, dir, skip, self.min_hit)
-    }
-
-    /// [`Probe::exit`] ignoring hits nearer than `min_hit`.
-    fn exit_from(&self, p: DVec3, dir: DVec3, skip: Option<u32>, min_hit: f64) -> Option<f64> {
-        let mut ray = Ray::new(p, dir).within(min_hit, f64::INFINITY);
+    /// Where the ray from `p` along `dir` leaves the solid, looking no farther than
+    /// `max_distance`: at the first hit, if its triangle faces along the ray.
+    fn exit(&self, p: DVec3, dir: DVec3, skip: Option<u32>, max_distance: f64) -> Exit {
+        let mut ray = Ray::new(p, dir).within(self.min_hit, max_distance);
         ray.skip = skip;
-        let hit = self.bvh.first_hit(&ray)?;
-        let leaves = |t: u32| self.mesh.normal(t as usize).dot(dir) > 0.0;
+        let Some(hit) = self.bvh.first_hit(&ray) else {
+            // Nothing within the length looked at: a ray that meets nothing farther either
+            // leaves through a hole (any hit at all will do to tell, the cheapest query).
+            let farther = max_distance < f64::INFINITY
+                && self.bvh.any_hit(&ray.within(max_distance, f64::INFINITY));
+            return if farther { Exit::Beyond } else { Exit::Hole };
+        };
+        // Only the sign matters: the unnormalised normal saves a square root per hit.
+        let leaves = |t: u32| {
+            let [a, b, c] = self.mesh.corners(t as usize);
+            let n = (b - a).cross(c - a);
+            n.is_finite() && n.dot(dir) > 0.0
+        };
         if leaves(hit.triangle) {
-            return Some(hit.distance);
+            return Exit::At(hit.distance);
         }
         // A ray through an edge meets both triangles at one distance, in no fixed order: it
         // leaves the solid if any of the triangles there faces along it.
@@ -293,8 +340,24 @@ impl Probe<'_> {
             found = leaves(h.triangle);
             !found
         });
-        found.then_some(hit.distance)
+        if found {
+            Exit::At(hit.distance)
+        } else {
+            Exit::Hole
+        }
     }
+}
+
+/// Where a ray leaves the solid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Exit {
+    /// At this distance, mm.
+    At(f64),
+    /// Not within the length looked at: no surface there.
+    Beyond,
+    /// Its first hit faces it (it was outside the solid), or it hits nothing at all: it
+    /// leaves through a hole of an open mesh.
+    Hole,
 }
 
 /// The point of triangle `[a, b, c]` nearest to `p`, by projection onto its plane and, when
