@@ -55,6 +55,7 @@
 //! their own smallest value is [`WallThickness::sliver_min_mm`].
 
 use std::cmp::Ordering;
+use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
@@ -174,6 +175,7 @@ pub fn wall_thickness_of(
         mesh,
         min_hit: 1e-6 * diagonal,
         options: *options,
+        closed: OnceLock::new(),
     };
     let min_area = 1e-12 * diagonal * diagonal;
     // Cast in the tree's leaf order: neighbouring facets send their rays through the same
@@ -237,6 +239,9 @@ struct Probe<'a> {
     mesh: &'a Mesh,
     min_hit: f64,
     options: ThicknessOptions,
+    /// Whether every edge of the mesh is met by its reverse (see [`is_closed`]), found the
+    /// first time a cross ray ends without a wall.
+    closed: OnceLock<bool>,
 }
 
 impl Probe<'_> {
@@ -316,10 +321,12 @@ impl Probe<'_> {
         let mut ray = Ray::new(p, dir).within(self.min_hit, max_distance);
         ray.skip = skip;
         let Some(hit) = self.bvh.first_hit(&ray) else {
-            // Nothing within the length looked at: a ray that meets nothing farther either
+            // Nothing within the length looked at. A ray from inside a closed surface meets
+            // it somewhere farther; on an open mesh, a ray that meets nothing farther either
             // leaves through a hole (any hit at all will do to tell, the cheapest query).
             let farther = max_distance < f64::INFINITY
-                && self.bvh.any_hit(&ray.within(max_distance, f64::INFINITY));
+                && (*self.closed.get_or_init(|| is_closed(self.mesh))
+                    || self.bvh.any_hit(&ray.within(max_distance, f64::INFINITY)));
             return if farther { Exit::Beyond } else { Exit::Hole };
         };
         // Only the sign matters: the unnormalised normal saves a square root per hit.
@@ -346,6 +353,33 @@ impl Probe<'_> {
             Exit::Hole
         }
     }
+}
+
+/// Whether every directed edge a -> b of the mesh's triangles is matched by an edge b -> a
+/// (a closed, consistently oriented surface, whose inside every ray leaves). A pass without
+/// sorting or hashing of edges: at each vertex, the sums of a hash of the vertices its edges
+/// go to and come from agree for every vertex exactly when the edges pair up (but for a
+/// 2^-64 chance per vertex of a false agreement).
+fn is_closed(mesh: &Mesh) -> bool {
+    // splitmix64's finaliser: unrelated 64-bit values for neighbouring indices.
+    let hash = |v: u32| {
+        let mut z = (v as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let n = mesh.vertices.len();
+    let (mut out, mut into) = (vec![0u64; n], vec![0u64; n]);
+    for tri in &mesh.triangles {
+        for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
+            let (Some(o), Some(i)) = (out.get_mut(a as usize), into.get_mut(b as usize)) else {
+                return false;
+            };
+            *o = o.wrapping_add(hash(b));
+            *i = i.wrapping_add(hash(a));
+        }
+    }
+    out == into
 }
 
 /// Where a ray leaves the solid.
@@ -434,6 +468,25 @@ mod tests {
         assert_eq!(nearest_on_triangle(t, p), DVec3::new(0.0, 1.0, 0.0));
         let p = DVec3::new(4.0, 4.0, 0.0);
         assert!((nearest_on_triangle(t, p) - DVec3::new(2.0, 2.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn closed_means_every_edge_meets_its_reverse() {
+        // A tetrahedron, closed and consistently oriented.
+        let mut mesh = Mesh {
+            vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]],
+        };
+        assert!(is_closed(&mesh));
+        mesh.triangles[3].swap(0, 1); // one facet flipped: its edges run the same way
+        assert!(!is_closed(&mesh));
+        mesh.triangles.pop(); // a hole
+        assert!(!is_closed(&mesh));
+        mesh.triangles.push([2, 0, 7]); // a vertex that does not exist
+        assert!(!is_closed(&mesh));
+        for name in ["cover", "cap", "plate", "bracket", "tray"] {
+            assert!(is_closed(&crate::samples::sample(name).unwrap()), "{name}");
+        }
     }
 
     #[test]
