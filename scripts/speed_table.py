@@ -24,7 +24,11 @@ one); without them it prints why it is left out.
     cargo build --release -p moldgate --example parse_floor
     python3 scripts/speed_table.py [--runs 11] [--part PART.stl] [--demold +y]
         [--binary target/release/moldgate] [--floor target/release/examples/parse_floor]
-        [--reference-python PYTHON] [--only NAME,...]
+        [--reference-python PYTHON] [--only NAME,...] [--before BINARY]
+
+With --before, every moldgate row is also run with that binary (the same rows, named
+"... (before)", in the same shuffled rounds), its ratio taken to that binary's own plain
+locate: a before / after table from one run.
 
 Standard library only.
 """
@@ -102,6 +106,7 @@ def main():
                                                     "parse_floor"))
     ap.add_argument("--reference-python", default=sys.executable)
     ap.add_argument("--only", help="comma-separated row names to run besides plain locate")
+    ap.add_argument("--before", help="a second moldgate binary, run in the same rounds")
     args = ap.parse_args()
 
     for path, build in ((args.binary, "cargo build --release -p moldgate-cli"),
@@ -112,18 +117,28 @@ def main():
         sys.exit(f"part not found: {args.part}")
 
     png = os.path.join(tempfile.mkdtemp(prefix="speed-table-"), "part.png")
-    plain = [args.binary, "locate", args.part, "--demold", args.demold]
-    rows = [
-        ("plain locate", lambda: timed(plain)),
-        ("--fill", lambda: timed(plain + ["--fill"])),
-        ("--strategy balanced", lambda: timed(plain + ["--strategy", "balanced"])),
-        ("--gates 3", lambda: timed(plain + ["--gates", "3"])),
-        ("--wall-thickness", lambda: timed(plain + ["--wall-thickness"])),
-        ("reference Embree rays", None),
-        ("--demold auto", lambda: timed([args.binary, "locate", args.part, "--demold", "auto"])),
-        ("--png", lambda: timed(plain + ["--png", png])),
-        ("parse floor", lambda: timed([args.floor, args.part])),
-    ]
+
+    def commands(binary):
+        plain = [binary, "locate", args.part, "--demold", args.demold]
+        return [
+            ("plain locate", plain),
+            ("--fill", plain + ["--fill"]),
+            ("--strategy balanced", plain + ["--strategy", "balanced"]),
+            ("--gates 3", plain + ["--gates", "3"]),
+            ("--wall-thickness", plain + ["--wall-thickness"]),
+            ("reference Embree rays", None),
+            ("--demold auto", [binary, "locate", args.part, "--demold", "auto"]),
+            ("--png", plain + ["--png", png]),
+        ]
+
+    def row(name, cmd):
+        return (name, None if cmd is None else lambda: timed(cmd))
+
+    rows = [row(name, cmd) for name, cmd in commands(args.binary)]
+    rows.append(("parse floor", lambda: timed([args.floor, args.part])))
+    if args.before:
+        rows += [row(f"{name} (before)", cmd) for name, cmd in commands(args.before)
+                 if cmd is not None]
     notes = []
     reason = reference_reason(args.reference_python)
     if reason is None:
@@ -134,10 +149,11 @@ def main():
         rows.pop(5)
     if args.only:
         keep = {"plain locate", *args.only.split(",")}
-        rows = [r for r in rows if r[0] in keep]
+        rows = [r for r in rows if r[0].removesuffix(" (before)") in keep]
 
     print(f"part: {os.path.basename(args.part)}, demold {args.demold}; {args.runs} rounds, "
-          f"{os.cpu_count()} cores; binary {args.binary}")
+          f"{os.cpu_count()} cores; binary {args.binary}"
+          + (f", before {args.before}" if args.before else ""))
     print(f"load average before: {loadavg()}")
     for _, run in rows:  # warm the page cache and the reference's imports
         run()
@@ -152,12 +168,13 @@ def main():
     print()
     print("| command | median ms (min-max) | ratio to plain locate (median of rounds) |")
     print("|---|---:|---:|")
-    base = times["plain locate"]
     for name, _ in rows:
         t = times[name]
+        base = times["plain locate (before)" if name.endswith(" (before)") else "plain locate"]
         ratio = statistics.median(x / y for x, y in zip(t, base))
         print(f"| {name} | {statistics.median(t) * 1e3:.1f} ({min(t) * 1e3:.1f}-"
               f"{max(t) * 1e3:.1f}) | {ratio:.2f} |")
+    base = times["plain locate"]
     if "parse floor" in times:
         floor = times["parse floor"]
         ratio = statistics.median(x / y for x, y in zip(base, floor))

@@ -1,13 +1,15 @@
-//! Wall thickness of one part, with and without the cross-width check, and the time of each
-//! step (best of N runs in one process).
+//! Wall thickness of one part, with and without the cross-width check, the time of each
+//! step, and the rays alone as Embree's call in `scripts/speed_table.py` casts them (best of
+//! N runs in one process).
 //!
 //! `cargo run --release -p moldgate --example thickness -- PART.stl [UNITS] [RUNS]`
 
 use std::time::Instant;
 
 use moldgate::mesh::{self, Units};
-use moldgate::raycast::Bvh;
+use moldgate::raycast::{Bvh, Ray};
 use moldgate::thickness::{wall_thickness_with, CrossCheck, ThicknessOptions};
+use rayon::prelude::*;
 
 fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (T, f64) {
     let mut best = f64::INFINITY;
@@ -41,6 +43,28 @@ fn main() {
     println!("{path}: {} triangles", m.triangles.len());
     let (bvh, build) = best_of(runs, || Bvh::new(m));
     println!("bvh build               {build:8.1} ms");
+    // One ray per facet from its centroid along the inverted normal, first hit only: what
+    // the reference's Embree call (trimesh `intersects_first`) casts.
+    let rays: Vec<Ray> = (0..m.triangles.len())
+        .map(|t| {
+            let [a, b, c] = m.corners(t);
+            Ray::new((a + b + c) / 3.0, -m.normal(t)).skipping(t as u32)
+        })
+        .collect();
+    let leaf_rays: Vec<Ray> = bvh.leaf_order().iter().map(|&t| rays[t as usize]).collect();
+    for (name, rays) in [("mesh order", &rays), ("leaf order", &leaf_rays)] {
+        let (hits, ms) = best_of(runs, || {
+            rays.par_iter()
+                .with_min_len(256)
+                .filter(|r| bvh.first_hit(r).is_some())
+                .count()
+        });
+        println!(
+            "first hits, {name}      {ms:8.1} ms: {hits} of {} rays hit, {:.2} M rays/s",
+            rays.len(),
+            rays.len() as f64 / ms / 1e3
+        );
+    }
     for (name, cross_check) in [
         ("rays + cross check", CrossCheck::On),
         ("rays only", CrossCheck::Off),

@@ -10,7 +10,9 @@
 //! its parent's bins, so each level reads its triangles twice: bins, then partition). Boxes and
 //! triangles are stored in `f32`, relative to the centre of the mesh's box, to halve the
 //! memory read per ray; queries take and return `f64`. The tree knows only boxes and triangle
-//! numbers: what a hit means (wall, undercut) is the caller's business.
+//! numbers: what a hit means (wall, undercut) is the caller's business. The finished tree
+//! keeps the two children of a node side by side in one 64-byte cache line, so a step of the
+//! descent, which tests both boxes, reads one line; each triangle carries its mesh index.
 //!
 //! **Robustness rules.** A triangle is hit when the ray crosses it with barycentric
 //! coordinates within [`EDGE_TOLERANCE`] of its closed outline, so a ray through an edge
@@ -21,7 +23,7 @@
 
 use std::cmp::Ordering;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use rayon::join;
 use rayon::prelude::*;
 
@@ -31,6 +33,13 @@ use crate::mesh::Mesh;
 /// Slack on barycentric coordinates when testing a hit: a ray through a shared edge hits at
 /// least one of the two triangles despite `f32` rounding.
 pub const EDGE_TOLERANCE: f32 = 1e-5;
+
+/// Direction components smaller than this are raised to it before they are inverted. The
+/// inverse stays finite, so the slab test has no 0 x infinity; a ray parallel to a box face
+/// then sees the face at a distance of at least 1e30 times its offset from the plane: a box
+/// is entered by mistake only when the offset is below about 1e-26 mm (a wasted visit, the
+/// triangle test is exact), and never missed (inside the slab the bounds keep their signs).
+const TINY_COMPONENT: f32 = 1e-30;
 
 /// Most triangles in a leaf.
 const LEAF_SIZE: usize = 4;
@@ -97,28 +106,42 @@ pub struct Hit {
 #[derive(Debug, Clone, Copy)]
 struct Node {
     min: [f32; 3],
-    /// Interior: index of the second child (the first follows the node). Leaf: first
-    /// triangle in leaf order.
+    /// Interior: while building, index of the second child (the first follows the node);
+    /// in the finished tree, the pair of its children (see [`Pair`]). Leaf: first triangle
+    /// in leaf order.
     link: u32,
     max: [f32; 3],
     /// Triangles in the leaf; 0 for an interior node.
     count: u32,
 }
 
+/// The two children of an interior node, side by side in one cache line: a traversal that
+/// tests both boxes reads one line instead of two. The root is the first node of the first
+/// pair (the second is unused).
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Pair([Node; 2]);
+
 /// A triangle in leaf order: a corner and the two edges from it, relative to the tree's
-/// origin.
+/// origin, and its index in the mesh.
 #[derive(Debug, Clone, Copy)]
 struct Tri {
     a: Vec3,
     ab: Vec3,
     ac: Vec3,
+    /// Smallest |determinant| of a hit, relative to the edges' lengths (see [`intersect`]):
+    /// kept here so that the test needs no square root.
+    min_det: f32,
+    /// Index of the triangle in the mesh.
+    id: u32,
 }
 
 /// A bounding volume hierarchy over the triangles of a mesh.
 #[derive(Debug, Clone)]
 pub struct Bvh {
     origin: DVec3,
-    nodes: Vec<Node>,
+    /// The nodes, two by two: node k is `pairs[k / 2].0[k % 2]`.
+    pairs: Vec<Pair>,
     tris: Vec<Tri>,
     /// Mesh index of each triangle in leaf order.
     ids: Vec<u32>,
@@ -133,23 +156,27 @@ struct Item {
     id: u32,
 }
 
+/// A box during the build, in four-lane vectors: the binning grows thousands of them per
+/// level, and a four-lane min / max is one instruction where `f32::min` (with its NaN rule)
+/// is several per lane. No NaN ever reaches one (see [`Bvh::new`]).
 #[derive(Clone, Copy)]
 struct Bounds {
-    min: Vec3,
-    max: Vec3,
+    min: Vec3A,
+    max: Vec3A,
 }
 
 impl Bounds {
     const EMPTY: Bounds = Bounds {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
+        min: Vec3A::splat(f32::INFINITY),
+        max: Vec3A::splat(f32::NEG_INFINITY),
     };
-    fn grow(&mut self, min: Vec3, max: Vec3) {
+    #[inline]
+    fn grow(&mut self, min: Vec3A, max: Vec3A) {
         self.min = self.min.min(min);
         self.max = self.max.max(max);
     }
     fn half_area(&self) -> f32 {
-        let d = (self.max - self.min).max(Vec3::ZERO);
+        let d = (self.max - self.min).max(Vec3A::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
     }
 }
@@ -170,6 +197,16 @@ impl Bvh {
                 let [a, b, c] = mesh.corners(t).map(local);
                 let min = a.min(b).min(c);
                 let max = a.max(b).max(c);
+                if !(min.is_finite() && max.is_finite()) {
+                    // A corner not finite: the triangle can never be hit (its test gives
+                    // NaN); an empty box keeps NaN and infinity out of the boxes' unions.
+                    return Item {
+                        min: Vec3::INFINITY,
+                        max: Vec3::NEG_INFINITY,
+                        centre: Vec3::ZERO,
+                        id: t as u32,
+                    };
+                }
                 Item {
                     min,
                     max,
@@ -210,24 +247,39 @@ impl Bvh {
             .par_iter()
             .map(|&t| {
                 let [a, b, c] = mesh.corners(t as usize).map(local);
+                let (ab, ac) = (b - a, c - a);
                 Tri {
                     a,
-                    ab: b - a,
-                    ac: c - a,
+                    ab,
+                    ac,
+                    min_det: 1e-7 * ab.length() * ac.length(),
+                    id: t,
                 }
             })
             .collect();
         Bvh {
             origin,
-            nodes,
+            pairs: pair_up(&nodes),
             tris,
             ids,
         }
     }
 
+    /// Node `k` of the finished tree.
+    #[inline]
+    fn node(&self, k: u32) -> &Node {
+        &self.pairs[(k >> 1) as usize].0[(k & 1) as usize]
+    }
+
     /// Number of triangles in the tree.
     pub fn len(&self) -> usize {
         self.ids.len()
+    }
+
+    /// The triangles in the order of the tree's leaves: neighbours in this order lie near
+    /// each other, so rays cast in it find the same boxes in the cache.
+    pub fn leaf_order(&self) -> &[u32] {
+        &self.ids
     }
 
     /// Whether the tree holds no triangle.
@@ -274,26 +326,29 @@ impl Bvh {
         }
         let o = (ray.origin - self.origin).as_vec3();
         let d = ray.direction.as_vec3();
-        // Zero components become +0 so that their inverse is +infinity (see `slab`).
-        let inv = Vec3::ONE / Vec3::select(d.cmpeq(Vec3::ZERO), Vec3::ZERO, d);
+        // Components too small to invert are raised to TINY_COMPONENT, so that the inverse is
+        // finite and the slab test never meets 0 x infinity (see `slab`).
+        let tiny = d.abs().cmplt(Vec3::splat(TINY_COMPONENT));
+        let inv = Vec3A::from(Vec3::ONE / Vec3::select(tiny, Vec3::splat(TINY_COMPONENT), d));
+        let oa = Vec3A::from(o);
         let t_min = ray.min_distance as f32;
         let mut t_max = ray.max_distance.min(f32::MAX as f64) as f32;
         let mut stack = [0u32; 64];
         let mut top = 0usize;
-        let mut node = 0usize;
-        if slab(&self.nodes[0], o, inv, t_max).is_none() {
+        let mut node = 0u32;
+        if slab(self.node(0), oa, inv, t_min, t_max).is_none() {
             return;
         }
         loop {
-            let n = &self.nodes[node];
+            let n = self.node(node);
             if n.count > 0 {
                 let first = n.link as usize;
-                for i in first..first + n.count as usize {
-                    let id = self.ids[i];
+                for tri in &self.tris[first..first + n.count as usize] {
+                    let id = tri.id;
                     if ray.skip == Some(id) {
                         continue;
                     }
-                    if let Some(t) = intersect(&self.tris[i], o, d) {
+                    if let Some(t) = intersect(tri, o, d) {
                         if t >= t_min && t <= t_max {
                             match on_hit(Hit {
                                 triangle: id,
@@ -306,15 +361,16 @@ impl Bvh {
                     }
                 }
             } else {
-                let left = node + 1;
-                let right = n.link as usize;
-                let tl = slab(&self.nodes[left], o, inv, t_max);
-                let tr = slab(&self.nodes[right], o, inv, t_max);
+                let left = n.link;
+                let right = left + 1;
+                let [l, r] = &self.pairs[(left >> 1) as usize].0;
+                let tl = slab(l, oa, inv, t_min, t_max);
+                let tr = slab(r, oa, inv, t_min, t_max);
                 match (tl, tr) {
                     (Some(a), Some(b)) => {
                         let (near, far) = if a <= b { (left, right) } else { (right, left) };
                         if top < stack.len() {
-                            stack[top] = far as u32;
+                            stack[top] = far;
                             top += 1;
                         }
                         node = near;
@@ -337,8 +393,8 @@ impl Bvh {
                     return;
                 }
                 top -= 1;
-                let candidate = stack[top] as usize;
-                if slab(&self.nodes[candidate], o, inv, t_max).is_some() {
+                let candidate = stack[top];
+                if slab(self.node(candidate), oa, inv, t_min, t_max).is_some() {
                     node = candidate;
                     break;
                 }
@@ -353,6 +409,7 @@ impl Bvh {
             return None;
         }
         let q = (p - self.origin).as_vec3();
+        let qa = Vec3A::from(q);
         let r = radius.min(f32::MAX as f64) as f32;
         let mut best2 = r * r;
         let mut best: Option<u32> = None;
@@ -360,26 +417,31 @@ impl Bvh {
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let index = stack[top];
-            let node = &self.nodes[index as usize];
-            if box_distance2(node, q) >= best2 {
+            let node = self.node(stack[top]);
+            if box_distance2(node, qa) >= best2 {
                 continue;
             }
             if node.count > 0 {
                 let first = node.link as usize;
-                for i in first..first + node.count as usize {
-                    let d2 = closest_on_triangle(&self.tris[i], q).distance_squared(q);
+                for tri in &self.tris[first..first + node.count as usize] {
+                    // A triangle whose plane is no nearer than the best so far cannot be
+                    // nearer itself: most are ruled out so, without the full search.
+                    let n = tri.ab.cross(tri.ac);
+                    let (h, nn) = (n.dot(q - tri.a), n.length_squared());
+                    if nn > 0.0 && h * h >= best2 * nn {
+                        continue;
+                    }
+                    let d2 = closest_on_triangle(tri, q).distance_squared(q);
                     if d2 < best2 {
                         best2 = d2;
-                        best = Some(self.ids[i]);
+                        best = Some(tri.id);
                     }
                 }
             } else {
-                // The first child follows its parent.
-                let left = index + 1;
-                let right = node.link;
-                let dl = box_distance2(&self.nodes[left as usize], q);
-                let dr = box_distance2(&self.nodes[right as usize], q);
+                let left = node.link;
+                let right = left + 1;
+                let [l, r] = &self.pairs[(left >> 1) as usize].0;
+                let (dl, dr) = (box_distance2(l, qa), box_distance2(r, qa));
                 // Push the farther child first so the nearer is searched first.
                 let order = if dl <= dr {
                     [right, left]
@@ -459,26 +521,25 @@ impl Sampling {
 
 /// Squared distance from `q` to the node's box (0 inside).
 #[inline]
-fn box_distance2(n: &Node, q: Vec3) -> f32 {
-    let min = Vec3::from_array(n.min);
-    let max = Vec3::from_array(n.max);
-    let d = (min - q).max(q - max).max(Vec3::ZERO);
+fn box_distance2(n: &Node, q: Vec3A) -> f32 {
+    let min = Vec3A::from_array(n.min);
+    let max = Vec3A::from_array(n.max);
+    let d = (min - q).max(q - max).max(Vec3A::ZERO);
     d.length_squared()
 }
 
-/// Entry distance of the ray into the node's box, if it enters before `t_max`.
+/// Entry distance of the ray into the node's box, if it enters before `t_max`; `inv` is the
+/// inverse of the direction with tiny components raised (see [`TINY_COMPONENT`]). A box left
+/// before `t_min` (the ray's `min_distance`) is passed as well: it holds no hit that counts.
 #[inline]
-fn slab(n: &Node, o: Vec3, inv: Vec3, t_max: f32) -> Option<f32> {
-    let t1 = (Vec3::from_array(n.min) - o) * inv;
-    let t2 = (Vec3::from_array(n.max) - o) * inv;
-    // A ray parallel to an axis has inv = +infinity there; starting exactly in the plane of
-    // a box face gives 0 x infinity = NaN, which means "inside that slab": the lower bound
-    // (from min) becomes -infinity and the upper (from max) +infinity.
-    let t1 = Vec3::select(t1.is_nan_mask(), Vec3::NEG_INFINITY, t1);
-    let t2 = Vec3::select(t2.is_nan_mask(), Vec3::INFINITY, t2);
+fn slab(n: &Node, o: Vec3A, inv: Vec3A, t_min: f32, t_max: f32) -> Option<f32> {
+    // Four-lane arithmetic (the fourth lane unused): one instruction per step, and min / max
+    // without the NaN rules of `f32::min`, which no operand here can be (finite inverse).
+    let t1 = (Vec3A::from_array(n.min) - o) * inv;
+    let t2 = (Vec3A::from_array(n.max) - o) * inv;
     let near = t1.min(t2).max_element().max(0.0);
     let far = t1.max(t2).min_element().min(t_max);
-    (near <= far).then_some(near)
+    (near <= far && far >= t_min).then_some(near)
 }
 
 /// Möller-Trumbore with the barycentric slack of [`EDGE_TOLERANCE`]; the distance along the
@@ -488,8 +549,7 @@ fn intersect(tri: &Tri, o: Vec3, d: Vec3) -> Option<f32> {
     let p = d.cross(tri.ac);
     let det = tri.ab.dot(p);
     // Relative test: edge-on (or area-less) triangles are never hit.
-    let scale = tri.ab.length() * tri.ac.length();
-    if det.abs().partial_cmp(&(1e-7 * scale)) != Some(Ordering::Greater) {
+    if det.abs().partial_cmp(&tri.min_det) != Some(Ordering::Greater) {
         return None;
     }
     let inv = 1.0 / det;
@@ -582,9 +642,11 @@ impl Extent {
         e
     }
 
+    #[inline]
     fn add(&mut self, it: &Item) {
-        self.bounds.grow(it.min, it.max);
-        self.centres.grow(it.centre, it.centre);
+        self.bounds.grow(Vec3A::from(it.min), Vec3A::from(it.max));
+        let c = Vec3A::from(it.centre);
+        self.centres.grow(c, c);
     }
 
     fn join(&mut self, other: &Extent) {
@@ -633,6 +695,31 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Op
     }
 }
 
+/// The finished tree from the built one (each interior node followed by its first child,
+/// `link` naming its second): the same nodes, in depth-first order of their pairs of
+/// children, with `link` naming the pair.
+fn pair_up(built: &[Node]) -> Vec<Pair> {
+    let mut pairs = Vec::with_capacity(built.len() / 2 + 1);
+    pairs.push(Pair([built[0], built[0]]));
+    // (index in `built`, node number in the finished tree) of interior nodes to expand.
+    let mut todo = vec![(0usize, 0u32)];
+    while let Some((old, new)) = todo.pop() {
+        let n = built[old];
+        // A leaf, or the empty tree's root (no triangle, no children).
+        if n.count > 0 || built.len() == 1 {
+            continue;
+        }
+        let (left, right) = (old + 1, n.link as usize);
+        let k = pairs.len() as u32;
+        pairs.push(Pair([built[left], built[right]]));
+        pairs[(new >> 1) as usize].0[(new & 1) as usize].link = 2 * k;
+        // Right first, so that the left subtree's pairs come next (depth first).
+        todo.push((right, 2 * k + 1));
+        todo.push((left, 2 * k));
+    }
+    pairs
+}
+
 /// Appends a subtree built on its own, moving its interior links by `base`.
 fn append(nodes: &mut Vec<Node>, sub: Vec<Node>, base: usize) {
     nodes.extend(sub.into_iter().map(|mut n| {
@@ -662,7 +749,7 @@ fn split(
     }
     let axes = &axes_of[..n_axes];
     let lo = centres.min;
-    let scale = Vec3::splat(BINS as f32) / extent;
+    let scale = Vec3A::splat(BINS as f32) / extent;
     let bin_of = |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as usize).min(BINS - 1);
     let mut bins = [[Extent::EMPTY; BINS]; 3];
     let mut counts = [[0usize; BINS]; 3];
@@ -872,6 +959,40 @@ mod tests {
         let h = bvh.nearest_within(p, 10.0).unwrap();
         assert!((h.distance - 5.0).abs() < 1e-5, "{h:?}");
         assert!(bvh.nearest_within(p, 4.9).is_none());
+    }
+
+    #[test]
+    fn seeded_random_nearest_matches_brute_force() {
+        for name in ["cover", "cap", "bracket"] {
+            let mesh = samples::sample(name).unwrap();
+            let bvh = Bvh::new(&mesh);
+            let b = mesh.bounds();
+            let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+            let mut found = 0;
+            for _ in 0..500 {
+                let p = b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let radius = 10.0 * rng.next();
+                let want = (0..mesh.triangles.len())
+                    .map(|t| crate::thickness::nearest_on_triangle(mesh.corners(t), p).distance(p))
+                    .fold(f64::INFINITY, f64::min);
+                match bvh.nearest_within(p, radius) {
+                    Some(h) => {
+                        found += 1;
+                        assert!(
+                            (h.distance - want).abs() < 1e-4,
+                            "{name}: {h:?} vs {want} at {p}"
+                        );
+                        let mine = crate::thickness::nearest_on_triangle(
+                            mesh.corners(h.triangle as usize),
+                            p,
+                        );
+                        assert!((mine.distance(p) - want).abs() < 1e-4, "{name} at {p}");
+                    }
+                    None => assert!(want >= radius - 1e-4, "{name}: missed {want} < {radius}"),
+                }
+            }
+            assert!(found > 100, "{name}: only {found} found, test too weak");
+        }
     }
 
     #[test]

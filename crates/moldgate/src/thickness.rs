@@ -31,9 +31,15 @@
 //!    (made perpendicular to the chord) and along the direction perpendicular to both: two
 //!    rays each, ±e, to the walls where they leave the solid. If the smaller of those two
 //!    widths is smaller than t, it is the thickness; if any cross ray leaves
-//!    through a hole, the sample is unknown. Near a convex edge the nearest point is the edge
-//!    face, but across the chord the solid is wide, so the facet keeps its thickness across
-//!    the wall (a ball-based thickness would drop to ~0 there); when q is within the 1e-6
+//!    through a hole, the sample is unknown. Only a width below the smallest found so far
+//!    (at first t) can change the answer, so each cross ray looks no farther than that width
+//!    less what its partner already measured, and a point whose nearest surface is farther
+//!    than half that width is not measured (every cross ray from it is longer). A cross ray
+//!    that meets nothing at all still makes the sample unknown; one whose first hit past that
+//!    length faces it (a ray that was outside the solid) no longer does, nor does the partner
+//!    of a ray that found no wall within the length (it is not cast). Near a convex edge the
+//!    nearest point is the edge face, but across the chord the solid is wide, so the facet
+//!    keeps its thickness across the wall (a ball-based thickness would drop to ~0 there); when q is within the 1e-6
 //!    diagonal of m (the chord runs in a face, as from a sliver along an edge), the chord is
 //!    kept as it is.
 //! 6. The facet's value is the mean of its known samples (NaN if none is known).
@@ -49,6 +55,7 @@
 //! their own smallest value is [`WallThickness::sliver_min_mm`].
 
 use std::cmp::Ordering;
+use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
@@ -168,8 +175,28 @@ pub fn wall_thickness_of(
         mesh,
         min_hit: 1e-6 * diagonal,
         options: *options,
+        closed: OnceLock::new(),
     };
     let min_area = 1e-12 * diagonal * diagonal;
+    // Cast in the tree's leaf order: neighbouring facets send their rays through the same
+    // boxes, which stay in the cache.
+    let order: Vec<u32> = if bvh.len() == mesh.triangles.len() {
+        let mut wanted = vec![false; mesh.triangles.len()];
+        for &t in triangles {
+            if let Some(w) = wanted.get_mut(t as usize) {
+                *w = true;
+            }
+        }
+        let order = bvh.leaf_order();
+        order
+            .iter()
+            .copied()
+            .filter(|&t| wanted[t as usize])
+            .collect()
+    } else {
+        triangles.to_vec()
+    };
+    let triangles = &order[..];
     let values: Vec<f32> = triangles
         .par_iter()
         .with_min_len(256)
@@ -212,14 +239,20 @@ struct Probe<'a> {
     mesh: &'a Mesh,
     min_hit: f64,
     options: ThicknessOptions,
+    /// Whether every edge of the mesh is met by its reverse (see [`is_closed`]), found the
+    /// first time a cross ray ends without a wall.
+    closed: OnceLock<bool>,
 }
 
 impl Probe<'_> {
     /// Thickness at point `p` of triangle `t` with unit outward normal `n` (rules 2 to 5).
     fn sample(&self, t: u32, p: DVec3, n: DVec3) -> Option<f64> {
-        let (dir, chord) = [-n, n]
-            .into_iter()
-            .find_map(|dir| self.exit(p, dir, Some(t)).map(|len| (dir, len)))?;
+        let (dir, chord) = [-n, n].into_iter().find_map(|dir| {
+            match self.exit(p, dir, Some(t), f64::INFINITY) {
+                Exit::At(len) => Some((dir, len)),
+                Exit::Beyond | Exit::Hole => None,
+            }
+        })?;
         if self.options.cross_check == CrossCheck::Off {
             return Some(chord);
         }
@@ -228,8 +261,10 @@ impl Probe<'_> {
             let m = p + dir * (at * chord);
             // The largest ball around m inside the chord's ends; the nearest surface inside it
             // (by more than 0.1 %) says the chord may run along a wall. Only the midpoint
-            // decides whether to look at all.
-            let reach = chord * at.min(1.0 - at) * (1.0 - 1e-3);
+            // decides whether to look at all. A surface farther from m than half the width
+            // found so far cannot narrow it (every cross ray from m runs at least that far
+            // before it meets a surface), so the ball shrinks to that too.
+            let reach = (chord * at.min(1.0 - at)).min(0.5 * width) * (1.0 - 1e-3);
             let Some(near) = self.bvh.nearest_within(m, reach) else {
                 if k == 0 {
                     return Some(chord);
@@ -244,7 +279,7 @@ impl Probe<'_> {
                 }
                 continue;
             }
-            width = width.min(self.cross_width(m, dir, near.triangle)?);
+            width = width.min(self.cross_width(m, dir, near.triangle, width)?);
         }
         Some(width)
     }
@@ -252,8 +287,10 @@ impl Probe<'_> {
     /// The smallest width of the solid through `m` across the chord direction `dir`: along the
     /// direction to the nearest point of `triangle` (made perpendicular to the chord) and along
     /// the direction perpendicular to both (a chord beside a hole has its nearest surface in
-    /// the hole but its wall the other way). `None` when a cross ray leaves through a hole.
-    fn cross_width(&self, m: DVec3, dir: DVec3, triangle: u32) -> Option<f64> {
+    /// the hole but its wall the other way). Only widths below `limit` matter, so each pair of
+    /// cross rays stops at `limit` (infinity when none is below it); `None` when a cross ray
+    /// leaves through a hole within that length.
+    fn cross_width(&self, m: DVec3, dir: DVec3, triangle: u32, limit: f64) -> Option<f64> {
         // The tree gives the nearest triangle, not its nearest point: found again in f64.
         let q = nearest_on_triangle(self.mesh.corners(triangle as usize), m);
         let e = q - m;
@@ -263,26 +300,43 @@ impl Probe<'_> {
         }
         let mut width = f64::INFINITY;
         for e in [e, dir.cross(e)] {
-            let w = self.exit(m, e, None)? + self.exit(m, -e, None)?;
-            width = width.min(w);
+            let bound = width.min(limit);
+            let there = match self.exit(m, e, None, bound) {
+                Exit::At(d) => d,
+                Exit::Beyond => continue,
+                Exit::Hole => return None,
+            };
+            match self.exit(m, -e, None, bound - there) {
+                Exit::At(d) => width = width.min(there + d),
+                Exit::Beyond => {}
+                Exit::Hole => return None,
+            }
         }
         Some(width)
     }
 
-    /// Distance from `p` along `dir` to where the ray leaves the solid: the first hit, if its
-    /// triangle faces along the ray.
-    fn exit(&self, p: DVec3, dir: DVec3, skip: Option<u32>) -> Option<f64> {
-        self.exit_from(p, dir, skip, self.min_hit)
-    }
-
-    /// [`Probe::exit`] ignoring hits nearer than `min_hit`.
-    fn exit_from(&self, p: DVec3, dir: DVec3, skip: Option<u32>, min_hit: f64) -> Option<f64> {
-        let mut ray = Ray::new(p, dir).within(min_hit, f64::INFINITY);
+    /// Where the ray from `p` along `dir` leaves the solid, looking no farther than
+    /// `max_distance`: at the first hit, if its triangle faces along the ray.
+    fn exit(&self, p: DVec3, dir: DVec3, skip: Option<u32>, max_distance: f64) -> Exit {
+        let mut ray = Ray::new(p, dir).within(self.min_hit, max_distance);
         ray.skip = skip;
-        let hit = self.bvh.first_hit(&ray)?;
-        let leaves = |t: u32| self.mesh.normal(t as usize).dot(dir) > 0.0;
+        let Some(hit) = self.bvh.first_hit(&ray) else {
+            // Nothing within the length looked at. A ray from inside a closed surface meets
+            // it somewhere farther; on an open mesh, a ray that meets nothing farther either
+            // leaves through a hole (any hit at all will do to tell, the cheapest query).
+            let farther = max_distance < f64::INFINITY
+                && (*self.closed.get_or_init(|| is_closed(self.mesh))
+                    || self.bvh.any_hit(&ray.within(max_distance, f64::INFINITY)));
+            return if farther { Exit::Beyond } else { Exit::Hole };
+        };
+        // Only the sign matters: the unnormalised normal saves a square root per hit.
+        let leaves = |t: u32| {
+            let [a, b, c] = self.mesh.corners(t as usize);
+            let n = (b - a).cross(c - a);
+            n.is_finite() && n.dot(dir) > 0.0
+        };
         if leaves(hit.triangle) {
-            return Some(hit.distance);
+            return Exit::At(hit.distance);
         }
         // A ray through an edge meets both triangles at one distance, in no fixed order: it
         // leaves the solid if any of the triangles there faces along it.
@@ -293,8 +347,51 @@ impl Probe<'_> {
             found = leaves(h.triangle);
             !found
         });
-        found.then_some(hit.distance)
+        if found {
+            Exit::At(hit.distance)
+        } else {
+            Exit::Hole
+        }
     }
+}
+
+/// Whether every directed edge a -> b of the mesh's triangles is matched by an edge b -> a
+/// (a closed, consistently oriented surface, whose inside every ray leaves). A pass without
+/// sorting or hashing of edges: at each vertex, the sums of a hash of the vertices its edges
+/// go to and come from agree for every vertex exactly when the edges pair up (but for a
+/// 2^-64 chance per vertex of a false agreement).
+fn is_closed(mesh: &Mesh) -> bool {
+    // splitmix64's finaliser: unrelated 64-bit values for neighbouring indices.
+    let hash = |v: u32| {
+        let mut z = (v as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let n = mesh.vertices.len();
+    let (mut out, mut into) = (vec![0u64; n], vec![0u64; n]);
+    for tri in &mesh.triangles {
+        for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
+            let (Some(o), Some(i)) = (out.get_mut(a as usize), into.get_mut(b as usize)) else {
+                return false;
+            };
+            *o = o.wrapping_add(hash(b));
+            *i = i.wrapping_add(hash(a));
+        }
+    }
+    out == into
+}
+
+/// Where a ray leaves the solid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Exit {
+    /// At this distance, mm.
+    At(f64),
+    /// Not within the length looked at: no surface there.
+    Beyond,
+    /// Its first hit faces it (it was outside the solid), or it hits nothing at all: it
+    /// leaves through a hole of an open mesh.
+    Hole,
 }
 
 /// The point of triangle `[a, b, c]` nearest to `p`, by projection onto its plane and, when
@@ -371,6 +468,25 @@ mod tests {
         assert_eq!(nearest_on_triangle(t, p), DVec3::new(0.0, 1.0, 0.0));
         let p = DVec3::new(4.0, 4.0, 0.0);
         assert!((nearest_on_triangle(t, p) - DVec3::new(2.0, 2.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn closed_means_every_edge_meets_its_reverse() {
+        // A tetrahedron, closed and consistently oriented.
+        let mut mesh = Mesh {
+            vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]],
+        };
+        assert!(is_closed(&mesh));
+        mesh.triangles[3].swap(0, 1); // one facet flipped: its edges run the same way
+        assert!(!is_closed(&mesh));
+        mesh.triangles.pop(); // a hole
+        assert!(!is_closed(&mesh));
+        mesh.triangles.push([2, 0, 7]); // a vertex that does not exist
+        assert!(!is_closed(&mesh));
+        for name in ["cover", "cap", "plate", "bracket", "tray"] {
+            assert!(is_closed(&crate::samples::sample(name).unwrap()), "{name}");
+        }
     }
 
     #[test]
