@@ -111,7 +111,6 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         // 2. The cycle round the band.
         let near = raster.near_outside(BAND_CELLS);
         let band = Band::new(mesh, &at, |v| body_of(v) == body, &near);
-        let outside = |p| raster.is_outside(p);
         let projected = |edges: &[[u32; 2]]| -> f64 {
             edges
                 .iter()
@@ -130,9 +129,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         let rim_projected = projected(&rim);
         let mut found: Option<Vec<[u32; 2]>> = None;
         for &e0 in starts.iter().take(START_TRIES) {
-            let Some(cycle) =
-                round_the_band(mesh, &at, &band, &rim, e0, &near, outside, raster.cell())
-            else {
+            let Some(cycle) = round_the_band(mesh, &at, &band, &rim, e0, &near, &raster) else {
                 continue;
             };
             let length = projected(&cycle);
@@ -207,9 +204,9 @@ fn round_the_band(
     rim: &[[u32; 2]],
     e0: [u32; 2],
     near: impl Fn(DVec2) -> bool,
-    outside: impl Fn(DVec2) -> bool,
-    cell: f64,
+    raster: &Outside,
 ) -> Option<Vec<[u32; 2]>> {
+    let cell = raster.cell();
     let plane = |v: u32| at[v as usize].truncate();
     let s = e0[0];
     let (p0, p1) = (plane(e0[0]), plane(e0[1]));
@@ -218,7 +215,7 @@ fn round_the_band(
     }
     let middle = 0.5 * (p0 + p1);
     let mut inward = (p1 - p0).perp().normalize();
-    if outside(middle + 2.0 * cell * inward) {
+    if raster.is_outside(middle + 2.0 * cell * inward) {
         inward = -inward;
     }
     let mut depth = 0.0;
