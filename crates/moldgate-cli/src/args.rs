@@ -53,9 +53,10 @@ pub enum NearestArg {
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum PartingLineArg {
-    /// The closed outer rim of each body seen along D.
+    /// The closed outer rim of each body seen along D (the default).
     Outline,
-    /// The longest loop of the edges between the two sides.
+    /// The longest loop of the edges between the two sides (the paper's path; may run over
+    /// holes or threads, and may be open).
     Longest,
 }
 
@@ -188,7 +189,7 @@ pub struct LocateArgs {
     #[arg(long)]
     pub aesthetic: bool,
     /// Which edges make the parting line (and so where --aesthetic puts the gate).
-    #[arg(long, value_enum, default_value = "longest")]
+    #[arg(long, value_enum, default_value = "outline")]
     pub parting_line: PartingLineArg,
     /// Largest grid accepted, in nodes.
     #[arg(long, default_value_t = 4_000_000)]

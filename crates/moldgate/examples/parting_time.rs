@@ -83,6 +83,18 @@ fn main() {
             .map(|r| (r.edges, (r.length_mm * 10.0).round() / 10.0, r.closed))
             .collect::<Vec<_>>()
     );
+    let projected: f64 = outline
+        .edges
+        .iter()
+        .map(|&[a, b]| {
+            let (p, q) = (
+                part.mesh.vertices[a as usize],
+                part.mesh.vertices[b as usize],
+            );
+            frame.project(p).distance(frame.project(q))
+        })
+        .sum();
+    println!("  outline rule projected on the plane: {projected:.1} mm");
     println!("  outline / longest: median ratio {:.2}", median(ratio));
     let perimeter = outline::outline_perimeter(&part.mesh, &frame, 1500);
     println!(

@@ -200,7 +200,7 @@ def study(
     wall_thickness: bool = False,
     color_by: str = "fill_order",
     fit_radius: bool = False,
-    parting_line: str = "longest",
+    parting_line: str = "outline",
     gate_at: Sequence[Union[str, Sequence[float]]] = (),
     suitability: bool = False,
     units: str = "mm",
@@ -233,8 +233,8 @@ def study(
     - ``thickness_rule="require"``: ``require`` (walls thicker than R_gate) or ``ignore``.
     - ``require_flat=False``, ``flat_tol=None``: only flat circles (within 0.1 R_gate).
     - ``aesthetic=False``: the gate on the parting line.
-    - ``parting_line="longest"``: ``longest`` (the longest loop of the edges between the
-      two sides) or ``outline`` (the closed outer rim of each body seen along D).
+    - ``parting_line="outline"``: ``outline`` (the closed outer rim of each body seen
+      along D) or ``longest`` (the longest loop of the edges between the two sides).
     - ``max_nodes=4000000``: largest grid accepted.
     - ``keep_out=()``: regions no gate may reach, ``"box:x0,y0,z0,x1,y1,z1"`` or
       ``"sphere:x,y,z,r"`` (mm).

@@ -127,7 +127,7 @@ def study(
     wall_thickness: bool = False,
     color_by: str = "fill_order",
     fit_radius: bool = False,
-    parting_line: str = "longest",
+    parting_line: str = "outline",
     gate_at: Sequence[Union[str, Sequence[float]]] = (),
     suitability: bool = False,
     units: str = "mm",

@@ -135,7 +135,7 @@ pub struct LocateOptions {
     pub thickness_rule: ThicknessRule,
     /// When that rule removes every node. Default [`ThicknessFallback::Report`].
     pub thickness_fallback: ThicknessFallback,
-    /// Which edges make the parting line. Default [`PartingRule::Longest`].
+    /// Which edges make the parting line. Default [`PartingRule::Outline`].
     pub parting: PartingRule,
     /// Flat-seat rule. Default [`FlatRule::Report`].
     pub flat_rule: FlatRule,
@@ -264,7 +264,7 @@ impl Default for LocateOptions {
             nearest: Nearest::Surface3d,
             thickness_rule: ThicknessRule::Require,
             thickness_fallback: ThicknessFallback::Report,
-            parting: PartingRule::Longest,
+            parting: PartingRule::Outline,
             flat_rule: FlatRule::Report,
             flat_tolerance_mm: None,
             mode: GateMode::Paper,

@@ -12,19 +12,19 @@
 //! face that lies on the -D side.
 //!
 //! Such edges also run round holes, pockets, rib ends and threads, where the two halves do
-//! not meet. With [`PartingRule::Outline`] (`outline.rs`) the parting line keeps, of
-//! them, the ones on the part's **outline** seen along D and at its -D end there (one edge per
-//! outline position on a vertical band), joins the chain ends where that end steps along D
-//! by paths along the mesh, and traces each body's outer rim as one cycle. The rims of
-//! grooves, ribs and thread turns seen edge-on above the -D end are not on it. By default
-//! ([`PartingRule::Longest`], the paper's path) it is the longest connected loop of the
-//! edges between the sides, on the outline or not.
+//! not meet. By default ([`PartingRule::Outline`], `outline.rs`) the parting line keeps, of
+//! them, the ones on each body's **outline** seen along D and at its -D end there (one edge
+//! per outline position on a vertical band), and closes them into one cycle per body round
+//! the outline on the mesh's edges (up the steps where that end changes height). The rims of
+//! holes, and of grooves, ribs and thread turns seen edge-on above the -D end, are not on
+//! it. With [`PartingRule::Longest`] (the paper's path) it is the longest connected loop of
+//! the edges between the sides, on the outline or not.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-mod cover;
 mod outline;
+mod outside;
 
 use crate::frame::Frame;
 use crate::math::{nearest_on_segment, DVec3};
@@ -35,15 +35,13 @@ use crate::mesh::{Mesh, Topology};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PartingRule {
-    /// The closed outer rim of each body seen along D, at the -D end of walls without
-    /// draft (the module's documentation). Not yet the default: on the large housings and
-    /// covers of docs/parting-line.md it loses the rims of rounded corners, and it is an
-    /// order slower than [`PartingRule::Longest`] on a 352k-triangle part.
-    Outline,
-    /// The default: the longest loop of the edges between the two sides (the paper's path;
-    /// on parts whose holes, pockets or threads have a longer rim than the outline, that rim
-    /// wins, and the loop may be open).
+    /// The default: the closed outer rim of each body seen along D, at the -D end of walls
+    /// without draft (the module's documentation).
     #[default]
+    Outline,
+    /// The longest loop of the edges between the two sides (the paper's path; on parts whose
+    /// holes, pockets or threads have a longer rim than the outline, that rim wins, and the
+    /// loop may be open).
     Longest,
 }
 
@@ -56,8 +54,9 @@ pub struct PartingLine {
     pub length_mm: f64,
     /// Every edge between the two sides, on the outline or not.
     pub edges_all: usize,
-    /// Number of connected sets of outline edges found (outer rims, hole rims; for
-    /// [`PartingRule::Longest`], of the edges between the sides).
+    /// Number of connected sets of rim edges found (the edges between the sides on the
+    /// outline at its -D end, before they are closed into cycles; for
+    /// [`PartingRule::Longest`], of all the edges between the sides).
     pub loops: usize,
     /// True when every kept loop is closed.
     pub closed: bool,
@@ -90,21 +89,21 @@ pub struct AestheticGate {
 }
 
 /// Per-triangle flag: faces the fixed (-D) side (n.D < -1e-6 for the unit normal n).
-fn faces_fixed_side(mesh: &Mesh, d: DVec3) -> Vec<bool> {
+fn faces_fixed_side(mesh: &Mesh, d: DVec3, tilt: f64) -> Vec<bool> {
     (0..mesh.triangles.len())
         .into_par_iter()
         .map(|t| {
             let [a, b, c] = mesh.corners(t);
             let cross = (b - a).cross(c - a);
-            cross.dot(d) < -1e-6 * cross.length()
+            cross.dot(d) < -tilt * cross.length()
         })
         .collect()
 }
 
 /// The edges between a triangle that faces the fixed side and one that does not, sorted,
 /// each once, as (smaller, larger) vertex pairs.
-fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Vec<[u32; 2]> {
-    let fixed = faces_fixed_side(mesh, frame.d);
+fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec<[u32; 2]> {
+    let fixed = faces_fixed_side(mesh, frame.d, tilt);
     // Each edge between the sides is found from its triangle that faces the fixed side,
     // in blocks of triangles in parallel (the edges are sorted below).
     const BLOCK: usize = 16 * 1024;
@@ -136,7 +135,7 @@ impl PartingLine {
     /// (the paper's path: cheap beside the rays). Its one rim is that loop; `closed` says
     /// whether each of its vertices has two of its edges.
     pub fn new(mesh: &Mesh, topology: &Topology, frame: &Frame) -> PartingLine {
-        let edges = side_edges(mesh, topology, frame);
+        let edges = side_edges(mesh, topology, frame, 1e-6);
         if edges.is_empty() {
             return PartingLine::default();
         }
@@ -298,7 +297,7 @@ pub struct PartingSummary {
     pub length_mm: f64,
     /// Edges between the two sides, on the outline or not.
     pub edges_all: usize,
-    /// Outline loops found.
+    /// Connected sets of rim edges found (see [`PartingLine::loops`]).
     pub loops: usize,
     /// Whether every kept loop is closed.
     pub closed: bool,
@@ -370,7 +369,7 @@ mod tests {
         let (mesh, line, _) = parting("plate", "+z");
         assert!((line.length_mm - 320.0).abs() < 1e-9);
         assert!(all_on_plane(&mesh, &line, 0.0));
-        assert_eq!(line.loops, 2, "outline and hole");
+        assert_eq!(line.loops, 1, "the outline; the hole's rim is inside it");
         let (mesh, line, _) = parting("bracket", "+z");
         assert!((line.length_mm - 200.0).abs() < 1e-9);
         assert!(all_on_plane(&mesh, &line, 0.0));

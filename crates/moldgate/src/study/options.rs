@@ -169,8 +169,8 @@ pub struct StudyOptions {
     /// Put the gate on the parting line, nearest the centre of mass. Default false.
     pub aesthetic: bool,
     /// Which edges make the parting line: `outline` (the closed outer rim of each body seen
-    /// along D) or `longest` (the longest loop of the edges between the two sides). Default
-    /// `longest` (docs/parting-line.md says where the outline rule is not yet right).
+    /// along D) or `longest` (the longest loop of the edges between the two sides, the
+    /// paper's path). Default `outline` (docs/parting-line.md).
     pub parting_line: crate::parting::PartingRule,
     /// Largest grid accepted, in nodes (at most [`MAX_NODES_LIMIT`], and within the ray
     /// memory budget [`crate::gate::RAY_MEMORY_BUDGET_BYTES`] with `circle_points`). Default
@@ -231,7 +231,7 @@ impl Default for StudyOptions {
             require_flat: false,
             flat_tol: None,
             aesthetic: false,
-            parting_line: crate::parting::PartingRule::Longest,
+            parting_line: crate::parting::PartingRule::Outline,
             max_nodes: 4_000_000,
             keep_out: Vec::new(),
             cosmetic: None,

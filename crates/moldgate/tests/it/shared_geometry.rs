@@ -72,7 +72,23 @@ fn dir(s: &str) -> Direction {
     s.parse().unwrap()
 }
 
-/// The outline rule's line and the outline perimeter from the raster.
+/// The length of the parting line projected on the plane normal to D: the figure to hold
+/// against the outline's perimeter (the line's own length adds its runs along D, up the
+/// steps of the rim and along the rounded corners' faceted tangent lines).
+fn projected_length(part: &LoadedMesh, a: &moldgate::Analysis) -> f64 {
+    let v = &part.mesh.vertices;
+    a.parting
+        .edges
+        .iter()
+        .map(|&[p, q]| {
+            a.frame
+                .project(v[p as usize])
+                .distance(a.frame.project(v[q as usize]))
+        })
+        .sum()
+}
+
+/// The outline rule's line (the default) and the outline perimeter from the raster.
 fn parting_vs_outline(part: &LoadedMesh, d: Direction, cells: usize) -> (moldgate::Analysis, f64) {
     let a = locate(
         part,
@@ -80,11 +96,11 @@ fn parting_vs_outline(part: &LoadedMesh, d: Direction, cells: usize) -> (moldgat
             direction: d,
             mode: moldgate::GateMode::Aesthetic,
             thickness_rule: ThicknessRule::Ignore,
-            parting: moldgate::gate::PartingRule::Outline,
             ..LocateOptions::default()
         },
     )
     .unwrap();
+    assert_eq!(a.parting.rims.is_empty(), a.parting.edges.is_empty());
     let perimeter = outline::outline_perimeter(&part.mesh, &Frame::new(d), cells);
     (a, perimeter)
 }
@@ -176,25 +192,11 @@ fn parting_line_is_the_outline_on_the_samples() {
 /// rule, not parts whose parting line is truly elsewhere: on each of them a designer would
 /// put the line on the outer rim.
 const NOT_THE_RIM: &[&str] = &[
-    // 0.03: the rim edges of the rounded corners are lost, a small loop is kept.
-    "comma2_injection_molded_mount.stl",
-    // 0.03 and 0.10: the fine rounded corners' rim edges are lost (chains do not join).
-    "esp32s3box_bottom_housing_352k.stl",
-    "esp32s3box_top_housing.stl",
-    // 0.04: as the housings.
-    "framework_desktop_top_cover_121k.stl",
-    // 0.56, closed: the loop is the knob's circle, closed across the three tabs (their
-    // chains are not joined to the circle's).
-    "prusa_lcd_knob.stl",
-    // 1.050, closed: just over; not examined yet.
-    "framework_expansion_card_shell.stl",
-    // 0.53: the box body's rim is lost, the lid's kept.
+    // 0.50: the lid's rim is found, the box's is not. The box is a four-walled sleeve whose
+    // walls have windows cut from their -D end; the band round its outline that the cycle
+    // walks falls apart into pieces of a few hundred vertices (not yet understood), so no
+    // cycle goes round it.
     "prusa_psu_cover_mk3_ascii.stl",
-    // 0.11: as the housings.
-    "sc64_shell_back.stl",
-    // 1.08, 1.09, closed: the loop takes in edges seen edge-on along the rim.
-    "watchy_yatari_bottom.stl",
-    "watchy_yatari_top.stl",
 ];
 
 #[test]
@@ -208,9 +210,10 @@ fn parting_line_is_the_outline_on_the_shared_parts() {
         let part = load(file);
         let (a, perimeter) = parting_vs_outline(&part, dir(d), 1500);
         let length = a.parting.length_mm;
-        let ratio = length / perimeter;
+        let projected = projected_length(&part, &a);
+        let ratio = projected / perimeter;
         let closed = loops_are_closed_cycles(&a.parting);
-        println!("{file} {d}: parting {length:.1} mm, outline {perimeter:.1} mm, ratio {ratio:.3}, closed {closed:?}, rims {}", a.parting.rims.len());
+        println!("{file} {d}: parting {length:.1} mm, projected {projected:.1} mm, outline {perimeter:.1} mm, ratio {ratio:.3}, closed {closed:?}, rims {}", a.parting.rims.len());
         if !gate_on_line(&part, &a) {
             failures.push(format!(
                 "{file}: the aesthetic gate is not on the parting line"
@@ -221,7 +224,7 @@ fn parting_line_is_the_outline_on_the_shared_parts() {
         }
         if (ratio - 1.0).abs() > 0.05 {
             failures.push(format!(
-                "{file}: parting {length:.1} vs outline {perimeter:.1}"
+                "{file}: parting projected {projected:.1} vs outline {perimeter:.1}"
             ));
         }
         if let Err(e) = closed {
@@ -238,10 +241,10 @@ fn aesthetic_gate_lands_on_the_rim(file: &str, d: &str) {
     let options = LocateOptions {
         direction: dir(d),
         mode: moldgate::GateMode::Aesthetic,
-        parting: moldgate::gate::PartingRule::Outline,
         ..LocateOptions::default()
     };
     let a = locate(&part, &options).unwrap();
+    assert!(gate_on_line(&part, &a), "{file}: the gate is on the line");
     let g = a.gate().unwrap().point();
     let frame = a.frame;
     let q = frame.project(g);
@@ -260,12 +263,13 @@ fn aesthetic_gate_lands_on_the_rim(file: &str, d: &str) {
 }
 
 #[test]
-fn aesthetic_gate_lands_on_the_rim_of_the_knob_and_the_screw_cap() {
-    let test = "aesthetic_gate_lands_on_the_rim_of_the_knob_and_the_screw_cap";
+fn aesthetic_gate_lands_on_the_rim_of_the_knob_the_housing_and_the_screw_cap() {
+    let test = "aesthetic_gate_lands_on_the_rim_of_the_knob_the_housing_and_the_screw_cap";
     if parts_dir().is_none() {
         return skip(test);
     }
     aesthetic_gate_lands_on_the_rim("prusa_lcd_knob.stl", "+z");
+    aesthetic_gate_lands_on_the_rim("esp32s3box_bottom_housing_352k.stl", "+y");
     // Not on the thread: the cap's thread is inside its outline.
     aesthetic_gate_lands_on_the_rim("screwcap_oralb_75ml_ascii.stl", "+z");
 }

@@ -1,0 +1,325 @@
+//! Which edges of one body lie on its outline seen along D, and which of them at the part's
+//! -D end there: the body's edges between the two sides drawn into a raster over its
+//! projection, the cells outside them found from the raster's border.
+//!
+//! The outline of a body's projection is made of its edges between the two sides (the
+//! boundary of the faces turned towards -D, projected: every other face lies over or under
+//! one of those, up to the walls along D, which cover no area). So those edges, drawn cell by
+//! cell (every cell a segment passes through, a 4-connected run), close the outline in the
+//! raster, and a flood from the border over the cells no edge passes through reaches exactly
+//! the cells outside it. An edge is on the outline where one of its cells touches such a
+//! cell; a single point test beside the edge is not used, as on finely tessellated rounded
+//! corners a neighbouring facet bulges past the edge by less than a micrometre.
+
+use crate::math::DVec2;
+
+/// Cells along the longer side of one body's raster (the cell is its extent over this).
+pub(super) const CELLS: usize = 1024;
+/// Empty cells of margin round the body's projection.
+const MARGIN: usize = 2;
+
+/// One body's raster of its edges between the sides.
+pub(super) struct Outside {
+    lo: DVec2,
+    cell: f64,
+    n_u: usize,
+    n_w: usize,
+    /// Per cell, row by row: the lowest height along D of an edge passing through it
+    /// (infinite where none does).
+    lowest: Vec<f32>,
+    /// Per cell: outside the outline.
+    outside: Vec<bool>,
+}
+
+/// An edge between the sides in frame coordinates: its ends in the plane and their heights.
+#[derive(Clone, Copy)]
+pub(super) struct Segment {
+    pub a: DVec2,
+    pub b: DVec2,
+    pub height_a: f64,
+    pub height_b: f64,
+}
+
+impl Outside {
+    /// The raster of `segments` (one body's edges between the sides), with the outside
+    /// flooded from its border.
+    pub(super) fn new(segments: &[Segment]) -> Outside {
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for s in segments {
+            lo = lo.min(s.a).min(s.b);
+            hi = hi.max(s.a).max(s.b);
+        }
+        let extent = (hi - lo).max_element().max(1e-9);
+        let cell = extent / CELLS as f64;
+        let lo = lo - DVec2::splat(MARGIN as f64 * cell);
+        let n_u = (((hi.x - lo.x) / cell).ceil() as usize + MARGIN + 1).max(1);
+        let n_w = (((hi.y - lo.y) / cell).ceil() as usize + MARGIN + 1).max(1);
+        let mut raster = Outside {
+            lo,
+            cell,
+            n_u,
+            n_w,
+            lowest: vec![f32::INFINITY; n_u * n_w],
+            outside: vec![false; n_u * n_w],
+        };
+        for s in segments {
+            let low = s.height_a.min(s.height_b) as f32;
+            let lowest = &mut raster.lowest;
+            cells_on(lo, cell, n_u, n_w, s.a, s.b, |c| {
+                lowest[c] = lowest[c].min(low);
+            });
+        }
+        raster.flood();
+        raster
+    }
+
+    /// Marks the cells no edge passes through that the border reaches, by steps to the four
+    /// neighbours (a 4-connected run of edge cells is not crossed).
+    fn flood(&mut self) {
+        let (n_u, n_w) = (self.n_u, self.n_w);
+        let mut stack: Vec<usize> = Vec::new();
+        for u in 0..n_u {
+            stack.push(u);
+            stack.push((n_w - 1) * n_u + u);
+        }
+        for w in 0..n_w {
+            stack.push(w * n_u);
+            stack.push(w * n_u + n_u - 1);
+        }
+        while let Some(c) = stack.pop() {
+            if self.outside[c] || self.lowest[c].is_finite() {
+                continue;
+            }
+            self.outside[c] = true;
+            let (u, w) = (c % n_u, c / n_u);
+            if u > 0 {
+                stack.push(c - 1);
+            }
+            if u + 1 < n_u {
+                stack.push(c + 1);
+            }
+            if w > 0 {
+                stack.push(c - n_u);
+            }
+            if w + 1 < n_w {
+                stack.push(c + n_u);
+            }
+        }
+    }
+
+    /// Whether `s` is on the outline at the -D end of the part there: one of its cells
+    /// touches the outside (its eight neighbours), and in one of its cells no edge lies
+    /// lower than it by more than `tolerance` (on a vertical band, the edges above its -D
+    /// end share its cells with the edge at that end).
+    pub(super) fn on_rim(&self, s: &Segment, tolerance: f64) -> bool {
+        let (mut touches, mut lowest_here) = (false, false);
+        let n = ((s.a.distance(s.b) / (0.5 * self.cell)).ceil() as usize).clamp(1, 1 << 16);
+        for k in 0..n {
+            let (t0, t1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+            let p = s.a.lerp(s.b, 0.5 * (t0 + t1));
+            let Some(c) = self.cell_of(p) else { continue };
+            let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
+            lowest_here |= h <= self.lowest[c] as f64 + tolerance;
+            touches |= self.touches_outside(c);
+            if touches && lowest_here {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Whether `p` lies outside the outline (outside the raster too).
+    pub(super) fn is_outside(&self, p: DVec2) -> bool {
+        self.cell_of(p).is_none_or(|c| self.outside[c])
+    }
+
+    /// The raster's cell side in mm.
+    pub(super) fn cell(&self) -> f64 {
+        self.cell
+    }
+
+    /// Whether a point of the plane lies within `cells` cells (in both axes) of a cell
+    /// outside the outline: the band round the outline.
+    pub(super) fn near_outside(&self, cells: usize) -> impl Fn(DVec2) -> bool + '_ {
+        // The outside dilated along rows, then along columns (a square of side 2 cells + 1).
+        let (n_u, n_w) = (self.n_u, self.n_w);
+        let mut rows = vec![false; n_u * n_w];
+        for w in 0..n_w {
+            let row = &self.outside[w * n_u..(w + 1) * n_u];
+            let mut last: Option<usize> = None;
+            for u in 0..n_u {
+                if row[u] {
+                    last = Some(u);
+                }
+                rows[w * n_u + u] = last.is_some_and(|l| u - l <= cells);
+            }
+            let mut next: Option<usize> = None;
+            for u in (0..n_u).rev() {
+                if row[u] {
+                    next = Some(u);
+                }
+                rows[w * n_u + u] |= next.is_some_and(|l| l - u <= cells);
+            }
+        }
+        let mut near = vec![false; n_u * n_w];
+        for u in 0..n_u {
+            let mut last: Option<usize> = None;
+            for w in 0..n_w {
+                if rows[w * n_u + u] {
+                    last = Some(w);
+                }
+                near[w * n_u + u] = last.is_some_and(|l| w - l <= cells);
+            }
+            let mut next: Option<usize> = None;
+            for w in (0..n_w).rev() {
+                if rows[w * n_u + u] {
+                    next = Some(w);
+                }
+                near[w * n_u + u] |= next.is_some_and(|l| l - w <= cells);
+            }
+        }
+        move |p| self.cell_of(p).is_some_and(|c| near[c])
+    }
+
+    fn cell_of(&self, p: DVec2) -> Option<usize> {
+        let d = (p - self.lo) / self.cell;
+        let (u, w) = (d.x.floor(), d.y.floor());
+        (u >= 0.0 && w >= 0.0 && (u as usize) < self.n_u && (w as usize) < self.n_w)
+            .then(|| w as usize * self.n_u + u as usize)
+    }
+
+    fn touches_outside(&self, c: usize) -> bool {
+        let (u, w) = ((c % self.n_u) as isize, (c / self.n_u) as isize);
+        (-1..=1).any(|dw| {
+            (-1..=1).any(|du| {
+                let (x, y) = (u + du, w + dw);
+                x >= 0
+                    && y >= 0
+                    && (x as usize) < self.n_u
+                    && (y as usize) < self.n_w
+                    && self.outside[y as usize * self.n_u + x as usize]
+            })
+        })
+    }
+}
+
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a + (b - a) * t
+}
+
+/// Calls `f` with every cell the segment from `a` to `b` passes through, in order, each a
+/// side neighbour of the one before (a grid walk that steps one axis at a time and ends in
+/// the cell of `b` whatever the rounding).
+fn cells_on(
+    lo: DVec2,
+    cell: f64,
+    n_u: usize,
+    n_w: usize,
+    a: DVec2,
+    b: DVec2,
+    mut f: impl FnMut(usize),
+) {
+    let index = |x: f64, n: usize| (x.floor().max(0.0) as usize).min(n - 1) as i64;
+    let (pa, pb) = ((a - lo) / cell, (b - lo) / cell);
+    let (mut i, mut j) = (index(pa.x, n_u), index(pa.y, n_w));
+    let (i_end, j_end) = (index(pb.x, n_u), index(pb.y, n_w));
+    let d = pb - pa;
+    let (si, sj) = (
+        if i_end > i { 1 } else { -1 },
+        if j_end > j { 1 } else { -1 },
+    );
+    let crossing = |p: f64, k: i64, s: i64, dp: f64| {
+        if dp == 0.0 {
+            f64::INFINITY
+        } else {
+            let edge = if s > 0 { (k + 1) as f64 } else { k as f64 };
+            ((edge - p) / dp).max(0.0)
+        }
+    };
+    let (mut t_u, mut t_w) = (crossing(pa.x, i, si, d.x), crossing(pa.y, j, sj, d.y));
+    let (dt_u, dt_w) = (
+        if d.x == 0.0 {
+            f64::INFINITY
+        } else {
+            1.0 / d.x.abs()
+        },
+        if d.y == 0.0 {
+            f64::INFINITY
+        } else {
+            1.0 / d.y.abs()
+        },
+    );
+    f(j as usize * n_u + i as usize);
+    while i != i_end || j != j_end {
+        if j == j_end || (i != i_end && t_u <= t_w) {
+            i += si;
+            t_u += dt_u;
+        } else {
+            j += sj;
+            t_w += dt_w;
+        }
+        f(j as usize * n_u + i as usize);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn segment(a: (f64, f64), b: (f64, f64), h: f64) -> Segment {
+        Segment {
+            a: DVec2::new(a.0, a.1),
+            b: DVec2::new(b.0, b.1),
+            height_a: h,
+            height_b: h,
+        }
+    }
+
+    /// A square of side 10 at height 0, a smaller square inside it (a hole's rim) and, on
+    /// the square's right side, a segment above it (an edge up the wall).
+    #[test]
+    fn the_outer_square_is_the_rim_not_the_hole_nor_the_edge_above_it() {
+        let square = |s: f64, h: f64| {
+            [
+                segment((-s, -s), (s, -s), h),
+                segment((s, -s), (s, s), h),
+                segment((s, s), (-s, s), h),
+                segment((-s, s), (-s, -s), h),
+            ]
+        };
+        let mut all: Vec<Segment> = square(5.0, 0.0).to_vec();
+        all.extend(square(2.0, 0.0));
+        let above = segment((5.0, -4.0), (5.0, 4.0), 3.0);
+        all.push(above);
+        let raster = Outside::new(&all);
+        for s in &square(5.0, 0.0) {
+            assert!(raster.on_rim(s, 0.01));
+        }
+        for s in &square(2.0, 0.0) {
+            assert!(
+                !raster.on_rim(s, 0.01),
+                "a hole's rim is inside the outline"
+            );
+        }
+        assert!(!raster.on_rim(&above, 0.01), "above the -D end");
+    }
+
+    #[test]
+    fn a_diagonal_walk_steps_by_side_neighbours_to_the_last_cell() {
+        let mut cells = Vec::new();
+        cells_on(
+            DVec2::ZERO,
+            1.0,
+            10,
+            10,
+            DVec2::new(0.5, 0.5),
+            DVec2::new(7.2, 3.9),
+            |c| cells.push(c),
+        );
+        assert_eq!(*cells.last().unwrap(), 3 * 10 + 7);
+        for w in cells.windows(2) {
+            let (a, b) = (w[0] as i64, w[1] as i64);
+            assert!((a - b).abs() == 1 || (a - b).abs() == 10, "{cells:?}");
+        }
+    }
+}
