@@ -3,6 +3,7 @@
 # Debian's chromium, the npm packages pinned in web/ and tools/gltf-validator), builds the
 # command line (the reference answers; its test build) and the page, and runs the tests in
 # headless Chromium with node's test runner. Exits non-zero when anything fails.
+# `scripts/test-web.sh --setup` only installs (the same things) and builds nothing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 target_dir=${CARGO_TARGET_DIR:-$PWD/target}
@@ -11,6 +12,16 @@ chromium=${CHROMIUM:-/usr/bin/chromium}
 if [ ! -x "$chromium" ]; then
     echo "test-web: installing Debian's chromium"
     apt-get install -y chromium || { apt-get update && apt-get install -y chromium; }
+fi
+
+if [ ! -f tools/gltf-validator/node_modules/.package-lock.json ] ||
+    [ tools/gltf-validator/package-lock.json -nt tools/gltf-validator/node_modules/.package-lock.json ]; then
+    echo "test-web: npm ci --prefix tools/gltf-validator"
+    npm ci --prefix tools/gltf-validator --no-audit --no-fund
+fi
+# `--setup`: only what is installed (scripts/test runs it while cargo compiles).
+if [ "${1:-}" = "--setup" ]; then
+    exec scripts/build-web.sh --setup
 fi
 
 # The reference answers come from the test build of the command line (the library is
@@ -23,13 +34,8 @@ if [ -z "$bin" ]; then
     bin=$target_dir/debug/moldgate
 fi
 
-scripts/build-web.sh
-
-if [ ! -f tools/gltf-validator/node_modules/.package-lock.json ] ||
-    [ tools/gltf-validator/package-lock.json -nt tools/gltf-validator/node_modules/.package-lock.json ]; then
-    echo "test-web: npm ci --prefix tools/gltf-validator"
-    npm ci --prefix tools/gltf-validator --no-audit --no-fund
-fi
+# The module of the `wasm-test` profile: the users' `wasm` profile less LTO (Cargo.toml).
+MOLDGATE_WASM_PROFILE=${MOLDGATE_WASM_PROFILE:-wasm-test} scripts/build-web.sh
 
 cd web
 MOLDGATE_BIN=$bin CHROMIUM=$chromium \
