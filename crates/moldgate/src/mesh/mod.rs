@@ -567,7 +567,6 @@ impl Welder {
             return (Mesh::default(), 0);
         };
         let later: Vec<Welder> = runs.collect();
-        const NEW: u64 = u64::MAX;
         // found[i][l]: (earlier run << 32 | its vertex) for vertex l of run i + 1, or NEW.
         let found: Vec<Vec<u64>> = later
             .par_iter()
@@ -588,26 +587,7 @@ impl Welder {
                     .collect()
             })
             .collect();
-        // number[i][l]: the number of vertex l of run i + 1 in the whole mesh. A vertex found
-        // in an earlier run is new there, so that run has numbered it already.
-        let mut next = whole.mesh.vertices.len() as u32;
-        let mut number: Vec<Vec<u32>> = Vec::with_capacity(later.len());
-        for found in &found {
-            let numbered = found
-                .iter()
-                .map(|&f| match f {
-                    NEW => {
-                        next += 1;
-                        next - 1
-                    }
-                    _ => match (f >> 32) as usize {
-                        0 => f as u32,
-                        j => number[j - 1][f as u32 as usize],
-                    },
-                })
-                .collect();
-            number.push(numbered);
-        }
+        let number = join_numbers(whole.mesh.vertices.len() as u32, &found);
         for ((run, found), number) in later.iter().zip(&found).zip(&number) {
             whole.mesh.vertices.extend(
                 run.mesh
@@ -632,6 +612,35 @@ impl Welder {
     pub fn finish(self) -> (Mesh, u64) {
         (self.mesh, self.collapsed)
     }
+}
+
+/// A later run's vertex in the join of welded runs (`found[i][l]`, for vertex l of run i + 1)
+/// that no earlier run holds; otherwise `earlier run << 32 | its vertex there`.
+pub(super) const NEW: u64 = u64::MAX;
+
+/// number[i][l]: the number of vertex l of run i + 1 in the whole mesh, the first run's
+/// vertices being 0..first and the new ones numbered on from there in order. A vertex found
+/// in an earlier run is new there, so that run has numbered it already.
+pub(super) fn join_numbers(first: u32, found: &[Vec<u64>]) -> Vec<Vec<u32>> {
+    let mut next = first;
+    let mut number: Vec<Vec<u32>> = Vec::with_capacity(found.len());
+    for found in found {
+        let numbered = found
+            .iter()
+            .map(|&f| match f {
+                NEW => {
+                    next += 1;
+                    next - 1
+                }
+                _ => match (f >> 32) as usize {
+                    0 => f as u32,
+                    j => number[j - 1][f as u32 as usize],
+                },
+            })
+            .collect();
+        number.push(numbered);
+    }
+    number
 }
 
 #[cfg(test)]

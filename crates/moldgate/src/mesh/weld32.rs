@@ -12,7 +12,7 @@
 
 use rayon::prelude::*;
 
-use super::Mesh;
+use super::{join_numbers, Mesh, NEW};
 use crate::math::DVec3;
 
 /// The bits of a corner's three coordinates, -0.0 made 0.0.
@@ -203,7 +203,6 @@ impl Welder32 {
         for run in std::iter::once(&mut whole).chain(&mut later) {
             run.recent = Vec::new();
         }
-        const NEW: u64 = u64::MAX;
         // found[i][l]: (earlier run << 32 | its vertex) for vertex l of run i + 1, or NEW.
         let found: Vec<Vec<u64>> = later
             .par_iter()
@@ -229,26 +228,7 @@ impl Welder32 {
         for run in std::iter::once(&mut whole).chain(&mut later) {
             run.slots = Vec::new();
         }
-        // number[i][l]: the number of vertex l of run i + 1 in the whole mesh. A vertex found
-        // in an earlier run is new there, so that run has numbered it already.
-        let mut next = whole.mesh.vertices.len() as u32;
-        let mut number: Vec<Vec<u32>> = Vec::with_capacity(later.len());
-        for found in &found {
-            let numbered = found
-                .iter()
-                .map(|&f| match f {
-                    NEW => {
-                        next += 1;
-                        next - 1
-                    }
-                    _ => match (f >> 32) as usize {
-                        0 => f as u32,
-                        j => number[j - 1][f as u32 as usize],
-                    },
-                })
-                .collect();
-            number.push(numbered);
-        }
+        let number = join_numbers(whole.mesh.vertices.len() as u32, &found);
         for ((run, found), number) in later.iter().zip(&found).zip(&number) {
             whole.mesh.vertices.extend(
                 run.mesh
