@@ -11,9 +11,12 @@
 //!    wall steps along D (a notch, a tab standing out of a wall) the rim runs up the step on
 //!    edges that join no two sides, and on finely tessellated rounded corners a few rim edges
 //!    fall a cell inside the outline. So the cycle is the cheapest closed path round the
-//!    outline on the mesh's own edges, through the vertices that lie near the outline seen
-//!    along D (the *band*: within [`BAND_CELLS`] cells of the outside, which takes in the
-//!    walls along D standing on the outline): a rim edge costs its length, any other edge
+//!    outline on the mesh's own edges, through the vertices that lie near the rim edges seen
+//!    along D (the *band*: within [`BAND_CELLS`] cells of a cell a rim edge passes through,
+//!    which takes in the walls along D standing on the outline; measured from the rim edges
+//!    rather than from the outside, so that a rim edge a little farther in, behind a tab
+//!    standing out of a wall by about the band's width, stays in the band and the band does
+//!    not break there): a rim edge costs its length, any other edge
 //!    [`OFF_RIM_COST`] times its length. The path must go round once: the band is cut at
 //!    its leftmost rim vertex s along the line through s parallel to the plane's u axis, the
 //!    shortest paths from s are found on the cut band (Dijkstra), and the cycle is the
@@ -31,7 +34,7 @@ use rustc_hash::FxHashMap;
 use super::outside::{Outside, Segment};
 use super::{side_edges, PartingLine, Rim};
 use crate::frame::Frame;
-use crate::math::{DVec2, DVec3};
+use crate::math::DVec2;
 use crate::mesh::topology::body_of_triangle;
 use crate::mesh::{Mesh, Topology};
 
@@ -40,7 +43,7 @@ use crate::mesh::{Mesh, Topology};
 /// D by up to about 1e-4 on small facets, and such noise must not split a wall into strips
 /// of both sides. A wall drafted by 0.06 degrees or more is classed by its facing.
 const WALL_TILT: f64 = 1e-3;
-/// The band round the outline the cycle may use, in raster cells from the outside.
+/// The band round the outline the cycle may use, in raster cells from the rim edges' cells.
 const BAND_CELLS: usize = 3;
 /// Most rim edges tried as the place to cut the band, per body.
 const START_TRIES: usize = 4;
@@ -56,12 +59,14 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         return PartingLine::default();
     }
     let edges_all = edges.len();
-    let at: Vec<DVec3> = mesh
-        .vertices
-        .par_iter()
-        .map(|&p| DVec3::new(p.dot(frame.u), p.dot(frame.w), p.dot(frame.d)))
-        .collect();
-    let plane = |v: u32| at[v as usize].truncate();
+    // Frame coordinates are computed where they are needed rather than stored for every
+    // vertex: a copy of the whole mesh's vertices (24 bytes each) would add to the peak
+    // memory of `locate`, which runs this beside the rays.
+    let plane = |v: u32| {
+        let p = mesh.vertices[v as usize];
+        DVec2::new(p.dot(frame.u), p.dot(frame.w))
+    };
+    let height = |v: u32| mesh.vertices[v as usize].dot(frame.d);
     let body_of_tri = (topology.bodies > 1).then(|| body_of_triangle(mesh));
     let body_of_vertex = body_of_tri.as_ref().map(|body| {
         let of: Vec<AtomicU32> = (0..mesh.vertices.len())
@@ -81,8 +86,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
     let segment = |[a, b]: [u32; 2]| Segment {
         a: plane(a),
         b: plane(b),
-        height_a: at[a as usize].z,
-        height_b: at[b as usize].z,
+        height_a: height(a),
+        height_b: height(b),
     };
     let mut order: Vec<u32> = (0..edges.len() as u32).collect();
     if body_of_vertex.is_some() {
@@ -98,19 +103,19 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         // 1. Rim edges.
         let segments: Vec<Segment> = group.iter().map(|&e| segment(edges[e as usize])).collect();
         let raster = Outside::new(&segments);
-        let mut rim: Vec<[u32; 2]> = group
+        let (mut rim, rim_segments): (Vec<[u32; 2]>, Vec<Segment>) = group
             .par_iter()
             .zip(&segments)
             .filter(|(_, s)| raster.on_rim(s, tolerance))
-            .map(|(&e, _)| edges[e as usize])
-            .collect();
+            .map(|(&e, s)| (edges[e as usize], *s))
+            .unzip();
         if rim.is_empty() {
             continue;
         }
         rim.sort_unstable();
         // 2. The cycle round the band.
-        let near = raster.near_outside(BAND_CELLS);
-        let band = Band::new(mesh, &at, |v| body_of(v) == body, &near);
+        let near = raster.near_rim(&rim_segments, BAND_CELLS);
+        let band = Band::new(mesh, &plane, |v| body_of(v) == body, &near, &rim);
         let projected = |edges: &[[u32; 2]]| -> f64 {
             edges
                 .iter()
@@ -129,7 +134,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         let rim_projected = projected(&rim);
         let mut found: Option<Vec<[u32; 2]>> = None;
         for &e0 in starts.iter().take(START_TRIES) {
-            let Some(cycle) = round_the_band(mesh, &at, &band, &rim, e0, &near, &raster) else {
+            let Some(cycle) = round_the_band(&plane, &band, e0, &near, &raster) else {
                 continue;
             };
             let length = projected(&cycle);
@@ -198,16 +203,13 @@ fn components(edges: &[[u32; 2]]) -> usize {
 /// The cheapest closed path of mesh edges round the band once (the module's documentation,
 /// step 2), as sorted vertex pairs, or `None` when the band does not go round.
 fn round_the_band(
-    mesh: &Mesh,
-    at: &[DVec3],
+    plane: &impl Fn(u32) -> DVec2,
     band: &Band,
-    rim: &[[u32; 2]],
     e0: [u32; 2],
     near: impl Fn(DVec2) -> bool,
     raster: &Outside,
 ) -> Option<Vec<[u32; 2]>> {
     let cell = raster.cell();
-    let plane = |v: u32| at[v as usize].truncate();
     let s = e0[0];
     let (p0, p1) = (plane(e0[0]), plane(e0[1]));
     if p0.distance(p1) == 0.0 {
@@ -233,49 +235,53 @@ fn round_the_band(
         let t = sp / (sp - sq);
         (p + (q - p) * t).dot(inward) <= depth
     };
-    let is_rim = |a: u32, b: u32| rim.binary_search(&[a.min(b), a.max(b)]).is_ok();
-    let cost = |a: u32, b: u32| {
-        let length = mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
-        if is_rim(a, b) {
-            length
-        } else {
-            OFF_RIM_COST * length
-        }
-    };
-    let mut best = FxHashMap::<u32, (f64, u32)>::default();
+    // Dijkstra on the band's own numbering (vertex arrays, not maps); the band numbers
+    // its vertices in the order of the mesh's, so the heap breaks ties as it would on the
+    // mesh's numbers.
+    let s = band.index(s)?;
+    let n = band.vertices.len();
+    let mut dist = vec![f64::INFINITY; n];
+    let mut previous = vec![u32::MAX; n];
     let mut heap = BinaryHeap::new();
-    let mut cut_edges: Vec<(u32, u32)> = Vec::new();
-    best.insert(s, (0.0, s));
+    let mut cut_edges: Vec<(u32, u32, f64)> = Vec::new();
+    dist[s as usize] = 0.0;
     heap.push(Reverse((OrdF64(0.0), s)));
     while let Some(Reverse((OrdF64(d), v))) = heap.pop() {
-        if d > best[&v].0 {
+        if d > dist[v as usize] {
             continue;
         }
-        for n in band.around(v) {
-            if cut(v, n) {
-                cut_edges.push((v, n));
+        let global = band.vertices[v as usize];
+        for k in band.start[v as usize]..band.start[v as usize + 1] {
+            let (n, cost) = (band.to[k as usize], band.cost[k as usize]);
+            if cut(global, band.vertices[n as usize]) {
+                cut_edges.push((v, n, cost));
                 continue;
             }
-            let nd = d + cost(v, n);
-            if best.get(&n).is_none_or(|&(old, _)| nd < old) {
-                best.insert(n, (nd, v));
+            let nd = d + cost;
+            if nd < dist[n as usize] {
+                dist[n as usize] = nd;
+                previous[n as usize] = v;
                 heap.push(Reverse((OrdF64(nd), n)));
             }
         }
     }
     let (a, b) = cut_edges
         .iter()
-        .filter_map(|&(a, b)| {
-            let (da, db) = (best.get(&a)?.0, best.get(&b)?.0);
-            Some((da + db + cost(a, b), a.min(b), a.max(b)))
+        .filter(|&&(a, b, _)| dist[a as usize].is_finite() && dist[b as usize].is_finite())
+        .map(|&(a, b, cost)| {
+            (
+                dist[a as usize] + dist[b as usize] + cost,
+                a.min(b),
+                a.max(b),
+            )
         })
         .min_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))))
         .map(|(_, a, b)| (a, b))?;
     let path = |mut v: u32| {
-        let mut p = vec![v];
+        let mut p = vec![band.vertices[v as usize]];
         while v != s {
-            v = best[&v].1;
-            p.push(v);
+            v = previous[v as usize];
+            p.push(band.vertices[v as usize]);
         }
         p.reverse();
         p
@@ -289,26 +295,35 @@ fn round_the_band(
         .chain(pb[from..].windows(2))
         .map(|w| [w[0].min(w[1]), w[0].max(w[1])])
         .collect();
+    let (a, b) = (band.vertices[a as usize], band.vertices[b as usize]);
     cycle.push([a.min(b), a.max(b)]);
     (cycle.len() >= 3).then_some(cycle)
 }
 
 /// The mesh edges of the band: both ends and the middle near the outline seen along D (an
 /// edge over the inside of the band, a long facet's edge from one side of it to the other,
-/// would let a path short-cut the band). Each edge both ways, sorted: the neighbours of a
-/// vertex are one run of the array (a flat adjacency, no list per vertex).
+/// would let a path short-cut the band). The band's vertices are numbered in the mesh's
+/// order, and each one's neighbours and step costs are one run of flat arrays (no list per
+/// vertex, no map), built once per body and shared by the tries at the cut.
 struct Band {
-    edges: Vec<[u32; 2]>,
+    /// The band's vertices (mesh numbers, increasing).
+    vertices: Vec<u32>,
+    /// Per band vertex, where its run of `to` and `cost` begins (one more entry at the end).
+    start: Vec<u32>,
+    /// The neighbours, in band numbers.
+    to: Vec<u32>,
+    /// The cost of each step: the edge's length, times [`OFF_RIM_COST`] off the rim edges.
+    cost: Vec<f64>,
 }
 
 impl Band {
     fn new(
         mesh: &Mesh,
-        at: &[DVec3],
+        plane: &(impl Fn(u32) -> DVec2 + Sync),
         in_body: impl Fn(u32) -> bool + Sync,
         near: &(impl Fn(DVec2) -> bool + Sync),
+        rim: &[[u32; 2]],
     ) -> Band {
-        let plane = |v: u32| at[v as usize].truncate();
         let inside: Vec<bool> = (0..mesh.vertices.len() as u32)
             .into_par_iter()
             .map(|v| in_body(v) && near(plane(v)))
@@ -329,18 +344,46 @@ impl Band {
             })
             .flat_map_iter(|[a, b]| [[a, b], [b, a]])
             .collect();
+        drop(inside);
         edges.par_sort_unstable();
         edges.dedup();
-        Band { edges }
+        // Every edge is there both ways, so the sources are all the band's vertices.
+        let mut vertices: Vec<u32> = edges.iter().map(|e| e[0]).collect();
+        vertices.dedup();
+        let mut start: Vec<u32> = Vec::with_capacity(vertices.len() + 1);
+        for (k, e) in edges.iter().enumerate() {
+            if k == 0 || edges[k - 1][0] != e[0] {
+                start.push(k as u32);
+            }
+        }
+        start.push(edges.len() as u32);
+        let index = |v: u32| vertices.binary_search(&v).expect("both ways") as u32;
+        let (to, cost): (Vec<u32>, Vec<f64>) = edges
+            .par_iter()
+            .map(|&[a, b]| {
+                let length = mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
+                let on_rim = rim.binary_search(&[a.min(b), a.max(b)]).is_ok();
+                (
+                    index(b),
+                    if on_rim {
+                        length
+                    } else {
+                        OFF_RIM_COST * length
+                    },
+                )
+            })
+            .unzip();
+        Band {
+            vertices,
+            start,
+            to,
+            cost,
+        }
     }
 
-    /// The band neighbours of `v`.
-    fn around(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
-        let from = self.edges.partition_point(|e| e[0] < v);
-        self.edges[from..]
-            .iter()
-            .take_while(move |e| e[0] == v)
-            .map(|e| e[1])
+    /// The band number of mesh vertex `v`, if it is in the band.
+    fn index(&self, v: u32) -> Option<u32> {
+        self.vertices.binary_search(&v).ok().map(|k| k as u32)
     }
 }
 

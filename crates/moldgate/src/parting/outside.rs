@@ -11,6 +11,8 @@
 //! cell; a single point test beside the edge is not used, as on finely tessellated rounded
 //! corners a neighbouring facet bulges past the edge by less than a micrometre.
 
+use rustc_hash::FxHashMap;
+
 use crate::math::DVec2;
 
 /// Cells along the longer side of one body's raster (the cell is its extent over this).
@@ -24,12 +26,18 @@ pub(super) struct Outside {
     cell: f64,
     n_u: usize,
     n_w: usize,
-    /// Per cell, row by row: the lowest height along D of an edge passing through it
-    /// (infinite where none does).
-    lowest: Vec<f32>,
-    /// Per cell: outside the outline.
-    outside: Vec<bool>,
+    /// Per cell, row by row: [`EMPTY`], [`EDGE`] (an edge passes through it) or
+    /// [`OUTSIDE`] (no edge does and the border reaches it). One byte a cell: the raster
+    /// of a large part has about a million cells, and `locate` builds it beside the rays.
+    state: Vec<u8>,
+    /// For the cells an edge passes through (a small share of the raster, about the edges'
+    /// length in cells): the lowest height along D of such an edge.
+    lowest: FxHashMap<u32, f32>,
 }
+
+const EMPTY: u8 = 0;
+const EDGE: u8 = 1;
+const OUTSIDE: u8 = 2;
 
 /// An edge between the sides in frame coordinates: its ends in the plane and their heights.
 #[derive(Clone, Copy)]
@@ -59,14 +67,18 @@ impl Outside {
             cell,
             n_u,
             n_w,
-            lowest: vec![f32::INFINITY; n_u * n_w],
-            outside: vec![false; n_u * n_w],
+            state: vec![EMPTY; n_u * n_w],
+            lowest: FxHashMap::default(),
         };
         for s in segments {
             let low = s.height_a.min(s.height_b) as f32;
-            let lowest = &mut raster.lowest;
+            let (state, lowest) = (&mut raster.state, &mut raster.lowest);
             cells_on(lo, cell, n_u, n_w, s.a, s.b, |c| {
-                lowest[c] = lowest[c].min(low);
+                state[c] = EDGE;
+                lowest
+                    .entry(c as u32)
+                    .and_modify(|l| *l = l.min(low))
+                    .or_insert(low);
             });
         }
         raster.flood();
@@ -74,35 +86,51 @@ impl Outside {
     }
 
     /// Marks the cells no edge passes through that the border reaches, by steps to the four
-    /// neighbours (a 4-connected run of edge cells is not crossed).
+    /// neighbours (a 4-connected run of edge cells is not crossed). A scanline fill: each
+    /// seed fills its whole run of empty cells along the row and leaves one seed per empty
+    /// run of the rows above and below it, so the stack holds runs, not cells.
     fn flood(&mut self) {
         let (n_u, n_w) = (self.n_u, self.n_w);
-        let mut stack: Vec<usize> = Vec::new();
-        for u in 0..n_u {
-            stack.push(u);
-            stack.push((n_w - 1) * n_u + u);
+        let state = &mut self.state;
+        let mut stack: Vec<(u32, u32)> = Vec::new();
+        for u in 0..n_u as u32 {
+            stack.push((u, 0));
+            stack.push((u, n_w as u32 - 1));
         }
-        for w in 0..n_w {
-            stack.push(w * n_u);
-            stack.push(w * n_u + n_u - 1);
+        for w in 0..n_w as u32 {
+            stack.push((0, w));
+            stack.push((n_u as u32 - 1, w));
         }
-        while let Some(c) = stack.pop() {
-            if self.outside[c] || self.lowest[c].is_finite() {
+        while let Some((u, w)) = stack.pop() {
+            let (u, w) = (u as usize, w as usize);
+            let row = w * n_u;
+            if state[row + u] != EMPTY {
                 continue;
             }
-            self.outside[c] = true;
-            let (u, w) = (c % n_u, c / n_u);
-            if u > 0 {
-                stack.push(c - 1);
+            let (mut l, mut r) = (u, u);
+            while l > 0 && state[row + l - 1] == EMPTY {
+                l -= 1;
             }
-            if u + 1 < n_u {
-                stack.push(c + 1);
+            while r + 1 < n_u && state[row + r + 1] == EMPTY {
+                r += 1;
             }
-            if w > 0 {
-                stack.push(c - n_u);
-            }
-            if w + 1 < n_w {
-                stack.push(c + n_u);
+            state[row + l..=row + r].fill(OUTSIDE);
+            for next in [w.wrapping_sub(1), w + 1] {
+                if next >= n_w {
+                    continue;
+                }
+                let next_row = next * n_u;
+                let mut x = l;
+                while x <= r {
+                    if state[next_row + x] == EMPTY {
+                        stack.push((x as u32, next as u32));
+                        while x <= r && state[next_row + x] == EMPTY {
+                            x += 1;
+                        }
+                    } else {
+                        x += 1;
+                    }
+                }
             }
         }
     }
@@ -119,7 +147,11 @@ impl Outside {
             let p = s.a.lerp(s.b, 0.5 * (t0 + t1));
             let Some(c) = self.cell_of(p) else { continue };
             let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
-            lowest_here |= h <= self.lowest[c] as f64 + tolerance;
+            let lowest = self
+                .lowest
+                .get(&(c as u32))
+                .map_or(f64::INFINITY, |&l| l as f64);
+            lowest_here |= h <= lowest + tolerance;
             touches |= self.touches_outside(c);
             if touches && lowest_here {
                 return true;
@@ -130,7 +162,7 @@ impl Outside {
 
     /// Whether `p` lies outside the outline (outside the raster too).
     pub(super) fn is_outside(&self, p: DVec2) -> bool {
-        self.cell_of(p).is_none_or(|c| self.outside[c])
+        self.cell_of(p).is_none_or(|c| self.state[c] == OUTSIDE)
     }
 
     /// The raster's cell side in mm.
@@ -138,45 +170,25 @@ impl Outside {
         self.cell
     }
 
-    /// Whether a point of the plane lies within `cells` cells (in both axes) of a cell
-    /// outside the outline: the band round the outline.
-    pub(super) fn near_outside(&self, cells: usize) -> impl Fn(DVec2) -> bool + '_ {
-        // The outside dilated along rows, then along columns (a square of side 2 cells + 1).
+    /// Whether a point of the plane lies within `cells` cells (in both axes) of a cell that
+    /// one of `rim` (the rim edges) passes through: the band round the rim. The band is
+    /// measured from the rim edges, not from the outside: where the outline steps out by
+    /// about the band's width (a tab standing a few tenths of a millimetre proud of a wall),
+    /// the rim edges along the wall behind the tab lie more than the width from the outside,
+    /// and a band measured from the outside would lose them and break the ring there.
+    pub(super) fn near_rim(&self, rim: &[Segment], cells: usize) -> impl Fn(DVec2) -> bool + '_ {
         let (n_u, n_w) = (self.n_u, self.n_w);
-        let mut rows = vec![false; n_u * n_w];
-        for w in 0..n_w {
-            let row = &self.outside[w * n_u..(w + 1) * n_u];
-            let mut last: Option<usize> = None;
-            for u in 0..n_u {
-                if row[u] {
-                    last = Some(u);
-                }
-                rows[w * n_u + u] = last.is_some_and(|l| u - l <= cells);
-            }
-            let mut next: Option<usize> = None;
-            for u in (0..n_u).rev() {
-                if row[u] {
-                    next = Some(u);
-                }
-                rows[w * n_u + u] |= next.is_some_and(|l| l - u <= cells);
-            }
-        }
+        // Rim cells are few (about the outline's length in cells), so each marks its square
+        // of side 2 cells + 1 directly, without a pass over the whole raster.
         let mut near = vec![false; n_u * n_w];
-        for u in 0..n_u {
-            let mut last: Option<usize> = None;
-            for w in 0..n_w {
-                if rows[w * n_u + u] {
-                    last = Some(w);
+        for s in rim {
+            cells_on(self.lo, self.cell, n_u, n_w, s.a, s.b, |c| {
+                let (u, w) = (c % n_u, c / n_u);
+                for y in w.saturating_sub(cells)..(w + cells + 1).min(n_w) {
+                    let row = y * n_u;
+                    near[row + u.saturating_sub(cells)..row + (u + cells + 1).min(n_u)].fill(true);
                 }
-                near[w * n_u + u] = last.is_some_and(|l| w - l <= cells);
-            }
-            let mut next: Option<usize> = None;
-            for w in (0..n_w).rev() {
-                if rows[w * n_u + u] {
-                    next = Some(w);
-                }
-                near[w * n_u + u] |= next.is_some_and(|l| l - w <= cells);
-            }
+            });
         }
         move |p| self.cell_of(p).is_some_and(|c| near[c])
     }
@@ -197,7 +209,7 @@ impl Outside {
                     && y >= 0
                     && (x as usize) < self.n_u
                     && (y as usize) < self.n_w
-                    && self.outside[y as usize * self.n_u + x as usize]
+                    && self.state[y as usize * self.n_u + x as usize] == OUTSIDE
             })
         })
     }
@@ -302,6 +314,47 @@ mod tests {
             );
         }
         assert!(!raster.on_rim(&above, 0.01), "above the -D end");
+    }
+
+    /// A tab standing 4 cells proud of the right side of a square, over a fifth of its
+    /// length (as on the PSU cover's box): behind the tab the side is 4 cells from the
+    /// outside, yet the side is a rim edge (it touches the outside above and below the tab),
+    /// so the band, measured from the rim edges, keeps it; measured from the outside it
+    /// would not, and the band would break there.
+    #[test]
+    fn the_band_keeps_the_rim_behind_a_tab_standing_out_by_its_width() {
+        let side = 5.0;
+        let cell = (2.0 * side + 0.04) / CELLS as f64;
+        let t = 4.0 * cell;
+        let mut all = vec![
+            segment((-side, -side), (side, -side), 0.0),
+            segment((side, -side), (side, side), 0.0),
+            segment((side, side), (-side, side), 0.0),
+            segment((-side, side), (-side, -side), 0.0),
+        ];
+        all.extend([
+            segment((side, -1.0), (side + t, -1.0), 0.0),
+            segment((side + t, -1.0), (side + t, 1.0), 0.0),
+            segment((side + t, 1.0), (side, 1.0), 0.0),
+        ]);
+        let raster = Outside::new(&all);
+        let rim: Vec<Segment> = all
+            .iter()
+            .copied()
+            .filter(|s| raster.on_rim(s, 1e-3))
+            .collect();
+        assert_eq!(rim.len(), all.len(), "every segment is on the outline");
+        let near = raster.near_rim(&rim, 3);
+        assert!(
+            near(DVec2::new(side - 0.5 * raster.cell(), 0.0)),
+            "the side behind the tab"
+        );
+        assert!(near(DVec2::new(side + t, 0.0)), "the tab's face");
+        assert!(!near(DVec2::new(0.0, 0.0)), "the middle of the square");
+        assert!(
+            !near(DVec2::new(side + t + 5.0 * raster.cell(), 0.0)),
+            "beyond the band"
+        );
     }
 
     #[test]
