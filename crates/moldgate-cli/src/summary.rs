@@ -175,7 +175,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("gate {} (qualifying node nearest its centre of mass), longest flow {l:.1} mm, fill time {t:.3} s", v3(g))
+                format!("gate {} (qualifying node nearest its centre of mass), longest flow {l:.1} mm, fill time {t:.3} s at its own nominal wall of {:.2} mm", v3(g), b.nominal_wall_mm)
             }
             _ => "no qualifying node on it: no gate".into(),
         };

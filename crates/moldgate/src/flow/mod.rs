@@ -30,14 +30,16 @@
 //! v = n / (2n + 1) (H / 2)^((n+1)/n) (|dp/ds| / K)^(1/n).
 //! Under the same pressure gradient a front therefore moves at a speed proportional to
 //! H^((n+1)/n), and the time to cross ds is proportional to H^(-(n+1)/n) ds. The fill-order
-//! cost of a millimetre is (H_ref / H)^((n+1)/n), with H_ref the nominal wall: for a
-//! Newtonian melt (n = 1) that is the 1/H^2 of Eq. 1; for the paper's materials (n about
+//! cost of a millimetre is (H_ref / H)^((n+1)/n), with H_ref the nominal wall of the
+//! cell's body (the median of that body's wall samples, so that a body's fill time does not
+//! depend on what else is in the file): for a Newtonian melt (n = 1) that is the 1/H^2 of Eq. 1; for the paper's materials (n about
 //! 0.2-0.3) the exponent is 4-6, so thin walls hold the front back much more strongly.
 //!
 //! **Pressure.** Eq. 1, ΔP = 12 μ L v / H^2, taken along the path with the local H:
 //! ΔP(x) = 12 μ v ∫ ds / H(s)^2 = 12 μ v T_2(x) / H_ref^2, where T_2 is the field with cost
-//! (H_ref / H)^2. The estimate is its largest value over the part, with μ = mu_opt and v from
-//! Eq. 7.
+//! (H_ref / H)^2, H_ref here the part's nominal wall (the factor 12 μ v / H_ref^2 cancels
+//! it, so any one reference gives the same pressure). The estimate is its largest value over
+//! the part, with μ = mu_opt and v from Eq. 7.
 
 pub mod march;
 pub mod suitability;
@@ -319,8 +321,11 @@ pub struct Domain {
     /// Volume of each body, mm^3: its cells' volume, or the mesh's volume of the body
     /// when [`analyse`] knows it (closed bodies).
     pub body_volume_mm3: Vec<f64>,
-    /// Nominal wall thickness H_ref, mm.
+    /// Nominal wall thickness of the part, mm: the reference of the Eq. 1 pressure cost.
     pub nominal_wall_mm: f64,
+    /// Nominal wall H_ref of each body, mm: the reference of its fill-time cost, its wall
+    /// floor and its flow ratio, so that a body's fill reads as it would alone.
+    pub body_nominal_wall_mm: Vec<f64>,
     /// Wall thickness per cell, mm.
     pub wall_mm: Vec<f32>,
     /// Fill-order cost per cell: (H_ref / H)^((n+1)/n).
@@ -360,6 +365,35 @@ impl Domain {
         nominal_wall_mm: f64,
         material: &Material,
     ) -> Domain {
+        let bodies = voxels
+            .body
+            .iter()
+            .map(|&b| b as usize + 1)
+            .max()
+            .unwrap_or(0);
+        Domain::with_body_walls(
+            voxels,
+            triangle_wall_mm,
+            nominal_wall_mm,
+            &vec![nominal_wall_mm; bodies],
+            material,
+        )
+    }
+
+    /// [`Domain::from_voxels`] with a nominal wall per body (`body_nominal_wall_mm[b]`, the
+    /// part's `nominal_wall_mm` for a body it does not name). Each cell's wall is floored,
+    /// capped and read as a sliver against its own body's H_ref, and its fill-time cost is
+    /// (H_ref(body) / H)^((n+1)/n): a body's fill time is then what it would be alone, not
+    /// seen through the wall of another body. The Eq. 1 cost stays (H_part / H)^2 with the
+    /// part's wall, whose factor 12 μ v / H_part^2 cancels it: the pressure is 12 μ v ∫ ds /
+    /// H^2 whatever the reference.
+    pub fn with_body_walls(
+        voxels: Voxels,
+        triangle_wall_mm: Option<&[f32]>,
+        nominal_wall_mm: f64,
+        body_nominal_wall_mm: &[f64],
+        material: &Material,
+    ) -> Domain {
         let h = voxels.h;
         let body = voxels.body.clone();
         let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
@@ -367,38 +401,52 @@ impl Domain {
         for &b in &body {
             body_volume_mm3[b as usize] += h * h * h;
         }
-        let lo = MIN_WALL_OF_NOMINAL * nominal_wall_mm;
+        let body_nominal: Vec<f64> = (0..bodies)
+            .map(|b| {
+                body_nominal_wall_mm
+                    .get(b)
+                    .copied()
+                    .filter(|w| w.is_finite() && *w > 0.0)
+                    .unwrap_or(nominal_wall_mm)
+            })
+            .collect();
         let wall_mm: Vec<f32> = voxels
             .triangle
             .iter()
-            .map(|&t| {
+            .zip(&body)
+            .map(|(&t, &b)| {
+                let reference = body_nominal[b as usize];
                 let w = triangle_wall_mm
                     .and_then(|w| w.get(t as usize).copied())
                     .map(f64::from)
                     // Slivers are films, not walls (see [`crate::thickness`]): unknown.
                     .filter(|w| {
-                        w.is_finite() && *w >= crate::thickness::SLIVER_OF_NOMINAL * nominal_wall_mm
+                        w.is_finite() && *w >= crate::thickness::SLIVER_OF_NOMINAL * reference
                     })
-                    .unwrap_or(nominal_wall_mm);
-                w.clamp(lo, 100.0 * nominal_wall_mm) as f32
+                    .unwrap_or(reference);
+                w.clamp(MIN_WALL_OF_NOMINAL * reference, 100.0 * reference) as f32
             })
             .collect();
         let n = material.n;
         let exponent = (n + 1.0) / n;
-        let cost = |p: f64| -> Vec<f32> {
-            wall_mm
-                .iter()
-                .map(|&w| (nominal_wall_mm / w as f64).powf(p) as f32)
-                .collect()
-        };
+        let fill_cost = wall_mm
+            .iter()
+            .zip(&body)
+            .map(|(&w, &b)| (body_nominal[b as usize] / w as f64).powf(exponent) as f32)
+            .collect();
+        let pressure_cost = wall_mm
+            .iter()
+            .map(|&w| (nominal_wall_mm / w as f64).powf(2.0) as f32)
+            .collect();
         Domain {
-            fill_cost: cost(exponent),
-            pressure_cost: cost(2.0),
+            fill_cost,
+            pressure_cost,
             voxels,
             body,
             bodies,
             body_volume_mm3,
             nominal_wall_mm,
+            body_nominal_wall_mm: body_nominal,
             wall_mm,
             n,
         }
@@ -474,7 +522,7 @@ pub struct GateFill {
     /// nominal wall would take, slowed where walls are thinner; comparable across parts and
     /// converging as the cells shrink.
     pub fill_time_s: f64,
-    /// L_max over the nominal wall.
+    /// L_max over the nominal wall of the gate's body.
     pub flow_ratio: f64,
     /// The material's limit of that ratio, if known.
     pub flow_ratio_limit: Option<f64>,
@@ -568,7 +616,13 @@ pub fn fill_from_all(
         .sum::<f64>()
         / total_volume.max(f64::MIN_POSITIVE);
     let p_max = argmax(&pressure.t).1;
-    let flow_ratio = l_max / domain.nominal_wall_mm;
+    // The ratio of the gate's own body (Eq. 1's L / H with that body's nominal wall).
+    let flow_ratio = l_max
+        / domain
+            .body_nominal_wall_mm
+            .get(domain.body[src.cell as usize] as usize)
+            .copied()
+            .unwrap_or(domain.nominal_wall_mm);
     let limit = material.max_flow_ratio;
     let gate_fill = GateFill {
         gate: point.to_array(),
@@ -1447,8 +1501,12 @@ pub struct BodyGate {
     pub is_answer_body: bool,
     /// Largest flow length from that gate over its body, mm.
     pub l_max_mm: Option<f64>,
-    /// Estimated fill time of the body from that gate, s.
+    /// Estimated fill time of the body from that gate, s, against the body's own nominal
+    /// wall.
     pub fill_time_s: Option<f64>,
+    /// The body's nominal wall H_ref, mm: the median of its own wall samples (the part's
+    /// nominal wall when it has none).
+    pub nominal_wall_mm: f64,
 }
 
 /// What a picture is coloured by.
@@ -1589,6 +1647,7 @@ pub fn analyse(
         ));
     }
     let mut measured = None;
+    let mut body_nominal = Vec::new();
     let (per_triangle, nominal, wall_source, wall) = match walls {
         Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
             (Some(w.to_vec()), n, WallSource::Measured, None)
@@ -1612,6 +1671,7 @@ pub fn analyse(
             );
             let summary = summarise_walls(&voxels, &w, seconds(t));
             let nominal = summary.nominal_mm.unwrap_or(estimate);
+            body_nominal = body_nominal_walls(&voxels, &w);
             measured = Some(w);
             let source = if summary.nominal_mm.is_some() {
                 WallSource::Measured
@@ -1631,7 +1691,10 @@ pub fn analyse(
             nominal / 2.0
         ));
     }
-    let mut domain = Domain::from_voxels(voxels, triangle_walls, nominal, material);
+    // Each body's own median wall is its reference (a body without samples takes the
+    // part's): a thin lid beside a thick box fills as it would alone.
+    let mut domain =
+        Domain::with_body_walls(voxels, triangle_walls, nominal, &body_nominal, material);
     // The mesh's volume of each body when every body is closed (its cells' volume else).
     if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
         domain.body_volume_mm3 = bodies.volume_mm3.clone();
@@ -1951,6 +2014,11 @@ fn gates_per_body(
                 is_answer_body: answer_body == Some(b),
                 l_max_mm: fill.as_ref().map(|f| f.0.l_max_mm),
                 fill_time_s: fill.as_ref().map(|f| f.0.fill_time_s),
+                nominal_wall_mm: domain
+                    .body_nominal_wall_mm
+                    .get(b as usize)
+                    .copied()
+                    .unwrap_or(domain.nominal_wall_mm),
             }
         })
         .collect()
@@ -2017,6 +2085,40 @@ fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSu
         },
         time_s,
     }
+}
+
+/// The nominal wall of each body: the median of its surface cells' walls, by the rule of
+/// [`summarise_walls`] (so a part of one body gets the part's nominal wall exactly); NaN
+/// for a body with no known sample.
+fn body_nominal_walls(voxels: &Voxels, per_triangle: &[f32]) -> Vec<f64> {
+    let bodies = voxels
+        .body
+        .iter()
+        .map(|&b| b as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut values: Vec<Vec<f32>> = vec![Vec::new(); bodies];
+    for ((&t, &s), &b) in voxels
+        .triangle
+        .iter()
+        .zip(&voxels.surface)
+        .zip(&voxels.body)
+    {
+        let v = per_triangle[t as usize];
+        if s && v.is_finite() {
+            values[b as usize].push(v);
+        }
+    }
+    values
+        .into_iter()
+        .map(|mut v| {
+            if v.is_empty() {
+                return f64::NAN;
+            }
+            v.sort_by(f32::total_cmp);
+            v[((v.len() - 1) as f64 * 0.5).round() as usize] as f64
+        })
+        .collect()
 }
 
 fn nearest_candidate(candidates: &[Source], p: DVec3) -> Option<usize> {

@@ -380,6 +380,36 @@ fn lid_a_third_of_a_cell_above_its_box_is_a_body_of_its_own() {
         assert!(b.l_max_mm.unwrap() > 0.0);
     }
     assert_eq!(f.body_gates.iter().filter(|b| b.is_answer_body).count(), 1);
+    // With measured walls each body's reference wall is its own median: the lid's 2 mm
+    // plate (its faces of 40 x 20 read 2 mm, most of its surface), the box's 10 mm (its two
+    // largest faces, 1600 of its 2800 mm^2, read 10 mm), within a tenth of a cell.
+    let part = moldgate::mesh::from_generated(two.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    let bvh = moldgate::raycast::Bvh::new(&two);
+    let measured = flow::analyse(
+        &two,
+        &analysis,
+        &pp(),
+        flow::Walls::Measure(&bvh),
+        &flow::FillOptions {
+            flow: flow::FlowOptions {
+                cell_mm: Some(0.6),
+                ..flow::FlowOptions::default()
+            },
+            ..flow::FillOptions::default()
+        },
+    )
+    .unwrap();
+    for b in &measured.body_gates {
+        let on_lid = b.volume_share < 0.5;
+        let own_wall = if on_lid { 2.0 } else { 10.0 };
+        assert!(
+            (b.nominal_wall_mm - own_wall).abs() < 0.06,
+            "body {}: nominal wall {} mm, its own is {own_wall} mm",
+            b.body,
+            b.nominal_wall_mm
+        );
+    }
 }
 
 #[test]

@@ -1082,3 +1082,121 @@ fn suitability_map_holds_against_brute_force_on_small_shared_parts() {
     }
     report(TEST, &failures);
 }
+
+/// Each body's fill is measured against its own nominal wall: on the PSU cover (a box and a
+/// lid in one file) each body filled from the same gate gives, with both bodies in the file,
+/// what it gives alone. The body alone keeps every vertex of the file, so the voxel grid
+/// (laid from the vertices' box) is the same cell for cell; what may still differ is only
+/// rounding (f32 costs summed in a different order of bodies), hence a relative tolerance of
+/// 1e-6 on fill time, pressure, flow ratio and L_max, and equality of the body's nominal wall.
+#[test]
+fn each_body_of_the_psu_cover_fills_as_it_would_alone() {
+    const TEST: &str = "each_body_of_the_psu_cover_fills_as_it_would_alone";
+    let dir = match data_dir("MOLDGATE_PARTS", "../shared/data/parts") {
+        Ok(d) => d,
+        Err(why) => return skip(TEST, &why),
+    };
+    let part = PARTS
+        .iter()
+        .find(|p| p.file == "prusa_psu_cover_mk3_ascii.stl")
+        .unwrap();
+    let whole = load(&dir, part).unwrap_or_else(|e| panic!("{e}"));
+    let options = LocateOptions {
+        direction: part.direction(),
+        ..LocateOptions::default()
+    };
+    let pp = moldgate::Material::builtin("PP").unwrap();
+    let fill_options = |cell: Option<f64>, placed: Vec<DVec3>| moldgate::flow::FillOptions {
+        flow: moldgate::flow::FlowOptions {
+            cell_mm: cell,
+            ..Default::default()
+        },
+        placed,
+        ..Default::default()
+    };
+    let run = |lm: &LoadedMesh, cell: Option<f64>, placed: Vec<DVec3>| {
+        let analysis = locate(lm, &options).expect("valid options");
+        let bvh = moldgate::raycast::Bvh::new(&lm.mesh);
+        moldgate::flow::analyse(
+            &lm.mesh,
+            &analysis,
+            &pp,
+            moldgate::flow::Walls::Measure(&bvh),
+            &fill_options(cell, placed),
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let both = run(&whole, None, Vec::new());
+    assert_eq!(both.bodies, 2, "the PSU cover is a box and a lid");
+    let body_of = moldgate::mesh::topology::body_of_triangle(&whole.mesh);
+    let walls: Vec<f64> = both.body_gates.iter().map(|b| b.nominal_wall_mm).collect();
+    println!(
+        "{TEST}: cell {:.4} mm, body walls {walls:?} mm",
+        both.cell_mm
+    );
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * a.abs().max(b.abs());
+    for g in &both.body_gates {
+        let gate = DVec3::from_array(g.gate.expect("every body has a gate"));
+        // The body's triangles (its mesh body: the flow's bodies number them alike, the
+        // largest-area rule aside), every vertex kept.
+        let own = body_of[(0..whole.mesh.triangles.len())
+            .min_by(|&s, &t| {
+                let d = |t: usize| {
+                    let [a, b, c] = whole.mesh.corners(t);
+                    ((a + b + c) / 3.0).distance(gate)
+                };
+                d(s).total_cmp(&d(t))
+            })
+            .unwrap()];
+        let alone = Mesh {
+            vertices: whole.mesh.vertices.clone(),
+            triangles: (0..whole.mesh.triangles.len())
+                .filter(|&t| body_of[t] == own)
+                .map(|t| whole.mesh.triangles[t])
+                .collect(),
+        };
+        let alone = mesh::from_generated(alone);
+        assert_eq!(
+            alone.mesh.bounds(),
+            whole.mesh.bounds(),
+            "the grid must be the same"
+        );
+        let with = run(&whole, Some(both.cell_mm), vec![gate]);
+        let solo = run(&alone, Some(both.cell_mm), vec![gate]);
+        assert_eq!(solo.bodies, 1);
+        let (w, s) = (&with.placed.unwrap().fill, &solo.placed.unwrap().fill);
+        println!(
+            "{TEST}: body {}: fill {:.4} s with both, {:.4} s alone; nominal {:.3} / {:.3} mm; \
+             L_max {:.2} / {:.2} mm; {:.3} / {:.3} MPa; L/t {:.2} / {:.2}",
+            g.body,
+            w.fill_time_s,
+            s.fill_time_s,
+            g.nominal_wall_mm,
+            solo.nominal_wall_mm,
+            w.l_max_mm,
+            s.l_max_mm,
+            w.pressure_mpa,
+            s.pressure_mpa,
+            w.flow_ratio,
+            s.flow_ratio
+        );
+        assert_eq!(g.nominal_wall_mm, solo.nominal_wall_mm, "body {}", g.body);
+        assert!(
+            close(g.fill_time_s.unwrap(), w.fill_time_s),
+            "body {}",
+            g.body
+        );
+        for (what, a, b) in [
+            ("fill time", w.fill_time_s, s.fill_time_s),
+            ("pressure", w.pressure_mpa, s.pressure_mpa),
+            ("flow ratio", w.flow_ratio, s.flow_ratio),
+            ("L_max", w.l_max_mm, s.l_max_mm),
+        ] {
+            assert!(
+                close(a, b),
+                "body {}: {what} {a} with both, {b} alone",
+                g.body
+            );
+        }
+    }
+}
