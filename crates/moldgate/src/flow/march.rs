@@ -57,8 +57,40 @@ pub fn march(voxels: &Voxels, sources: &[Source], cost: Option<&[f32]>) -> Field
     // One loop per kind of cost, so that the cost of a cell is a plain load (or the
     // constant 1) inside the loop; both give the same numbers as a cost of 1 per cell.
     match cost {
-        None => march_with(voxels, sources, |_| 1.0),
-        Some(c) => march_with(voxels, sources, |i| c[i as usize] as f64),
+        None => march_with(voxels, sources, |_| 1.0, |_, _| false).0,
+        Some(c) => march_with(voxels, sources, |i| c[i as usize] as f64, |_, _| false).0,
+    }
+}
+
+/// Marches like [`march`], but stops as soon as `stop(cell, t)` is true for a cell just
+/// accepted (cells are accepted in order of their value, and an accepted value is final).
+/// The searches use it when they need only the near part of a field: the nearest candidate,
+/// or every cell of a share. Returns the field, with every cell not accepted set to
+/// unreached (infinite, source `u32::MAX`), and the value of the last cell accepted
+/// (infinite when the march ran to its end). Every accepted value has the same bits as in
+/// the whole field, and a cell left out has a value of at least the one returned, to within
+/// the f32 rounding of the queue's keys (a relative 2.4e-7).
+pub fn march_until(
+    voxels: &Voxels,
+    sources: &[Source],
+    cost: Option<&[f32]>,
+    stop: impl FnMut(u32, f64) -> bool,
+) -> (Field, f64) {
+    let (mut field, stopped) = match cost {
+        None => march_with(voxels, sources, |_| 1.0, stop),
+        Some(c) => march_with(voxels, sources, |i| c[i as usize] as f64, stop),
+    };
+    match stopped {
+        None => (field, f64::INFINITY),
+        Some((reach, known)) => {
+            for (c, k) in known.iter().enumerate() {
+                if !k {
+                    field.t[c] = f64::INFINITY;
+                    field.source[c] = u32::MAX;
+                }
+            }
+            (field, reach)
+        }
     }
 }
 
@@ -102,7 +134,13 @@ fn seed(
     }
 }
 
-fn march_with(voxels: &Voxels, sources: &[Source], c: impl Fn(u32) -> f64) -> Field {
+/// The march; when `stop` ends it early, also the last value accepted and which cells were.
+fn march_with(
+    voxels: &Voxels,
+    sources: &[Source],
+    c: impl Fn(u32) -> f64,
+    mut stop: impl FnMut(u32, f64) -> bool,
+) -> (Field, Option<(f64, Vec<bool>)>) {
     let n = voxels.len();
     let h = voxels.h;
     let mut t = vec![f64::INFINITY; n];
@@ -133,6 +171,9 @@ fn march_with(voxels: &Voxels, sources: &[Source], c: impl Fn(u32) -> f64) -> Fi
         known[v as usize] = true;
         let tv = t[v as usize];
         accepted[v as usize] = tv;
+        if stop(v, tv) {
+            return (Field { t, source }, Some((tv, known)));
+        }
         let cv = c(v);
         let sv = source[v as usize];
         let row = &table[v as usize];
@@ -159,7 +200,7 @@ fn march_with(voxels: &Voxels, sources: &[Source], c: impl Fn(u32) -> f64) -> Fi
             }
         }
     }
-    Field { t, source }
+    (Field { t, source }, None)
 }
 
 /// The first-order upwind solution of sum_k (T - a_k)^2 = f^2 over the finite a_k, using as
@@ -298,6 +339,48 @@ mod tests {
                         "{name}: the fields differ"
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn a_march_stopped_early_keeps_the_accepted_values_and_leaves_out_only_farther_cells() {
+        use crate::samples::sample;
+        for name in ["plate", "cover", "bracket"] {
+            let mesh = sample(name).expect("sample");
+            let v = Voxels::new(&mesh, 1.0);
+            let cost: Vec<f32> = (0..v.len()).map(|i| 1.0 + (i % 5) as f32 * 0.29).collect();
+            let src = [Source {
+                point: v.centre(3),
+                cell: 3,
+            }];
+            for c in [None, Some(&cost[..])] {
+                let whole = march(&v, &src, c);
+                let max = whole.t.iter().copied().fold(0.0, f64::max);
+                for share in [0.1, 0.5, 0.9] {
+                    let limit = share * max;
+                    let (part, reach) = march_until(&v, &src, c, |_, t| t > limit);
+                    assert!(reach > limit && reach <= max, "{name}: reach {reach}");
+                    let mut kept = 0;
+                    for (a, b) in part.t.iter().zip(&whole.t) {
+                        if a.is_finite() {
+                            kept += 1;
+                            assert_eq!(a.to_bits(), b.to_bits(), "{name}: an accepted value");
+                        } else {
+                            // Left out: at least the reach, to the f32 rounding of the keys.
+                            assert!(*b >= reach * (1.0 - 2.4e-7), "{name}: {b} < {reach}");
+                        }
+                    }
+                    assert!(kept > 0 && kept < v.len(), "{name}: {kept} cells kept");
+                }
+                // A stop that never comes gives the whole field.
+                let (all, reach) = march_until(&v, &src, c, |_, _| false);
+                assert!(reach.is_infinite());
+                assert!(all
+                    .t
+                    .iter()
+                    .zip(&whole.t)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()));
             }
         }
     }

@@ -55,7 +55,7 @@ use crate::math::DVec3;
 use crate::mesh::topology::body_of_triangle;
 use crate::mesh::Mesh;
 use crate::raycast::Bvh;
-pub use march::{march, Field, Source};
+pub use march::{march, march_until, Field, Source};
 pub use suitability::{NodeScore, ScoreKind, Suitability};
 pub use voxel::Voxels;
 
@@ -1035,9 +1035,34 @@ pub fn several_gates(
     let mut field = march(v, &[candidates[first]], cost);
     runs += 1;
     let from_centre = CentreMarches::new(v, cost);
+    // Which cells hold a candidate the search may still take: the nearest of them to a far
+    // point is needed, not the whole field from it.
+    let mut open = vec![false; v.len()];
+    for &i in &pool {
+        open[candidates[i].cell as usize] = true;
+    }
     while chosen.len() < k {
+        for &i in &pool {
+            open[candidates[i].cell as usize] = !chosen.contains(&i);
+        }
         let (far, _) = argmax(&field.t);
-        let from_far = from_centre.of(far);
+        let nearest = |f: &Field| {
+            pool.iter()
+                .filter(|i| !chosen.contains(i))
+                .map(|&i| f.t[candidates[i].cell as usize])
+                .fold(f64::INFINITY, f64::min)
+        };
+        let mut b = f64::INFINITY;
+        let (from_far, _) = from_centre.of(
+            far,
+            |f, reach| beyond(reach, nearest(f)),
+            |c, t| {
+                if open[c as usize] {
+                    b = b.min(t);
+                }
+                beyond(t, b)
+            },
+        );
         let &next = pool
             .iter()
             .filter(|i| !chosen.contains(i))
@@ -1055,9 +1080,9 @@ pub fn several_gates(
     // value falls.
     let mut worst = argmax(&field.t).1;
     let trial_runs = std::sync::atomic::AtomicUsize::new(0);
-    // What examining gate g finds, from the layout `chosen` and its field: the move to the
-    // centre of its share, if there is one to try, with the trial's field.
-    let examine = |g: usize, field: &Field, chosen: &[usize]| -> Examined {
+    // What examining gate g finds, from the layout `chosen`, its field and its worst value:
+    // the move to the centre of its share, if there is one to try, with the trial's field.
+    let examine = |g: usize, field: &Field, chosen: &[usize], worst: f64| -> Examined {
         let share: Vec<u32> = (0..v.len() as u32)
             .filter(|&c| field.source[c as usize] == g as u32)
             .collect();
@@ -1076,7 +1101,23 @@ pub fn several_gates(
                     .then(b.cmp(&a))
             })
             .expect("non-empty");
-        let from_x1 = from_centre.of(x1);
+        // From x1, every cell of the share is needed (for x2); the march stops when the
+        // last of them is accepted.
+        let mut in_share = vec![false; v.len()];
+        for &c in &share {
+            in_share[c as usize] = true;
+        }
+        let mut left = share.len();
+        let (from_x1, reach_x1) = from_centre.of(
+            x1,
+            |f, _| share.iter().all(|&c| f.t[c as usize].is_finite()),
+            |c, _| {
+                if in_share[c as usize] {
+                    left -= 1;
+                }
+                left == 0
+            },
+        );
         let x2 = share
             .iter()
             .copied()
@@ -1087,26 +1128,71 @@ pub fn several_gates(
                     .then(b.cmp(&a))
             })
             .unwrap_or(x1);
-        let from_x2 = from_centre.of(x2);
-        let &try_c = pool
+        // From x2, only the cells up to the best candidate's value are needed: a candidate
+        // beyond it is farther from x2, so worse. A candidate the march from x1 did not
+        // reach is at least that march's reach from x1; when the best value found is below
+        // it (with the margin of `beyond`), the choice is the one the whole fields give,
+        // else the whole field from x1 decides.
+        let eligible: Vec<usize> = pool
             .iter()
-            .filter(|&&i| i == chosen[g] || !chosen.contains(&i))
-            .min_by(|&&a, &&b| {
-                let f = |i: usize| {
-                    let c = candidates[i].cell as usize;
-                    from_x1.t[c].max(from_x2.t[c])
-                };
-                f(a).total_cmp(&f(b)).then(a.cmp(&b))
-            })
-            .expect("non-empty");
+            .copied()
+            .filter(|&i| i == chosen[g] || !chosen.contains(&i))
+            .collect();
+        let mut open = vec![false; v.len()];
+        for &i in &eligible {
+            open[candidates[i].cell as usize] = true;
+        }
+        let choose = |from_x1: &Field| {
+            let best_of = |f: &Field| {
+                eligible
+                    .iter()
+                    .map(|&i| {
+                        let c = candidates[i].cell as usize;
+                        from_x1.t[c].max(f.t[c])
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let mut b = f64::INFINITY;
+            let (from_x2, _) = from_centre.of(
+                x2,
+                |f, reach| beyond(reach, best_of(f)),
+                |c, t| {
+                    if open[c as usize] {
+                        b = b.min(t.max(from_x1.t[c as usize]));
+                    }
+                    beyond(t, b)
+                },
+            );
+            let f = |i: usize| {
+                let c = candidates[i].cell as usize;
+                from_x1.t[c].max(from_x2.t[c])
+            };
+            let &best = eligible
+                .iter()
+                .min_by(|&&a, &&b| f(a).total_cmp(&f(b)).then(a.cmp(&b)))
+                .expect("non-empty");
+            (best, f(best))
+        };
+        let (mut try_c, value) = choose(&from_x1);
+        if reach_x1.is_finite() && !beyond(reach_x1, value) {
+            let (whole, _) = from_centre.of(x1, |_, reach| reach.is_infinite(), |_, _| false);
+            try_c = choose(&whole).0;
+        }
         if try_c == chosen[g] {
             return Examined::Stays;
         }
         let mut trial = chosen.to_vec();
         trial[g] = try_c;
         let sources: Vec<Source> = trial.iter().map(|&i| candidates[i]).collect();
-        let trial_field = march(v, &sources, cost);
+        // The move is kept only if the overall worst value does not grow: once the march
+        // accepts a cell beyond the present worst, the move is refused, and the rest of
+        // the field is not needed.
+        let limit = worst + 1e-9;
+        let (trial_field, reach) = march_until(v, &sources, cost, |_, t| t > limit);
         trial_runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if reach.is_finite() {
+            return Examined::Refused;
+        }
         Examined::Tries {
             trial,
             field: trial_field,
@@ -1133,18 +1219,18 @@ pub fn several_gates(
             let (first, second) = match next {
                 Some(h) => {
                     let (a, b) = rayon::join(
-                        || examine(g, &field, &chosen),
-                        || examine(h, &field, &chosen),
+                        || examine(g, &field, &chosen, worst),
+                        || examine(h, &field, &chosen, worst),
                     );
                     (a, Some((h, b)))
                 }
-                None => (examine(g, &field, &chosen), None),
+                None => (examine(g, &field, &chosen, worst), None),
             };
             for (gate, found) in std::iter::once((g, first)).chain(second) {
                 g = gate + 1;
                 let kept = match found {
                     Examined::Empty => false,
-                    Examined::Stays => {
+                    Examined::Stays | Examined::Refused => {
                         stayed_at[gate] = Some(moves);
                         false
                     }
@@ -1218,14 +1304,23 @@ pub fn several_gates(
 
 /// The marches of a search from cell centres, kept by cell: such a march depends on its
 /// cell alone, so when a gate's share keeps its ends from one examination to the next (the
-/// move of another gate changed little of it), its two marches are not run again. Fields
-/// are dropped oldest first past [`CentreMarches::BYTES`].
+/// move of another gate changed little of it), its two marches are not run again. A march
+/// may have stopped early (its reach is then the last value it accepted); a kept one serves
+/// when it is enough for the new use. Fields are dropped oldest first past
+/// [`CentreMarches::BYTES`].
 struct CentreMarches<'a> {
     voxels: &'a Voxels,
     cost: Option<&'a [f32]>,
-    kept: std::sync::Mutex<std::collections::VecDeque<(u32, std::sync::Arc<Field>)>>,
+    kept: std::sync::Mutex<std::collections::VecDeque<Kept>>,
     runs: std::sync::atomic::AtomicUsize,
     capacity: usize,
+}
+
+/// A kept march: its cell, its field and its reach (infinite for a whole field).
+struct Kept {
+    cell: u32,
+    field: std::sync::Arc<Field>,
+    reach: f64,
 }
 
 impl<'a> CentreMarches<'a> {
@@ -1242,24 +1337,40 @@ impl<'a> CentreMarches<'a> {
         }
     }
 
-    /// The field from the centre of cell `c`: kept, or marched (and kept).
-    fn of(&self, c: u32) -> std::sync::Arc<Field> {
+    /// The field from the centre of cell `c` and its reach: a kept whole one, or a kept one
+    /// for which `enough(field, reach)` holds, or marched until `stop` (see [`march_until`]) and kept in place of any other
+    /// kept from `c`. `stop` must not end the march before `enough` holds.
+    fn of(
+        &self,
+        c: u32,
+        enough: impl Fn(&Field, f64) -> bool,
+        stop: impl FnMut(u32, f64) -> bool,
+    ) -> (std::sync::Arc<Field>, f64) {
         let lock = || self.kept.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, f)) = lock().iter().find(|(at, _)| *at == c) {
-            return f.clone();
+        if let Some(k) = lock()
+            .iter()
+            .find(|k| k.cell == c && (k.reach.is_infinite() || enough(&k.field, k.reach)))
+        {
+            return (k.field.clone(), k.reach);
         }
         let source = Source {
             point: self.voxels.centre(c),
             cell: c,
         };
-        let field = std::sync::Arc::new(march(self.voxels, &[source], self.cost));
+        let (field, reach) = march_until(self.voxels, &[source], self.cost, stop);
+        let field = std::sync::Arc::new(field);
         self.runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut kept = lock();
-        if kept.len() == self.capacity {
+        kept.retain(|k| k.cell != c || k.reach > reach);
+        if kept.len() >= self.capacity {
             kept.pop_front();
         }
-        kept.push_back((c, field.clone()));
-        field
+        kept.push_back(Kept {
+            cell: c,
+            field: field.clone(),
+            reach,
+        });
+        (field, reach)
     }
 
     /// Marches run.
@@ -1277,6 +1388,16 @@ enum Examined {
     /// It would move: the layout with the move and its field (one march of the layout, with
     /// those from the share's ends).
     Tries { trial: Vec<usize>, field: Field },
+    /// It would move, but the layout with the move reaches beyond the present worst value,
+    /// so the move is refused (its march stopped there).
+    Refused,
+}
+
+/// True when `t` is surely beyond `b` for the searches' early stops: by more than the f32
+/// rounding of the march's queue keys (a relative 2.4e-7), so that every cell of value up to
+/// `b` was accepted before a cell of value `t`.
+fn beyond(t: f64, b: f64) -> bool {
+    t > b + 1e-6 * b.abs() + 1e-9
 }
 
 /// The sum over the `k` shares of a multi-source field of their largest values.
