@@ -14,6 +14,10 @@
 //! keeps the two children of a node side by side in one 64-byte cache line, so a step of the
 //! descent, which tests both boxes, reads one line; each triangle carries its mesh index.
 //!
+//! A query that stays in a known ball (the short rays and nearest-point queries of the wall
+//! thickness's cross-width check) can start from the few subtrees that hold every triangle
+//! meeting that ball ([`Region`]) instead of descending from the root each time.
+//!
 //! **Robustness rules.** A triangle is hit when the ray crosses it with barycentric
 //! coordinates within [`EDGE_TOLERANCE`] of its closed outline, so a ray through an edge
 //! shared by two triangles never slips between them (it may hit both, at the same distance,
@@ -287,10 +291,62 @@ impl Bvh {
         self.ids.is_empty()
     }
 
+    /// The subtrees that hold every triangle meeting the ball of `radius` around `centre`:
+    /// queries that stay inside that ball can start from them instead of the root (see
+    /// [`Region`]). The descent stops at a node whose box is at most four radii across, so
+    /// the subtrees are few; when they would be more than [`Region`] holds, the region is
+    /// the whole tree.
+    pub fn region(&self, centre: DVec3, radius: f64) -> Region {
+        let whole = Region::WHOLE;
+        if self.ids.is_empty() || !centre.is_finite() || !radius.is_finite() {
+            return whole;
+        }
+        let c = Vec3A::from((centre - self.origin).as_vec3());
+        let r = radius as f32;
+        let (r2, size) = (r * r, 4.0 * r);
+        let mut region = Region {
+            starts: [0; REGION_STARTS],
+            len: 0,
+        };
+        let mut stack = [0u32; 64];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let k = stack[top];
+            let node = self.node(k);
+            if box_distance2(node, c) > r2 {
+                continue;
+            }
+            let extent = Vec3A::from_array(node.max) - Vec3A::from_array(node.min);
+            if node.count > 0 || extent.max_element() <= size {
+                if region.len == REGION_STARTS {
+                    return whole;
+                }
+                region.starts[region.len] = k;
+                region.len += 1;
+                continue;
+            }
+            if top + 2 > stack.len() {
+                return whole;
+            }
+            stack[top] = node.link + 1;
+            stack[top + 1] = node.link;
+            top += 2;
+        }
+        region
+    }
+
     /// The nearest hit of `ray`, or `None` when it hits nothing within its limits.
     pub fn first_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.first_hit_in(ray, &Region::WHOLE)
+    }
+
+    /// [`Bvh::first_hit`] among the triangles of `region` only: the same hit when every
+    /// point of `ray` within its limits lies in the ball the region was made for (but for
+    /// which of two triangles at one distance is named).
+    pub fn first_hit_in(&self, ray: &Ray, region: &Region) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        self.traverse(ray, |hit| {
+        self.traverse(ray, region.starts(), |hit| {
             best = Some(hit);
             // Shorten the ray: only nearer hits matter from now on.
             Some(hit.distance)
@@ -301,7 +357,7 @@ impl Bvh {
     /// Whether `ray` hits anything within its limits (stops at the first hit found).
     pub fn any_hit(&self, ray: &Ray) -> bool {
         let mut found = false;
-        self.traverse(ray, |_| {
+        self.traverse(ray, &[0], |_| {
             found = true;
             None
         });
@@ -312,12 +368,12 @@ impl Bvh {
     /// returns `false`.
     pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit) -> bool) {
         let limit = ray.max_distance;
-        self.traverse(ray, |hit| f(hit).then_some(limit));
+        self.traverse(ray, &[0], |hit| f(hit).then_some(limit));
     }
 
-    /// Walks the tree nearest box first. `on_hit` gets every hit nearer than the current
-    /// limit and returns the new limit, or `None` to stop.
-    fn traverse(&self, ray: &Ray, mut on_hit: impl FnMut(Hit) -> Option<f64>) {
+    /// Walks the subtrees `starts` (the root: `&[0]`) nearest box first. `on_hit` gets every
+    /// hit nearer than the current limit and returns the new limit, or `None` to stop.
+    fn traverse(&self, ray: &Ray, starts: &[u32], mut on_hit: impl FnMut(Hit) -> Option<f64>) {
         if self.ids.is_empty()
             || !(ray.origin.is_finite() && ray.direction.is_finite())
             || ray.min_distance > ray.max_distance
@@ -335,9 +391,27 @@ impl Bvh {
         let mut t_max = ray.max_distance.min(f32::MAX as f64) as f32;
         let mut stack = [0u32; 64];
         let mut top = 0usize;
-        let mut node = 0u32;
-        if slab(self.node(0), oa, inv, t_min, t_max).is_none() {
+        // The first start is searched first; the others wait on the stack.
+        for &k in starts.iter().skip(1).rev() {
+            stack[top] = k;
+            top += 1;
+        }
+        let Some(&first) = starts.first() else {
             return;
+        };
+        let mut node = first;
+        if slab(self.node(first), oa, inv, t_min, t_max).is_none() {
+            loop {
+                if top == 0 {
+                    return;
+                }
+                top -= 1;
+                let candidate = stack[top];
+                if slab(self.node(candidate), oa, inv, t_min, t_max).is_some() {
+                    node = candidate;
+                    break;
+                }
+            }
         }
         loop {
             let n = self.node(node);
@@ -405,6 +479,12 @@ impl Bvh {
     /// The triangle nearest to `p` among those nearer than `radius`, with its distance; `None`
     /// when no triangle comes within `radius`.
     pub fn nearest_within(&self, p: DVec3, radius: f64) -> Option<Hit> {
+        self.nearest_within_in(p, radius, &Region::WHOLE)
+    }
+
+    /// [`Bvh::nearest_within`] among the triangles of `region` only: the same distance when
+    /// the ball of `radius` around `p` lies in the ball the region was made for.
+    pub fn nearest_within_in(&self, p: DVec3, radius: f64, region: &Region) -> Option<Hit> {
         if self.ids.is_empty() || !p.is_finite() || radius.is_nan() || radius <= 0.0 {
             return None;
         }
@@ -414,7 +494,11 @@ impl Bvh {
         let mut best2 = r * r;
         let mut best: Option<u32> = None;
         let mut stack = [0u32; 64];
-        let mut top = 1usize;
+        let starts = region.starts();
+        let mut top = starts.len();
+        for (slot, &k) in stack.iter_mut().zip(starts.iter().rev()) {
+            *slot = k;
+        }
         while top > 0 {
             top -= 1;
             let node = self.node(stack[top]);
@@ -460,6 +544,30 @@ impl Bvh {
             triangle,
             distance: (best2 as f64).sqrt(),
         })
+    }
+}
+
+/// Most subtrees of a [`Region`].
+const REGION_STARTS: usize = 16;
+
+/// Subtrees of a [`Bvh`] that hold every triangle meeting a ball ([`Bvh::region`]): a query
+/// that stays in the ball starts from them and is spared the descent from the root, which is
+/// most of the cost of a short ray.
+#[derive(Debug, Clone, Copy)]
+pub struct Region {
+    starts: [u32; REGION_STARTS],
+    len: usize,
+}
+
+impl Region {
+    /// The whole tree (its root).
+    pub const WHOLE: Region = Region {
+        starts: [0; REGION_STARTS],
+        len: 1,
+    };
+
+    fn starts(&self) -> &[u32] {
+        &self.starts[..self.len]
     }
 }
 
@@ -993,6 +1101,41 @@ mod tests {
             }
             assert!(found > 100, "{name}: only {found} found, test too weak");
         }
+    }
+
+    #[test]
+    fn queries_inside_a_region_match_the_whole_tree() {
+        // Rays and nearest-point balls inside a region's ball find what the whole tree finds,
+        // and the region is smaller than the whole tree (else the test proves nothing).
+        let (mut hits, mut nears, mut partial) = (0, 0, 0);
+        for name in ["cover", "cap", "bracket", "tray"] {
+            let mesh = samples::sample(name).unwrap();
+            let bvh = Bvh::new(&mesh);
+            let b = mesh.bounds();
+            let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+            for _ in 0..400 {
+                let c = b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let radius = 0.1 + 4.0 * rng.next();
+                let region = bvh.region(c, radius);
+                partial += usize::from(region.starts() != [0]);
+                let length = radius * rng.next();
+                let ray = Ray::new(c, rng.unit()).within(0.0, length);
+                let whole = bvh.first_hit(&ray).map(|h| h.distance);
+                assert_eq!(bvh.first_hit_in(&ray, &region).map(|h| h.distance), whole);
+                hits += usize::from(whole.is_some());
+                let reach = radius * rng.next();
+                let whole = bvh.nearest_within(c, reach).map(|h| h.distance);
+                assert_eq!(
+                    bvh.nearest_within_in(c, reach, &region).map(|h| h.distance),
+                    whole
+                );
+                nears += usize::from(whole.is_some());
+            }
+        }
+        assert!(
+            hits > 100 && nears > 100 && partial > 1000,
+            "{hits} {nears} {partial}"
+        );
     }
 
     #[test]

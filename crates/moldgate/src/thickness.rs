@@ -62,7 +62,7 @@ use rayon::prelude::*;
 use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
-use crate::raycast::{Bvh, Ray};
+use crate::raycast::{Bvh, Ray, Region};
 
 /// Options of [`wall_thickness`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -176,6 +176,7 @@ pub fn wall_thickness_of(
         min_hit: 1e-6 * diagonal,
         options: *options,
         closed: OnceLock::new(),
+        band_slack: 1e-4 * diagonal,
     };
     let min_area = 1e-12 * diagonal * diagonal;
     // Cast in the tree's leaf order: neighbouring facets send their rays through the same
@@ -242,13 +243,17 @@ struct Probe<'a> {
     /// Whether every edge of the mesh is met by its reverse (see [`is_closed`]), found the
     /// first time a cross ray ends without a wall.
     closed: OnceLock<bool>,
+    /// Margin of the check's ball in `sample`, mm: the rays' edge slack
+    /// ([`crate::raycast::EDGE_TOLERANCE`]) on triangles as long as the box's diagonal, and
+    /// the f32 rounding of coordinates, both well inside 1e-4 of the diagonal.
+    band_slack: f64,
 }
 
 impl Probe<'_> {
     /// Thickness at point `p` of triangle `t` with unit outward normal `n` (rules 2 to 5).
     fn sample(&self, t: u32, p: DVec3, n: DVec3) -> Option<f64> {
         let (dir, chord) = [-n, n].into_iter().find_map(|dir| {
-            match self.exit(p, dir, Some(t), f64::INFINITY) {
+            match self.exit(p, dir, Some(t), f64::INFINITY, &Region::WHOLE) {
                 Exit::At(len) => Some((dir, len)),
                 Exit::Beyond | Exit::Hole => None,
             }
@@ -256,6 +261,15 @@ impl Probe<'_> {
         if self.options.cross_check == CrossCheck::Off {
             return Some(chord);
         }
+        // Every query of the check stays in one ball around the chord's midpoint: the
+        // nearest-point balls (at most half the chord around the midpoint, a quarter around
+        // the quarter points) and the cross rays (from the middle half of the chord, across
+        // it, no longer than the chord). The subtrees that hold every triangle meeting that
+        // ball are found once, and each query starts from them instead of the root: the same
+        // triangles, so the same walls. The margin covers the f32 tests and the rays' edge
+        // slack (see `band_slack`).
+        let radius = chord * (1.0f64 + 0.25 * 0.25).sqrt() + 1e-3 * chord + self.band_slack;
+        let region = self.bvh.region(p + dir * (0.5 * chord), radius);
         let mut width = chord;
         for (k, at) in [0.5, 0.25, 0.75].into_iter().enumerate() {
             let m = p + dir * (at * chord);
@@ -265,7 +279,7 @@ impl Probe<'_> {
             // found so far cannot narrow it (every cross ray from m runs at least that far
             // before it meets a surface), so the ball shrinks to that too.
             let reach = (chord * at.min(1.0 - at)).min(0.5 * width) * (1.0 - 1e-3);
-            let Some(near) = self.bvh.nearest_within(m, reach) else {
+            let Some(near) = self.bvh.nearest_within_in(m, reach, &region) else {
                 if k == 0 {
                     return Some(chord);
                 }
@@ -279,7 +293,7 @@ impl Probe<'_> {
                 }
                 continue;
             }
-            width = width.min(self.cross_width(m, dir, near.triangle, width)?);
+            width = width.min(self.cross_width(m, dir, near.triangle, width, &region)?);
         }
         Some(width)
     }
@@ -290,7 +304,14 @@ impl Probe<'_> {
     /// the hole but its wall the other way). Only widths below `limit` matter, so each pair of
     /// cross rays stops at `limit` (infinity when none is below it); `None` when a cross ray
     /// leaves through a hole within that length.
-    fn cross_width(&self, m: DVec3, dir: DVec3, triangle: u32, limit: f64) -> Option<f64> {
+    fn cross_width(
+        &self,
+        m: DVec3,
+        dir: DVec3,
+        triangle: u32,
+        limit: f64,
+        region: &Region,
+    ) -> Option<f64> {
         // The tree gives the nearest triangle, not its nearest point: found again in f64.
         let q = nearest_on_triangle(self.mesh.corners(triangle as usize), m);
         let e = q - m;
@@ -301,12 +322,12 @@ impl Probe<'_> {
         let mut width = f64::INFINITY;
         for e in [e, dir.cross(e)] {
             let bound = width.min(limit);
-            let there = match self.exit(m, e, None, bound) {
+            let there = match self.exit(m, e, None, bound, region) {
                 Exit::At(d) => d,
                 Exit::Beyond => continue,
                 Exit::Hole => return None,
             };
-            match self.exit(m, -e, None, bound - there) {
+            match self.exit(m, -e, None, bound - there, region) {
                 Exit::At(d) => width = width.min(there + d),
                 Exit::Beyond => {}
                 Exit::Hole => return None,
@@ -316,11 +337,19 @@ impl Probe<'_> {
     }
 
     /// Where the ray from `p` along `dir` leaves the solid, looking no farther than
-    /// `max_distance`: at the first hit, if its triangle faces along the ray.
-    fn exit(&self, p: DVec3, dir: DVec3, skip: Option<u32>, max_distance: f64) -> Exit {
+    /// `max_distance`: at the first hit, if its triangle faces along the ray. The first hit
+    /// is looked for in `region`, which must hold the ray up to `max_distance`.
+    fn exit(
+        &self,
+        p: DVec3,
+        dir: DVec3,
+        skip: Option<u32>,
+        max_distance: f64,
+        region: &Region,
+    ) -> Exit {
         let mut ray = Ray::new(p, dir).within(self.min_hit, max_distance);
         ray.skip = skip;
-        let Some(hit) = self.bvh.first_hit(&ray) else {
+        let Some(hit) = self.bvh.first_hit_in(&ray, region) else {
             // Nothing within the length looked at. A ray from inside a closed surface meets
             // it somewhere farther; on an open mesh, a ray that meets nothing farther either
             // leaves through a hole (any hit at all will do to tell, the cheapest query).
