@@ -764,6 +764,115 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
 mod tests {
     use super::*;
 
+    /// A grid of `side` x `side` unit squares, two triangles each, at height `height(i, j)`.
+    fn grid(side: u32, height: impl Fn(u32, u32) -> f64) -> Mesh {
+        let mut vertices = Vec::new();
+        for j in 0..=side {
+            for i in 0..=side {
+                vertices.push(DVec3::new(i as f64, j as f64, height(i, j)));
+            }
+        }
+        let at = |i: u32, j: u32| j * (side + 1) + i;
+        let mut triangles = Vec::new();
+        for j in 0..side {
+            for i in 0..side {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                // Every seventh square folded the other way round: some facets face down.
+                match (i + j) % 7 {
+                    0 => triangles.push([at(i, j), at(i, j + 1), at(i + 1, j + 1)]),
+                    _ => triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]),
+                }
+            }
+        }
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn the_rays_of_some_facets_are_those_of_every_facet_renumbered() {
+        // More facets than a block, several samples on the larger ones, and a line that
+        // leaves some facets parallel (none here) or facing either side.
+        let mesh = grid(60, |i, j| {
+            0.4 * (i as f64 * 0.7).sin() * (j as f64 * 0.3).cos()
+        });
+        let n = mesh.triangles.len();
+        assert!(n > 2 * SUM_BLOCK);
+        let surface = Surface::new(&mesh, Sampling::Spacing(0.6));
+        let line = DVec3::new(0.3, -0.2, 0.9).normalize();
+        let (all, first) = surface.rays(n, |t| t, line);
+        assert_eq!(first.len(), n + 1);
+        let mut facing = 0;
+        for t in 0..n {
+            let rays = &all[first[t]..first[t + 1]];
+            match surface.facing(t, line) {
+                Facing::Side { up, .. } => {
+                    facing += 1;
+                    assert_eq!(rays.len(), surface.samples(t).len());
+                    for (r, &p) in rays.iter().zip(surface.samples(t)) {
+                        assert_eq!((r.origin, r.triangle, r.up), (p, t as u32, up));
+                    }
+                }
+                _ => assert!(rays.is_empty()),
+            }
+        }
+        assert!(facing > n / 2, "{facing} of {n} facets face a side");
+        let some: Vec<usize> = (0..n).filter(|t| t % 3 != 1).collect();
+        let (rays, from) = surface.rays(some.len(), |k| some[k], line);
+        assert_eq!(from.len(), some.len() + 1);
+        for (k, &t) in some.iter().enumerate() {
+            let renumbered: Vec<PointRay> = all[first[t]..first[t + 1]]
+                .iter()
+                .map(|r| PointRay {
+                    triangle: k as u32,
+                    ..*r
+                })
+                .collect();
+            assert_eq!(&rays[from[k]..from[k + 1]], &renumbered[..], "facet {t}");
+        }
+    }
+
+    #[test]
+    fn facets_of_equal_area_enter_the_bound_in_index_order() {
+        // Every facet has area 1/2: the threshold is that area, and the bound takes the
+        // first LARGEST_AT_LEAST of them (more than one in 16 or one in 8 here).
+        let mesh = grid(50, |_, _| 0.0);
+        let n = mesh.triangles.len();
+        assert!(n / BOUND_LEVELS[1] < LARGEST_AT_LEAST && LARGEST_AT_LEAST < n);
+        let surface = Surface::new(&mesh, Sampling::Centroid);
+        for largest in &surface.largest {
+            assert!(!largest.every);
+            assert_eq!(
+                largest.facets,
+                (0..LARGEST_AT_LEAST as u32).collect::<Vec<_>>()
+            );
+            assert_eq!(largest.triangles, mesh.triangles[..LARGEST_AT_LEAST]);
+        }
+        // One facet made larger comes first in index order among the rest.
+        let mut mesh = mesh;
+        let last = mesh.vertices.len() - 1;
+        mesh.vertices[last].x += 0.5;
+        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let bigger: Vec<u32> = (0..n as u32)
+            .filter(|&t| surface.facets[t as usize].is_some_and(|(a, _)| a > 0.5))
+            .collect();
+        assert!(!bigger.is_empty());
+        let mut expected: Vec<u32> = (0..n as u32)
+            .filter(|&t| surface.facets[t as usize].is_some_and(|(a, _)| a >= 0.5))
+            .collect();
+        let mut equal = LARGEST_AT_LEAST - bigger.len();
+        expected.retain(|&t| {
+            bigger.contains(&t) || {
+                let take = equal > 0;
+                equal = equal.saturating_sub(1);
+                take
+            }
+        });
+        assert_eq!(surface.largest[0].facets, expected);
+        assert!(surface.largest[0].facets.contains(&bigger[0]));
+    }
+
     #[test]
     fn jacobi_diagonalises_a_known_matrix() {
         // Eigenvalues 1, 2, 4 along rotated axes.
