@@ -166,34 +166,51 @@ impl<'a> Surface<'a> {
         }
         first.push(points.len());
         let area = sum_blocks(n, |t| facets[t].map_or((0.0, 0.0), |(a, _)| (a, a))).area_mm2;
-        let mut areas: Vec<f64> = facets.iter().map(|f| f.map_or(0.0, |(a, _)| a)).collect();
+        let areas: Vec<f64> = facets
+            .par_iter()
+            .with_min_len(4096)
+            .map(|f| f.map_or(0.0, |(a, _)| a))
+            .collect();
+        // The levels are independent, each over the whole mesh: both at once, each in
+        // parallel too.
         let largest = BOUND_LEVELS
-            .iter()
+            .par_iter()
             .map(|&share| {
                 // The facets of area at least the k-th largest's.
                 let k = (n / share).max(LARGEST_AT_LEAST.min(n));
                 let threshold = if k == 0 || k >= n {
                     0.0
                 } else {
+                    let mut areas = areas.clone();
                     *areas.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1
                 };
                 // Those above it, then those equal to it in index order up to k in all (so
-                // that a mesh of equal facets does not put all of them in the bound).
-                let above = (0..n)
-                    .filter(|&t| facets[t].is_some_and(|(a, _)| a > threshold))
-                    .count();
+                // that a mesh of equal facets does not put all of them in the bound). The
+                // ones at least the threshold are found in parallel, in index order; the few
+                // among them equal to it are then taken in that order.
+                let at_least: Vec<u32> = (0..n as u32)
+                    .into_par_iter()
+                    .with_min_len(4096)
+                    .filter(|&t| facets[t as usize].is_some_and(|(a, _)| a >= threshold))
+                    .collect();
+                let area = |t: u32| facets[t as usize].map_or(0.0, |(a, _)| a);
+                let above = at_least.iter().filter(|&&t| area(t) > threshold).count();
                 let mut equal = k.saturating_sub(above);
-                let facets: Vec<u32> = (0..n as u32)
-                    .filter(|&t| match facets[t as usize] {
-                        Some((a, _)) if a > threshold => true,
-                        Some((a, _)) if a == threshold && equal > 0 => {
-                            equal -= 1;
-                            true
+                let facets: Vec<u32> = at_least
+                    .into_iter()
+                    .filter(|&t| {
+                        area(t) > threshold || {
+                            let take = equal > 0;
+                            equal = equal.saturating_sub(1);
+                            take
                         }
-                        _ => false,
                     })
                     .collect();
-                let triangles = facets.iter().map(|&t| mesh.triangles[t as usize]).collect();
+                let triangles = facets
+                    .par_iter()
+                    .with_min_len(4096)
+                    .map(|&t| mesh.triangles[t as usize])
+                    .collect();
                 Largest {
                     every: k >= n,
                     facets,
@@ -233,6 +250,50 @@ impl<'a> Surface<'a> {
         &self.points[self.first[t]..self.first[t + 1]]
     }
 
+    /// The rays along `line` of `count` facets, the k-th being facet `facet(k)`: the sample
+    /// points of each facet that faces a side, each ray naming k as its triangle (the index
+    /// into the triangles drawn against them). Ray lists are built in fixed blocks of facets
+    /// on every thread, then joined in order: the k-th facet's rays are `first[k]..first[k + 1]`,
+    /// whatever the thread count.
+    fn rays(
+        &self,
+        count: usize,
+        facet: impl Fn(usize) -> usize + Sync,
+        line: DVec3,
+    ) -> (Vec<PointRay>, Vec<usize>) {
+        let blocks: Vec<(Vec<PointRay>, Vec<u32>)> = (0..count.div_ceil(SUM_BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let (mut rays, mut counts) = (Vec::new(), Vec::new());
+                for k in b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(count) {
+                    let before = rays.len();
+                    let t = facet(k);
+                    if let Facing::Side { up, .. } = self.facing(t, line) {
+                        rays.extend(self.samples(t).iter().map(|&p| PointRay {
+                            origin: p,
+                            triangle: k as u32,
+                            up,
+                        }));
+                    }
+                    counts.push((rays.len() - before) as u32);
+                }
+                (rays, counts)
+            })
+            .collect();
+        let mut rays = Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum());
+        let mut first = Vec::with_capacity(count + 1);
+        for (r, counts) in blocks {
+            let mut at = rays.len();
+            for c in counts {
+                first.push(at);
+                at += c as usize;
+            }
+            rays.extend(r);
+        }
+        first.push(rays.len());
+        (rays, first)
+    }
+
     /// A lower bound of the undercut area along `d`: the rays of the largest facets only
     /// (those of `level`), drawn against those facets only. A ray that one of them
     /// blocks is blocked when every triangle is drawn (the same arithmetic, the ray's own
@@ -244,19 +305,8 @@ impl<'a> Surface<'a> {
             return self.undercut(d);
         }
         let line = d.vector();
-        let mut rays = Vec::new();
-        let mut first = Vec::with_capacity(largest.facets.len() + 1);
-        for (k, &t) in largest.facets.iter().enumerate() {
-            first.push(rays.len());
-            if let Facing::Side { up, .. } = self.facing(t as usize, line) {
-                rays.extend(self.samples(t as usize).iter().map(|&p| PointRay {
-                    origin: p,
-                    triangle: k as u32,
-                    up,
-                }));
-            }
-        }
-        first.push(rays.len());
+        // Ray k's triangle is the k-th of the largest facets, its index in `largest.triangles`.
+        let (rays, first) = self.rays(largest.facets.len(), |k| largest.facets[k] as usize, line);
         let blocked = projection::blocked(
             &self.mesh.vertices,
             &Frame::new(d),
@@ -285,37 +335,7 @@ impl<'a> Surface<'a> {
     fn undercut(&self, d: Direction) -> Undercut {
         let line = d.vector();
         let n = self.facets.len();
-        // The rays of the facets that face a side, in blocks of facets, then in facet order:
-        // facet t's are `first[t]..first[t + 1]`.
-        let blocks: Vec<(Vec<PointRay>, Vec<u32>)> = (0..n.div_ceil(SUM_BLOCK))
-            .into_par_iter()
-            .map(|b| {
-                let (mut rays, mut counts) = (Vec::new(), Vec::new());
-                for t in b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(n) {
-                    let before = rays.len();
-                    if let Facing::Side { up, .. } = self.facing(t, line) {
-                        rays.extend(self.samples(t).iter().map(|&p| PointRay {
-                            origin: p,
-                            triangle: t as u32,
-                            up,
-                        }));
-                    }
-                    counts.push((rays.len() - before) as u32);
-                }
-                (rays, counts)
-            })
-            .collect();
-        let mut rays = Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum());
-        let mut first = Vec::with_capacity(n + 1);
-        for (r, counts) in blocks {
-            let mut at = rays.len();
-            for c in counts {
-                first.push(at);
-                at += c as usize;
-            }
-            rays.extend(r);
-        }
-        first.push(rays.len());
+        let (rays, first) = self.rays(n, |t| t, line);
         let mesh = self.mesh;
         let blocked = projection::blocked(
             &mesh.vertices,
@@ -743,6 +763,115 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A grid of `side` x `side` unit squares, two triangles each, at height `height(i, j)`.
+    fn grid(side: u32, height: impl Fn(u32, u32) -> f64) -> Mesh {
+        let mut vertices = Vec::new();
+        for j in 0..=side {
+            for i in 0..=side {
+                vertices.push(DVec3::new(i as f64, j as f64, height(i, j)));
+            }
+        }
+        let at = |i: u32, j: u32| j * (side + 1) + i;
+        let mut triangles = Vec::new();
+        for j in 0..side {
+            for i in 0..side {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                // Every seventh square folded the other way round: some facets face down.
+                match (i + j) % 7 {
+                    0 => triangles.push([at(i, j), at(i, j + 1), at(i + 1, j + 1)]),
+                    _ => triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]),
+                }
+            }
+        }
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn the_rays_of_some_facets_are_those_of_every_facet_renumbered() {
+        // More facets than a block, several samples on the larger ones, and a line that
+        // leaves some facets parallel (none here) or facing either side.
+        let mesh = grid(60, |i, j| {
+            0.4 * (i as f64 * 0.7).sin() * (j as f64 * 0.3).cos()
+        });
+        let n = mesh.triangles.len();
+        assert!(n > 2 * SUM_BLOCK);
+        let surface = Surface::new(&mesh, Sampling::Spacing(0.6));
+        let line = DVec3::new(0.3, -0.2, 0.9).normalize();
+        let (all, first) = surface.rays(n, |t| t, line);
+        assert_eq!(first.len(), n + 1);
+        let mut facing = 0;
+        for t in 0..n {
+            let rays = &all[first[t]..first[t + 1]];
+            match surface.facing(t, line) {
+                Facing::Side { up, .. } => {
+                    facing += 1;
+                    assert_eq!(rays.len(), surface.samples(t).len());
+                    for (r, &p) in rays.iter().zip(surface.samples(t)) {
+                        assert_eq!((r.origin, r.triangle, r.up), (p, t as u32, up));
+                    }
+                }
+                _ => assert!(rays.is_empty()),
+            }
+        }
+        assert!(facing > n / 2, "{facing} of {n} facets face a side");
+        let some: Vec<usize> = (0..n).filter(|t| t % 3 != 1).collect();
+        let (rays, from) = surface.rays(some.len(), |k| some[k], line);
+        assert_eq!(from.len(), some.len() + 1);
+        for (k, &t) in some.iter().enumerate() {
+            let renumbered: Vec<PointRay> = all[first[t]..first[t + 1]]
+                .iter()
+                .map(|r| PointRay {
+                    triangle: k as u32,
+                    ..*r
+                })
+                .collect();
+            assert_eq!(&rays[from[k]..from[k + 1]], &renumbered[..], "facet {t}");
+        }
+    }
+
+    #[test]
+    fn facets_of_equal_area_enter_the_bound_in_index_order() {
+        // Every facet has area 1/2: the threshold is that area, and the bound takes the
+        // first LARGEST_AT_LEAST of them (more than one in 16 or one in 8 here).
+        let mesh = grid(50, |_, _| 0.0);
+        let n = mesh.triangles.len();
+        assert!(n / BOUND_LEVELS[1] < LARGEST_AT_LEAST && LARGEST_AT_LEAST < n);
+        let surface = Surface::new(&mesh, Sampling::Centroid);
+        for largest in &surface.largest {
+            assert!(!largest.every);
+            assert_eq!(
+                largest.facets,
+                (0..LARGEST_AT_LEAST as u32).collect::<Vec<_>>()
+            );
+            assert_eq!(largest.triangles, mesh.triangles[..LARGEST_AT_LEAST]);
+        }
+        // One facet made larger comes first in index order among the rest.
+        let mut mesh = mesh;
+        let last = mesh.vertices.len() - 1;
+        mesh.vertices[last].x += 0.5;
+        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let bigger: Vec<u32> = (0..n as u32)
+            .filter(|&t| surface.facets[t as usize].is_some_and(|(a, _)| a > 0.5))
+            .collect();
+        assert!(!bigger.is_empty());
+        let mut expected: Vec<u32> = (0..n as u32)
+            .filter(|&t| surface.facets[t as usize].is_some_and(|(a, _)| a >= 0.5))
+            .collect();
+        let mut equal = LARGEST_AT_LEAST - bigger.len();
+        expected.retain(|&t| {
+            bigger.contains(&t) || {
+                let take = equal > 0;
+                equal = equal.saturating_sub(1);
+                take
+            }
+        });
+        assert_eq!(surface.largest[0].facets, expected);
+        assert!(surface.largest[0].facets.contains(&bigger[0]));
+    }
 
     #[test]
     fn jacobi_diagonalises_a_known_matrix() {

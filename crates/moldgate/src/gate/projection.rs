@@ -434,13 +434,17 @@ pub fn blocked(
         .with_min_len(4096)
         .map(|r| (frame.project(r.origin), frame.height(r.origin)))
         .collect();
-    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-    for (q, _) in &planar {
-        if q.is_finite() {
-            lo = lo.min(*q);
-            hi = hi.max(*q);
-        }
-    }
+    // The box of the rays, on every thread (a minimum and a maximum do not depend on the
+    // order they are taken in).
+    let empty = || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    let (lo, hi) = planar
+        .par_iter()
+        .with_min_len(4096)
+        .fold(empty, |(lo, hi), (q, _)| match q.is_finite() {
+            true => (lo.min(*q), hi.max(*q)),
+            false => (lo, hi),
+        })
+        .reduce(empty, |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
     if !(lo.x <= hi.x && lo.y <= hi.y) {
         return vec![false; rays.len()];
     }
@@ -464,7 +468,11 @@ pub fn blocked(
         j * n_u + i
     };
     // Counting sort of the rays by cell (rays at non-finite points are never blocked).
-    let cells: Vec<usize> = planar.iter().map(|(q, _)| cell_of(*q)).collect();
+    let cells: Vec<usize> = planar
+        .par_iter()
+        .with_min_len(4096)
+        .map(|(q, _)| cell_of(*q))
+        .collect();
     let mut start = vec![0u32; n_u * n_w + 1];
     for &c in &cells {
         if c != usize::MAX {
