@@ -27,8 +27,8 @@ if [ "${1:-}" = "--setup" ]; then
     exit 0
 fi
 
-# The `wasm` profile is the module users get; the browser tests build `wasm-test` (no LTO,
-# Cargo.toml) through MOLDGATE_WASM_PROFILE.
+# The `wasm` profile is the module users get, and the one the browser tests run on;
+# MOLDGATE_WASM_PROFILE builds another (e.g. `release`, for a debuggable module).
 profile=${MOLDGATE_WASM_PROFILE:-wasm}
 echo "build-web: cargo build -p moldgate-web --profile $profile --target wasm32-unknown-unknown"
 cargo build -p moldgate-web --profile "$profile" --target wasm32-unknown-unknown

@@ -34,8 +34,8 @@ if [ -z "$bin" ]; then
     bin=$target_dir/debug/moldgate
 fi
 
-# The module of the `wasm-test` profile: the users' `wasm` profile less LTO (Cargo.toml).
-MOLDGATE_WASM_PROFILE=${MOLDGATE_WASM_PROFILE:-wasm-test} scripts/build-web.sh
+# The module users get: the `wasm` profile (Cargo.toml).
+scripts/build-web.sh
 
 cd web
 MOLDGATE_BIN=$bin CHROMIUM=$chromium \
