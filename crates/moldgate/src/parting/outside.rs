@@ -176,6 +176,11 @@ impl Outside {
     /// about the band's width (a tab standing a few tenths of a millimetre proud of a wall),
     /// the rim edges along the wall behind the tab lie more than the width from the outside,
     /// and a band measured from the outside would lose them and break the ring there.
+    ///
+    /// The band is also kept within `2 * cells + 1` cells of the outside: a long rim edge
+    /// may touch the outside at one end and run far inside at the other (on the knob, an
+    /// edge from the outline along the foot of a tab into the ring), and a band round the
+    /// whole of such an edge would let the cycle leave the outline along it.
     pub(super) fn near_rim(&self, rim: &[Segment], cells: usize) -> impl Fn(DVec2) -> bool + '_ {
         let (n_u, n_w) = (self.n_u, self.n_w);
         // Rim cells are few (about the outline's length in cells), so each marks its square
@@ -190,7 +195,55 @@ impl Outside {
                 }
             });
         }
+        let reach = self.near_outside(2 * cells + 1);
+        for (n, r) in near.iter_mut().zip(&reach) {
+            *n &= *r;
+        }
+        drop(reach);
         move |p| self.cell_of(p).is_some_and(|c| near[c])
+    }
+
+    /// The cells within `cells` cells (in both axes) of a cell outside the outline: the
+    /// outside dilated along rows, then along columns (a square of side 2 cells + 1).
+    fn near_outside(&self, cells: usize) -> Vec<bool> {
+        let (n_u, n_w) = (self.n_u, self.n_w);
+        let outside = |c: usize| self.state[c] == OUTSIDE;
+        let mut rows = vec![false; n_u * n_w];
+        for w in 0..n_w {
+            let row = w * n_u;
+            let mut last: Option<usize> = None;
+            for u in 0..n_u {
+                if outside(row + u) {
+                    last = Some(u);
+                }
+                rows[row + u] = last.is_some_and(|l| u - l <= cells);
+            }
+            let mut next: Option<usize> = None;
+            for u in (0..n_u).rev() {
+                if outside(row + u) {
+                    next = Some(u);
+                }
+                rows[row + u] |= next.is_some_and(|l| l - u <= cells);
+            }
+        }
+        let mut near = vec![false; n_u * n_w];
+        for u in 0..n_u {
+            let mut last: Option<usize> = None;
+            for w in 0..n_w {
+                if rows[w * n_u + u] {
+                    last = Some(w);
+                }
+                near[w * n_u + u] = last.is_some_and(|l| w - l <= cells);
+            }
+            let mut next: Option<usize> = None;
+            for w in (0..n_w).rev() {
+                if rows[w * n_u + u] {
+                    next = Some(w);
+                }
+                near[w * n_u + u] |= next.is_some_and(|l| l - w <= cells);
+            }
+        }
+        near
     }
 
     fn cell_of(&self, p: DVec2) -> Option<usize> {
