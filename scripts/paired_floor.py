@@ -9,7 +9,9 @@ of the per-round ratios NEW / BASE (wall and CPU), and, with the floor, the medi
 per-round ratios of each binary to the floor: the last line of scripts/speed_table.py,
 before and after, from the same rounds. The load average is printed before and after.
 
-    python3 scripts/paired_floor.py ROUNDS PART DEMOLD BASE_BINARY NEW_BINARY [FLOOR]
+    python3 scripts/paired_floor.py ROUNDS PART DEMOLD BASE_BINARY NEW_BINARY [FLOOR] [-- ARGS]
+
+ARGS, after `--`, are passed to both binaries' locate (e.g. `--parting-line longest`).
 
 Standard library only.
 """
@@ -20,11 +22,15 @@ import subprocess
 import sys
 import time
 
-if len(sys.argv) < 6:
+argv, extra = sys.argv, []
+if "--" in argv:
+    argv, extra = argv[:argv.index("--")], argv[argv.index("--") + 1:]
+if len(argv) < 6:
     sys.exit(__doc__)
-rounds, part, demold, a, b = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
-floor = sys.argv[6] if len(sys.argv) > 6 else None
-cmds = {"base": [a, "locate", part, "--demold", demold], "new": [b, "locate", part, "--demold", demold]}
+rounds, part, demold, a, b = int(argv[1]), argv[2], argv[3], argv[4], argv[5]
+floor = argv[6] if len(argv) > 6 else None
+cmds = {"base": [a, "locate", part, "--demold", demold, *extra],
+        "new": [b, "locate", part, "--demold", demold, *extra]}
 if floor:
     cmds["floor"] = [floor, part]
 res = {k: [] for k in cmds}
