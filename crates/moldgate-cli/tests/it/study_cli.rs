@@ -230,7 +230,9 @@ fn the_time_line_includes_every_stage_that_ran() {
         f("total_s") >= 0.99 * (f("load_s") + longer + f("fill_s")),
         "{t}"
     );
-    assert!(f("total_s") <= own + f("tree_s") + 0.01, "{t}");
+    // The gaps between stages (threads waking, the join) grow with the machine's load: 2 %
+    // of the stages and 10 ms, far less than the tree and the gate search one after the other.
+    assert!(f("total_s") <= (own + f("tree_s")) * 1.02 + 0.01, "{t}");
 }
 
 #[test]
