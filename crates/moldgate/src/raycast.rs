@@ -391,87 +391,72 @@ impl Bvh {
         let mut t_max = ray.max_distance.min(f32::MAX as f64) as f32;
         let mut stack = [0u32; 64];
         let mut top = 0usize;
-        // The first start is searched first; the others wait on the stack.
-        for &k in starts.iter().skip(1).rev() {
+        // The starts wait on the stack, the first on top so that it is searched first.
+        for &k in starts.iter().rev() {
             stack[top] = k;
             top += 1;
         }
-        let Some(&first) = starts.first() else {
-            return;
-        };
-        let mut node = first;
-        if slab(self.node(first), oa, inv, t_min, t_max).is_none() {
-            loop {
+        'pop: loop {
+            // Pop the next box, skipping those now beyond the shortened ray.
+            let mut node = loop {
                 if top == 0 {
                     return;
                 }
                 top -= 1;
                 let candidate = stack[top];
                 if slab(self.node(candidate), oa, inv, t_min, t_max).is_some() {
-                    node = candidate;
-                    break;
+                    break candidate;
                 }
-            }
-        }
-        loop {
-            let n = self.node(node);
-            if n.count > 0 {
-                let first = n.link as usize;
-                for tri in &self.tris[first..first + n.count as usize] {
-                    let id = tri.id;
-                    if ray.skip == Some(id) {
-                        continue;
-                    }
-                    if let Some(t) = intersect(tri, o, d) {
-                        if t >= t_min && t <= t_max {
-                            match on_hit(Hit {
-                                triangle: id,
-                                distance: t as f64,
-                            }) {
-                                Some(limit) => t_max = limit as f32,
-                                None => return,
+            };
+            loop {
+                let n = self.node(node);
+                if n.count > 0 {
+                    let first = n.link as usize;
+                    for tri in &self.tris[first..first + n.count as usize] {
+                        let id = tri.id;
+                        if ray.skip == Some(id) {
+                            continue;
+                        }
+                        if let Some(t) = intersect(tri, o, d) {
+                            if t >= t_min && t <= t_max {
+                                match on_hit(Hit {
+                                    triangle: id,
+                                    distance: t as f64,
+                                }) {
+                                    Some(limit) => t_max = limit as f32,
+                                    None => return,
+                                }
                             }
                         }
                     }
-                }
-            } else {
-                let left = n.link;
-                let right = left + 1;
-                let [l, r] = &self.pairs[(left >> 1) as usize].0;
-                let tl = slab(l, oa, inv, t_min, t_max);
-                let tr = slab(r, oa, inv, t_min, t_max);
-                match (tl, tr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (left, right) } else { (right, left) };
-                        if top < stack.len() {
-                            stack[top] = far;
-                            top += 1;
+                } else {
+                    let left = n.link;
+                    let right = left + 1;
+                    let [l, r] = &self.pairs[(left >> 1) as usize].0;
+                    let tl = slab(l, oa, inv, t_min, t_max);
+                    let tr = slab(r, oa, inv, t_min, t_max);
+                    match (tl, tr) {
+                        (Some(a), Some(b)) => {
+                            let (near, far) = if a <= b { (left, right) } else { (right, left) };
+                            if top < stack.len() {
+                                stack[top] = far;
+                                top += 1;
+                            }
+                            node = near;
+                            continue;
                         }
-                        node = near;
-                        continue;
+                        (Some(_), None) => {
+                            node = left;
+                            continue;
+                        }
+                        (None, Some(_)) => {
+                            node = right;
+                            continue;
+                        }
+                        (None, None) => {}
                     }
-                    (Some(_), None) => {
-                        node = left;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = right;
-                        continue;
-                    }
-                    (None, None) => {}
                 }
-            }
-            // Pop the next box, skipping those now beyond the shortened ray.
-            loop {
-                if top == 0 {
-                    return;
-                }
-                top -= 1;
-                let candidate = stack[top];
-                if slab(self.node(candidate), oa, inv, t_min, t_max).is_some() {
-                    node = candidate;
-                    break;
-                }
+                continue 'pop;
             }
         }
     }

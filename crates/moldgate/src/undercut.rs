@@ -154,17 +154,7 @@ impl<'a> Surface<'a> {
                 (points, counts)
             })
             .collect();
-        let mut points = Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum());
-        let mut first = Vec::with_capacity(n + 1);
-        for (p, counts) in blocks {
-            let mut at = points.len();
-            for c in counts {
-                first.push(at);
-                at += c as usize;
-            }
-            points.extend(p);
-        }
-        first.push(points.len());
+        let (points, first) = join_blocks(blocks, n);
         let area = sum_blocks(n, |t| facets[t].map_or((0.0, 0.0), |(a, _)| (a, a))).area_mm2;
         let areas: Vec<f64> = facets
             .par_iter()
@@ -280,18 +270,7 @@ impl<'a> Surface<'a> {
                 (rays, counts)
             })
             .collect();
-        let mut rays = Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum());
-        let mut first = Vec::with_capacity(count + 1);
-        for (r, counts) in blocks {
-            let mut at = rays.len();
-            for c in counts {
-                first.push(at);
-                at += c as usize;
-            }
-            rays.extend(r);
-        }
-        first.push(rays.len());
-        (rays, first)
+        join_blocks(blocks, count)
     }
 
     /// A lower bound of the undercut area along `d`: the rays of the largest facets only
@@ -758,6 +737,23 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
         }
     }
     ([a[0][0], a[1][1], a[2][2]], v)
+}
+
+/// Joins blocks of items, each with the count of items of every one of its `n` entries in
+/// all, into one array and the offsets of each entry's run in it (`n + 1` of them).
+fn join_blocks<T>(blocks: Vec<(Vec<T>, Vec<u32>)>, n: usize) -> (Vec<T>, Vec<usize>) {
+    let mut items = Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum());
+    let mut first = Vec::with_capacity(n + 1);
+    for (block, counts) in blocks {
+        let mut at = items.len();
+        for c in counts {
+            first.push(at);
+            at += c as usize;
+        }
+        items.extend(block);
+    }
+    first.push(items.len());
+    (items, first)
 }
 
 #[cfg(test)]

@@ -1038,9 +1038,6 @@ pub fn several_gates(
     // Which cells hold a candidate the search may still take: the nearest of them to a far
     // point is needed, not the whole field from it.
     let mut open = vec![false; v.len()];
-    for &i in &pool {
-        open[candidates[i].cell as usize] = true;
-    }
     while chosen.len() < k {
         for &i in &pool {
             open[candidates[i].cell as usize] = !chosen.contains(&i);
