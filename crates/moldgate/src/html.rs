@@ -550,7 +550,12 @@ fn fill_table(h: &mut String, r: &Report) {
          <th>pressure (Eq. 1)</th><th>fill time (estimate)</th><th>wall across at the gate</th></tr>"
     );
     if let Some(p) = &f.paper {
-        let _ = writeln!(h, "<tr><th>paper gate</th>{}</tr>", fill_cells(p));
+        // The fill of the answer's gate: the parting-line gate in aesthetic mode.
+        let label = match r.options.mode {
+            crate::GateMode::Paper => "paper gate",
+            crate::GateMode::Aesthetic => "parting-line gate",
+        };
+        let _ = writeln!(h, "<tr><th>{label}</th>{}</tr>", fill_cells(p));
     }
     if let Some(b) = &f.balanced {
         let label = if b.is_paper_gate {

@@ -266,3 +266,24 @@ fn the_html_report_shows_the_fill() {
         assert!(readable.contains(needle), "{needle}");
     }
 }
+
+/// In aesthetic mode the fill table's first row is the parting-line gate's fill (the answer),
+/// named as such, not as the paper gate.
+#[test]
+fn the_html_fill_table_names_the_parting_line_gate_in_aesthetic_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("r.html");
+    let out = moldgate(&[
+        "locate",
+        "--sample",
+        "cover",
+        "--fill",
+        "--aesthetic",
+        "--report",
+        page.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("<tr><th>parting-line gate</th>"));
+    assert!(!html.contains("<tr><th>paper gate</th>"));
+}
