@@ -514,6 +514,25 @@ pub fn auto_direction_checked(
     sampling: Sampling,
     mut gate_qualifies: impl FnMut(Direction) -> bool,
 ) -> Result<AutoDemold, DemoldError> {
+    auto_direction_beside(mesh, sampling, |_| (), |d, _| gate_qualifies(d)).map(|(auto, _)| auto)
+}
+
+/// [`auto_direction_checked`] that also runs `beside` along the first line it draws ray by
+/// ray, at the same time as those rays, and hands back that line with what `beside` gave.
+///
+/// The first line drawn ray by ray is the one of least lower bound, which is the one
+/// chosen unless another line's bound was loose enough to tie with it: a caller that
+/// needs the work of `beside` along the chosen line (the command line's `locate`) starts it
+/// early, and its sequential steps fill the time the rays leave a thread idle. When the
+/// tie-break asks about that line, `gate_qualifies` gets what `beside` gave for it
+/// (`Some`), else `None`. The choice and every undercut are those of
+/// [`auto_direction_checked`]: `beside` reads nothing of the rays.
+pub fn auto_direction_beside<T: Send>(
+    mesh: &Mesh,
+    sampling: Sampling,
+    beside: impl Fn(Direction) -> T + Sync,
+    mut gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
+) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
     let centres = Centres::of(mesh);
     if !(centres.area_mm2.is_finite() && centres.area_mm2 > 0.0) {
         return Err(DemoldError::NothingToEvaluate);
@@ -576,6 +595,8 @@ pub fn auto_direction_checked(
     // more than the tie. A line left out has an undercut at least its bound, so it is neither
     // the least nor tied with it: the choice is the one every line drawn would give.
     let mut level = vec![0; tried.len()];
+    // The first line drawn ray by ray, and what `beside` gave along it.
+    let mut early: Option<(Direction, T)> = None;
     loop {
         let least = tried
             .iter()
@@ -602,7 +623,14 @@ pub fn auto_direction_checked(
                 tried[i].undercut = bound;
             }
         } else {
-            tried[i].undercut = surface.undercut(d);
+            tried[i].undercut = match early {
+                None => {
+                    let (undercut, done) = rayon::join(|| surface.undercut(d), || beside(d));
+                    early = Some((d, done));
+                    undercut
+                }
+                Some(_) => surface.undercut(d),
+            };
             tried[i].evaluated = true;
         }
     }
@@ -622,9 +650,9 @@ pub fn auto_direction_checked(
     let mut chosen = tied[0];
     if tied.len() > 1 {
         for &i in &tied {
-            let ok = gate_qualifies(
-                Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line"),
-            );
+            let d = Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
+            let done = early.as_ref().filter(|(e, _)| *e == d).map(|(_, t)| t);
+            let ok = gate_qualifies(d, done);
             tried[i].gate_qualifies = Some(ok);
             if ok {
                 chosen = i;
@@ -632,11 +660,14 @@ pub fn auto_direction_checked(
             }
         }
     }
-    Ok(AutoDemold {
-        chosen,
-        tried,
-        tie_mm2: tie,
-    })
+    Ok((
+        AutoDemold {
+            chosen,
+            tried,
+            tie_mm2: tie,
+        },
+        early,
+    ))
 }
 
 /// Principal axes of the surface: unit eigenvectors of the area-weighted covariance of its

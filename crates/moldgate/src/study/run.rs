@@ -12,7 +12,7 @@ use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
 use crate::study::{judge, Demold, Hooks, Settings, Stage, StudyError};
 use crate::thickness::{wall_thickness_with, ThicknessOptions, WallThickness};
-use crate::undercut::auto_direction_checked;
+use crate::undercut::auto_direction_beside;
 
 /// One gate of the answer, as pictures and 3D files show it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,27 +93,49 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         (None, 0.0, None)
     };
     let mut demold_s = None;
-    let auto = match auto_demold {
+    // Whether the gate was located inside the choice of the direction (beside its rays).
+    let mut located_beside = false;
+    let (auto, located) = match auto_demold {
         true => {
             enter(Stage::Demold)?;
             let t = Instant::now();
-            // Lines still tied after the shallowest draw go to one on which a gate qualifies.
-            let gate_qualifies = |d| {
+            let locate_along = |d| {
                 let o = crate::LocateOptions {
                     direction: d,
                     ..options.clone()
                 };
-                crate::locate(part, &o).is_ok_and(|a| a.gate().is_ok())
+                crate::locate(part, &o)
             };
-            let auto = auto_direction_checked(mesh, Sampling::Centroid, gate_qualifies)
-                .map_err(StudyError::Demold)?;
+            // Lines still tied after the shallowest draw go to one on which a gate
+            // qualifies; the line located beside the rays is not located again.
+            let gate_qualifies = |d, done: Option<&Result<Analysis, _>>| match done {
+                Some(located) => located.as_ref().is_ok_and(|a| a.gate().is_ok()),
+                None => locate_along(d).is_ok_and(|a| a.gate().is_ok()),
+            };
+            // The gate along the first line drawn ray by ray (nearly always the one chosen)
+            // is located while its rays are drawn: locate does not depend on them, and the
+            // two together keep both threads busy. Along another line it is located again.
+            let (auto, early) =
+                auto_direction_beside(mesh, Sampling::Centroid, locate_along, gate_qualifies)
+                    .map_err(StudyError::Demold)?;
             demold_s = Some(t.elapsed().as_secs_f64());
             options.direction = auto.direction();
-            Some(auto)
+            let located = match early {
+                Some((d, located)) if d == options.direction => {
+                    located_beside = true;
+                    Some(located)
+                }
+                _ => located,
+            };
+            (Some(auto), located)
         }
-        false => None,
+        false => (None, located),
     };
     let located = match located {
+        Some(located) if located_beside => {
+            enter(Stage::Locate)?;
+            located
+        }
         Some(located) => located,
         None => {
             enter(Stage::Locate)?;
@@ -204,7 +226,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     }
     if let Some(d) = demold_s {
         report.timings.demold_s = Some(d);
-        report.timings.total_s += d;
+        // Located inside the choice, the gate's time is part of the choice's: only what
+        // the choice took beyond it is added.
+        report.timings.total_s += match located_beside {
+            true => (d - locate_total_s).max(0.0),
+            false => d,
+        };
     }
     // An aesthetic gate's normal is the nearest triangle's, found in a tree: built here when
     // the automatic direction (which used to build one) needed none.

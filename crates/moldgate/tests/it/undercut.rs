@@ -242,3 +242,109 @@ fn drawn_rays_agree_with_traced_rays_on_every_sample() {
         }
     }
 }
+
+/// `mesh` with every triangle split `times` times into four at its edges' midpoints (the
+/// midpoints are not welded: the rays of the undercut rule read triangles, not their
+/// neighbours), so that the choice's bounds leave lines out.
+fn subdivided(mesh: &moldgate::mesh::Mesh, times: u32) -> moldgate::mesh::Mesh {
+    let mut corners: Vec<[DVec3; 3]> = (0..mesh.triangles.len())
+        .map(|t| mesh.corners(t))
+        .collect();
+    for _ in 0..times {
+        corners = corners
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let (ab, bc, ca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
+                [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    moldgate::mesh::Mesh {
+        vertices: corners.iter().flatten().copied().collect(),
+        triangles: (0..corners.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect(),
+    }
+}
+
+#[test]
+fn the_work_beside_the_rays_runs_once_along_the_first_line_drawn_and_changes_nothing() {
+    // The block with a side pocket, finely split: more facets than the bounds draw, so
+    // lines are drawn ray by ray after their bounds, the chosen one (+x, free of undercut,
+    // the least bound) first, with `beside` along it, and only it.
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [40.0, 40.0, 20.0]);
+    part.subtract([30.0, 10.0, 7.0], [40.0, 30.0, 13.0]);
+    let mesh = subdivided(&part.mesh(), 4);
+    assert!(mesh.triangles.len() > 8192, "{}", mesh.triangles.len());
+    let plain = auto_direction(&mesh, Sampling::Centroid).unwrap();
+    assert_eq!(plain.candidate().direction, [1.0, 0.0, 0.0], "{plain:#?}");
+    let calls = std::sync::Mutex::new(Vec::new());
+    let (auto, early) = moldgate::undercut::auto_direction_beside(
+        &mesh,
+        Sampling::Centroid,
+        |d| {
+            calls.lock().unwrap().push(d);
+            d.vector().to_array()
+        },
+        |_, _| true,
+    )
+    .unwrap();
+    assert_eq!(auto, plain);
+    assert_eq!(*calls.lock().unwrap(), [auto.direction()]);
+    assert_eq!(early, Some((auto.direction(), [1.0, 0.0, 0.0])));
+}
+
+#[test]
+fn a_tie_break_reads_the_work_beside_the_rays_for_its_line_only() {
+    // A finely split 40 x 30 x 10 box: every axis free of undercut, so every line is drawn
+    // (the first one, x, with `beside`), and the shallowest draw (z) wins without a gate
+    // check. A cube asks the check about the axes in order until one qualifies, and only the
+    // question about the first line drawn comes with the work done beside its rays.
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [40.0, 30.0, 10.0]);
+    let mesh = subdivided(&part.mesh(), 6);
+    assert!(mesh.triangles.len() > 8192, "{}", mesh.triangles.len());
+    let (auto, early) = moldgate::undercut::auto_direction_beside(
+        &mesh,
+        Sampling::Centroid,
+        |d| d.vector().x,
+        |_, _| panic!("the extents break the tie"),
+    )
+    .unwrap();
+    assert_eq!(auto.candidate().direction[2].abs(), 1.0, "{auto:#?}");
+    let (first, x) = early.unwrap();
+    assert_eq!(first.vector().x.abs(), 1.0);
+    assert_eq!(x, first.vector().x);
+
+    let mut part = BoxUnion::default();
+    part.add([0.0, 0.0, 0.0], [20.0, 20.0, 20.0]);
+    let mesh = subdivided(&part.mesh(), 6);
+    let mut asked = Vec::new();
+    let (auto, early) = moldgate::undercut::auto_direction_beside(
+        &mesh,
+        Sampling::Centroid,
+        |d| d.vector().to_array(),
+        |d, done| {
+            asked.push((d.vector().to_array(), done.copied()));
+            d.vector().z.abs() == 1.0
+        },
+    )
+    .unwrap();
+    let checked =
+        moldgate::undercut::auto_direction_checked(&mesh, Sampling::Centroid, |d| {
+            d.vector().z.abs() == 1.0
+        })
+        .unwrap();
+    assert_eq!(auto, checked);
+    assert_eq!(auto.candidate().direction[2].abs(), 1.0, "{auto:#?}");
+    let (first, _) = early.unwrap();
+    assert_eq!(asked.len(), 3, "{asked:?}");
+    for (d, done) in &asked {
+        let is_first = *d == first.vector().to_array();
+        assert_eq!(done.is_some(), is_first, "{d:?}");
+        if let Some(done) = done {
+            assert_eq!(done, d);
+        }
+    }
+}
