@@ -231,7 +231,9 @@ pub struct Timings {
     /// The ray-casting tree (automatic direction, wall thickness, fill), when built.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tree_s: Option<f64>,
-    /// The automatic demolding direction, when chosen.
+    /// The automatic demolding direction, when chosen. The gate along the first line drawn
+    /// ray by ray is located inside it; when that line is chosen, `total_s` counts only the
+    /// time the choice ran past that locate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub demold_s: Option<f64>,
     /// The wall thickness everywhere, when measured.

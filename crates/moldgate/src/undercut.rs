@@ -51,6 +51,11 @@
 //! lines left out report their bound ([`Candidate::evaluated`] is false: "at least").
 //! On the 352k-triangle housing, five of its six lines stop at a bound.
 //!
+//! **Work beside the rays.** The first line drawn ray by ray is the one of least bound, the
+//! one chosen unless a looser bound ties with it: [`auto_direction_beside`] runs a caller's
+//! work along it (the study's `locate`) at the same time as its rays, so that the gate of
+//! the chosen line is found while it is drawn, not after.
+//!
 //! **Sign.** D and -D mould alike, so the sign follows the project's convention (the shared
 //! parts' `SOURCES.md`): D points to the open or core side, which is the side away from the
 //! bulk of the material. It is the sign for which the box centre lies ahead of the volume

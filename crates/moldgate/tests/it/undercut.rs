@@ -247,9 +247,7 @@ fn drawn_rays_agree_with_traced_rays_on_every_sample() {
 /// midpoints are not welded: the rays of the undercut rule read triangles, not their
 /// neighbours), so that the choice's bounds leave lines out.
 fn subdivided(mesh: &moldgate::mesh::Mesh, times: u32) -> moldgate::mesh::Mesh {
-    let mut corners: Vec<[DVec3; 3]> = (0..mesh.triangles.len())
-        .map(|t| mesh.corners(t))
-        .collect();
+    let mut corners: Vec<[DVec3; 3]> = (0..mesh.triangles.len()).map(|t| mesh.corners(t)).collect();
     for _ in 0..times {
         corners = corners
             .iter()
@@ -331,11 +329,10 @@ fn a_tie_break_reads_the_work_beside_the_rays_for_its_line_only() {
         },
     )
     .unwrap();
-    let checked =
-        moldgate::undercut::auto_direction_checked(&mesh, Sampling::Centroid, |d| {
-            d.vector().z.abs() == 1.0
-        })
-        .unwrap();
+    let checked = moldgate::undercut::auto_direction_checked(&mesh, Sampling::Centroid, |d| {
+        d.vector().z.abs() == 1.0
+    })
+    .unwrap();
     assert_eq!(auto, checked);
     assert_eq!(auto.candidate().direction[2].abs(), 1.0, "{auto:#?}");
     let (first, _) = early.unwrap();
