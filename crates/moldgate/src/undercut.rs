@@ -52,9 +52,10 @@
 //! On the 352k-triangle housing, five of its six lines stop at a bound.
 //!
 //! **Work beside the rays.** The first line drawn ray by ray is the one of least bound, the
-//! one chosen unless a looser bound ties with it: [`auto_direction_beside`] runs a caller's
-//! work along it (the study's `locate`) at the same time as its rays, so that the gate of
-//! the chosen line is found while it is drawn, not after.
+//! one chosen unless another ties with it: [`auto_direction_beside`] runs a caller's work
+//! (the study's `locate`) at the same time as its rays, along it or along a shallower line
+//! whose bound may tie with it, so that the gate of the chosen line is found while the
+//! rays are drawn, not after.
 //!
 //! **Sign.** D and -D mould alike, so the sign follows the project's convention (the shared
 //! parts' `SOURCES.md`): D points to the open or core side, which is the side away from the
@@ -522,15 +523,17 @@ pub fn auto_direction_checked(
     auto_direction_beside(mesh, sampling, |_| (), |d, _| gate_qualifies(d)).map(|(auto, _)| auto)
 }
 
-/// [`auto_direction_checked`] that also runs `beside` along the first line it draws ray by
-/// ray, at the same time as those rays, and hands back that line with what `beside` gave.
+/// [`auto_direction_checked`] that also runs `beside` once, along the likeliest choice,
+/// at the same time as the rays of the first line it draws ray by ray, and hands back that
+/// line with what `beside` gave.
 ///
 /// The first line drawn ray by ray is the one of least lower bound, which is the one
-/// chosen unless another line's bound was loose enough to tie with it: a caller that
-/// needs the work of `beside` along the chosen line (the command line's `locate`) starts it
-/// early, and its sequential steps fill the time the rays leave a thread idle. When the
-/// tie-break asks about that line, `gate_qualifies` gets what `beside` gave for it
-/// (`Some`), else `None`. The choice and every undercut are those of
+/// chosen unless another line ties with it; the likeliest choice is that line, or among
+/// the lines whose bounds are within the tie of its bound the one the tie-break would take
+/// (the shallowest draw). A caller that needs the work of `beside` along the chosen line
+/// (the study's `locate`) starts it early, and its sequential steps fill the time the rays
+/// leave a thread idle. When the tie-break asks about that line, `gate_qualifies` gets what
+/// `beside` gave for it (`Some`), else `None`. The choice and every undercut are those of
 /// [`auto_direction_checked`]: `beside` reads nothing of the rays.
 pub fn auto_direction_beside<T: Send>(
     mesh: &Mesh,
@@ -600,7 +603,8 @@ pub fn auto_direction_beside<T: Send>(
     // more than the tie. A line left out has an undercut at least its bound, so it is neither
     // the least nor tied with it: the choice is the one every line drawn would give.
     let mut level = vec![0; tried.len()];
-    // The first line drawn ray by ray, and what `beside` gave along it.
+    // The line `beside` worked along, beside the first line drawn ray by ray, and what it
+    // gave.
     let mut early: Option<(Direction, T)> = None;
     loop {
         let least = tried
@@ -630,8 +634,11 @@ pub fn auto_direction_beside<T: Send>(
         } else {
             tried[i].undercut = match early {
                 None => {
-                    let (undercut, done) = rayon::join(|| surface.undercut(d), || beside(d));
-                    early = Some((d, done));
+                    let likeliest = likeliest_choice(&tried, i, tie);
+                    let along = Direction::new(DVec3::from_array(tried[likeliest].direction))
+                        .expect("unit line");
+                    let (undercut, done) = rayon::join(|| surface.undercut(d), || beside(along));
+                    early = Some((along, done));
                     undercut
                 }
                 Some(_) => surface.undercut(d),
@@ -673,6 +680,26 @@ pub fn auto_direction_beside<T: Send>(
         },
         early,
     ))
+}
+
+/// The line [`auto_direction_beside`] works along while line `first`, the line of least
+/// bound, is drawn ray by ray: the one the tie-break would take if every line whose bound
+/// is within the tie of `first`'s tied with it (the shallowest draw, extents within
+/// [`TIE_SHARE`] equal, then the order tried). It is `first` but where a shallower line's
+/// bound is as low, as on a flat tile whose thickness and length tie in undercut.
+fn likeliest_choice(tried: &[Candidate], first: usize, tie: f64) -> usize {
+    let bound = tried[first].undercut.area_mm2;
+    let may_tie: Vec<usize> = (0..tried.len())
+        .filter(|&j| tried[j].undercut.area_mm2 <= bound + tie)
+        .collect();
+    let shallowest = may_tie
+        .iter()
+        .map(|&j| tried[j].extent_mm)
+        .fold(f64::INFINITY, f64::min);
+    may_tie
+        .into_iter()
+        .find(|&j| tried[j].extent_mm <= shallowest * (1.0 + TIE_SHARE))
+        .unwrap_or(first)
 }
 
 /// Principal axes of the surface: unit eigenvectors of the area-weighted covariance of its

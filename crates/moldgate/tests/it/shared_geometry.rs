@@ -508,3 +508,39 @@ fn demold_auto_matches_the_table_of_the_shared_parts() {
         "{checked} checked, {skipped} skipped"
     );
 }
+
+#[test]
+fn demold_auto_works_beside_the_rays_of_the_line_it_chooses() {
+    // The study locates the gate along the likeliest choice, beside the rays of the first
+    // line drawn ray by ray, and again only when another line is chosen. On the shared
+    // parts the choice is that of `auto_direction`, and the likeliest choice is the one
+    // chosen on every part that draws a line ray by ray after its bound (on the smallest
+    // parts every bound is the undercut itself, and nothing runs beside), the flat tile
+    // too, whose length and thickness tie.
+    let test = "demold_auto_works_beside_the_rays_of_the_line_it_chooses";
+    if parts_dir().is_none() {
+        return skip(test);
+    }
+    let mut chosen = Vec::new();
+    for (file, _) in PARTS {
+        let part = load(file);
+        let plain = auto_direction(&part.mesh, Sampling::Centroid).unwrap();
+        let (auto, early) = moldgate::undercut::auto_direction_beside(
+            &part.mesh,
+            Sampling::Centroid,
+            |d| d,
+            |_, _| true,
+        )
+        .unwrap();
+        assert_eq!(auto, plain, "{file}");
+        let Some((d, done)) = early else { continue };
+        assert_eq!(d, done, "{file}");
+        assert_eq!(d, auto.direction(), "{file}: {auto:#?}");
+        chosen.push(file);
+    }
+    println!("located beside the rays along the line chosen: {chosen:?}");
+    assert!(
+        !chosen.is_empty(),
+        "no part drew a line ray by ray: the test shows nothing"
+    );
+}
