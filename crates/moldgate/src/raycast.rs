@@ -983,29 +983,28 @@ fn split_few(
     }
     let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
     for &axis in axes {
-        // The items' (bin, index) in the order of their bins.
-        let mut order = [(0u8, 0u8); FEW_ITEMS];
-        for (k, o) in order[..n].iter_mut().enumerate() {
-            *o = (of_item[k][axis], k as u8);
+        // Each bin's box and count, and a mask of the occupied bins; then the occupied
+        // bins in order, as groups.
+        let mut boxes = [Bounds::EMPTY; BINS];
+        let mut counts = [0u32; BINS];
+        let mut occupied = 0u32;
+        for (b, it) in of_item[..n].iter().zip(items.iter()) {
+            let b = b[axis] as usize;
+            boxes[b].grow(Vec3A::from(it.min), Vec3A::from(it.max));
+            counts[b] += 1;
+            occupied |= 1 << b;
         }
-        let order = &mut order[..n];
-        order.sort_unstable();
-        // The occupied bins: each one's bin, box and count.
-        let mut groups = [(0u8, Bounds::EMPTY, 0u32); FEW_ITEMS];
+        let mut groups = [(0u8, Bounds::EMPTY, 0u32); BINS];
         let mut m = 0;
-        for &(b, k) in order.iter() {
-            if m == 0 || groups[m - 1].0 != b {
-                groups[m] = (b, Bounds::EMPTY, 0);
-                m += 1;
-            }
-            let g = &mut groups[m - 1];
-            let it = &items[k as usize];
-            g.1.grow(Vec3A::from(it.min), Vec3A::from(it.max));
-            g.2 += 1;
+        while occupied != 0 {
+            let b = occupied.trailing_zeros() as usize;
+            occupied &= occupied - 1;
+            groups[m] = (b as u8, boxes[b], counts[b]);
+            m += 1;
         }
         let groups = &groups[..m];
-        let mut right_area = [0f32; FEW_ITEMS];
-        let mut right_count = [0u32; FEW_ITEMS];
+        let mut right_area = [0f32; BINS];
+        let mut right_count = [0u32; BINS];
         let (mut acc, mut count) = (Bounds::EMPTY, 0u32);
         for g in (1..m).rev() {
             acc.grow(groups[g].1.min, groups[g].1.max);
