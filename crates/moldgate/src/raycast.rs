@@ -843,14 +843,65 @@ fn split(
     let axes = &axes_of[..n_axes];
     let lo = centres.min;
     let scale = Vec3A::splat(BINS as f32) / extent;
-    let bin_of = |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as usize).min(BINS - 1);
+    if items.len() <= FEW_ITEMS {
+        split_few(items, bounds, axes, lo, scale)
+    } else {
+        split_binned(items, bounds, axes, lo, scale)
+    }
+}
+
+/// [`split`] by a full set of bins per axis.
+fn split_binned(
+    items: &mut [Item],
+    bounds: &Bounds,
+    axes: &[usize],
+    lo: Vec3A,
+    scale: Vec3A,
+) -> Option<(usize, Option<(Extent, Extent)>)> {
+    let n_axes = axes.len();
+    // The bin of a centre along an axis. A centre lies at or above `lo` and at most a
+    // rounding above `lo + extent`, so the scaled offset is in [0, BINS + 1) and its
+    // conversion to `i32` is the conversion to `usize` the split was first written with,
+    // without the latter's range handling.
+    let bin_of =
+        |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as i32).min(BINS as i32 - 1) as usize;
     let mut bins = [[Extent::EMPTY; BINS]; 3];
-    let mut counts = [[0usize; BINS]; 3];
-    for it in items.iter() {
-        for &axis in axes {
-            let b = bin_of(axis, it.centre[axis]);
-            bins[axis][b].add(it);
-            counts[axis][b] += 1;
+    let mut counts = [[0u32; BINS]; 3];
+    if items.len() >= WIDE_BINNING && n_axes == 3 {
+        // Neighbouring items mostly fall into the same bins, so one set of bins is a chain
+        // of dependent minima through memory; two sets, one for the even and one for the
+        // odd items, break it. Minima and maxima are exact, so their union is the one set.
+        let mut odd = [[Extent::EMPTY; BINS]; 3];
+        let mut pairs = items.chunks_exact(2);
+        for pair in &mut pairs {
+            let (p, q) = (&pair[0], &pair[1]);
+            let (bp, bq) = (bins_of(p, lo, scale), bins_of(q, lo, scale));
+            for axis in 0..3 {
+                bins[axis][bp[axis]].add(p);
+                odd[axis][bq[axis]].add(q);
+                counts[axis][bp[axis]] += 1;
+                counts[axis][bq[axis]] += 1;
+            }
+        }
+        for it in pairs.remainder() {
+            let b = bins_of(it, lo, scale);
+            for axis in 0..3 {
+                bins[axis][b[axis]].add(it);
+                counts[axis][b[axis]] += 1;
+            }
+        }
+        for (set, other) in bins.iter_mut().zip(&odd) {
+            for (e, o) in set.iter_mut().zip(other) {
+                e.join(o);
+            }
+        }
+    } else {
+        for it in items.iter() {
+            for &axis in axes {
+                let b = bin_of(axis, it.centre[axis]);
+                bins[axis][b].add(it);
+                counts[axis][b] += 1;
+            }
         }
     }
     let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
@@ -859,8 +910,8 @@ fn split(
         // Sweep from the right, then from the left, to price every plane between bins.
         let mut right_area = [0f32; BINS];
         let mut acc = Bounds::EMPTY;
-        let mut n = 0;
-        let mut right_count = [0usize; BINS];
+        let mut n = 0u32;
+        let mut right_count = [0u32; BINS];
         for b in (1..BINS).rev() {
             acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
             n += counts[b];
@@ -868,7 +919,7 @@ fn split(
             right_count[b] = n;
         }
         let mut acc = Bounds::EMPTY;
-        let mut n = 0;
+        let mut n = 0u32;
         for b in 0..BINS - 1 {
             acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
             n += counts[b];
@@ -893,17 +944,7 @@ fn split(
     }
     // Partition in place by the chosen plane, with the binning's own arithmetic.
     let cut = (((plane - lo[axis]) * scale[axis]).round()) as usize;
-    let mut i = 0;
-    let mut j = items.len();
-    while i < j {
-        let b = bin_of(axis, items[i].centre[axis]);
-        if b < cut {
-            i += 1;
-        } else {
-            j -= 1;
-            items.swap(i, j);
-        }
-    }
+    let i = partition(items, |it| bin_of(axis, it.centre[axis]) < cut);
     // The parts are the bins below and above the cut: their extents are the bins' unions.
     let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
     for (b, e) in bins[axis].iter().enumerate() {
@@ -914,6 +955,162 @@ fn split(
         }
     }
     (i > 0 && i < items.len()).then_some((i, Some((left, right))))
+}
+
+/// Items up to which a split prices only the planes after its occupied bins (see
+/// [`split_few`]): most nodes are this small, and for them emptying and sweeping every bin
+/// costs far more than binning the items.
+const FEW_ITEMS: usize = 32;
+
+/// [`split`] for a few items, with the same answer: the same plane, the same partition and
+/// the same extents, without a full set of bins.
+///
+/// Between two occupied bins every plane has the same cost (an empty bin changes neither
+/// side's box nor its count), and the full sweep keeps the first of equal costs, which is
+/// the plane just after an occupied bin. So pricing only those planes, in the same order
+/// and with the same arithmetic (unions of the same boxes are exact), picks the same one.
+fn split_few(
+    items: &mut [Item],
+    bounds: &Bounds,
+    axes: &[usize],
+    lo: Vec3A,
+    scale: Vec3A,
+) -> Option<(usize, Option<(Extent, Extent)>)> {
+    let n = items.len();
+    let mut of_item = [[0u8; 3]; FEW_ITEMS];
+    for (b, it) in of_item.iter_mut().zip(items.iter()) {
+        *b = bins_of(it, lo, scale).map(|b| b as u8);
+    }
+    let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
+    for &axis in axes {
+        // Each bin's box and count, and a mask of the occupied bins; then the occupied
+        // bins in order, as groups.
+        let mut boxes = [Bounds::EMPTY; BINS];
+        let mut counts = [0u32; BINS];
+        let mut occupied = 0u32;
+        for (b, it) in of_item[..n].iter().zip(items.iter()) {
+            let b = b[axis] as usize;
+            boxes[b].grow(Vec3A::from(it.min), Vec3A::from(it.max));
+            counts[b] += 1;
+            occupied |= 1 << b;
+        }
+        let mut groups = [(0u8, Bounds::EMPTY, 0u32); BINS];
+        let mut m = 0;
+        while occupied != 0 {
+            let b = occupied.trailing_zeros() as usize;
+            occupied &= occupied - 1;
+            groups[m] = (b as u8, boxes[b], counts[b]);
+            m += 1;
+        }
+        let groups = &groups[..m];
+        let mut right_area = [0f32; BINS];
+        let mut right_count = [0u32; BINS];
+        let (mut acc, mut count) = (Bounds::EMPTY, 0u32);
+        for g in (1..m).rev() {
+            acc.grow(groups[g].1.min, groups[g].1.max);
+            count += groups[g].2;
+            right_area[g] = acc.half_area();
+            right_count[g] = count;
+        }
+        let (mut acc, mut count) = (Bounds::EMPTY, 0u32);
+        for g in 0..m.saturating_sub(1) {
+            acc.grow(groups[g].1.min, groups[g].1.max);
+            count += groups[g].2;
+            let (nl, nr) = (count, right_count[g + 1]);
+            let cost = acc.half_area() * nl as f32 + right_area[g + 1] * nr as f32;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                let b = groups[g].0 as usize;
+                let plane = lo[axis] + (b + 1) as f32 / scale[axis];
+                best = Some((cost, axis, plane));
+            }
+        }
+    }
+    let Some((cost, axis, plane)) = best else {
+        // Centres all equal: halve the list so that leaves stay small.
+        return (n > LEAF_SIZE).then_some((n / 2, None));
+    };
+    let leaf_cost = bounds.half_area() * n as f32;
+    if cost >= leaf_cost && n <= 4 * LEAF_SIZE {
+        return None;
+    }
+    let cut = (((plane - lo[axis]) * scale[axis]).round()) as usize;
+    // The sides by the bins already found (the same arithmetic as `split`'s partition).
+    let mut goes_left = [false; FEW_ITEMS];
+    for (g, b) in goes_left.iter_mut().zip(&of_item[..n]) {
+        *g = (b[axis] as usize) < cut;
+    }
+    let i = partition_by(items, &goes_left[..n]);
+    // The parts' extents: the union over their items is the union over their bins.
+    let left = Extent::of(&items[..i]);
+    let right = Extent::of(&items[i..]);
+    (i > 0 && i < n).then_some((i, Some((left, right))))
+}
+
+/// Items from which a split bins into two sets of bins (see [`split`]): below this the
+/// second set's emptying costs more than it saves.
+const WIDE_BINNING: usize = 256;
+
+/// The bins of an item's centre along the three axes, as [`split`]'s `bin_of` gives them
+/// (the same lane-wise arithmetic, so the same bins).
+#[inline]
+fn bins_of(it: &Item, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
+    let f = (Vec3A::from(it.centre) - lo) * scale;
+    let last = BINS as i32 - 1;
+    [
+        (f.x as i32).min(last) as usize,
+        (f.y as i32).min(last) as usize,
+        (f.z as i32).min(last) as usize,
+    ]
+}
+
+/// Partitions `items` so that those for which `left` holds come first; returns how many do.
+///
+/// The order is that of the two-ended partition the tree was first built with (the item at
+/// the front stays when it goes left, else it is swapped with the last unexamined one), so
+/// the tree, its leaf order and the order of the triangles in a leaf do not change. That
+/// partition reads its items as a queue: the next is the one after the front when the
+/// present one went left, else the last. Sides are decided first for every item in a pass
+/// without branches, then the items are moved by selects in place of a branch that went
+/// either way at random.
+fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
+    let n = items.len();
+    let mut small = [false; 512];
+    let mut large = Vec::new();
+    let sides: &mut [bool] = if n <= small.len() {
+        &mut small[..n]
+    } else {
+        large.resize(n, false);
+        &mut large
+    };
+    for (s, it) in sides.iter_mut().zip(items.iter()) {
+        *s = left(it);
+    }
+    partition_by(items, sides)
+}
+
+/// [`partition`] with the sides decided: `sides[k]` tells whether the item at `k` goes left.
+fn partition_by(items: &mut [Item], sides: &[bool]) -> usize {
+    let n = items.len();
+    if n == 0 {
+        return 0;
+    }
+    // `i` and `j` bound the slots not yet written; the present item came from the queue's
+    // front or back and its slot is one of the free ones.
+    let (mut i, mut j) = (0usize, n);
+    let (mut present, mut side) = (items[0], sides[0]);
+    while i < j {
+        let (to, from) = if side { (i, i + 1) } else { (j - 1, j - 1) };
+        // The next item is read before the present one is written over it; past the end
+        // (the last item placed), any slot will do.
+        let from = from.min(n - 1);
+        let (next, next_side) = (items[from], sides[from]);
+        items[to] = present;
+        i += side as usize;
+        j -= !side as usize;
+        present = next;
+        side = next_side;
+    }
+    i
 }
 
 #[cfg(test)]
@@ -1166,5 +1363,193 @@ mod tests {
             .is_none());
         assert!(bvh.nearest_within(DVec3::ZERO, f64::NAN).is_none());
         assert!(bvh.nearest_within(DVec3::ZERO, -1.0).is_none());
+    }
+
+    /// The split as the tree was first built (one set of bins for every node, a branching
+    /// two-ended partition): the oracle of the faster one, which must build the same tree.
+    fn earlier_split(
+        items: &mut [Item],
+        bounds: &Bounds,
+        centres: &Bounds,
+    ) -> Option<(usize, Option<(Extent, Extent)>)> {
+        let extent = centres.max - centres.min;
+        let (mut axes_of, mut n_axes) = ([0usize; 3], 0);
+        for axis in 0..3 {
+            if extent[axis].partial_cmp(&0.0) == Some(Ordering::Greater) {
+                axes_of[n_axes] = axis;
+                n_axes += 1;
+            }
+        }
+        let axes = &axes_of[..n_axes];
+        let lo = centres.min;
+        let scale = Vec3A::splat(BINS as f32) / extent;
+        let bin_of = |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as usize).min(BINS - 1);
+        let mut bins = [[Extent::EMPTY; BINS]; 3];
+        let mut counts = [[0usize; BINS]; 3];
+        for it in items.iter() {
+            for &axis in axes {
+                let b = bin_of(axis, it.centre[axis]);
+                bins[axis][b].add(it);
+                counts[axis][b] += 1;
+            }
+        }
+        let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
+        for &axis in axes {
+            let (boxes, counts) = (&bins[axis], &counts[axis]);
+            // Sweep from the right, then from the left, to price every plane between bins.
+            let mut right_area = [0f32; BINS];
+            let mut acc = Bounds::EMPTY;
+            let mut n = 0;
+            let mut right_count = [0usize; BINS];
+            for b in (1..BINS).rev() {
+                acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
+                n += counts[b];
+                right_area[b] = acc.half_area();
+                right_count[b] = n;
+            }
+            let mut acc = Bounds::EMPTY;
+            let mut n = 0;
+            for b in 0..BINS - 1 {
+                acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
+                n += counts[b];
+                let (nl, nr) = (n, right_count[b + 1]);
+                if nl == 0 || nr == 0 {
+                    continue;
+                }
+                let cost = acc.half_area() * nl as f32 + right_area[b + 1] * nr as f32;
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    let plane = lo[axis] + (b + 1) as f32 / scale[axis];
+                    best = Some((cost, axis, plane));
+                }
+            }
+        }
+        let Some((cost, axis, plane)) = best else {
+            // Centres all equal: halve the list so that leaves stay small.
+            return (items.len() > LEAF_SIZE).then_some((items.len() / 2, None));
+        };
+        let leaf_cost = bounds.half_area() * items.len() as f32;
+        if cost >= leaf_cost && items.len() <= 4 * LEAF_SIZE {
+            return None;
+        }
+        // Partition in place by the chosen plane, with the binning's own arithmetic.
+        let cut = (((plane - lo[axis]) * scale[axis]).round()) as usize;
+        let mut i = 0;
+        let mut j = items.len();
+        while i < j {
+            let b = bin_of(axis, items[i].centre[axis]);
+            if b < cut {
+                i += 1;
+            } else {
+                j -= 1;
+                items.swap(i, j);
+            }
+        }
+        // The parts are the bins below and above the cut: their extents are the bins' unions.
+        let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
+        for (b, e) in bins[axis].iter().enumerate() {
+            if b < cut {
+                left.join(e);
+            } else {
+                right.join(e);
+            }
+        }
+        (i > 0 && i < items.len()).then_some((i, Some((left, right))))
+    }
+
+    /// Random items: boxes of random sizes, some centres repeated, some on one plane, so
+    /// that ties, empty bins and coincident centres all occur.
+    fn random_items(rng: &mut Rng, n: usize) -> Vec<Item> {
+        let flat = rng.next() < 0.2;
+        let mut items: Vec<Item> = Vec::with_capacity(n);
+        for id in 0..n {
+            let item = if id > 0 && rng.next() < 0.15 {
+                // A triangle repeated: the same box and centre.
+                Item {
+                    id: id as u32,
+                    ..items[(rng.next() * id as f64) as usize]
+                }
+            } else {
+                let c =
+                    DVec3::new(rng.next(), rng.next(), if flat { 0.5 } else { rng.next() }) * 100.0;
+                let half = DVec3::new(rng.next(), rng.next(), rng.next()) * 3.0;
+                let (min, max) = ((c - half).as_vec3(), (c + half).as_vec3());
+                Item {
+                    min,
+                    max,
+                    centre: (min + max) * 0.5,
+                    id: id as u32,
+                }
+            };
+            items.push(item);
+        }
+        items
+    }
+
+    fn same_extent(a: &Extent, b: &Extent) -> bool {
+        let bits = |e: &Extent| {
+            [e.bounds.min, e.bounds.max, e.centres.min, e.centres.max]
+                .map(|v| v.to_array().map(f32::to_bits))
+        };
+        bits(a) == bits(b)
+    }
+
+    #[test]
+    fn split_matches_the_earlier_split() {
+        let mut rng = Rng(0x5851_f42d_4c95_7f2d);
+        for round in 0..600 {
+            // Both sides of the few-items limit and of the two sets of bins.
+            let n = match round % 4 {
+                0 => 5 + (rng.next() * (FEW_ITEMS - 4) as f64) as usize,
+                1 => FEW_ITEMS + 1 + (rng.next() * 100.0) as usize,
+                2 => WIDE_BINNING - 2 + (rng.next() * 5.0) as usize,
+                _ => 300 + (rng.next() * 3000.0) as usize,
+            };
+            let mut a = random_items(&mut rng, n);
+            let mut b = a.clone();
+            let Extent { bounds, centres } = Extent::of(&a);
+            let new = split(&mut a, &bounds, &centres);
+            let old = earlier_split(&mut b, &bounds, &centres);
+            match (new, old) {
+                (None, None) => {}
+                (Some((i, None)), Some((j, None))) => assert_eq!(i, j, "round {round}"),
+                (Some((i, Some((l, r)))), Some((j, Some((m, s))))) => {
+                    assert_eq!(i, j, "round {round}");
+                    assert!(same_extent(&l, &m) && same_extent(&r, &s), "round {round}");
+                }
+                (new, old) => panic!(
+                    "round {round}: {:?} against {:?}",
+                    new.map(|x| x.0),
+                    old.map(|x| x.0)
+                ),
+            }
+            let ids = |v: &[Item]| v.iter().map(|i| i.id).collect::<Vec<_>>();
+            assert_eq!(ids(&a), ids(&b), "round {round}: the items' order");
+        }
+    }
+
+    #[test]
+    fn partition_keeps_the_two_ended_order() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        for n in (0..40).chain([511, 512, 513, 2000]) {
+            let items = random_items(&mut rng, n.max(1))[..n].to_vec();
+            let left: Vec<bool> = (0..n).map(|_| rng.next() < 0.5).collect();
+            let goes_left = |it: &Item| left[it.id as usize];
+            let mut a = items.clone();
+            let i = partition(&mut a, goes_left);
+            // The partition the tree was first built with.
+            let mut b = items;
+            let (mut p, mut q) = (0, n);
+            while p < q {
+                if goes_left(&b[p]) {
+                    p += 1;
+                } else {
+                    q -= 1;
+                    b.swap(p, q);
+                }
+            }
+            assert_eq!(i, p, "{n} items");
+            let ids = |v: &[Item]| v.iter().map(|i| i.id).collect::<Vec<_>>();
+            assert_eq!(ids(&a), ids(&b), "{n} items");
+        }
     }
 }
