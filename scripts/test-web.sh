@@ -34,8 +34,11 @@ if [ -z "$bin" ]; then
     bin=$target_dir/debug/moldgate
 fi
 
-# The module users get: the `wasm` profile (Cargo.toml).
-scripts/build-web.sh
+# The module users get: the `wasm` profile (Cargo.toml). scripts/test builds it (and the page)
+# while the test build compiles, and says so with MOLDGATE_WEB_BUILT=1.
+if [ "${MOLDGATE_WEB_BUILT:-}" != 1 ]; then
+    scripts/build-web.sh
+fi
 
 cd web
 MOLDGATE_BIN=$bin CHROMIUM=$chromium \

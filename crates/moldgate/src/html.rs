@@ -603,8 +603,8 @@ fn fill_table(h: &mut String, r: &Report) {
         let _ = writeln!(
             h,
             "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
-             centre of mass):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
-             <th>gate</th><th>L_max</th><th>fill time (estimate)</th></tr>"
+             centre of mass; each body's fill time is taken against its own nominal wall):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
+             <th>nominal wall</th><th>gate</th><th>L_max</th><th>fill time (estimate)</th></tr>"
         );
         for b in &f.body_gates {
             let cells = match (b.gate, b.l_max_mm, b.fill_time_s) {
@@ -616,14 +616,15 @@ fn fill_table(h: &mut String, r: &Report) {
             };
             let _ = writeln!(
                 h,
-                "<tr><th>{}{}</th><td class=\"n\">{:.1} %</td>{cells}</tr>",
+                "<tr><th>{}{}</th><td class=\"n\">{:.1} %</td><td class=\"n\">{:.2} mm</td>{cells}</tr>",
                 b.body,
                 if b.is_answer_body {
                     " (the answer's)"
                 } else {
                     ""
                 },
-                100.0 * b.volume_share
+                100.0 * b.volume_share,
+                b.nominal_wall_mm
             );
         }
         let _ = writeln!(h, "</table>");

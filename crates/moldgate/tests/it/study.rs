@@ -162,3 +162,29 @@ fn a_cancelled_study_stops_before_the_next_stage() {
         other => panic!("{other:?}"),
     }
 }
+
+/// The HTML report's table of bodies gives each body's own nominal wall, the one its fill
+/// time is taken against: two plates of 2 and 6 mm, side by side.
+#[test]
+fn the_html_report_gives_each_body_its_own_nominal_wall() {
+    let mut two = moldgate::samples::BoxUnion::default();
+    two.add([0.0, 0.0, 0.0], [40.0, 20.0, 2.0]);
+    two.add([50.0, 0.0, 0.0], [90.0, 20.0, 6.0]);
+    let part = moldgate::mesh::from_generated(two.mesh());
+    let s = study(&part, &options(r#"{ "fill": true, "demold": "+z" }"#)).unwrap();
+    let bodies = &s.report().fill.as_ref().unwrap().body_gates;
+    assert_eq!(bodies.len(), 2);
+    let page = s.html(None).unwrap();
+    assert!(page.contains("<th>nominal wall</th>"));
+    for b in bodies {
+        let own = if b.centre_of_mass[0] < 45.0 { 2.0 } else { 6.0 };
+        assert!(
+            (b.nominal_wall_mm - own).abs() < 0.1,
+            "body {}: {} mm, its own is {own} mm",
+            b.body,
+            b.nominal_wall_mm
+        );
+        let cell = format!("<td class=\"n\">{:.2} mm</td>", b.nominal_wall_mm);
+        assert!(page.contains(&cell), "{cell} not in the bodies table");
+    }
+}
