@@ -351,21 +351,33 @@ impl Band {
         // is none): on a non-manifold edge each triangle names the next one round it and the
         // last the first, so the first of them always takes it. A few edges may still come
         // twice; the runs are deduplicated below.
-        let mut edges: Vec<[u32; 2]> = mesh
-            .triangles
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(t, tri)| {
+        // Most triangles have no two corners in the band, and are passed over on the
+        // corners' flags alone, in blocks of triangles in parallel.
+        const BLOCK: usize = 16 * 1024;
+        let triangles = &mesh.triangles;
+        let mut edges: Vec<[u32; 2]> = (0..triangles.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .flat_map_iter(|b| {
                 let inside = &inside;
-                let across = topology.neighbours(t);
-                (0..3).filter_map(move |k| {
-                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                    (a != b
-                        && (across[k] == NO_TRIANGLE || across[k] as usize >= t)
-                        && inside[a as usize]
-                        && inside[b as usize]
-                        && near(0.5 * (plane(a) + plane(b))))
-                    .then_some([a.min(b), a.max(b)])
+                (b * BLOCK..((b + 1) * BLOCK).min(triangles.len())).flat_map(move |t| {
+                    let tri = triangles[t];
+                    let corners = tri.map(|v| inside[v as usize]);
+                    let wanted = corners.iter().filter(|&&c| c).count() >= 2;
+                    let across = if wanted {
+                        topology.neighbours(t)
+                    } else {
+                        [0; 3]
+                    };
+                    (0..3).filter_map(move |k| {
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        (wanted
+                            && corners[k]
+                            && corners[(k + 1) % 3]
+                            && a != b
+                            && (across[k] == NO_TRIANGLE || across[k] as usize >= t)
+                            && near(0.5 * (plane(a) + plane(b))))
+                        .then_some([a.min(b), a.max(b)])
+                    })
                 })
             })
             .collect();
@@ -423,16 +435,21 @@ impl Band {
         start[n] = written as u32;
         to.truncate(written);
         to.shrink_to_fit();
-        let starts = &start;
-        let vertices_ref = &vertices;
-        to.par_iter_mut().enumerate().for_each(|(k, n)| {
-            // The run holding entry k, by its start.
-            let v = starts.partition_point(|&s| s as usize <= k) - 1;
-            let (a, b) = (vertices_ref[v], vertices_ref[*n as usize]);
-            if rim.binary_search(&[a.min(b), a.max(b)]).is_ok() {
-                *n |= ON_RIM;
+        // The rim edges (a few thousand) are found in their ends' runs and marked there.
+        let index = |v: u32| vertices.binary_search(&v).ok();
+        for &[a, b] in rim {
+            let (Some(ia), Some(ib)) = (index(a), index(b)) else {
+                continue;
+            };
+            for (from, other) in [(ia, ib), (ib, ia)] {
+                let run = &mut to[start[from] as usize..start[from + 1] as usize];
+                // Entries already marked are compared without their mark (the run is
+                // sorted by band number).
+                if let Ok(k) = run.binary_search_by_key(&(other as u32), |&n| n & !ON_RIM) {
+                    run[k] |= ON_RIM;
+                }
             }
-        });
+        }
         Band {
             vertices,
             start,

@@ -150,24 +150,27 @@ impl Outside {
     /// lower than it by more than `tolerance` (on a vertical band, the edges above its -D
     /// end share its cells with the edge at that end).
     pub(super) fn on_rim(&self, s: &Segment, tolerance: f64) -> bool {
-        let (mut touches, mut lowest_here) = (false, false);
         let n = ((s.a.distance(s.b) / (0.5 * self.cell)).ceil() as usize).clamp(1, 1 << 16);
-        for k in 0..n {
+        let sample = |k: usize| {
             let (t0, t1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
-            let p = s.a.lerp(s.b, 0.5 * (t0 + t1));
-            let Some(c) = self.cell_of(p) else { continue };
-            let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
-            let lowest = self
-                .lowest
-                .get(&(c as u32))
-                .map_or(f64::INFINITY, |&l| l as f64);
-            lowest_here |= h <= lowest + tolerance;
-            touches |= self.touches_outside(c);
-            if touches && lowest_here {
-                return true;
-            }
-        }
-        false
+            (self.cell_of(s.a.lerp(s.b, 0.5 * (t0 + t1))), t0, t1)
+        };
+        // Most edges between the sides are inside the outline (the rims of holes, ribs,
+        // threads): the test of the outside's cells, which reads only the raster, settles
+        // them before any look-up of the lowest heights.
+        let touches = (0..n).any(|k| sample(k).0.is_some_and(|c| self.touches_outside(c)));
+        touches
+            && (0..n).any(|k| {
+                let (Some(c), t0, t1) = sample(k) else {
+                    return false;
+                };
+                let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
+                let lowest = self
+                    .lowest
+                    .get(&(c as u32))
+                    .map_or(f64::INFINITY, |&l| l as f64);
+                h <= lowest + tolerance
+            })
     }
 
     /// Whether `p` lies outside the outline (outside the raster too).
