@@ -381,21 +381,33 @@ impl Band {
                 })
             })
             .collect();
-        // The band's vertices are the ends of its edges, in the mesh's order.
-        let mut used = inside;
-        used.fill(false);
+        // The band's vertices are the ends of its edges, in the mesh's order, numbered by
+        // rank in a bit set of the mesh's vertices (a count per word of 64 and the bits
+        // below in the word: no search per edge end, and no number per mesh vertex).
+        drop(inside);
+        let words = mesh.vertices.len().div_ceil(64);
+        let mut used = vec![0u64; words];
         for &[a, b] in &edges {
-            used[a as usize] = true;
-            used[b as usize] = true;
+            used[a as usize / 64] |= 1 << (a % 64);
+            used[b as usize / 64] |= 1 << (b % 64);
         }
-        let vertices: Vec<u32> = (0..used.len() as u32)
-            .filter(|&v| used[v as usize])
+        let mut rank = Vec::with_capacity(words);
+        let mut count = 0u32;
+        for w in &used {
+            rank.push(count);
+            count += w.count_ones();
+        }
+        let vertices: Vec<u32> = (0..mesh.vertices.len() as u32)
+            .filter(|&v| used[v as usize / 64] & (1 << (v % 64)) != 0)
             .collect();
-        drop(used);
-        let index = |v: u32| vertices.binary_search(&v).expect("an edge's end") as u32;
+        let index = |v: u32| {
+            let w = v as usize / 64;
+            rank[w] + (used[w] & ((1u64 << (v % 64)) - 1)).count_ones()
+        };
         edges
             .par_iter_mut()
             .for_each(|e| *e = [index(e[0]), index(e[1])]);
+        drop((used, rank));
         // Counting sort of the edges both ways by their first end.
         let n = vertices.len();
         let mut start = vec![0u32; n + 1];

@@ -271,9 +271,14 @@ impl Outside {
 
     fn cell_of(&self, p: DVec2) -> Option<usize> {
         let d = (p - self.lo) / self.cell;
-        let (u, w) = (d.x.floor(), d.y.floor());
-        (u >= 0.0 && w >= 0.0 && (u as usize) < self.n_u && (w as usize) < self.n_w)
-            .then(|| w as usize * self.n_u + u as usize)
+        // For d >= 0 the conversion's truncation is the floor (and a call to `floor` is a
+        // library call on the baseline x86-64 target, in the rim test's inner loop); a
+        // negative or NaN coordinate is off the raster.
+        if !(d.x >= 0.0 && d.y >= 0.0) {
+            return None;
+        }
+        let (u, w) = (d.x as usize, d.y as usize);
+        (u < self.n_u && w < self.n_w).then(|| w * self.n_u + u)
     }
 
     fn touches_outside(&self, c: usize) -> bool {
