@@ -489,3 +489,62 @@ impl Ord for OrdF64 {
         self.0.total_cmp(&other.0)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::Direction;
+    use crate::samples::sample;
+
+    /// The band built by the counting sort of edges taken once is the one a sort of both
+    /// directions of every triangle's edges gives (the construction it replaced): the same
+    /// vertices, the same neighbours in the same order, and the rim edges marked.
+    #[test]
+    fn the_band_is_the_sorted_edges_of_every_triangle_both_ways() {
+        for name in ["cover", "plate", "bracket"] {
+            let mesh = sample(name).unwrap();
+            let topology = Topology::new(&mesh);
+            let frame = Frame::new("+z".parse::<Direction>().unwrap());
+            let plane = |v: u32| {
+                let p = mesh.vertices[v as usize];
+                DVec2::new(p.dot(frame.u), p.dot(frame.w))
+            };
+            // A band that keeps the vertices on one side of the part's middle, so that some
+            // edges are in it and some are not.
+            let middle = mesh.bounds().centre();
+            let near = |p: DVec2| p.x <= middle.dot(frame.u);
+            let rim: Vec<[u32; 2]> = side_edges(&mesh, &topology, &frame, WALL_TILT);
+            let band = Band::new(&mesh, &topology, &plane, |_| true, &near, &rim);
+            let mut both: Vec<[u32; 2]> = mesh
+                .triangles
+                .iter()
+                .flat_map(|t| (0..3).map(move |k| [t[k], t[(k + 1) % 3]]))
+                .filter(|&[a, b]| {
+                    a != b && near(plane(a)) && near(plane(b)) && near(0.5 * (plane(a) + plane(b)))
+                })
+                .flat_map(|[a, b]| [[a, b], [b, a]])
+                .collect();
+            both.sort_unstable();
+            both.dedup();
+            assert!(!both.is_empty() && both.len() < 6 * mesh.triangles.len());
+            let mut vertices: Vec<u32> = both.iter().map(|e| e[0]).collect();
+            vertices.dedup();
+            assert_eq!(band.vertices, vertices, "{name}");
+            let mut from_band = Vec::new();
+            let mut marked = 0;
+            for (v, &global) in band.vertices.iter().enumerate() {
+                for &entry in &band.to[band.start[v] as usize..band.start[v + 1] as usize] {
+                    let other = band.vertices[(entry & !ON_RIM) as usize];
+                    let on_rim = rim
+                        .binary_search(&[global.min(other), global.max(other)])
+                        .is_ok();
+                    assert_eq!(entry & ON_RIM != 0, on_rim, "{name}: {global}-{other}");
+                    marked += on_rim as usize;
+                    from_band.push([global, other]);
+                }
+            }
+            assert_eq!(from_band, both, "{name}");
+            assert!(marked > 0, "{name}: some rim edges are in the band");
+        }
+    }
+}
