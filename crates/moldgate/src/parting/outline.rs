@@ -136,7 +136,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         let rim_projected = projected(&rim);
         let mut found: Option<Vec<[u32; 2]>> = None;
         for &e0 in starts.iter().take(START_TRIES) {
-            let Some(cycle) = round_the_band(mesh, &plane, &band, e0, &near, &raster) else {
+            let Some(cycle) = round_the_band(mesh, &plane, &band, e0, near, &raster) else {
                 continue;
             };
             let length = projected(&cycle);

@@ -221,21 +221,21 @@ impl Outside {
         let reach = 2 * cells + 1;
         for row in state.chunks_exact_mut(n_u) {
             let mut last: Option<usize> = None;
-            for u in 0..n_u {
-                if row[u] & OUTSIDE != 0 {
+            for (u, x) in row.iter_mut().enumerate() {
+                if *x & OUTSIDE != 0 {
                     last = Some(u);
                 }
                 if last.is_some_and(|l| u - l <= reach) {
-                    row[u] |= ROW_REACH;
+                    *x |= ROW_REACH;
                 }
             }
             let mut next: Option<usize> = None;
-            for u in (0..n_u).rev() {
-                if row[u] & OUTSIDE != 0 {
+            for (u, x) in row.iter_mut().enumerate().rev() {
+                if *x & OUTSIDE != 0 {
                     next = Some(u);
                 }
                 if next.is_some_and(|l| l - u <= reach) {
-                    row[u] |= ROW_REACH;
+                    *x |= ROW_REACH;
                 }
             }
         }
