@@ -35,7 +35,7 @@ use super::outside::{Outside, Segment};
 use super::{side_edges, PartingLine, Rim};
 use crate::frame::Frame;
 use crate::math::DVec2;
-use crate::mesh::topology::body_of_triangle;
+use crate::mesh::topology::{body_of_triangle, NO_TRIANGLE};
 use crate::mesh::{Mesh, Topology};
 
 /// Faces whose normal is within this (as n.D for the unit normal) of the plane are walls
@@ -101,21 +101,23 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
     {
         let body = body_of(edges[group[0] as usize][0]);
         // 1. Rim edges.
-        let segments: Vec<Segment> = group.iter().map(|&e| segment(edges[e as usize])).collect();
-        let raster = Outside::new(&segments);
+        // The segments are made from the edges where they are needed, not stored: an array
+        // of them (48 bytes an edge) would be held beside the rays.
+        let mut raster = Outside::new(group.iter().map(|&e| segment(edges[e as usize])));
         let (mut rim, rim_segments): (Vec<[u32; 2]>, Vec<Segment>) = group
             .par_iter()
-            .zip(&segments)
+            .map(|&e| (edges[e as usize], segment(edges[e as usize])))
             .filter(|(_, s)| raster.on_rim(s, tolerance))
-            .map(|(&e, s)| (edges[e as usize], *s))
             .unzip();
         if rim.is_empty() {
             continue;
         }
         rim.sort_unstable();
         // 2. The cycle round the band.
-        let near = raster.near_rim(&rim_segments, BAND_CELLS);
-        let band = Band::new(mesh, &plane, |v| body_of(v) == body, &near, &rim);
+        raster.mark_band(&rim_segments, BAND_CELLS);
+        drop(rim_segments);
+        let near = |p: DVec2| raster.in_band(p);
+        let band = Band::new(mesh, topology, &plane, |v| body_of(v) == body, &near, &rim);
         let projected = |edges: &[[u32; 2]]| -> f64 {
             edges
                 .iter()
@@ -134,7 +136,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         let rim_projected = projected(&rim);
         let mut found: Option<Vec<[u32; 2]>> = None;
         for &e0 in starts.iter().take(START_TRIES) {
-            let Some(cycle) = round_the_band(&plane, &band, e0, &near, &raster) else {
+            let Some(cycle) = round_the_band(mesh, &plane, &band, e0, near, &raster) else {
                 continue;
             };
             let length = projected(&cycle);
@@ -203,6 +205,7 @@ fn components(edges: &[[u32; 2]]) -> usize {
 /// The cheapest closed path of mesh edges round the band once (the module's documentation,
 /// step 2), as sorted vertex pairs, or `None` when the band does not go round.
 fn round_the_band(
+    mesh: &Mesh,
     plane: &impl Fn(u32) -> DVec2,
     band: &Band,
     e0: [u32; 2],
@@ -252,7 +255,15 @@ fn round_the_band(
         }
         let global = band.vertices[v as usize];
         for k in band.start[v as usize]..band.start[v as usize + 1] {
-            let (n, cost) = (band.to[k as usize], band.cost[k as usize]);
+            let entry = band.to[k as usize];
+            let n = entry & !ON_RIM;
+            let length = mesh.vertices[global as usize]
+                .distance(mesh.vertices[band.vertices[n as usize] as usize]);
+            let cost = if entry & ON_RIM != 0 {
+                length
+            } else {
+                OFF_RIM_COST * length
+            };
             if cut(global, band.vertices[n as usize]) {
                 cut_edges.push((v, n, cost));
                 continue;
@@ -303,22 +314,30 @@ fn round_the_band(
 /// The mesh edges of the band: both ends and the middle near the outline seen along D (an
 /// edge over the inside of the band, a long facet's edge from one side of it to the other,
 /// would let a path short-cut the band). The band's vertices are numbered in the mesh's
-/// order, and each one's neighbours and step costs are one run of flat arrays (no list per
-/// vertex, no map), built once per body and shared by the tries at the cut.
+/// order, and each one's neighbours are one run of a flat array (no list per vertex, no
+/// map), in increasing order, built once per body and shared by the tries at the cut.
+///
+/// The arrays are what `locate` holds beside the rays at its peak, so they are kept small:
+/// each edge is taken from one of its triangles only, the runs are filled by a counting
+/// sort rather than a sort of both directions of every edge, and the step costs are not
+/// stored (a step's length is computed when it is taken; whether it is a rim edge is the top
+/// bit of its entry).
 struct Band {
     /// The band's vertices (mesh numbers, increasing).
     vertices: Vec<u32>,
-    /// Per band vertex, where its run of `to` and `cost` begins (one more entry at the end).
+    /// Per band vertex, where its run of `to` begins (one more entry at the end).
     start: Vec<u32>,
-    /// The neighbours, in band numbers.
+    /// The neighbours, in band numbers, with [`ON_RIM`] set for a rim edge.
     to: Vec<u32>,
-    /// The cost of each step: the edge's length, times [`OFF_RIM_COST`] off the rim edges.
-    cost: Vec<f64>,
 }
+
+/// The bit of a [`Band::to`] entry that marks a rim edge (band numbers are below it).
+const ON_RIM: u32 = 1 << 31;
 
 impl Band {
     fn new(
         mesh: &Mesh,
+        topology: &Topology,
         plane: &(impl Fn(u32) -> DVec2 + Sync),
         in_body: impl Fn(u32) -> bool + Sync,
         near: &(impl Fn(DVec2) -> bool + Sync),
@@ -328,56 +347,125 @@ impl Band {
             .into_par_iter()
             .map(|v| in_body(v) && near(plane(v)))
             .collect();
-        let mut edges: Vec<[u32; 2]> = mesh
-            .triangles
-            .par_iter()
-            .flat_map_iter(|tri| {
+        // An edge is taken from the triangle across it when that one comes later (or there
+        // is none): on a non-manifold edge each triangle names the next one round it and the
+        // last the first, so the first of them always takes it. A few edges may still come
+        // twice; the runs are deduplicated below.
+        // Most triangles have no two corners in the band, and are passed over on the
+        // corners' flags alone, in blocks of triangles in parallel.
+        const BLOCK: usize = 16 * 1024;
+        let triangles = &mesh.triangles;
+        let mut edges: Vec<[u32; 2]> = (0..triangles.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .flat_map_iter(|b| {
                 let inside = &inside;
-                (0..3).filter_map(move |k| {
-                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                    (a != b
-                        && inside[a as usize]
-                        && inside[b as usize]
-                        && near(0.5 * (plane(a) + plane(b))))
-                    .then_some([a, b])
+                (b * BLOCK..((b + 1) * BLOCK).min(triangles.len())).flat_map(move |t| {
+                    let tri = triangles[t];
+                    let corners = tri.map(|v| inside[v as usize]);
+                    let wanted = corners.iter().filter(|&&c| c).count() >= 2;
+                    let across = if wanted {
+                        topology.neighbours(t)
+                    } else {
+                        [0; 3]
+                    };
+                    (0..3).filter_map(move |k| {
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        (wanted
+                            && corners[k]
+                            && corners[(k + 1) % 3]
+                            && a != b
+                            && (across[k] == NO_TRIANGLE || across[k] as usize >= t)
+                            && near(0.5 * (plane(a) + plane(b))))
+                        .then_some([a.min(b), a.max(b)])
+                    })
                 })
             })
-            .flat_map_iter(|[a, b]| [[a, b], [b, a]])
             .collect();
+        // The band's vertices are the ends of its edges, in the mesh's order, numbered by
+        // rank in a bit set of the mesh's vertices (a count per word of 64 and the bits
+        // below in the word: no search per edge end, and no number per mesh vertex).
         drop(inside);
-        edges.par_sort_unstable();
-        edges.dedup();
-        // Every edge is there both ways, so the sources are all the band's vertices.
-        let mut vertices: Vec<u32> = edges.iter().map(|e| e[0]).collect();
-        vertices.dedup();
-        let mut start: Vec<u32> = Vec::with_capacity(vertices.len() + 1);
-        for (k, e) in edges.iter().enumerate() {
-            if k == 0 || edges[k - 1][0] != e[0] {
-                start.push(k as u32);
+        let words = mesh.vertices.len().div_ceil(64);
+        let mut used = vec![0u64; words];
+        for &[a, b] in &edges {
+            used[a as usize / 64] |= 1 << (a % 64);
+            used[b as usize / 64] |= 1 << (b % 64);
+        }
+        let mut rank = Vec::with_capacity(words);
+        let mut count = 0u32;
+        for w in &used {
+            rank.push(count);
+            count += w.count_ones();
+        }
+        let vertices: Vec<u32> = (0..mesh.vertices.len() as u32)
+            .filter(|&v| used[v as usize / 64] & (1 << (v % 64)) != 0)
+            .collect();
+        let index = |v: u32| {
+            let w = v as usize / 64;
+            rank[w] + (used[w] & ((1u64 << (v % 64)) - 1)).count_ones()
+        };
+        edges
+            .par_iter_mut()
+            .for_each(|e| *e = [index(e[0]), index(e[1])]);
+        drop((used, rank));
+        // Counting sort of the edges both ways by their first end.
+        let n = vertices.len();
+        let mut start = vec![0u32; n + 1];
+        for &[a, b] in &edges {
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
+        }
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut fill: Vec<u32> = start[..n].to_vec();
+        let mut to = vec![0u32; 2 * edges.len()];
+        for &[a, b] in &edges {
+            to[fill[a as usize] as usize] = b;
+            fill[a as usize] += 1;
+            to[fill[b as usize] as usize] = a;
+            fill[b as usize] += 1;
+        }
+        drop(fill);
+        drop(edges);
+        // Each run in increasing order, each neighbour once (as a sort of all the pairs
+        // would give them), compacted in place; then the rim edges marked.
+        let mut written = 0usize;
+        for v in 0..n {
+            let (s, e) = (start[v] as usize, start[v + 1] as usize);
+            to[s..e].sort_unstable();
+            start[v] = written as u32;
+            let mut last = u32::MAX;
+            for k in s..e {
+                if to[k] != last {
+                    last = to[k];
+                    to[written] = last;
+                    written += 1;
+                }
             }
         }
-        start.push(edges.len() as u32);
-        let index = |v: u32| vertices.binary_search(&v).expect("both ways") as u32;
-        let (to, cost): (Vec<u32>, Vec<f64>) = edges
-            .par_iter()
-            .map(|&[a, b]| {
-                let length = mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
-                let on_rim = rim.binary_search(&[a.min(b), a.max(b)]).is_ok();
-                (
-                    index(b),
-                    if on_rim {
-                        length
-                    } else {
-                        OFF_RIM_COST * length
-                    },
-                )
-            })
-            .unzip();
+        start[n] = written as u32;
+        to.truncate(written);
+        to.shrink_to_fit();
+        // The rim edges (a few thousand) are found in their ends' runs and marked there.
+        let index = |v: u32| vertices.binary_search(&v).ok();
+        for &[a, b] in rim {
+            let (Some(ia), Some(ib)) = (index(a), index(b)) else {
+                continue;
+            };
+            for (from, other) in [(ia, ib), (ib, ia)] {
+                let run = &mut to[start[from] as usize..start[from + 1] as usize];
+                // Entries already marked are compared without their mark (the run is
+                // sorted by band number).
+                if let Ok(k) = run.binary_search_by_key(&(other as u32), |&n| n & !ON_RIM) {
+                    run[k] |= ON_RIM;
+                }
+            }
+        }
         Band {
             vertices,
             start,
             to,
-            cost,
         }
     }
 
@@ -399,5 +487,64 @@ impl PartialOrd for OrdF64 {
 impl Ord for OrdF64 {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
         self.0.total_cmp(&other.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::Direction;
+    use crate::samples::sample;
+
+    /// The band built by the counting sort of edges taken once is the one a sort of both
+    /// directions of every triangle's edges gives (the construction it replaced): the same
+    /// vertices, the same neighbours in the same order, and the rim edges marked.
+    #[test]
+    fn the_band_is_the_sorted_edges_of_every_triangle_both_ways() {
+        for name in ["cover", "plate", "bracket"] {
+            let mesh = sample(name).unwrap();
+            let topology = Topology::new(&mesh);
+            let frame = Frame::new("+z".parse::<Direction>().unwrap());
+            let plane = |v: u32| {
+                let p = mesh.vertices[v as usize];
+                DVec2::new(p.dot(frame.u), p.dot(frame.w))
+            };
+            // A band that keeps the vertices on one side of the part's middle, so that some
+            // edges are in it and some are not.
+            let middle = mesh.bounds().centre();
+            let near = |p: DVec2| p.x <= middle.dot(frame.u);
+            let rim: Vec<[u32; 2]> = side_edges(&mesh, &topology, &frame, WALL_TILT);
+            let band = Band::new(&mesh, &topology, &plane, |_| true, &near, &rim);
+            let mut both: Vec<[u32; 2]> = mesh
+                .triangles
+                .iter()
+                .flat_map(|t| (0..3).map(move |k| [t[k], t[(k + 1) % 3]]))
+                .filter(|&[a, b]| {
+                    a != b && near(plane(a)) && near(plane(b)) && near(0.5 * (plane(a) + plane(b)))
+                })
+                .flat_map(|[a, b]| [[a, b], [b, a]])
+                .collect();
+            both.sort_unstable();
+            both.dedup();
+            assert!(!both.is_empty() && both.len() < 6 * mesh.triangles.len());
+            let mut vertices: Vec<u32> = both.iter().map(|e| e[0]).collect();
+            vertices.dedup();
+            assert_eq!(band.vertices, vertices, "{name}");
+            let mut from_band = Vec::new();
+            let mut marked = 0;
+            for (v, &global) in band.vertices.iter().enumerate() {
+                for &entry in &band.to[band.start[v] as usize..band.start[v + 1] as usize] {
+                    let other = band.vertices[(entry & !ON_RIM) as usize];
+                    let on_rim = rim
+                        .binary_search(&[global.min(other), global.max(other)])
+                        .is_ok();
+                    assert_eq!(entry & ON_RIM != 0, on_rim, "{name}: {global}-{other}");
+                    marked += on_rim as usize;
+                    from_band.push([global, other]);
+                }
+            }
+            assert_eq!(from_band, both, "{name}");
+            assert!(marked > 0, "{name}: some rim edges are in the band");
+        }
     }
 }

@@ -27,8 +27,10 @@ pub(super) struct Outside {
     n_u: usize,
     n_w: usize,
     /// Per cell, row by row: [`EMPTY`], [`EDGE`] (an edge passes through it) or
-    /// [`OUTSIDE`] (no edge does and the border reaches it). One byte a cell: the raster
-    /// of a large part has about a million cells, and `locate` builds it beside the rays.
+    /// [`OUTSIDE`] (no edge does and the border reaches it), and once the band is marked
+    /// the bits of [`Outside::mark_band`]. One byte a cell, and every flag of the cell in
+    /// it rather than in rasters of their own: the raster of a large part has about a
+    /// million cells, and `locate` builds it beside the rays.
     state: Vec<u8>,
     /// For the cells an edge passes through (a small share of the raster, about the edges'
     /// length in cells): the lowest height along D of such an edge.
@@ -38,6 +40,14 @@ pub(super) struct Outside {
 const EMPTY: u8 = 0;
 const EDGE: u8 = 1;
 const OUTSIDE: u8 = 2;
+/// Within the band's width of a cell a rim edge passes through.
+const NEAR_RIM: u8 = 4;
+/// Within the reach (along its row) of a cell outside the outline.
+const ROW_REACH: u8 = 8;
+/// Within the reach (along its row, then its column, above it) of a cell outside.
+const UP_REACH: u8 = 16;
+/// In the band: [`NEAR_RIM`] and within the reach of the outside in both axes.
+const BAND: u8 = 32;
 
 /// An edge between the sides in frame coordinates: its ends in the plane and their heights.
 #[derive(Clone, Copy)]
@@ -51,9 +61,9 @@ pub(super) struct Segment {
 impl Outside {
     /// The raster of `segments` (one body's edges between the sides), with the outside
     /// flooded from its border.
-    pub(super) fn new(segments: &[Segment]) -> Outside {
+    pub(super) fn new(segments: impl Iterator<Item = Segment> + Clone) -> Outside {
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        for s in segments {
+        for s in segments.clone() {
             lo = lo.min(s.a).min(s.b);
             hi = hi.max(s.a).max(s.b);
         }
@@ -140,29 +150,32 @@ impl Outside {
     /// lower than it by more than `tolerance` (on a vertical band, the edges above its -D
     /// end share its cells with the edge at that end).
     pub(super) fn on_rim(&self, s: &Segment, tolerance: f64) -> bool {
-        let (mut touches, mut lowest_here) = (false, false);
         let n = ((s.a.distance(s.b) / (0.5 * self.cell)).ceil() as usize).clamp(1, 1 << 16);
-        for k in 0..n {
+        let sample = |k: usize| {
             let (t0, t1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
-            let p = s.a.lerp(s.b, 0.5 * (t0 + t1));
-            let Some(c) = self.cell_of(p) else { continue };
-            let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
-            let lowest = self
-                .lowest
-                .get(&(c as u32))
-                .map_or(f64::INFINITY, |&l| l as f64);
-            lowest_here |= h <= lowest + tolerance;
-            touches |= self.touches_outside(c);
-            if touches && lowest_here {
-                return true;
-            }
-        }
-        false
+            (self.cell_of(s.a.lerp(s.b, 0.5 * (t0 + t1))), t0, t1)
+        };
+        // Most edges between the sides are inside the outline (the rims of holes, ribs,
+        // threads): the test of the outside's cells, which reads only the raster, settles
+        // them before any look-up of the lowest heights.
+        let touches = (0..n).any(|k| sample(k).0.is_some_and(|c| self.touches_outside(c)));
+        touches
+            && (0..n).any(|k| {
+                let (Some(c), t0, t1) = sample(k) else {
+                    return false;
+                };
+                let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
+                let lowest = self
+                    .lowest
+                    .get(&(c as u32))
+                    .map_or(f64::INFINITY, |&l| l as f64);
+                h <= lowest + tolerance
+            })
     }
 
     /// Whether `p` lies outside the outline (outside the raster too).
     pub(super) fn is_outside(&self, p: DVec2) -> bool {
-        self.cell_of(p).is_none_or(|c| self.state[c] == OUTSIDE)
+        self.cell_of(p).is_none_or(|c| self.state[c] & OUTSIDE != 0)
     }
 
     /// The raster's cell side in mm.
@@ -170,87 +183,102 @@ impl Outside {
         self.cell
     }
 
-    /// Whether a point of the plane lies within `cells` cells (in both axes) of a cell that
-    /// one of `rim` (the rim edges) passes through: the band round the rim. The band is
-    /// measured from the rim edges, not from the outside: where the outline steps out by
-    /// about the band's width (a tab standing a few tenths of a millimetre proud of a wall),
-    /// the rim edges along the wall behind the tab lie more than the width from the outside,
-    /// and a band measured from the outside would lose them and break the ring there.
+    /// Marks the band round the rim: the cells within `cells` cells (in both axes) of a cell
+    /// that one of `rim` (the rim edges) passes through; [`Outside::in_band`] then tells
+    /// whether a point lies in it. The band is measured from the rim edges, not from the
+    /// outside: where the outline steps out by about the band's width (a tab standing a few
+    /// tenths of a millimetre proud of a wall), the rim edges along the wall behind the tab
+    /// lie more than the width from the outside, and a band measured from the outside would
+    /// lose them and break the ring there.
     ///
     /// The band is also kept within `2 * cells + 1` cells of the outside: a long rim edge
     /// may touch the outside at one end and run far inside at the other (on the knob, an
     /// edge from the outline along the foot of a tab into the ring), and a band round the
     /// whole of such an edge would let the cycle leave the outline along it.
-    pub(super) fn near_rim(&self, rim: &[Segment], cells: usize) -> impl Fn(DVec2) -> bool + '_ {
+    ///
+    /// Every mark is a bit of the cell's one byte, and the outside is dilated along rows,
+    /// then along columns a row at a time (with the last and next row of the outside kept
+    /// per column), so the marking adds no raster and reads the raster in its own order.
+    pub(super) fn mark_band(&mut self, rim: &[Segment], cells: usize) {
         let (n_u, n_w) = (self.n_u, self.n_w);
+        let state = &mut self.state;
         // Rim cells are few (about the outline's length in cells), so each marks its square
         // of side 2 cells + 1 directly, without a pass over the whole raster.
-        let mut near = vec![false; n_u * n_w];
         for s in rim {
             cells_on(self.lo, self.cell, n_u, n_w, s.a, s.b, |c| {
                 let (u, w) = (c % n_u, c / n_u);
                 for y in w.saturating_sub(cells)..(w + cells + 1).min(n_w) {
                     let row = y * n_u;
-                    near[row + u.saturating_sub(cells)..row + (u + cells + 1).min(n_u)].fill(true);
+                    for x in
+                        &mut state[row + u.saturating_sub(cells)..row + (u + cells + 1).min(n_u)]
+                    {
+                        *x |= NEAR_RIM;
+                    }
                 }
             });
         }
-        let reach = self.near_outside(2 * cells + 1);
-        for (n, r) in near.iter_mut().zip(&reach) {
-            *n &= *r;
-        }
-        drop(reach);
-        move |p| self.cell_of(p).is_some_and(|c| near[c])
-    }
-
-    /// The cells within `cells` cells (in both axes) of a cell outside the outline: the
-    /// outside dilated along rows, then along columns (a square of side 2 cells + 1).
-    fn near_outside(&self, cells: usize) -> Vec<bool> {
-        let (n_u, n_w) = (self.n_u, self.n_w);
-        let outside = |c: usize| self.state[c] == OUTSIDE;
-        let mut rows = vec![false; n_u * n_w];
-        for w in 0..n_w {
-            let row = w * n_u;
+        // The outside's reach: a square of side 2 reach + 1 round each outside cell.
+        let reach = 2 * cells + 1;
+        for row in state.chunks_exact_mut(n_u) {
             let mut last: Option<usize> = None;
-            for u in 0..n_u {
-                if outside(row + u) {
+            for (u, x) in row.iter_mut().enumerate() {
+                if *x & OUTSIDE != 0 {
                     last = Some(u);
                 }
-                rows[row + u] = last.is_some_and(|l| u - l <= cells);
+                if last.is_some_and(|l| u - l <= reach) {
+                    *x |= ROW_REACH;
+                }
             }
             let mut next: Option<usize> = None;
-            for u in (0..n_u).rev() {
-                if outside(row + u) {
+            for (u, x) in row.iter_mut().enumerate().rev() {
+                if *x & OUTSIDE != 0 {
                     next = Some(u);
                 }
-                rows[row + u] |= next.is_some_and(|l| l - u <= cells);
+                if next.is_some_and(|l| l - u <= reach) {
+                    *x |= ROW_REACH;
+                }
             }
         }
-        let mut near = vec![false; n_u * n_w];
-        for u in 0..n_u {
-            let mut last: Option<usize> = None;
-            for w in 0..n_w {
-                if rows[w * n_u + u] {
-                    last = Some(w);
+        let mut last: Vec<Option<usize>> = vec![None; n_u];
+        for (w, row) in state.chunks_exact_mut(n_u).enumerate() {
+            for (x, l) in row.iter_mut().zip(&mut last) {
+                if *x & ROW_REACH != 0 {
+                    *l = Some(w);
                 }
-                near[w * n_u + u] = last.is_some_and(|l| w - l <= cells);
-            }
-            let mut next: Option<usize> = None;
-            for w in (0..n_w).rev() {
-                if rows[w * n_u + u] {
-                    next = Some(w);
+                if l.is_some_and(|l| w - l <= reach) {
+                    *x |= UP_REACH;
                 }
-                near[w * n_u + u] |= next.is_some_and(|l| l - w <= cells);
             }
         }
-        near
+        let mut next: Vec<Option<usize>> = vec![None; n_u];
+        for (w, row) in state.chunks_exact_mut(n_u).enumerate().rev() {
+            for (x, n) in row.iter_mut().zip(&mut next) {
+                if *x & ROW_REACH != 0 {
+                    *n = Some(w);
+                }
+                let reached = *x & UP_REACH != 0 || n.is_some_and(|n| n - w <= reach);
+                if reached && *x & NEAR_RIM != 0 {
+                    *x |= BAND;
+                }
+            }
+        }
+    }
+
+    /// Whether a point of the plane lies in the band marked by [`Outside::mark_band`].
+    pub(super) fn in_band(&self, p: DVec2) -> bool {
+        self.cell_of(p).is_some_and(|c| self.state[c] & BAND != 0)
     }
 
     fn cell_of(&self, p: DVec2) -> Option<usize> {
         let d = (p - self.lo) / self.cell;
-        let (u, w) = (d.x.floor(), d.y.floor());
-        (u >= 0.0 && w >= 0.0 && (u as usize) < self.n_u && (w as usize) < self.n_w)
-            .then(|| w as usize * self.n_u + u as usize)
+        // For d >= 0 the conversion's truncation is the floor (and a call to `floor` is a
+        // library call on the baseline x86-64 target, in the rim test's inner loop); a
+        // negative or NaN coordinate is off the raster.
+        if !(d.x >= 0.0 && d.y >= 0.0) {
+            return None;
+        }
+        let (u, w) = (d.x as usize, d.y as usize);
+        (u < self.n_u && w < self.n_w).then(|| w * self.n_u + u)
     }
 
     fn touches_outside(&self, c: usize) -> bool {
@@ -262,7 +290,7 @@ impl Outside {
                     && y >= 0
                     && (x as usize) < self.n_u
                     && (y as usize) < self.n_w
-                    && self.state[y as usize * self.n_u + x as usize] == OUTSIDE
+                    && self.state[y as usize * self.n_u + x as usize] & OUTSIDE != 0
             })
         })
     }
@@ -356,7 +384,7 @@ mod tests {
         all.extend(square(2.0, 0.0));
         let above = segment((5.0, -4.0), (5.0, 4.0), 3.0);
         all.push(above);
-        let raster = Outside::new(&all);
+        let raster = Outside::new(all.iter().copied());
         for s in &square(5.0, 0.0) {
             assert!(raster.on_rim(s, 0.01));
         }
@@ -390,14 +418,15 @@ mod tests {
             segment((side + t, -1.0), (side + t, 1.0), 0.0),
             segment((side + t, 1.0), (side, 1.0), 0.0),
         ]);
-        let raster = Outside::new(&all);
+        let mut raster = Outside::new(all.iter().copied());
         let rim: Vec<Segment> = all
             .iter()
             .copied()
             .filter(|s| raster.on_rim(s, 1e-3))
             .collect();
         assert_eq!(rim.len(), all.len(), "every segment is on the outline");
-        let near = raster.near_rim(&rim, 3);
+        raster.mark_band(&rim, 3);
+        let near = |p| raster.in_band(p);
         assert!(
             near(DVec2::new(side - 0.5 * raster.cell(), 0.0)),
             "the side behind the tab"
