@@ -2,7 +2,7 @@
 //! values interpolated across each triangle and Lambert shading per facet.
 
 use crate::math::{DVec2, DVec3};
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Topology};
 
 use super::canvas::Rgb;
 
@@ -58,10 +58,17 @@ pub struct PixelRect {
 /// A sample is 9 bytes in two arrays that start as zeros, and a zero sample means "no part
 /// here": the arrays are allocated zeroed (fresh pages from the system, which it zeroes
 /// only when they are first written) rather than filled, so the background costs neither
-/// a fill pass nor its pages.
+/// a fill pass nor its pages. The arrays cover only the box of samples the part's vertices
+/// project into, grown by one sample and out to whole pixels (clamped to the panel): every
+/// sample outside it is empty, and a part that fills a third of its panel then zeroes and
+/// colours a third of the samples.
 pub struct Layer {
     pub rect: PixelRect,
     pub ss: u32,
+    /// The box's first column and row of samples in the panel (multiples of `ss`).
+    x0: usize,
+    y0: usize,
+    /// The box's width and height in samples (multiples of `ss`).
     w: usize,
     h: usize,
     /// The nearest surface: its depth as an order-keeping key ([`depth_key`]) in the high
@@ -90,6 +97,9 @@ pub struct DrawOrder {
     positions: Vec<DVec3>,
     /// The colour-map coordinate of each of them.
     t: Vec<f32>,
+    /// Whether the facets whose normal points away from the viewer are skipped (set by
+    /// [`DrawOrder::cull_back_faces`], the normals then facing out of the solid).
+    cull: bool,
 }
 
 impl DrawOrder {
@@ -129,7 +139,69 @@ impl DrawOrder {
             normals,
             positions,
             t,
+            cull: false,
         }
+    }
+
+    /// Skips, in every view, the facets turned away from the viewer, when `topology` (of the
+    /// same mesh) says the mesh is closed and consistently oriented; returns whether it
+    /// does. Each body then bounds a solid, and a ray from the viewer meets a facet of a
+    /// body where it enters that body before any facet where it leaves it: the nearest
+    /// surface of every sample is a front face, so the back faces (about half the
+    /// triangles, and more than half of the samples drawn) cannot show. Which side is the
+    /// front comes from each body's signed volume (by the divergence theorem, positive when
+    /// its facets face out): the normals of a body wound inwards are turned round, which
+    /// does not change its shading (both sides are lit alike).
+    pub fn cull_back_faces(&mut self, mesh: &Mesh, topology: &Topology) -> bool {
+        use rayon::prelude::*;
+        if mesh.triangles.len() != self.corners.len() || !topology.closed_and_oriented(mesh) {
+            return false;
+        }
+        let b = crate::math::Aabb::of_points(&mesh.vertices);
+        let origin = (b.min + b.max) * 0.5;
+        let size = (b.max - b.min).length();
+        // Six times the volume of the tetrahedron (box centre, a, b, c), in fixed blocks so
+        // that the sums do not depend on the threads.
+        let tetrahedron = |tri: &[u32; 3]| {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize] - origin);
+            a.dot(b.cross(c))
+        };
+        let body = (topology.bodies > 1).then(|| crate::mesh::topology::body_of_triangle(mesh));
+        let volumes: Vec<f64> = match &body {
+            None => {
+                let blocks: Vec<f64> = mesh
+                    .triangles
+                    .par_chunks(4096)
+                    .map(|block| block.iter().map(tetrahedron).sum())
+                    .collect();
+                vec![blocks.iter().sum()]
+            }
+            Some(body) => {
+                let bodies = body.iter().max().map_or(0, |&k| k as usize + 1);
+                let mut volumes = vec![0.0; bodies];
+                for (tri, &k) in mesh.triangles.iter().zip(body) {
+                    volumes[k as usize] += tetrahedron(tri);
+                }
+                volumes
+            }
+        };
+        if volumes.iter().any(|v| v.abs() <= 1e-9 * size * size * size) {
+            return false; // a body enclosing no volume has no outside to tell
+        }
+        let inward: Vec<bool> = volumes.iter().map(|&v| v < 0.0).collect();
+        match &body {
+            None if inward[0] => self.normals.par_iter_mut().for_each(|n| *n = -*n),
+            None => {}
+            Some(body) => {
+                for (n, &k) in self.normals.iter_mut().zip(body) {
+                    if inward[k as usize] {
+                        *n = -*n;
+                    }
+                }
+            }
+        }
+        self.cull = true;
+        true
     }
 }
 
@@ -202,16 +274,7 @@ pub fn rasterise(
     ss: u32,
     light: DVec3,
 ) -> Layer {
-    let (w, h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
-    let mut layer = Layer {
-        rect,
-        ss,
-        w,
-        h,
-        sample: vec![0; w * h],
-        lut: vec![0; w * h],
-        shade: vec![0.0; order.corners.len()],
-    };
+    let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
     let s = ss as f64;
     // Vertices in sample coordinates (pixel centres at +0.5) and depth.
     let projected: Vec<[f32; 3]> = order
@@ -226,18 +289,60 @@ pub fn rasterise(
             ]
         })
         .collect();
+    // The box of samples any triangle can reach: each triangle's rows and columns lie
+    // within the floor and ceiling of its corners' coordinates, so within those of all
+    // vertices. It is grown by one sample so that no sample drawn lies on its edge (except
+    // at the panel's edge), which keeps the outline test at its edges the panel's, and out
+    // to whole pixels so that a pixel's samples are all in it or all outside.
+    let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+    for p in &projected {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let ssz = ss as usize;
+    let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
+        let last = n as f32 - 1.0;
+        let first = (floor(lo.clamp(-1.0, last)) - 1.0).clamp(0.0, last) as usize;
+        let end = (ceil(hi.clamp(0.0, last + 1.0)) + 1.0).clamp(0.0, last) as usize + 1;
+        (first / ssz * ssz, end.div_ceil(ssz) * ssz)
+    };
+    let (x0, x1) = span(lo[0], hi[0], panel_w);
+    let (y0, y1) = span(lo[1], hi[1], panel_h);
+    let (w, h) = (x1 - x0, y1.max(y0) - y0);
+    let w = if h == 0 { 0 } else { w };
+    let mut layer = Layer {
+        rect,
+        ss,
+        x0,
+        y0,
+        w,
+        h,
+        sample: vec![0; w * h],
+        lut: vec![0; w * h],
+        shade: vec![0.0; order.corners.len()],
+    };
+    // The triangles' columns and rows clamped to the box, which only cuts what the panel
+    // would: the same samples as clamping to the panel.
+    let (first_x, last_x) = (x0 as f32, (x0 + w) as f32 - 1.0);
+    let (first_y, last_y) = (y0 as f32, (y0 + h) as f32 - 1.0);
     let t = &order.t;
+    let cull = order.cull;
     for (place, (corners, &n)) in order.corners.iter().zip(&order.normals).enumerate() {
+        if cull && n.dot(camera.toward) < 0.0 {
+            continue; // a back face of a closed body: a front face is nearer wherever it is
+        }
         let [ia, ib, ic] = corners.map(|i| i as usize);
         let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         if area.abs() < 1e-12 || !area.is_finite() {
             continue; // seen edge-on, or degenerate
         }
-        let min_x = floor(a[0].min(b[0]).min(c[0])).max(0.0);
-        let max_x = ceil(a[0].max(b[0]).max(c[0])).min(w as f32 - 1.0);
-        let min_y = floor(a[1].min(b[1]).min(c[1])).max(0.0);
-        let max_y = ceil(a[1].max(b[1]).max(c[1])).min(h as f32 - 1.0);
+        let min_x = floor(a[0].min(b[0]).min(c[0])).max(first_x);
+        let max_x = ceil(a[0].max(b[0]).max(c[0])).min(last_x);
+        let min_y = floor(a[1].min(b[1]).min(c[1])).max(first_y);
+        let max_y = ceil(a[1].max(b[1]).max(c[1])).min(last_y);
         if min_x > max_x || min_y > max_y {
             continue;
         }
@@ -262,7 +367,7 @@ pub fn rasterise(
             let px = min_x + 0.5;
             let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
             let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
-            let row = y * w;
+            let row = (y - y0) * w;
             let mut entered = false;
             for x in min_x as usize..=max_x as usize {
                 // A sliver of overlap rather than a crack where two triangles meet: samples
@@ -273,7 +378,7 @@ pub fn rasterise(
                     entered = true;
                     let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
                     let sample = (z as u64) << 32 | facet;
-                    let i = row + x;
+                    let i = row + (x - x0);
                     if sample > layer.sample[i] {
                         layer.sample[i] = sample;
                         if has_value {
@@ -302,10 +407,10 @@ const DIFFUSE: f64 = 0.68;
 impl Layer {
     /// Depth at canvas position (x, y) pixels: the sample under it, `None` off the part.
     pub fn depth_at(&self, x: f64, y: f64) -> Option<f32> {
-        let sx = ((x - self.rect.x as f64) * self.ss as f64).floor();
-        let sy = ((y - self.rect.y as f64) * self.ss as f64).floor();
+        let sx = ((x - self.rect.x as f64) * self.ss as f64).floor() - self.x0 as f64;
+        let sy = ((y - self.rect.y as f64) * self.ss as f64).floor() - self.y0 as f64;
         if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
-            return None;
+            return None; // off the panel, or in it outside the part's box: no sample there
         }
         let key = (self.sample[sy as usize * self.w + sx as usize] >> 32) as u32;
         (key != 0).then(|| key_depth(key))
@@ -353,10 +458,21 @@ impl Layer {
         if width == 0 {
             return out;
         }
+        // A pixel of background samples only is the background itself (the mean of equal
+        // whole numbers is exact): the pixels outside the box are set to it directly.
+        let bg_pixel = background;
+        let (x0, y0) = (self.x0 / ss, self.y0 / ss);
+        let (x1, y1) = (x0 + w / ss, y0 + h / ss);
         out.par_chunks_mut(width).enumerate().for_each(|(py, row)| {
-            for (px, pixel) in row.iter_mut().enumerate() {
+            if py < y0 || py >= y1 {
+                row.fill(bg_pixel);
+                return;
+            }
+            row[..x0].fill(bg_pixel);
+            row[x1..].fill(bg_pixel);
+            for (px, pixel) in row[x0..x1].iter_mut().enumerate() {
                 let mut sum = [0.0f32; 3];
-                for sy in py * ss..(py + 1) * ss {
+                for sy in (py - y0) * ss..(py - y0 + 1) * ss {
                     for sx in px * ss..(px + 1) * ss {
                         let i = sy * w + sx;
                         let c = if self.sample[i] == 0 {
