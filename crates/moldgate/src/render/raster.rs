@@ -93,15 +93,27 @@ pub struct DrawOrder {
     place: Vec<u32>,
     /// Each triangle's corners, as indices into `positions`.
     corners: Vec<[u32; 3]>,
-    /// Unit normal of each triangle (zero when degenerate).
-    normals: Vec<DVec3>,
     /// Vertex positions in first-use order.
     positions: Vec<DVec3>,
     /// The colour-map coordinate of each of them.
     t: Vec<f32>,
     /// Whether the facets whose normal points away from the viewer are skipped (set by
-    /// [`DrawOrder::cull_back_faces`], the normals then facing out of the solid).
+    /// [`DrawOrder::cull_back_faces`]).
     cull: bool,
+    /// Whether the facets of every body face into it (all turned round for the test).
+    all_inward: bool,
+    /// Per triangle drawn, whether its body's facets face into it; empty when no body's
+    /// do, or when all do.
+    inward: Vec<bool>,
+}
+
+/// Unit normal of the triangle (a, b, c) by its corner order, zero when degenerate.
+/// Computed where it is used rather than kept: a stored normal per triangle is 8 MB of
+/// fresh pages on the 352k-triangle part, which the system zeroes at a cost larger than the
+/// arithmetic.
+#[inline]
+fn unit_normal(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    (b - a).cross(c - a).normalize_or_zero()
 }
 
 impl DrawOrder {
@@ -132,20 +144,14 @@ impl DrawOrder {
             .map(|&v| mesh.vertices[v as usize])
             .collect();
         let t = first_use.iter().map(|&v| t[v as usize]).collect();
-        let normals = corners
-            .par_iter()
-            .map(|c| {
-                let [pa, pb, pc] = c.map(|v| positions[v as usize]);
-                (pb - pa).cross(pc - pa).normalize_or_zero()
-            })
-            .collect();
         DrawOrder {
             place,
             corners,
-            normals,
             positions,
             t,
             cull: false,
+            all_inward: false,
+            inward: Vec::new(),
         }
     }
 
@@ -156,8 +162,8 @@ impl DrawOrder {
     /// surface of every sample is a front face, so the back faces (about half the
     /// triangles, and more than half of the samples drawn) cannot show. Which side is the
     /// front comes from each body's signed volume (by the divergence theorem, positive when
-    /// its facets face out): the normals of a body wound inwards are turned round, which
-    /// does not change its shading (both sides are lit alike).
+    /// its facets face out): for a body wound inwards the test is turned round (its shading
+    /// is the same, both sides being lit alike).
     pub fn cull_back_faces(&mut self, mesh: &Mesh, topology: &Topology) -> bool {
         use rayon::prelude::*;
         if mesh.triangles.len() != self.corners.len() || !topology.closed_and_oriented(mesh) {
@@ -196,14 +202,15 @@ impl DrawOrder {
         }
         let inward: Vec<bool> = volumes.iter().map(|&v| v < 0.0).collect();
         match &body {
-            None if inward[0] => self.normals.par_iter_mut().for_each(|n| *n = -*n),
-            None => {}
+            None => self.all_inward = inward[0],
+            Some(_) if inward.iter().all(|&i| i) => self.all_inward = true,
+            Some(_) if !inward.iter().any(|&i| i) => {}
             Some(body) => {
-                for (n, &k) in self.normals.iter_mut().zip(&self.place) {
-                    if inward[body[k as usize] as usize] {
-                        *n = -*n;
-                    }
-                }
+                self.inward = self
+                    .place
+                    .iter()
+                    .map(|&k| inward[body[k as usize] as usize])
+                    .collect();
             }
         }
         self.cull = true;
@@ -382,12 +389,22 @@ pub fn rasterise(
     let (first_y, last_y) = (y0 as f32, (y0 + h) as f32 - 1.0);
     let t = &order.t;
     let cull = order.cull;
-    for ((&place, corners), &n) in order.place.iter().zip(&order.corners).zip(&order.normals) {
+    for (drawn, (&place, corners)) in order.place.iter().zip(&order.corners).enumerate() {
         let place = place as usize;
-        if cull && n.dot(camera.toward) < 0.0 {
-            continue; // a back face of a closed body: a front face is nearer wherever it is
-        }
         let [ia, ib, ic] = corners.map(|i| i as usize);
+        let n = unit_normal(
+            order.positions[ia],
+            order.positions[ib],
+            order.positions[ic],
+        );
+        if cull {
+            let towards = n.dot(camera.toward);
+            let inward = order.all_inward || order.inward.get(drawn).copied().unwrap_or(false);
+            // A back face of a closed body: a front face is nearer wherever it is.
+            if (if inward { -towards } else { towards }) < 0.0 {
+                continue;
+            }
+        }
         let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         if area.abs() < 1e-12 || !area.is_finite() {
