@@ -611,6 +611,86 @@ mod tests {
         }
     }
 
+    /// The samples of a layer drawn with back faces skipped against the same layer with
+    /// both sides drawn, on closed samples seen from an oblique camera and along an axis:
+    /// the same nearest facet (so the same depth and colour) at all but a few samples on
+    /// the outline, also when the mesh is wound inwards. An open mesh is drawn on both
+    /// sides.
+    #[test]
+    fn skipping_back_faces_keeps_the_nearest_surface() {
+        let toward = DVec3::new(0.5, -0.45, 0.74).normalize();
+        let up = (DVec3::Z - toward * toward.z).normalize();
+        let oblique = Camera {
+            right: up.cross(toward),
+            up,
+            toward,
+            centre: DVec2::ZERO,
+            scale: 4.0,
+            origin: DVec2::new(100.0, 100.0),
+        };
+        let rect = PixelRect {
+            x: 0,
+            y: 0,
+            w: 200,
+            h: 200,
+        };
+        for name in ["cover", "bracket", "cap", "tray"] {
+            let part = crate::mesh::from_generated(crate::samples::sample(name).unwrap());
+            let mesh = &part.mesh;
+            let b = crate::math::Aabb::of_points(&mesh.vertices);
+            let t: Vec<f32> = mesh
+                .vertices
+                .iter()
+                .map(|p| (p.z - b.min.z) as f32)
+                .collect();
+            for camera in [oblique, square_camera()] {
+                let camera = Camera {
+                    centre: DVec2::new(
+                        ((b.min + b.max) * 0.5).dot(camera.right),
+                        ((b.min + b.max) * 0.5).dot(camera.up),
+                    ),
+                    scale: 150.0 / (b.max - b.min).length(),
+                    ..camera
+                };
+                // The facets turned round: the bodies' signed volume is negative, and the
+                // facets skipped must be the same (skipping the others would leave the
+                // samples of the far side).
+                let mut inverted = mesh.clone();
+                inverted.triangles.iter_mut().for_each(|tri| tri.swap(1, 2));
+                let inverted_topology = crate::mesh::Topology::new(&inverted);
+                let at = |l: &Layer, x: usize, y: usize| -> (u64, u8) {
+                    let (x, y) = (x.wrapping_sub(l.x0), y.wrapping_sub(l.y0));
+                    if x < l.w && y < l.h {
+                        (l.sample[y * l.w + x], l.lut[y * l.w + x])
+                    } else {
+                        (0, 0)
+                    }
+                };
+                let (mut covered, mut differ) = (0, 0);
+                for (m, topology) in [(mesh, &part.topology), (&inverted, &inverted_topology)] {
+                    let both = rasterise(&DrawOrder::new(m, &t), &camera, rect, 2, DVec3::Z);
+                    let mut order = DrawOrder::new(m, &t);
+                    assert!(order.cull_back_faces(m, topology), "{name}");
+                    let front = rasterise(&order, &camera, rect, 2, DVec3::Z);
+                    for y in 0..400 {
+                        for x in 0..400 {
+                            let (a, c) = (at(&both, x, y), at(&front, x, y));
+                            covered += usize::from(a.0 != 0);
+                            differ += usize::from(a != c);
+                        }
+                    }
+                }
+                assert!(covered > 1000, "{name}: {covered}");
+                assert!(differ * 1000 <= covered, "{name}: {differ} of {covered}");
+            }
+        }
+        let mut open = crate::samples::sample("cover").unwrap();
+        open.triangles.pop();
+        let topology = crate::mesh::Topology::new(&open);
+        let t = vec![0.0; open.vertices.len()];
+        assert!(!DrawOrder::new(&open, &t).cull_back_faces(&open, &topology));
+    }
+
     #[test]
     fn the_rounding_helpers_match_the_library() {
         let mut x = -300.0f32;
