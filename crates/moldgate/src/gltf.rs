@@ -796,6 +796,7 @@ mod tests {
                 let mesh = Mesh::default();
                 let scene = Scene {
                     mesh: &mesh,
+                    topology: None,
                     frame,
                     field: crate::scene::Field {
                         name: String::new(),

@@ -5,7 +5,7 @@
 use crate::frame::Frame;
 use crate::gate::{Analysis, ChosenGate};
 use crate::math::DVec3;
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Topology};
 
 /// A scalar per vertex, shown as colours.
 #[derive(Debug, Clone, PartialEq)]
@@ -56,6 +56,10 @@ pub struct PlacedMarker {
 pub struct Scene<'a> {
     /// The part, mm.
     pub mesh: &'a Mesh,
+    /// The part's topology, when known ([`Scene::with_topology`]): on a closed, consistently
+    /// oriented mesh the picture skips the facets turned away from the viewer, which the
+    /// part's own front faces hide.
+    pub topology: Option<&'a Topology>,
     /// Demolding frame (d, u, w).
     pub frame: Frame,
     /// Colour field on the part.
@@ -118,6 +122,7 @@ impl<'a> Scene<'a> {
         };
         Scene {
             mesh,
+            topology: None,
             frame,
             field: Field {
                 name: "height along D".into(),
@@ -134,6 +139,14 @@ impl<'a> Scene<'a> {
             title: title.into(),
             subtitle,
         }
+    }
+
+    /// The same scene with the part's topology (the one of [`crate::mesh::LoadedMesh`],
+    /// built for `mesh`), which lets the picture skip back faces when the mesh is closed and
+    /// consistently oriented.
+    pub fn with_topology(mut self, topology: &'a Topology) -> Scene<'a> {
+        self.topology = Some(topology);
+        self
     }
 
     /// The same scene with the qualifying region coloured by `field` (one value per

@@ -84,6 +84,31 @@ impl Topology {
     }
 }
 
+impl Topology {
+    /// Whether the mesh is closed (no open edge), manifold (no edge with more than two
+    /// triangles) and consistently oriented (the two triangles of every edge run it in
+    /// opposite directions). Each body of such a mesh bounds a solid, and its facets all
+    /// face out of it or all face into it; the picture uses this to skip the facets turned
+    /// away from the viewer.
+    pub fn closed_and_oriented(&self, mesh: &Mesh) -> bool {
+        if self.open_edges > 0 || self.non_manifold_edges > 0 {
+            return false;
+        }
+        mesh.triangles.par_iter().enumerate().all(|(t, tri)| {
+            (0..3).all(|k| {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let n = self.across[3 * t + k];
+                if n == NO_TRIANGLE {
+                    return false;
+                }
+                let other = mesh.triangles[n as usize];
+                // The neighbour runs the edge from b to a: b is followed by a in its order.
+                (0..3).any(|j| other[j] == b && other[(j + 1) % 3] == a)
+            })
+        })
+    }
+}
+
 type EdgeTable = (Vec<u32>, u64, u64, u64);
 
 fn neighbours(mesh: &Mesh) -> EdgeTable {
@@ -344,6 +369,24 @@ mod tests {
                 assert!(topology.neighbours(n as usize).contains(&(t as u32)));
             }
         }
+    }
+
+    #[test]
+    fn orientation_is_consistent_only_when_every_edge_runs_both_ways() {
+        let mut mesh = tetrahedron();
+        assert!(Topology::new(&mesh).closed_and_oriented(&mesh));
+        // All facets turned round: still consistent (the solid's facets all face in).
+        for tri in &mut mesh.triangles {
+            tri.swap(1, 2);
+        }
+        assert!(Topology::new(&mesh).closed_and_oriented(&mesh));
+        // One facet turned round: its three edges now run the same way as a neighbour's.
+        mesh.triangles[0].swap(1, 2);
+        assert!(!Topology::new(&mesh).closed_and_oriented(&mesh));
+        // One facet removed: open.
+        let mut open = tetrahedron();
+        open.triangles.pop();
+        assert!(!Topology::new(&open).closed_and_oriented(&open));
     }
 
     /// Every edge's triangles from a map keyed by the edge, the plain way.

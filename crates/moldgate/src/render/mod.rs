@@ -202,7 +202,10 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         })
         .collect();
     let diagonal = bounds_diagonal(scene);
-    let order = DrawOrder::new(mesh, &t);
+    let mut order = DrawOrder::new(mesh, &t);
+    if let Some(topology) = scene.topology {
+        order.cull_back_faces(mesh, topology);
+    }
     // Each panel is drawn and coloured on its own thread (its rows coloured in parallel);
     // the overlays then go on the one canvas in a fixed order.
     let draw = |v: &View| {

@@ -2,7 +2,7 @@
 //! values interpolated across each triangle and Lambert shading per facet.
 
 use crate::math::{DVec2, DVec3};
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Topology};
 
 use super::canvas::Rgb;
 
@@ -58,10 +58,17 @@ pub struct PixelRect {
 /// A sample is 9 bytes in two arrays that start as zeros, and a zero sample means "no part
 /// here": the arrays are allocated zeroed (fresh pages from the system, which it zeroes
 /// only when they are first written) rather than filled, so the background costs neither
-/// a fill pass nor its pages.
+/// a fill pass nor its pages. The arrays cover only the box of samples the part's vertices
+/// project into, grown by one sample and out to whole pixels (clamped to the panel): every
+/// sample outside it is empty, and a part that fills a third of its panel then zeroes and
+/// colours a third of the samples.
 pub struct Layer {
     pub rect: PixelRect,
     pub ss: u32,
+    /// The box's first column and row of samples in the panel (multiples of `ss`).
+    x0: usize,
+    y0: usize,
+    /// The box's width and height in samples (multiples of `ss`).
     w: usize,
     h: usize,
     /// The nearest surface: its depth as an order-keeping key ([`depth_key`]) in the high
@@ -82,55 +89,180 @@ pub struct Layer {
 /// centroids, was slower on the 352k-triangle housing: its front and back faces then
 /// alternate and the depth test's outcome with them.)
 pub struct DrawOrder {
+    /// The mesh index of each triangle drawn, in drawing order.
+    place: Vec<u32>,
     /// Each triangle's corners, as indices into `positions`.
     corners: Vec<[u32; 3]>,
-    /// Unit normal of each triangle (zero when degenerate).
-    normals: Vec<DVec3>,
     /// Vertex positions in first-use order.
     positions: Vec<DVec3>,
     /// The colour-map coordinate of each of them.
     t: Vec<f32>,
+    /// Whether the facets whose normal points away from the viewer are skipped (set by
+    /// [`DrawOrder::cull_back_faces`]).
+    cull: bool,
+    /// Whether the facets of every body face into it (all turned round for the test).
+    all_inward: bool,
+    /// Per triangle drawn, whether its body's facets face into it; empty when no body's
+    /// do, or when all do.
+    inward: Vec<bool>,
+}
+
+/// Unit normal of the triangle (a, b, c) by its corner order, zero when degenerate.
+/// Computed where it is used rather than kept: a stored normal per triangle is 8 MB of
+/// fresh pages on the 352k-triangle part, which the system zeroes at a cost larger than the
+/// arithmetic.
+#[inline]
+fn unit_normal(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    (b - a).cross(c - a).normalize_or_zero()
 }
 
 impl DrawOrder {
     /// The drawing order of `mesh`, with `t`, the colour-map coordinate per vertex.
     pub fn new(mesh: &Mesh, t: &[f32]) -> DrawOrder {
         use rayon::prelude::*;
+        let place = morton_order(mesh);
         let mut new_index = vec![u32::MAX; mesh.vertices.len()];
         let mut first_use: Vec<u32> = Vec::with_capacity(mesh.vertices.len());
-        let corners: Vec<[u32; 3]> = mesh
-            .triangles
-            .iter()
-            .map(|tri| {
-                tri.map(|v| {
-                    let slot = &mut new_index[v as usize];
-                    if *slot == u32::MAX {
-                        *slot = first_use.len() as u32;
-                        first_use.push(v);
-                    }
-                    *slot
-                })
-            })
+        // The triangles gathered in drawing order on all threads (scattered reads), then
+        // their corners renumbered in place in one pass.
+        let mut corners: Vec<[u32; 3]> = place
+            .par_iter()
+            .map(|&k| mesh.triangles[k as usize])
             .collect();
+        for tri in &mut corners {
+            for v in tri.iter_mut() {
+                let slot = &mut new_index[*v as usize];
+                if *slot == u32::MAX {
+                    *slot = first_use.len() as u32;
+                    first_use.push(*v);
+                }
+                *v = *slot;
+            }
+        }
         let positions: Vec<DVec3> = first_use
             .iter()
             .map(|&v| mesh.vertices[v as usize])
             .collect();
         let t = first_use.iter().map(|&v| t[v as usize]).collect();
-        let normals = corners
-            .par_iter()
-            .map(|c| {
-                let [pa, pb, pc] = c.map(|v| positions[v as usize]);
-                (pb - pa).cross(pc - pa).normalize_or_zero()
-            })
-            .collect();
         DrawOrder {
+            place,
             corners,
-            normals,
             positions,
             t,
+            cull: false,
+            all_inward: false,
+            inward: Vec::new(),
         }
     }
+
+    /// Skips, in every view, the facets turned away from the viewer, when `topology` (of the
+    /// same mesh) says the mesh is closed and consistently oriented; returns whether it
+    /// does. Each body then bounds a solid, and a ray from the viewer meets a facet of a
+    /// body where it enters that body before any facet where it leaves it: the nearest
+    /// surface of every sample is a front face, so the back faces (about half the
+    /// triangles, and more than half of the samples drawn) cannot show. Which side is the
+    /// front comes from each body's signed volume (by the divergence theorem, positive when
+    /// its facets face out): for a body wound inwards the test is turned round (its shading
+    /// is the same, both sides being lit alike).
+    pub fn cull_back_faces(&mut self, mesh: &Mesh, topology: &Topology) -> bool {
+        use rayon::prelude::*;
+        if mesh.triangles.len() != self.corners.len() || !topology.closed_and_oriented(mesh) {
+            return false;
+        }
+        let b = crate::math::Aabb::of_points(&mesh.vertices);
+        let origin = (b.min + b.max) * 0.5;
+        let size = (b.max - b.min).length();
+        // Six times the volume of the tetrahedron (box centre, a, b, c), in fixed blocks so
+        // that the sums do not depend on the threads.
+        let tetrahedron = |tri: &[u32; 3]| {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize] - origin);
+            a.dot(b.cross(c))
+        };
+        let body = (topology.bodies > 1).then(|| crate::mesh::topology::body_of_triangle(mesh));
+        let volumes: Vec<f64> = match &body {
+            None => {
+                let blocks: Vec<f64> = mesh
+                    .triangles
+                    .par_chunks(4096)
+                    .map(|block| block.iter().map(tetrahedron).sum())
+                    .collect();
+                vec![blocks.iter().sum()]
+            }
+            Some(body) => {
+                let bodies = body.iter().max().map_or(0, |&k| k as usize + 1);
+                let mut volumes = vec![0.0; bodies];
+                for (tri, &k) in mesh.triangles.iter().zip(body) {
+                    volumes[k as usize] += tetrahedron(tri);
+                }
+                volumes
+            }
+        };
+        if volumes.iter().any(|v| v.abs() <= 1e-9 * size * size * size) {
+            return false; // a body enclosing no volume has no outside to tell
+        }
+        let inward: Vec<bool> = volumes.iter().map(|&v| v < 0.0).collect();
+        match &body {
+            None => self.all_inward = inward[0],
+            Some(_) if inward.iter().all(|&i| i) => self.all_inward = true,
+            Some(_) if !inward.iter().any(|&i| i) => {}
+            Some(body) => {
+                self.inward = self
+                    .place
+                    .iter()
+                    .map(|&k| inward[body[k as usize] as usize])
+                    .collect();
+            }
+        }
+        self.cull = true;
+        true
+    }
+}
+
+/// The triangles of `mesh` in Morton order of the cells of their centroids in a 32^3
+/// lattice over the part's box, by index within a cell (a counting sort: one pass to count,
+/// one to file). Consecutive triangles then lie close together, and so do the samples they
+/// cover in either view: the depth test reads samples the cache holds. The order does not
+/// change the picture, as a sample keeps the nearest facet and, at one depth, the one first
+/// in the mesh, whatever the order they come in.
+fn morton_order(mesh: &Mesh) -> Vec<u32> {
+    use rayon::prelude::*;
+    const BITS: u32 = 5;
+    let b = crate::math::Aabb::of_points(&mesh.vertices);
+    let extent = (b.max - b.min).max_element().max(1e-300);
+    let spread = |v: u32| -> usize {
+        (0..BITS).fold(0, |code, bit| {
+            code | (((v >> bit) & 1) as usize) << (3 * bit)
+        })
+    };
+    let top = ((1u32 << BITS) - 1) as f64;
+    let scale = top / extent;
+    let cell: Vec<u16> = mesh
+        .triangles
+        .par_iter()
+        .map(|tri| {
+            let c = tri.iter().fold(crate::math::DVec3::ZERO, |s, &v| {
+                s + mesh.vertices[v as usize]
+            }) / 3.0;
+            let q = ((c - b.min) * scale)
+                .clamp(crate::math::DVec3::ZERO, crate::math::DVec3::splat(top));
+            (spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2) as u16
+        })
+        .collect();
+    let mut start = vec![0u32; 1 << (3 * BITS)];
+    for &c in &cell {
+        start[c as usize] += 1;
+    }
+    let mut sum = 0;
+    for s in &mut start {
+        (*s, sum) = (sum, sum + *s);
+    }
+    let mut place = vec![0u32; cell.len()];
+    for (k, &c) in cell.iter().enumerate() {
+        let slot = &mut start[c as usize];
+        place[*slot as usize] = k as u32;
+        *slot += 1;
+    }
+    place
 }
 
 /// `x.floor()` for finite `x` within the range of `i32`, without the library call it
@@ -202,16 +334,7 @@ pub fn rasterise(
     ss: u32,
     light: DVec3,
 ) -> Layer {
-    let (w, h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
-    let mut layer = Layer {
-        rect,
-        ss,
-        w,
-        h,
-        sample: vec![0; w * h],
-        lut: vec![0; w * h],
-        shade: vec![0.0; order.corners.len()],
-    };
+    let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
     let s = ss as f64;
     // Vertices in sample coordinates (pixel centres at +0.5) and depth.
     let projected: Vec<[f32; 3]> = order
@@ -226,18 +349,71 @@ pub fn rasterise(
             ]
         })
         .collect();
+    // The box of samples any triangle can reach: each triangle's rows and columns lie
+    // within the floor and ceiling of its corners' coordinates, so within those of all
+    // vertices. It is grown by one sample so that no sample drawn lies on its edge (except
+    // at the panel's edge), which keeps the outline test at its edges the panel's, and out
+    // to whole pixels so that a pixel's samples are all in it or all outside.
+    let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+    for p in &projected {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let ssz = ss as usize;
+    let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
+        let last = n as f32 - 1.0;
+        let first = (floor(lo.clamp(-1.0, last)) - 1.0).clamp(0.0, last) as usize;
+        let end = (ceil(hi.clamp(0.0, last + 1.0)) + 1.0).clamp(0.0, last) as usize + 1;
+        (first / ssz * ssz, end.div_ceil(ssz) * ssz)
+    };
+    let (x0, x1) = span(lo[0], hi[0], panel_w);
+    let (y0, y1) = span(lo[1], hi[1], panel_h);
+    let (w, h) = (x1 - x0, y1.max(y0) - y0);
+    let w = if h == 0 { 0 } else { w };
+    let mut layer = Layer {
+        rect,
+        ss,
+        x0,
+        y0,
+        w,
+        h,
+        sample: vec![0; w * h],
+        lut: vec![0; w * h],
+        shade: vec![0.0; order.corners.len()],
+    };
+    // The triangles' columns and rows clamped to the box, which only cuts what the panel
+    // would: the same samples as clamping to the panel.
+    let (first_x, last_x) = (x0 as f32, (x0 + w) as f32 - 1.0);
+    let (first_y, last_y) = (y0 as f32, (y0 + h) as f32 - 1.0);
     let t = &order.t;
-    for (place, (corners, &n)) in order.corners.iter().zip(&order.normals).enumerate() {
+    let cull = order.cull;
+    for (drawn, (&place, corners)) in order.place.iter().zip(&order.corners).enumerate() {
+        let place = place as usize;
         let [ia, ib, ic] = corners.map(|i| i as usize);
+        let n = unit_normal(
+            order.positions[ia],
+            order.positions[ib],
+            order.positions[ic],
+        );
+        if cull {
+            let towards = n.dot(camera.toward);
+            let inward = order.all_inward || order.inward.get(drawn).copied().unwrap_or(false);
+            // A back face of a closed body: a front face is nearer wherever it is.
+            if (if inward { -towards } else { towards }) < 0.0 {
+                continue;
+            }
+        }
         let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         if area.abs() < 1e-12 || !area.is_finite() {
             continue; // seen edge-on, or degenerate
         }
-        let min_x = floor(a[0].min(b[0]).min(c[0])).max(0.0);
-        let max_x = ceil(a[0].max(b[0]).max(c[0])).min(w as f32 - 1.0);
-        let min_y = floor(a[1].min(b[1]).min(c[1])).max(0.0);
-        let max_y = ceil(a[1].max(b[1]).max(c[1])).min(h as f32 - 1.0);
+        let min_x = floor(a[0].min(b[0]).min(c[0])).max(first_x);
+        let max_x = ceil(a[0].max(b[0]).max(c[0])).min(last_x);
+        let min_y = floor(a[1].min(b[1]).min(c[1])).max(first_y);
+        let max_y = ceil(a[1].max(b[1]).max(c[1])).min(last_y);
         if min_x > max_x || min_y > max_y {
             continue;
         }
@@ -262,7 +438,7 @@ pub fn rasterise(
             let px = min_x + 0.5;
             let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
             let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
-            let row = y * w;
+            let row = (y - y0) * w;
             let mut entered = false;
             for x in min_x as usize..=max_x as usize {
                 // A sliver of overlap rather than a crack where two triangles meet: samples
@@ -273,7 +449,7 @@ pub fn rasterise(
                     entered = true;
                     let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
                     let sample = (z as u64) << 32 | facet;
-                    let i = row + x;
+                    let i = row + (x - x0);
                     if sample > layer.sample[i] {
                         layer.sample[i] = sample;
                         if has_value {
@@ -302,10 +478,10 @@ const DIFFUSE: f64 = 0.68;
 impl Layer {
     /// Depth at canvas position (x, y) pixels: the sample under it, `None` off the part.
     pub fn depth_at(&self, x: f64, y: f64) -> Option<f32> {
-        let sx = ((x - self.rect.x as f64) * self.ss as f64).floor();
-        let sy = ((y - self.rect.y as f64) * self.ss as f64).floor();
+        let sx = ((x - self.rect.x as f64) * self.ss as f64).floor() - self.x0 as f64;
+        let sy = ((y - self.rect.y as f64) * self.ss as f64).floor() - self.y0 as f64;
         if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
-            return None;
+            return None; // off the panel, or in it outside the part's box: no sample there
         }
         let key = (self.sample[sy as usize * self.w + sx as usize] >> 32) as u32;
         (key != 0).then(|| key_depth(key))
@@ -353,10 +529,21 @@ impl Layer {
         if width == 0 {
             return out;
         }
+        // A pixel of background samples only is the background itself (the mean of equal
+        // whole numbers is exact): the pixels outside the box are set to it directly.
+        let bg_pixel = background;
+        let (x0, y0) = (self.x0 / ss, self.y0 / ss);
+        let (x1, y1) = (x0 + w / ss, y0 + h / ss);
         out.par_chunks_mut(width).enumerate().for_each(|(py, row)| {
-            for (px, pixel) in row.iter_mut().enumerate() {
+            if py < y0 || py >= y1 {
+                row.fill(bg_pixel);
+                return;
+            }
+            row[..x0].fill(bg_pixel);
+            row[x1..].fill(bg_pixel);
+            for (px, pixel) in row[x0..x1].iter_mut().enumerate() {
                 let mut sum = [0.0f32; 3];
-                for sy in py * ss..(py + 1) * ss {
+                for sy in (py - y0) * ss..(py - y0 + 1) * ss {
                     for sx in px * ss..(px + 1) * ss {
                         let i = sy * w + sx;
                         let c = if self.sample[i] == 0 {
@@ -422,6 +609,86 @@ mod tests {
         for d in depths {
             assert_eq!(key_depth(depth_key(d)), d + 0.0);
         }
+    }
+
+    /// The samples of a layer drawn with back faces skipped against the same layer with
+    /// both sides drawn, on closed samples seen from an oblique camera and along an axis:
+    /// the same nearest facet (so the same depth and colour) at all but a few samples on
+    /// the outline, also when the mesh is wound inwards. An open mesh is drawn on both
+    /// sides.
+    #[test]
+    fn skipping_back_faces_keeps_the_nearest_surface() {
+        let toward = DVec3::new(0.5, -0.45, 0.74).normalize();
+        let up = (DVec3::Z - toward * toward.z).normalize();
+        let oblique = Camera {
+            right: up.cross(toward),
+            up,
+            toward,
+            centre: DVec2::ZERO,
+            scale: 4.0,
+            origin: DVec2::new(100.0, 100.0),
+        };
+        let rect = PixelRect {
+            x: 0,
+            y: 0,
+            w: 200,
+            h: 200,
+        };
+        for name in ["cover", "bracket", "cap", "tray"] {
+            let part = crate::mesh::from_generated(crate::samples::sample(name).unwrap());
+            let mesh = &part.mesh;
+            let b = crate::math::Aabb::of_points(&mesh.vertices);
+            let t: Vec<f32> = mesh
+                .vertices
+                .iter()
+                .map(|p| (p.z - b.min.z) as f32)
+                .collect();
+            for camera in [oblique, square_camera()] {
+                let camera = Camera {
+                    centre: DVec2::new(
+                        ((b.min + b.max) * 0.5).dot(camera.right),
+                        ((b.min + b.max) * 0.5).dot(camera.up),
+                    ),
+                    scale: 150.0 / (b.max - b.min).length(),
+                    ..camera
+                };
+                // The facets turned round: the bodies' signed volume is negative, and the
+                // facets skipped must be the same (skipping the others would leave the
+                // samples of the far side).
+                let mut inverted = mesh.clone();
+                inverted.triangles.iter_mut().for_each(|tri| tri.swap(1, 2));
+                let inverted_topology = crate::mesh::Topology::new(&inverted);
+                let at = |l: &Layer, x: usize, y: usize| -> (u64, u8) {
+                    let (x, y) = (x.wrapping_sub(l.x0), y.wrapping_sub(l.y0));
+                    if x < l.w && y < l.h {
+                        (l.sample[y * l.w + x], l.lut[y * l.w + x])
+                    } else {
+                        (0, 0)
+                    }
+                };
+                let (mut covered, mut differ) = (0, 0);
+                for (m, topology) in [(mesh, &part.topology), (&inverted, &inverted_topology)] {
+                    let both = rasterise(&DrawOrder::new(m, &t), &camera, rect, 2, DVec3::Z);
+                    let mut order = DrawOrder::new(m, &t);
+                    assert!(order.cull_back_faces(m, topology), "{name}");
+                    let front = rasterise(&order, &camera, rect, 2, DVec3::Z);
+                    for y in 0..400 {
+                        for x in 0..400 {
+                            let (a, c) = (at(&both, x, y), at(&front, x, y));
+                            covered += usize::from(a.0 != 0);
+                            differ += usize::from(a != c);
+                        }
+                    }
+                }
+                assert!(covered > 1000, "{name}: {covered}");
+                assert!(differ * 1000 <= covered, "{name}: {differ} of {covered}");
+            }
+        }
+        let mut open = crate::samples::sample("cover").unwrap();
+        open.triangles.pop();
+        let topology = crate::mesh::Topology::new(&open);
+        let t = vec![0.0; open.vertices.len()];
+        assert!(!DrawOrder::new(&open, &t).cull_back_faces(&open, &topology));
     }
 
     #[test]

@@ -491,7 +491,7 @@ impl Study {
         title: impl Into<String>,
     ) -> Result<Scene<'a>, StudyError> {
         self.check_part(part)?;
-        let mut scene = Scene::new(&part.mesh, &self.analysis, title);
+        let mut scene = Scene::new(&part.mesh, &self.analysis, title).with_topology(&part.topology);
         if let Some(f) = self.fill_field() {
             scene = scene.with_field(f);
         }

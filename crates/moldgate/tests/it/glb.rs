@@ -325,6 +325,7 @@ fn cube_has_sharp_edges() {
     };
     let scene = Scene {
         mesh: &mesh,
+        topology: None,
         frame,
         field,
         gates: vec![],
@@ -391,6 +392,7 @@ fn unknown_values_are_grey_and_missing_gate_normal_uses_d() {
 fn empty_scene(mesh: &Mesh) -> Scene<'_> {
     Scene {
         mesh,
+        topology: None,
         frame: Frame::new(Direction::PLUS_Z),
         field: empty_field(),
         gates: vec![],
