@@ -26,6 +26,7 @@
 //! starts on) and ignores hits nearer than its `min_distance`.
 
 use std::cmp::Ordering;
+use std::ops::ControlFlow;
 
 use glam::{Vec3, Vec3A};
 use rayon::join;
@@ -827,11 +828,7 @@ fn append(nodes: &mut Vec<Node>, sub: Vec<Node>, base: usize) {
 /// and, when the split was binned, the extents of the two parts; or `None` when no split
 /// beats a leaf and the leaf is small enough, or no split exists. The three axes are binned
 /// in one pass over the items.
-fn split(
-    items: &mut [Item],
-    bounds: &Bounds,
-    centres: &Bounds,
-) -> Option<(usize, Option<(Extent, Extent)>)> {
+fn split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> SplitAnswer {
     let extent = centres.max - centres.min;
     let (mut axes_of, mut n_axes) = ([0usize; 3], 0);
     for axis in 0..3 {
@@ -857,7 +854,7 @@ fn split_binned(
     axes: &[usize],
     lo: Vec3A,
     scale: Vec3A,
-) -> Option<(usize, Option<(Extent, Extent)>)> {
+) -> SplitAnswer {
     let n_axes = axes.len();
     // The bin of a centre along an axis. A centre lies at or above `lo` and at most a
     // rounding above `lo + extent`, so the scaled offset is in [0, BINS + 1) and its
@@ -934,16 +931,11 @@ fn split_binned(
             }
         }
     }
-    let Some((cost, axis, plane)) = best else {
-        // Centres all equal: halve the list so that leaves stay small.
-        return (items.len() > LEAF_SIZE).then_some((items.len() / 2, None));
+    let (axis, cut) = match chosen_cut(best, bounds, items.len(), lo, scale) {
+        ControlFlow::Continue(chosen) => chosen,
+        ControlFlow::Break(answer) => return answer,
     };
-    let leaf_cost = bounds.half_area() * items.len() as f32;
-    if cost >= leaf_cost && items.len() <= 4 * LEAF_SIZE {
-        return None;
-    }
     // Partition in place by the chosen plane, with the binning's own arithmetic.
-    let cut = (((plane - lo[axis]) * scale[axis]).round()) as usize;
     let i = partition(items, |it| bin_of(axis, it.centre[axis]) < cut);
     // The parts are the bins below and above the cut: their extents are the bins' unions.
     let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
@@ -955,6 +947,31 @@ fn split_binned(
         }
     }
     (i > 0 && i < items.len()).then_some((i, Some((left, right))))
+}
+
+/// A split's answer: where the items part (left count) and, when known, the two sides'
+/// extents; `None` keeps the node a leaf.
+type SplitAnswer = Option<(usize, Option<(Extent, Extent)>)>;
+
+/// A split's decision once its planes are priced (`best`: cost, axis, plane, of `n` items
+/// inside `bounds`): `Continue((axis, cut))`, the plane as the first bin of the right side, or
+/// `Break` with the split's answer when there is no plane (centres all equal: halve the
+/// list so that leaves stay small) or the node is cheaper as a leaf.
+fn chosen_cut(
+    best: Option<(f32, usize, f32)>,
+    bounds: &Bounds,
+    n: usize,
+    lo: Vec3A,
+    scale: Vec3A,
+) -> ControlFlow<SplitAnswer, (usize, usize)> {
+    let Some((cost, axis, plane)) = best else {
+        return ControlFlow::Break((n > LEAF_SIZE).then_some((n / 2, None)));
+    };
+    let leaf_cost = bounds.half_area() * n as f32;
+    if cost >= leaf_cost && n <= 4 * LEAF_SIZE {
+        return ControlFlow::Break(None);
+    }
+    ControlFlow::Continue((axis, ((plane - lo[axis]) * scale[axis]).round() as usize))
 }
 
 /// Items up to which a split prices only the planes after its occupied bins (see
@@ -975,7 +992,7 @@ fn split_few(
     axes: &[usize],
     lo: Vec3A,
     scale: Vec3A,
-) -> Option<(usize, Option<(Extent, Extent)>)> {
+) -> SplitAnswer {
     let n = items.len();
     let mut of_item = [[0u8; 3]; FEW_ITEMS];
     for (b, it) in of_item.iter_mut().zip(items.iter()) {
@@ -1025,15 +1042,10 @@ fn split_few(
             }
         }
     }
-    let Some((cost, axis, plane)) = best else {
-        // Centres all equal: halve the list so that leaves stay small.
-        return (n > LEAF_SIZE).then_some((n / 2, None));
+    let (axis, cut) = match chosen_cut(best, bounds, n, lo, scale) {
+        ControlFlow::Continue(chosen) => chosen,
+        ControlFlow::Break(answer) => return answer,
     };
-    let leaf_cost = bounds.half_area() * n as f32;
-    if cost >= leaf_cost && n <= 4 * LEAF_SIZE {
-        return None;
-    }
-    let cut = (((plane - lo[axis]) * scale[axis]).round()) as usize;
     // The sides by the bins already found (the same arithmetic as `split`'s partition).
     let mut goes_left = [false; FEW_ITEMS];
     for (g, b) in goes_left.iter_mut().zip(&of_item[..n]) {
@@ -1367,11 +1379,7 @@ mod tests {
 
     /// The split as the tree was first built (one set of bins for every node, a branching
     /// two-ended partition): the oracle of the faster one, which must build the same tree.
-    fn earlier_split(
-        items: &mut [Item],
-        bounds: &Bounds,
-        centres: &Bounds,
-    ) -> Option<(usize, Option<(Extent, Extent)>)> {
+    fn earlier_split(items: &mut [Item], bounds: &Bounds, centres: &Bounds) -> SplitAnswer {
         let extent = centres.max - centres.min;
         let (mut axes_of, mut n_axes) = ([0usize; 3], 0);
         for axis in 0..3 {
