@@ -792,6 +792,20 @@ impl ProjectedTriangle {
             return;
         };
         let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
+        if i0 == i1 && j0 == j1 {
+            // One candidate ray, the common case (most triangles are smaller than a
+            // spacing): the loops' work without the loops.
+            let s = DVec2::new(
+                o.x + i0 as f64 * lattice.spacing,
+                o.y + j0 as f64 * lattice.spacing,
+            );
+            let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
+            if inside(e_bc, bc) & inside(e_ca, ca) & inside(e_ab, ab) {
+                let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
+                hits[j0 * lattice.n_u + i0].add(height, t, base);
+            }
+            return;
+        }
         let wide = i1 - i0 > 2;
         for j in j0..=j1 {
             let y = o.y + j as f64 * lattice.spacing;
