@@ -955,8 +955,8 @@ impl LatticeAxis {
         const SLACK: f64 = 1e-9;
         // Clamped first, so that the conversions to integers cannot saturate.
         let i0 = ceil_int(((lo - self.origin) * inv_spacing - SLACK).clamp(-1.0, self.top)).max(0);
-        let i1 =
-            floor_int(((hi - self.origin) * inv_spacing + SLACK).clamp(-1.0, self.top)).min(self.last);
+        let i1 = floor_int(((hi - self.origin) * inv_spacing + SLACK).clamp(-1.0, self.top))
+            .min(self.last);
         (i0 <= i1).then_some((i0 as usize, i1 as usize))
     }
 }
@@ -1011,7 +1011,13 @@ mod tests {
                 LatticeAxis::new(l.origin.x, l.n_u),
                 LatticeAxis::new(l.origin.y, l.n_w),
             ];
-            tri.draw(&tri.edges(), k, (&l, &axes, 1.0 / l.spacing), &mut drawn, 0.0);
+            tri.draw(
+                &tri.edges(),
+                k,
+                (&l, &axes, 1.0 / l.spacing),
+                &mut drawn,
+                0.0,
+            );
             let mut every = vec![Hit::MISS; l.n_u * l.n_w];
             let [pa, pb, pc] = tri.p;
             let edges = [

@@ -114,6 +114,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         }
         rim.sort_unstable();
         // 2. The cycle round the band.
+        raster.rims_found();
         raster.mark_band(&rim_segments, BAND_CELLS);
         drop(rim_segments);
         let near = |p: DVec2| raster.in_band(p);

@@ -224,6 +224,14 @@ impl Outside {
         self.cell
     }
 
+    /// Frees what only [`Outside::on_rim`] reads (the lowest heights of the edge cells, about
+    /// a megabyte on the 352k part, and the cells touching the outside), once the rim edges
+    /// are found: the band and the cycle are made without them, beside the rays.
+    pub(super) fn rims_found(&mut self) {
+        self.lowest = FxHashMap::default();
+        self.touch = Vec::new();
+    }
+
     /// Marks the band round the rim: the cells within `cells` cells (in both axes) of a cell
     /// that one of `rim` (the rim edges) passes through; [`Outside::in_band`] then tells
     /// whether a point lies in it. The band is measured from the rim edges, not from the
