@@ -1,6 +1,6 @@
-//! The process's memory allocator on Linux: the system's, except that blocks of 2 MiB and
-//! more are mapped on their own, at a 2 MiB boundary, and offered to the kernel for
-//! transparent huge pages.
+//! The process's memory allocator on Linux: the system's, except that blocks of 128 KiB
+//! and more are mapped on their own (and given back when freed), those of 2 MiB and more at
+//! a 2 MiB boundary and offered to the kernel for transparent huge pages.
 //!
 //! The analysis of a large part touches a few large arrays (the welded mesh, the welding
 //! tables, the edge table) at scattered places. On 4 KiB pages each first touch is a fault
@@ -12,22 +12,30 @@
 //! memory than its own size rounded up to 4 KiB: peak resident memory does not grow. When
 //! the kernel has huge pages disabled, the advice is ignored and the blocks are ordinary
 //! mappings.
+//!
+//! Blocks between 128 KiB and 2 MiB are mapped here too rather than left to the system
+//! allocator, which maps them as well but, once one is freed, raises its threshold for
+//! mapping to that size and serves later blocks of up to that size from its heaps, where
+//! freed memory is not given back: on the 352k-triangle part the welding tables (1 MiB)
+//! left about 2 MiB more resident at the peak that way (docs/performance.md).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 
-/// Blocks of at least this many bytes are mapped on their own.
-const LARGE: usize = 2 << 20;
+/// Blocks of at least this many bytes are mapped on their own (the system allocator's own
+/// threshold before it adapts it).
+const MAPPED: usize = 128 << 10;
 /// The size and alignment of a transparent huge page on x86-64 and AArch64 (4 KiB base).
 const HUGE_PAGE: usize = 2 << 20;
 /// The base page size the mappings are rounded to.
 const PAGE: usize = 4096;
 
-/// The system allocator, with large blocks on huge-page-aligned mappings.
+/// The system allocator, with blocks of [`MAPPED`] bytes and more on mappings of their own,
+/// huge-page-aligned from [`HUGE_PAGE`] bytes.
 pub struct Allocator;
 
 /// Whether a block of this layout is mapped on its own (else the system allocator has it).
 fn mapped(size: usize, align: usize) -> bool {
-    size >= LARGE && align <= PAGE
+    size >= MAPPED && align <= PAGE
 }
 
 /// The length of the mapping that holds `size` bytes.
@@ -77,7 +85,7 @@ unsafe impl GlobalAlloc for Allocator {
         // SAFETY: the caller guarantees that `new_size`, rounded up to the alignment, does
         // not overflow `isize`, which is all a layout needs.
         let new_layout = unsafe { Layout::from_size_align_unchecked(new_size, layout.align()) };
-        // SAFETY: a non-zero size (at least one of the two sizes is LARGE or more, and
+        // SAFETY: a non-zero size (at least one of the two sizes is MAPPED or more, and
         // `new_size` is non-zero by the caller's contract).
         let new = unsafe { self.alloc(new_layout) };
         if !new.is_null() {
@@ -92,10 +100,28 @@ unsafe impl GlobalAlloc for Allocator {
     }
 }
 
-/// Maps `size` bytes at a 2 MiB boundary and advises huge pages on the whole 2 MiB pages in
-/// it; null when the system has no memory to give.
+/// Maps `size` bytes, from [`HUGE_PAGE`] bytes on at a 2 MiB boundary with huge pages
+/// advised on the whole 2 MiB pages in it; null when the system has no memory to give.
 fn map(size: usize) -> *mut u8 {
     let len = mapped_len(size);
+    if len < HUGE_PAGE {
+        // SAFETY: a new private anonymous mapping; no existing memory is affected.
+        let raw = unsafe {
+            libc::mmap(
+                std::ptr::null_mut(),
+                len,
+                libc::PROT_READ | libc::PROT_WRITE,
+                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS,
+                -1,
+                0,
+            )
+        };
+        return if raw == libc::MAP_FAILED {
+            std::ptr::null_mut()
+        } else {
+            raw.cast()
+        };
+    }
     // Over-map by a huge page, then unmap the ends so the block starts on a boundary.
     let Some(over) = len.checked_add(HUGE_PAGE) else {
         return std::ptr::null_mut();
@@ -148,7 +174,7 @@ mod tests {
 
     #[test]
     fn zeroed_large_blocks_read_as_zeros() {
-        let v = vec![0u64; LARGE / 8 + 1000];
+        let v = vec![0u64; HUGE_PAGE / 8 + 1000];
         assert_eq!(v.as_ptr() as usize % HUGE_PAGE, 0);
         assert!(v.iter().all(|&x| x == 0));
     }
@@ -157,7 +183,7 @@ mod tests {
     fn growing_across_the_threshold_and_shrinking_back_keeps_the_contents() {
         // Small (system) -> large (mapped) -> larger (mapped) -> small (system).
         let mut v: Vec<u32> = (0..1000).collect();
-        for target in [LARGE / 4 + 10, LARGE / 2 + 77] {
+        for target in [MAPPED / 4 + 10, HUGE_PAGE / 4 + 10, HUGE_PAGE / 2 + 77] {
             let from = v.len() as u32;
             v.extend(from..target as u32);
             assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32));
@@ -171,7 +197,7 @@ mod tests {
 
     #[test]
     fn alignments_above_a_page_go_to_the_system_allocator() {
-        let layout = Layout::from_size_align(LARGE, 2 * PAGE).unwrap();
+        let layout = Layout::from_size_align(HUGE_PAGE, 2 * PAGE).unwrap();
         assert!(!mapped(layout.size(), layout.align()));
         // SAFETY: a valid non-zero layout, freed with the same layout.
         unsafe {
@@ -179,7 +205,7 @@ mod tests {
             assert!(!p.is_null());
             assert_eq!(p as usize % (2 * PAGE), 0);
             p.write_bytes(7, layout.size());
-            assert_eq!(*p.add(LARGE - 1), 7);
+            assert_eq!(*p.add(HUGE_PAGE - 1), 7);
             Allocator.dealloc(p, layout);
         }
     }

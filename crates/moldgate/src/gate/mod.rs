@@ -332,7 +332,8 @@ pub struct Gate {
 /// Seconds spent in each stage of [`locate`].
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct StageTimes {
-    /// Centres of mass (computed alongside the rays, before the parting line).
+    /// Centres of mass (taken from the part, which sums them at load, alongside the rays,
+    /// before the parting line).
     pub centre_s: f64,
     /// Frame, projection of the vertices and grid.
     pub grid_s: f64,
@@ -648,7 +649,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         },
         || {
             let t = Instant::now();
-            let centres = Centres::of(mesh);
+            let centres = part.centres;
             // The surface centre when the mesh encloses no volume (warned below).
             let centre = centres.get(options.centre).unwrap_or(centres.surface);
             times.centre_s = t.elapsed().as_secs_f64();

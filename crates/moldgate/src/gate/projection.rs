@@ -333,6 +333,17 @@ fn draw_blocks(
     let fy: Vec<f64> = lattices.iter().map(|l| offset(l, |v| v.y)).collect();
     let (cover_x, cover_y) = (OffsetBuckets::new(&fx), OffsetBuckets::new(&fy));
     let present = if node.is_some() { u64::MAX } else { !1 };
+    // Both axes of every lattice, by bit (an absent node lattice's are never read).
+    let axes: Vec<[LatticeAxis; 2]> = lattices
+        .iter()
+        .map(|l| {
+            let l = l.unwrap_or(first);
+            [
+                LatticeAxis::new(l.origin.x, l.n_u),
+                LatticeAxis::new(l.origin.y, l.n_w),
+            ]
+        })
+        .collect();
     // File order within a block: neighbouring triangles share vertices, so the corner reads
     // stay in cache.
     while let Some(block) = next() {
@@ -358,11 +369,11 @@ fn draw_blocks(
                 mask &= mask - 1;
                 match (k, &mut node) {
                     (0, Some((lattice, hits))) => {
-                        triangle.draw(&edges, t, (lattice, inv), hits, base)
+                        triangle.draw(&edges, t, (lattice, &axes[0], inv), hits, base)
                     }
                     _ => {
                         let (lattice, hits) = (&circles[k - 1], &mut circle_hits[k - 1]);
-                        triangle.draw(&edges, t, (lattice, inv), hits, base)
+                        triangle.draw(&edges, t, (lattice, &axes[k], inv), hits, base)
                     }
                 }
             }
@@ -779,19 +790,33 @@ impl ProjectedTriangle {
         &self,
         [bc, ca, ab]: &[EdgeFn; 3],
         t: u32,
-        (lattice, inv): (&RayLattice, f64),
+        (lattice, [along_u, along_w], inv): (&RayLattice, &[LatticeAxis; 2], f64),
         hits: &mut [R],
         base: f64,
     ) {
         let [ha, hb, hc] = self.h;
         let o = lattice.origin;
-        let Some((i0, i1)) = index_range(o.x, inv, lattice.n_u, self.lo.x, self.hi.x) else {
+        let Some((i0, i1)) = along_u.range(inv, self.lo.x, self.hi.x) else {
             return;
         };
-        let Some((j0, j1)) = index_range(o.y, inv, lattice.n_w, self.lo.y, self.hi.y) else {
+        let Some((j0, j1)) = along_w.range(inv, self.lo.y, self.hi.y) else {
             return;
         };
         let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
+        if i0 == i1 && j0 == j1 {
+            // One candidate ray, the common case (most triangles are smaller than a
+            // spacing): the loops' work without the loops.
+            let s = DVec2::new(
+                o.x + i0 as f64 * lattice.spacing,
+                o.y + j0 as f64 * lattice.spacing,
+            );
+            let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
+            if inside(e_bc, bc) & inside(e_ca, ca) & inside(e_ab, ab) {
+                let height = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
+                hits[j0 * lattice.n_u + i0].add(height, t, base);
+            }
+            return;
+        }
         let wide = i1 - i0 > 2;
         for j in j0..=j1 {
             let y = o.y + j as f64 * lattice.spacing;
@@ -902,10 +927,42 @@ fn ceil_int(x: f64) -> i64 {
     t + i64::from((t as f64) < x)
 }
 
-/// A range of lattice indices that holds every index whose coordinate `origin + i *
-/// spacing` lies in [lo, hi], and at most the neighbours within a billionth of a spacing:
-/// a superset is enough, since the exact edge test decides each ray.
-#[inline]
+/// One axis of a lattice: its origin and size, with the size also as the numbers the range
+/// of [`LatticeAxis::range`] is clamped to, made once per lattice rather than per triangle.
+#[derive(Debug, Clone, Copy)]
+struct LatticeAxis {
+    origin: f64,
+    /// The number of rays along the axis.
+    top: f64,
+    /// The last ray's index.
+    last: i64,
+}
+
+impl LatticeAxis {
+    fn new(origin: f64, n: usize) -> LatticeAxis {
+        LatticeAxis {
+            origin,
+            top: n as f64,
+            last: n as i64 - 1,
+        }
+    }
+
+    /// A range of lattice indices that holds every index whose coordinate `origin + i *
+    /// spacing` lies in [lo, hi], and at most the neighbours within a billionth of a
+    /// spacing: a superset is enough, since the exact edge test decides each ray.
+    #[inline]
+    fn range(&self, inv_spacing: f64, lo: f64, hi: f64) -> Option<(usize, usize)> {
+        const SLACK: f64 = 1e-9;
+        // Clamped first, so that the conversions to integers cannot saturate.
+        let i0 = ceil_int(((lo - self.origin) * inv_spacing - SLACK).clamp(-1.0, self.top)).max(0);
+        let i1 = floor_int(((hi - self.origin) * inv_spacing + SLACK).clamp(-1.0, self.top))
+            .min(self.last);
+        (i0 <= i1).then_some((i0 as usize, i1 as usize))
+    }
+}
+
+/// [`LatticeAxis::range`] of the axis with `origin` and `n` rays.
+#[cfg(test)]
 fn index_range(
     origin: f64,
     inv_spacing: f64,
@@ -913,12 +970,7 @@ fn index_range(
     lo: f64,
     hi: f64,
 ) -> Option<(usize, usize)> {
-    const SLACK: f64 = 1e-9;
-    // Clamped first, so that the conversions to integers cannot saturate.
-    let top = n as f64;
-    let i0 = ceil_int(((lo - origin) * inv_spacing - SLACK).clamp(-1.0, top)).max(0);
-    let i1 = floor_int(((hi - origin) * inv_spacing + SLACK).clamp(-1.0, top)).min(n as i64 - 1);
-    (i0 <= i1).then_some((i0 as usize, i1 as usize))
+    LatticeAxis::new(origin, n).range(inv_spacing, lo, hi)
 }
 
 #[cfg(test)]
@@ -955,7 +1007,17 @@ mod tests {
                 continue;
             };
             let mut drawn = vec![Hit::MISS; l.n_u * l.n_w];
-            tri.draw(&tri.edges(), k, (&l, 1.0 / l.spacing), &mut drawn, 0.0);
+            let axes = [
+                LatticeAxis::new(l.origin.x, l.n_u),
+                LatticeAxis::new(l.origin.y, l.n_w),
+            ];
+            tri.draw(
+                &tri.edges(),
+                k,
+                (&l, &axes, 1.0 / l.spacing),
+                &mut drawn,
+                0.0,
+            );
             let mut every = vec![Hit::MISS; l.n_u * l.n_w];
             let [pa, pb, pc] = tri.p;
             let edges = [

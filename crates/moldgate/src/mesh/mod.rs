@@ -30,6 +30,7 @@ use std::io::BufRead;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::centre::{self, Centres, Moments};
 use crate::error::LoadError;
 use crate::math::{Aabb, DVec3};
 pub use arrays::from_arrays;
@@ -188,6 +189,9 @@ pub struct LoadedMesh {
     pub warnings: Vec<String>,
     /// The mesh's topology (edges and bodies), built once at load.
     pub topology: Topology,
+    /// Both centres of mass ([`Centres::of`] the mesh), summed at load in the pass that
+    /// measures the area.
+    pub centres: Centres,
 }
 
 /// Reads an STL (binary or ASCII) of `len` bytes from `reader`, converting it to millimetres.
@@ -269,7 +273,10 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         mut warnings,
     } = raw;
     mesh.scale(units.mm_per_unit());
-    let mut topology = Topology::new(&mesh);
+    // The topology and the pass over the triangles that sums the area and the centres need
+    // nothing of each other: they run side by side, and one fills the time the other's
+    // sequential steps leave a thread idle.
+    let (mut topology, mut sums) = rayon::join(|| Topology::new(&mesh), || Sums::of(&mesh));
     // A repeated triangle makes its edges non-manifold, so a mesh without such edges has
     // none (but for a mesh of two copies of one triangle): only then are they looked for.
     let duplicate_triangles = if topology.non_manifold_edges > 0 || mesh.triangles.len() <= 2 {
@@ -279,36 +286,17 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
     };
     if duplicate_triangles > 0 {
         topology = Topology::new(&mesh);
+        sums = Sums::of(&mesh);
         warnings.push(format!(
             "{duplicate_triangles} triangles repeat an earlier triangle's three vertices and were dropped"
         ));
     }
-    // Areas are taken relative to the box centre, as the centre of mass takes them, so that
-    // a part far from the origin does not get a non-zero area from cancellation here and a
-    // zero one there (the readers keep every coordinate within MAX_COORDINATE_MM, so the
-    // products stay finite).
-    let bounds = mesh.bounds();
-    let origin = bounds.centre();
-    // Summed in fixed blocks, in parallel, and the blocks' sums in order: the same area
-    // whatever the number of threads.
-    const BLOCK: usize = 16 * 1024;
-    let blocks: Vec<(f64, u64)> = mesh
-        .triangles
-        .par_chunks(BLOCK)
-        .enumerate()
-        .map(|(b, block)| {
-            let (mut area, mut zero_area) = (0.0, 0u64);
-            for t in b * BLOCK..b * BLOCK + block.len() {
-                let [a, b, c] = mesh.corners(t).map(|p| p - origin);
-                let a2 = (b - a).cross(c - a).length();
-                zero_area += u64::from(a2 == 0.0);
-                area += 0.5 * a2;
-            }
-            (area, zero_area)
-        })
-        .collect();
-    let area: f64 = blocks.iter().map(|b| b.0).sum();
-    let zero_area: u64 = blocks.iter().map(|b| b.1).sum();
+    let Sums {
+        bounds,
+        area,
+        zero_area,
+        centres,
+    } = sums;
     if area <= 0.0 {
         return Err(LoadError::NoArea {
             facets: facets_read,
@@ -368,7 +356,63 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         stats,
         warnings,
         topology,
+        centres,
     })
+}
+
+/// What one pass over the triangles measures at load: the box, the area, the triangles of
+/// zero area, and the centres of mass.
+struct Sums {
+    bounds: Aabb,
+    area: f64,
+    zero_area: u64,
+    centres: Centres,
+}
+
+impl Sums {
+    fn of(mesh: &Mesh) -> Sums {
+        // Areas are taken relative to the box centre, as the centre of mass takes them, so
+        // that a part far from the origin does not get a non-zero area from cancellation
+        // here and a zero one there (the readers keep every coordinate within
+        // MAX_COORDINATE_MM, so the products stay finite).
+        let bounds = mesh.bounds();
+        let origin = bounds.centre();
+        // Summed in fixed blocks, in parallel, and the blocks' sums in order: the same area
+        // whatever the number of threads. The same pass sums the moments of the centres of
+        // mass, in the runs of `Centres::of` (two a block), so that `locate` need not go
+        // over the triangles again for them.
+        const BLOCK: usize = 2 * centre::RUN;
+        let blocks: Vec<(f64, u64, [Option<Moments>; 2])> = mesh
+            .triangles
+            .par_chunks(BLOCK)
+            .enumerate()
+            .map(|(b, block)| {
+                let (mut area, mut zero_area) = (0.0, 0u64);
+                let mut runs = [None; 2];
+                for (r, run) in block.chunks(centre::RUN).enumerate() {
+                    let mut moments = Moments::default();
+                    let first = b * BLOCK + r * centre::RUN;
+                    for t in first..first + run.len() {
+                        let [a, b, c] = mesh.corners(t).map(|p| p - origin);
+                        let cross = (b - a).cross(c - a);
+                        let a2 = cross.length();
+                        zero_area += u64::from(a2 == 0.0);
+                        area += 0.5 * a2;
+                        moments.add([a, b, c], cross);
+                    }
+                    runs[r] = Some(moments);
+                }
+                (area, zero_area, runs)
+            })
+            .collect();
+        let runs: Vec<Moments> = blocks.iter().flat_map(|b| b.2).flatten().collect();
+        Sums {
+            bounds,
+            area: blocks.iter().map(|b| b.0).sum(),
+            zero_area: blocks.iter().map(|b| b.1).sum(),
+            centres: Centres::from_runs(&bounds, &runs),
+        }
+    }
 }
 
 /// Drops every triangle whose three vertices (in any order) are an earlier triangle's,
@@ -715,6 +759,36 @@ mod tests {
             assert_eq!(bits, expected_vertices, "seed {seed}");
             assert_eq!(mesh.triangles, kept, "seed {seed}");
             assert_eq!(collapsed as usize, all.len() / 3 - kept.len());
+        }
+    }
+
+    /// The centres summed at load, in the pass that measures the area, are those of
+    /// `Centres::of` to the bit: on the samples, and on a subdivided one long enough for
+    /// several blocks of the pass and an odd number of runs.
+    #[test]
+    fn centres_summed_at_load_are_those_of_the_mesh() {
+        let mut meshes: Vec<Mesh> = crate::samples::SAMPLES
+            .iter()
+            .map(|s| crate::samples::sample(s.name).unwrap())
+            .collect();
+        let mut big = crate::samples::sample("cap").unwrap();
+        while big.triangles.len() <= 5 * crate::centre::RUN {
+            big = big.subdivided();
+        }
+        big.triangles.truncate(5 * crate::centre::RUN + 77);
+        meshes.push(big);
+        for mesh in meshes {
+            let loaded = from_generated(mesh);
+            let expected = Centres::of(&loaded.mesh);
+            let bits = |c: &Centres| {
+                (
+                    c.surface.to_array().map(f64::to_bits),
+                    c.area_mm2.to_bits(),
+                    c.volume.map(|v| v.to_array().map(f64::to_bits)),
+                    c.volume_mm3.to_bits(),
+                )
+            };
+            assert_eq!(bits(&loaded.centres), bits(&expected));
         }
     }
 

@@ -143,8 +143,10 @@ fn weld_records(
     units: Units,
 ) -> Result<(), LoadError> {
     const CHUNK: usize = 4096;
-    // NaN, the infinities and the out of range refused by one test a coordinate.
-    let limit = coordinate_limit(units) as f32;
+    // NaN, the infinities and the out of range refused by one test a coordinate: on the
+    // bits of its magnitude, which order finite values as they compare and put the
+    // infinities and NaN above every finite limit.
+    let limit = (coordinate_limit(units) as f32).to_bits();
     let mut buf = vec![0u8; CHUNK * RECORD as usize];
     let mut done = range.start;
     while done < range.end {
@@ -152,19 +154,21 @@ fn weld_records(
         let bytes = &mut buf[..count * RECORD as usize];
         reader.read_exact(bytes)?;
         for (i, rec) in bytes.chunks_exact(RECORD as usize).enumerate() {
-            let corner = |k: usize| -> [f32; 3] {
-                std::array::from_fn(|j| {
-                    let at = 12 + 12 * k + 4 * j;
-                    f32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]])
-                })
-            };
-            let corners = [corner(0), corner(1), corner(2)];
-            // One test for the facet: a NaN fails `<=`, as does anything beyond the limit.
-            if !corners.iter().flatten().all(|v| v.abs() <= limit) {
+            let corners: &[u8; 36] = rec[12..48].try_into().expect("36 bytes");
+            let bits: [u32; 9] = std::array::from_fn(|n| {
+                u32::from_le_bytes([
+                    corners[4 * n],
+                    corners[4 * n + 1],
+                    corners[4 * n + 2],
+                    corners[4 * n + 3],
+                ])
+            });
+            // One test for the facet, without a branch per coordinate.
+            if bits.iter().fold(0, |worst, &b| worst.max(b & 0x7FFF_FFFF)) > limit {
                 let triangle = done + i as u64;
                 let (at, v) = (0..9)
-                    .map(|n| (12 + 4 * n, corners[n / 3][n % 3]))
-                    .find(|(_, v)| v.is_nan() || v.abs() > limit)
+                    .map(|n| (12 + 4 * n, f32::from_bits(bits[n])))
+                    .find(|(_, v)| v.is_nan() || v.abs().to_bits() > limit)
                     .expect("a coordinate failed the test");
                 return Err(bad_coordinate(
                     Place::Byte(HEADER + RECORD * triangle + at as u64),
@@ -173,7 +177,8 @@ fn weld_records(
                     units,
                 ));
             }
-            welder.push(corners.map(|c| c.map(key_bits)));
+            let key = |k: usize| [bits[3 * k], bits[3 * k + 1], bits[3 * k + 2]].map(key_bits);
+            welder.push([key(0), key(1), key(2)]);
         }
         done += count as u64;
     }

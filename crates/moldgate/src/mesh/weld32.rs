@@ -4,11 +4,16 @@
 //! keeps distinct values distinct, so welding on the 12 bytes of the file's own bits (with
 //! -0.0 read as 0.0) gives the same vertices, in the same order, as [`super::Welder`]
 //! welding the widened positions on their 24 bytes; the vertices are widened once, at the
-//! end. Half the key also means half the table: each slot holds the position's bits beside
-//! its vertex number (16 bytes), so a probe reads one place in memory, not a slot and then
-//! the vertex it names. A corner's position is looked up far more often than a vertex is
-//! made (a vertex of a closed mesh has about six triangles), so that one read is most of
-//! the cost of loading a large file.
+//! end. A corner's position is looked up far more often than a vertex is made (a vertex of
+//! a closed mesh has about six triangles, and the corners of a file come in no useful
+//! order), so the look-up is most of the cost of loading a large file, and it is bound by
+//! the latency of memory: the table and the keys are kept small enough to stay in the
+//! processor's cache. The table holds 4-byte slots (a vertex number, and in the bits the
+//! table's size leaves free, bits of the position's hash) at most half full, and the keys
+//! are a list of 12 bytes a vertex beside it: a probe reads one slot, and the key only
+//! when the hash bits match (for a new vertex almost never). A run of half the 352k part
+//! holds a 1 MiB table and 1.2 MB of keys, against the 2 to 4 MiB table of 16-byte slots
+//! (key and number together) that this replaced.
 
 use rayon::prelude::*;
 
@@ -18,31 +23,15 @@ use crate::math::DVec3;
 /// The bits of a corner's three coordinates, -0.0 made 0.0.
 pub(super) type Key = [u32; 3];
 
-/// One place of the table: a position's bits and its vertex number plus one (0 when the
-/// place is free, so that a new table is memory the system hands over already zeroed).
-type Slot = [u32; 4];
-
-/// An entry of the recent-position cache: a key and its vertex number.
-#[derive(Debug, Clone, Copy)]
-struct Recent {
-    key: Key,
-    vertex: u32,
-}
-
-/// An empty cache entry. Its key is a NaN's bits, which the readers refuse before welding,
-/// so it never matches a corner.
-const UNUSED: Recent = Recent {
-    key: [u32::MAX; 3],
-    vertex: u32::MAX,
-};
-
-/// Entries of the direct-mapped cache of recent positions (64 KiB).
-const RECENT: usize = 4096;
-
-/// The welding key of a coordinate (finite: NaN is refused before welding).
+/// The welding key of a coordinate's bits (a finite value: NaN is refused before
+/// welding): -0.0 is made 0.0, as `x + 0.0` makes it, and every other value is its own.
 #[inline(always)]
-pub(super) fn key_bits(v: f32) -> u32 {
-    (v + 0.0).to_bits()
+pub(super) fn key_bits(bits: u32) -> u32 {
+    if bits == 0x8000_0000 {
+        0
+    } else {
+        bits
+    }
 }
 
 #[inline(always)]
@@ -53,22 +42,28 @@ fn hash_of(key: Key) -> u64 {
     (h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9)
 }
 
+/// The largest table made before any vertex is welded (2^30 slots); beyond it a table
+/// grows with its vertices.
+const MAX_FIRST_BITS: u32 = 30;
+
 /// Welds binary STL facets, given as the bits of their corners, into shared vertices.
 ///
-/// An open-addressing table (linear probing, at most three quarters full) of slots that
-/// hold the key itself; vertices are numbered by first appearance, as [`super::Welder`]
-/// numbers them, and runs of consecutive facets welded apart are joined by
-/// [`Welder32::join`] into the mesh one welder would have made.
+/// An open-addressing table (linear probing, at most half full) of vertex numbers with
+/// hash bits, beside the list of the vertices' keys; vertices are numbered by first
+/// appearance, as [`super::Welder`] numbers them, and runs of consecutive facets welded
+/// apart are joined by [`Welder32::join`] into the mesh one welder would have made.
 #[derive(Debug)]
 pub struct Welder32 {
-    slots: Vec<Slot>,
+    /// Per slot 0 (free), or the hash bits above the table's index bits and the vertex
+    /// number plus one below them. Vertex numbers stay below half the table's size, so the
+    /// number plus one fits below the hash bits; a zeroed allocation is an empty table.
+    slots: Vec<u32>,
     /// log2 of the table's size: the slot of a key is the top `bits` of its hash.
     bits: u32,
-    /// A small direct-mapped cache of recently welded positions: neighbouring facets of a
-    /// file share corners, and a hit here skips the probe of the large table.
-    recent: Vec<Recent>,
-    /// The welded vertices (widened) and triangles.
-    mesh: Mesh,
+    /// The vertices' keys, by vertex number.
+    keys: Vec<Key>,
+    /// The welded triangles.
+    triangles: Vec<[u32; 3]>,
     collapsed: u64,
 }
 
@@ -77,89 +72,89 @@ impl Welder32 {
     /// `room` (the whole file's, for the run that [`Welder32::join`] extends).
     pub fn for_run(triangles: usize, room: usize) -> Welder32 {
         // A closed mesh has about half as many vertices as triangles; a thirty-second more
-        // for the run's own border and slightly open meshes. At most three quarters full:
-        // a run of the 352k part has 2^17 slots (2 MiB) for its 88,000 vertices.
+        // for the run's own border and slightly open meshes. At most half full: a run of
+        // the 352k part has 2^18 slots (1 MiB) for its 100,000 vertices. The keys' list
+        // has room for more (room never written costs no memory).
         let vertices = triangles / 2 + triangles / 32 + 16;
-        let bits = (vertices * 4 / 3)
+        let bits = (2 * vertices)
             .next_power_of_two()
             .trailing_zeros()
-            .max(6);
+            .clamp(6, MAX_FIRST_BITS);
         Welder32 {
-            slots: vec![[0; 4]; 1 << bits],
+            slots: vec![0; 1 << bits],
             bits,
-            recent: vec![UNUSED; RECENT],
-            mesh: Mesh {
-                vertices: Vec::with_capacity({
-                    let t = room.max(triangles);
-                    t / 2 + t / 16 + 16
-                }),
-                triangles: Vec::with_capacity(room.max(triangles)),
-            },
+            keys: Vec::with_capacity(triangles / 2 + triangles / 4 + 16),
+            triangles: Vec::with_capacity(room.max(triangles)),
             collapsed: 0,
         }
     }
 
+    /// The mask of the index bits of a slot (and of the vertex number plus one).
     #[inline(always)]
-    fn home(&self, hash: u64) -> usize {
-        (hash >> (64 - self.bits)) as usize
+    fn mask(&self) -> u32 {
+        (self.slots.len() - 1) as u32
     }
 
     /// The vertex with this key, if welded here; the table is only read.
     fn find(&self, key: Key) -> Option<u32> {
-        let mask = self.slots.len() - 1;
-        let mut at = self.home(hash_of(key));
+        let hash = hash_of(key);
+        let mask = self.mask();
+        let tag = hash as u32 & !mask;
+        let mut at = (hash >> (64 - self.bits)) as usize;
         loop {
-            let [x, y, z, v] = self.slots[at];
-            if v == 0 {
+            let s = self.slots[at];
+            if s == 0 {
                 return None;
             }
-            if [x, y, z] == key {
-                return Some(v - 1);
+            if s & !mask == tag {
+                let v = (s & mask) - 1;
+                if self.keys[v as usize] == key {
+                    return Some(v);
+                }
             }
-            at = (at + 1) & mask;
+            at = (at + 1) & mask as usize;
         }
     }
 
     #[inline(always)]
     fn vertex(&mut self, key: Key) -> u32 {
         let hash = hash_of(key);
-        // The hash's middle bits: the top ones pick the slot, the low ones mix less.
-        let cached = (hash >> 20) as usize % RECENT;
-        if self.recent[cached].key == key {
-            return self.recent[cached].vertex;
-        }
-        let mask = self.slots.len() - 1;
-        let mut at = self.home(hash);
-        let v = loop {
-            let [x, y, z, v] = self.slots[at];
-            if v == 0 {
-                let next = self.mesh.vertices.len() as u32;
-                self.slots[at] = [key[0], key[1], key[2], next + 1];
-                self.mesh.vertices.push(widen(key));
-                if 4 * self.mesh.vertices.len() > 3 * self.slots.len() {
+        let mask = self.mask();
+        let tag = hash as u32 & !mask;
+        let mut at = (hash >> (64 - self.bits)) as usize;
+        loop {
+            let s = self.slots[at];
+            if s == 0 {
+                let v = self.keys.len() as u32;
+                self.slots[at] = tag | (v + 1);
+                self.keys.push(key);
+                if 2 * self.keys.len() > self.slots.len() {
                     self.grow();
                 }
-                break next;
+                return v;
             }
-            if [x, y, z] == key {
-                break v - 1;
+            if s & !mask == tag {
+                let v = (s & mask) - 1;
+                if self.keys[v as usize] == key {
+                    return v;
+                }
             }
-            at = (at + 1) & mask;
-        };
-        self.recent[cached] = Recent { key, vertex: v };
-        v
+            at = (at + 1) & mask as usize;
+        }
     }
 
+    /// Doubles the table: every key is placed again, with the hash bits of the new size.
     fn grow(&mut self) {
         self.bits += 1;
-        let old = std::mem::replace(&mut self.slots, vec![[0; 4]; 1 << self.bits]);
-        let mask = self.slots.len() - 1;
-        for slot in old.into_iter().filter(|s| s[3] != 0) {
-            let mut at = self.home(hash_of([slot[0], slot[1], slot[2]]));
-            while self.slots[at][3] != 0 {
-                at = (at + 1) & mask;
+        self.slots = vec![0; 1 << self.bits];
+        let mask = self.mask();
+        for (v, &key) in self.keys.iter().enumerate() {
+            let hash = hash_of(key);
+            let mut at = (hash >> (64 - self.bits)) as usize;
+            while self.slots[at] != 0 {
+                at = (at + 1) & mask as usize;
             }
-            self.slots[at] = slot;
+            self.slots[at] = hash as u32 & !mask | (v as u32 + 1);
         }
     }
 
@@ -173,13 +168,19 @@ impl Welder32 {
         if a == b || b == c || a == c {
             self.collapsed += 1;
         } else {
-            self.mesh.triangles.push([a, b, c]);
+            self.triangles.push([a, b, c]);
         }
     }
 
     /// The welded mesh and the number of dropped facets.
     pub fn finish(self) -> (Mesh, u64) {
-        (self.mesh, self.collapsed)
+        let mut vertices = Vec::with_capacity(self.keys.len());
+        vertices.par_extend(self.keys.par_iter().map(|&k| widen(k)));
+        let mesh = Mesh {
+            vertices,
+            triangles: self.triangles,
+        };
+        (mesh, self.collapsed)
     }
 
     /// Joins welders that welded consecutive runs of one file, in file order, into the mesh
@@ -195,24 +196,19 @@ impl Welder32 {
             return (Mesh::default(), 0);
         };
         let mut later: Vec<Welder32> = runs.collect();
-        // Only the earlier runs' tables are searched: the last run's goes back now, and
-        // every cache, so that the join holds no more than the welding did.
+        // Only the earlier runs' tables are searched: the last run's goes back now, so that
+        // the join holds no more than the welding did.
         if let Some(last) = later.last_mut() {
             last.slots = Vec::new();
-        }
-        for run in std::iter::once(&mut whole).chain(&mut later) {
-            run.recent = Vec::new();
         }
         // found[i][l]: (earlier run << 32 | its vertex) for vertex l of run i + 1, or NEW.
         let found: Vec<Vec<u64>> = later
             .par_iter()
             .enumerate()
             .map(|(i, run)| {
-                run.mesh
-                    .vertices
+                run.keys
                     .par_iter()
-                    .map(|&p| {
-                        let key = narrow(p);
+                    .map(|&key| {
                         std::iter::once(&whole)
                             .chain(&later[..i])
                             .enumerate()
@@ -224,37 +220,41 @@ impl Welder32 {
                     .collect()
             })
             .collect();
-        // The tables are done with: their memory goes back before the mesh grows.
+        // The tables are done with: their memory goes back before the mesh is made.
         for run in std::iter::once(&mut whole).chain(&mut later) {
             run.slots = Vec::new();
         }
-        let number = join_numbers(whole.mesh.vertices.len() as u32, &found);
-        for ((run, found), number) in later.iter().zip(&found).zip(&number) {
-            whole.mesh.vertices.extend(
-                run.mesh
-                    .vertices
-                    .iter()
+        let number = join_numbers(whole.keys.len() as u32, &found);
+        let new: usize = found
+            .iter()
+            .map(|f| f.iter().filter(|&&f| f == NEW).count())
+            .sum();
+        let mut vertices = Vec::with_capacity(whole.keys.len() + new);
+        vertices.par_extend(whole.keys.par_iter().map(|&k| widen(k)));
+        whole.keys = Vec::new();
+        for ((run, found), number) in later.iter_mut().zip(&found).zip(&number) {
+            vertices.par_extend(
+                run.keys
+                    .par_iter()
                     .zip(found)
                     .filter(|(_, &f)| f == NEW)
-                    .map(|(&p, _)| p),
+                    .map(|(&k, _)| widen(k)),
             );
-            whole.mesh.triangles.par_extend(
-                run.mesh
-                    .triangles
+            run.keys = Vec::new();
+            whole.triangles.par_extend(
+                run.triangles
                     .par_iter()
                     .map(|tri| tri.map(|v| number[v as usize])),
             );
+            run.triangles = Vec::new();
             whole.collapsed += run.collapsed;
         }
-        whole.finish()
+        let mesh = Mesh {
+            vertices,
+            triangles: whole.triangles,
+        };
+        (mesh, whole.collapsed)
     }
-}
-
-/// The key of a welded vertex: its coordinates came from `f32`, so narrowing them back is
-/// exact.
-#[inline]
-fn narrow(p: DVec3) -> Key {
-    p.to_array().map(|x| (x as f32).to_bits())
 }
 
 /// The position of a key in `f64` (exact).
@@ -298,7 +298,7 @@ mod tests {
     }
 
     fn key(c: [f32; 3]) -> Key {
-        c.map(key_bits)
+        c.map(|x| key_bits(x.to_bits()))
     }
 
     fn wide(c: [f32; 3]) -> DVec3 {

@@ -114,6 +114,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         }
         rim.sort_unstable();
         // 2. The cycle round the band.
+        raster.rims_found();
         raster.mark_band(&rim_segments, BAND_CELLS);
         drop(rim_segments);
         let near = |p: DVec2| raster.in_band(p);
@@ -358,27 +359,27 @@ impl Band {
         let mut edges: Vec<[u32; 2]> = (0..triangles.len().div_ceil(BLOCK))
             .into_par_iter()
             .flat_map_iter(|b| {
-                let inside = &inside;
-                (b * BLOCK..((b + 1) * BLOCK).min(triangles.len())).flat_map(move |t| {
+                let mut found = Vec::new();
+                for t in b * BLOCK..((b + 1) * BLOCK).min(triangles.len()) {
                     let tri = triangles[t];
                     let corners = tri.map(|v| inside[v as usize]);
-                    let wanted = corners.iter().filter(|&&c| c).count() >= 2;
-                    let across = if wanted {
-                        topology.neighbours(t)
-                    } else {
-                        [0; 3]
-                    };
-                    (0..3).filter_map(move |k| {
+                    if u8::from(corners[0]) + u8::from(corners[1]) + u8::from(corners[2]) < 2 {
+                        continue;
+                    }
+                    let across = topology.neighbours(t);
+                    for k in 0..3 {
                         let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                        (wanted
-                            && corners[k]
+                        if corners[k]
                             && corners[(k + 1) % 3]
                             && a != b
                             && (across[k] == NO_TRIANGLE || across[k] as usize >= t)
-                            && near(0.5 * (plane(a) + plane(b))))
-                        .then_some([a.min(b), a.max(b)])
-                    })
-                })
+                            && near(0.5 * (plane(a) + plane(b)))
+                        {
+                            found.push([a.min(b), a.max(b)]);
+                        }
+                    }
+                }
+                found
             })
             .collect();
         // The band's vertices are the ends of its edges, in the mesh's order, numbered by

@@ -35,6 +35,12 @@ pub(super) struct Outside {
     /// For the cells an edge passes through (a small share of the raster, about the edges'
     /// length in cells): the lowest height along D of such an edge.
     lowest: FxHashMap<u32, f32>,
+    /// One bit a cell, rows of [`Outside::words`] words: the cell touches the outside (it
+    /// or one of its eight neighbours is outside). An eighth of the raster's bytes, made
+    /// once, so that the rim test of a point is one look-up rather than nine.
+    touch: Vec<u64>,
+    /// Words of 64 cells to a row of the bit rasters.
+    words: usize,
 }
 
 const EMPTY: u8 = 0;
@@ -42,10 +48,6 @@ const EDGE: u8 = 1;
 const OUTSIDE: u8 = 2;
 /// Within the band's width of a cell a rim edge passes through.
 const NEAR_RIM: u8 = 4;
-/// Within the reach (along its row) of a cell outside the outline.
-const ROW_REACH: u8 = 8;
-/// Within the reach (along its row, then its column, above it) of a cell outside.
-const UP_REACH: u8 = 16;
 /// In the band: [`NEAR_RIM`] and within the reach of the outside in both axes.
 const BAND: u8 = 32;
 
@@ -79,6 +81,8 @@ impl Outside {
             n_w,
             state: vec![EMPTY; n_u * n_w],
             lowest: FxHashMap::default(),
+            touch: Vec::new(),
+            words: n_u.div_ceil(64),
         };
         for s in segments {
             let low = s.height_a.min(s.height_b) as f32;
@@ -92,7 +96,44 @@ impl Outside {
             });
         }
         raster.flood();
+        let mut touch = raster.outside_rows(1);
+        raster.spread_over_rows(&mut touch, 1);
+        raster.touch = touch;
         raster
+    }
+
+    /// The outside cells as bits, a row of [`Outside::words`] words per raster row, each
+    /// row spread along itself by `reach` cells both ways (`reach` below 64).
+    fn outside_rows(&self, reach: usize) -> Vec<u64> {
+        let words = self.words;
+        let mut bits = vec![0u64; words * self.n_w];
+        for (row, out) in self
+            .state
+            .chunks_exact(self.n_u)
+            .zip(bits.chunks_exact_mut(words))
+        {
+            for (cells, word) in row.chunks(64).zip(out.iter_mut()) {
+                *word = outside_bits(cells);
+            }
+            spread_along(out, reach);
+        }
+        bits
+    }
+
+    /// Spreads rows of bits (as [`Outside::outside_rows`] makes them) over the `reach` rows
+    /// above and below each, within the raster.
+    fn spread_over_rows(&self, bits: &mut Vec<u64>, reach: usize) {
+        let words = self.words;
+        let mut out = vec![0u64; bits.len()];
+        for w in 0..self.n_w {
+            let target = &mut out[w * words..(w + 1) * words];
+            for y in w.saturating_sub(reach)..(w + reach + 1).min(self.n_w) {
+                for (t, &b) in target.iter_mut().zip(&bits[y * words..(y + 1) * words]) {
+                    *t |= b;
+                }
+            }
+        }
+        *bits = out;
     }
 
     /// Marks the cells no edge passes through that the border reaches, by steps to the four
@@ -183,6 +224,14 @@ impl Outside {
         self.cell
     }
 
+    /// Frees what only [`Outside::on_rim`] reads (the lowest heights of the edge cells, about
+    /// a megabyte on the 352k part, and the cells touching the outside), once the rim edges
+    /// are found: the band and the cycle are made without them, beside the rays.
+    pub(super) fn rims_found(&mut self) {
+        self.lowest = FxHashMap::default();
+        self.touch = Vec::new();
+    }
+
     /// Marks the band round the rim: the cells within `cells` cells (in both axes) of a cell
     /// that one of `rim` (the rim edges) passes through; [`Outside::in_band`] then tells
     /// whether a point lies in it. The band is measured from the rim edges, not from the
@@ -196,9 +245,8 @@ impl Outside {
     /// edge from the outline along the foot of a tab into the ring), and a band round the
     /// whole of such an edge would let the cycle leave the outline along it.
     ///
-    /// Every mark is a bit of the cell's one byte, and the outside is dilated along rows,
-    /// then along columns a row at a time (with the last and next row of the outside kept
-    /// per column), so the marking adds no raster and reads the raster in its own order.
+    /// Every mark is a bit of the cell's one byte; the outside's reach is found on rows of
+    /// bits (an eighth of the raster), spread along the rows and then over them.
     pub(super) fn mark_band(&mut self, rim: &[Segment], cells: usize) {
         let (n_u, n_w) = (self.n_u, self.n_w);
         let state = &mut self.state;
@@ -217,47 +265,25 @@ impl Outside {
                 }
             });
         }
-        // The outside's reach: a square of side 2 reach + 1 round each outside cell.
+        // The outside's reach: a square of side 2 reach + 1 round each outside cell, as rows
+        // of bits spread along the rows and then over the rows. Only the rows that hold a
+        // cell near a rim edge are spread over, and only those cells are marked.
         let reach = 2 * cells + 1;
-        for row in state.chunks_exact_mut(n_u) {
-            let mut last: Option<usize> = None;
+        let words = self.words;
+        let rows = self.outside_rows(reach);
+        let mut reached = vec![0u64; words];
+        for (w, row) in self.state.chunks_exact_mut(n_u).enumerate() {
+            if !row.iter().any(|&x| x & NEAR_RIM != 0) {
+                continue;
+            }
+            reached.fill(0);
+            for y in w.saturating_sub(reach)..(w + reach + 1).min(n_w) {
+                for (r, &b) in reached.iter_mut().zip(&rows[y * words..(y + 1) * words]) {
+                    *r |= b;
+                }
+            }
             for (u, x) in row.iter_mut().enumerate() {
-                if *x & OUTSIDE != 0 {
-                    last = Some(u);
-                }
-                if last.is_some_and(|l| u - l <= reach) {
-                    *x |= ROW_REACH;
-                }
-            }
-            let mut next: Option<usize> = None;
-            for (u, x) in row.iter_mut().enumerate().rev() {
-                if *x & OUTSIDE != 0 {
-                    next = Some(u);
-                }
-                if next.is_some_and(|l| l - u <= reach) {
-                    *x |= ROW_REACH;
-                }
-            }
-        }
-        let mut last: Vec<Option<usize>> = vec![None; n_u];
-        for (w, row) in state.chunks_exact_mut(n_u).enumerate() {
-            for (x, l) in row.iter_mut().zip(&mut last) {
-                if *x & ROW_REACH != 0 {
-                    *l = Some(w);
-                }
-                if l.is_some_and(|l| w - l <= reach) {
-                    *x |= UP_REACH;
-                }
-            }
-        }
-        let mut next: Vec<Option<usize>> = vec![None; n_u];
-        for (w, row) in state.chunks_exact_mut(n_u).enumerate().rev() {
-            for (x, n) in row.iter_mut().zip(&mut next) {
-                if *x & ROW_REACH != 0 {
-                    *n = Some(w);
-                }
-                let reached = *x & UP_REACH != 0 || n.is_some_and(|n| n - w <= reach);
-                if reached && *x & NEAR_RIM != 0 {
+                if *x & NEAR_RIM != 0 && reached[u / 64] >> (u % 64) & 1 != 0 {
                     *x |= BAND;
                 }
             }
@@ -281,18 +307,65 @@ impl Outside {
         (u < self.n_u && w < self.n_w).then(|| w * self.n_u + u)
     }
 
+    /// Whether cell `c` or one of its eight neighbours is outside.
     fn touches_outside(&self, c: usize) -> bool {
-        let (u, w) = ((c % self.n_u) as isize, (c / self.n_u) as isize);
-        (-1..=1).any(|dw| {
-            (-1..=1).any(|du| {
-                let (x, y) = (u + du, w + dw);
-                x >= 0
-                    && y >= 0
-                    && (x as usize) < self.n_u
-                    && (y as usize) < self.n_w
-                    && self.state[y as usize * self.n_u + x as usize] & OUTSIDE != 0
-            })
-        })
+        let (u, w) = (c % self.n_u, c / self.n_u);
+        self.touch[w * self.words + u / 64] >> (u % 64) & 1 != 0
+    }
+}
+
+/// The bits of the outside cells among up to 64 cells (cell k at bit k): eight cells at a
+/// time, each byte's [`OUTSIDE`] bit gathered into one byte by a multiplication (byte i's
+/// lowest bit lands in bit 56 + i of the product, and no two of them carry into each
+/// other).
+fn outside_bits(cells: &[u8]) -> u64 {
+    const LOW_BITS: u64 = 0x0101_0101_0101_0101;
+    const GATHER: u64 = 0x0102_0408_1020_4080;
+    let mut word = 0;
+    let mut eights = cells.chunks_exact(8);
+    for (k, eight) in eights.by_ref().enumerate() {
+        let x = u64::from_le_bytes(eight.try_into().expect("eight cells"));
+        let outside = (x >> OUTSIDE.trailing_zeros()) & LOW_BITS;
+        word |= (outside.wrapping_mul(GATHER) >> 56) << (8 * k);
+    }
+    let done = cells.len() / 8 * 8;
+    for (k, &x) in eights.remainder().iter().enumerate() {
+        word |= u64::from(x & OUTSIDE != 0) << (done + k);
+    }
+    word
+}
+
+/// Sets in a row of bits (cell k at bit k % 64 of word k / 64) every bit within `reach`
+/// (below 64) of a set bit. The spread towards higher cells may set bits past the row's
+/// last cell, which are never read; the spread towards lower cells starts from the row's
+/// own bits, so none comes back from there.
+fn spread_along(row: &mut [u64], reach: usize) {
+    debug_assert!(reach < 64);
+    let spread = |mut acc: Vec<u64>, up: bool| {
+        // Shifts by 0..covered are in `acc`; each step doubles them, the last one reaching
+        // exactly `reach`.
+        let mut covered = 1;
+        while covered <= reach {
+            let step = covered.min(reach + 1 - covered) as u32;
+            if up {
+                for i in (0..acc.len()).rev() {
+                    let carry = if i > 0 { acc[i - 1] >> (64 - step) } else { 0 };
+                    acc[i] |= acc[i] << step | carry;
+                }
+            } else {
+                for i in 0..acc.len() {
+                    let carry = acc.get(i + 1).map_or(0, |&next| next << (64 - step));
+                    acc[i] |= acc[i] >> step | carry;
+                }
+            }
+            covered += step as usize;
+        }
+        acc
+    };
+    let up = spread(row.to_vec(), true);
+    let down = spread(row.to_vec(), false);
+    for ((r, u), d) in row.iter_mut().zip(up).zip(down) {
+        *r = u | d;
     }
 }
 
@@ -437,6 +510,148 @@ mod tests {
             !near(DVec2::new(side + t + 5.0 * raster.cell(), 0.0)),
             "beyond the band"
         );
+    }
+
+    /// Segments from a seeded generator: a closed ring with inner rings (holes) and loose
+    /// strokes, heights at random, over a raster a few hundred cells wide.
+    fn random_segments(seed: u64) -> Vec<Segment> {
+        let mut state = seed | 1;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut all = Vec::new();
+        for ring in 0..4 {
+            let (cx, cy) = (next() * 4.0 - 2.0, next() * 4.0 - 2.0);
+            let radius = if ring == 0 { 10.0 } else { 0.5 + next() * 3.0 };
+            let n = 5 + (next() * 40.0) as usize;
+            let point = |k: usize| {
+                let a = k as f64 / n as f64 * std::f64::consts::TAU;
+                (cx + radius * a.cos(), cy + radius * 0.7 * a.sin())
+            };
+            for k in 0..n {
+                all.push(segment(point(k), point(k + 1), next() * 3.0));
+            }
+        }
+        for _ in 0..30 {
+            let a = (next() * 16.0 - 8.0, next() * 12.0 - 6.0);
+            let b = (a.0 + next() * 2.0 - 1.0, a.1 + next() * 2.0 - 1.0);
+            all.push(segment(a, b, next()));
+        }
+        all
+    }
+
+    #[test]
+    fn outside_cells_gather_into_their_bits() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for len in [0usize, 1, 7, 8, 9, 63, 64] {
+            let cells: Vec<u8> = (0..len)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    // Every flag combination a cell may hold.
+                    (state % 64) as u8
+                })
+                .collect();
+            let expected = cells
+                .iter()
+                .enumerate()
+                .fold(0u64, |w, (k, &x)| w | u64::from(x & OUTSIDE != 0) << k);
+            assert_eq!(outside_bits(&cells), expected, "{len} cells");
+        }
+    }
+
+    #[test]
+    fn rows_of_bits_spread_as_every_shift_would_spread_them() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for len in [1usize, 2, 3, 7] {
+            for reach in [0usize, 1, 2, 7, 31, 63] {
+                let row: Vec<u64> = (0..len)
+                    .map(|_| {
+                        state ^= state << 13;
+                        state ^= state >> 7;
+                        state ^= state << 17;
+                        // Sparse bits, so that the spreads do not fill every word.
+                        state & state.rotate_left(17) & state.rotate_left(29)
+                    })
+                    .collect();
+                let mut spread = row.clone();
+                spread_along(&mut spread, reach);
+                let bit = |r: &[u64], k: usize| r[k / 64] >> (k % 64) & 1 != 0;
+                for k in 0..64 * len {
+                    let lo = k.saturating_sub(reach);
+                    let hi = (k + reach).min(64 * len - 1);
+                    let expected = (lo..=hi).any(|j| bit(&row, j));
+                    assert_eq!(bit(&spread, k), expected, "len {len} reach {reach} bit {k}");
+                }
+            }
+        }
+    }
+
+    /// The band marked by four passes over the raster's bytes (the marking the rows of bits
+    /// replaced): the outside's reach along each row, then along each column above and
+    /// below.
+    fn band_by_passes(raster: &Outside, reach: usize) -> Vec<bool> {
+        let (n_u, n_w) = (raster.n_u, raster.n_w);
+        let outside = |u: usize, w: usize| raster.state[w * n_u + u] & OUTSIDE != 0;
+        let row_reach: Vec<bool> = (0..n_u * n_w)
+            .map(|c| {
+                let (u, w) = (c % n_u, c / n_u);
+                (u.saturating_sub(reach)..(u + reach + 1).min(n_u)).any(|x| outside(x, w))
+            })
+            .collect();
+        (0..n_u * n_w)
+            .map(|c| {
+                let (u, w) = (c % n_u, c / n_u);
+                raster.state[c] & NEAR_RIM != 0
+                    && (w.saturating_sub(reach)..(w + reach + 1).min(n_w))
+                        .any(|y| row_reach[y * n_u + u])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn touch_and_band_bits_match_the_cells_around_each_cell() {
+        for seed in 1..6 {
+            let all = random_segments(seed);
+            let mut raster = Outside::new(all.iter().copied());
+            let (n_u, n_w) = (raster.n_u, raster.n_w);
+            let mut touching = 0;
+            for c in 0..n_u * n_w {
+                let (u, w) = ((c % n_u) as isize, (c / n_u) as isize);
+                let expected = (-1..=1).any(|dw| {
+                    (-1..=1).any(|du| {
+                        let (x, y) = (u + du, w + dw);
+                        x >= 0
+                            && y >= 0
+                            && (x as usize) < n_u
+                            && (y as usize) < n_w
+                            && raster.state[y as usize * n_u + x as usize] & OUTSIDE != 0
+                    })
+                });
+                assert_eq!(raster.touches_outside(c), expected, "seed {seed} cell {c}");
+                touching += usize::from(expected);
+            }
+            assert!(touching > 0 && touching < n_u * n_w);
+            let rim: Vec<Segment> = all
+                .iter()
+                .copied()
+                .filter(|s| raster.on_rim(s, 1e-3))
+                .collect();
+            assert!(!rim.is_empty(), "seed {seed}");
+            for cells in [1, 3] {
+                let mut marked = Outside::new(all.iter().copied());
+                marked.mark_band(&rim, cells);
+                let expected = band_by_passes(&marked, 2 * cells + 1);
+                let found: Vec<bool> = marked.state.iter().map(|&x| x & BAND != 0).collect();
+                assert_eq!(found, expected, "seed {seed}, {cells} cells");
+                assert!(found.iter().any(|&b| b) && found.iter().any(|&b| !b));
+            }
+            raster.mark_band(&rim, 3);
+        }
     }
 
     #[test]
