@@ -149,6 +149,8 @@ struct Tri4 {
     min_det: Vec4,
     /// Index of each triangle in the mesh.
     id: [u32; 4],
+    /// Whether every lane's corner and edges are finite (see [`closest_distance2`]).
+    finite: bool,
 }
 
 /// A child that is a leaf: this bit, the first of its [`Tri4`] packets shifted by
@@ -303,14 +305,24 @@ impl Bvh {
         let Collapse {
             nodes: wide_nodes,
             leaves,
+            packets: n_packets,
             ..
         } = wide;
-        // Each leaf's triangles, four by four, in leaf order (the order of `ids`).
-        let packets = leaves
+        // Each leaf's triangles, four by four, in leaf order (the order of `ids`): the first
+        // triangle and the count of each packet, then the packets in parallel.
+        let mut fours: Vec<(u32, u32)> = Vec::with_capacity(n_packets);
+        for &(first, count) in &leaves {
+            fours.extend(
+                (first..first + count)
+                    .step_by(4)
+                    .map(|f| (f, (first + count - f).min(4))),
+            );
+        }
+        let packets = fours
             .par_iter()
-            .flat_map_iter(|&(first, count)| {
-                let leaf = &ids[first as usize..(first + count) as usize];
-                leaf.chunks(4).map(|four| packet(mesh, origin, four))
+            .with_min_len(1024)
+            .map(|&(first, count)| {
+                packet(mesh, origin, &ids[first as usize..(first + count) as usize])
             })
             .collect();
         Bvh {
@@ -572,18 +584,85 @@ fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, best2: &mut f32, best: &m
         return;
     }
     let (h, nn) = (h.to_array(), nn.to_array());
+    let (d2, scalar) = closest_distance2(tri, q4);
+    let d2 = d2.to_array();
     for k in lanes(maybe) {
         let id = tri.id[k];
         if id == NO_TRIANGLE || (nn[k] > 0.0 && h[k] * h[k] >= *best2 * nn[k]) {
             continue;
         }
-        let [a, ab, ac] = [tri.a, tri.ab, tri.ac].map(|v| Vec3::new(v[0][k], v[1][k], v[2][k]));
-        let d2 = closest_on_triangle(a, ab, ac, q).distance_squared(q);
+        let d2 = if scalar & (1 << k) == 0 {
+            d2[k]
+        } else {
+            let [a, ab, ac] = [tri.a, tri.ab, tri.ac].map(|v| Vec3::new(v[0][k], v[1][k], v[2][k]));
+            closest_on_triangle(a, ab, ac, q).distance_squared(q)
+        };
         if d2 < *best2 {
             *best2 = d2;
             *best = Some(id);
         }
     }
+}
+
+/// The squared distance from `q` to each of four triangles, lane by lane: each lane is
+/// [`closest_on_triangle`]'s arithmetic for the case (Voronoi region) it falls in, so the
+/// distance is that function's to the bit. Lanes it leaves to the scalar function are set in
+/// the mask: the degenerate case (the triangle has no area, where the nearest corner is
+/// chosen) and every lane of a packet with a corner or edge that is not finite.
+#[inline(always)]
+fn closest_distance2(tri: &Tri4, q: &Point4) -> (Vec4, u32) {
+    let [a, b, c] = [tri.a, tri.ab, tri.ac];
+    let dot = |u: [Vec4; 3], v: [Vec4; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let sub = |u: [Vec4; 3], v: [Vec4; 3]| [u[0] - v[0], u[1] - v[1], u[2] - v[2]];
+    let ap = sub(q.0, a);
+    let (d1, d2) = (dot(b, ap), dot(c, ap));
+    let bp = sub(ap, b);
+    let (d3, d4) = (dot(b, bp), dot(c, bp));
+    let vc = d1 * d4 - d3 * d2;
+    let cp = sub(ap, c);
+    let (d5, d6) = (dot(b, cp), dot(c, cp));
+    let vb = d5 * d2 - d1 * d6;
+    let va = d3 * d6 - d5 * d4;
+    let (zero, one) = (Vec4::ZERO, Vec4::ONE);
+    // Each case's point as (a + ab s) + e t, in the scalar function's order of cases: the
+    // last case first, each earlier one taking over the lanes where it holds.
+    let denom = va + vb + vc;
+    let (mut s, mut t, mut e) = (vb / denom, vc / denom, c);
+    let degenerate = denom.cmpeq(zero) | !denom.abs().cmplt(Vec4::INFINITY);
+    let (g, h) = (d4 - d3, d5 - d6);
+    let on_bc = va.cmple(zero) & g.cmpge(zero) & h.cmpge(zero);
+    s = Vec4::select(on_bc, one, s);
+    t = Vec4::select(on_bc, g / (g + h), t);
+    let cb = sub(c, b);
+    e = [0, 1, 2].map(|k| Vec4::select(on_bc, cb[k], e[k]));
+    let on_ac = vb.cmple(zero) & d2.cmpge(zero) & d6.cmple(zero);
+    s = Vec4::select(on_ac, zero, s);
+    t = Vec4::select(on_ac, d2 / (d2 - d6), t);
+    let at_c = d6.cmpge(zero) & d5.cmple(d6);
+    s = Vec4::select(at_c, zero, s);
+    t = Vec4::select(at_c, one, t);
+    let on_ab = vc.cmple(zero) & d1.cmpge(zero) & d3.cmple(zero);
+    s = Vec4::select(on_ab, d1 / (d1 - d3), s);
+    t = Vec4::select(on_ab, zero, t);
+    let at_b = d3.cmpge(zero) & d4.cmple(d3);
+    s = Vec4::select(at_b, one, s);
+    t = Vec4::select(at_b, zero, t);
+    // The cases of an edge, vertex or face other than at a take over `e` from the face
+    // case: the edge bc's lanes already hold c - b, the others c.
+    let not_bc = on_ac | at_c | on_ab | at_b;
+    e = [0, 1, 2].map(|k| Vec4::select(not_bc, c[k], e[k]));
+    let at_a = d1.cmple(zero) & d2.cmple(zero);
+    let d = [0, 1, 2].map(|k| {
+        let p = (a[k] + b[k] * s) + e[k] * t;
+        Vec4::select(at_a, a[k], p) - q.0[k]
+    });
+    let named = at_a | at_b | on_ab | at_c | on_ac | on_bc;
+    let scalar = if tri.finite {
+        (degenerate & !named).bitmask()
+    } else {
+        0b1111
+    };
+    (dot(d, d), scalar)
 }
 
 /// Most subtrees of a [`Region`], in groups of four.
@@ -1112,6 +1191,7 @@ fn packet(mesh: &Mesh, origin: DVec3, four: &[u32]) -> Tri4 {
         min_det[k] = 1e-7 * ab.length() * ac.length();
         id[k] = t;
     }
+    let finite = lanes.iter().flatten().flatten().all(|v| v.is_finite());
     let [a, ab, ac] = lanes.map(|l| l.map(Vec4::from_array));
     Tri4 {
         a,
@@ -1119,6 +1199,7 @@ fn packet(mesh: &Mesh, origin: DVec3, four: &[u32]) -> Tri4 {
         ac,
         min_det: Vec4::from_array(min_det),
         id,
+        finite,
     }
 }
 
@@ -1655,6 +1736,52 @@ mod tests {
             mesh.triangles.push([first, first + 1, first + 2]);
         }
         mesh
+    }
+
+    #[test]
+    fn four_lane_closest_points_are_the_scalar_ones() {
+        // Triangles of every shape (slivers, needles, points, repeats, axis planes) and
+        // points near and far, in every Voronoi region: each lane's distance is the scalar
+        // function's to the bit, or left to it.
+        let mut mesh = triangle_soup(0x9e37_79b9_7f4a_7c15, 4000);
+        let origin = mesh.bounds().centre();
+        // Triangles that are points and segments, and one with a corner at infinity (its
+        // packet is left to the scalar function).
+        let v = mesh.vertices.len() as u32;
+        mesh.vertices.extend([DVec3::ZERO, DVec3::X, DVec3::splat(f64::INFINITY)]);
+        mesh.triangles.push([v, v + 1, v + 2]);
+        for k in 0..40 {
+            let v = mesh.vertices.len() as u32;
+            let a = DVec3::new(k as f64, 50.0, 20.0);
+            let b = if k % 2 == 0 { a } else { a + DVec3::new(0.5, 0.25, 0.0) };
+            mesh.vertices.extend([a, b, a]);
+            mesh.triangles.push([v, v + 1, v + 2]);
+        }
+        let mut rng = Rng(0x5851_f42d_4c95_7f2d);
+        let (mut lanes_checked, mut left) = (0, 0);
+        for first in (0..mesh.triangles.len() as u32).step_by(4) {
+            let four: Vec<u32> = (first..(first + 4).min(mesh.triangles.len() as u32)).collect();
+            let tri = packet(&mesh, origin, &four);
+            for _ in 0..8 {
+                let t = four[(rng.next() * four.len() as f64) as usize] as usize;
+                let [a, b, c] = mesh.corners(t);
+                let w = DVec3::new(rng.next(), rng.next(), rng.next()) * 3.0 - 1.0;
+                let p = a + (b - a) * w.x + (c - a) * w.y + (rng.unit() * w.z * 3.0);
+                let q = (p - origin).as_vec3();
+                let (d2, scalar) = closest_distance2(&tri, &Point4::splat(q));
+                for (k, &t) in four.iter().enumerate() {
+                    let [a, b, c] = mesh.corners(t as usize).map(|v| (v - origin).as_vec3());
+                    let want = closest_on_triangle(a, b - a, c - a, q).distance_squared(q);
+                    if scalar & (1 << k) == 0 {
+                        assert_eq!(d2[k].to_bits(), want.to_bits(), "triangle {t} at {q}");
+                        lanes_checked += 1;
+                    } else {
+                        left += 1;
+                    }
+                }
+            }
+        }
+        assert!(lanes_checked > 20_000 && left > 0, "{lanes_checked} {left}");
     }
 
     #[test]
