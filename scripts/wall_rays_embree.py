@@ -10,6 +10,10 @@ load average. Embree's scene is built once, before the rounds, and timed apart.
 
     cargo build --release -p moldgate-cli
     python3 scripts/wall_rays_embree.py [PART] [--demold +y] [--runs 7] [--binary PATH]
+        [--before PATH]
+
+With --before, a second moldgate binary runs in the same shuffled rounds, and the paired
+ratios of its stage and tree to the first binary's are printed too (after / before).
 
 Needs a Python with trimesh and embreex (the reference implementation's, see its README):
 without them, or without the part, it says so and exits 0 having measured nothing.
@@ -45,7 +49,10 @@ def main():
             os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "moldgate"
         ),
     )
+    ap.add_argument("--before", help="a second moldgate binary, run in the same rounds")
     a = ap.parse_args()
+    if a.before and not os.path.exists(a.before):
+        skip(f"no moldgate binary at {a.before}")
     if not os.path.exists(a.part):
         skip(f"no part at {a.part}")
     if not os.path.exists(a.binary):
@@ -73,22 +80,28 @@ def main():
     if "embree" not in engine:
         skip(f"trimesh's rays are {engine}, not Embree")
 
-    ours, tree, embree = [], [], []
+    binaries = {"moldgate": a.binary}
+    if a.before:
+        binaries["before"] = a.before
+    stage = {who: [] for who in binaries}
+    trees = {who: [] for who in binaries}
+    embree = []
     rng = random.Random(1)
     for _ in range(a.runs):
-        order = ["moldgate", "embree"]
+        order = list(binaries) + ["embree"]
         rng.shuffle(order)
         for who in order:
-            if who == "moldgate":
+            if who in binaries:
                 out = subprocess.run(
-                    [a.binary, "locate", a.part, "--demold", a.demold, "--wall-thickness", "--json"],
+                    [binaries[who], "locate", a.part, "--demold", a.demold, "--wall-thickness",
+                     "--json"],
                     check=True,
                     capture_output=True,
                     text=True,
                 ).stdout
                 timings = json.loads(out)["timings"]
-                ours.append(timings["wall_s"])
-                tree.append(timings["tree_s"])
+                stage[who].append(timings["wall_s"])
+                trees[who].append(timings["tree_s"])
             else:
                 t = time.perf_counter()
                 hit = mesh.ray.intersects_first(origins, directions)
@@ -97,11 +110,21 @@ def main():
     ms = lambda xs: 1e3 * statistics.median(xs)
     print(f"{os.path.basename(a.part)}: {len(mesh.faces)} facets, {int((hit >= 0).sum())} Embree hits")
     print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}, {a.runs} rounds, median ms")
-    print(f"  moldgate wall-thickness stage {ms(ours):8.1f}   its ray tree {ms(tree):8.1f}")
+    for who in binaries:
+        ours, tree = stage[who], trees[who]
+        name = "moldgate" if who == "moldgate" else "before  "
+        print(f"  {name} wall-thickness stage {ms(ours):8.1f}   its ray tree {ms(tree):8.1f}")
     print(f"  Embree intersects_first       {ms(embree):8.1f}   its scene    {1e3 * scene_s:8.1f} (once)")
-    ratio = statistics.median(o / e for o, e in zip(ours, embree))
-    both = statistics.median((o + t) / (e + scene_s) for o, t, e in zip(ours, tree, embree))
-    print(f"  paired ratio stage / Embree rays {ratio:.2f}; (tree + stage) / (scene + rays) {both:.2f}")
+    for who in binaries:
+        ours, tree = stage[who], trees[who]
+        ratio = statistics.median(o / e for o, e in zip(ours, embree))
+        both = statistics.median((o + t) / (e + scene_s) for o, t, e in zip(ours, tree, embree))
+        print(f"  {who}: paired ratio stage / Embree rays {ratio:.2f}; "
+              f"(tree + stage) / (scene + rays) {both:.2f}")
+    if a.before:
+        paired = lambda key: statistics.median(
+            x / y for x, y in zip(key["moldgate"], key["before"]))
+        print(f"  after / before, paired: stage {paired(stage):.3f}, tree {paired(trees):.3f}")
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@
 use std::cmp::Ordering;
 use std::ops::ControlFlow;
 
-use glam::{Vec3, Vec3A};
+use glam::{BVec4A, Vec3, Vec3A, Vec4};
 use rayon::join;
 use rayon::prelude::*;
 
@@ -120,34 +120,73 @@ struct Node {
     count: u32,
 }
 
-/// The two children of an interior node, side by side in one cache line: a traversal that
-/// tests both boxes reads one line instead of two. The root is the first node of the first
-/// pair (the second is unused).
+/// Four children of the finished tree, their boxes lane by lane (lane k is child k), so that
+/// one four-lane test takes all four boxes: a descent reads one node of two cache lines per
+/// step and passes about two levels of the binary tree it was made from. A lane without a
+/// child holds the point at infinity, which no test enters.
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
-struct Pair([Node; 2]);
+struct Node4 {
+    /// Smallest x, y and z of each child's box.
+    lo: [Vec4; 3],
+    /// Largest x, y and z of each child's box.
+    hi: [Vec4; 3],
+    /// Each child: a [`Node4`]'s index, or a leaf (see [`leaf_ref`]), or [`NO_CHILD`].
+    child: [u32; 4],
+}
 
-/// A triangle in leaf order: a corner and the two edges from it, relative to the tree's
-/// origin, and its index in the mesh.
+/// Up to four triangles of a leaf, lane by lane: a corner and the two edges from it, relative
+/// to the tree's origin, so that one four-lane test takes all four. Lanes past the leaf's
+/// triangles have no area (never hit) and the id [`NO_TRIANGLE`].
 #[derive(Debug, Clone, Copy)]
-struct Tri {
-    a: Vec3,
-    ab: Vec3,
-    ac: Vec3,
-    /// Smallest |determinant| of a hit, relative to the edges' lengths (see [`intersect`]):
+#[repr(C, align(64))]
+struct Tri4 {
+    a: [Vec4; 3],
+    ab: [Vec4; 3],
+    ac: [Vec4; 3],
+    /// Smallest |determinant| of a hit, relative to the edges' lengths (see [`intersect4`]):
     /// kept here so that the test needs no square root.
-    min_det: f32,
-    /// Index of the triangle in the mesh.
-    id: u32,
+    min_det: Vec4,
+    /// Index of each triangle in the mesh.
+    id: [u32; 4],
+    /// Whether every lane's corner and edges are finite (see [`closest_distance2`]).
+    finite: bool,
+}
+
+/// A child that is a leaf: this bit, the first of its [`Tri4`] packets shifted by
+/// [`PACKET_SHIFT`], and the number of packets less one in the bits below.
+const LEAF: u32 = 1 << 31;
+const PACKET_SHIFT: u32 = 2;
+/// Most packets of one leaf (leaves hold at most `4 * LEAF_PACKETS` triangles).
+const LEAF_PACKETS: usize = 1 << PACKET_SHIFT;
+/// A lane of a [`Node4`] without a child.
+const NO_CHILD: u32 = u32::MAX;
+/// A lane of a [`Tri4`] without a triangle.
+const NO_TRIANGLE: u32 = u32::MAX;
+
+/// The reference to a leaf whose triangles are the packets `first..first + packets`.
+fn leaf_ref(first: usize, packets: usize) -> u32 {
+    debug_assert!((1..=LEAF_PACKETS).contains(&packets));
+    LEAF | (first as u32) << PACKET_SHIFT | (packets as u32 - 1)
+}
+
+/// The packets of a leaf reference.
+#[inline]
+fn leaf_packets(r: u32) -> std::ops::Range<usize> {
+    let first = ((r & !LEAF) >> PACKET_SHIFT) as usize;
+    first..first + (r & (LEAF_PACKETS as u32 - 1)) as usize + 1
 }
 
 /// A bounding volume hierarchy over the triangles of a mesh.
 #[derive(Debug, Clone)]
 pub struct Bvh {
     origin: DVec3,
-    /// The nodes, two by two: node k is `pairs[k / 2].0[k % 2]`.
-    pairs: Vec<Pair>,
-    tris: Vec<Tri>,
+    /// The four-wide nodes, the root's subtree in depth-first order.
+    nodes: Vec<Node4>,
+    /// The root: a node or a leaf reference.
+    root: u32,
+    /// The triangles in leaf order, four by four.
+    packets: Vec<Tri4>,
     /// Mesh index of each triangle in leaf order.
     ids: Vec<u32>,
 }
@@ -186,94 +225,113 @@ impl Bounds {
     }
 }
 
+/// The binary tree over every triangle of `mesh`: the origin of its `f32` coordinates, its
+/// nodes (each interior node followed by its first child, `link` naming its second; boxes
+/// padded) and the mesh index of each triangle in leaf order.
+fn binary_tree(mesh: &Mesh) -> (DVec3, Vec<Node>, Vec<u32>) {
+    let origin = mesh.bounds().centre();
+    let origin = if origin.is_finite() {
+        origin
+    } else {
+        DVec3::ZERO
+    };
+    let local = |v: DVec3| (v - origin).as_vec3();
+    let mut items: Vec<Item> = (0..mesh.triangles.len())
+        .into_par_iter()
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t).map(local);
+            let min = a.min(b).min(c);
+            let max = a.max(b).max(c);
+            if !(min.is_finite() && max.is_finite()) {
+                // A corner not finite: the triangle can never be hit (its test gives
+                // NaN); an empty box keeps NaN and infinity out of the boxes' unions.
+                return Item {
+                    min: Vec3::INFINITY,
+                    max: Vec3::NEG_INFINITY,
+                    centre: Vec3::ZERO,
+                    id: t as u32,
+                };
+            }
+            Item {
+                min,
+                max,
+                centre: (min + max) * 0.5,
+                id: t as u32,
+            }
+        })
+        .collect();
+    let mut nodes = if items.is_empty() {
+        vec![Node {
+            min: [f32::INFINITY; 3],
+            link: 0,
+            max: [f32::NEG_INFINITY; 3],
+            count: 0,
+        }]
+    } else {
+        build(&mut items, 0, None)
+    };
+    // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
+    // must not be lost to the rounding of the slab test, and the edge slack of the
+    // triangle test reaches slightly beyond a triangle's own box.
+    let reach = nodes[0].min.iter().chain(&nodes[0].max).fold(0f32, |m, v| {
+        if v.is_finite() {
+            m.max(v.abs())
+        } else {
+            m
+        }
+    });
+    let pad = 2.0 * EDGE_TOLERANCE * reach;
+    for n in &mut nodes {
+        for k in 0..3 {
+            n.min[k] -= pad;
+            n.max[k] += pad;
+        }
+    }
+    let ids: Vec<u32> = items.iter().map(|i| i.id).collect();
+    (origin, nodes, ids)
+}
+
 impl Bvh {
     /// Builds the tree over every triangle of `mesh`.
     pub fn new(mesh: &Mesh) -> Bvh {
-        let origin = mesh.bounds().centre();
-        let origin = if origin.is_finite() {
-            origin
-        } else {
-            DVec3::ZERO
+        let (origin, nodes, ids) = binary_tree(mesh);
+        let mut wide = Collapse {
+            built: &nodes,
+            nodes: Vec::with_capacity(nodes.len() / 3 + 1),
+            leaves: Vec::with_capacity(nodes.len() / 2 + 1),
+            packets: 0,
         };
-        let local = |v: DVec3| (v - origin).as_vec3();
-        let mut items: Vec<Item> = (0..mesh.triangles.len())
-            .into_par_iter()
-            .map(|t| {
-                let [a, b, c] = mesh.corners(t).map(local);
-                let min = a.min(b).min(c);
-                let max = a.max(b).max(c);
-                if !(min.is_finite() && max.is_finite()) {
-                    // A corner not finite: the triangle can never be hit (its test gives
-                    // NaN); an empty box keeps NaN and infinity out of the boxes' unions.
-                    return Item {
-                        min: Vec3::INFINITY,
-                        max: Vec3::NEG_INFINITY,
-                        centre: Vec3::ZERO,
-                        id: t as u32,
-                    };
-                }
-                Item {
-                    min,
-                    max,
-                    centre: (min + max) * 0.5,
-                    id: t as u32,
-                }
-            })
-            .collect();
-        let mut nodes = if items.is_empty() {
-            vec![Node {
-                min: [f32::INFINITY; 3],
-                link: 0,
-                max: [f32::NEG_INFINITY; 3],
-                count: 0,
-            }]
-        } else {
-            build(&mut items, 0, None)
-        };
-        // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
-        // must not be lost to the rounding of the slab test, and the edge slack of the
-        // triangle test reaches slightly beyond a triangle's own box.
-        let reach = nodes[0].min.iter().chain(&nodes[0].max).fold(0f32, |m, v| {
-            if v.is_finite() {
-                m.max(v.abs())
-            } else {
-                m
-            }
-        });
-        let pad = 2.0 * EDGE_TOLERANCE * reach;
-        for n in &mut nodes {
-            for k in 0..3 {
-                n.min[k] -= pad;
-                n.max[k] += pad;
-            }
+        let root = wide.child(0);
+        let Collapse {
+            nodes: wide_nodes,
+            leaves,
+            packets: n_packets,
+            ..
+        } = wide;
+        // Each leaf's triangles, four by four, in leaf order (the order of `ids`): the first
+        // triangle and the count of each packet, then the packets in parallel.
+        let mut fours: Vec<(u32, u32)> = Vec::with_capacity(n_packets);
+        for &(first, count) in &leaves {
+            fours.extend(
+                (first..first + count)
+                    .step_by(4)
+                    .map(|f| (f, (first + count - f).min(4))),
+            );
         }
-        let ids: Vec<u32> = items.iter().map(|i| i.id).collect();
-        let tris = ids
+        let packets = fours
             .par_iter()
-            .map(|&t| {
-                let [a, b, c] = mesh.corners(t as usize).map(local);
-                let (ab, ac) = (b - a, c - a);
-                Tri {
-                    a,
-                    ab,
-                    ac,
-                    min_det: 1e-7 * ab.length() * ac.length(),
-                    id: t,
-                }
+            .with_min_len(1024)
+            .map(|&(first, count)| {
+                packet(mesh, origin, &ids[first as usize..(first + count) as usize])
             })
             .collect();
         Bvh {
             origin,
-            pairs: pair_up(&nodes),
-            tris,
+            nodes: wide_nodes,
+            root,
+            packets,
             ids,
         }
-    }
-
-    /// Node `k` of the finished tree.
-    #[inline]
-    fn node(&self, k: u32) -> &Node {
-        &self.pairs[(k >> 1) as usize].0[(k & 1) as usize]
     }
 
     /// Number of triangles in the tree.
@@ -298,43 +356,55 @@ impl Bvh {
     /// the subtrees are few; when they would be more than [`Region`] holds, the region is
     /// the whole tree.
     pub fn region(&self, centre: DVec3, radius: f64) -> Region {
-        let whole = Region::WHOLE;
-        if self.ids.is_empty() || !centre.is_finite() || !radius.is_finite() {
-            return whole;
+        if self.ids.is_empty()
+            || self.root & LEAF != 0
+            || !centre.is_finite()
+            || !radius.is_finite()
+        {
+            return Region::WHOLE;
         }
-        let c = Vec3A::from((centre - self.origin).as_vec3());
+        let c = Point4::splat((centre - self.origin).as_vec3());
         let r = radius as f32;
-        let (r2, size) = (r * r, 4.0 * r);
-        let mut region = Region {
-            starts: [0; REGION_STARTS],
-            len: 0,
-        };
-        let mut stack = [0u32; 64];
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            let k = stack[top];
-            let node = self.node(k);
-            if box_distance2(node, c) > r2 {
-                continue;
-            }
-            let extent = Vec3A::from_array(node.max) - Vec3A::from_array(node.min);
-            if node.count > 0 || extent.max_element() <= size {
-                if region.len == REGION_STARTS {
-                    return whole;
+        let (r2, size) = (Vec4::splat(r * r), Vec4::splat(4.0 * r));
+        // The subtrees found, as (node, lane) of the node that holds their box.
+        let mut found = [(0u32, 0u8); 4 * REGION_GROUPS];
+        let mut len = 0;
+        let mut stack = Stack::new();
+        stack.push((self.root, 0.0));
+        while let Some((r, _)) = stack.pop() {
+            let node = &self.nodes[r as usize];
+            let meets = box_distance2(node, &c).cmple(r2).bitmask();
+            let extent = (node.hi[0] - node.lo[0])
+                .max(node.hi[1] - node.lo[1])
+                .max(node.hi[2] - node.lo[2]);
+            let small = extent.cmple(size).bitmask();
+            for k in lanes(meets) {
+                if node.child[k] & LEAF != 0 || small & (1 << k) != 0 {
+                    if len == found.len() {
+                        return Region::WHOLE;
+                    }
+                    found[len] = (r, k as u8);
+                    len += 1;
+                } else {
+                    stack.push((node.child[k], 0.0));
                 }
-                region.starts[region.len] = k;
-                region.len += 1;
-                continue;
             }
-            if top + 2 > stack.len() {
-                return whole;
-            }
-            stack[top] = node.link + 1;
-            stack[top + 1] = node.link;
-            top += 2;
         }
-        region
+        let mut groups = Region::WHOLE.groups;
+        for (group, four) in groups.iter_mut().zip(found[..len].chunks(4)) {
+            let (mut lo, mut hi) = ([[f32::INFINITY; 4]; 3], [[f32::INFINITY; 4]; 3]);
+            for (lane, &(n, k)) in four.iter().enumerate() {
+                let (node, k) = (&self.nodes[n as usize], k as usize);
+                for axis in 0..3 {
+                    lo[axis][lane] = node.lo[axis][k];
+                    hi[axis][lane] = node.hi[axis][k];
+                }
+                group.child[lane] = node.child[k];
+            }
+            group.lo = lo.map(Vec4::from_array);
+            group.hi = hi.map(Vec4::from_array);
+        }
+        Region { groups, len }
     }
 
     /// The nearest hit of `ray`, or `None` when it hits nothing within its limits.
@@ -347,7 +417,7 @@ impl Bvh {
     /// which of two triangles at one distance is named).
     pub fn first_hit_in(&self, ray: &Ray, region: &Region) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        self.traverse(ray, region.starts(), |hit| {
+        self.traverse(ray, region, |hit| {
             best = Some(hit);
             // Shorten the ray: only nearer hits matter from now on.
             Some(hit.distance)
@@ -358,7 +428,7 @@ impl Bvh {
     /// Whether `ray` hits anything within its limits (stops at the first hit found).
     pub fn any_hit(&self, ray: &Ray) -> bool {
         let mut found = false;
-        self.traverse(ray, &[0], |_| {
+        self.traverse(ray, &Region::WHOLE, |_| {
             found = true;
             None
         });
@@ -369,12 +439,12 @@ impl Bvh {
     /// returns `false`.
     pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit) -> bool) {
         let limit = ray.max_distance;
-        self.traverse(ray, &[0], |hit| f(hit).then_some(limit));
+        self.traverse(ray, &Region::WHOLE, |hit| f(hit).then_some(limit));
     }
 
-    /// Walks the subtrees `starts` (the root: `&[0]`) nearest box first. `on_hit` gets every
-    /// hit nearer than the current limit and returns the new limit, or `None` to stop.
-    fn traverse(&self, ray: &Ray, starts: &[u32], mut on_hit: impl FnMut(Hit) -> Option<f64>) {
+    /// Walks the subtrees of `region` nearest box first. `on_hit` gets every hit nearer than
+    /// the current limit and returns the new limit, or `None` to stop.
+    fn traverse(&self, ray: &Ray, region: &Region, mut on_hit: impl FnMut(Hit) -> Option<f64>) {
         if self.ids.is_empty()
             || !(ray.origin.is_finite() && ray.direction.is_finite())
             || ray.min_distance > ray.max_distance
@@ -386,78 +456,57 @@ impl Bvh {
         // Components too small to invert are raised to TINY_COMPONENT, so that the inverse is
         // finite and the slab test never meets 0 x infinity (see `slab`).
         let tiny = d.abs().cmplt(Vec3::splat(TINY_COMPONENT));
-        let inv = Vec3A::from(Vec3::ONE / Vec3::select(tiny, Vec3::splat(TINY_COMPONENT), d));
-        let oa = Vec3A::from(o);
+        let inv = Vec3::ONE / Vec3::select(tiny, Vec3::splat(TINY_COMPONENT), d);
+        let (o4, d4, inv4) = (Point4::splat(o), Point4::splat(d), Point4::splat(inv));
         let t_min = ray.min_distance as f32;
         let mut t_max = ray.max_distance.min(f32::MAX as f64) as f32;
-        let mut stack = [0u32; 64];
-        let mut top = 0usize;
-        // The starts wait on the stack, the first on top so that it is searched first.
-        for &k in starts.iter().rev() {
-            stack[top] = k;
-            top += 1;
+        // Subtrees still to search, with the distance at which the ray enters their box.
+        let mut stack = Stack::new();
+        // The region's subtrees that the ray enters wait on the stack, nearest on top.
+        if region.len == 0 {
+            stack.push((self.root, 0.0));
         }
-        'pop: loop {
-            // Pop the next box, skipping those now beyond the shortened ray.
-            let mut node = loop {
-                if top == 0 {
-                    return;
-                }
-                top -= 1;
-                let candidate = stack[top];
-                if slab(self.node(candidate), oa, inv, t_min, t_max).is_some() {
-                    break candidate;
-                }
-            };
+        for group in region.groups().iter().rev() {
+            let (hits, near) = slab(group, &o4, &inv4, t_min, t_max);
+            if let Some(first) = descend(hits, near, &group.child, &mut stack) {
+                stack.push((first, 0.0));
+            }
+        }
+        'pop: while let Some((mut r, entry)) = stack.pop() {
+            // Skip a box the shortened ray no longer reaches.
+            if entry > t_max {
+                continue;
+            }
             loop {
-                let n = self.node(node);
-                if n.count > 0 {
-                    let first = n.link as usize;
-                    for tri in &self.tris[first..first + n.count as usize] {
-                        let id = tri.id;
-                        if ray.skip == Some(id) {
-                            continue;
-                        }
-                        if let Some(t) = intersect(tri, o, d) {
-                            if t >= t_min && t <= t_max {
-                                match on_hit(Hit {
-                                    triangle: id,
-                                    distance: t as f64,
-                                }) {
-                                    Some(limit) => t_max = limit as f32,
-                                    None => return,
-                                }
+                if r & LEAF != 0 {
+                    if r == NO_CHILD {
+                        continue 'pop;
+                    }
+                    for packet in &self.packets[leaf_packets(r)] {
+                        let (hits, t) = intersect(packet, &o4, &d4);
+                        // In lane order, as the triangles of the leaf come.
+                        for k in lanes(hits) {
+                            let id = packet.id[k];
+                            if ray.skip == Some(id) || !(t[k] >= t_min && t[k] <= t_max) {
+                                continue;
+                            }
+                            match on_hit(Hit {
+                                triangle: id,
+                                distance: t[k] as f64,
+                            }) {
+                                Some(limit) => t_max = limit as f32,
+                                None => return,
                             }
                         }
                     }
-                } else {
-                    let left = n.link;
-                    let right = left + 1;
-                    let [l, r] = &self.pairs[(left >> 1) as usize].0;
-                    let tl = slab(l, oa, inv, t_min, t_max);
-                    let tr = slab(r, oa, inv, t_min, t_max);
-                    match (tl, tr) {
-                        (Some(a), Some(b)) => {
-                            let (near, far) = if a <= b { (left, right) } else { (right, left) };
-                            if top < stack.len() {
-                                stack[top] = far;
-                                top += 1;
-                            }
-                            node = near;
-                            continue;
-                        }
-                        (Some(_), None) => {
-                            node = left;
-                            continue;
-                        }
-                        (None, Some(_)) => {
-                            node = right;
-                            continue;
-                        }
-                        (None, None) => {}
-                    }
+                    continue 'pop;
                 }
-                continue 'pop;
+                let node = &self.nodes[r as usize];
+                let (hits, near) = slab(node, &o4, &inv4, t_min, t_max);
+                match descend(hits, near, &node.child, &mut stack) {
+                    Some(next) => r = next,
+                    None => continue 'pop,
+                }
             }
         }
     }
@@ -475,54 +524,42 @@ impl Bvh {
             return None;
         }
         let q = (p - self.origin).as_vec3();
-        let qa = Vec3A::from(q);
+        let q4 = Point4::splat(q);
         let r = radius.min(f32::MAX as f64) as f32;
         let mut best2 = r * r;
         let mut best: Option<u32> = None;
-        let mut stack = [0u32; 64];
-        let starts = region.starts();
-        let mut top = starts.len();
-        for (slot, &k) in stack.iter_mut().zip(starts.iter().rev()) {
-            *slot = k;
+        // Subtrees still to search, with the squared distance to their box.
+        let mut stack = Stack::new();
+        if region.len == 0 {
+            stack.push((self.root, 0.0));
         }
-        while top > 0 {
-            top -= 1;
-            let node = self.node(stack[top]);
-            if box_distance2(node, qa) >= best2 {
+        for group in region.groups().iter().rev() {
+            let d2 = box_distance2(group, &q4);
+            let inside = d2.cmplt(Vec4::splat(best2)).bitmask();
+            if let Some(first) = descend(inside, d2, &group.child, &mut stack) {
+                stack.push((first, 0.0));
+            }
+        }
+        'pop: while let Some((mut r, d2)) = stack.pop() {
+            if d2 >= best2 {
                 continue;
             }
-            if node.count > 0 {
-                let first = node.link as usize;
-                for tri in &self.tris[first..first + node.count as usize] {
-                    // A triangle whose plane is no nearer than the best so far cannot be
-                    // nearer itself: most are ruled out so, without the full search.
-                    let n = tri.ab.cross(tri.ac);
-                    let (h, nn) = (n.dot(q - tri.a), n.length_squared());
-                    if nn > 0.0 && h * h >= best2 * nn {
-                        continue;
+            loop {
+                if r & LEAF != 0 {
+                    if r == NO_CHILD {
+                        continue 'pop;
                     }
-                    let d2 = closest_on_triangle(tri, q).distance_squared(q);
-                    if d2 < best2 {
-                        best2 = d2;
-                        best = Some(tri.id);
+                    for packet in &self.packets[leaf_packets(r)] {
+                        nearest_in_packet(packet, q, &q4, &mut best2, &mut best);
                     }
+                    continue 'pop;
                 }
-            } else {
-                let left = node.link;
-                let right = left + 1;
-                let [l, r] = &self.pairs[(left >> 1) as usize].0;
-                let (dl, dr) = (box_distance2(l, qa), box_distance2(r, qa));
-                // Push the farther child first so the nearer is searched first.
-                let order = if dl <= dr {
-                    [right, left]
-                } else {
-                    [left, right]
-                };
-                for c in order {
-                    if top < stack.len() {
-                        stack[top] = c;
-                        top += 1;
-                    }
+                let node = &self.nodes[r as usize];
+                let d2 = box_distance2(node, &q4);
+                let inside = d2.cmplt(Vec4::splat(best2)).bitmask();
+                match descend(inside, d2, &node.child, &mut stack) {
+                    Some(next) => r = next,
+                    None => continue 'pop,
                 }
             }
         }
@@ -533,27 +570,131 @@ impl Bvh {
     }
 }
 
-/// Most subtrees of a [`Region`].
-const REGION_STARTS: usize = 16;
+/// The nearest-point search's step over one packet for the point `q`: each triangle nearer
+/// than `sqrt(best2)` becomes the best.
+#[inline(always)]
+fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, best2: &mut f32, best: &mut Option<u32>) {
+    // A triangle whose plane is no nearer than the best so far cannot be nearer itself: most
+    // are ruled out so, without the full search (lanes set in `maybe`; the test is made again
+    // with the best as it shrinks, in the scalar arithmetic).
+    let (h, nn) = plane_distance(tri, q4);
+    let far = nn.cmpgt(Vec4::ZERO) & (h * h).cmpge(nn * *best2);
+    let maybe = (!far).bitmask();
+    if maybe == 0 {
+        return;
+    }
+    let (h, nn) = (h.to_array(), nn.to_array());
+    let (d2, scalar) = closest_distance2(tri, q4);
+    let d2 = d2.to_array();
+    for k in lanes(maybe) {
+        let id = tri.id[k];
+        if id == NO_TRIANGLE || (nn[k] > 0.0 && h[k] * h[k] >= *best2 * nn[k]) {
+            continue;
+        }
+        let d2 = if scalar & (1 << k) == 0 {
+            d2[k]
+        } else {
+            let [a, ab, ac] = [tri.a, tri.ab, tri.ac].map(|v| Vec3::new(v[0][k], v[1][k], v[2][k]));
+            closest_on_triangle(a, ab, ac, q).distance_squared(q)
+        };
+        if d2 < *best2 {
+            *best2 = d2;
+            *best = Some(id);
+        }
+    }
+}
+
+/// The squared distance from `q` to each of four triangles, lane by lane: each lane is
+/// [`closest_on_triangle`]'s arithmetic for the case (Voronoi region) it falls in, so the
+/// distance is that function's to the bit. Lanes it leaves to the scalar function are set in
+/// the mask: the degenerate case (the triangle has no area, where the nearest corner is
+/// chosen) and every lane of a packet with a corner or edge that is not finite.
+#[inline(always)]
+fn closest_distance2(tri: &Tri4, q: &Point4) -> (Vec4, u32) {
+    let [a, b, c] = [tri.a, tri.ab, tri.ac];
+    let dot = |u: [Vec4; 3], v: [Vec4; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let sub = |u: [Vec4; 3], v: [Vec4; 3]| [u[0] - v[0], u[1] - v[1], u[2] - v[2]];
+    let ap = sub(q.0, a);
+    let (d1, d2) = (dot(b, ap), dot(c, ap));
+    let bp = sub(ap, b);
+    let (d3, d4) = (dot(b, bp), dot(c, bp));
+    let vc = d1 * d4 - d3 * d2;
+    let cp = sub(ap, c);
+    let (d5, d6) = (dot(b, cp), dot(c, cp));
+    let vb = d5 * d2 - d1 * d6;
+    let va = d3 * d6 - d5 * d4;
+    let (zero, one) = (Vec4::ZERO, Vec4::ONE);
+    // Each case's point as (a + ab s) + e t, in the scalar function's order of cases: the
+    // last case first, each earlier one taking over the lanes where it holds.
+    let denom = va + vb + vc;
+    let (mut s, mut t, mut e) = (vb / denom, vc / denom, c);
+    let degenerate = denom.cmpeq(zero) | !denom.abs().cmplt(Vec4::INFINITY);
+    let (g, h) = (d4 - d3, d5 - d6);
+    let on_bc = va.cmple(zero) & g.cmpge(zero) & h.cmpge(zero);
+    s = Vec4::select(on_bc, one, s);
+    t = Vec4::select(on_bc, g / (g + h), t);
+    let cb = sub(c, b);
+    e = [0, 1, 2].map(|k| Vec4::select(on_bc, cb[k], e[k]));
+    let on_ac = vb.cmple(zero) & d2.cmpge(zero) & d6.cmple(zero);
+    s = Vec4::select(on_ac, zero, s);
+    t = Vec4::select(on_ac, d2 / (d2 - d6), t);
+    let at_c = d6.cmpge(zero) & d5.cmple(d6);
+    s = Vec4::select(at_c, zero, s);
+    t = Vec4::select(at_c, one, t);
+    let on_ab = vc.cmple(zero) & d1.cmpge(zero) & d3.cmple(zero);
+    s = Vec4::select(on_ab, d1 / (d1 - d3), s);
+    t = Vec4::select(on_ab, zero, t);
+    let at_b = d3.cmpge(zero) & d4.cmple(d3);
+    s = Vec4::select(at_b, one, s);
+    t = Vec4::select(at_b, zero, t);
+    // The cases of an edge, vertex or face other than at a take over `e` from the face
+    // case: the edge bc's lanes already hold c - b, the others c.
+    let not_bc = on_ac | at_c | on_ab | at_b;
+    e = [0, 1, 2].map(|k| Vec4::select(not_bc, c[k], e[k]));
+    let at_a = d1.cmple(zero) & d2.cmple(zero);
+    let d = [0, 1, 2].map(|k| {
+        let p = (a[k] + b[k] * s) + e[k] * t;
+        Vec4::select(at_a, a[k], p) - q.0[k]
+    });
+    let named = at_a | at_b | on_ab | at_c | on_ac | on_bc;
+    let scalar = if tri.finite {
+        (degenerate & !named).bitmask()
+    } else {
+        0b1111
+    };
+    (dot(d, d), scalar)
+}
+
+/// Most subtrees of a [`Region`], in groups of four.
+const REGION_GROUPS: usize = 4;
 
 /// Subtrees of a [`Bvh`] that hold every triangle meeting a ball ([`Bvh::region`]): a query
 /// that stays in the ball starts from them and is spared the descent from the root, which is
-/// most of the cost of a short ray.
+/// most of the cost of a short ray. The subtrees' boxes come along, four to a group, so that
+/// a query tests them four at a time and enters only those it reaches.
 #[derive(Debug, Clone, Copy)]
 pub struct Region {
-    starts: [u32; REGION_STARTS],
+    /// The subtrees as the children of nodes.
+    groups: [Node4; REGION_GROUPS],
+    /// Subtrees in the groups; 0 for the whole tree.
     len: usize,
 }
 
 impl Region {
     /// The whole tree (its root).
     pub const WHOLE: Region = Region {
-        starts: [0; REGION_STARTS],
-        len: 1,
+        groups: [Node4 {
+            lo: [Vec4::INFINITY; 3],
+            hi: [Vec4::INFINITY; 3],
+            child: [NO_CHILD; 4],
+        }; REGION_GROUPS],
+        len: 0,
     };
 
-    fn starts(&self) -> &[u32] {
-        &self.starts[..self.len]
+    /// The groups in use (none for the whole tree).
+    #[inline]
+    fn groups(&self) -> &[Node4] {
+        &self.groups[..self.len.div_ceil(4)]
     }
 }
 
@@ -613,56 +754,212 @@ impl Sampling {
     }
 }
 
-/// Squared distance from `q` to the node's box (0 inside).
-#[inline]
-fn box_distance2(n: &Node, q: Vec3A) -> f32 {
-    let min = Vec3A::from_array(n.min);
-    let max = Vec3A::from_array(n.max);
-    let d = (min - q).max(q - max).max(Vec3A::ZERO);
-    d.length_squared()
+/// Entries of a query's stack kept in place: a descent pushes at most three a level, and the
+/// tree of a real part is 10 to 15 levels deep. A deeper one (a degenerate mesh) spills into
+/// a vector.
+const STACK: usize = 64;
+
+/// The subtrees a query has still to search, each with its key (the ray's entry distance,
+/// or the squared distance to its box), last in first out.
+struct Stack {
+    items: [(u32, f32); STACK],
+    top: usize,
+    more: Vec<(u32, f32)>,
 }
 
-/// Entry distance of the ray into the node's box, if it enters before `t_max`; `inv` is the
-/// inverse of the direction with tiny components raised (see [`TINY_COMPONENT`]). A box left
-/// before `t_min` (the ray's `min_distance`) is passed as well: it holds no hit that counts.
-#[inline]
-fn slab(n: &Node, o: Vec3A, inv: Vec3A, t_min: f32, t_max: f32) -> Option<f32> {
-    // Four-lane arithmetic (the fourth lane unused): one instruction per step, and min / max
-    // without the NaN rules of `f32::min`, which no operand here can be (finite inverse).
-    let t1 = (Vec3A::from_array(n.min) - o) * inv;
-    let t2 = (Vec3A::from_array(n.max) - o) * inv;
-    let near = t1.min(t2).max_element().max(0.0);
-    let far = t1.max(t2).min_element().min(t_max);
-    (near <= far && far >= t_min).then_some(near)
+impl Stack {
+    #[inline]
+    fn new() -> Stack {
+        Stack {
+            items: [(0, 0.0); STACK],
+            top: 0,
+            more: Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, item: (u32, f32)) {
+        if self.top == STACK {
+            self.spill();
+        }
+        self.items[self.top] = item;
+        self.top += 1;
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if self.top == 0 && !self.refill() {
+            return None;
+        }
+        self.top -= 1;
+        Some(self.items[self.top])
+    }
+
+    /// Moves the older half of a full stack into the vector.
+    #[cold]
+    fn spill(&mut self) {
+        self.more.extend_from_slice(&self.items[..STACK / 2]);
+        self.items.copy_within(STACK / 2.., 0);
+        self.top = STACK - STACK / 2;
+    }
+
+    /// Takes the newest entries of the vector back into an empty stack; false when none.
+    #[cold]
+    fn refill(&mut self) -> bool {
+        let n = self.more.len().min(STACK / 2);
+        let from = self.more.len() - n;
+        self.items[..n].copy_from_slice(&self.more[from..]);
+        self.more.truncate(from);
+        self.top = n;
+        n > 0
+    }
 }
 
-/// Möller-Trumbore with the barycentric slack of [`EDGE_TOLERANCE`]; the distance along the
-/// ray, or `None` when the ray misses or runs parallel to the triangle.
+/// A point or vector with each coordinate in all four lanes.
+struct Point4([Vec4; 3]);
+
+impl Point4 {
+    #[inline]
+    fn splat(v: Vec3) -> Point4 {
+        Point4([Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)])
+    }
+}
+
+/// The lanes set in a four-bit mask, in order.
 #[inline]
-fn intersect(tri: &Tri, o: Vec3, d: Vec3) -> Option<f32> {
-    let p = d.cross(tri.ac);
-    let det = tri.ab.dot(p);
+fn lanes(mask: u32) -> impl Iterator<Item = usize> {
+    let mut bits = mask;
+    std::iter::from_fn(move || {
+        (bits != 0).then(|| {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            k
+        })
+    })
+}
+
+/// The next step of a descent into the children in `mask`, whose keys (entry distances) are
+/// `key`: the nearest child (of equal keys, the lower lane), the others pushed on `stack` so
+/// that they come off it nearest first; `None` when the mask is empty.
+#[inline(always)]
+fn descend(mask: u32, key: Vec4, child: &[u32; 4], stack: &mut Stack) -> Option<u32> {
+    if mask & mask.wrapping_sub(1) == 0 {
+        // None or one: the usual cases.
+        return (mask != 0).then(|| child[mask.trailing_zeros() as usize]);
+    }
+    let key = key.to_array();
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    let second = rest.trailing_zeros() as usize;
+    if rest & (rest - 1) == 0 {
+        let (near, far) = if key[second] < key[first] {
+            (second, first)
+        } else {
+            (first, second)
+        };
+        stack.push((child[far], key[far]));
+        return Some(child[near]);
+    }
+    let mut order = [(0f32, 0u32); 4];
+    let mut m = 0;
+    for k in lanes(mask) {
+        let item = (key[k], child[k]);
+        let mut j = m;
+        while j > 0 && order[j - 1].0 > item.0 {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = item;
+        m += 1;
+    }
+    for &(key, child) in order[1..m].iter().rev() {
+        stack.push((child, key));
+    }
+    Some(order[0].1)
+}
+
+/// Squared distance from `q` to each child's box (0 inside; infinity for a lane without a
+/// child).
+#[inline]
+fn box_distance2(n: &Node4, q: &Point4) -> Vec4 {
+    let mut d2 = Vec4::ZERO;
+    for axis in 0..3 {
+        let d = (n.lo[axis] - q.0[axis])
+            .max(q.0[axis] - n.hi[axis])
+            .max(Vec4::ZERO);
+        d2 += d * d;
+    }
+    d2
+}
+
+/// The children whose box the ray enters before `t_max` (a bit per lane), and where it enters
+/// each; `inv` is the inverse of the direction with tiny components raised (see
+/// [`TINY_COMPONENT`]). A box left before `t_min` (the ray's `min_distance`) is passed as
+/// well: it holds no hit that counts.
+#[inline]
+fn slab(n: &Node4, o: &Point4, inv: &Point4, t_min: f32, t_max: f32) -> (u32, Vec4) {
+    // No operand is NaN (finite inverse, boxes finite or the point at infinity), so the
+    // four-lane min / max need no NaN rule.
+    let mut near = Vec4::ZERO;
+    let mut far = Vec4::splat(t_max);
+    for axis in 0..3 {
+        let t1 = (n.lo[axis] - o.0[axis]) * inv.0[axis];
+        let t2 = (n.hi[axis] - o.0[axis]) * inv.0[axis];
+        near = near.max(t1.min(t2));
+        far = far.min(t1.max(t2));
+    }
+    let hits = near.cmple(far) & far.cmpge(Vec4::splat(t_min));
+    (hits.bitmask(), near)
+}
+
+/// Möller-Trumbore on four triangles at once with the barycentric slack of
+/// [`EDGE_TOLERANCE`]: a bit per lane the ray crosses, and the distances along it. Each lane
+/// is the scalar test's arithmetic in its order, so the distances are the scalar test's to
+/// the bit. Triangles seen edge-on and without area are never hit.
+#[inline]
+fn intersect(tri: &Tri4, o: &Point4, d: &Point4) -> (u32, [f32; 4]) {
+    let [dx, dy, dz] = d.0;
+    let [abx, aby, abz] = tri.ab;
+    let [acx, acy, acz] = tri.ac;
+    let px = dy * acz - acy * dz;
+    let py = dz * acx - acz * dx;
+    let pz = dx * acy - acx * dy;
+    let det = abx * px + aby * py + abz * pz;
     // Relative test: edge-on (or area-less) triangles are never hit.
-    if det.abs().partial_cmp(&tri.min_det) != Some(Ordering::Greater) {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - tri.a;
-    let u = s.dot(p) * inv;
-    if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
-        return None;
-    }
-    let q = s.cross(tri.ab);
-    let v = d.dot(q) * inv;
-    if v < -EDGE_TOLERANCE || u + v > 1.0 + EDGE_TOLERANCE {
-        return None;
-    }
-    Some(tri.ac.dot(q) * inv)
+    let mut hits: BVec4A = det.abs().cmpgt(tri.min_det);
+    let inv = Vec4::ONE / det;
+    let sx = o.0[0] - tri.a[0];
+    let sy = o.0[1] - tri.a[1];
+    let sz = o.0[2] - tri.a[2];
+    let u = (sx * px + sy * py + sz * pz) * inv;
+    hits &= u.cmpge(Vec4::splat(-EDGE_TOLERANCE)) & u.cmple(Vec4::splat(1.0 + EDGE_TOLERANCE));
+    let qx = sy * abz - aby * sz;
+    let qy = sz * abx - abz * sx;
+    let qz = sx * aby - abx * sy;
+    let v = (dx * qx + dy * qy + dz * qz) * inv;
+    hits &=
+        !v.cmplt(Vec4::splat(-EDGE_TOLERANCE)) & !(u + v).cmpgt(Vec4::splat(1.0 + EDGE_TOLERANCE));
+    let t = (acx * qx + acy * qy + acz * qz) * inv;
+    (hits.bitmask(), t.to_array())
+}
+
+/// For four triangles, the normal's dot product with `q` less a corner (the distance to the
+/// plane times the normal's length) and the normal's squared length.
+#[inline]
+fn plane_distance(tri: &Tri4, q: &Point4) -> (Vec4, Vec4) {
+    let [abx, aby, abz] = tri.ab;
+    let [acx, acy, acz] = tri.ac;
+    let nx = aby * acz - acy * abz;
+    let ny = abz * acx - acz * abx;
+    let nz = abx * acy - acx * aby;
+    let wx = q.0[0] - tri.a[0];
+    let wy = q.0[1] - tri.a[1];
+    let wz = q.0[2] - tri.a[2];
+    (nx * wx + ny * wy + nz * wz, nx * nx + ny * ny + nz * nz)
 }
 
 /// The point of the triangle nearest to `p` (Ericson, *Real-Time Collision Detection*, 5.1.5).
-fn closest_on_triangle(tri: &Tri, p: Vec3) -> Vec3 {
-    let (a, ab, ac) = (tri.a, tri.ab, tri.ac);
+fn closest_on_triangle(a: Vec3, ab: Vec3, ac: Vec3, p: Vec3) -> Vec3 {
     let ap = p - a;
     let d1 = ab.dot(ap);
     let d2 = ac.dot(ap);
@@ -763,8 +1060,14 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Op
     if items.len() <= LEAF_SIZE {
         return;
     }
-    let Some((mid, sides)) = split(items, &bounds, &centres) else {
-        return; // Every centre in one place: a (large) leaf is the only way.
+    let answer = match split(items, &bounds, &centres) {
+        // A leaf holds at most `LEAF_PACKETS` packets of four: a larger one (which the split
+        // never asks for on a real part) is halved.
+        None if items.len() > 4 * LEAF_PACKETS => Some((items.len() / 2, None)),
+        answer => answer,
+    };
+    let Some((mid, sides)) = answer else {
+        return;
     };
     let (l_known, r_known) = match sides {
         Some((l, r)) => (Some(l), Some(r)),
@@ -789,29 +1092,115 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Op
     }
 }
 
-/// The finished tree from the built one (each interior node followed by its first child,
-/// `link` naming its second): the same nodes, in depth-first order of their pairs of
-/// children, with `link` naming the pair.
-fn pair_up(built: &[Node]) -> Vec<Pair> {
-    let mut pairs = Vec::with_capacity(built.len() / 2 + 1);
-    pairs.push(Pair([built[0], built[0]]));
-    // (index in `built`, node number in the finished tree) of interior nodes to expand.
-    let mut todo = vec![(0usize, 0u32)];
-    while let Some((old, new)) = todo.pop() {
-        let n = built[old];
+/// The four-wide tree from the binary one (each interior node followed by its first child,
+/// `link` naming its second): each node takes the children of its binary node, then opens
+/// the interior child of largest surface area into its two children until it has four or
+/// only leaves. The leaves keep their left-to-right order, so the leaf order (and `ids`) is
+/// the binary tree's; nodes are laid out depth first.
+struct Collapse<'a> {
+    built: &'a [Node],
+    nodes: Vec<Node4>,
+    /// Each leaf's first triangle in leaf order and its count, in the order of its packets.
+    leaves: Vec<(u32, u32)>,
+    /// Packets of the leaves so far.
+    packets: usize,
+}
+
+impl Collapse<'_> {
+    /// The reference to binary node `i` in the four-wide tree, made with its subtree.
+    fn child(&mut self, i: usize) -> u32 {
+        let n = self.built[i];
         // A leaf, or the empty tree's root (no triangle, no children).
-        if n.count > 0 || built.len() == 1 {
-            continue;
+        if n.count > 0 || self.built.len() == 1 {
+            if n.count == 0 {
+                return NO_CHILD;
+            }
+            let packets = (n.count as usize).div_ceil(4);
+            self.leaves.push((n.link, n.count));
+            self.packets += packets;
+            return leaf_ref(self.packets - packets, packets);
         }
-        let (left, right) = (old + 1, n.link as usize);
-        let k = pairs.len() as u32;
-        pairs.push(Pair([built[left], built[right]]));
-        pairs[(new >> 1) as usize].0[(new & 1) as usize].link = 2 * k;
-        // Right first, so that the left subtree's pairs come next (depth first).
-        todo.push((right, 2 * k + 1));
-        todo.push((left, 2 * k));
+        let mut kids = [i + 1, n.link as usize, 0, 0];
+        let mut m = 2;
+        while m < 4 {
+            let widest = kids[..m]
+                .iter()
+                .enumerate()
+                .filter(|(_, &c)| self.built[c].count == 0)
+                .map(|(k, &c)| (k, half_area_of(&self.built[c])))
+                .fold(None, |best: Option<(usize, f32)>, (k, a)| match best {
+                    Some((_, b)) if b >= a => best,
+                    _ => Some((k, a)),
+                });
+            let Some((k, _)) = widest else {
+                break;
+            };
+            let c = kids[k];
+            kids.copy_within(k + 1..m, k + 2);
+            kids[k] = c + 1;
+            kids[k + 1] = self.built[c].link as usize;
+            m += 1;
+        }
+        let me = self.nodes.len();
+        self.nodes.push(Node4 {
+            lo: [Vec4::INFINITY; 3],
+            hi: [Vec4::INFINITY; 3],
+            child: [NO_CHILD; 4],
+        });
+        let (mut lo, mut hi) = ([[f32::INFINITY; 4]; 3], [[f32::INFINITY; 4]; 3]);
+        let mut child = [NO_CHILD; 4];
+        for (k, &c) in kids[..m].iter().enumerate() {
+            let b = self.built[c];
+            // An empty box (triangles without finite corners) stays the point at infinity.
+            if (0..3).all(|axis| b.min[axis] <= b.max[axis]) {
+                for axis in 0..3 {
+                    lo[axis][k] = b.min[axis];
+                    hi[axis][k] = b.max[axis];
+                }
+            }
+            child[k] = self.child(c);
+        }
+        self.nodes[me] = Node4 {
+            lo: lo.map(Vec4::from_array),
+            hi: hi.map(Vec4::from_array),
+            child,
+        };
+        me as u32
     }
-    pairs
+}
+
+/// Half the surface area of a node's box.
+fn half_area_of(n: &Node) -> f32 {
+    let d = [0, 1, 2].map(|k| (n.max[k] - n.min[k]).max(0.0));
+    d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+}
+
+/// The packet of up to four triangles `four` (mesh indices), relative to `origin`.
+fn packet(mesh: &Mesh, origin: DVec3, four: &[u32]) -> Tri4 {
+    let mut lanes = [[[0f32; 4]; 3]; 3];
+    let mut min_det = [f32::INFINITY; 4];
+    let mut id = [NO_TRIANGLE; 4];
+    for (k, &t) in four.iter().enumerate() {
+        let [a, b, c] = mesh.corners(t as usize).map(|v| (v - origin).as_vec3());
+        let (ab, ac) = (b - a, c - a);
+        for (lane, v) in lanes.iter_mut().zip([a, ab, ac]) {
+            for axis in 0..3 {
+                lane[axis][k] = v[axis];
+            }
+        }
+        min_det[k] = 1e-7 * ab.length() * ac.length();
+        id[k] = t;
+    }
+    let finite = lanes.iter().flatten().flatten().all(|v| v.is_finite());
+    let [a, ab, ac] = lanes.map(|l| l.map(Vec4::from_array));
+    Tri4 {
+        a,
+        ab,
+        ac,
+        min_det: Vec4::from_array(min_det),
+        id,
+        finite,
+    }
 }
 
 /// Appends a subtree built on its own, moving its interior links by `base`.
@@ -1209,6 +1598,296 @@ mod tests {
         }
     }
 
+    /// The binary tree the four-wide one is made from, searched as it was before the four-wide
+    /// nodes (one box at a time, one triangle at a time): the oracle of the four-wide search,
+    /// which must find the same distances to the bit.
+    struct BinaryTree {
+        nodes: Vec<Node>,
+        /// Each triangle in leaf order: a corner, the two edges from it, its mesh index.
+        tris: Vec<(Vec3, Vec3, Vec3, u32)>,
+        origin: DVec3,
+    }
+
+    impl BinaryTree {
+        fn new(mesh: &Mesh) -> BinaryTree {
+            let (origin, nodes, ids) = binary_tree(mesh);
+            let tris = ids
+                .iter()
+                .map(|&t| {
+                    let [a, b, c] = mesh.corners(t as usize).map(|v| (v - origin).as_vec3());
+                    (a, b - a, c - a, t)
+                })
+                .collect();
+            BinaryTree {
+                nodes,
+                tris,
+                origin,
+            }
+        }
+
+        fn slab(n: &Node, o: Vec3, inv: Vec3, t_min: f32, t_max: f32) -> bool {
+            let t1 = (Vec3::from_array(n.min) - o) * inv;
+            let t2 = (Vec3::from_array(n.max) - o) * inv;
+            let near = t1.min(t2).max_element().max(0.0);
+            let far = t1.max(t2).min_element().min(t_max);
+            near <= far && far >= t_min
+        }
+
+        fn intersect((a, ab, ac, _): &(Vec3, Vec3, Vec3, u32), o: Vec3, d: Vec3) -> Option<f32> {
+            let p = d.cross(*ac);
+            let det = ab.dot(p);
+            let min_det = 1e-7 * ab.length() * ac.length();
+            if det.abs().partial_cmp(&min_det) != Some(Ordering::Greater) {
+                return None;
+            }
+            let inv = 1.0 / det;
+            let s = o - *a;
+            let u = s.dot(p) * inv;
+            if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
+                return None;
+            }
+            let q = s.cross(*ab);
+            let v = d.dot(q) * inv;
+            if v < -EDGE_TOLERANCE || u + v > 1.0 + EDGE_TOLERANCE {
+                return None;
+            }
+            Some(ac.dot(q) * inv)
+        }
+
+        /// Every hit of the ray within its limits, sorted (the set the tree may report).
+        fn hits(&self, ray: &Ray) -> Vec<(u32, u32)> {
+            let o = (ray.origin - self.origin).as_vec3();
+            let d = ray.direction.as_vec3();
+            let tiny = d.abs().cmplt(Vec3::splat(TINY_COMPONENT));
+            let inv = Vec3::ONE / Vec3::select(tiny, Vec3::splat(TINY_COMPONENT), d);
+            let t_min = ray.min_distance as f32;
+            let t_max = ray.max_distance.min(f32::MAX as f64) as f32;
+            let mut out = Vec::new();
+            let mut stack = vec![0usize];
+            while let Some(i) = stack.pop() {
+                let n = &self.nodes[i];
+                if !Self::slab(n, o, inv, t_min, t_max) {
+                    continue;
+                }
+                if n.count == 0 {
+                    if self.nodes.len() > 1 {
+                        stack.extend([i + 1, n.link as usize]);
+                    }
+                    continue;
+                }
+                for tri in &self.tris[n.link as usize..(n.link + n.count) as usize] {
+                    if ray.skip == Some(tri.3) {
+                        continue;
+                    }
+                    if let Some(t) = Self::intersect(tri, o, d) {
+                        if t >= t_min && t <= t_max {
+                            out.push((t.to_bits(), tri.3));
+                        }
+                    }
+                }
+            }
+            out.sort_unstable();
+            out
+        }
+
+        fn first_hit(&self, ray: &Ray) -> Option<f64> {
+            self.hits(ray)
+                .iter()
+                .map(|h| f32::from_bits(h.0))
+                .min_by(f32::total_cmp)
+                .map(f64::from)
+        }
+
+        fn nearest_within(&self, p: DVec3, radius: f64) -> Option<f64> {
+            let q = (p - self.origin).as_vec3();
+            let r = radius as f32;
+            let best2 = self
+                .tris
+                .iter()
+                .filter(|t| t.3 != NO_TRIANGLE)
+                .map(|&(a, ab, ac, _)| closest_on_triangle(a, ab, ac, q).distance_squared(q))
+                .fold(r * r, f32::min);
+            (best2 < r * r).then(|| (best2 as f64).sqrt())
+        }
+    }
+
+    /// A soup of random triangles of every size and shape (slivers, needles, repeats, some
+    /// in axis planes), in a box of 100 mm.
+    fn triangle_soup(seed: u64, n: usize) -> Mesh {
+        let mut rng = Rng(seed);
+        let mut mesh = Mesh::default();
+        for t in 0..n {
+            let centre = DVec3::new(rng.next(), rng.next(), rng.next()) * 100.0;
+            let size = 10f64.powf(-2.0 + 3.0 * rng.next());
+            let mut corners = [0; 3]
+                .map(|_| centre + (DVec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * size);
+            match t % 7 {
+                0 => corners[2] = corners[0] + (corners[1] - corners[0]) * rng.next(), // no area
+                1 => corners.iter_mut().for_each(|c| c.z = centre.z), // in an axis plane
+                2 if t > 0 => {
+                    // A repeat of the last triangle.
+                    let last = mesh.triangles.len() - 1;
+                    corners = mesh.corners(last);
+                }
+                _ => {}
+            }
+            let first = mesh.vertices.len() as u32;
+            mesh.vertices.extend(corners);
+            mesh.triangles.push([first, first + 1, first + 2]);
+        }
+        mesh
+    }
+
+    #[test]
+    fn four_lane_closest_points_are_the_scalar_ones() {
+        // Triangles of every shape (slivers, needles, points, repeats, axis planes) and
+        // points near and far, in every Voronoi region: each lane's distance is the scalar
+        // function's to the bit, or left to it.
+        let mut mesh = triangle_soup(0x9e37_79b9_7f4a_7c15, 4000);
+        let origin = mesh.bounds().centre();
+        // Triangles that are points and segments, and one with a corner at infinity (its
+        // packet is left to the scalar function).
+        let v = mesh.vertices.len() as u32;
+        mesh.vertices.extend([DVec3::ZERO, DVec3::X, DVec3::splat(f64::INFINITY)]);
+        mesh.triangles.push([v, v + 1, v + 2]);
+        for k in 0..40 {
+            let v = mesh.vertices.len() as u32;
+            let a = DVec3::new(k as f64, 50.0, 20.0);
+            let b = if k % 2 == 0 { a } else { a + DVec3::new(0.5, 0.25, 0.0) };
+            mesh.vertices.extend([a, b, a]);
+            mesh.triangles.push([v, v + 1, v + 2]);
+        }
+        let mut rng = Rng(0x5851_f42d_4c95_7f2d);
+        let (mut lanes_checked, mut left) = (0, 0);
+        for first in (0..mesh.triangles.len() as u32).step_by(4) {
+            let four: Vec<u32> = (first..(first + 4).min(mesh.triangles.len() as u32)).collect();
+            let tri = packet(&mesh, origin, &four);
+            for _ in 0..8 {
+                let t = four[(rng.next() * four.len() as f64) as usize] as usize;
+                let [a, b, c] = mesh.corners(t);
+                let w = DVec3::new(rng.next(), rng.next(), rng.next()) * 3.0 - 1.0;
+                let p = a + (b - a) * w.x + (c - a) * w.y + (rng.unit() * w.z * 3.0);
+                let q = (p - origin).as_vec3();
+                let (d2, scalar) = closest_distance2(&tri, &Point4::splat(q));
+                for (k, &t) in four.iter().enumerate() {
+                    let [a, b, c] = mesh.corners(t as usize).map(|v| (v - origin).as_vec3());
+                    let want = closest_on_triangle(a, b - a, c - a, q).distance_squared(q);
+                    if scalar & (1 << k) == 0 {
+                        assert_eq!(d2[k].to_bits(), want.to_bits(), "triangle {t} at {q}");
+                        lanes_checked += 1;
+                    } else {
+                        left += 1;
+                    }
+                }
+            }
+        }
+        assert!(lanes_checked > 20_000 && left > 0, "{lanes_checked} {left}");
+    }
+
+    #[test]
+    fn four_wide_search_finds_what_the_binary_tree_finds() {
+        let mut meshes: Vec<(String, Mesh)> = ["cover", "cap", "plate", "bracket", "tray"]
+            .iter()
+            .map(|n| (n.to_string(), samples::sample(n).unwrap()))
+            .collect();
+        for (k, n) in [3, 17, 300, 5000].into_iter().enumerate() {
+            meshes.push((
+                format!("soup {n}"),
+                triangle_soup(0x51_7cc1_b727_220a + k as u64, n),
+            ));
+        }
+        let (mut hits, mut nears, mut partial) = (0, 0, 0);
+        for (name, mesh) in &meshes {
+            let bvh = Bvh::new(mesh);
+            let old = BinaryTree::new(mesh);
+            let b = mesh.bounds();
+            let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+            let mut rays: Vec<Ray> = Vec::new();
+            // Rays from each facet's centroid along its inverted normal, skipping the facet
+            // (the wall thickness's rays, through shared edges and vertices), and random rays
+            // with random limits.
+            for t in (0..mesh.triangles.len()).step_by(1 + mesh.triangles.len() / 500) {
+                let [a, b, c] = mesh.corners(t);
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                if n != DVec3::ZERO {
+                    rays.push(Ray::new((a + b + c) / 3.0, -n).skipping(t as u32));
+                }
+            }
+            for k in 0..1500 {
+                let o = b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let mut ray = Ray::new(o, rng.unit());
+                if k % 3 == 1 {
+                    let near = b.diagonal() * 0.5 * rng.next();
+                    ray = ray.within(near, near + b.diagonal() * 0.5 * rng.next());
+                }
+                if k % 5 == 2 {
+                    // Along an axis: direction components of zero.
+                    ray.direction = [DVec3::X, -DVec3::Y, DVec3::Z][k % 3];
+                }
+                rays.push(ray);
+            }
+            for ray in &rays {
+                let want = old.first_hit(ray);
+                let got = bvh.first_hit(ray).map(|h| h.distance);
+                assert_eq!(got, want, "{name}: {ray:?}");
+                hits += usize::from(want.is_some());
+                assert_eq!(bvh.any_hit(ray), want.is_some(), "{name}: {ray:?}");
+                let mut all = Vec::new();
+                bvh.for_each_hit(ray, |h| {
+                    all.push(((h.distance as f32).to_bits(), h.triangle));
+                    true
+                });
+                all.sort_unstable();
+                assert_eq!(all, old.hits(ray), "{name}: {ray:?}");
+                // The same ray from a region around its start that holds it.
+                if ray.max_distance.is_finite() {
+                    let region = bvh.region(ray.origin, ray.max_distance * 1.001 + 1e-3);
+                    partial += usize::from(region.len > 0);
+                    let inside = bvh.first_hit_in(ray, &region).map(|h| h.distance);
+                    assert_eq!(inside, want, "{name}: {ray:?} in a region");
+                }
+            }
+            for _ in 0..1000 {
+                let p = b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let radius = b.diagonal() * 0.2 * rng.next();
+                // The nearest distance, within the rounding of the plane test that rules
+                // triangles out (in either tree, which of two triangles at nearly one
+                // distance survives it depends on the order of the search).
+                let want = old.nearest_within(p, radius);
+                let got = bvh.nearest_within(p, radius);
+                let close = |got: Option<f64>| match (got, want) {
+                    (Some(g), Some(w)) => (g - w).abs() <= 1e-6 * w,
+                    (None, None) => true,
+                    (Some(g), None) => g >= radius * (1.0 - 1e-6),
+                    (None, Some(w)) => w >= radius * (1.0 - 1e-6),
+                };
+                assert!(
+                    close(got.map(|h| h.distance)),
+                    "{name}: at {p}, {radius}: {got:?} {want:?}"
+                );
+                if let Some(h) = got {
+                    nears += 1;
+                    // The triangle named is at that distance.
+                    let (a, ab, ac, _) =
+                        old.tris[old.tris.iter().position(|t| t.3 == h.triangle).unwrap()];
+                    let q = (p - old.origin).as_vec3();
+                    let d2 = closest_on_triangle(a, ab, ac, q).distance_squared(q);
+                    assert_eq!((d2 as f64).sqrt(), h.distance, "{name}: at {p}");
+                }
+                let region = bvh.region(p, radius * 1.001 + 1e-3);
+                let inside = bvh.nearest_within_in(p, radius, &region);
+                assert!(
+                    close(inside.map(|h| h.distance)),
+                    "{name}: at {p} in a region"
+                );
+            }
+        }
+        assert!(
+            hits > 2000 && nears > 2000 && partial > 500,
+            "{hits} {nears} {partial}"
+        );
+    }
+
     #[test]
     fn limits_and_skip_are_honoured() {
         // Plate 3 mm thick (z from 0 to 3): straight down from above.
@@ -1311,7 +1990,7 @@ mod tests {
                 let c = b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next());
                 let radius = 0.1 + 4.0 * rng.next();
                 let region = bvh.region(c, radius);
-                partial += usize::from(region.starts() != [0]);
+                partial += usize::from(region.len > 0);
                 let length = radius * rng.next();
                 let ray = Ray::new(c, rng.unit()).within(0.0, length);
                 let whole = bvh.first_hit(&ray).map(|h| h.distance);
@@ -1327,7 +2006,7 @@ mod tests {
             }
         }
         assert!(
-            hits > 100 && nears > 100 && partial > 1000,
+            hits > 100 && nears > 100 && partial > 500,
             "{hits} {nears} {partial}"
         );
     }
