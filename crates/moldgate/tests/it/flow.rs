@@ -781,3 +781,92 @@ fn balanced_gate_and_suitability_map_hold_against_brute_force_on_the_samples() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// A fill report as JSON, less its times (which vary from run to run).
+fn without_times(f: &flow::FillAnalysis) -> serde_json::Value {
+    let mut v = serde_json::to_value(f).unwrap();
+    v.as_object_mut().unwrap().remove("times");
+    if let Some(w) = v.get_mut("wall").and_then(|w| w.as_object_mut()) {
+        w.remove("time_s");
+    }
+    v
+}
+
+/// The cells made before the gate is known (as the study makes them beside the ray tree)
+/// give the analysis [`flow::analyse`] gives; cells made for another wall (a given wall map)
+/// are made again. With the flow-length objective the balanced search and the several
+/// gates run beside the wall samples: the layout is the one [`several_gates`] finds on the
+/// finished domain from the balanced gate.
+#[test]
+fn the_analysis_on_cells_made_beforehand_and_beside_the_walls_is_the_analysis() {
+    for (name, demold) in [("plate", "+z"), ("cover", "+z")] {
+        let mesh = moldgate::samples::sample(name).unwrap();
+        let part = moldgate::mesh::from_generated(mesh.clone());
+        let options = moldgate::LocateOptions {
+            direction: demold.parse().unwrap(),
+            ..Default::default()
+        };
+        let analysis = moldgate::locate(&part, &options).unwrap();
+        let bvh = moldgate::raycast::Bvh::new(&mesh);
+        let map = moldgate::thickness::wall_thickness_with(&mesh, &bvh, &Default::default());
+        let given = map.nominal_mm.unwrap();
+        // The resistance's search runs after the walls, as before: one gate checks it.
+        for (objective, gates) in [
+            (Objective::Length, 1),
+            (Objective::Length, 3),
+            (Objective::Resistance, 1),
+        ] {
+            let o = flow::FillOptions {
+                objective,
+                gates,
+                ..flow::FillOptions::default()
+            };
+            for walls in [
+                flow::Walls::Measure(&bvh),
+                flow::Walls::Estimate,
+                flow::Walls::Given(&map.per_triangle, given),
+            ] {
+                let plain = flow::analyse(&mesh, &analysis, &pp(), walls, &o).unwrap();
+                let cells = flow::FillCells::new(&mesh, &o);
+                let before =
+                    flow::analyse_cells(&mesh, &analysis, &pp(), walls, &o, Some(cells)).unwrap();
+                assert_eq!(
+                    without_times(&plain),
+                    without_times(&before),
+                    "{name} {objective:?} {gates} gates {walls:?}"
+                );
+                if objective != Objective::Length {
+                    continue;
+                }
+                // The flow length reads no wall: any walls give the searches' domain.
+                let domain = Domain::new(&mesh, plain.cell_mm, None, 2.0, &pp());
+                let candidates: Vec<Source> = analysis
+                    .qualifying_points
+                    .iter()
+                    .filter_map(|&p| domain.source(p))
+                    .collect();
+                let gate = analysis.gate().unwrap().point();
+                let first = domain.source(gate).unwrap();
+                let search = &plain.balanced.as_ref().unwrap().search;
+                let direct = balanced_gate(&domain, &candidates, objective, first, plain.cell_mm)
+                    .expect("a balanced gate");
+                assert_eq!(
+                    (direct.candidate, direct.runs, direct.proven),
+                    (search.candidate, search.runs, search.proven),
+                    "{name} {walls:?}"
+                );
+                if gates == 1 {
+                    continue;
+                }
+                let start = search.candidate;
+                let direct =
+                    several_gates(&domain, &candidates, objective, start, gates).expect("a layout");
+                assert_eq!(
+                    serde_json::to_value(&direct).unwrap(),
+                    serde_json::to_value(plain.several.as_ref().unwrap()).unwrap(),
+                    "{name} {walls:?}"
+                );
+            }
+        }
+    }
+}
