@@ -580,23 +580,13 @@ pub fn fill_from_all(
     points: &[DVec3],
     material: &Material,
 ) -> Option<(GateFill, GateFields, Vec<GateShare>)> {
-    fill_from_all_with(domain, points, material, None)
-}
-
-/// [`fill_from_all`] with the flow-length field of `points` already marched, when given.
-fn fill_from_all_with(
-    domain: &Domain,
-    points: &[DVec3],
-    material: &Material,
-    length: Option<Field>,
-) -> Option<(GateFill, GateFields, Vec<GateShare>)> {
     let sources: Vec<Source> = points
         .iter()
         .map(|&p| domain.source(p))
         .collect::<Option<_>>()?;
     let src = *sources.first()?;
     let (length, (fill, pressure)) = rayon::join(
-        || length.unwrap_or_else(|| march(&domain.voxels, &sources, None)),
+        || march(&domain.voxels, &sources, None),
         || {
             rayon::join(
                 || march(&domain.voxels, &sources, Some(&domain.fill_cost)),
@@ -896,22 +886,10 @@ pub fn balanced_gate_from(
     tolerance: f64,
 ) -> Option<Balanced> {
     let cost = domain.cost(objective);
-    balanced_search(&domain.voxels, candidates, cost, first, start, tolerance)
-}
-
-/// [`balanced_gate_from`] on the cells, with the cost of the objective (`None`: the flow
-/// length, which needs no wall).
-fn balanced_search(
-    v: &Voxels,
-    candidates: &[Source],
-    cost: Option<&[f32]>,
-    first: Source,
-    start: &Field,
-    tolerance: f64,
-) -> Option<Balanced> {
-    let body = v.body[first.cell as usize];
+    let v = &domain.voxels;
+    let body = domain.body[first.cell as usize];
     let pool: Vec<usize> = (0..candidates.len())
-        .filter(|&i| v.body[candidates[i].cell as usize] == body)
+        .filter(|&i| domain.body[candidates[i].cell as usize] == body)
         .collect();
     if pool.is_empty() {
         return None;
@@ -1044,21 +1022,10 @@ pub fn several_gates(
     k: usize,
 ) -> Option<MultiGate> {
     let cost = domain.cost(objective);
-    several_gates_on(&domain.voxels, candidates, cost, first, k)
-}
-
-/// [`several_gates`] on the cells, with the cost of the objective (`None`: the flow
-/// length, which needs no wall).
-fn several_gates_on(
-    v: &Voxels,
-    candidates: &[Source],
-    cost: Option<&[f32]>,
-    first: usize,
-    k: usize,
-) -> Option<MultiGate> {
-    let body = v.body[candidates[first].cell as usize];
+    let v = &domain.voxels;
+    let body = domain.body[candidates[first].cell as usize];
     let pool: Vec<usize> = (0..candidates.len())
-        .filter(|&i| v.body[candidates[i].cell as usize] == body)
+        .filter(|&i| domain.body[candidates[i].cell as usize] == body)
         .collect();
     if k == 0 || pool.len() < k {
         return None;
@@ -1753,104 +1720,6 @@ pub fn analyse(
     walls: Walls,
     options: &FillOptions,
 ) -> Result<FillAnalysis, FillError> {
-    analyse_cells(mesh, analysis, material, walls, options, None)
-}
-
-/// The wall H the cell size is chosen from when none is given: 2 V / A (exact for a thin
-/// closed plate), or a hundredth of the diagonal for a mesh that encloses no volume.
-fn wall_estimate(mesh: &Mesh, centres: &crate::Centres) -> f64 {
-    if centres.volume_mm3 > 0.0 && centres.area_mm2 > 0.0 {
-        2.0 * centres.volume_mm3 / centres.area_mm2
-    } else {
-        mesh.bounds().diagonal() / 100.0
-    }
-}
-
-/// The cell visits the several-gate search of `k` gates may take on `cells` cells, checked
-/// against [`FlowOptions::max_march_cells`] before it runs.
-fn several_work(cells: usize, k: usize) -> f64 {
-    let k = k as f64;
-    cells as f64 * (2.0 * k + 24.0 * k + 1.0)
-}
-
-/// The fields of the flow-length objective marched beside the wall samples: the paper
-/// gate's flow length, the balanced search and the balanced gate's flow length.
-struct LengthFirst {
-    length: Field,
-    search: Option<Balanced>,
-    balanced_length: Option<Field>,
-    /// The several-gate search from the balanced gate, when asked for and within its
-    /// limit, with its seconds.
-    several: Option<(Option<MultiGate>, f64)>,
-}
-
-/// The solid cells of the fill analysis, made before the gate is known: they depend on the
-/// mesh, the wall the cell size is chosen from and the limits alone, so a caller can make
-/// them while it locates the gate and builds the ray tree ([`analyse_cells`]).
-#[derive(Debug)]
-pub struct FillCells {
-    /// The wall the cell size was chosen from, mm.
-    wall_mm: f64,
-    /// The bodies, the cell side and, when it was coarsened, the limit that made it so,
-    /// and the cells; or the limit the cells would break.
-    made: Result<(Bodies, f64, Option<FillError>, Voxels), FillError>,
-    /// Seconds spent making them.
-    time_s: f64,
-}
-
-impl FillCells {
-    /// The cells of `mesh` for a fill analysis with `options` whose walls will be measured
-    /// or estimated (not [`Walls::Given`]): the cell size is chosen from 2 V / A, as
-    /// [`analyse`] chooses it from the located part's centres.
-    pub fn new(mesh: &Mesh, options: &FillOptions) -> FillCells {
-        let t = Instant::now();
-        let wall_mm = wall_estimate(mesh, &crate::Centres::of(mesh));
-        let made = make_cells(mesh, wall_mm, &options.flow);
-        FillCells {
-            wall_mm,
-            made,
-            time_s: seconds(t),
-        }
-    }
-
-    /// Seconds spent making them.
-    pub fn time_s(&self) -> f64 {
-        self.time_s
-    }
-}
-
-/// The bodies, the cell side (with the limit that coarsened it) and the cells.
-fn make_cells(
-    mesh: &Mesh,
-    wall_mm: f64,
-    limits: &FlowOptions,
-) -> Result<(Bodies, f64, Option<FillError>, Voxels), FillError> {
-    let bodies = Bodies::of(mesh);
-    let (h, coarsened) = choose_cell(mesh, &bodies.of_triangle, wall_mm, limits)?;
-    // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
-    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
-    if voxels.len() as f64 > limits.max_solid_cells {
-        return Err(FillError::too_large(
-            "solid cells",
-            voxels.len() as f64,
-            limits.max_solid_cells,
-            h,
-        ));
-    }
-    Ok((bodies, h, coarsened, voxels))
-}
-
-/// [`analyse`] on cells made beforehand ([`FillCells::new`]), when given: they are used
-/// when they were made for the wall this analysis chooses its cell size from (the same
-/// mesh and options), and made again otherwise. The answers are those of [`analyse`].
-pub fn analyse_cells(
-    mesh: &Mesh,
-    analysis: &crate::gate::Analysis,
-    material: &Material,
-    walls: Walls,
-    options: &FillOptions,
-    cells: Option<FillCells>,
-) -> Result<FillAnalysis, FillError> {
     let gate = analysis
         .gate()
         .map_err(|e| FillError::NoGate(e.to_string()))?
@@ -1864,107 +1733,73 @@ pub fn analyse_cells(
     let mut warnings = Vec::new();
     let mut times = FlowTimes::default();
     let t = Instant::now();
-    let estimate = wall_estimate(mesh, &analysis.centres);
-    let wall_for_cells = match walls {
-        Walls::Given(_, n) if n.is_finite() && n > 0.0 => n,
-        _ => estimate,
+    let bodies = Bodies::of(mesh);
+    let c = &analysis.centres;
+    let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
+        2.0 * c.volume_mm3 / c.area_mm2
+    } else {
+        mesh.bounds().diagonal() / 100.0
     };
-    // Cells made beforehand serve when made from the same wall (to the bit); their time
-    // counts as the stage's.
-    let (made, before_s) = match cells {
-        Some(c) if c.wall_mm.to_bits() == wall_for_cells.to_bits() => (c.made, c.time_s),
-        _ => (make_cells(mesh, wall_for_cells, &options.flow), 0.0),
-    };
-    let (bodies, h, coarsened, voxels) = made?;
+    let (h, coarsened) = choose_cell(
+        mesh,
+        &bodies.of_triangle,
+        match walls {
+            Walls::Given(_, n) if n.is_finite() && n > 0.0 => n,
+            _ => estimate,
+        },
+        &options.flow,
+    )?;
     if let Some(why) = coarsened {
         warnings.push(format!(
             "flow cells coarsened to {h:.4} mm to keep a limit ({why})"
         ));
     }
+    // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
+    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
+    if voxels.len() as f64 > options.flow.max_solid_cells {
+        return Err(FillError::too_large(
+            "solid cells",
+            voxels.len() as f64,
+            options.flow.max_solid_cells,
+            h,
+        ));
+    }
     let mut measured = None;
     let mut body_nominal = Vec::new();
-    // With the flow-length objective the balanced search reads no wall: the paper gate's
-    // flow length, the search and the balanced gate's flow length run beside the wall
-    // samples (the same fields as marched after them).
-    let beside_walls = || -> Option<LengthFirst> {
-        if options.objective != Objective::Length {
-            return None;
+    let (per_triangle, nominal, wall_source, wall) = match walls {
+        Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
+            (Some(w.to_vec()), n, WallSource::Measured, None)
         }
-        let source_at = |point: DVec3| voxels.cell_near(point).map(|cell| Source { point, cell });
-        let first = source_at(gate)?;
-        let length = march(&voxels, &[first], None);
-        let candidates: Vec<Source> = analysis
-            .qualifying_points
-            .iter()
-            .filter_map(|&p| source_at(p))
-            .collect();
-        let search = balanced_search(&voxels, &candidates, None, first, &length, h);
-        let balanced_length = search
-            .as_ref()
-            .map(|b| march(&voxels, &[candidates[b.candidate]], None));
-        // The several gates start from the balanced gate; past their limit they are left
-        // to the check after the walls, which refuses them.
-        let several = search
-            .as_ref()
-            .filter(|_| {
-                options.gates > 1
-                    && several_work(voxels.len(), options.gates) <= options.flow.max_march_cells
-            })
-            .map(|b| {
-                let t = Instant::now();
-                let layout =
-                    several_gates_on(&voxels, &candidates, None, b.candidate, options.gates);
-                (layout, seconds(t))
-            });
-        Some(LengthFirst {
-            length,
-            search,
-            balanced_length,
-            several,
-        })
+        Walls::Measure(bvh) => {
+            let t = Instant::now();
+            let mut owners: Vec<u32> = voxels
+                .triangle
+                .iter()
+                .zip(&voxels.surface)
+                .filter(|(_, &s)| s)
+                .map(|(&t, _)| t)
+                .collect();
+            owners.sort_unstable();
+            owners.dedup();
+            let w = crate::thickness::wall_thickness_of(
+                mesh,
+                bvh,
+                &crate::thickness::ThicknessOptions::default(),
+                &owners,
+            );
+            let summary = summarise_walls(&voxels, &w, seconds(t));
+            let nominal = summary.nominal_mm.unwrap_or(estimate);
+            body_nominal = body_nominal_walls(&voxels, &w);
+            measured = Some(w);
+            let source = if summary.nominal_mm.is_some() {
+                WallSource::Measured
+            } else {
+                WallSource::VolumeOverArea
+            };
+            (None, nominal, source, Some(summary))
+        }
+        _ => (None, estimate, WallSource::VolumeOverArea, None),
     };
-    let walls_start = Instant::now();
-    let ((per_triangle, nominal, wall_source, wall), length_first) = rayon::join(
-        || match walls {
-            Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
-                (Some(w.to_vec()), n, WallSource::Measured, None)
-            }
-            Walls::Measure(bvh) => {
-                let t = Instant::now();
-                let mut owners: Vec<u32> = voxels
-                    .triangle
-                    .iter()
-                    .zip(&voxels.surface)
-                    .filter(|(_, &s)| s)
-                    .map(|(&t, _)| t)
-                    .collect();
-                owners.sort_unstable();
-                owners.dedup();
-                let w = crate::thickness::wall_thickness_of(
-                    mesh,
-                    bvh,
-                    &crate::thickness::ThicknessOptions::default(),
-                    &owners,
-                );
-                let summary = summarise_walls(&voxels, &w, seconds(t));
-                let nominal = summary.nominal_mm.unwrap_or(estimate);
-                let source = if summary.nominal_mm.is_some() {
-                    WallSource::Measured
-                } else {
-                    WallSource::VolumeOverArea
-                };
-                (None, nominal, source, Some((summary, w)))
-            }
-            _ => (None, estimate, WallSource::VolumeOverArea, None),
-        },
-        beside_walls,
-    );
-    let walls_joined_s = seconds(walls_start);
-    let wall = wall.map(|(summary, w)| {
-        body_nominal = body_nominal_walls(&voxels, &w);
-        measured = Some(w);
-        summary
-    });
     let triangle_walls = per_triangle.as_deref().or(measured.as_deref());
     // The cell size is set from an estimate of the wall before it is measured; warn only
     // when the measured wall is less than 1.5 cells across.
@@ -1983,10 +1818,7 @@ pub fn analyse_cells(
         domain.body_volume_mm3 = bodies.volume_mm3.clone();
     }
     times.wall_s = wall.as_ref().map_or(0.0, |w| w.time_s);
-    // What the flow-length work beside the walls took past them counts as the balanced
-    // search's.
-    let beside_s = (walls_joined_s - times.wall_s).max(0.0);
-    times.voxels_s = before_s + seconds(t) - times.wall_s - beside_s;
+    times.voxels_s = seconds(t) - times.wall_s;
     if bodies.count > 1 {
         warnings.push(format!(
             "the part has {} separate bodies; a gate fills only its own body (see the gate per body)",
@@ -2002,15 +1834,8 @@ pub fn analyse_cells(
     }
 
     let t = Instant::now();
-    let (paper_length, first_search, balanced_length, several_first) = match length_first {
-        Some(l) => (Some(l.length), Some(l.search), l.balanced_length, l.several),
-        None => (None, None, None, None),
-    };
-    // The work beside the walls that ran past them: the several gates' last.
-    let several_beside_s = several_first.as_ref().map_or(0.0, |s| s.1.min(beside_s));
-    let several_first = several_first.map(|s| s.0);
-    let (mut paper, paper_fields, _) = fill_from_all_with(&domain, &[gate], material, paper_length)
-        .ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
+    let (mut paper, paper_fields) =
+        fill_from(&domain, gate, material).ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
     if paper.reached_share < 0.999 {
         warnings.push(format!(
             "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
@@ -2038,46 +1863,15 @@ pub fn analyse_cells(
         Objective::Length => &paper_fields.length,
         Objective::Resistance => &paper_fields.fill,
     };
-    let search = match first_search {
-        Some(search) => search,
-        None => balanced_gate_from(&domain, &candidates, options.objective, first, start, h),
-    };
-    let mut balanced_length = balanced_length;
-    let balanced = search.map(|search| {
-        let point = candidates[search.candidate].point;
-        // With its flow length marched beside the walls, the balanced gate's other
-        // fields are marched only when it beats the paper gate's L_max.
-        let length = balanced_length.take();
-        let fill = match &length {
-            Some(l) if argmax(&l.t).1 >= paper.l_max_mm => None,
-            _ => Some(
-                fill_from_all_with(&domain, &[point], material, length)
-                    .map(|(fill, fields, _)| (fill, fields))
-                    .expect("on the part"),
-            ),
-        };
-        // The search marches from cell centres; the reported gate is the candidate's
-        // surface point, whose field differs by up to a cell. The search reports the
-        // value of the fill it gives, and the bound it proved capped at that value.
-        let bound = search.lower_bound * scale;
-        match fill {
-            Some((fill, fields)) if objective_value(&fill) < objective_value(&paper) => {
-                let value = objective_value(&fill);
-                let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
-                let search = Balanced {
-                    value,
-                    lower_bound: bound.min(value),
-                    ..search
-                };
-                let fill = BalancedFill {
-                    fill,
-                    search,
-                    improvement_pct,
-                    is_paper_gate: false,
-                };
-                (fill, Some(fields))
-            }
-            _ => {
+    let balanced = balanced_gate_from(&domain, &candidates, options.objective, first, start, h)
+        .map(|search| {
+            let point = candidates[search.candidate].point;
+            let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
+            // The search marches from cell centres; the reported gate is the candidate's
+            // surface point, whose field differs by up to a cell. The search reports the
+            // value of the fill it gives, and the bound it proved capped at that value.
+            let bound = search.lower_bound * scale;
+            if objective_value(&fill) >= objective_value(&paper) {
                 // Within the discretisation the paper gate is as good (it is a candidate
                 // itself unless it is the aesthetic gate): keep it, so the balanced gate
                 // never does worse than the paper gate.
@@ -2094,13 +1888,27 @@ pub fn analyse_cells(
                     is_paper_gate: true,
                 };
                 (fill, None)
+            } else {
+                let value = objective_value(&fill);
+                let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
+                let search = Balanced {
+                    value,
+                    lower_bound: bound.min(value),
+                    ..search
+                };
+                let fill = BalancedFill {
+                    fill,
+                    search,
+                    improvement_pct,
+                    is_paper_gate: false,
+                };
+                (fill, Some(fields))
             }
-        }
-    });
+        });
     if balanced.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
-    times.balanced_s = beside_s - several_beside_s + seconds(t);
+    times.balanced_s = seconds(t);
 
     let t = Instant::now();
     let suitability = if options.suitability {
@@ -2150,7 +1958,8 @@ pub fn analyse_cells(
                 available: 0,
             })?,
         };
-        let work = several_work(domain.voxels.len(), options.gates);
+        let k = options.gates as f64;
+        let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k + 1.0);
         if work > options.flow.max_march_cells {
             return Err(FillError::too_large(
                 "cell visits of the several-gate search",
@@ -2165,16 +1974,13 @@ pub fn analyse_cells(
                 domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
             })
             .count();
-        let mut layout = match several_first {
-            Some(layout) => layout,
-            None => several_gates(
-                &domain,
-                &candidates,
-                options.objective,
-                start,
-                options.gates,
-            ),
-        }
+        let mut layout = several_gates(
+            &domain,
+            &candidates,
+            options.objective,
+            start,
+            options.gates,
+        )
         .ok_or(FillError::TooFewCandidates {
             asked: options.gates,
             available,
@@ -2190,7 +1996,7 @@ pub fn analyse_cells(
     } else {
         None
     };
-    times.several_s = several_beside_s + seconds(t);
+    times.several_s = seconds(t);
 
     let t = Instant::now();
     let placed = match options.placed.as_slice() {

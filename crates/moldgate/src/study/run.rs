@@ -78,33 +78,20 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // at once (on a machine of two threads the tree costs about as much as the gate).
     // The wall time of the tree and locate together, when built alongside.
     let mut joined_s = None;
-    // The fill's cells depend on the mesh and the options alone (their size on 2 V / A
-    // unless the wall map is measured first): made alongside the tree and locate too.
-    let cells_beside = !s.wall_thickness && s.fill.is_some();
-    let make_cells = || {
-        s.fill
-            .as_ref()
-            .filter(|_| cells_beside)
-            .map(|o| flow::FillCells::new(mesh, o))
-    };
-    let (bvh, tree_s, located, mut cells) = if wants_tree && !auto_demold {
+    let (bvh, tree_s, located) = if wants_tree && !auto_demold {
         enter(Stage::Tree)?;
         enter(Stage::Locate)?;
         let t = Instant::now();
-        let ((bvh, tree_s), (located, cells)) = rayon::join(build_tree, || {
-            rayon::join(|| crate::locate(part, &options), make_cells)
-        });
+        let ((bvh, tree_s), located) = rayon::join(build_tree, || crate::locate(part, &options));
         joined_s = Some(t.elapsed().as_secs_f64());
-        (Some(bvh), tree_s, Some(located), cells)
+        (Some(bvh), tree_s, Some(located))
     } else if wants_tree {
         enter(Stage::Tree)?;
         let (bvh, tree_s) = build_tree();
-        (Some(bvh), tree_s, None, None)
+        (Some(bvh), tree_s, None)
     } else {
-        (None, 0.0, None, None)
+        (None, 0.0, None)
     };
-    // The time of the cells when they were made alongside (counted in the join's time).
-    let mut cells_beside_s = cells.as_ref().map_or(0.0, |c| c.time_s());
     let mut demold_s = None;
     // Whether the gate was located inside the choice of the direction (beside its rays).
     let mut located_beside = false;
@@ -187,17 +174,13 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 (_, Some(bvh)) => flow::Walls::Measure(bvh),
                 _ => flow::Walls::Estimate,
             };
-            let mut f = flow::analyse_cells(mesh, &analysis, &s.material, walls, o, cells.take())
-                .map_err(StudyError::Fill)?;
+            let mut f =
+                flow::analyse(mesh, &analysis, &s.material, walls, o).map_err(StudyError::Fill)?;
             f.times.tree_s = tree_s;
             Some(f)
         }
         _ => None,
     };
-    if fill.is_none() {
-        // Made and not used: their time stays in the join's alone.
-        cells_beside_s = 0.0;
-    }
     let placed = placed.map(|p| match (&s.fill, fill.as_ref()) {
         (Some(_), Some(f)) => p.with_fill(f.placed.clone(), None),
         (Some(_), None) => p.with_fill(
@@ -236,12 +219,8 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     if bvh.is_some() {
         report.timings.tree_s = Some(tree_s);
         // Built alongside locate, the tree adds only the time it ran past locate's own.
-        // So do the fill's cells made with them: their time, counted in the fill's, is
-        // taken out, and the join's time past locate's put in.
         report.timings.total_s += match joined_s {
-            Some(joined) => {
-                (joined - locate_total_s).clamp(0.0, tree_s + cells_beside_s) - cells_beside_s
-            }
+            Some(joined) => (joined - locate_total_s).clamp(0.0, tree_s),
             None => tree_s,
         };
     }
