@@ -5,7 +5,10 @@ Each round runs, for every binary and in a random order, `locate PART --demold +
 more options (plain), `--fill`, `--strategy balanced` and `--gates 3` on the shared 352k
 part, so that the binaries and the rows share the machine's slow and fast phases. Prints
 per binary and row the median time, and the median over the rounds of the ratio to the same
-binary's plain locate of that round (paired), with the load average before and after.
+binary's plain locate of that round (paired), with the load average before and after;
+then the same for the CPU time of each command (user + system, from `wait4`), which a busy
+machine disturbs less than the wall time but which does not show work moved onto an idle
+core.
 
     python3 scripts/fill_speed.py RUNS BINARY [BINARY ...]
 
@@ -35,6 +38,7 @@ def main():
         sys.exit("usage: fill_speed.py RUNS BINARY [BINARY ...] (needs the shared parts)")
     runs, bins = int(sys.argv[1]), sys.argv[2:]
     times = {(b, r): [] for b in bins for r in ROWS}
+    cpu = {(b, r): [] for b in bins for r in ROWS}
     rng = random.Random(1)
     print(f"load average before: {os.getloadavg()}")
     for _ in range(runs):
@@ -42,9 +46,13 @@ def main():
         rng.shuffle(jobs)
         for b, r in jobs:
             start = time.perf_counter()
-            subprocess.run([b, "locate", PART, "--demold", "+y", *ROWS[r]], check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            child = subprocess.Popen([b, "locate", PART, "--demold", "+y", *ROWS[r]],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            _, status, usage = os.wait4(child.pid, 0)
             times[(b, r)].append((time.perf_counter() - start) * 1e3)
+            if os.waitstatus_to_exitcode(status) != 0:
+                sys.exit(f"{b} {r} failed")
+            cpu[(b, r)].append((usage.ru_utime + usage.ru_stime) * 1e3)
     print(f"load average after: {os.getloadavg()}")
     for b in bins:
         plain = times[(b, "plain")]
@@ -53,6 +61,13 @@ def main():
             ratio = statistics.median(x / p for x, p in zip(t, plain))
             print(f"{b}  {r:22s} median {statistics.median(t):7.1f} ms  "
                   f"x plain {ratio:5.2f}  (n={runs})")
+    for b in bins:
+        plain = cpu[(b, "plain")]
+        for r in ROWS:
+            t = cpu[(b, r)]
+            ratio = statistics.median(x / p for x, p in zip(t, plain))
+            print(f"{b}  {r:22s} CPU median {statistics.median(t):7.1f} ms  "
+                  f"x plain's CPU {ratio:5.2f}  (n={runs})")
 
 
 if __name__ == "__main__":

@@ -48,10 +48,6 @@ pub struct Voxels {
     dense: Vec<u32>,
     /// The 26 neighbours of each solid cell (see [`Voxels::neighbour_table`]).
     pub(crate) table: Vec<[u32; 26]>,
-    /// The six face neighbours of each solid cell, as (-x, +x, -y, +y, -z, +z) (`u32::MAX`
-    /// where not solid): the fast-marching update reads only these, from a row of 24
-    /// bytes instead of the table's 104.
-    pub(crate) faces: Vec<[u32; 6]>,
     /// For each solid cell, a triangle that passes through it or, for interior cells, the
     /// triangle of the nearest surface cell (by breadth-first steps).
     pub triangle: Vec<u32>,
@@ -82,20 +78,6 @@ pub(crate) fn neighbour_offsets() -> [([i32; 3], f64); 26] {
         }
     }
     out
-}
-
-/// The face neighbours of every cell, in the order of [`Voxels::faces`], from the table of
-/// 26 neighbours.
-fn face_neighbours(table: &[[u32; 26]]) -> Vec<[u32; 6]> {
-    let offsets = neighbour_offsets();
-    let slot: [usize; 6] = std::array::from_fn(|f| {
-        let (axis, sign) = (f / 2, if f % 2 == 0 { -1 } else { 1 });
-        offsets
-            .iter()
-            .position(|&(o, _)| (0..3).all(|j| o[j] == if j == axis { sign } else { 0 }))
-            .expect("a face neighbour")
-    });
-    table.par_iter().map(|row| slot.map(|k| row[k])).collect()
 }
 
 /// A column's crossing of the surface: ((column, body), z, +1 entering / -1 leaving,
@@ -320,7 +302,6 @@ impl Voxels {
             cells,
             dense,
             table: Vec::new(),
-            faces: Vec::new(),
             triangle,
             surface: surface_flags,
             body,
@@ -328,7 +309,6 @@ impl Voxels {
             open_columns,
         };
         voxels.table = voxels.neighbour_table();
-        voxels.faces = face_neighbours(&voxels.table);
         voxels.spread_triangles();
         voxels
     }
