@@ -75,7 +75,7 @@ use thiserror::Error;
 
 use crate::centre::Centres;
 use crate::frame::{Direction, Frame};
-use crate::gate::projection::{self, PointRay};
+use crate::gate::projection::{self, PointRay, RaySink};
 use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
@@ -152,6 +152,37 @@ fn facing_of(facet: Option<(f64, DVec3)>, line: DVec3) -> Facing {
                     up: along > 0.0,
                 }
             }
+        }
+    }
+}
+
+/// `Some(up)` when the facet with these corners faces a side of `line` (its rays go along
+/// +line when `up`), `None` when it is parallel or has no area: what
+/// `facing_of(facet(corners), line)` says, to the bit, mostly without the normal's
+/// divisions. The normal's component along the line is `cross . line / |cross|`; taken so,
+/// it is within 2e-15 of the normal's own (each rounding is within 2^-53 of terms at most
+/// 1), so one further than 1e-12 from the tolerance is on the same side of it; the few
+/// nearer are decided by the normal itself.
+#[inline]
+fn faces_side(corners: [DVec3; 3], line: DVec3) -> Option<bool> {
+    let [a, b, c] = corners;
+    let cross = (b - a).cross(c - a);
+    // Twice the area, as `facet` has it (0.5 and 2 scale exactly).
+    let double = cross.length();
+    if !(double.is_finite() && double > 0.0) {
+        return None;
+    }
+    let along = cross.dot(line);
+    let margin = 1e-12 * double;
+    let tolerance = PARALLEL_TOLERANCE * double;
+    if along.abs() > tolerance + margin {
+        Some(along > 0.0)
+    } else if along.abs() < tolerance - margin {
+        None
+    } else {
+        match facing_of(facet(corners), line) {
+            Facing::Side { up, .. } => Some(up),
+            _ => None,
         }
     }
 }
@@ -246,14 +277,14 @@ impl<'a> Surface<'a> {
         }
     }
 
-    /// Hands `emit` the rays along `line` of facet `t`, each naming `k` as its triangle:
-    /// one from each sample point when the facet faces a side, none otherwise.
+    /// Pushes into `sink` the rays along `line` of facet `t`, each naming `k` as its
+    /// triangle: one from each sample point when the facet faces a side, none otherwise.
     #[inline]
-    fn rays_of(&self, k: usize, t: usize, line: DVec3, emit: &mut dyn FnMut(PointRay)) {
+    fn rays_of(&self, k: usize, t: usize, line: DVec3, sink: &mut RaySink) {
         let corners = self.mesh.corners(t);
-        if let Facing::Side { up, .. } = facing_of(facet(corners), line) {
+        if let Some(up) = faces_side(corners, line) {
             self.sampling.for_each(corners, |p| {
-                emit(PointRay {
+                sink.push(PointRay {
                     origin: p,
                     triangle: k as u32,
                     up,
@@ -279,9 +310,9 @@ impl<'a> Surface<'a> {
             &Frame::new(d),
             triangles,
             count.div_ceil(RAY_BLOCK),
-            |b, emit| {
+            |b, sink| {
                 for k in b * RAY_BLOCK..((b + 1) * RAY_BLOCK).min(count) {
-                    self.rays_of(k, facet_of(k), line, emit);
+                    self.rays_of(k, facet_of(k), line, sink);
                 }
             },
             self.min_hit,
@@ -1018,6 +1049,53 @@ mod tests {
             assert_eq!(expected.len(), k);
             assert_eq!(largest.facets, expected, "one in {share}");
         }
+    }
+
+    #[test]
+    fn faces_side_is_the_normals_answer_also_at_the_tolerance() {
+        // Triangles of many shapes and sizes, each against lines whose angle to its plane
+        // has a sine of the tolerance plus or minus 0 to 1e-9 (both sides of the margin, and
+        // inside it), and against random lines; also facets without area.
+        let mut state = 0x853C_49E6_748F_EA9Bu64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut near = 0;
+        for k in 0..2000 {
+            let scale = 10f64.powi(k % 7 - 3);
+            let a = DVec3::new(next(), next(), next()) * scale * 100.0;
+            let b = a + DVec3::new(next(), next(), next()) * scale;
+            let c = a + DVec3::new(next(), next(), next()) * scale;
+            let corners = [a, b, c];
+            let Some((_, normal)) = facet(corners) else {
+                continue;
+            };
+            let across = normal.any_orthonormal_vector();
+            let mut lines = vec![DVec3::new(next(), next(), next()).normalize()];
+            for offset in [0.0, 1e-16, 1e-15, 1e-14, 1e-13, 1e-12, 1e-11, 1e-10, 1e-9] {
+                for sign in [1.0, -1.0] {
+                    let sine = PARALLEL_TOLERANCE + sign * offset;
+                    let cosine = (1.0 - sine * sine).sqrt();
+                    lines.push(across * cosine + normal * sine);
+                    lines.push(across * cosine - normal * sine);
+                }
+            }
+            for line in lines {
+                let expected = match facing_of(facet(corners), line) {
+                    Facing::Side { up, .. } => Some(up),
+                    _ => None,
+                };
+                assert_eq!(faces_side(corners, line), expected, "{corners:?} {line}");
+                let along = normal.dot(line).abs();
+                near += usize::from((along - PARALLEL_TOLERANCE).abs() < 1e-12);
+            }
+        }
+        assert!(near > 1000, "{near} lines near the tolerance");
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        assert_eq!(faces_side(flat, DVec3::Z), None);
     }
 
     #[test]
