@@ -435,14 +435,159 @@ impl PlacedRay {
     }
 }
 
-/// A cell of [`blocked_in_blocks`]: its rays `placed[from..to]`, and the lowest start of
-/// those going up and the highest of those going down, rounded outwards (16 bytes).
+/// A cell of [`blocked_in_blocks`]: its rays going down `placed[from..split]` and going up
+/// `placed[split..to]` (`to` is the next cell's `from`), with the highest start of those
+/// going down and the lowest of those going up, rounded outwards to f32, and the order of
+/// each part (`orders & 3` of the first, `orders >> 2` of the second: see [`ORDER_HEIGHT`]).
 #[derive(Clone, Copy)]
 struct Cell {
     up: f32,
     down: f32,
     from: u32,
-    to: u32,
+    split: u32,
+    orders: u8,
+}
+
+/// The rays of a part of a cell in the order of their start along the way they go
+/// (nearest the triangles that may block them first: a triangle reads them until one
+/// starts beyond its reach).
+const ORDER_HEIGHT: u8 = 0;
+/// ... by u (a crowded part, read by bisection of the triangle's box).
+const ORDER_U: u8 = 1;
+/// ... by w.
+const ORDER_W: u8 = 2;
+
+/// Cells per task when the cells are put in order.
+const CELL_RUN: usize = 1024;
+
+/// Orders the rays of one cell (the first at `from` in `placed`): those going down first,
+/// each part as [`Cell::orders`] says; its bounds.
+fn order_cell(from: u32, rays: &mut [PlacedRay]) -> Cell {
+    rays.sort_unstable_by_key(|r| r.up());
+    let split = rays.partition_point(|r| !r.up());
+    let (down, up) = rays.split_at_mut(split);
+    let order_down = order_part(down, |p, q| q.height.total_cmp(&p.height));
+    let order_up = order_part(up, |p, q| p.height.total_cmp(&q.height));
+    Cell {
+        up: up.first().map_or(f32::INFINITY, |_| {
+            f32_at_most(up.iter().fold(f64::INFINITY, |m, r| m.min(r.height)))
+        }),
+        down: down.first().map_or(f32::NEG_INFINITY, |_| {
+            f32_at_least(down.iter().fold(f64::NEG_INFINITY, |m, r| m.max(r.height)))
+        }),
+        from,
+        split: from + split as u32,
+        orders: order_down | order_up << 2,
+    }
+}
+
+/// Orders a part of a cell: a crowded one (the rays of faces nearly parallel to d fall in
+/// thin strips, and so do those faces' triangles) across the strip, along the axis its rays
+/// spread least on, so that a triangle tests only those in its box along it, found by
+/// bisection; any other by `nearest_first`.
+fn order_part(
+    rays: &mut [PlacedRay],
+    nearest_first: impl Fn(&PlacedRay, &PlacedRay) -> std::cmp::Ordering,
+) -> u8 {
+    if rays.len() <= CROWDED {
+        rays.sort_unstable_by(nearest_first);
+        return ORDER_HEIGHT;
+    }
+    let (lo, hi) = rays.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), r| (lo.min(r.at), hi.max(r.at)),
+    );
+    let spread = hi - lo;
+    if spread.x >= spread.y {
+        rays.sort_unstable_by(|p, q| p.at.y.total_cmp(&q.at.y));
+        ORDER_W
+    } else {
+        rays.sort_unstable_by(|p, q| p.at.x.total_cmp(&q.at.x));
+        ORDER_U
+    }
+}
+
+/// A triangle of [`blocked_in_blocks`] as it tests the rays of cells.
+struct PointTriangle {
+    triangle: ProjectedTriangle,
+    t: u32,
+    top: f64,
+    bottom: f64,
+    min_hit: f64,
+    /// Set up when a ray first needs them: most triangles reach no ray.
+    edges: Option<[EdgeFn; 3]>,
+}
+
+impl PointTriangle {
+    #[inline]
+    fn new(triangle: ProjectedTriangle, t: u32, min_hit: f64) -> PointTriangle {
+        let [ha, hb, hc] = triangle.h;
+        PointTriangle {
+            top: ha.max(hb).max(hc),
+            bottom: ha.min(hb).min(hc),
+            triangle,
+            t,
+            min_hit,
+            edges: None,
+        }
+    }
+
+    /// Marks in `hit` the rays of a part of a cell (all going up, or all down) that this
+    /// triangle blocks; `order` is the part's.
+    #[inline]
+    fn test(&mut self, rays: &[PlacedRay], hit: &[AtomicBool], order: u8, up: bool) {
+        let (lo, hi) = (self.triangle.lo, self.triangle.hi);
+        let (first, last) = match order {
+            ORDER_U => (
+                rays.partition_point(|r| r.at.x < lo.x),
+                rays.partition_point(|r| r.at.x <= hi.x),
+            ),
+            ORDER_W => (
+                rays.partition_point(|r| r.at.y < lo.y),
+                rays.partition_point(|r| r.at.y <= hi.y),
+            ),
+            _ => (0, rays.len()),
+        };
+        for k in first..last.max(first) {
+            let r = &rays[k];
+            let reaches = if up {
+                self.top - r.height > self.min_hit
+            } else {
+                r.height - self.bottom > self.min_hit
+            };
+            if !reaches {
+                if order == ORDER_HEIGHT {
+                    // The rest start farther still.
+                    break;
+                }
+                continue;
+            }
+            // Cheap rejections first: the triangle's box, its own ray, rays already
+            // blocked.
+            let s = r.at;
+            if s.x < lo.x
+                || s.x > hi.x
+                || s.y < lo.y
+                || s.y > hi.y
+                || r.triangle & !UP == self.t
+                || hit[k].load(Ordering::Relaxed)
+            {
+                continue;
+            }
+            let triangle = &self.triangle;
+            let [bc, ca, ab] = self.edges.get_or_insert_with(|| triangle.edges());
+            let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
+            let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
+            if inside(e_bc, bc) & inside(e_ca, ca) & inside(e_ab, ab) {
+                let [ha, hb, hc] = triangle.h;
+                let h = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
+                let along = if up { h - r.height } else { r.height - h };
+                if along > self.min_hit {
+                    hit[k].store(true, Ordering::Relaxed);
+                }
+            }
+        }
+    }
 }
 
 /// The largest f32 at most `x` (`x` itself when it is one; infinities stay).
@@ -472,17 +617,6 @@ const UP: u32 = 1 << 31;
 
 /// The cell of a ray at a point that is not finite: no cell, never blocked.
 const NO_CELL: u32 = u32::MAX;
-
-/// How the rays of a cell are sorted.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Axis {
-    /// Not sorted (at most [`CROWDED`] rays).
-    Unsorted,
-    /// By u.
-    U,
-    /// By w.
-    W,
-}
 
 /// Rays a cell of [`blocked_in_blocks`] holds on average over the rays' box: with about
 /// one, a triangle visits twice as many cells for the rays it tests (the 352k-triangle
@@ -631,65 +765,44 @@ where
     drop(made);
     start.copy_within(0..n_cells, 1);
     start[0] = 0;
-    // A crowded cell (the rays of faces nearly parallel to d fall in thin strips, and so do
-    // those faces' triangles) has its rays sorted across the strip, along the axis they spread
-    // least on, so that a triangle tests only those in its box along it, found by bisection.
-    let mut axis = vec![Axis::Unsorted; n_cells];
+    // Each cell's rays going down first, then those going up, each part in the order a
+    // triangle reads it (see `Order`), cells taken in parallel in runs.
+    let mut cells: Vec<Cell> = Vec::with_capacity(n_cells + 1);
     {
         let mut rest: &mut [PlacedRay] = &mut placed;
-        let mut cells_of: Vec<(&mut [PlacedRay], &mut Axis)> = Vec::new();
-        for (c, a) in axis.iter_mut().enumerate() {
-            let len = (start[c + 1] - start[c]) as usize;
-            let (cell, tail) = rest.split_at_mut(len);
+        let mut runs: Vec<(usize, &mut [PlacedRay])> = Vec::new();
+        for first in (0..n_cells).step_by(CELL_RUN) {
+            let last = (first + CELL_RUN).min(n_cells);
+            let len = (start[last] - start[first]) as usize;
+            let (run, tail) = rest.split_at_mut(len);
             rest = tail;
-            if len > CROWDED {
-                cells_of.push((cell, a));
-            }
+            runs.push((first, run));
         }
-        cells_of.into_par_iter().for_each(|(cell, a)| {
-            let (lo, hi) = cell.iter().fold(
-                (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-                |(lo, hi), r| (lo.min(r.at), hi.max(r.at)),
-            );
-            let spread = hi - lo;
-            *a = if spread.x >= spread.y {
-                Axis::W
-            } else {
-                Axis::U
-            };
-            match *a {
-                Axis::U => cell.sort_unstable_by(|p, q| p.at.x.total_cmp(&q.at.x)),
-                _ => cell.sort_unstable_by(|p, q| p.at.y.total_cmp(&q.at.y)),
-            }
-        });
+        let made: Vec<Vec<Cell>> = runs
+            .into_par_iter()
+            .map(|(first, run)| {
+                let base = start[first];
+                (first..(first + CELL_RUN).min(n_cells))
+                    .map(|c| {
+                        let (from, to) = (start[c], start[c + 1]);
+                        let rays = &mut run[(from - base) as usize..(to - base) as usize];
+                        order_cell(from, rays)
+                    })
+                    .collect()
+            })
+            .collect();
+        for run in made {
+            cells.extend(run);
+        }
     }
-    // Per cell, its rays and the lowest start of a ray going up and the highest of one going
-    // down, rounded outwards to f32: a triangle entirely below the one and above the other
-    // blocks no ray of the cell (the rounding only lets through cells the exact test would
-    // skip, and each ray is then decided exactly).
-    let cells: Vec<Cell> = (0..n_cells)
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|c| {
-            let (from, to) = (start[c], start[c + 1]);
-            let (up, down) = placed[from as usize..to as usize].iter().fold(
-                (f64::INFINITY, f64::NEG_INFINITY),
-                |(up, down), r| {
-                    if r.up() {
-                        (up.min(r.height), down)
-                    } else {
-                        (up, down.max(r.height))
-                    }
-                },
-            );
-            Cell {
-                up: f32_at_most(up),
-                down: f32_at_least(down),
-                from,
-                to,
-            }
-        })
-        .collect();
+    // A last cell that only ends the one before.
+    cells.push(Cell {
+        up: f32::INFINITY,
+        down: f32::NEG_INFINITY,
+        from: placed_len as u32,
+        split: placed_len as u32,
+        orders: 0,
+    });
     drop(start);
     let hit: Vec<AtomicBool> = (0..placed_len).map(|_| AtomicBool::new(false)).collect();
     triangles
@@ -710,64 +823,21 @@ where
                 else {
                     continue;
                 };
-                let [ha, hb, hc] = triangle.h;
-                let (top, bottom) = (ha.max(hb).max(hc), ha.min(hb).min(hc));
-                // Set up when a ray first needs them: most triangles reach no ray.
-                let mut edges: Option<[EdgeFn; 3]> = None;
-                let inside = |e: f64, edge: &EdgeFn| (e > 0.0) | ((e == 0.0) & edge.owned);
+                let mut drawn = PointTriangle::new(triangle, t, min_hit);
                 for j in j0..=j1 {
                     let row = j * n_u;
-                    for (c, cell) in cells[row + i0..=row + i1].iter().enumerate() {
-                        if top - f64::from(cell.up) <= min_hit
-                            && f64::from(cell.down) - bottom <= min_hit
-                        {
-                            continue;
+                    for c in row + i0..=row + i1 {
+                        let cell = &cells[c];
+                        // The rays going up that start below the triangle's top, and those
+                        // going down that start above its bottom (the cell's bounds are
+                        // rounded outwards, so no ray the exact test keeps is left out).
+                        if drawn.top - f64::from(cell.up) > min_hit {
+                            let (from, to) = (cell.split as usize, cells[c + 1].from as usize);
+                            drawn.test(&placed[from..to], &hit[from..to], cell.orders >> 2, true);
                         }
-                        let (mut from, mut to) = (cell.from as usize, cell.to as usize);
-                        let rays = &placed[from..to];
-                        let (first, last) = match axis[row + i0 + c] {
-                            Axis::Unsorted => (0, rays.len()),
-                            Axis::U => (
-                                rays.partition_point(|r| r.at.x < triangle.lo.x),
-                                rays.partition_point(|r| r.at.x <= triangle.hi.x),
-                            ),
-                            Axis::W => (
-                                rays.partition_point(|r| r.at.y < triangle.lo.y),
-                                rays.partition_point(|r| r.at.y <= triangle.hi.y),
-                            ),
-                        };
-                        to = from + last.max(first);
-                        from += first;
-                        for (r, done) in placed[from..to].iter().zip(&hit[from..to]) {
-                            // Cheap rejections first: the triangle's box, its heights, and
-                            // rays already blocked.
-                            let s = r.at;
-                            if s.x < triangle.lo.x
-                                || s.x > triangle.hi.x
-                                || s.y < triangle.lo.y
-                                || s.y > triangle.hi.y
-                                || r.triangle & !UP == t
-                            {
-                                continue;
-                            }
-                            let up = r.up();
-                            let reaches = if up {
-                                top - r.height > min_hit
-                            } else {
-                                r.height - bottom > min_hit
-                            };
-                            if !reaches || done.load(Ordering::Relaxed) {
-                                continue;
-                            }
-                            let [bc, ca, ab] = edges.get_or_insert_with(|| triangle.edges());
-                            let (e_bc, e_ca, e_ab) = (bc.at(s), ca.at(s), ab.at(s));
-                            if inside(e_bc, bc) & inside(e_ca, ca) & inside(e_ab, ab) {
-                                let h = (e_bc * ha + e_ca * hb + e_ab * hc) / (e_bc + e_ca + e_ab);
-                                let along = if up { h - r.height } else { r.height - h };
-                                if along > min_hit {
-                                    done.store(true, Ordering::Relaxed);
-                                }
-                            }
+                        if f64::from(cell.down) - drawn.bottom > min_hit {
+                            let (from, to) = (cell.from as usize, cell.split as usize);
+                            drawn.test(&placed[from..to], &hit[from..to], cell.orders & 3, false);
                         }
                     }
                 }
