@@ -75,7 +75,7 @@ use thiserror::Error;
 
 use crate::centre::Centres;
 use crate::frame::{Direction, Frame};
-use crate::gate::projection::{self, PointRay, RaySink};
+use crate::gate::projection::{self, BlockedRay, PointRay, RaySink};
 use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
@@ -295,20 +295,43 @@ impl<'a> Surface<'a> {
 
     /// The rays of `count` facets along `d`, the k-th being facet `facet(k)` (each ray names
     /// k), drawn against `triangles`; the blocked area of the facets, summed by `sum` from
-    /// (k, blocked area) in increasing k (facets with no ray blocked left out).
+    /// (k, blocked area) in increasing k (facets with no ray blocked left out). When
+    /// `stop_above` is finite, the triangles are drawn in [`STOP_ROUNDS`] runs and the drawing
+    /// stops after the first run that takes the blocked area above it: that area is the
+    /// answer (a lower bound of the whole drawing's).
     fn draw(
         &self,
         d: Direction,
-        count: usize,
-        facet_of: impl Fn(usize) -> usize + Sync,
+        (count, facet_of): (usize, impl Fn(usize) -> usize + Sync),
         triangles: &[[u32; 3]],
-        sum: impl FnOnce(&mut dyn Iterator<Item = (usize, f64)>) -> f64,
+        sum: impl Fn(&mut dyn Iterator<Item = (usize, f64)>) -> f64,
+        stop_above: f64,
     ) -> Undercut {
         let line = d.vector();
-        let found = projection::blocked_in_blocks(
+        // The blocked rays in the order of their numbers, so of their facets: one run per
+        // facet with a ray blocked.
+        let area_of = |found: &[BlockedRay]| {
+            let mut runs = found.chunk_by(|a, b| a.triangle == b.triangle).map(|run| {
+                let k = run[0].triangle as usize;
+                let corners = self.mesh.corners(facet_of(k));
+                let mut samples = 0;
+                self.sampling.for_each(corners, |_| samples += 1);
+                let (_, a) = facing_of(facet(corners), line).blocked(run.len(), samples);
+                (k, a)
+            });
+            sum(&mut runs)
+        };
+        let found = projection::blocked_until(
             &self.mesh.vertices,
             &Frame::new(d),
-            triangles,
+            (
+                triangles,
+                if stop_above.is_finite() {
+                    STOP_ROUNDS
+                } else {
+                    1
+                },
+            ),
             count.div_ceil(RAY_BLOCK),
             |b, sink| {
                 for k in b * RAY_BLOCK..((b + 1) * RAY_BLOCK).min(count) {
@@ -316,18 +339,9 @@ impl<'a> Surface<'a> {
                 }
             },
             self.min_hit,
+            |found| area_of(found) > stop_above,
         );
-        // The blocked rays in the order of their numbers, so of their facets: one run per
-        // facet with a ray blocked.
-        let mut runs = found.chunk_by(|a, b| a.triangle == b.triangle).map(|run| {
-            let k = run[0].triangle as usize;
-            let corners = self.mesh.corners(facet_of(k));
-            let mut samples = 0;
-            self.sampling.for_each(corners, |_| samples += 1);
-            let (_, a) = facing_of(facet(corners), line).blocked(run.len(), samples);
-            (k, a)
-        });
-        let area = sum(&mut runs);
+        let area = area_of(&found);
         Undercut {
             area_mm2: area,
             share: if self.area > 0.0 {
@@ -343,7 +357,7 @@ impl<'a> Surface<'a> {
     /// blocks is blocked when every triangle is drawn (the same arithmetic, the ray's own
     /// facet skipped in both), so the bound never exceeds [`Surface::undercut`]. With every
     /// facet among the largest (a small mesh) it is [`Surface::undercut`].
-    fn lower_bound(&self, d: Direction, level: usize) -> Undercut {
+    fn lower_bound(&self, d: Direction, level: usize, stop_above: f64) -> Undercut {
         let largest = &self.largest[level];
         if largest.every {
             return self.undercut(d);
@@ -353,10 +367,10 @@ impl<'a> Surface<'a> {
         // zero, which changes no bit of the sum).
         self.draw(
             d,
-            largest.facets.len(),
-            |k| largest.facets[k] as usize,
+            (largest.facets.len(), |k| largest.facets[k] as usize),
             &largest.triangles,
             |runs| runs.fold(0.0, |sum, (_, a)| sum + a),
+            stop_above,
         )
     }
 
@@ -366,8 +380,7 @@ impl<'a> Surface<'a> {
         // in order; a facet or a block with nothing blocked would add zero.
         self.draw(
             d,
-            self.mesh.triangles.len(),
-            |t| t,
+            (self.mesh.triangles.len(), |t| t),
             &self.mesh.triangles,
             |runs| {
                 let (mut total, mut block, mut in_block) = (0.0, None, 0.0);
@@ -381,6 +394,7 @@ impl<'a> Surface<'a> {
                 }
                 total + in_block
             },
+            f64::INFINITY,
         )
     }
 }
@@ -409,6 +423,10 @@ pub fn undercut_by_rays(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling
         f.blocked(hits, samples)
     })
 }
+
+/// Runs the triangles of a bound are drawn in when the bound need only exceed a value
+/// ([`Surface::draw`]).
+const STOP_ROUNDS: usize = 16;
 
 /// The levels of the lower bound of a line's undercut ([`Surface::lower_bound`]): one facet
 /// in this many, the largest, then one in that many.
@@ -623,7 +641,7 @@ pub fn auto_direction_beside<T: Send>(
                         (lo.min(h), hi.max(h))
                     });
             let direction = Direction::new(dir).expect("unit line");
-            let bound = surface.lower_bound(direction, 0);
+            let bound = surface.lower_bound(direction, 0, f64::INFINITY);
             Candidate {
                 direction: direction.vector().to_array(),
                 kind,
@@ -662,9 +680,16 @@ pub fn auto_direction_beside<T: Send>(
             break;
         };
         let d = Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
-        level[i] += 1;
+        // The first line drawn goes to every ray at once: its tighter bound would only put
+        // off the drawing of the line that is, nearly always, the one chosen. A later line's
+        // tighter bound need only exceed the least undercut by more than the tie, and stops
+        // drawing once it does.
+        level[i] = match least.is_finite() {
+            true => level[i] + 1,
+            false => BOUND_LEVELS.len(),
+        };
         if level[i] < BOUND_LEVELS.len() {
-            let bound = surface.lower_bound(d, level[i]);
+            let bound = surface.lower_bound(d, level[i], least + tie);
             tried[i].evaluated = surface.largest[level[i]].every;
             if bound.area_mm2 > tried[i].undercut.area_mm2 || tried[i].evaluated {
                 tried[i].undercut = bound;
@@ -965,7 +990,7 @@ mod tests {
                         let hits = hit[from..to].iter().filter(|&&b| b).count();
                         area += facing(&mesh, facet_of(k), line).blocked(hits, to - from).1;
                     }
-                    let bound = surface.lower_bound(d, level);
+                    let bound = surface.lower_bound(d, level, f64::INFINITY);
                     assert_eq!(bound.area_mm2.to_bits(), area.to_bits(), "{d:?} {level}");
                     assert!(bound.area_mm2 <= now.area_mm2);
                 }

@@ -681,6 +681,34 @@ pub fn blocked_in_blocks<F>(
 where
     F: Fn(usize, &mut RaySink) + Sync,
 {
+    blocked_until(
+        vertices,
+        frame,
+        (triangles, 1),
+        blocks,
+        rays,
+        min_hit,
+        |_| false,
+    )
+}
+
+/// [`blocked_in_blocks`] that may stop before every triangle is drawn: the triangles are
+/// drawn in `rounds` runs of consecutive ones, and after each run but the last `enough`
+/// is asked with the rays blocked so far (in the order of their numbers); when it says so,
+/// those are the answer. Every ray in it is blocked (by the triangles drawn), and which
+/// rays are in it does not depend on the number of threads.
+pub fn blocked_until<F>(
+    vertices: &[DVec3],
+    frame: &Frame,
+    (triangles, rounds): (&[[u32; 3]], usize),
+    blocks: usize,
+    rays: F,
+    min_hit: f64,
+    mut enough: impl FnMut(&[BlockedRay]) -> bool,
+) -> Vec<BlockedRay>
+where
+    F: Fn(usize, &mut RaySink) + Sync,
+{
     // Each block's rays in the plane and the box of their points, on every thread (a
     // minimum and a maximum do not depend on the order they are taken in).
     let empty = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
@@ -805,55 +833,83 @@ where
     });
     drop(start);
     let hit: Vec<AtomicBool> = (0..placed_len).map(|_| AtomicBool::new(false)).collect();
-    triangles
-        .par_chunks(POINT_BLOCK)
-        .enumerate()
-        .for_each(|(b, block)| {
-            for (k, tri) in block.iter().enumerate() {
-                let t = (b * POINT_BLOCK + k) as u32;
-                let [a, bb, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
-                let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
-                    continue;
-                };
-                let Some((i0, i1)) = cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
-                else {
-                    continue;
-                };
-                let Some((j0, j1)) = cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
-                else {
-                    continue;
-                };
-                let mut drawn = PointTriangle::new(triangle, t, min_hit);
-                for j in j0..=j1 {
-                    let row = j * n_u;
-                    for c in row + i0..=row + i1 {
-                        let cell = &cells[c];
-                        // The rays going up that start below the triangle's top, and those
-                        // going down that start above its bottom (the cell's bounds are
-                        // rounded outwards, so no ray the exact test keeps is left out).
-                        if drawn.top - f64::from(cell.up) > min_hit {
-                            let (from, to) = (cell.split as usize, cells[c + 1].from as usize);
-                            drawn.test(&placed[from..to], &hit[from..to], cell.orders >> 2, true);
-                        }
-                        if f64::from(cell.down) - drawn.bottom > min_hit {
-                            let (from, to) = (cell.from as usize, cell.split as usize);
-                            drawn.test(&placed[from..to], &hit[from..to], cell.orders & 3, false);
+    // Draws the triangles `offset..offset + part.len()`.
+    let draw = |offset: usize, part: &[[u32; 3]]| {
+        part.par_chunks(POINT_BLOCK)
+            .enumerate()
+            .for_each(|(b, block)| {
+                for (k, tri) in block.iter().enumerate() {
+                    let t = (offset + b * POINT_BLOCK + k) as u32;
+                    let [a, bb, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
+                    let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
+                        continue;
+                    };
+                    let Some((i0, i1)) =
+                        cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
+                    else {
+                        continue;
+                    };
+                    let Some((j0, j1)) =
+                        cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
+                    else {
+                        continue;
+                    };
+                    let mut drawn = PointTriangle::new(triangle, t, min_hit);
+                    for j in j0..=j1 {
+                        let row = j * n_u;
+                        for c in row + i0..=row + i1 {
+                            let cell = &cells[c];
+                            // The rays going up that start below the triangle's top, and those
+                            // going down that start above its bottom (the cell's bounds are
+                            // rounded outwards, so no ray the exact test keeps is left out).
+                            if drawn.top - f64::from(cell.up) > min_hit {
+                                let (from, to) = (cell.split as usize, cells[c + 1].from as usize);
+                                drawn.test(
+                                    &placed[from..to],
+                                    &hit[from..to],
+                                    cell.orders >> 2,
+                                    true,
+                                );
+                            }
+                            if f64::from(cell.down) - drawn.bottom > min_hit {
+                                let (from, to) = (cell.from as usize, cell.split as usize);
+                                drawn.test(
+                                    &placed[from..to],
+                                    &hit[from..to],
+                                    cell.orders & 3,
+                                    false,
+                                );
+                            }
                         }
                     }
                 }
+            });
+    };
+    // The rays blocked so far, in the order of their numbers.
+    let found = || {
+        let mut found: Vec<BlockedRay> = placed
+            .iter()
+            .zip(&hit)
+            .filter(|(_, h)| h.load(Ordering::Relaxed))
+            .map(|(r, _)| BlockedRay {
+                ray: r.ray,
+                triangle: r.triangle & !UP,
+            })
+            .collect();
+        found.sort_unstable_by_key(|b| b.ray);
+        found
+    };
+    let size = triangles.len().div_ceil(rounds.max(1)).max(1);
+    for (r, part) in triangles.chunks(size).enumerate() {
+        draw(r * size, part);
+        if (r + 1) * size < triangles.len() {
+            let so_far = found();
+            if enough(&so_far) {
+                return so_far;
             }
-        });
-    let mut found: Vec<BlockedRay> = placed
-        .iter()
-        .zip(&hit)
-        .filter(|(_, h)| h.load(Ordering::Relaxed))
-        .map(|(r, _)| BlockedRay {
-            ray: r.ray,
-            triangle: r.triangle & !UP,
-        })
-        .collect();
-    found.sort_unstable_by_key(|b| b.ray);
-    found
+        }
+    }
+    found()
 }
 
 /// The cells `from..=to` of a row of `n` cells of width `1 / inv` from `lo` (the last one
@@ -1480,6 +1536,87 @@ mod tests {
                     .collect();
                 let from_found: Vec<u32> = expected.iter().map(|b| b.ray).collect();
                 assert_eq!(from_flags, from_found, "{name} {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn drawing_stopped_after_a_run_gives_the_rays_of_the_triangles_drawn() {
+        // The cap's facet centroids along a tilted line, drawn in 5 runs of triangles and
+        // stopped once more than a given count of rays is blocked: the answer is the
+        // brute force's over the triangles of the runs drawn, on 1 and 3 threads, and the
+        // runs before did not reach the count.
+        let mesh = crate::samples::sample("cap").unwrap().subdivided();
+        let frame = Frame::new(crate::frame::Direction::new(DVec3::new(0.2, 0.1, 1.0)).unwrap());
+        let min_hit = 1e-6 * mesh.bounds().diagonal();
+        let rays: Vec<PointRay> = (0..mesh.triangles.len())
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t);
+                PointRay {
+                    origin: (a + b + c) / 3.0,
+                    triangle: t as u32,
+                    up: t % 2 == 0,
+                }
+            })
+            .collect();
+        // The first triangle that blocks each ray, if any.
+        let first: Vec<Option<usize>> = rays
+            .iter()
+            .map(|r| {
+                let s = frame.project(r.origin);
+                let height = frame.height(r.origin);
+                mesh.triangles.iter().enumerate().position(|(t, tri)| {
+                    let [a, b, c] = tri.map(|v| uwh(&frame, mesh.vertices[v as usize]));
+                    let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
+                        return false;
+                    };
+                    let edges = triangle.edges();
+                    let e = edges.each_ref().map(|edge| edge.at(s));
+                    let inside = (0..3).all(|m| e[m] > 0.0 || (e[m] == 0.0 && edges[m].owned));
+                    let [ha, hb, hc] = triangle.h;
+                    let h = (e[0] * ha + e[1] * hb + e[2] * hc) / (e[0] + e[1] + e[2]);
+                    let along = if r.up { h - height } else { height - h };
+                    t as u32 != r.triangle && inside && along > min_hit
+                })
+            })
+            .collect();
+        let blocked_by = |count: usize| -> Vec<u32> {
+            (0..rays.len() as u32)
+                .filter(|&k| first[k as usize].is_some_and(|t| t < count))
+                .collect()
+        };
+        let n = mesh.triangles.len();
+        let every = blocked_by(n);
+        assert!(every.len() > 100, "{}", every.len());
+        let size = n.div_ceil(5);
+        for wanted in [0, every.len() / 3, every.len() / 2, every.len()] {
+            // The first run after which more than `wanted` are blocked (or the last).
+            let runs = (1..=5)
+                .find(|&r| blocked_by((r * size).min(n)).len() > wanted)
+                .unwrap_or(5);
+            let expected = blocked_by((runs * size).min(n));
+            for threads in [1, 3] {
+                let found = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| {
+                        blocked_until(
+                            &mesh.vertices,
+                            &frame,
+                            (&mesh.triangles, 5),
+                            rays.len().div_ceil(100),
+                            |b, sink| {
+                                rays[b * 100..((b + 1) * 100).min(rays.len())]
+                                    .iter()
+                                    .for_each(|&r| sink.push(r))
+                            },
+                            min_hit,
+                            |so_far| so_far.len() > wanted,
+                        )
+                    });
+                let found: Vec<u32> = found.iter().map(|b| b.ray).collect();
+                assert_eq!(found, expected, "more than {wanted}, {threads} threads");
             }
         }
     }
