@@ -623,8 +623,10 @@ const NO_CELL: u32 = u32::MAX;
 /// housing's choice takes 5 % more instructions, and more of the heap).
 const RAYS_A_CELL: f64 = 4.0;
 
-/// Cells with more rays than this are sorted along an axis.
-const CROWDED: usize = 8;
+/// Parts of cells with more rays than this going one way are sorted along an axis: below
+/// it, reading every ray costs less than finding the triangle's box in them by bisection
+/// (the 352k housing's choice: 3 % less CPU time than at 8, paired).
+const CROWDED: usize = 32;
 
 /// Triangles per task of [`blocked`].
 const POINT_BLOCK: usize = 2048;
@@ -1466,6 +1468,20 @@ mod tests {
                         origin: mesh.vertices[tri[t % 3] as usize],
                         triangle: t as u32,
                         up: t % 2 == 0,
+                    });
+                }
+            }
+            // Crowds of rays on the corners and edges of some triangles (parts of cells
+            // read by bisection, with rays exactly on the triangles' box edges).
+            for t in (0..mesh.triangles.len()).step_by(mesh.triangles.len() / 12) {
+                let [a, b, c] = mesh.corners(t);
+                for k in 0..48 {
+                    let (p, q) = [(a, b), (b, c), (c, a)][k % 3];
+                    let along = if k < 6 { 0.0 } else { next() };
+                    rays.push(PointRay {
+                        origin: p + (q - p) * along,
+                        triangle: t as u32,
+                        up: k % 4 != 0,
                     });
                 }
             }
