@@ -746,13 +746,15 @@ where
     let n_u = ((size.x * inv) as usize + 1).min(4097);
     let n_w = ((size.y * inv) as usize + 1).min(4097);
     let n_cells = n_u * n_w;
+    let (last_u, last_w) = ((n_u - 1) as f64, (n_w - 1) as f64);
     let cell_of = |q: DVec2| -> u32 {
         if !q.is_finite() {
             return NO_CELL;
         }
-        let i = (((q.x - lo.x) * inv) as usize).min(n_u - 1);
-        let j = (((q.y - lo.y) * inv) as usize).min(n_w - 1);
-        (j * n_u + i) as u32
+        // As `cell_range` finds them.
+        let i = ((q.x - lo.x) * inv).min(last_u) as u32;
+        let j = ((q.y - lo.y) * inv).min(last_w) as u32;
+        j * n_u as u32 + i
     };
     // The cell of every ray, held in its `ray` until it is placed.
     made.par_iter_mut().for_each(|(block, ..)| {
@@ -859,13 +861,14 @@ where
                     let mut drawn = PointTriangle::new(triangle, t, min_hit);
                     for j in j0..=j1 {
                         let row = j * n_u;
-                        for c in row + i0..=row + i1 {
-                            let cell = &cells[c];
+                        // Each cell with the next, which ends it.
+                        for pair in cells[row + i0..=row + i1 + 1].windows(2) {
+                            let cell = &pair[0];
                             // The rays going up that start below the triangle's top, and those
                             // going down that start above its bottom (the cell's bounds are
                             // rounded outwards, so no ray the exact test keeps is left out).
                             if drawn.top - f64::from(cell.up) > min_hit {
-                                let (from, to) = (cell.split as usize, cells[c + 1].from as usize);
+                                let (from, to) = (cell.split as usize, pair[1].from as usize);
                                 drawn.test(
                                     &placed[from..to],
                                     &hit[from..to],
@@ -922,7 +925,10 @@ fn cell_range(lo: f64, hi: f64, inv: f64, n: usize, a: f64, b: f64) -> Option<(u
     if !(a <= hi && b >= lo) {
         return None;
     }
-    let cell = |x: f64| (((x.max(lo) - lo) * inv) as usize).min(n - 1);
+    // The cell index clamped before it is made an integer (the same index, fewer
+    // instructions than the saturating conversion to usize).
+    let last = (n - 1) as f64;
+    let cell = |x: f64| ((x.max(lo) - lo) * inv).min(last) as u32 as usize;
     Some((cell(a), cell(b)))
 }
 
