@@ -75,7 +75,7 @@ use thiserror::Error;
 
 use crate::centre::Centres;
 use crate::frame::{Direction, Frame};
-use crate::gate::projection::{self, PointRay};
+use crate::gate::projection::{self, BlockedRay, PointRay, RaySink};
 use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
@@ -114,15 +114,13 @@ pub fn undercut(mesh: &Mesh, d: Direction, sampling: Sampling) -> Undercut {
     Surface::new(mesh, sampling).undercut(d)
 }
 
-/// What every line tried shares: each facet's area and unit normal, and its rays' start
-/// points (the samples do not depend on the line).
+/// What every line tried shares: the total area and the largest facets of each bound level.
+/// A facet's normal and sample points are made again where a line needs them (from its
+/// corners, by the same arithmetic, so to the same bits): on a large part a pass over the
+/// corners costs less than the memory that would hold them.
 struct Surface<'a> {
     mesh: &'a Mesh,
-    /// Per facet: its area and unit normal, `None` without a finite area.
-    facets: Vec<Option<(f64, DVec3)>>,
-    /// The sample points of facet `t`: `points[first[t]..first[t + 1]]`.
-    points: Vec<DVec3>,
-    first: Vec<usize>,
+    sampling: Sampling,
     /// Area of the facets with one, summed like [`sum_blocks`] sums.
     area: f64,
     /// Per level of [`BOUND_LEVELS`], the largest facets, in index order, and their
@@ -131,55 +129,111 @@ struct Surface<'a> {
     min_hit: f64,
 }
 
+/// A facet's area and unit normal, `None` without a finite area.
+#[inline]
+fn facet([a, b, c]: [DVec3; 3]) -> Option<(f64, DVec3)> {
+    let cross = (b - a).cross(c - a);
+    let area = 0.5 * cross.length();
+    (area.is_finite() && area > 0.0).then(|| (area, cross / (2.0 * area)))
+}
+
+/// How a facet of area and normal `facet` sits against `line`.
+#[inline]
+fn facing_of(facet: Option<(f64, DVec3)>, line: DVec3) -> Facing {
+    match facet {
+        None => Facing::Nothing,
+        Some((area, normal)) => {
+            let along = normal.dot(line);
+            if along.abs() <= PARALLEL_TOLERANCE {
+                Facing::Parallel { area }
+            } else {
+                Facing::Side {
+                    area,
+                    up: along > 0.0,
+                }
+            }
+        }
+    }
+}
+
+/// `Some(up)` when the facet with these corners faces a side of `line` (its rays go along
+/// +line when `up`), `None` when it is parallel or has no area: what
+/// `facing_of(facet(corners), line)` says, to the bit, mostly without the normal's
+/// divisions. The normal's component along the line is `cross . line / |cross|`; taken so,
+/// it is within 2e-15 of the normal's own (each rounding is within 2^-53 of terms at most
+/// 1), so one further than 1e-12 from the tolerance is on the same side of it; the few
+/// nearer are decided by the normal itself.
+#[inline]
+fn faces_side(corners: [DVec3; 3], line: DVec3) -> Option<bool> {
+    let [a, b, c] = corners;
+    let cross = (b - a).cross(c - a);
+    // Twice the area, as `facet` has it (0.5 and 2 scale exactly).
+    let double = cross.length();
+    if !(double.is_finite() && double > 0.0) {
+        return None;
+    }
+    let along = cross.dot(line);
+    let margin = 1e-12 * double;
+    let tolerance = PARALLEL_TOLERANCE * double;
+    if along.abs() > tolerance + margin {
+        Some(along > 0.0)
+    } else if along.abs() < tolerance - margin {
+        None
+    } else {
+        match facing_of(facet(corners), line) {
+            Facing::Side { up, .. } => Some(up),
+            _ => None,
+        }
+    }
+}
+
+/// Facets per block of rays handed to [`projection::blocked_in_blocks`].
+const RAY_BLOCK: usize = 1024;
+
 impl<'a> Surface<'a> {
     fn new(mesh: &'a Mesh, sampling: Sampling) -> Surface<'a> {
         let n = mesh.triangles.len();
-        let facets: Vec<Option<(f64, DVec3)>> = (0..n)
+        let areas: Vec<f64> = (0..n)
             .into_par_iter()
             .with_min_len(4096)
-            .map(|t| {
-                let [a, b, c] = mesh.corners(t);
-                let cross = (b - a).cross(c - a);
-                let area = 0.5 * cross.length();
-                (area.is_finite() && area > 0.0).then(|| (area, cross / (2.0 * area)))
-            })
+            .map(|t| facet(mesh.corners(t)).map_or(0.0, |(a, _)| a))
             .collect();
-        // Sample points in blocks of facets, then joined in order.
-        let blocks: Vec<(Vec<DVec3>, Vec<u32>)> = facets
-            .par_chunks(SUM_BLOCK)
-            .enumerate()
-            .map(|(b, block)| {
-                let (mut points, mut counts) = (Vec::new(), Vec::new());
-                for (k, f) in block.iter().enumerate() {
-                    let before = points.len();
-                    if f.is_some() {
-                        sampling.for_each(mesh.corners(b * SUM_BLOCK + k), |p| points.push(p));
-                    }
-                    counts.push((points.len() - before) as u32);
+        let area = sum_blocks(n, |t| (areas[t], areas[t])).area_mm2;
+        // The k-th largest area of each level, the levels' k growing: one copy of the
+        // areas, each selection within what the one before left below its own.
+        let ks: Vec<usize> = BOUND_LEVELS
+            .iter()
+            .map(|&share| (n / share).max(LARGEST_AT_LEAST.min(n)))
+            .collect();
+        debug_assert!(ks.windows(2).all(|k| k[0] <= k[1]));
+        let mut sorted = Vec::new();
+        // The k and the k-th largest area of the selection before.
+        let mut before = (0, 0.0);
+        let thresholds: Vec<f64> = ks
+            .iter()
+            .map(|&k| {
+                if k == 0 || k >= n {
+                    return 0.0;
                 }
-                (points, counts)
+                if k > before.0 {
+                    if sorted.is_empty() {
+                        sorted = areas.clone();
+                    }
+                    // The first `before.0` are the largest: the k-th largest is the
+                    // (k - before.0)-th of the rest.
+                    let value = *sorted[before.0..]
+                        .select_nth_unstable_by(k - 1 - before.0, |a, b| b.total_cmp(a))
+                        .1;
+                    before = (k, value);
+                }
+                before.1
             })
             .collect();
-        let (points, first) = join_blocks(blocks, n);
-        let area = sum_blocks(n, |t| facets[t].map_or((0.0, 0.0), |(a, _)| (a, a))).area_mm2;
-        let areas: Vec<f64> = facets
+        drop(sorted);
+        let largest = ks
             .par_iter()
-            .with_min_len(4096)
-            .map(|f| f.map_or(0.0, |(a, _)| a))
-            .collect();
-        // The levels are independent, each over the whole mesh: both at once, each in
-        // parallel too.
-        let largest = BOUND_LEVELS
-            .par_iter()
-            .map(|&share| {
-                // The facets of area at least the k-th largest's.
-                let k = (n / share).max(LARGEST_AT_LEAST.min(n));
-                let threshold = if k == 0 || k >= n {
-                    0.0
-                } else {
-                    let mut areas = areas.clone();
-                    *areas.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1
-                };
+            .zip(&thresholds)
+            .map(|(&k, &threshold)| {
                 // Those above it, then those equal to it in index order up to k in all (so
                 // that a mesh of equal facets does not put all of them in the bound). The
                 // ones at least the threshold are found in parallel, in index order; the few
@@ -187,9 +241,9 @@ impl<'a> Surface<'a> {
                 let at_least: Vec<u32> = (0..n as u32)
                     .into_par_iter()
                     .with_min_len(4096)
-                    .filter(|&t| facets[t as usize].is_some_and(|(a, _)| a >= threshold))
+                    .filter(|&t| areas[t as usize] > 0.0 && areas[t as usize] >= threshold)
                     .collect();
-                let area = |t: u32| facets[t as usize].map_or(0.0, |(a, _)| a);
+                let area = |t: u32| areas[t as usize];
                 let above = at_least.iter().filter(|&&t| area(t) > threshold).count();
                 let mut equal = k.saturating_sub(above);
                 let facets: Vec<u32> = at_least
@@ -216,96 +270,78 @@ impl<'a> Surface<'a> {
             .collect();
         Surface {
             mesh,
-            facets,
-            points,
-            first,
+            sampling,
             area,
             largest,
             min_hit: min_hit(mesh),
         }
     }
 
-    fn facing(&self, t: usize, line: DVec3) -> Facing {
-        match self.facets[t] {
-            None => Facing::Nothing,
-            Some((area, normal)) => {
-                let along = normal.dot(line);
-                if along.abs() <= PARALLEL_TOLERANCE {
-                    Facing::Parallel { area }
-                } else {
-                    Facing::Side {
-                        area,
-                        up: along > 0.0,
-                    }
-                }
-            }
+    /// Pushes into `sink` the rays along `line` of facet `t`, each naming `k` as its
+    /// triangle: one from each sample point when the facet faces a side, none otherwise.
+    #[inline]
+    fn rays_of(&self, k: usize, t: usize, line: DVec3, sink: &mut RaySink) {
+        let corners = self.mesh.corners(t);
+        if let Some(up) = faces_side(corners, line) {
+            self.sampling.for_each(corners, |p| {
+                sink.push(PointRay {
+                    origin: p,
+                    triangle: k as u32,
+                    up,
+                })
+            });
         }
     }
 
-    fn samples(&self, t: usize) -> &[DVec3] {
-        &self.points[self.first[t]..self.first[t + 1]]
-    }
-
-    /// The rays along `line` of `count` facets, the k-th being facet `facet(k)`: the sample
-    /// points of each facet that faces a side, each ray naming k as its triangle (the index
-    /// into the triangles drawn against them). Ray lists are built in fixed blocks of facets
-    /// on every thread, then joined in order: the k-th facet's rays are `first[k]..first[k + 1]`,
-    /// whatever the thread count.
-    fn rays(
+    /// The rays of `count` facets along `d`, the k-th being facet `facet(k)` (each ray names
+    /// k), drawn against `triangles`; the blocked area of the facets, summed by `sum` from
+    /// (k, blocked area) in increasing k (facets with no ray blocked left out). When
+    /// `stop_above` is finite, the triangles are drawn in [`STOP_ROUNDS`] runs and the drawing
+    /// stops after the first run that takes the blocked area above it: that area is the
+    /// answer (a lower bound of the whole drawing's).
+    fn draw(
         &self,
-        count: usize,
-        facet: impl Fn(usize) -> usize + Sync,
-        line: DVec3,
-    ) -> (Vec<PointRay>, Vec<usize>) {
-        let blocks: Vec<(Vec<PointRay>, Vec<u32>)> = (0..count.div_ceil(SUM_BLOCK))
-            .into_par_iter()
-            .map(|b| {
-                let (mut rays, mut counts) = (Vec::new(), Vec::new());
-                for k in b * SUM_BLOCK..((b + 1) * SUM_BLOCK).min(count) {
-                    let before = rays.len();
-                    let t = facet(k);
-                    if let Facing::Side { up, .. } = self.facing(t, line) {
-                        rays.extend(self.samples(t).iter().map(|&p| PointRay {
-                            origin: p,
-                            triangle: k as u32,
-                            up,
-                        }));
-                    }
-                    counts.push((rays.len() - before) as u32);
-                }
-                (rays, counts)
-            })
-            .collect();
-        join_blocks(blocks, count)
-    }
-
-    /// A lower bound of the undercut area along `d`: the rays of the largest facets only
-    /// (those of `level`), drawn against those facets only. A ray that one of them
-    /// blocks is blocked when every triangle is drawn (the same arithmetic, the ray's own
-    /// facet skipped in both), so the bound never exceeds [`Surface::undercut`]. With every
-    /// facet among the largest (a small mesh) it is [`Surface::undercut`].
-    fn lower_bound(&self, d: Direction, level: usize) -> Undercut {
-        let largest = &self.largest[level];
-        if largest.every {
-            return self.undercut(d);
-        }
+        d: Direction,
+        (count, facet_of): (usize, impl Fn(usize) -> usize + Sync),
+        triangles: &[[u32; 3]],
+        sum: impl Fn(&mut dyn Iterator<Item = (usize, f64)>) -> f64,
+        stop_above: f64,
+    ) -> Undercut {
         let line = d.vector();
-        // Ray k's triangle is the k-th of the largest facets, its index in `largest.triangles`.
-        let (rays, first) = self.rays(largest.facets.len(), |k| largest.facets[k] as usize, line);
-        let blocked = projection::blocked(
+        // The blocked rays in the order of their numbers, so of their facets: one run per
+        // facet with a ray blocked.
+        let area_of = |found: &[BlockedRay]| {
+            let mut runs = found.chunk_by(|a, b| a.triangle == b.triangle).map(|run| {
+                let k = run[0].triangle as usize;
+                let corners = self.mesh.corners(facet_of(k));
+                let mut samples = 0;
+                self.sampling.for_each(corners, |_| samples += 1);
+                let (_, a) = facing_of(facet(corners), line).blocked(run.len(), samples);
+                (k, a)
+            });
+            sum(&mut runs)
+        };
+        let found = projection::blocked_until(
             &self.mesh.vertices,
             &Frame::new(d),
-            &largest.triangles,
-            &rays,
+            (
+                triangles,
+                if stop_above.is_finite() {
+                    STOP_ROUNDS
+                } else {
+                    1
+                },
+            ),
+            count.div_ceil(RAY_BLOCK),
+            |b, sink| {
+                for k in b * RAY_BLOCK..((b + 1) * RAY_BLOCK).min(count) {
+                    self.rays_of(k, facet_of(k), line, sink);
+                }
+            },
             self.min_hit,
+            |found| area_of(found) > stop_above,
         );
-        let mut area = 0.0;
-        for (k, &t) in largest.facets.iter().enumerate() {
-            let (from, to) = (first[k], first[k + 1]);
-            let hits = blocked[from..to].iter().filter(|&&b| b).count();
-            let (_, a) = self.facing(t as usize, line).blocked(hits, to - from);
-            area += a;
-        }
+        let area = area_of(&found);
         Undercut {
             area_mm2: area,
             share: if self.area > 0.0 {
@@ -316,24 +352,50 @@ impl<'a> Surface<'a> {
         }
     }
 
+    /// A lower bound of the undercut area along `d`: the rays of the largest facets only
+    /// (those of `level`), drawn against those facets only. A ray that one of them
+    /// blocks is blocked when every triangle is drawn (the same arithmetic, the ray's own
+    /// facet skipped in both), so the bound never exceeds [`Surface::undercut`]. With every
+    /// facet among the largest (a small mesh) it is [`Surface::undercut`].
+    fn lower_bound(&self, d: Direction, level: usize, stop_above: f64) -> Undercut {
+        let largest = &self.largest[level];
+        if largest.every {
+            return self.undercut(d);
+        }
+        // Ray k's triangle is the k-th of the largest facets, its index in `largest.triangles`.
+        // The facets in index order, each adding its blocked area (those with none would add
+        // zero, which changes no bit of the sum).
+        self.draw(
+            d,
+            (largest.facets.len(), |k| largest.facets[k] as usize),
+            &largest.triangles,
+            |runs| runs.fold(0.0, |sum, (_, a)| sum + a),
+            stop_above,
+        )
+    }
+
     /// The undercut along `d`, every ray drawn.
     fn undercut(&self, d: Direction) -> Undercut {
-        let line = d.vector();
-        let n = self.facets.len();
-        let (rays, first) = self.rays(n, |t| t, line);
-        let mesh = self.mesh;
-        let blocked = projection::blocked(
-            &mesh.vertices,
-            &Frame::new(d),
-            &mesh.triangles,
-            &rays,
-            self.min_hit,
-        );
-        sum_blocks(n, |t| {
-            let (from, to) = (first[t], first[t + 1]);
-            let hits = blocked[from..to].iter().filter(|&&b| b).count();
-            self.facing(t, line).blocked(hits, to - from)
-        })
+        // Summed as [`sum_blocks`] sums: in blocks of facets, each in order, then the blocks
+        // in order; a facet or a block with nothing blocked would add zero.
+        self.draw(
+            d,
+            (self.mesh.triangles.len(), |t| t),
+            &self.mesh.triangles,
+            |runs| {
+                let (mut total, mut block, mut in_block) = (0.0, None, 0.0);
+                for (t, a) in runs {
+                    if block != Some(t / SUM_BLOCK) {
+                        total += in_block;
+                        in_block = 0.0;
+                        block = Some(t / SUM_BLOCK);
+                    }
+                    in_block += a;
+                }
+                total + in_block
+            },
+            f64::INFINITY,
+        )
     }
 }
 
@@ -361,6 +423,10 @@ pub fn undercut_by_rays(mesh: &Mesh, bvh: &Bvh, d: Direction, sampling: Sampling
         f.blocked(hits, samples)
     })
 }
+
+/// Runs the triangles of a bound are drawn in when the bound need only exceed a value
+/// ([`Surface::draw`]).
+const STOP_ROUNDS: usize = 16;
 
 /// The levels of the lower bound of a line's undercut ([`Surface::lower_bound`]): one facet
 /// in this many, the largest, then one in that many.
@@ -434,21 +500,7 @@ impl Facing {
 }
 
 fn facing(mesh: &Mesh, t: usize, line: DVec3) -> Facing {
-    let [a, b, c] = mesh.corners(t);
-    let cross = (b - a).cross(c - a);
-    let area = 0.5 * cross.length();
-    if !(area.is_finite() && area > 0.0) {
-        return Facing::Nothing;
-    }
-    let along = (cross / (2.0 * area)).dot(line);
-    if along.abs() <= PARALLEL_TOLERANCE {
-        Facing::Parallel { area }
-    } else {
-        Facing::Side {
-            area,
-            up: along > 0.0,
-        }
-    }
+    facing_of(facet(mesh.corners(t)), line)
 }
 
 /// Where a candidate line came from.
@@ -541,7 +593,12 @@ pub fn auto_direction_beside<T: Send>(
     beside: impl Fn(Direction) -> T + Sync,
     mut gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
 ) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
-    let centres = Centres::of(mesh);
+    // The principal axes are summed in order on one thread (their bits depend on it); the
+    // centres and what every line shares are made on the others meanwhile.
+    let (axes, (centres, surface)) = rayon::join(
+        || principal_axes(mesh),
+        || (Centres::of(mesh), Surface::new(mesh, sampling)),
+    );
     if !(centres.area_mm2.is_finite() && centres.area_mm2 > 0.0) {
         return Err(DemoldError::NothingToEvaluate);
     }
@@ -553,12 +610,11 @@ pub fn auto_direction_beside<T: Send>(
         (DVec3::Y, CandidateKind::Axis),
         (DVec3::Z, CandidateKind::Axis),
     ];
-    for axis in principal_axes(mesh) {
+    for axis in axes {
         if lines.iter().all(|(l, _)| l.dot(axis).abs() < 1.0 - 1e-12) {
             lines.push((axis, CandidateKind::Principal));
         }
     }
-    let surface = Surface::new(mesh, sampling);
     let mut tried: Vec<Candidate> = lines
         .into_par_iter()
         .map(|(line, kind)| {
@@ -585,7 +641,7 @@ pub fn auto_direction_beside<T: Send>(
                         (lo.min(h), hi.max(h))
                     });
             let direction = Direction::new(dir).expect("unit line");
-            let bound = surface.lower_bound(direction, 0);
+            let bound = surface.lower_bound(direction, 0, f64::INFINITY);
             Candidate {
                 direction: direction.vector().to_array(),
                 kind,
@@ -624,9 +680,16 @@ pub fn auto_direction_beside<T: Send>(
             break;
         };
         let d = Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
-        level[i] += 1;
+        // The first line drawn goes to every ray at once: its tighter bound would only put
+        // off the drawing of the line that is, nearly always, the one chosen. A later line's
+        // tighter bound need only exceed the least undercut by more than the tie, and stops
+        // drawing once it does.
+        level[i] = match least.is_finite() {
+            true => level[i] + 1,
+            false => BOUND_LEVELS.len(),
+        };
         if level[i] < BOUND_LEVELS.len() {
-            let bound = surface.lower_bound(d, level[i]);
+            let bound = surface.lower_bound(d, level[i], least + tie);
             tried[i].evaluated = surface.largest[level[i]].every;
             if bound.area_mm2 > tried[i].undercut.area_mm2 || tried[i].evaluated {
                 tried[i].undercut = bound;
@@ -719,15 +782,22 @@ pub fn principal_axes(mesh: &Mesh) -> Vec<DVec3> {
         let s = a + b + c;
         area += w;
         first += s * (w / 3.0);
-        // The second moment of a uniform triangle: (a a' + b b' + c c' + s s') / 12.
+        // The second moment of a uniform triangle: (a a' + b b' + c c' + s s') / 12. It is
+        // symmetric to the bit (each product is the same either way round), so only the
+        // upper triangle is summed.
         for i in 0..3 {
-            for j in 0..3 {
+            for j in i..3 {
                 second[i][j] += w / 12.0 * (a[i] * a[j] + b[i] * b[j] + c[i] * c[j] + s[i] * s[j]);
             }
         }
     }
     if area.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return Vec::new();
+    }
+    for i in 1..3 {
+        for j in 0..i {
+            second[i][j] = second[j][i];
+        }
     }
     let mean = first / area;
     let mut cov = [[0.0f64; 3]; 3];
@@ -802,23 +872,6 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
     ([a[0][0], a[1][1], a[2][2]], v)
 }
 
-/// Joins blocks of items, each with the count of items of every one of its `n` entries in
-/// all, into one array and the offsets of each entry's run in it (`n + 1` of them).
-fn join_blocks<T>(blocks: Vec<(Vec<T>, Vec<u32>)>, n: usize) -> (Vec<T>, Vec<usize>) {
-    let mut items = Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum());
-    let mut first = Vec::with_capacity(n + 1);
-    for (block, counts) in blocks {
-        let mut at = items.len();
-        for c in counts {
-            first.push(at);
-            at += c as usize;
-        }
-        items.extend(block);
-    }
-    first.push(items.len());
-    (items, first)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -849,47 +902,104 @@ mod tests {
         }
     }
 
+    /// The earlier code's rays of `count` facets along `line` (the k-th being facet
+    /// `facet(k)`): every facet's normal and sample points made first and kept, the rays of
+    /// those facing a side in one array, with the offsets of each facet's run.
+    fn kept_rays(
+        mesh: &Mesh,
+        sampling: Sampling,
+        count: usize,
+        facet_of: impl Fn(usize) -> usize,
+        line: DVec3,
+    ) -> (Vec<PointRay>, Vec<usize>) {
+        let (mut rays, mut first) = (Vec::new(), vec![0]);
+        for k in 0..count {
+            let t = facet_of(k);
+            if let Facing::Side { up, .. } = facing(mesh, t, line) {
+                sampling.for_each(mesh.corners(t), |p| {
+                    rays.push(PointRay {
+                        origin: p,
+                        triangle: k as u32,
+                        up,
+                    })
+                });
+            }
+            first.push(rays.len());
+        }
+        (rays, first)
+    }
+
     #[test]
-    fn the_rays_of_some_facets_are_those_of_every_facet_renumbered() {
-        // More facets than a block, several samples on the larger ones, and a line that
-        // leaves some facets parallel (none here) or facing either side.
-        let mesh = grid(60, |i, j| {
-            0.4 * (i as f64 * 0.7).sin() * (j as f64 * 0.3).cos()
+    fn sparse_sums_of_rays_made_on_the_fly_are_the_earlier_sums_to_the_bit() {
+        // The undercut and both bounds against the earlier code: the rays kept in an array
+        // (`projection::blocked`), every facet summed, zeros and all (`sum_blocks` for the
+        // undercut, in index order for a bound). More facets than a sum block, several
+        // samples on the larger ones, facets facing either side, parallel ones (the flat
+        // squares of a stepped grid along z), and a small bound level.
+        let mesh = grid(70, |i, j| {
+            if (i / 5 + j / 7) % 3 == 0 {
+                1.0
+            } else {
+                0.5 * (i as f64 * 0.7).sin() * (j as f64 * 0.3).cos()
+            }
         });
         let n = mesh.triangles.len();
-        assert!(n > 2 * SUM_BLOCK);
-        let surface = Surface::new(&mesh, Sampling::Spacing(0.6));
-        let line = DVec3::new(0.3, -0.2, 0.9).normalize();
-        let (all, first) = surface.rays(n, |t| t, line);
-        assert_eq!(first.len(), n + 1);
-        let mut facing = 0;
-        for t in 0..n {
-            let rays = &all[first[t]..first[t + 1]];
-            match surface.facing(t, line) {
-                Facing::Side { up, .. } => {
-                    facing += 1;
-                    assert_eq!(rays.len(), surface.samples(t).len());
-                    for (r, &p) in rays.iter().zip(surface.samples(t)) {
-                        assert_eq!((r.origin, r.triangle, r.up), (p, t as u32, up));
+        assert!(n > 4 * SUM_BLOCK && n / BOUND_LEVELS[0] < LARGEST_AT_LEAST);
+        let mut partial = 0;
+        for sampling in [Sampling::Centroid, Sampling::Spacing(0.6)] {
+            let surface = Surface::new(&mesh, sampling);
+            for d in [
+                DVec3::Z,
+                DVec3::new(0.8, -0.2, 0.5),
+                DVec3::new(1.0, 0.0, 1e-4),
+                DVec3::X,
+            ] {
+                let d = Direction::new(d).unwrap();
+                let line = d.vector();
+                let (rays, first) = kept_rays(&mesh, sampling, n, |t| t, line);
+                let hit = projection::blocked(
+                    &mesh.vertices,
+                    &Frame::new(d),
+                    &mesh.triangles,
+                    &rays,
+                    surface.min_hit,
+                );
+                let earlier = sum_blocks(n, |t| {
+                    let (from, to) = (first[t], first[t + 1]);
+                    let hits = hit[from..to].iter().filter(|&&b| b).count();
+                    facing(&mesh, t, line).blocked(hits, to - from)
+                });
+                let now = surface.undercut(d);
+                partial += usize::from(earlier.share > 0.0 && earlier.share < 1.0);
+                assert_eq!(now.area_mm2.to_bits(), earlier.area_mm2.to_bits(), "{d:?}");
+                assert_eq!(now.share.to_bits(), earlier.share.to_bits(), "{d:?}");
+                for (level, largest) in surface.largest.iter().enumerate() {
+                    let count = largest.facets.len();
+                    let facet_of = |k: usize| largest.facets[k] as usize;
+                    let (rays, first) = kept_rays(&mesh, sampling, count, facet_of, line);
+                    let hit = projection::blocked(
+                        &mesh.vertices,
+                        &Frame::new(d),
+                        &largest.triangles,
+                        &rays,
+                        surface.min_hit,
+                    );
+                    let mut area = 0.0;
+                    for k in 0..count {
+                        let (from, to) = (first[k], first[k + 1]);
+                        let hits = hit[from..to].iter().filter(|&&b| b).count();
+                        area += facing(&mesh, facet_of(k), line).blocked(hits, to - from).1;
                     }
+                    let bound = surface.lower_bound(d, level, f64::INFINITY);
+                    assert_eq!(bound.area_mm2.to_bits(), area.to_bits(), "{d:?} {level}");
+                    assert!(bound.area_mm2 <= now.area_mm2);
                 }
-                _ => assert!(rays.is_empty()),
             }
         }
-        assert!(facing > n / 2, "{facing} of {n} facets face a side");
-        let some: Vec<usize> = (0..n).filter(|t| t % 3 != 1).collect();
-        let (rays, from) = surface.rays(some.len(), |k| some[k], line);
-        assert_eq!(from.len(), some.len() + 1);
-        for (k, &t) in some.iter().enumerate() {
-            let renumbered: Vec<PointRay> = all[first[t]..first[t + 1]]
-                .iter()
-                .map(|r| PointRay {
-                    triangle: k as u32,
-                    ..*r
-                })
-                .collect();
-            assert_eq!(&rays[from[k]..from[k + 1]], &renumbered[..], "facet {t}");
-        }
+        assert!(
+            partial >= 4,
+            "{partial} lines with some but not all blocked"
+        );
     }
 
     #[test]
@@ -914,11 +1024,11 @@ mod tests {
         mesh.vertices[last].x += 0.5;
         let surface = Surface::new(&mesh, Sampling::Centroid);
         let bigger: Vec<u32> = (0..n as u32)
-            .filter(|&t| surface.facets[t as usize].is_some_and(|(a, _)| a > 0.5))
+            .filter(|&t| facet(mesh.corners(t as usize)).is_some_and(|(a, _)| a > 0.5))
             .collect();
         assert!(!bigger.is_empty());
         let mut expected: Vec<u32> = (0..n as u32)
-            .filter(|&t| surface.facets[t as usize].is_some_and(|(a, _)| a >= 0.5))
+            .filter(|&t| facet(mesh.corners(t as usize)).is_some_and(|(a, _)| a >= 0.5))
             .collect();
         let mut equal = LARGEST_AT_LEAST - bigger.len();
         expected.retain(|&t| {
@@ -930,6 +1040,87 @@ mod tests {
         });
         assert_eq!(surface.largest[0].facets, expected);
         assert!(surface.largest[0].facets.contains(&bigger[0]));
+    }
+
+    #[test]
+    fn the_largest_facets_of_each_level_are_those_of_a_full_sort() {
+        // Areas of many values, some repeated, and more facets than 16 times the least
+        // count: each level takes its own share, the selections one after the other.
+        let mesh = grid(190, |i, j| {
+            ((i * 7 + j * 13) % 11) as f64 * 0.05 * (i % 3) as f64
+        });
+        let n = mesh.triangles.len();
+        assert!(n / BOUND_LEVELS[0] > LARGEST_AT_LEAST);
+        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let areas: Vec<f64> = (0..n)
+            .map(|t| facet(mesh.corners(t)).map_or(0.0, |(a, _)| a))
+            .collect();
+        let mut sorted = areas.clone();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        for (largest, share) in surface.largest.iter().zip(BOUND_LEVELS) {
+            let k = n / share;
+            let threshold = sorted[k - 1];
+            let mut equal = k - sorted.iter().filter(|&&a| a > threshold).count();
+            let expected: Vec<u32> = (0..n as u32)
+                .filter(|&t| {
+                    let a = areas[t as usize];
+                    a > threshold
+                        || (a == threshold && equal > 0 && {
+                            equal -= 1;
+                            true
+                        })
+                })
+                .collect();
+            assert_eq!(expected.len(), k);
+            assert_eq!(largest.facets, expected, "one in {share}");
+        }
+    }
+
+    #[test]
+    fn faces_side_is_the_normals_answer_also_at_the_tolerance() {
+        // Triangles of many shapes and sizes, each against lines whose angle to its plane
+        // has a sine of the tolerance plus or minus 0 to 1e-9 (both sides of the margin, and
+        // inside it), and against random lines; also facets without area.
+        let mut state = 0x853C_49E6_748F_EA9Bu64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut near = 0;
+        for k in 0..2000 {
+            let scale = 10f64.powi(k % 7 - 3);
+            let a = DVec3::new(next(), next(), next()) * scale * 100.0;
+            let b = a + DVec3::new(next(), next(), next()) * scale;
+            let c = a + DVec3::new(next(), next(), next()) * scale;
+            let corners = [a, b, c];
+            let Some((_, normal)) = facet(corners) else {
+                continue;
+            };
+            let across = normal.any_orthonormal_vector();
+            let mut lines = vec![DVec3::new(next(), next(), next()).normalize()];
+            for offset in [0.0, 1e-16, 1e-15, 1e-14, 1e-13, 1e-12, 1e-11, 1e-10, 1e-9] {
+                for sign in [1.0, -1.0] {
+                    let sine = PARALLEL_TOLERANCE + sign * offset;
+                    let cosine = (1.0 - sine * sine).sqrt();
+                    lines.push(across * cosine + normal * sine);
+                    lines.push(across * cosine - normal * sine);
+                }
+            }
+            for line in lines {
+                let expected = match facing_of(facet(corners), line) {
+                    Facing::Side { up, .. } => Some(up),
+                    _ => None,
+                };
+                assert_eq!(faces_side(corners, line), expected, "{corners:?} {line}");
+                let along = normal.dot(line).abs();
+                near += usize::from((along - PARALLEL_TOLERANCE).abs() < 1e-12);
+            }
+        }
+        assert!(near > 1000, "{near} lines near the tolerance");
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        assert_eq!(faces_side(flat, DVec3::Z), None);
     }
 
     #[test]
