@@ -22,6 +22,7 @@
 //! ```
 
 mod canvas;
+mod encode;
 mod placed;
 mod raster;
 
@@ -30,7 +31,7 @@ use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
 pub use placed::PLACED_COLOUR;
-use raster::{rasterise, DrawOrder, Layer};
+use raster::{rasterise, Colours, DrawOrder, Layer};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -206,27 +207,30 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     if let Some(topology) = scene.topology {
         order.cull_back_faces(mesh, topology);
     }
-    // Each panel is drawn and coloured on its own thread (its rows coloured in parallel);
-    // the overlays then go on the one canvas in a fixed order.
+    // Each panel is drawn on its own thread, beside the making of the canvas; each is then
+    // coloured into the canvas (its rows in parallel) and its overlays drawn over it, in a
+    // fixed order.
     let draw = |v: &View| {
         let light =
             (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75).normalize();
-        let layer = rasterise(&order, &v.camera, v.panel, SAMPLES, light);
-        let sample_mm = 1.0 / (v.camera.scale * SAMPLES as f64);
-        let crease = (6.0 * sample_mm).max(0.003 * diagonal) as f32;
-        let no_value = NO_VALUE_COLOUR.map(|c| c as f32);
-        let pixels = layer.pixels(&lut.0, no_value, VIEW_BACKGROUND, crease);
-        (layer, pixels)
+        rasterise(&order, &v.camera, v.panel, SAMPLES, light)
     };
-    let ((a, pixels_a), ((b, pixels_b), canvas)) = rayon::join(
+    let (a, (b, canvas)) = rayon::join(
         || draw(&views[0]),
         || rayon::join(|| draw(&views[1]), || Canvas::new(width, height, WHITE)),
     );
     let mut canvas = canvas.ok_or(RenderError::Size { width, height })?;
     let layers = [a, b];
-    for ((view, layer), pixels) in views.iter().zip(&layers).zip([pixels_a, pixels_b]) {
+    for (view, layer) in views.iter().zip(&layers) {
         let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
-        canvas.put(view.panel.x, view.panel.y, view.panel.w, &pixels);
+        let colours = Colours {
+            lut: &lut.0,
+            no_value: NO_VALUE_COLOUR.map(|c| c as f32),
+            background: VIEW_BACKGROUND,
+            crease_mm: (6.0 * sample_mm).max(0.003 * diagonal) as f32,
+        };
+        let stride = canvas.width() as usize;
+        layer.paint(canvas.pixmap.data_mut(), stride, &colours);
         let tolerance = (4.0 * sample_mm).max(0.005 * diagonal);
         draw_overlays(&mut canvas, scene, view, layer, (tolerance, &range), k);
         canvas.stroke_rect(

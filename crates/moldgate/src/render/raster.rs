@@ -433,34 +433,43 @@ pub fn rasterise(
         let dwb = -(a[1] - c[1]) * inv;
         let (dz_a, dz_b) = (a[2] - c[2], b[2] - c[2]);
         let (dt_a, dt_b) = (ta - tc, tb - tc);
-        for y in min_y as usize..=max_y as usize {
+        // The box's columns of the triangle's samples, the same in every row.
+        let (first, end) = (min_x as usize - x0, max_x as usize + 1 - x0);
+        for y in min_y as usize..max_y as usize + 1 {
             let py = y as f32 + 0.5;
             let px = min_x + 0.5;
             let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
             let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
             let row = (y - y0) * w;
-            let mut entered = false;
-            for x in min_x as usize..=max_x as usize {
-                // A sliver of overlap rather than a crack where two triangles meet: samples
-                // on a shared edge would otherwise be missed by both when rounding goes
-                // against them (the depth test settles the overlap).
-                let inside = wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK;
-                if inside {
-                    entered = true;
-                    let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
-                    let sample = (z as u64) << 32 | facet;
-                    let i = row + (x - x0);
-                    if sample > layer.sample[i] {
-                        layer.sample[i] = sample;
-                        if has_value {
-                            layer.lut[i] = lut_index(tc + wa * dt_a + wb * dt_b);
-                        }
+            let samples = &mut layer.sample[row + first..row + end];
+            let luts = &mut layer.lut[row + first..row + end];
+            // A sliver of overlap rather than a crack where two triangles meet: samples on a
+            // shared edge would otherwise be missed by both when rounding goes against them
+            // (the depth test settles the overlap).
+            let inside = |wa: f32, wb: f32| {
+                wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK
+            };
+            // The weights are stepped from the row's first column in both loops, so every
+            // sample sees the same sums whichever loop reaches it.
+            let mut k = 0;
+            while k < samples.len() && !inside(wa, wb) {
+                wa += dwa;
+                wb += dwb;
+                k += 1;
+            }
+            // A triangle's row is one run of samples: it ends at the first one outside.
+            while k < samples.len() && inside(wa, wb) {
+                let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
+                let sample = (z as u64) << 32 | facet;
+                if sample > samples[k] {
+                    samples[k] = sample;
+                    if has_value {
+                        luts[k] = lut_index(tc + wa * dt_a + wb * dt_b);
                     }
-                } else if entered {
-                    break; // a triangle's row is one run of samples
                 }
                 wa += dwa;
                 wb += dwb;
+                k += 1;
             }
         }
     }
@@ -496,83 +505,184 @@ impl Layer {
         }
     }
 
-    /// The panel's pixels, rows of `rect.w`: the samples coloured (`lut` entry times the
-    /// shade, `no_value` for a facet without a field value; an outline where the depth
-    /// jumps by more than `crease_mm` or the part ends) over `background` and averaged per
-    /// pixel, the rows in parallel.
-    pub fn pixels(
-        &self,
-        lut: &[[f32; 3]; 256],
-        no_value: [f32; 3],
-        background: Rgb,
-        crease_mm: f32,
-    ) -> Vec<Rgb> {
+    /// Colours the panel into `rgba`, the bytes of an opaque RGBA picture `stride` pixels
+    /// wide, at the panel's place in it (what lies beyond the picture is left out): each
+    /// sample coloured (its `lut` entry times its facet's shade, `no_value` for a facet
+    /// without a field value; [`OUTLINE_FACTOR`] instead of the shade on an outline, where
+    /// the depth jumps by more than `crease_mm` to a neighbour or the part ends there) over
+    /// `background`, and the samples of each pixel averaged. Bands of rows in parallel.
+    ///
+    /// Each band turns the depth keys of its rows of samples (and one row above and below)
+    /// into depths once, a row of depths padded at both ends with its end values and an
+    /// absent neighbour row standing in for itself, so that a missing neighbour is never
+    /// a jump; an empty sample's depth is NaN, which is a jump from any depth. The colour
+    /// of a sample and the sums of a pixel are computed as they always were, in the same
+    /// order, so the bytes do not change (a unit test holds them to the sample-by-sample
+    /// colouring).
+    pub fn paint(&self, rgba: &mut [u8], stride: usize, colours: &Colours) {
         use rayon::prelude::*;
-        let (w, h) = (self.w, self.h);
-        let depth = |i: usize| (self.sample[i] >> 32) as u32;
-        let outline = |i: usize, x: usize, y: usize| -> bool {
-            let d = key_depth(depth(i));
-            let near = |j: usize| {
-                let e = depth(j);
-                e == 0 || (key_depth(e) - d).abs() > crease_mm
-            };
-            (x > 0 && near(i - 1))
-                || (x + 1 < w && near(i + 1))
-                || (y > 0 && near(i - w))
-                || (y + 1 < h && near(i + w))
-        };
-        let bg = background.map(|c| c as f32);
-        let ss = self.ss as usize;
-        let n = (ss * ss) as f32;
-        let width = self.rect.w as usize;
-        let mut out = vec![[0u8; 3]; width * self.rect.h as usize];
-        if width == 0 {
-            return out;
+        let rect = self.rect;
+        let (left, top) = (rect.x as usize, rect.y as usize);
+        let rows_in_picture = rgba.len() / (4 * stride).max(1);
+        if stride == 0 || left >= stride || top >= rows_in_picture {
+            return;
         }
-        // A pixel of background samples only is the background itself (the mean of equal
-        // whole numbers is exact): the pixels outside the box are set to it directly.
-        let bg_pixel = background;
-        let (x0, y0) = (self.x0 / ss, self.y0 / ss);
-        let (x1, y1) = (x0 + w / ss, y0 + h / ss);
-        out.par_chunks_mut(width).enumerate().for_each(|(py, row)| {
-            if py < y0 || py >= y1 {
-                row.fill(bg_pixel);
-                return;
-            }
-            row[..x0].fill(bg_pixel);
-            row[x1..].fill(bg_pixel);
-            for (px, pixel) in row[x0..x1].iter_mut().enumerate() {
-                let mut sum = [0.0f32; 3];
-                for sy in (py - y0) * ss..(py - y0 + 1) * ss {
-                    for sx in px * ss..(px + 1) * ss {
-                        let i = sy * w + sx;
-                        let c = if self.sample[i] == 0 {
-                            bg
-                        } else {
-                            let shade = self.shade[!(self.sample[i] as u32) as usize];
-                            let base = if shade < 0.0 {
-                                no_value
-                            } else {
-                                lut[self.lut[i] as usize]
-                            };
-                            let k = if outline(i, sx, sy) {
-                                OUTLINE_FACTOR
-                            } else {
-                                shade.abs()
-                            };
-                            base.map(|v| v * k)
-                        };
-                        for k in 0..3 {
-                            sum[k] += c[k];
-                        }
+        let columns = (rect.w as usize).min(stride - left);
+        let rows = (rect.h as usize).min(rows_in_picture - top);
+        let ss = self.ss as usize;
+        // The part's box in pixels of the panel; every pixel outside it is the background
+        // (the mean of equal whole numbers is exact).
+        let (bx0, by0) = ((self.x0 / ss).min(columns), self.y0 / ss);
+        let (bx1, by1) = ((self.x0 / ss + self.w / ss).min(columns), by0 + self.h / ss);
+        let bg = colours.background;
+        let bg_rgba = [bg[0], bg[1], bg[2], 255];
+        let region = &mut rgba[4 * stride * top..4 * stride * (top + rows)];
+        region
+            .par_chunks_mut(4 * stride * PAINT_BAND)
+            .enumerate()
+            .for_each(|(band, chunk)| {
+                let first = band * PAINT_BAND;
+                let count = chunk.len() / (4 * stride);
+                // The band's rows inside the box, in pixels of the panel.
+                let (inside0, inside1) = (first.max(by0), (first + count).min(by1));
+                let depths = (inside0 < inside1)
+                    .then(|| self.depth_rows((inside0 - by0) * ss, (inside1 - by0) * ss));
+                let mut scratch = (Vec::new(), Vec::new());
+                for (r, row) in chunk.chunks_exact_mut(4 * stride).enumerate() {
+                    let py = first + r;
+                    let out = &mut row[4 * left..4 * (left + columns)];
+                    let Some(depths) = depths.as_ref().filter(|_| py >= by0 && py < by1) else {
+                        out.chunks_exact_mut(4)
+                            .for_each(|p| p.copy_from_slice(&bg_rgba));
+                        continue;
+                    };
+                    let (before, rest) = out.split_at_mut(4 * bx0);
+                    let (part, after) = rest.split_at_mut(4 * (bx1 - bx0));
+                    for p in before.chunks_exact_mut(4).chain(after.chunks_exact_mut(4)) {
+                        p.copy_from_slice(&bg_rgba);
                     }
+                    let s0 = (py - by0) * ss; // the pixel's first row of samples in the box
+                    let d0 = (py - inside0) * ss + 1; // and its row in `depths`
+                    self.colour_row(depths, (s0, d0), part, colours, &mut scratch);
                 }
-                *pixel = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
-            }
-        });
+            });
+    }
+
+    /// The depths of the box's rows of samples `s0..s1`, with the row above and the row
+    /// below (the first or last row itself at the box's edge), each padded at both ends
+    /// with its end values: `(s1 - s0 + 2)` rows of `w + 2`. Empty samples are NaN.
+    fn depth_rows(&self, s0: usize, s1: usize) -> Vec<f32> {
+        let w = self.w;
+        let mut out = Vec::with_capacity((s1 - s0 + 2) * (w + 2));
+        let above = s0.saturating_sub(1);
+        let below = if s1 < self.h { s1 } else { s1 - 1 };
+        for s in std::iter::once(above)
+            .chain(s0..s1)
+            .chain(std::iter::once(below))
+        {
+            let keys = &self.sample[s * w..(s + 1) * w];
+            let depth = |&k: &u64| {
+                let key = (k >> 32) as u32;
+                if key == 0 {
+                    f32::NAN
+                } else {
+                    key_depth(key)
+                }
+            };
+            out.push(depth(&keys[0]));
+            out.extend(keys.iter().map(depth));
+            out.push(depth(&keys[w - 1]));
+        }
         out
     }
+
+    /// Colours the pixels of one row of the box into `out` (RGBA): the pixel's first row of
+    /// samples `s0` in the box and `d0` in `depths` (from [`Layer::depth_rows`]); `scratch`
+    /// holds a row of outline marks and the colours of the pixel's rows of samples.
+    fn colour_row(
+        &self,
+        depths: &[f32],
+        (s0, d0): (usize, usize),
+        out: &mut [u8],
+        c: &Colours,
+        scratch: &mut (Vec<bool>, Vec<[f32; 3]>),
+    ) {
+        let (w, ss) = (self.w, self.ss as usize);
+        let pw = w + 2;
+        let (outline, colours) = scratch;
+        outline.resize(w, false);
+        colours.resize(ss * w, [0.0; 3]);
+        let bg = c.background.map(|v| v as f32);
+        for dy in 0..ss {
+            let d = d0 + dy;
+            let (above, row, below) = (
+                &depths[(d - 1) * pw..d * pw],
+                &depths[d * pw..(d + 1) * pw],
+                &depths[(d + 1) * pw..(d + 2) * pw],
+            );
+            // An outline where the depth jumps to one of the four neighbours: NaN (an empty
+            // neighbour) is never near, a padded end or a missing row (the sample itself)
+            // always is. No branches, so that the rows' marks are computed several at once.
+            for (x, mark) in outline.iter_mut().enumerate() {
+                let at = row[x + 1];
+                let near = |e: f32| (e - at).abs() <= c.crease_mm;
+                *mark =
+                    !(near(row[x]) & near(row[x + 2]) & near(above[x + 1]) & near(below[x + 1]));
+            }
+            let samples = &self.sample[(s0 + dy) * w..(s0 + dy + 1) * w];
+            let luts = &self.lut[(s0 + dy) * w..(s0 + dy + 1) * w];
+            let colours = &mut colours[dy * w..(dy + 1) * w];
+            for (((colour, &sample), &lut), &mark) in colours
+                .iter_mut()
+                .zip(samples)
+                .zip(luts)
+                .zip(outline.iter())
+            {
+                *colour = if sample == 0 {
+                    bg
+                } else {
+                    let shade = self.shade[!(sample as u32) as usize];
+                    let base = if shade < 0.0 {
+                        c.no_value
+                    } else {
+                        c.lut[lut as usize]
+                    };
+                    let k = if mark { OUTLINE_FACTOR } else { shade.abs() };
+                    base.map(|v| v * k)
+                };
+            }
+        }
+        // Each pixel the mean of its samples, summed row by row from the left.
+        let n = (ss * ss) as f32;
+        for (px, pixel) in out.chunks_exact_mut(4).enumerate() {
+            let mut sum = [0.0f32; 3];
+            for dy in 0..ss {
+                for colour in &colours[dy * w + px * ss..dy * w + (px + 1) * ss] {
+                    for k in 0..3 {
+                        sum[k] += colour[k];
+                    }
+                }
+            }
+            let [r, g, b] = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
+            pixel.copy_from_slice(&[r, g, b, 255]);
+        }
+    }
 }
+
+/// How a panel's samples are coloured ([`Layer::paint`]).
+pub struct Colours<'a> {
+    /// The colour map, 256 entries.
+    pub lut: &'a [[f32; 3]; 256],
+    /// The colour of a facet without a field value.
+    pub no_value: [f32; 3],
+    /// The colour where the part is absent.
+    pub background: Rgb,
+    /// The depth step, mm, between neighbouring samples that draws an outline.
+    pub crease_mm: f32,
+}
+
+/// Rows of pixels coloured by one task of [`Layer::paint`].
+const PAINT_BAND: usize = 8;
 
 /// Brightness of outline samples.
 const OUTLINE_FACTOR: f32 = 0.22;
@@ -689,6 +799,181 @@ mod tests {
         let topology = crate::mesh::Topology::new(&open);
         let t = vec![0.0; open.vertices.len()];
         assert!(!DrawOrder::new(&open, &t).cull_back_faces(&open, &topology));
+    }
+
+    /// The colouring sample by sample as it was first written (each sample's outline test
+    /// reading its four neighbours' keys): the oracle of [`Layer::paint`].
+    fn pixels_one_by_one(layer: &Layer, c: &Colours) -> Vec<Rgb> {
+        let (w, h) = (layer.w, layer.h);
+        let depth = |i: usize| (layer.sample[i] >> 32) as u32;
+        let outline = |i: usize, x: usize, y: usize| -> bool {
+            let d = key_depth(depth(i));
+            let near = |j: usize| {
+                let e = depth(j);
+                e == 0 || (key_depth(e) - d).abs() > c.crease_mm
+            };
+            (x > 0 && near(i - 1))
+                || (x + 1 < w && near(i + 1))
+                || (y > 0 && near(i - w))
+                || (y + 1 < h && near(i + w))
+        };
+        let bg = c.background.map(|v| v as f32);
+        let ss = layer.ss as usize;
+        let n = (ss * ss) as f32;
+        let width = layer.rect.w as usize;
+        let mut out = vec![c.background; width * layer.rect.h as usize];
+        let (x0, y0) = (layer.x0 / ss, layer.y0 / ss);
+        for py in y0..y0 + h / ss {
+            for px in 0..w / ss {
+                let mut sum = [0.0f32; 3];
+                for sy in (py - y0) * ss..(py - y0 + 1) * ss {
+                    for sx in px * ss..(px + 1) * ss {
+                        let i = sy * w + sx;
+                        let colour = if layer.sample[i] == 0 {
+                            bg
+                        } else {
+                            let shade = layer.shade[!(layer.sample[i] as u32) as usize];
+                            let base = if shade < 0.0 {
+                                c.no_value
+                            } else {
+                                c.lut[layer.lut[i] as usize]
+                            };
+                            let k = if outline(i, sx, sy) {
+                                OUTLINE_FACTOR
+                            } else {
+                                shade.abs()
+                            };
+                            base.map(|v| v * k)
+                        };
+                        for k in 0..3 {
+                            sum[k] += colour[k];
+                        }
+                    }
+                }
+                out[py * width + x0 + px] = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
+            }
+        }
+        out
+    }
+
+    /// The banded colouring gives the bytes of the sample-by-sample one, on samples seen
+    /// along an axis and obliquely, with a field missing on some facets, with creases
+    /// small and large, a panel placed inside a larger picture, and a panel cut by the
+    /// picture's edge.
+    #[test]
+    fn painting_in_bands_gives_the_colours_of_each_sample() {
+        let toward = DVec3::new(0.5, -0.45, 0.74).normalize();
+        let up = (DVec3::Z - toward * toward.z).normalize();
+        let oblique = Camera {
+            right: up.cross(toward),
+            up,
+            toward,
+            centre: DVec2::ZERO,
+            scale: 4.0,
+            origin: DVec2::new(100.0, 100.0),
+        };
+        let lut: [[f32; 3]; 256] =
+            std::array::from_fn(|i| [i as f32, 255.0 - i as f32, (i * 7 % 256) as f32]);
+        for name in ["cover", "bracket", "tray", "plate"] {
+            let part = crate::mesh::from_generated(crate::samples::sample(name).unwrap());
+            let mesh = &part.mesh;
+            let b = crate::math::Aabb::of_points(&mesh.vertices);
+            // A field missing (NaN) on the vertices of the upper tenth.
+            let t: Vec<f32> = mesh
+                .vertices
+                .iter()
+                .map(|p| {
+                    let f = ((p.z - b.min.z) / (b.max.z - b.min.z)) as f32;
+                    if f > 0.9 {
+                        f32::NAN
+                    } else {
+                        f
+                    }
+                })
+                .collect();
+            let mut order = DrawOrder::new(mesh, &t);
+            order.cull_back_faces(mesh, &part.topology);
+            for camera in [oblique, square_camera()] {
+                let camera = Camera {
+                    centre: DVec2::new(
+                        ((b.min + b.max) * 0.5).dot(camera.right),
+                        ((b.min + b.max) * 0.5).dot(camera.up),
+                    ),
+                    scale: 120.0 / (b.max - b.min).length(),
+                    ..camera
+                };
+                for (rect, picture_w, picture_h) in [
+                    (
+                        PixelRect {
+                            x: 0,
+                            y: 0,
+                            w: 200,
+                            h: 200,
+                        },
+                        200,
+                        200,
+                    ),
+                    (
+                        PixelRect {
+                            x: 13,
+                            y: 7,
+                            w: 190,
+                            h: 171,
+                        },
+                        230,
+                        190,
+                    ),
+                    (
+                        PixelRect {
+                            x: 40,
+                            y: 30,
+                            w: 200,
+                            h: 200,
+                        },
+                        180,
+                        150,
+                    ),
+                ] {
+                    let camera = Camera {
+                        origin: DVec2::new(rect.x as f64 + 95.0, rect.y as f64 + 90.0),
+                        ..camera
+                    };
+                    let layer = rasterise(&order, &camera, rect, 2, DVec3::Z);
+                    for crease_mm in [0.0, 0.05, 1.0] {
+                        let colours = Colours {
+                            lut: &lut,
+                            no_value: [165.0, 160.0, 150.0],
+                            background: [244, 245, 248],
+                            crease_mm,
+                        };
+                        let mut rgba = vec![7u8; 4 * picture_w * picture_h];
+                        layer.paint(&mut rgba, picture_w, &colours);
+                        let expected = pixels_one_by_one(&layer, &colours);
+                        let mut painted = 0;
+                        for y in 0..picture_h {
+                            for x in 0..picture_w {
+                                let got = &rgba[4 * (y * picture_w + x)..][..4];
+                                let (px, py) = (
+                                    x.wrapping_sub(rect.x as usize),
+                                    y.wrapping_sub(rect.y as usize),
+                                );
+                                if px < rect.w as usize && py < rect.h as usize {
+                                    let e = expected[py * rect.w as usize + px];
+                                    assert_eq!(got, [e[0], e[1], e[2], 255], "{name} ({x}, {y})");
+                                    painted += usize::from(e != colours.background);
+                                } else {
+                                    assert_eq!(
+                                        got, [7; 4],
+                                        "{name} ({x}, {y}) is outside the panel"
+                                    );
+                                }
+                            }
+                        }
+                        assert!(painted > 1000, "{name}: {painted}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
