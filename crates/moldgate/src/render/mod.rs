@@ -31,7 +31,7 @@ use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
 pub use placed::PLACED_COLOUR;
-use raster::{rasterise, Colours, DrawOrder, Layer};
+use raster::{rasterise, Colours, DrawOrder, Facing, Layer};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -203,9 +203,13 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         })
         .collect();
     let diagonal = bounds_diagonal(scene);
-    let mut order = DrawOrder::new(mesh, &t);
-    if let Some(topology) = scene.topology {
-        order.cull_back_faces(mesh, topology);
+    // The drawing order and the facets to skip need only the mesh: found side by side.
+    let (mut order, facing) = rayon::join(
+        || DrawOrder::new(mesh, &t),
+        || scene.topology.map(|topology| Facing::of(mesh, topology)),
+    );
+    if let Some(facing) = facing {
+        order.set_facing(facing);
     }
     // Each panel is drawn on its own thread, beside the making of the canvas; each is then
     // coloured into the canvas (its rows in parallel) and its overlays drawn over it, in a

@@ -155,19 +155,60 @@ impl DrawOrder {
         }
     }
 
-    /// Skips, in every view, the facets turned away from the viewer, when `topology` (of the
-    /// same mesh) says the mesh is closed and consistently oriented; returns whether it
-    /// does. Each body then bounds a solid, and a ray from the viewer meets a facet of a
+    /// Skips, in every view, the facets turned away from the viewer, as [`Facing::of`]
+    /// finds them; returns whether it does.
+    #[cfg(test)]
+    pub fn cull_back_faces(&mut self, mesh: &Mesh, topology: &Topology) -> bool {
+        self.set_facing(Facing::of(mesh, topology))
+    }
+
+    /// Skips the facets `facing` (of the same mesh, found beside this order) says; returns
+    /// whether it skips any.
+    pub fn set_facing(&mut self, facing: Facing) -> bool {
+        self.cull = facing.cull;
+        self.all_inward = facing.all_inward;
+        self.inward = if facing.inward.is_empty() {
+            Vec::new()
+        } else {
+            self.place
+                .iter()
+                .map(|&k| facing.inward[k as usize])
+                .collect()
+        };
+        self.cull
+    }
+}
+
+/// Which facets the views skip, found from the mesh alone (so beside the drawing order).
+pub struct Facing {
+    /// Whether the facets turned away from the viewer are skipped.
+    cull: bool,
+    /// Whether the facets of every body face into it.
+    all_inward: bool,
+    /// Per triangle of the mesh, whether its body's facets face into it; empty when no
+    /// body's do, or when all do.
+    inward: Vec<bool>,
+}
+
+impl Facing {
+    /// Which facets every view skips: those turned away from the viewer, when `topology`
+    /// (of the same mesh) says the mesh is closed and consistently oriented, none
+    /// otherwise. Each body then bounds a solid, and a ray from the viewer meets a facet of a
     /// body where it enters that body before any facet where it leaves it: the nearest
     /// surface of every sample is a front face, so the back faces (about half the
     /// triangles, and more than half of the samples drawn) cannot show. Which side is the
     /// front comes from each body's signed volume (by the divergence theorem, positive when
     /// its facets face out): for a body wound inwards the test is turned round (its shading
     /// is the same, both sides being lit alike).
-    pub fn cull_back_faces(&mut self, mesh: &Mesh, topology: &Topology) -> bool {
+    pub fn of(mesh: &Mesh, topology: &Topology) -> Facing {
         use rayon::prelude::*;
-        if mesh.triangles.len() != self.corners.len() || !topology.closed_and_oriented(mesh) {
-            return false;
+        let none = Facing {
+            cull: false,
+            all_inward: false,
+            inward: Vec::new(),
+        };
+        if !topology.closed_and_oriented(mesh) {
+            return none;
         }
         let b = crate::math::Aabb::of_points(&mesh.vertices);
         let origin = (b.min + b.max) * 0.5;
@@ -198,23 +239,20 @@ impl DrawOrder {
             }
         };
         if volumes.iter().any(|v| v.abs() <= 1e-9 * size * size * size) {
-            return false; // a body enclosing no volume has no outside to tell
+            return none; // a body enclosing no volume has no outside to tell
         }
         let inward: Vec<bool> = volumes.iter().map(|&v| v < 0.0).collect();
-        match &body {
-            None => self.all_inward = inward[0],
-            Some(_) if inward.iter().all(|&i| i) => self.all_inward = true,
-            Some(_) if !inward.iter().any(|&i| i) => {}
-            Some(body) => {
-                self.inward = self
-                    .place
-                    .iter()
-                    .map(|&k| inward[body[k as usize] as usize])
-                    .collect();
-            }
+        let (all_inward, inward) = match &body {
+            None => (inward[0], Vec::new()),
+            Some(_) if inward.iter().all(|&i| i) => (true, Vec::new()),
+            Some(_) if !inward.iter().any(|&i| i) => (false, Vec::new()),
+            Some(body) => (false, body.iter().map(|&k| inward[k as usize]).collect()),
+        };
+        Facing {
+            cull: true,
+            all_inward,
+            inward,
         }
-        self.cull = true;
-        true
     }
 }
 
