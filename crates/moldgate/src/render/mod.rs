@@ -4,9 +4,10 @@
 //!
 //! The part is drawn by our own z-buffer (`raster.rs`) at 2x2 samples per pixel; overlays
 //! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/` (each
-//! glyph rasterised once a picture), and the PNG is encoded by the `png` crate (deflate
-//! level 1). The two views are drawn and coloured on two threads, then the overlays in a
-//! fixed order, so the same scene gives the same bytes. The parting line is stroked as one
+//! glyph rasterised once a picture), and the PNG is deflated at level 1 in bands of rows on
+//! all threads (`encode.rs`). The two views are drawn on two threads, then each is coloured
+//! into the canvas (its rows in parallel) and its overlays drawn, in a fixed order, so the
+//! same scene gives the same bytes on any number of threads. The parting line is stroked as one
 //! path per style, its pieces joined and its points thinned to within
 //! [`PARTING_TOLERANCE_PX`] of the line (docs/performance.md, "Pictures").
 //!
