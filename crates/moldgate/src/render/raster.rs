@@ -303,6 +303,7 @@ struct Projection {
 }
 
 impl Projection {
+    #[inline(never)]
     fn new(mesh: &Mesh, camera: &Camera, rect: PixelRect, ss: u32) -> Projection {
         use rayon::prelude::*;
         let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
@@ -421,19 +422,18 @@ struct Setup {
 }
 
 impl Setup {
-    /// Draws the triangle's rows `rows` (within its own) into `samples` and `luts`, rows of
-    /// `w` samples from the box's first column `x0`, the first of them the box's row
-    /// `first_row`: the depth test keeps the largest sample, `(depth key) << 32 | !facet`.
-    /// Every sample is computed from its row's first column, whichever rows are drawn, so
-    /// that a band of rows gets the samples the whole panel would.
+    /// Draws the triangle's rows `rows` (within its own) into `buffer`, rows of `w` samples
+    /// from the box's first column `x0`, the first of them the box's row `first_row`: the
+    /// depth test keeps the largest sample, `(depth key) << 32 | !facet`, and with it the
+    /// facet's colour-map entry there and its `shade`. Every sample is computed from its
+    /// row's first column, whichever rows are drawn, so that a band of rows gets the
+    /// samples the whole panel would.
     #[inline]
-    #[allow(clippy::too_many_arguments)]
     fn draw_rows(
         &self,
-        facet: u32,
+        (facet, shade): (u32, f32),
         rows: std::ops::Range<usize>,
-        samples: &mut [u64],
-        luts: &mut [u8],
+        buffer: &mut Buffer,
         (x0, w, first_row): (usize, usize, usize),
     ) {
         let (a, b, c, inv) = (self.a, self.b, self.c, self.inv);
@@ -460,13 +460,15 @@ impl Setup {
             let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
             let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
             let row = (y - first_row) * w;
-            let samples = &mut samples[row + first..row + end];
-            let luts = &mut luts[row + first..row + end];
+            let samples = &mut buffer.sample[row + first..row + end];
+            let luts = &mut buffer.lut[row + first..row + end];
+            let shades = &mut buffer.shade[row + first..row + end];
             // A sliver of overlap rather than a crack where two triangles meet: samples on a
             // shared edge would otherwise be missed by both when rounding goes against them
-            // (the depth test settles the overlap).
+            // (the depth test settles the overlap). One branch, not three: which of the
+            // three fails first is hard to foresee.
             let inside = |wa: f32, wb: f32| {
-                wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK
+                (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
             };
             // The weights are stepped from the row's first column in both loops, so every
             // sample sees the same sums whichever loop reaches it.
@@ -482,6 +484,7 @@ impl Setup {
                 let sample = (z as u64) << 32 | facet;
                 if sample > samples[k] {
                     samples[k] = sample;
+                    shades[k] = shade;
                     if has_value {
                         luts[k] = lut_index(tc + wa * dt_a + wb * dt_b);
                     }
@@ -522,11 +525,22 @@ struct Bins {
     entry: Vec<u32>,
 }
 
+/// A band's samples, rows of the box's width: the depth test's word (depth key << 32 |
+/// !facet, 0 where the part is absent), the colour-map entry of the field there and the
+/// facet's Lambert factor (negated when it has no field value). An entry and a factor are
+/// read only where the sample is not empty, so only where its facet wrote them: they are
+/// never cleared.
+#[derive(Default)]
+struct Buffer {
+    sample: Vec<u64>,
+    lut: Vec<u8>,
+    shade: Vec<f32>,
+}
+
 /// A task's buffers, reused from band to band.
 #[derive(Default)]
 struct Scratch {
-    sample: Vec<u64>,
-    lut: Vec<u8>,
+    buffer: Buffer,
     depths: Vec<f32>,
     outline: Vec<bool>,
     colours: Vec<[f32; 3]>,
@@ -606,7 +620,14 @@ pub fn draw(
                     shade[i * count + k] = if has_value { lit } else { -lit };
                     // The bands whose rows, or the row above or below them, it reaches.
                     let offset = (p.rect.y as usize - top) * p.ss;
-                    let band = |row: usize| row / (BAND * p.ss);
+                    let per_band = BAND * p.ss;
+                    let band = |row: usize| {
+                        if per_band.is_power_of_two() {
+                            row >> per_band.trailing_zeros()
+                        } else {
+                            row / per_band
+                        }
+                    };
                     let span = (
                         band((offset + lo).saturating_sub(1)),
                         band(offset + hi + 1).min(bands - 1),
@@ -730,15 +751,13 @@ impl Band<'_> {
                 w,
                 ss,
                 first_row: e0,
-                sample: &scratch.sample,
-                lut: &scratch.lut,
-                shade: self.shade,
+                buffer: &scratch.buffer,
             };
             samples.depth_rows(r0, r1, (p.y0, p.y0 + p.h), &mut scratch.depths);
             for (i, &at) in depths.at[first..last].iter().enumerate() {
                 let (row, column) = ((at >> 32) as usize, at as u32 as usize);
                 if (r0..r1).contains(&row) && (p.x0..p.x0 + w).contains(&column) {
-                    keys[i] = (scratch.sample[(row - e0) * w + column - p.x0] >> 32) as u32;
+                    keys[i] = (scratch.buffer.sample[(row - e0) * w + column - p.x0] >> 32) as u32;
                 }
             }
             for py in inside0..inside1 {
@@ -772,13 +791,17 @@ impl Band<'_> {
 
     /// Draws the triangles of the band into `scratch`'s samples of the box's rows `e0..e1`,
     /// emptied first.
+    #[inline(never)]
     fn rasterise(&self, (e0, e1): (usize, usize), scratch: &mut Scratch) {
         let p = self.p;
         let w = p.w;
-        scratch.sample.clear();
-        scratch.sample.resize((e1 - e0) * w, 0);
-        // Read only where a facet with a value wrote it (module doc of `Samples`).
-        scratch.lut.resize((e1 - e0) * w, 0);
+        let buffer = &mut scratch.buffer;
+        buffer.sample.clear();
+        buffer.sample.resize((e1 - e0) * w, 0);
+        // Read only where a facet wrote them ([`Buffer`]).
+        buffer.lut.resize((e1 - e0) * w, 0);
+        buffer.shade.resize((e1 - e0) * w, 0.0);
+        let (shade, panel, panels) = self.shade;
         for bins in &self.bins {
             let (from, to) = (
                 bins.start[self.index] as usize,
@@ -793,39 +816,28 @@ impl Band<'_> {
                 if rows.is_empty() {
                     continue;
                 }
-                setup.draw_rows(
-                    k,
-                    rows,
-                    &mut scratch.sample,
-                    &mut scratch.lut,
-                    (p.x0, w, e0),
-                );
+                let shade = shade[k as usize * panels + panel];
+                setup.draw_rows((k, shade), rows, buffer, (p.x0, w, e0));
             }
         }
     }
 }
 
-/// Rows of a panel's samples in a band's buffer, the box's columns only: a sample is the
-/// depth test's word (depth key << 32 | !facet, 0 where the part is absent) and the
-/// colour-map entry of the field there. An entry is read only where the sample's facet has
-/// a field value, so only where that facet wrote it: the buffer is never cleared of them.
+/// Rows of a panel's samples in a band's buffer, the box's columns only.
 struct Samples<'a> {
     /// The box's width in samples.
     w: usize,
     ss: usize,
     /// The box's row of the buffer's first.
     first_row: usize,
-    sample: &'a [u64],
-    lut: &'a [u8],
-    /// The Lambert factors of the facets, this panel's index among them and the number of
-    /// panels.
-    shade: (&'a [f32], usize, usize),
+    buffer: &'a Buffer,
 }
 
 impl Samples<'_> {
     /// Into `out`, the depths of the box's rows `r0..r1` with the row above and the row
     /// below (the first or last row itself at the box's edge `rows`), each padded at both
     /// ends with its end values: `(r1 - r0 + 2)` rows of `w + 2`. Empty samples are NaN.
+    #[inline(never)]
     fn depth_rows(&self, r0: usize, r1: usize, rows: (usize, usize), out: &mut Vec<f32>) {
         let w = self.w;
         out.clear();
@@ -837,7 +849,7 @@ impl Samples<'_> {
             .chain(std::iter::once(below))
         {
             let s = s - self.first_row;
-            let keys = &self.sample[s * w..(s + 1) * w];
+            let keys = &self.buffer.sample[s * w..(s + 1) * w];
             let depth = |&k: &u64| {
                 let key = (k >> 32) as u32;
                 if key == 0 {
@@ -859,6 +871,7 @@ impl Samples<'_> {
     /// facet without a field value; [`OUTLINE_FACTOR`] instead of the shade on an outline,
     /// where the depth jumps by more than `crease_mm` to a neighbour or the part ends
     /// there) over `background`, and each pixel the mean of its samples.
+    #[inline(never)]
     fn colour_row(
         &self,
         depths: &[f32],
@@ -872,7 +885,6 @@ impl Samples<'_> {
         outline.resize(w, false);
         colours.resize(ss * w, [0.0; 3]);
         let bg = c.background.map(|v| v as f32);
-        let (shade, panel, panels) = self.shade;
         for dy in 0..ss {
             let d = d0 + dy;
             let (above, row, below) = (
@@ -890,19 +902,20 @@ impl Samples<'_> {
                     !(near(row[x]) & near(row[x + 2]) & near(above[x + 1]) & near(below[x + 1]));
             }
             let s = s0 + dy - self.first_row;
-            let samples = &self.sample[s * w..(s + 1) * w];
-            let luts = &self.lut[s * w..(s + 1) * w];
+            let samples = &self.buffer.sample[s * w..(s + 1) * w];
+            let luts = &self.buffer.lut[s * w..(s + 1) * w];
+            let shades = &self.buffer.shade[s * w..(s + 1) * w];
             let colours = &mut colours[dy * w..(dy + 1) * w];
-            for (((colour, &sample), &lut), &mark) in colours
+            for ((((colour, &sample), &lut), &shade), &mark) in colours
                 .iter_mut()
                 .zip(samples)
                 .zip(luts)
+                .zip(shades)
                 .zip(outline.iter())
             {
                 *colour = if sample == 0 {
                     bg
                 } else {
-                    let shade = shade[!(sample as u32) as usize * panels + panel];
                     let base = if shade < 0.0 {
                         c.no_value
                     } else {
