@@ -4,9 +4,12 @@
 //!
 //! The part is drawn by our own z-buffer (`raster.rs`) at 2x2 samples per pixel; overlays
 //! are tiny-skia's, text is fontdue's with a DejaVu Sans subset shipped in `fonts/` (each
-//! glyph rasterised once a picture), and the PNG is encoded by the `png` crate (deflate
-//! level 1). The two views are drawn and coloured on two threads, then the overlays in a
-//! fixed order, so the same scene gives the same bytes. The parting line is stroked as one
+//! glyph rasterised once a picture), and the PNG is deflated at level 1 in bands of rows on
+//! all threads (`encode.rs`). The two views are drawn and coloured into the canvas together,
+//! band of rows by band of rows on all threads, without a z-buffer of a whole view; the depths
+//! the overlays look up (to tell hidden from visible) are asked for before and answered by the
+//! bands. Then the overlays of each view are drawn, in a fixed order, so the same scene gives
+//! the same bytes on any number of threads. The parting line is stroked as one
 //! path per style, its pieces joined and its points thinned to within
 //! [`PARTING_TOLERANCE_PX`] of the line (docs/performance.md, "Pictures").
 //!
@@ -22,6 +25,7 @@
 //! ```
 
 mod canvas;
+mod encode;
 mod placed;
 mod raster;
 
@@ -30,7 +34,7 @@ use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
 pub use placed::PLACED_COLOUR;
-use raster::{rasterise, DrawOrder, Layer};
+use raster::{draw, Colours, Depths, Facing, Panel};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -202,33 +206,63 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         })
         .collect();
     let diagonal = bounds_diagonal(scene);
-    let mut order = DrawOrder::new(mesh, &t);
-    if let Some(topology) = scene.topology {
-        order.cull_back_faces(mesh, topology);
-    }
-    // Each panel is drawn and coloured on its own thread (its rows coloured in parallel);
-    // the overlays then go on the one canvas in a fixed order.
-    let draw = |v: &View| {
-        let light =
-            (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75).normalize();
-        let layer = rasterise(&order, &v.camera, v.panel, SAMPLES, light);
-        let sample_mm = 1.0 / (v.camera.scale * SAMPLES as f64);
-        let crease = (6.0 * sample_mm).max(0.003 * diagonal) as f32;
-        let no_value = NO_VALUE_COLOUR.map(|c| c as f32);
-        let pixels = layer.pixels(&lut.0, no_value, VIEW_BACKGROUND, crease);
-        (layer, pixels)
-    };
-    let ((a, pixels_a), ((b, pixels_b), canvas)) = rayon::join(
-        || draw(&views[0]),
-        || rayon::join(|| draw(&views[1]), || Canvas::new(width, height, WHITE)),
+    // The facets to skip need only the mesh, the depths the overlays look up only the
+    // scene: found beside the making of the canvas.
+    let (facing, (canvas, asked)) = rayon::join(
+        || scene.topology.map(|topology| Facing::of(mesh, topology)),
+        || {
+            rayon::join(
+                || Canvas::new(width, height, WHITE),
+                || {
+                    views
+                        .iter()
+                        .map(|v| ask_depths(scene, v))
+                        .collect::<Vec<_>>()
+                },
+            )
+        },
     );
     let mut canvas = canvas.ok_or(RenderError::Size { width, height })?;
-    let layers = [a, b];
-    for ((view, layer), pixels) in views.iter().zip(&layers).zip([pixels_a, pixels_b]) {
-        let sample_mm = 1.0 / (view.camera.scale * SAMPLES as f64);
-        canvas.put(view.panel.x, view.panel.y, view.panel.w, &pixels);
-        let tolerance = (4.0 * sample_mm).max(0.005 * diagonal);
-        draw_overlays(&mut canvas, scene, view, layer, (tolerance, &range), k);
+    let sample_mm = |v: &View| 1.0 / (v.camera.scale * SAMPLES as f64);
+    let mut panels: Vec<Panel> = views
+        .iter()
+        .zip(asked)
+        .map(|(v, depths)| Panel {
+            camera: v.camera,
+            rect: v.panel,
+            light: (v.camera.right * -0.4 + v.camera.up * 0.55 + v.camera.toward * 0.75)
+                .normalize(),
+            colours: Colours {
+                lut: &lut.0,
+                no_value: NO_VALUE_COLOUR.map(|c| c as f32),
+                background: VIEW_BACKGROUND,
+                crease_mm: (6.0 * sample_mm(v)).max(0.003 * diagonal) as f32,
+            },
+            depths,
+        })
+        .collect();
+    // Both panels drawn and coloured into the canvas band by band on all threads, then the
+    // overlays of each drawn over it, in a fixed order.
+    let stride = canvas.width() as usize;
+    draw(
+        mesh,
+        &t,
+        facing.as_ref(),
+        &mut panels,
+        SAMPLES,
+        canvas.pixmap.data_mut(),
+        stride,
+    );
+    for (view, panel) in views.iter().zip(&panels) {
+        let tolerance = (4.0 * sample_mm(view)).max(0.005 * diagonal);
+        draw_overlays(
+            &mut canvas,
+            scene,
+            view,
+            &panel.depths,
+            (tolerance, &range),
+            k,
+        );
         canvas.stroke_rect(
             view.panel.x as f32 + 0.5,
             view.panel.y as f32 + 0.5,
@@ -423,56 +457,18 @@ fn draw_overlays(
     canvas: &mut Canvas,
     scene: &Scene,
     view: &View,
-    layer: &Layer,
+    depths: &Depths,
     (tolerance, range): (f64, &FieldRange),
     k: f32,
 ) {
     let cam = &view.camera;
-    draw_qualifying(canvas, scene, view, layer, tolerance, range);
+    draw_qualifying(canvas, scene, view, depths, tolerance, range);
 
     // Parting line: seen along D it is the outline of the part, so all of it is shown; in
     // the other view the parts behind the part are dashed.
-    let depth_test = view.kind != ViewKind::AlongDemold;
-    let mut hidden: Vec<Vec<[f32; 2]>> = Vec::new();
-    let mut shown: Vec<Vec<[f32; 2]>> = Vec::new();
-    for line in &scene.parting {
-        let mut run: Vec<[f32; 2]> = Vec::new();
-        let mut run_visible = true;
-        for pair in line.windows(2) {
-            let (p, q) = (pair[0], pair[1]);
-            let length_px = (cam.to_pixel(q) - cam.to_pixel(p)).length();
-            // Pieces of about 3 pixels each take their visibility from their middle; a run
-            // keeps only the points where it changes (the others lie on the same segment).
-            let pieces = if depth_test {
-                (length_px / 3.0).ceil().clamp(1.0, 10_000.0) as usize
-            } else {
-                1
-            };
-            for i in 0..pieces {
-                let a = p.lerp(q, i as f64 / pieces as f64);
-                let b = p.lerp(q, (i + 1) as f64 / pieces as f64);
-                let mid = (a + b) * 0.5;
-                let m = cam.to_pixel(mid);
-                let visible = !depth_test || layer.visible(m.x, m.y, cam.depth(mid), tolerance);
-                let pa = cam.to_pixel(a);
-                let pa = [pa.x as f32, pa.y as f32];
-                if visible != run_visible && !run.is_empty() {
-                    run.push(pa);
-                    let done = std::mem::take(&mut run);
-                    if run_visible { &mut shown } else { &mut hidden }.push(done);
-                }
-                if run.is_empty() {
-                    run.push(pa);
-                }
-                run_visible = visible;
-            }
-            let end = cam.to_pixel(q);
-            run.push([end.x as f32, end.y as f32]);
-        }
-        if !run.is_empty() {
-            if run_visible { &mut shown } else { &mut hidden }.push(run);
-        }
-    }
+    let (hidden, shown) = parting_runs(scene, view, &mut |m, depth| {
+        depths.visible(m.x, m.y, depth, tolerance)
+    });
     let simplify = |lines: Vec<Vec<[f32; 2]>>| -> Vec<Vec<[f32; 2]>> {
         chained(lines)
             .iter()
@@ -498,7 +494,7 @@ fn draw_overlays(
     canvas.text(
         c.x as f32 - reach - 6.0 * k,
         c.y as f32 + 18.0 * k,
-        if layer.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
+        if depths.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
             "centre of mass"
         } else {
             // It lies inside the part or behind it: say so, the cross is drawn over it.
@@ -553,6 +549,82 @@ fn draw_overlays(
         &TextStyle::new(14.0 * k, GREY),
         Align::Left,
     );
+}
+
+/// The places whose depth the overlays of `view` look up (qualifying points, the parting
+/// line's pieces in the view that tells hidden from visible, the centre of mass), asked
+/// for before the panel is drawn.
+fn ask_depths(scene: &Scene, view: &View) -> Depths {
+    let cam = &view.camera;
+    let mut depths = Depths::new(view.panel, SAMPLES);
+    for &p in &scene.qualifying {
+        let q = cam.to_pixel(p);
+        depths.ask(q.x, q.y);
+    }
+    if view.kind != ViewKind::AlongDemold {
+        parting_runs(scene, view, &mut |m, _| {
+            depths.ask(m.x, m.y);
+            true
+        });
+    }
+    let c = cam.to_pixel(scene.centre);
+    depths.ask(c.x, c.y);
+    depths
+}
+
+/// Lines of canvas points, pixels.
+type Polylines = Vec<Vec<[f32; 2]>>;
+
+/// The parting line in `view` as runs of canvas points, (hidden, shown): `visible` tells
+/// whether a point at a canvas position with a depth is seen. Seen along D the line is the
+/// outline of the part, and all of it is shown without asking.
+fn parting_runs(
+    scene: &Scene,
+    view: &View,
+    visible: &mut dyn FnMut(DVec2, f64) -> bool,
+) -> (Polylines, Polylines) {
+    let cam = &view.camera;
+    let depth_test = view.kind != ViewKind::AlongDemold;
+    let mut hidden: Vec<Vec<[f32; 2]>> = Vec::new();
+    let mut shown: Vec<Vec<[f32; 2]>> = Vec::new();
+    for line in &scene.parting {
+        let mut run: Vec<[f32; 2]> = Vec::new();
+        let mut run_visible = true;
+        for pair in line.windows(2) {
+            let (p, q) = (pair[0], pair[1]);
+            let length_px = (cam.to_pixel(q) - cam.to_pixel(p)).length();
+            // Pieces of about 3 pixels each take their visibility from their middle; a run
+            // keeps only the points where it changes (the others lie on the same segment).
+            let pieces = if depth_test {
+                (length_px / 3.0).ceil().clamp(1.0, 10_000.0) as usize
+            } else {
+                1
+            };
+            for i in 0..pieces {
+                let a = p.lerp(q, i as f64 / pieces as f64);
+                let b = p.lerp(q, (i + 1) as f64 / pieces as f64);
+                let mid = (a + b) * 0.5;
+                let visible = !depth_test || visible(cam.to_pixel(mid), cam.depth(mid));
+                let pa = cam.to_pixel(a);
+                let pa = [pa.x as f32, pa.y as f32];
+                if visible != run_visible && !run.is_empty() {
+                    run.push(pa);
+                    let done = std::mem::take(&mut run);
+                    if run_visible { &mut shown } else { &mut hidden }.push(done);
+                }
+                if run.is_empty() {
+                    run.push(pa);
+                }
+                run_visible = visible;
+            }
+            let end = cam.to_pixel(q);
+            run.push([end.x as f32, end.y as f32]);
+        }
+        if !run.is_empty() {
+            if run_visible { &mut shown } else { &mut hidden }.push(run);
+        }
+    }
+    (hidden, shown)
 }
 
 /// `line` less the points within `tolerance` pixels of the line through their neighbours
@@ -638,7 +710,7 @@ fn draw_qualifying(
     canvas: &mut Canvas,
     scene: &Scene,
     view: &View,
-    layer: &Layer,
+    depths: &Depths,
     tolerance: f64,
     range: &FieldRange,
 ) {
@@ -657,7 +729,7 @@ fn draw_qualifying(
     let half = (scene.grid_spacing_mm * cam.scale * 0.5).max(0.6);
     for (i, &p) in scene.qualifying.iter().enumerate() {
         let q = cam.to_pixel(p);
-        if !layer.visible(q.x, q.y, cam.depth(p), tolerance) {
+        if !depths.visible(q.x, q.y, cam.depth(p), tolerance) {
             continue;
         }
         let (x, y) = (q.x - rect.x as f64, q.y - rect.y as f64);

@@ -53,60 +53,6 @@ pub struct PixelRect {
     pub h: u32,
 }
 
-/// What the z-buffer holds for one panel, at `ss` samples per pixel along each axis.
-///
-/// A sample is 9 bytes in two arrays that start as zeros, and a zero sample means "no part
-/// here": the arrays are allocated zeroed (fresh pages from the system, which it zeroes
-/// only when they are first written) rather than filled, so the background costs neither
-/// a fill pass nor its pages. The arrays cover only the box of samples the part's vertices
-/// project into, grown by one sample and out to whole pixels (clamped to the panel): every
-/// sample outside it is empty, and a part that fills a third of its panel then zeroes and
-/// colours a third of the samples.
-pub struct Layer {
-    pub rect: PixelRect,
-    pub ss: u32,
-    /// The box's first column and row of samples in the panel (multiples of `ss`).
-    x0: usize,
-    y0: usize,
-    /// The box's width and height in samples (multiples of `ss`).
-    w: usize,
-    h: usize,
-    /// The nearest surface: its depth as an order-keeping key ([`depth_key`]) in the high
-    /// 32 bits, the complement of its facet's index in the low 32 (so that of two facets at
-    /// the same depth the first drawn is the larger sample and stays), 0 where the part is
-    /// absent. One compare of one word is the depth test.
-    sample: Vec<u64>,
-    /// Colour-map entry 0..=255 of the field value there.
-    lut: Vec<u8>,
-    /// Lambert factor per facet, negated when the facet has no field value (drawn grey).
-    shade: Vec<f32>,
-}
-
-/// The mesh as the views draw it, built once for both: the triangles in the mesh's order,
-/// each with its unit normal, and the vertices renumbered in the order the triangles first
-/// use them, so that consecutive triangles read neighbouring entries of the projected
-/// vertices. (Drawing the triangles in a spatial order instead, Morton order of the
-/// centroids, was slower on the 352k-triangle housing: its front and back faces then
-/// alternate and the depth test's outcome with them.)
-pub struct DrawOrder {
-    /// The mesh index of each triangle drawn, in drawing order.
-    place: Vec<u32>,
-    /// Each triangle's corners, as indices into `positions`.
-    corners: Vec<[u32; 3]>,
-    /// Vertex positions in first-use order.
-    positions: Vec<DVec3>,
-    /// The colour-map coordinate of each of them.
-    t: Vec<f32>,
-    /// Whether the facets whose normal points away from the viewer are skipped (set by
-    /// [`DrawOrder::cull_back_faces`]).
-    cull: bool,
-    /// Whether the facets of every body face into it (all turned round for the test).
-    all_inward: bool,
-    /// Per triangle drawn, whether its body's facets face into it; empty when no body's
-    /// do, or when all do.
-    inward: Vec<bool>,
-}
-
 /// Unit normal of the triangle (a, b, c) by its corner order, zero when degenerate.
 /// Computed where it is used rather than kept: a stored normal per triangle is 8 MB of
 /// fresh pages on the 352k-triangle part, which the system zeroes at a cost larger than the
@@ -116,58 +62,36 @@ fn unit_normal(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
-impl DrawOrder {
-    /// The drawing order of `mesh`, with `t`, the colour-map coordinate per vertex.
-    pub fn new(mesh: &Mesh, t: &[f32]) -> DrawOrder {
-        use rayon::prelude::*;
-        let place = morton_order(mesh);
-        let mut new_index = vec![u32::MAX; mesh.vertices.len()];
-        let mut first_use: Vec<u32> = Vec::with_capacity(mesh.vertices.len());
-        // The triangles gathered in drawing order on all threads (scattered reads), then
-        // their corners renumbered in place in one pass.
-        let mut corners: Vec<[u32; 3]> = place
-            .par_iter()
-            .map(|&k| mesh.triangles[k as usize])
-            .collect();
-        for tri in &mut corners {
-            for v in tri.iter_mut() {
-                let slot = &mut new_index[*v as usize];
-                if *slot == u32::MAX {
-                    *slot = first_use.len() as u32;
-                    first_use.push(*v);
-                }
-                *v = *slot;
-            }
-        }
-        let positions: Vec<DVec3> = first_use
-            .iter()
-            .map(|&v| mesh.vertices[v as usize])
-            .collect();
-        let t = first_use.iter().map(|&v| t[v as usize]).collect();
-        DrawOrder {
-            place,
-            corners,
-            positions,
-            t,
-            cull: false,
-            all_inward: false,
-            inward: Vec::new(),
-        }
-    }
+/// Which facets the views skip, found from the mesh alone (so beside the drawing order).
+pub struct Facing {
+    /// Whether the facets turned away from the viewer are skipped.
+    cull: bool,
+    /// Whether the facets of every body face into it.
+    all_inward: bool,
+    /// Per triangle of the mesh, whether its body's facets face into it; empty when no
+    /// body's do, or when all do.
+    inward: Vec<bool>,
+}
 
-    /// Skips, in every view, the facets turned away from the viewer, when `topology` (of the
-    /// same mesh) says the mesh is closed and consistently oriented; returns whether it
-    /// does. Each body then bounds a solid, and a ray from the viewer meets a facet of a
+impl Facing {
+    /// Which facets every view skips: those turned away from the viewer, when `topology`
+    /// (of the same mesh) says the mesh is closed and consistently oriented, none
+    /// otherwise. Each body then bounds a solid, and a ray from the viewer meets a facet of a
     /// body where it enters that body before any facet where it leaves it: the nearest
     /// surface of every sample is a front face, so the back faces (about half the
     /// triangles, and more than half of the samples drawn) cannot show. Which side is the
     /// front comes from each body's signed volume (by the divergence theorem, positive when
     /// its facets face out): for a body wound inwards the test is turned round (its shading
     /// is the same, both sides being lit alike).
-    pub fn cull_back_faces(&mut self, mesh: &Mesh, topology: &Topology) -> bool {
+    pub fn of(mesh: &Mesh, topology: &Topology) -> Facing {
         use rayon::prelude::*;
-        if mesh.triangles.len() != self.corners.len() || !topology.closed_and_oriented(mesh) {
-            return false;
+        let none = Facing {
+            cull: false,
+            all_inward: false,
+            inward: Vec::new(),
+        };
+        if !topology.closed_and_oriented(mesh) {
+            return none;
         }
         let b = crate::math::Aabb::of_points(&mesh.vertices);
         let origin = (b.min + b.max) * 0.5;
@@ -198,71 +122,21 @@ impl DrawOrder {
             }
         };
         if volumes.iter().any(|v| v.abs() <= 1e-9 * size * size * size) {
-            return false; // a body enclosing no volume has no outside to tell
+            return none; // a body enclosing no volume has no outside to tell
         }
         let inward: Vec<bool> = volumes.iter().map(|&v| v < 0.0).collect();
-        match &body {
-            None => self.all_inward = inward[0],
-            Some(_) if inward.iter().all(|&i| i) => self.all_inward = true,
-            Some(_) if !inward.iter().any(|&i| i) => {}
-            Some(body) => {
-                self.inward = self
-                    .place
-                    .iter()
-                    .map(|&k| inward[body[k as usize] as usize])
-                    .collect();
-            }
+        let (all_inward, inward) = match &body {
+            None => (inward[0], Vec::new()),
+            Some(_) if inward.iter().all(|&i| i) => (true, Vec::new()),
+            Some(_) if !inward.iter().any(|&i| i) => (false, Vec::new()),
+            Some(body) => (false, body.iter().map(|&k| inward[k as usize]).collect()),
+        };
+        Facing {
+            cull: true,
+            all_inward,
+            inward,
         }
-        self.cull = true;
-        true
     }
-}
-
-/// The triangles of `mesh` in Morton order of the cells of their centroids in a 32^3
-/// lattice over the part's box, by index within a cell (a counting sort: one pass to count,
-/// one to file). Consecutive triangles then lie close together, and so do the samples they
-/// cover in either view: the depth test reads samples the cache holds. The order does not
-/// change the picture, as a sample keeps the nearest facet and, at one depth, the one first
-/// in the mesh, whatever the order they come in.
-fn morton_order(mesh: &Mesh) -> Vec<u32> {
-    use rayon::prelude::*;
-    const BITS: u32 = 5;
-    let b = crate::math::Aabb::of_points(&mesh.vertices);
-    let extent = (b.max - b.min).max_element().max(1e-300);
-    let spread = |v: u32| -> usize {
-        (0..BITS).fold(0, |code, bit| {
-            code | (((v >> bit) & 1) as usize) << (3 * bit)
-        })
-    };
-    let top = ((1u32 << BITS) - 1) as f64;
-    let scale = top / extent;
-    let cell: Vec<u16> = mesh
-        .triangles
-        .par_iter()
-        .map(|tri| {
-            let c = tri.iter().fold(crate::math::DVec3::ZERO, |s, &v| {
-                s + mesh.vertices[v as usize]
-            }) / 3.0;
-            let q = ((c - b.min) * scale)
-                .clamp(crate::math::DVec3::ZERO, crate::math::DVec3::splat(top));
-            (spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2) as u16
-        })
-        .collect();
-    let mut start = vec![0u32; 1 << (3 * BITS)];
-    for &c in &cell {
-        start[c as usize] += 1;
-    }
-    let mut sum = 0;
-    for s in &mut start {
-        (*s, sum) = (sum, sum + *s);
-    }
-    let mut place = vec![0u32; cell.len()];
-    for (k, &c) in cell.iter().enumerate() {
-        let slot = &mut start[c as usize];
-        place[*slot as usize] = k as u32;
-        *slot += 1;
-    }
-    place
 }
 
 /// `x.floor()` for finite `x` within the range of `i32`, without the library call it
@@ -324,147 +198,749 @@ pub(super) fn lut_index(t: f32) -> u8 {
     round_non_negative(t.clamp(0.0, 1.0) * 255.0) as u8
 }
 
-/// Draws the mesh, as `order` lists it, into a z-buffer covering `rect` of the canvas;
-/// `light` is the unit direction towards the light. Where two triangles give a sample the same depth, the one listed first in the
-/// mesh keeps it, so the picture does not depend on the drawing order.
-pub fn rasterise(
-    order: &DrawOrder,
-    camera: &Camera,
+/// One panel to draw: where it goes in the picture, how it looks at the part, how its
+/// samples are coloured, and the depths its overlays look up.
+pub struct Panel<'a> {
+    /// The camera.
+    pub camera: Camera,
+    /// The panel's rectangle in the picture.
+    pub rect: PixelRect,
+    /// Unit direction towards the light.
+    pub light: DVec3,
+    /// How the samples are coloured.
+    pub colours: Colours<'a>,
+    /// The places whose depth the overlays need, asked before drawing ([`Depths::ask`]) and
+    /// answered by [`draw`].
+    pub depths: Depths,
+}
+
+/// The depth of the part at the places the overlays ask for, so that they can tell hidden
+/// from visible without a z-buffer of the whole panel: the places are asked before the
+/// panel is drawn, and each band of rows answers those in its rows while its samples are
+/// at hand.
+#[derive(Debug, Clone)]
+pub struct Depths {
     rect: PixelRect,
     ss: u32,
-    light: DVec3,
-) -> Layer {
-    let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
-    let s = ss as f64;
-    // Vertices in sample coordinates (pixel centres at +0.5) and depth.
-    let projected: Vec<[f32; 3]> = order
-        .positions
-        .iter()
-        .map(|&p| {
-            let q = camera.to_pixel(p);
-            [
-                ((q.x - rect.x as f64) * s) as f32,
-                ((q.y - rect.y as f64) * s) as f32,
-                camera.depth(p) as f32,
-            ]
-        })
-        .collect();
-    // The box of samples any triangle can reach: each triangle's rows and columns lie
-    // within the floor and ceiling of its corners' coordinates, so within those of all
-    // vertices. It is grown by one sample so that no sample drawn lies on its edge (except
-    // at the panel's edge), which keeps the outline test at its edges the panel's, and out
-    // to whole pixels so that a pixel's samples are all in it or all outside.
-    let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-    for p in &projected {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
+    /// The samples asked for, as row << 32 | column of the panel's samples, sorted, each
+    /// once (after [`Depths::prepare`]).
+    at: Vec<u64>,
+    /// The depth key ([`depth_key`]) of the nearest surface at each, 0 where the part is
+    /// absent.
+    key: Vec<u32>,
+}
+
+impl Depths {
+    /// No places yet, in the panel `rect` drawn at `ss` samples per pixel along each axis.
+    pub fn new(rect: PixelRect, ss: u32) -> Depths {
+        Depths {
+            rect,
+            ss,
+            at: Vec::new(),
+            key: Vec::new(),
         }
     }
-    let ssz = ss as usize;
-    let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
-        let last = n as f32 - 1.0;
-        let first = (floor(lo.clamp(-1.0, last)) - 1.0).clamp(0.0, last) as usize;
-        let end = (ceil(hi.clamp(0.0, last + 1.0)) + 1.0).clamp(0.0, last) as usize + 1;
-        (first / ssz * ssz, end.div_ceil(ssz) * ssz)
-    };
-    let (x0, x1) = span(lo[0], hi[0], panel_w);
-    let (y0, y1) = span(lo[1], hi[1], panel_h);
-    let (w, h) = (x1 - x0, y1.max(y0) - y0);
-    let w = if h == 0 { 0 } else { w };
-    let mut layer = Layer {
-        rect,
-        ss,
-        x0,
-        y0,
-        w,
-        h,
-        sample: vec![0; w * h],
-        lut: vec![0; w * h],
-        shade: vec![0.0; order.corners.len()],
-    };
-    // The triangles' columns and rows clamped to the box, which only cuts what the panel
-    // would: the same samples as clamping to the panel.
-    let (first_x, last_x) = (x0 as f32, (x0 + w) as f32 - 1.0);
-    let (first_y, last_y) = (y0 as f32, (y0 + h) as f32 - 1.0);
-    let t = &order.t;
-    let cull = order.cull;
-    for (drawn, (&place, corners)) in order.place.iter().zip(&order.corners).enumerate() {
-        let place = place as usize;
-        let [ia, ib, ic] = corners.map(|i| i as usize);
-        let n = unit_normal(
-            order.positions[ia],
-            order.positions[ib],
-            order.positions[ic],
-        );
-        if cull {
-            let towards = n.dot(camera.toward);
-            let inward = order.all_inward || order.inward.get(drawn).copied().unwrap_or(false);
-            // A back face of a closed body: a front face is nearer wherever it is.
-            if (if inward { -towards } else { towards }) < 0.0 {
-                continue;
+
+    /// The panel's sample under canvas position (x, y) pixels, `None` off the panel.
+    fn sample(&self, x: f64, y: f64) -> Option<u64> {
+        let s = self.ss as f64;
+        let sx = ((x - self.rect.x as f64) * s).floor();
+        let sy = ((y - self.rect.y as f64) * s).floor();
+        let inside = |v: f64, n: u32| v >= 0.0 && v < n as f64 * s;
+        (inside(sx, self.rect.w) && inside(sy, self.rect.h))
+            .then_some((sy as u64) << 32 | sx as u64)
+    }
+
+    /// Asks for the depth at canvas position (x, y) pixels, which [`Depths::depth_at`] then
+    /// gives once the panel is drawn.
+    pub fn ask(&mut self, x: f64, y: f64) {
+        if let Some(at) = self.sample(x, y) {
+            self.at.push(at);
+        }
+    }
+
+    /// Sorts the places asked for, before drawing.
+    fn prepare(&mut self) {
+        self.at.sort_unstable();
+        self.at.dedup();
+        self.key = vec![0; self.at.len()];
+    }
+
+    /// Depth at canvas position (x, y) pixels, asked for before drawing: the nearest
+    /// surface's at the sample under it, `None` off the part (or not asked for).
+    pub fn depth_at(&self, x: f64, y: f64) -> Option<f32> {
+        let at = self.sample(x, y)?;
+        let i = self.at.binary_search(&at);
+        debug_assert!(i.is_ok(), "the depth at ({x}, {y}) was not asked for");
+        let key = self.key[i.ok()?];
+        (key != 0).then(|| key_depth(key))
+    }
+
+    /// Whether a point at canvas (x, y), asked for before drawing, with depth `depth` is in
+    /// front of, or within `tolerance` mm of, the surface drawn there.
+    pub fn visible(&self, x: f64, y: f64, depth: f64, tolerance: f64) -> bool {
+        match self.depth_at(x, y) {
+            Some(d) => depth + tolerance >= d as f64,
+            None => true,
+        }
+    }
+}
+
+/// A panel's view of the mesh, found before its bands are drawn: the vertices projected and
+/// the box of samples they reach.
+struct Projection {
+    rect: PixelRect,
+    ss: usize,
+    /// Each mesh vertex in sample coordinates of the panel (pixel centres at +0.5) and its
+    /// depth.
+    vertex: Vec<[f32; 3]>,
+    /// The box's first column and row of samples in the panel (multiples of `ss`).
+    x0: usize,
+    y0: usize,
+    /// The box's width and height in samples (multiples of `ss`).
+    w: usize,
+    h: usize,
+}
+
+impl Projection {
+    #[inline(never)]
+    fn new(mesh: &Mesh, camera: &Camera, rect: PixelRect, ss: u32) -> Projection {
+        use rayon::prelude::*;
+        let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
+        let s = ss as f64;
+        let vertex: Vec<[f32; 3]> = mesh
+            .vertices
+            .par_iter()
+            .map(|&p| {
+                let q = camera.to_pixel(p);
+                [
+                    ((q.x - rect.x as f64) * s) as f32,
+                    ((q.y - rect.y as f64) * s) as f32,
+                    camera.depth(p) as f32,
+                ]
+            })
+            .collect();
+        // The box of samples any triangle can reach: each triangle's rows and columns lie
+        // within the floor and ceiling of its corners' coordinates, so within those of all
+        // vertices. It is grown by one sample so that no sample drawn lies on its edge
+        // (except at the panel's edge), which keeps the outline test at its edges the
+        // panel's, and out to whole pixels so that a pixel's samples are all in it or all
+        // outside.
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for p in &vertex {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
             }
         }
-        let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
+        let ssz = ss as usize;
+        let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
+            let last = n as f32 - 1.0;
+            let first = (floor(lo.clamp(-1.0, last)) - 1.0).clamp(0.0, last) as usize;
+            let end = (ceil(hi.clamp(0.0, last + 1.0)) + 1.0).clamp(0.0, last) as usize + 1;
+            (first / ssz * ssz, end.div_ceil(ssz) * ssz)
+        };
+        let (x0, x1) = span(lo[0], hi[0], panel_w);
+        let (y0, y1) = span(lo[1], hi[1], panel_h);
+        let (w, h) = (x1 - x0, y1.max(y0) - y0);
+        let w = if h == 0 { 0 } else { w };
+        Projection {
+            rect,
+            ss: ssz,
+            vertex,
+            x0,
+            y0,
+            w,
+            h,
+        }
+    }
+
+    /// The first and last row of samples of the box that triangle `corners` may cover in
+    /// this panel, `None` when it is seen edge-on or degenerate (as [`Projection::setup`]
+    /// finds them, without the rest of its set-up).
+    #[inline(always)]
+    fn rows(&self, corners: [u32; 3]) -> Option<(usize, usize)> {
+        let [a, b, c] = corners.map(|i| self.vertex[i as usize]);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         if area.abs() < 1e-12 || !area.is_finite() {
-            continue; // seen edge-on, or degenerate
+            return None;
         }
+        let (first_y, last_y) = (self.y0 as f32, (self.y0 + self.h) as f32 - 1.0);
+        let min_y = floor(a[1].min(b[1]).min(c[1])).max(first_y);
+        let max_y = ceil(a[1].max(b[1]).max(c[1])).min(last_y);
+        (min_y <= max_y).then_some((min_y as u32 as usize, max_y as u32 as usize))
+    }
+
+    /// Triangle `corners` as this panel draws it, `None` when it draws none of its samples
+    /// (seen edge-on, degenerate, or outside the box).
+    #[inline(always)]
+    fn setup(&self, corners: [u32; 3], t: &[f32]) -> Option<Setup> {
+        let [ia, ib, ic] = corners.map(|i| i as usize);
+        let (a, b, c) = (self.vertex[ia], self.vertex[ib], self.vertex[ic]);
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        if area.abs() < 1e-12 || !area.is_finite() {
+            return None; // seen edge-on, or degenerate
+        }
+        // The triangles' columns and rows clamped to the box, which only cuts what the
+        // panel would: the same samples as clamping to the panel.
+        let (first_x, last_x) = (self.x0 as f32, (self.x0 + self.w) as f32 - 1.0);
+        let (first_y, last_y) = (self.y0 as f32, (self.y0 + self.h) as f32 - 1.0);
         let min_x = floor(a[0].min(b[0]).min(c[0])).max(first_x);
         let max_x = ceil(a[0].max(b[0]).max(c[0])).min(last_x);
         let min_y = floor(a[1].min(b[1]).min(c[1])).max(first_y);
         let max_y = ceil(a[1].max(b[1]).max(c[1])).min(last_y);
         if min_x > max_x || min_y > max_y {
-            continue;
+            return None;
         }
-        // Lambert: the facet normal against the light, both sides lit (meshes are not
-        // always consistently oriented).
-        let shade = (AMBIENT + DIFFUSE * n.dot(light).abs()) as f32;
-        let inv = 1.0 / area;
         let (ta, tb, tc) = (t[ia], t[ib], t[ic]);
+        Some(Setup {
+            a,
+            b,
+            c,
+            inv: 1.0 / area,
+            t: [ta, tb, tc],
+            min_x,
+            max_x,
+            rows: (min_y as u32 as usize, max_y as u32 as usize),
+        })
+    }
+}
+
+/// A triangle ready to draw in one panel: its corners in sample coordinates, the
+/// reciprocal of its signed area, its corners' colour-map coordinates, and the columns and
+/// rows of samples it may cover (clamped to the box).
+struct Setup {
+    a: [f32; 3],
+    b: [f32; 3],
+    c: [f32; 3],
+    inv: f32,
+    t: [f32; 3],
+    min_x: f32,
+    max_x: f32,
+    /// First and last row.
+    rows: (usize, usize),
+}
+
+impl Setup {
+    /// Draws the triangle's rows `rows` (within its own) into `buffer`, rows of `w` samples
+    /// from the box's first column `x0`, the first of them the box's row `first_row`: the
+    /// depth test keeps the largest sample, `(depth key) << 32 | !facet`, and with it the
+    /// facet's colour-map entry there and its `shade`. Every sample is computed from its
+    /// row's first column, whichever rows are drawn, so that a band of rows gets the
+    /// samples the whole panel would.
+    #[inline]
+    fn draw_rows(
+        &self,
+        (facet, shade): (u32, f32),
+        rows: std::ops::Range<usize>,
+        buffer: &mut Buffer,
+        (x0, w, first_row): (usize, usize, usize),
+    ) {
+        let (a, b, c, inv) = (self.a, self.b, self.c, self.inv);
+        let [ta, tb, tc] = self.t;
         // A value missing at one corner is missing over the whole facet (it would be NaN
         // at every sample): the facet is drawn grey.
         let has_value = !(ta.is_nan() || tb.is_nan() || tc.is_nan());
-        layer.shade[place] = if has_value { shade } else { -shade };
-        let facet = !(place as u32) as u64;
+        let facet = !facet as u64;
         // Barycentric weights from edge functions, normalised by the signed area so either
         // winding works; stepped along each row.
         let dwa = -(c[1] - b[1]) * inv;
         let dwb = -(a[1] - c[1]) * inv;
         let (dz_a, dz_b) = (a[2] - c[2], b[2] - c[2]);
         let (dt_a, dt_b) = (ta - tc, tb - tc);
-        for y in min_y as usize..=max_y as usize {
+        // The box's columns of the triangle's samples, the same in every row.
+        let min_x = self.min_x;
+        let (first, end) = (
+            min_x as u32 as usize - x0,
+            self.max_x as u32 as usize + 1 - x0,
+        );
+        for y in rows {
             let py = y as f32 + 0.5;
             let px = min_x + 0.5;
             let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
             let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
-            let row = (y - y0) * w;
-            let mut entered = false;
-            for x in min_x as usize..=max_x as usize {
-                // A sliver of overlap rather than a crack where two triangles meet: samples
-                // on a shared edge would otherwise be missed by both when rounding goes
-                // against them (the depth test settles the overlap).
-                let inside = wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK;
-                if inside {
-                    entered = true;
-                    let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
-                    let sample = (z as u64) << 32 | facet;
-                    let i = row + (x - x0);
-                    if sample > layer.sample[i] {
-                        layer.sample[i] = sample;
-                        if has_value {
-                            layer.lut[i] = lut_index(tc + wa * dt_a + wb * dt_b);
-                        }
+            let row = (y - first_row) * w;
+            let samples = &mut buffer.sample[row + first..row + end];
+            let luts = &mut buffer.lut[row + first..row + end];
+            let shades = &mut buffer.shade[row + first..row + end];
+            // A sliver of overlap rather than a crack where two triangles meet: samples on a
+            // shared edge would otherwise be missed by both when rounding goes against them
+            // (the depth test settles the overlap). One branch, not three: which of the
+            // three fails first is hard to foresee.
+            let inside = |wa: f32, wb: f32| {
+                (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
+            };
+            // The weights are stepped from the row's first column in both loops, so every
+            // sample sees the same sums whichever loop reaches it.
+            let mut k = 0;
+            while k < samples.len() && !inside(wa, wb) {
+                wa += dwa;
+                wb += dwb;
+                k += 1;
+            }
+            // A triangle's row is one run of samples: it ends at the first one outside.
+            while k < samples.len() && inside(wa, wb) {
+                let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
+                let sample = (z as u64) << 32 | facet;
+                if sample > samples[k] {
+                    samples[k] = sample;
+                    shades[k] = shade;
+                    if has_value {
+                        luts[k] = lut_index(tc + wa * dt_a + wb * dt_b);
                     }
-                } else if entered {
-                    break; // a triangle's row is one run of samples
                 }
                 wa += dwa;
                 wb += dwb;
+                k += 1;
             }
         }
     }
-    layer
+}
+
+/// Whether facet `k` with unit normal `n` is drawn by a camera looking along `-toward`:
+/// not when `facing` skips back faces and it is one.
+#[inline]
+fn front(facing: Option<&Facing>, k: usize, n: DVec3, toward: DVec3) -> bool {
+    match facing {
+        Some(f) if f.cull => {
+            let towards = n.dot(toward);
+            let inward = f.all_inward || f.inward.get(k).copied().unwrap_or(false);
+            // A back face of a closed body: a front face is nearer wherever it is.
+            (if inward { -towards } else { towards }) >= 0.0
+        }
+        _ => true,
+    }
+}
+
+/// Rows of pixels drawn and coloured by one task of [`draw`].
+const BAND: usize = 16;
+
+/// Triangles binned by one task of [`draw`].
+const BIN_CHUNK: usize = 1 << 14;
+
+/// The triangles of one block of the mesh that each band of one panel draws: band `j`'s
+/// are `entry[start[j]..start[j + 1]]`, in the mesh's order.
+struct Bins {
+    start: Vec<u32>,
+    entry: Vec<u32>,
+}
+
+/// A band's samples, rows of the box's width: the depth test's word (depth key << 32 |
+/// !facet, 0 where the part is absent), the colour-map entry of the field there and the
+/// facet's Lambert factor (negated when it has no field value). An entry and a factor are
+/// read only where the sample is not empty, so only where its facet wrote them: they are
+/// never cleared.
+#[derive(Default)]
+struct Buffer {
+    sample: Vec<u64>,
+    lut: Vec<u8>,
+    shade: Vec<f32>,
+}
+
+/// A task's buffers, reused from band to band.
+#[derive(Default)]
+struct Scratch {
+    buffer: Buffer,
+    depths: Vec<f32>,
+    outline: Vec<bool>,
+    colours: Vec<[f32; 3]>,
+}
+
+/// Draws `mesh` into the panels of the picture whose opaque RGBA bytes are `rgba`,
+/// `stride` pixels a row, at `ss` x `ss` samples per pixel, and answers each panel's
+/// [`Depths`]. `t` is the colour-map coordinate of each vertex (NaN: no value), `facing`
+/// the facets to skip. Panels lie side by side; rows of a panel below the picture are not
+/// drawn (and their depths not answered).
+///
+/// No z-buffer of a whole panel is kept: the picture's rows are drawn in bands of [`BAND`]
+/// rows of pixels on all threads, each band drawing the triangles that reach its rows of
+/// samples (and the row above and below, for the outline test) into a buffer its thread
+/// reuses, then colouring its pixels and answering the depths asked for in its rows while
+/// the samples are in the cache. Each triangle's band is found once beforehand (blocks of
+/// the mesh on all threads). A sample keeps the nearest facet and, at one depth, the first
+/// in the mesh, and every row of a triangle is computed from its own coordinate, so a band
+/// holds exactly the samples a z-buffer of the whole panel would: the picture does not
+/// depend on the bands nor the threads.
+pub fn draw(
+    mesh: &Mesh,
+    t: &[f32],
+    facing: Option<&Facing>,
+    panels: &mut [Panel],
+    ss: u32,
+    rgba: &mut [u8],
+    stride: usize,
+) {
+    use rayon::prelude::*;
+    let rows_in_picture = rgba.len() / (4 * stride).max(1);
+    let top = panels.iter().map(|p| p.rect.y as usize).min().unwrap_or(0);
+    let bottom = panels
+        .iter()
+        .map(|p| (p.rect.y + p.rect.h) as usize)
+        .max()
+        .unwrap_or(0)
+        .min(rows_in_picture);
+    for p in panels.iter_mut() {
+        p.depths.prepare();
+    }
+    if stride == 0 || top >= bottom {
+        return;
+    }
+    let bands = (bottom - top).div_ceil(BAND);
+    let projections: Vec<Projection> = panels
+        .iter()
+        .map(|p| Projection::new(mesh, &p.camera, p.rect, ss))
+        .collect();
+    let count = projections.len();
+    // Each facet's Lambert factor per panel (negated when it has no field value), and the
+    // bands of each block of triangles.
+    let mut shade = vec![0.0f32; mesh.triangles.len() * count];
+    let bins: Vec<Vec<Bins>> = mesh
+        .triangles
+        .par_chunks(BIN_CHUNK)
+        .zip(shade.par_chunks_mut(BIN_CHUNK * count))
+        .enumerate()
+        .map(|(block, (triangles, shade))| {
+            let first = block * BIN_CHUNK;
+            let mut spans: Vec<Vec<(u32, u32, u32)>> = vec![Vec::new(); count];
+            for (i, &corners) in triangles.iter().enumerate() {
+                let [ia, ib, ic] = corners.map(|v| mesh.vertices[v as usize]);
+                let n = unit_normal(ia, ib, ic);
+                for (k, (panel, p)) in panels.iter().zip(&projections).enumerate() {
+                    if !front(facing, first + i, n, panel.camera.toward) {
+                        continue;
+                    }
+                    let Some((lo, hi)) = p.rows(corners) else {
+                        continue;
+                    };
+                    // Lambert: the facet normal against the light, both sides lit (meshes
+                    // are not always consistently oriented).
+                    let lit = (AMBIENT + DIFFUSE * n.dot(panel.light).abs()) as f32;
+                    // A value missing at one corner is missing over the whole facet.
+                    let has_value = !corners.iter().any(|&v| t[v as usize].is_nan());
+                    shade[i * count + k] = if has_value { lit } else { -lit };
+                    // The bands whose rows, or the row above or below them, it reaches.
+                    let offset = (p.rect.y as usize - top) * p.ss;
+                    let per_band = BAND * p.ss;
+                    let band = |row: usize| {
+                        if per_band.is_power_of_two() {
+                            row >> per_band.trailing_zeros()
+                        } else {
+                            row / per_band
+                        }
+                    };
+                    let span = (
+                        band((offset + lo).saturating_sub(1)),
+                        band(offset + hi + 1).min(bands - 1),
+                    );
+                    spans[k].push(((first + i) as u32, span.0 as u32, span.1 as u32));
+                }
+            }
+            spans
+                .iter()
+                .map(|spans| {
+                    let mut start = vec![0u32; bands + 1];
+                    for &(_, lo, hi) in spans {
+                        for j in lo..=hi {
+                            start[j as usize + 1] += 1;
+                        }
+                    }
+                    for j in 0..bands {
+                        start[j + 1] += start[j];
+                    }
+                    let mut next = start.clone();
+                    let mut entry = vec![0u32; start[bands] as usize];
+                    for &(k, lo, hi) in spans {
+                        for j in lo..=hi {
+                            let slot = &mut next[j as usize];
+                            entry[*slot as usize] = k;
+                            *slot += 1;
+                        }
+                    }
+                    Bins { start, entry }
+                })
+                .collect()
+        })
+        .collect();
+    let shade = &shade;
+    let bins = &bins;
+    let projections = &projections;
+    let region = &mut rgba[4 * stride * top..4 * stride * bottom];
+    let answers: Vec<Vec<(usize, Vec<u32>)>> = region
+        .par_chunks_mut(4 * stride * BAND)
+        .enumerate()
+        .map_init(Scratch::default, |scratch, (band, chunk)| {
+            let rows = top + band * BAND..top + band * BAND + chunk.len() / (4 * stride);
+            panels
+                .iter()
+                .zip(projections)
+                .enumerate()
+                .map(|(k, (panel, p))| {
+                    let band = Band {
+                        mesh,
+                        t,
+                        p,
+                        shade: (shade, k, count),
+                        bins: bins.iter().map(|b| &b[k]).collect(),
+                        index: band,
+                    };
+                    band.draw(rows.clone(), chunk, stride, panel, scratch)
+                })
+                .collect()
+        })
+        .collect();
+    for band in answers {
+        for (panel, (first, keys)) in panels.iter_mut().zip(band) {
+            panel.depths.key[first..first + keys.len()].copy_from_slice(&keys);
+        }
+    }
+}
+
+/// One band of one panel: what [`draw`] draws it from.
+struct Band<'a> {
+    mesh: &'a Mesh,
+    t: &'a [f32],
+    p: &'a Projection,
+    /// The Lambert factors, this panel's index among them and the number of panels.
+    shade: (&'a [f32], usize, usize),
+    bins: Vec<&'a Bins>,
+    index: usize,
+}
+
+impl Band<'_> {
+    /// Draws and colours the band: the picture's rows `rows`, whose bytes are `chunk`.
+    /// Returns the first of the panel's depths in these rows and their keys.
+    fn draw(
+        &self,
+        rows: std::ops::Range<usize>,
+        chunk: &mut [u8],
+        stride: usize,
+        panel: &Panel,
+        scratch: &mut Scratch,
+    ) -> (usize, Vec<u32>) {
+        let p = self.p;
+        let rect = p.rect;
+        let ss = p.ss;
+        let (left, top) = (rect.x as usize, rect.y as usize);
+        // The panel's rows of pixels in the band.
+        let (p0, p1) = (
+            rows.start.max(top) - top,
+            rows.end.min(top + rect.h as usize).max(top) - top,
+        );
+        let depths = &panel.depths;
+        let asked = |row: usize| depths.at.partition_point(|&at| at < (row as u64) << 32);
+        let (first, last) = (asked(p0 * ss), asked(p1 * ss));
+        let mut keys = vec![0u32; last - first];
+        if p0 >= p1 || left >= stride {
+            return (first, keys);
+        }
+        let columns = (rect.w as usize).min(stride - left);
+        // The part's box in pixels of the panel; every pixel outside it is the background
+        // (the mean of equal whole numbers is exact).
+        let (bx0, by0) = ((p.x0 / ss).min(columns), p.y0 / ss);
+        let (bx1, by1) = ((p.x0 / ss + p.w / ss).min(columns), by0 + p.h / ss);
+        let bg = panel.colours.background;
+        let bg_rgba = [bg[0], bg[1], bg[2], 255];
+        // The band's rows of pixels inside the box.
+        let (inside0, inside1) = (p0.max(by0), p1.min(by1));
+        if inside0 < inside1 {
+            let (r0, r1) = (inside0 * ss, inside1 * ss);
+            let (e0, e1) = (r0.saturating_sub(1).max(p.y0), (r1 + 1).min(p.y0 + p.h));
+            let w = p.w;
+            self.rasterise((e0, e1), scratch);
+            let samples = Samples {
+                w,
+                ss,
+                first_row: e0,
+                buffer: &scratch.buffer,
+            };
+            samples.depth_rows(r0, r1, (p.y0, p.y0 + p.h), &mut scratch.depths);
+            for (i, &at) in depths.at[first..last].iter().enumerate() {
+                let (row, column) = ((at >> 32) as usize, at as u32 as usize);
+                if (r0..r1).contains(&row) && (p.x0..p.x0 + w).contains(&column) {
+                    keys[i] = (scratch.buffer.sample[(row - e0) * w + column - p.x0] >> 32) as u32;
+                }
+            }
+            for py in inside0..inside1 {
+                let line = (top + py - rows.start) * 4 * stride;
+                let out = &mut chunk[line + 4 * left..line + 4 * (left + columns)];
+                let (before, rest) = out.split_at_mut(4 * bx0);
+                let (part, after) = rest.split_at_mut(4 * (bx1 - bx0));
+                for px in before.chunks_exact_mut(4).chain(after.chunks_exact_mut(4)) {
+                    px.copy_from_slice(&bg_rgba);
+                }
+                // The pixel's first row of samples, and its row in the depths.
+                let s0 = py * ss;
+                let d0 = s0 - r0 + 1;
+                samples.colour_row(
+                    &scratch.depths,
+                    (s0, d0),
+                    part,
+                    &panel.colours,
+                    (&mut scratch.outline, &mut scratch.colours),
+                );
+            }
+        }
+        for py in (p0..p1).filter(|py| !(inside0..inside1).contains(py)) {
+            let line = (top + py - rows.start) * 4 * stride;
+            chunk[line + 4 * left..line + 4 * (left + columns)]
+                .chunks_exact_mut(4)
+                .for_each(|px| px.copy_from_slice(&bg_rgba));
+        }
+        (first, keys)
+    }
+
+    /// Draws the triangles of the band into `scratch`'s samples of the box's rows `e0..e1`,
+    /// emptied first.
+    #[inline(never)]
+    fn rasterise(&self, (e0, e1): (usize, usize), scratch: &mut Scratch) {
+        let p = self.p;
+        let w = p.w;
+        let buffer = &mut scratch.buffer;
+        buffer.sample.clear();
+        buffer.sample.resize((e1 - e0) * w, 0);
+        // Read only where a facet wrote them ([`Buffer`]).
+        buffer.lut.resize((e1 - e0) * w, 0);
+        buffer.shade.resize((e1 - e0) * w, 0.0);
+        let (shade, panel, panels) = self.shade;
+        for bins in &self.bins {
+            let (from, to) = (
+                bins.start[self.index] as usize,
+                bins.start[self.index + 1] as usize,
+            );
+            for &k in &bins.entry[from..to] {
+                let Some(setup) = p.setup(self.mesh.triangles[k as usize], self.t) else {
+                    continue;
+                };
+                let (lo, hi) = setup.rows;
+                let rows = lo.max(e0)..(hi + 1).min(e1);
+                if rows.is_empty() {
+                    continue;
+                }
+                let shade = shade[k as usize * panels + panel];
+                setup.draw_rows((k, shade), rows, buffer, (p.x0, w, e0));
+            }
+        }
+    }
+}
+
+/// Rows of a panel's samples in a band's buffer, the box's columns only.
+struct Samples<'a> {
+    /// The box's width in samples.
+    w: usize,
+    ss: usize,
+    /// The box's row of the buffer's first.
+    first_row: usize,
+    buffer: &'a Buffer,
+}
+
+impl Samples<'_> {
+    /// Into `out`, the depths of the box's rows `r0..r1` with the row above and the row
+    /// below (the first or last row itself at the box's edge `rows`), each padded at both
+    /// ends with its end values: `(r1 - r0 + 2)` rows of `w + 2`. Empty samples are NaN.
+    #[inline(never)]
+    fn depth_rows(&self, r0: usize, r1: usize, rows: (usize, usize), out: &mut Vec<f32>) {
+        let w = self.w;
+        out.clear();
+        out.reserve((r1 - r0 + 2) * (w + 2));
+        let above = if r0 > rows.0 { r0 - 1 } else { r0 };
+        let below = if r1 < rows.1 { r1 } else { r1 - 1 };
+        for s in std::iter::once(above)
+            .chain(r0..r1)
+            .chain(std::iter::once(below))
+        {
+            let s = s - self.first_row;
+            let keys = &self.buffer.sample[s * w..(s + 1) * w];
+            let depth = |&k: &u64| {
+                let key = (k >> 32) as u32;
+                if key == 0 {
+                    f32::NAN
+                } else {
+                    key_depth(key)
+                }
+            };
+            out.push(depth(&keys[0]));
+            out.extend(keys.iter().map(depth));
+            out.push(depth(&keys[w - 1]));
+        }
+    }
+
+    /// Colours the pixels of one row of the box into `out` (RGBA): the pixel's first row of
+    /// samples `s0` in the box and `d0` in `depths` (from [`Samples::depth_rows`]);
+    /// `scratch` holds a row of outline marks and the colours of the pixel's rows of
+    /// samples. Each sample is its `lut` entry times its facet's shade (`no_value` for a
+    /// facet without a field value; [`OUTLINE_FACTOR`] instead of the shade on an outline,
+    /// where the depth jumps by more than `crease_mm` to a neighbour or the part ends
+    /// there) over `background`, and each pixel the mean of its samples.
+    #[inline(never)]
+    fn colour_row(
+        &self,
+        depths: &[f32],
+        (s0, d0): (usize, usize),
+        out: &mut [u8],
+        c: &Colours,
+        (outline, colours): (&mut Vec<bool>, &mut Vec<[f32; 3]>),
+    ) {
+        let (w, ss) = (self.w, self.ss);
+        let pw = w + 2;
+        outline.resize(w, false);
+        colours.resize(ss * w, [0.0; 3]);
+        let bg = c.background.map(|v| v as f32);
+        for dy in 0..ss {
+            let d = d0 + dy;
+            let (above, row, below) = (
+                &depths[(d - 1) * pw..d * pw],
+                &depths[d * pw..(d + 1) * pw],
+                &depths[(d + 1) * pw..(d + 2) * pw],
+            );
+            // An outline where the depth jumps to one of the four neighbours: NaN (an empty
+            // neighbour) is never near, a padded end or a missing row (the sample itself)
+            // always is. No branches, so that the rows' marks are computed several at once.
+            for (x, mark) in outline.iter_mut().enumerate() {
+                let at = row[x + 1];
+                let near = |e: f32| (e - at).abs() <= c.crease_mm;
+                *mark =
+                    !(near(row[x]) & near(row[x + 2]) & near(above[x + 1]) & near(below[x + 1]));
+            }
+            let s = s0 + dy - self.first_row;
+            let samples = &self.buffer.sample[s * w..(s + 1) * w];
+            let luts = &self.buffer.lut[s * w..(s + 1) * w];
+            let shades = &self.buffer.shade[s * w..(s + 1) * w];
+            let colours = &mut colours[dy * w..(dy + 1) * w];
+            for ((((colour, &sample), &lut), &shade), &mark) in colours
+                .iter_mut()
+                .zip(samples)
+                .zip(luts)
+                .zip(shades)
+                .zip(outline.iter())
+            {
+                *colour = if sample == 0 {
+                    bg
+                } else {
+                    let base = if shade < 0.0 {
+                        c.no_value
+                    } else {
+                        c.lut[lut as usize]
+                    };
+                    let k = if mark { OUTLINE_FACTOR } else { shade.abs() };
+                    base.map(|v| v * k)
+                };
+            }
+        }
+        // Each pixel the mean of its samples, summed row by row from the left.
+        let n = (ss * ss) as f32;
+        for (px, pixel) in out.chunks_exact_mut(4).enumerate() {
+            let mut sum = [0.0f32; 3];
+            for dy in 0..ss {
+                for colour in &colours[dy * w + px * ss..dy * w + (px + 1) * ss] {
+                    for k in 0..3 {
+                        sum[k] += colour[k];
+                    }
+                }
+            }
+            let [r, g, b] = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
+            pixel.copy_from_slice(&[r, g, b, 255]);
+        }
+    }
 }
 
 /// Tolerance of the inside test, in barycentric units.
@@ -475,103 +951,16 @@ const AMBIENT: f64 = 0.32;
 /// Light added on faces turned to it.
 const DIFFUSE: f64 = 0.68;
 
-impl Layer {
-    /// Depth at canvas position (x, y) pixels: the sample under it, `None` off the part.
-    pub fn depth_at(&self, x: f64, y: f64) -> Option<f32> {
-        let sx = ((x - self.rect.x as f64) * self.ss as f64).floor() - self.x0 as f64;
-        let sy = ((y - self.rect.y as f64) * self.ss as f64).floor() - self.y0 as f64;
-        if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
-            return None; // off the panel, or in it outside the part's box: no sample there
-        }
-        let key = (self.sample[sy as usize * self.w + sx as usize] >> 32) as u32;
-        (key != 0).then(|| key_depth(key))
-    }
-
-    /// Whether a point at canvas (x, y) with depth `depth` is in front of, or within
-    /// `tolerance` mm of, the surface drawn there.
-    pub fn visible(&self, x: f64, y: f64, depth: f64, tolerance: f64) -> bool {
-        match self.depth_at(x, y) {
-            Some(d) => depth + tolerance >= d as f64,
-            None => true,
-        }
-    }
-
-    /// The panel's pixels, rows of `rect.w`: the samples coloured (`lut` entry times the
-    /// shade, `no_value` for a facet without a field value; an outline where the depth
-    /// jumps by more than `crease_mm` or the part ends) over `background` and averaged per
-    /// pixel, the rows in parallel.
-    pub fn pixels(
-        &self,
-        lut: &[[f32; 3]; 256],
-        no_value: [f32; 3],
-        background: Rgb,
-        crease_mm: f32,
-    ) -> Vec<Rgb> {
-        use rayon::prelude::*;
-        let (w, h) = (self.w, self.h);
-        let depth = |i: usize| (self.sample[i] >> 32) as u32;
-        let outline = |i: usize, x: usize, y: usize| -> bool {
-            let d = key_depth(depth(i));
-            let near = |j: usize| {
-                let e = depth(j);
-                e == 0 || (key_depth(e) - d).abs() > crease_mm
-            };
-            (x > 0 && near(i - 1))
-                || (x + 1 < w && near(i + 1))
-                || (y > 0 && near(i - w))
-                || (y + 1 < h && near(i + w))
-        };
-        let bg = background.map(|c| c as f32);
-        let ss = self.ss as usize;
-        let n = (ss * ss) as f32;
-        let width = self.rect.w as usize;
-        let mut out = vec![[0u8; 3]; width * self.rect.h as usize];
-        if width == 0 {
-            return out;
-        }
-        // A pixel of background samples only is the background itself (the mean of equal
-        // whole numbers is exact): the pixels outside the box are set to it directly.
-        let bg_pixel = background;
-        let (x0, y0) = (self.x0 / ss, self.y0 / ss);
-        let (x1, y1) = (x0 + w / ss, y0 + h / ss);
-        out.par_chunks_mut(width).enumerate().for_each(|(py, row)| {
-            if py < y0 || py >= y1 {
-                row.fill(bg_pixel);
-                return;
-            }
-            row[..x0].fill(bg_pixel);
-            row[x1..].fill(bg_pixel);
-            for (px, pixel) in row[x0..x1].iter_mut().enumerate() {
-                let mut sum = [0.0f32; 3];
-                for sy in (py - y0) * ss..(py - y0 + 1) * ss {
-                    for sx in px * ss..(px + 1) * ss {
-                        let i = sy * w + sx;
-                        let c = if self.sample[i] == 0 {
-                            bg
-                        } else {
-                            let shade = self.shade[!(self.sample[i] as u32) as usize];
-                            let base = if shade < 0.0 {
-                                no_value
-                            } else {
-                                lut[self.lut[i] as usize]
-                            };
-                            let k = if outline(i, sx, sy) {
-                                OUTLINE_FACTOR
-                            } else {
-                                shade.abs()
-                            };
-                            base.map(|v| v * k)
-                        };
-                        for k in 0..3 {
-                            sum[k] += c[k];
-                        }
-                    }
-                }
-                *pixel = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
-            }
-        });
-        out
-    }
+/// How a panel's samples are coloured ([`Samples::colour_row`]).
+pub struct Colours<'a> {
+    /// The colour map, 256 entries.
+    pub lut: &'a [[f32; 3]; 256],
+    /// The colour of a facet without a field value.
+    pub no_value: [f32; 3],
+    /// The colour where the part is absent.
+    pub background: Rgb,
+    /// The depth step, mm, between neighbouring samples that draws an outline.
+    pub crease_mm: f32,
 }
 
 /// Brightness of outline samples.
@@ -590,6 +979,145 @@ mod tests {
             scale: 10.0,
             origin: DVec2::new(50.0, 50.0),
         }
+    }
+
+    /// A z-buffer of a whole panel, as the picture was drawn before its bands: the oracle
+    /// of [`draw`]. Its box covers the samples all vertices reach, grown by one and out to
+    /// whole pixels.
+    struct Layer {
+        rect: PixelRect,
+        ss: u32,
+        x0: usize,
+        y0: usize,
+        w: usize,
+        h: usize,
+        sample: Vec<u64>,
+        lut: Vec<u8>,
+        shade: Vec<f32>,
+    }
+
+    impl Layer {
+        fn depth_at(&self, x: f64, y: f64) -> Option<f32> {
+            let sx = ((x - self.rect.x as f64) * self.ss as f64).floor() - self.x0 as f64;
+            let sy = ((y - self.rect.y as f64) * self.ss as f64).floor() - self.y0 as f64;
+            if sx < 0.0 || sy < 0.0 || sx >= self.w as f64 || sy >= self.h as f64 {
+                return None;
+            }
+            let key = (self.sample[sy as usize * self.w + sx as usize] >> 32) as u32;
+            (key != 0).then(|| key_depth(key))
+        }
+    }
+
+    /// The whole panel's z-buffer, the triangles drawn one after the other in the mesh's
+    /// order (the code the picture had before its bands, less the drawing order, which
+    /// does not change a sample).
+    fn whole(
+        mesh: &Mesh,
+        t: &[f32],
+        facing: Option<&Facing>,
+        camera: &Camera,
+        rect: PixelRect,
+        ss: u32,
+        light: DVec3,
+    ) -> Layer {
+        let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
+        let s = ss as f64;
+        let projected: Vec<[f32; 3]> = mesh
+            .vertices
+            .iter()
+            .map(|&p| {
+                let q = camera.to_pixel(p);
+                [
+                    ((q.x - rect.x as f64) * s) as f32,
+                    ((q.y - rect.y as f64) * s) as f32,
+                    camera.depth(p) as f32,
+                ]
+            })
+            .collect();
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for p in &projected {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let ssz = ss as usize;
+        let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
+            let last = n as f32 - 1.0;
+            let first = (floor(lo.clamp(-1.0, last)) - 1.0).clamp(0.0, last) as usize;
+            let end = (ceil(hi.clamp(0.0, last + 1.0)) + 1.0).clamp(0.0, last) as usize + 1;
+            (first / ssz * ssz, end.div_ceil(ssz) * ssz)
+        };
+        let (x0, x1) = span(lo[0], hi[0], panel_w);
+        let (y0, y1) = span(lo[1], hi[1], panel_h);
+        let (w, h) = (x1 - x0, y1.max(y0) - y0);
+        let w = if h == 0 { 0 } else { w };
+        let mut layer = Layer {
+            rect,
+            ss,
+            x0,
+            y0,
+            w,
+            h,
+            sample: vec![0; w * h],
+            lut: vec![0; w * h],
+            shade: vec![0.0; mesh.triangles.len()],
+        };
+        let (first_x, last_x) = (x0 as f32, (x0 + w) as f32 - 1.0);
+        let (first_y, last_y) = (y0 as f32, (y0 + h) as f32 - 1.0);
+        for (place, corners) in mesh.triangles.iter().enumerate() {
+            let [ia, ib, ic] = corners.map(|i| i as usize);
+            let n = unit_normal(mesh.vertices[ia], mesh.vertices[ib], mesh.vertices[ic]);
+            if !front(facing, place, n, camera.toward) {
+                continue;
+            }
+            let (a, b, c) = (projected[ia], projected[ib], projected[ic]);
+            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            if area.abs() < 1e-12 || !area.is_finite() {
+                continue;
+            }
+            let min_x = a[0].min(b[0]).min(c[0]).floor().max(first_x);
+            let max_x = a[0].max(b[0]).max(c[0]).ceil().min(last_x);
+            let min_y = a[1].min(b[1]).min(c[1]).floor().max(first_y);
+            let max_y = a[1].max(b[1]).max(c[1]).ceil().min(last_y);
+            if min_x > max_x || min_y > max_y {
+                continue;
+            }
+            let shade = (AMBIENT + DIFFUSE * n.dot(light).abs()) as f32;
+            let inv = 1.0 / area;
+            let (ta, tb, tc) = (t[ia], t[ib], t[ic]);
+            let has_value = !(ta.is_nan() || tb.is_nan() || tc.is_nan());
+            layer.shade[place] = if has_value { shade } else { -shade };
+            let facet = !(place as u32) as u64;
+            let dwa = -(c[1] - b[1]) * inv;
+            let dwb = -(a[1] - c[1]) * inv;
+            for y in min_y as usize..max_y as usize + 1 {
+                let py = y as f32 + 0.5;
+                let px = min_x + 0.5;
+                let mut wa = ((c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])) * inv;
+                let mut wb = ((a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])) * inv;
+                let mut entered = false;
+                for x in min_x as usize..max_x as usize + 1 {
+                    if wa >= -EDGE_SLACK && wb >= -EDGE_SLACK && wa + wb <= 1.0 + EDGE_SLACK {
+                        entered = true;
+                        let z = depth_key(c[2] + wa * (a[2] - c[2]) + wb * (b[2] - c[2]));
+                        let sample = (z as u64) << 32 | facet;
+                        let i = (y - y0) * w + x - x0;
+                        if sample > layer.sample[i] {
+                            layer.sample[i] = sample;
+                            if has_value {
+                                layer.lut[i] = lut_index(tc + wa * (ta - tc) + wb * (tb - tc));
+                            }
+                        }
+                    } else if entered {
+                        break; // a row of a triangle is one run of samples
+                    }
+                    wa += dwa;
+                    wb += dwb;
+                }
+            }
+        }
+        layer
     }
 
     #[test]
@@ -668,10 +1196,10 @@ mod tests {
                 };
                 let (mut covered, mut differ) = (0, 0);
                 for (m, topology) in [(mesh, &part.topology), (&inverted, &inverted_topology)] {
-                    let both = rasterise(&DrawOrder::new(m, &t), &camera, rect, 2, DVec3::Z);
-                    let mut order = DrawOrder::new(m, &t);
-                    assert!(order.cull_back_faces(m, topology), "{name}");
-                    let front = rasterise(&order, &camera, rect, 2, DVec3::Z);
+                    let both = whole(m, &t, None, &camera, rect, 2, DVec3::Z);
+                    let facing = Facing::of(m, topology);
+                    assert!(facing.cull, "{name}");
+                    let front = whole(m, &t, Some(&facing), &camera, rect, 2, DVec3::Z);
                     for y in 0..400 {
                         for x in 0..400 {
                             let (a, c) = (at(&both, x, y), at(&front, x, y));
@@ -687,8 +1215,207 @@ mod tests {
         let mut open = crate::samples::sample("cover").unwrap();
         open.triangles.pop();
         let topology = crate::mesh::Topology::new(&open);
-        let t = vec![0.0; open.vertices.len()];
-        assert!(!DrawOrder::new(&open, &t).cull_back_faces(&open, &topology));
+        assert!(!Facing::of(&open, &topology).cull);
+    }
+
+    /// The colouring sample by sample as it was first written (each sample's outline test
+    /// reading its four neighbours' keys): the oracle of [`Samples::colour_row`].
+    fn pixels_one_by_one(layer: &Layer, c: &Colours) -> Vec<Rgb> {
+        let (w, h) = (layer.w, layer.h);
+        let depth = |i: usize| (layer.sample[i] >> 32) as u32;
+        let outline = |i: usize, x: usize, y: usize| -> bool {
+            let d = key_depth(depth(i));
+            let near = |j: usize| {
+                let e = depth(j);
+                e == 0 || (key_depth(e) - d).abs() > c.crease_mm
+            };
+            (x > 0 && near(i - 1))
+                || (x + 1 < w && near(i + 1))
+                || (y > 0 && near(i - w))
+                || (y + 1 < h && near(i + w))
+        };
+        let bg = c.background.map(|v| v as f32);
+        let ss = layer.ss as usize;
+        let n = (ss * ss) as f32;
+        let width = layer.rect.w as usize;
+        let mut out = vec![c.background; width * layer.rect.h as usize];
+        let (x0, y0) = (layer.x0 / ss, layer.y0 / ss);
+        for py in y0..y0 + h / ss {
+            for px in 0..w / ss {
+                let mut sum = [0.0f32; 3];
+                for sy in (py - y0) * ss..(py - y0 + 1) * ss {
+                    for sx in px * ss..(px + 1) * ss {
+                        let i = sy * w + sx;
+                        let colour = if layer.sample[i] == 0 {
+                            bg
+                        } else {
+                            let shade = layer.shade[!(layer.sample[i] as u32) as usize];
+                            let base = if shade < 0.0 {
+                                c.no_value
+                            } else {
+                                c.lut[layer.lut[i] as usize]
+                            };
+                            let k = if outline(i, sx, sy) {
+                                OUTLINE_FACTOR
+                            } else {
+                                shade.abs()
+                            };
+                            base.map(|v| v * k)
+                        };
+                        for k in 0..3 {
+                            sum[k] += colour[k];
+                        }
+                    }
+                }
+                out[py * width + x0 + px] = sum.map(|v| (v / n + 0.5).clamp(0.0, 255.0) as u8);
+            }
+        }
+        out
+    }
+
+    /// The panels drawn in bands give the bytes of the whole panel's z-buffer coloured
+    /// sample by sample, and the depths it holds where they are asked for: on samples seen
+    /// along an axis and obliquely (two panels side by side, as in the picture), a field
+    /// missing on some facets, back faces skipped and drawn, creases small and large,
+    /// panels inside a larger picture, a panel height that is not a whole number of bands,
+    /// and a panel cut by the picture's edge.
+    #[test]
+    fn drawing_in_bands_gives_the_pixels_and_depths_of_the_whole_panel() {
+        let toward = DVec3::new(0.5, -0.45, 0.74).normalize();
+        let up = (DVec3::Z - toward * toward.z).normalize();
+        let oblique = Camera {
+            right: up.cross(toward),
+            up,
+            toward,
+            centre: DVec2::ZERO,
+            scale: 4.0,
+            origin: DVec2::new(100.0, 100.0),
+        };
+        let lut: [[f32; 3]; 256] =
+            std::array::from_fn(|i| [i as f32, 255.0 - i as f32, (i * 7 % 256) as f32]);
+        let rect = |x, y, w, h| PixelRect { x, y, w, h };
+        for name in ["cover", "bracket", "tray", "plate"] {
+            let part = crate::mesh::from_generated(crate::samples::sample(name).unwrap());
+            let mesh = &part.mesh;
+            let b = crate::math::Aabb::of_points(&mesh.vertices);
+            // A field missing (NaN) on the vertices of the upper tenth.
+            let t: Vec<f32> = mesh
+                .vertices
+                .iter()
+                .map(|p| {
+                    let f = ((p.z - b.min.z) / (b.max.z - b.min.z)) as f32;
+                    if f > 0.9 {
+                        f32::NAN
+                    } else {
+                        f
+                    }
+                })
+                .collect();
+            let culled = Facing::of(mesh, &part.topology);
+            assert!(culled.cull, "{name}");
+            for facing in [Some(&culled), None] {
+                for (rects, picture_w, picture_h) in [
+                    (vec![rect(0, 0, 200, 200), rect(210, 0, 200, 200)], 410, 200),
+                    (
+                        vec![rect(13, 7, 190, 171), rect(215, 7, 190, 171)],
+                        420,
+                        190,
+                    ),
+                    (vec![rect(40, 30, 200, 200)], 180, 150),
+                ] {
+                    let cameras: Vec<Camera> = rects
+                        .iter()
+                        .zip([oblique, square_camera()])
+                        .map(|(r, camera)| Camera {
+                            centre: DVec2::new(
+                                ((b.min + b.max) * 0.5).dot(camera.right),
+                                ((b.min + b.max) * 0.5).dot(camera.up),
+                            ),
+                            scale: 120.0 / (b.max - b.min).length(),
+                            origin: DVec2::new(r.x as f64 + 95.0, r.y as f64 + 90.0),
+                            ..camera
+                        })
+                        .collect();
+                    let light = DVec3::new(0.3, -0.5, 0.8).normalize();
+                    let layers: Vec<Layer> = cameras
+                        .iter()
+                        .zip(&rects)
+                        .map(|(camera, &r)| whole(mesh, &t, facing, camera, r, 2, light))
+                        .collect();
+                    for crease_mm in [0.0, 0.05, 1.0] {
+                        let colours = || Colours {
+                            lut: &lut,
+                            no_value: [165.0, 160.0, 150.0],
+                            background: [244, 245, 248],
+                            crease_mm,
+                        };
+                        // Every sample of every third row asked for, once.
+                        let asked = |r: PixelRect| {
+                            (0..2 * r.h)
+                                .step_by(if crease_mm == 0.0 { 3 } else { 61 })
+                                .flat_map(move |sy| {
+                                    (0..2 * r.w).map(move |sx| {
+                                        (
+                                            r.x as f64 + (sx as f64 + 0.5) / 2.0,
+                                            r.y as f64 + (sy as f64 + 0.5) / 2.0,
+                                        )
+                                    })
+                                })
+                        };
+                        let mut panels: Vec<Panel> = cameras
+                            .iter()
+                            .zip(&rects)
+                            .map(|(&camera, &r)| {
+                                let mut depths = Depths::new(r, 2);
+                                asked(r).for_each(|(x, y)| depths.ask(x, y));
+                                Panel {
+                                    camera,
+                                    rect: r,
+                                    light,
+                                    colours: colours(),
+                                    depths,
+                                }
+                            })
+                            .collect();
+                        let mut rgba = vec![7u8; 4 * picture_w * picture_h];
+                        draw(mesh, &t, facing, &mut panels, 2, &mut rgba, picture_w);
+                        let expected: Vec<Vec<Rgb>> = layers
+                            .iter()
+                            .map(|l| pixels_one_by_one(l, &colours()))
+                            .collect();
+                        let mut painted = 0;
+                        for y in 0..picture_h {
+                            for x in 0..picture_w {
+                                let got = &rgba[4 * (y * picture_w + x)..][..4];
+                                let within = rects.iter().position(|r| {
+                                    (r.x as usize..(r.x + r.w) as usize).contains(&x)
+                                        && (r.y as usize..(r.y + r.h) as usize).contains(&y)
+                                });
+                                let Some(k) = within else {
+                                    assert_eq!(got, [7; 4], "{name} ({x}, {y}) is outside");
+                                    continue;
+                                };
+                                let r = rects[k];
+                                let (px, py) = (x - r.x as usize, y - r.y as usize);
+                                let e = expected[k][py * r.w as usize + px];
+                                assert_eq!(got, [e[0], e[1], e[2], 255], "{name} ({x}, {y})");
+                                painted += usize::from(e != colours().background);
+                            }
+                        }
+                        assert!(painted > 1000, "{name}: {painted}");
+                        let mut found = 0;
+                        for (panel, layer) in panels.iter().zip(&layers) {
+                            for (x, y) in asked(panel.rect).filter(|&(_, y)| y < picture_h as f64) {
+                                let d = panel.depths.depth_at(x, y);
+                                assert_eq!(d, layer.depth_at(x, y), "{name} ({x}, {y})");
+                                found += usize::from(d.is_some());
+                            }
+                        }
+                        assert!(found > 100, "{name}: {found}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
@@ -749,22 +1476,36 @@ mod tests {
             w: 100,
             h: 100,
         };
-        let order = DrawOrder::new(&mesh, &t);
-        let layer = rasterise(&order, &square_camera(), rect, 2, DVec3::Z);
-        let covered = layer.sample.iter().filter(|&&s| s != 0).count();
+        let lut = [[0.0f32; 3]; 256];
+        let mut depths = Depths::new(rect, 2);
+        let centres = (0..200).flat_map(|sy| {
+            (0..200).map(move |sx| ((sx as f64 + 0.5) / 2.0, (sy as f64 + 0.5) / 2.0))
+        });
+        centres.clone().for_each(|(x, y)| depths.ask(x, y));
+        let mut panels = [Panel {
+            camera: square_camera(),
+            rect,
+            light: DVec3::Z,
+            colours: Colours {
+                lut: &lut,
+                no_value: [0.0; 3],
+                background: [255; 3],
+                crease_mm: 0.1,
+            },
+            depths,
+        }];
+        let mut rgba = vec![0u8; 4 * 100 * 100];
+        draw(&mesh, &t, None, &mut panels, 2, &mut rgba, 100);
+        let depths = &panels[0].depths;
+        let found: Vec<f32> = centres.filter_map(|(x, y)| depths.depth_at(x, y)).collect();
         // Union of two 40x40-pixel squares overlapping by 20x20, at 2x2 samples per pixel.
-        assert_eq!(covered, 4 * (1600 + 1600 - 400));
-        let high = layer
-            .sample
-            .iter()
-            .filter(|&&s| (s >> 32) as u32 == depth_key(2.0))
-            .count();
-        assert_eq!(high, 4 * 1600);
+        assert_eq!(found.len(), 4 * (1600 + 1600 - 400));
+        assert_eq!(found.iter().filter(|&&d| d == 2.0).count(), 4 * 1600);
         // In the overlap the value is the higher square's.
-        assert_eq!(layer.depth_at(55.0, 45.0), Some(2.0));
-        assert_eq!(layer.depth_at(25.0, 75.0), Some(1.0));
-        assert_eq!(layer.depth_at(95.0, 95.0), None);
-        assert!(layer.visible(55.0, 45.0, 2.0, 0.0));
-        assert!(!layer.visible(55.0, 45.0, 1.5, 0.1));
+        assert_eq!(depths.depth_at(55.0, 45.0), Some(2.0));
+        assert_eq!(depths.depth_at(25.0, 75.0), Some(1.0));
+        assert_eq!(depths.depth_at(95.0, 95.0), None);
+        assert!(depths.visible(55.0, 45.0, 2.0, 0.0));
+        assert!(!depths.visible(55.0, 45.0, 1.5, 0.1));
     }
 }

@@ -233,3 +233,34 @@ fn other_sizes_keep_the_gate_in_place() {
         }
     }
 }
+
+/// The picture is coloured and deflated in bands on all threads: its bytes are the same on
+/// one, two and three threads, with back faces skipped (the topology given) and not, and
+/// at a height that is not a whole number of bands.
+#[test]
+fn the_bytes_do_not_depend_on_the_threads() {
+    let (part, analysis) = sample("bracket");
+    let plain = Scene::new(&part.mesh, &analysis, "bracket");
+    let culled = plain.clone().with_topology(&part.topology);
+    for (scene, options) in [
+        (&plain, RenderOptions::default()),
+        (
+            &culled,
+            RenderOptions {
+                width: 1000,
+                height: 777,
+            },
+        ),
+    ] {
+        let on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| png(scene, &options).unwrap())
+        };
+        let one = on(1);
+        assert!(one == on(2) && one == on(3), "{options:?}");
+        assert_eq!(decode(&one).0, options.width);
+    }
+}
