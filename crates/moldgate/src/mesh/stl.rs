@@ -15,7 +15,7 @@ use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 use rayon::prelude::*;
 
 use super::text::Lines;
-use super::weld32::{key_bits, Welder32};
+use super::weld32::{key_bits, Key, Welder32, BATCH};
 use super::{sniff, Format, Mesh, RawMesh, Units, Welder, MAX_COORDINATE_MM, MAX_POLYGON_CORNERS};
 use crate::error::{excerpt, LoadError, Place};
 use crate::math::DVec3;
@@ -148,6 +148,8 @@ fn weld_records(
     // infinities and NaN above every finite limit.
     let limit = (coordinate_limit(units) as f32).to_bits();
     let mut buf = vec![0u8; CHUNK * RECORD as usize];
+    let mut batch = [[[0u32; 3]; 3]; BATCH];
+    let mut filled = 0;
     let mut done = range.start;
     while done < range.end {
         let count = (range.end - done).min(CHUNK as u64) as usize;
@@ -177,10 +179,19 @@ fn weld_records(
                     units,
                 ));
             }
-            let key = |k: usize| [bits[3 * k], bits[3 * k + 1], bits[3 * k + 2]].map(key_bits);
-            welder.push([key(0), key(1), key(2)]);
+            let key =
+                |k: usize| -> Key { [bits[3 * k], bits[3 * k + 1], bits[3 * k + 2]].map(key_bits) };
+            batch[filled] = [key(0), key(1), key(2)];
+            filled += 1;
+            if filled == BATCH {
+                welder.push_batch(&batch);
+                filled = 0;
+            }
         }
         done += count as u64;
+    }
+    for &facet in &batch[..filled] {
+        welder.push(facet);
     }
     Ok(())
 }

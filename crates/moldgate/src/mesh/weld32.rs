@@ -42,6 +42,9 @@ fn hash_of(key: Key) -> u64 {
     (h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9)
 }
 
+/// Facets a [`Welder32::push_batch`] takes.
+pub const BATCH: usize = 16;
+
 /// The largest table made before any vertex is welded (2^30 slots); beyond it a table
 /// grows with its vertices.
 const MAX_FIRST_BITS: u32 = 30;
@@ -118,7 +121,12 @@ impl Welder32 {
 
     #[inline(always)]
     fn vertex(&mut self, key: Key) -> u32 {
-        let hash = hash_of(key);
+        self.vertex_hashed(key, hash_of(key))
+    }
+
+    /// [`Welder32::vertex`] for a key whose hash is known.
+    #[inline(always)]
+    fn vertex_hashed(&mut self, key: Key, hash: u64) -> u32 {
         let mask = self.mask();
         let tag = hash as u32 & !mask;
         let mut at = (hash >> (64 - self.bits)) as usize;
@@ -169,6 +177,31 @@ impl Welder32 {
             self.collapsed += 1;
         } else {
             self.triangles.push([a, b, c]);
+        }
+    }
+
+    /// Adds facets as [`Welder32::push`] adds them one by one, reading every corner's first
+    /// slot before the first of them is welded: those reads do not wait on each other, so
+    /// their cache misses overlap, where in the welding each probe waits on the one before
+    /// (its slot decides whether a vertex is made). The reads change nothing; the facets are
+    /// then welded in order, the same vertices and numbering.
+    pub fn push_batch(&mut self, facets: &[[Key; 3]; BATCH]) {
+        let hashes: [[u64; 3]; BATCH] = facets.map(|f| f.map(hash_of));
+        let shift = 64 - self.bits;
+        let mut seen = 0u32;
+        for h in hashes.iter().flatten() {
+            seen ^= self.slots[(h >> shift) as usize];
+        }
+        std::hint::black_box(seen);
+        for (f, h) in facets.iter().zip(&hashes) {
+            let a = self.vertex_hashed(f[0], h[0]);
+            let b = self.vertex_hashed(f[1], h[1]);
+            let c = self.vertex_hashed(f[2], h[2]);
+            if a == b || b == c || a == c {
+                self.collapsed += 1;
+            } else {
+                self.triangles.push([a, b, c]);
+            }
         }
     }
 
