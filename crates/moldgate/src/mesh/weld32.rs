@@ -378,6 +378,34 @@ mod tests {
     }
 
     #[test]
+    fn welding_in_batches_matches_welding_facet_by_facet() {
+        for seed in 0..4 {
+            // Not a whole number of batches; sized for one facet, so the table grows inside
+            // batches, after their first slots were read with the smaller table's bits.
+            let all = corners(3 * (40 * BATCH + 7), seed);
+            let facets: Vec<[Key; 3]> = all
+                .chunks_exact(3)
+                .map(|f| [key(f[0]), key(f[1]), key(f[2])])
+                .collect();
+            let mut one = Welder32::for_run(1, 1);
+            for &f in &facets {
+                one.push(f);
+            }
+            let mut batched = Welder32::for_run(1, 1);
+            let mut batches = facets.chunks_exact(BATCH);
+            for b in &mut batches {
+                batched.push_batch(b.try_into().expect("a batch"));
+            }
+            for &f in batches.remainder() {
+                batched.push(f);
+            }
+            let ((a, ca), (b, cb)) = (one.finish(), batched.finish());
+            assert!(same(&a, &b), "seed {seed}");
+            assert_eq!(ca, cb, "seed {seed}");
+        }
+    }
+
+    #[test]
     fn joined_runs_weld_as_one_welder() {
         let all = corners(3 * 6000, 7);
         let (whole, whole_collapsed) = welded_in_f64(&all);
