@@ -475,6 +475,64 @@ mod tests {
         }
     }
 
+    #[test]
+    fn neighbours_of_few_sides_a_vertex_match_a_map_of_edges() {
+        // A closed torus of quads (about six sides a vertex: the insertion sort), its vertices
+        // numbered in a scrambled order; then with some triangles repeated, some turned and
+        // some removed, so that small vertices also hold open and non-manifold edges.
+        let (n, m) = (40u32, 30u32);
+        // 997 is prime to n m: a one-to-one scramble.
+        let number = |i: u32, j: u32| ((i % n) * m + (j % m)) * 997 % (n * m);
+        let mut triangles = Vec::new();
+        for i in 0..n {
+            for j in 0..m {
+                let (a, b, c, d) = (
+                    number(i, j),
+                    number(i + 1, j),
+                    number(i + 1, j + 1),
+                    number(i, j + 1),
+                );
+                triangles.push([a, b, c]);
+                triangles.push([a, c, d]);
+            }
+        }
+        let closed = triangles.clone();
+        let mut ragged = triangles.clone();
+        for t in (0..triangles.len()).step_by(7) {
+            ragged.push(triangles[t]);
+        }
+        for t in (0..triangles.len()).step_by(11) {
+            ragged[t].swap(0, 1);
+        }
+        ragged.retain(|tri| tri.iter().sum::<u32>() % 13 != 0);
+        for (name, triangles) in [("closed", closed), ("ragged", ragged)] {
+            let mesh = Mesh {
+                vertices: vec![DVec3::ZERO; (n * m) as usize],
+                triangles,
+            };
+            let (neighbours, edges, open, non_manifold) = brute_force(&mesh);
+            let topology = Topology::new(&mesh);
+            let found: Vec<[u32; 3]> = (0..neighbours.len())
+                .map(|t| topology.neighbours(t))
+                .collect();
+            assert_eq!(found, neighbours, "{name}");
+            assert_eq!(
+                (
+                    topology.edges,
+                    topology.open_edges,
+                    topology.non_manifold_edges
+                ),
+                (edges, open, non_manifold),
+                "{name}"
+            );
+            if name == "closed" {
+                assert_eq!((open, non_manifold), (0, 0));
+            } else {
+                assert!(open > 0 && non_manifold > 0);
+            }
+        }
+    }
+
     /// Bodies counted on the roots of the vertices' forest are those counted on the
     /// triangles (the count this replaced), with vertices no triangle uses among them.
     #[test]
