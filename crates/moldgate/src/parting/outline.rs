@@ -360,8 +360,10 @@ impl Band {
             .into_par_iter()
             .flat_map_iter(|b| {
                 let mut found = Vec::new();
-                for t in b * BLOCK..((b + 1) * BLOCK).min(triangles.len()) {
-                    let tri = triangles[t];
+                let start = b * BLOCK;
+                let block = &triangles[start..((b + 1) * BLOCK).min(triangles.len())];
+                for (i, &tri) in block.iter().enumerate() {
+                    let t = start + i;
                     let corners = tri.map(|v| inside[v as usize]);
                     if u8::from(corners[0]) + u8::from(corners[1]) + u8::from(corners[2]) < 2 {
                         continue;
