@@ -1245,12 +1245,6 @@ fn split_binned(
     scale: Vec3A,
 ) -> SplitAnswer {
     let n_axes = axes.len();
-    // The bin of a centre along an axis. A centre lies at or above `lo` and at most a
-    // rounding above `lo + extent`, so the scaled offset is in [0, BINS + 1) and its
-    // conversion to `i32` is the conversion to `usize` the split was first written with,
-    // without the latter's range handling.
-    let bin_of =
-        |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as i32).min(BINS as i32 - 1) as usize;
     let mut bins = [[Extent::EMPTY; BINS]; 3];
     let mut counts = [[0u32; BINS]; 3];
     if items.len() >= WIDE_BINNING && n_axes == 3 {
@@ -1283,10 +1277,10 @@ fn split_binned(
         }
     } else {
         for it in items.iter() {
+            let b = bins_of(it, lo, scale);
             for &axis in axes {
-                let b = bin_of(axis, it.centre[axis]);
-                bins[axis][b].add(it);
-                counts[axis][b] += 1;
+                bins[axis][b[axis]].add(it);
+                counts[axis][b[axis]] += 1;
             }
         }
     }
@@ -1324,8 +1318,11 @@ fn split_binned(
         ControlFlow::Continue(chosen) => chosen,
         ControlFlow::Break(answer) => return answer,
     };
-    // Partition in place by the chosen plane, with the binning's own arithmetic.
-    let i = partition(items, |it| bin_of(axis, it.centre[axis]) < cut);
+    // Partition in place by the chosen plane, with the binning's own arithmetic: an item
+    // goes left when its bin is below `cut`, that is (its scaled offset being at least 0
+    // and `cut` at most the last bin) when the offset itself is below `cut`.
+    let (lo_axis, scale_axis, below) = (lo[axis], scale[axis], cut as f32);
+    let i = partition(items, |it| (it.centre[axis] - lo_axis) * scale_axis < below);
     // The parts are the bins below and above the cut: their extents are the bins' unions.
     let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
     for (b, e) in bins[axis].iter().enumerate() {
@@ -1451,17 +1448,20 @@ fn split_few(
 /// second set's emptying costs more than it saves.
 const WIDE_BINNING: usize = 256;
 
-/// The bins of an item's centre along the three axes, as [`split`]'s `bin_of` gives them
-/// (the same lane-wise arithmetic, so the same bins).
+/// The bins of an item's centre along the three axes: the whole part of its scaled offset
+/// from `lo`, at most the last bin.
+///
+/// A centre lies at or above `lo` and at most a rounding above `lo + extent`, so the scaled
+/// offset is in [0, BINS + 1), and its floor after the minimum is the truncation to an
+/// integer the split was first written with (`as i32`, then the minimum), without the
+/// conversion's range and NaN handling, which cost more than the rest of the binning. An axis
+/// without extent gives NaN, which the minimum turns into the last bin (such an axis is never
+/// binned). The floor plus 2^23 holds the bin in the low bits of its representation.
 #[inline]
 fn bins_of(it: &Item, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
-    let f = (Vec3A::from(it.centre) - lo) * scale;
-    let last = BINS as i32 - 1;
-    [
-        (f.x as i32).min(last) as usize,
-        (f.y as i32).min(last) as usize,
-        (f.z as i32).min(last) as usize,
-    ]
+    let f = ((Vec3A::from(it.centre) - lo) * scale).min(Vec3A::splat((BINS - 1) as f32));
+    let k = (f.floor() + Vec3A::splat(8_388_608.0)).to_array();
+    k.map(|v| (v.to_bits() & 0xF) as usize)
 }
 
 /// Partitions `items` so that those for which `left` holds come first; returns how many do.
@@ -1748,12 +1748,17 @@ mod tests {
         // Triangles that are points and segments, and one with a corner at infinity (its
         // packet is left to the scalar function).
         let v = mesh.vertices.len() as u32;
-        mesh.vertices.extend([DVec3::ZERO, DVec3::X, DVec3::splat(f64::INFINITY)]);
+        mesh.vertices
+            .extend([DVec3::ZERO, DVec3::X, DVec3::splat(f64::INFINITY)]);
         mesh.triangles.push([v, v + 1, v + 2]);
         for k in 0..40 {
             let v = mesh.vertices.len() as u32;
             let a = DVec3::new(k as f64, 50.0, 20.0);
-            let b = if k % 2 == 0 { a } else { a + DVec3::new(0.5, 0.25, 0.0) };
+            let b = if k % 2 == 0 {
+                a
+            } else {
+                a + DVec3::new(0.5, 0.25, 0.0)
+            };
             mesh.vertices.extend([a, b, a]);
             mesh.triangles.push([v, v + 1, v + 2]);
         }
@@ -2074,10 +2079,10 @@ mod tests {
         let mut bins = [[Extent::EMPTY; BINS]; 3];
         let mut counts = [[0usize; BINS]; 3];
         for it in items.iter() {
+            let b = bins_of(it, lo, scale);
             for &axis in axes {
-                let b = bin_of(axis, it.centre[axis]);
-                bins[axis][b].add(it);
-                counts[axis][b] += 1;
+                bins[axis][b[axis]].add(it);
+                counts[axis][b[axis]] += 1;
             }
         }
         let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
