@@ -1007,7 +1007,8 @@ fn closest_on_triangle(a: Vec3, ab: Vec3, ac: Vec3, p: Vec3) -> Vec3 {
 /// Builds the subtree over `items` (reordered in place into leaf order); node links are
 /// relative to the returned vector, triangle links relative to `first`.
 fn build(items: &mut [Item], first: usize, known: Option<Extent>) -> Vec<Node> {
-    let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
+    // About 0.64 nodes a triangle on the shared parts: room for that without growing.
+    let mut nodes = Vec::with_capacity(items.len() * 3 / 4 + 16);
     build_into(items, first, &mut nodes, known);
     nodes
 }
@@ -1076,12 +1077,12 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Op
     let (left, right) = items.split_at_mut(mid);
     nodes[me].count = 0;
     if left.len() + right.len() > PARALLEL_MIN {
-        let (l, r) = join(
-            || build(left, first, l_known),
+        // The left subtree goes on in `nodes` (it follows its parent); only the right one,
+        // built on the other thread, is copied after it.
+        let ((), r) = join(
+            || build_into(left, first, nodes, l_known),
             || build(right, first + mid, r_known),
         );
-        let base = nodes.len();
-        append(nodes, l, base);
         nodes[me].link = nodes.len() as u32;
         let base = nodes.len();
         append(nodes, r, base);
