@@ -28,7 +28,7 @@
 use std::cmp::Ordering;
 use std::ops::ControlFlow;
 
-use glam::{BVec4A, Vec3, Vec3A, Vec4};
+use glam::{BVec3A, BVec4A, Vec3, Vec3A, Vec4};
 use rayon::join;
 use rayon::prelude::*;
 
@@ -1041,6 +1041,7 @@ impl Extent {
         self.centres.grow(c, c);
     }
 
+    #[cfg(test)]
     fn join(&mut self, other: &Extent) {
         self.bounds.grow(other.bounds.min, other.bounds.max);
         self.centres.grow(other.centres.min, other.centres.max);
@@ -1246,20 +1247,24 @@ fn split_binned(
     scale: Vec3A,
 ) -> SplitAnswer {
     let n_axes = axes.len();
-    let mut bins = [[Extent::EMPTY; BINS]; 3];
+    // Each bin's box of items (the centres' boxes of the two sides come from the
+    // partition, which reads every item anyway, and only for the chosen axis).
+    let mut bins = [[Bounds::EMPTY; BINS]; 3];
     let mut counts = [[0u32; BINS]; 3];
     if items.len() >= WIDE_BINNING && n_axes == 3 {
         // Neighbouring items mostly fall into the same bins, so one set of bins is a chain
         // of dependent minima through memory; two sets, one for the even and one for the
         // odd items, break it. Minima and maxima are exact, so their union is the one set.
-        let mut odd = [[Extent::EMPTY; BINS]; 3];
+        let mut odd = [[Bounds::EMPTY; BINS]; 3];
         let mut pairs = items.chunks_exact(2);
         for pair in &mut pairs {
             let (p, q) = (&pair[0], &pair[1]);
             let (bp, bq) = (bins_of(p, lo, scale), bins_of(q, lo, scale));
+            let (p_min, p_max) = (Vec3A::from(p.min), Vec3A::from(p.max));
+            let (q_min, q_max) = (Vec3A::from(q.min), Vec3A::from(q.max));
             for axis in 0..3 {
-                bins[axis][bp[axis]].add(p);
-                odd[axis][bq[axis]].add(q);
+                bins[axis][bp[axis]].grow(p_min, p_max);
+                odd[axis][bq[axis]].grow(q_min, q_max);
                 counts[axis][bp[axis]] += 1;
                 counts[axis][bq[axis]] += 1;
             }
@@ -1267,20 +1272,20 @@ fn split_binned(
         for it in pairs.remainder() {
             let b = bins_of(it, lo, scale);
             for axis in 0..3 {
-                bins[axis][b[axis]].add(it);
+                bins[axis][b[axis]].grow(Vec3A::from(it.min), Vec3A::from(it.max));
                 counts[axis][b[axis]] += 1;
             }
         }
         for (set, other) in bins.iter_mut().zip(&odd) {
             for (e, o) in set.iter_mut().zip(other) {
-                e.join(o);
+                e.grow(o.min, o.max);
             }
         }
     } else {
         for it in items.iter() {
             let b = bins_of(it, lo, scale);
             for &axis in axes {
-                bins[axis][b[axis]].add(it);
+                bins[axis][b[axis]].grow(Vec3A::from(it.min), Vec3A::from(it.max));
                 counts[axis][b[axis]] += 1;
             }
         }
@@ -1294,7 +1299,7 @@ fn split_binned(
         let mut n = 0u32;
         let mut right_count = [0u32; BINS];
         for b in (1..BINS).rev() {
-            acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
+            acc.grow(boxes[b].min, boxes[b].max);
             n += counts[b];
             right_area[b] = acc.half_area();
             right_count[b] = n;
@@ -1302,7 +1307,7 @@ fn split_binned(
         let mut acc = Bounds::EMPTY;
         let mut n = 0u32;
         for b in 0..BINS - 1 {
-            acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
+            acc.grow(boxes[b].min, boxes[b].max);
             n += counts[b];
             let (nl, nr) = (n, right_count[b + 1]);
             if nl == 0 || nr == 0 {
@@ -1323,16 +1328,27 @@ fn split_binned(
     // goes left when its bin is below `cut`, that is (its scaled offset being at least 0
     // and `cut` at most the last bin) when the offset itself is below `cut`.
     let (lo_axis, scale_axis, below) = (lo[axis], scale[axis], cut as f32);
-    let i = partition(items, |it| (it.centre[axis] - lo_axis) * scale_axis < below);
-    // The parts are the bins below and above the cut: their extents are the bins' unions.
-    let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
+    let (i, [l_centres, r_centres]) =
+        partition(items, |it| (it.centre[axis] - lo_axis) * scale_axis < below);
+    // The parts' boxes are the unions of the bins below and above the cut (min and max are
+    // exact, so these are the boxes a pass over their items gives).
+    let (mut l_bounds, mut r_bounds) = (Bounds::EMPTY, Bounds::EMPTY);
     for (b, e) in bins[axis].iter().enumerate() {
-        if b < cut {
-            left.join(e);
+        let side = if b < cut {
+            &mut l_bounds
         } else {
-            right.join(e);
-        }
+            &mut r_bounds
+        };
+        side.grow(e.min, e.max);
     }
+    let left = Extent {
+        bounds: l_bounds,
+        centres: l_centres,
+    };
+    let right = Extent {
+        bounds: r_bounds,
+        centres: r_centres,
+    };
     (i > 0 && i < items.len()).then_some((i, Some((left, right))))
 }
 
@@ -1438,7 +1454,7 @@ fn split_few(
     for (g, b) in goes_left.iter_mut().zip(&of_item[..n]) {
         *g = (b[axis] as usize) < cut;
     }
-    let i = partition_by(items, &goes_left[..n]);
+    let (i, _) = partition_by(items, &goes_left[..n]);
     // The parts' extents: the union over their items is the union over their bins.
     let left = Extent::of(&items[..i]);
     let right = Extent::of(&items[i..]);
@@ -1465,7 +1481,8 @@ fn bins_of(it: &Item, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
     k.map(|v| (v.to_bits() & 0xF) as usize)
 }
 
-/// Partitions `items` so that those for which `left` holds come first; returns how many do.
+/// Partitions `items` so that those for which `left` holds come first; returns how many do
+/// and the boxes of the two sides' centres (left, right).
 ///
 /// The order is that of the two-ended partition the tree was first built with (the item at
 /// the front stays when it goes left, else it is swapped with the last unexamined one), so
@@ -1474,7 +1491,7 @@ fn bins_of(it: &Item, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
 /// present one went left, else the last. Sides are decided first for every item in a pass
 /// without branches, then the items are moved by selects in place of a branch that went
 /// either way at random.
-fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
+fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> (usize, [Bounds; 2]) {
     let n = items.len();
     let mut small = [false; 512];
     let mut large = Vec::new();
@@ -1491,10 +1508,14 @@ fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
 }
 
 /// [`partition`] with the sides decided: `sides[k]` tells whether the item at `k` goes left.
-fn partition_by(items: &mut [Item], sides: &[bool]) -> usize {
+///
+/// The loop is bound by the chain of its reads (the next item depends on the present one's
+/// side), so the two boxes of centres, grown beside it by selects, cost little.
+fn partition_by(items: &mut [Item], sides: &[bool]) -> (usize, [Bounds; 2]) {
     let n = items.len();
+    let mut centres = [Bounds::EMPTY; 2];
     if n == 0 {
-        return 0;
+        return (0, centres);
     }
     // `i` and `j` bound the slots not yet written; the present item came from the queue's
     // front or back and its slot is one of the free ones.
@@ -1507,12 +1528,23 @@ fn partition_by(items: &mut [Item], sides: &[bool]) -> usize {
         let from = from.min(n - 1);
         let (next, next_side) = (items[from], sides[from]);
         items[to] = present;
+        let c = Vec3A::from(present.centre);
+        let on_left = BVec3A::splat(side);
+        let [l, r] = &mut centres;
+        l.grow(
+            Vec3A::select(on_left, c, Bounds::EMPTY.min),
+            Vec3A::select(on_left, c, Bounds::EMPTY.max),
+        );
+        r.grow(
+            Vec3A::select(on_left, Bounds::EMPTY.min, c),
+            Vec3A::select(on_left, Bounds::EMPTY.max, c),
+        );
         i += side as usize;
         j -= !side as usize;
         present = next;
         side = next_side;
     }
-    i
+    (i, centres)
 }
 
 #[cfg(test)]
@@ -2228,7 +2260,7 @@ mod tests {
             let left: Vec<bool> = (0..n).map(|_| rng.next() < 0.5).collect();
             let goes_left = |it: &Item| left[it.id as usize];
             let mut a = items.clone();
-            let i = partition(&mut a, goes_left);
+            let (i, _) = partition(&mut a, goes_left);
             // The partition the tree was first built with.
             let mut b = items;
             let (mut p, mut q) = (0, n);
