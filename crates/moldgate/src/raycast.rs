@@ -6,13 +6,14 @@
 //!
 //! The tree is built once per mesh with a binned surface-area heuristic (12 bins per axis,
 //! leaves of at most 4 triangles; the top levels are built on both threads; the three axes
-//! are binned in one pass over a node's triangles, and a child's box comes from the union of
-//! its parent's bins, so each level reads its triangles twice: bins, then partition). Boxes and
-//! triangles are stored in `f32`, relative to the centre of the mesh's box, to halve the
-//! memory read per ray; queries take and return `f64`. The tree knows only boxes and triangle
-//! numbers: what a hit means (wall, undercut) is the caller's business. The finished tree
-//! keeps the two children of a node side by side in one 64-byte cache line, so a step of the
-//! descent, which tests both boxes, reads one line; each triangle carries its mesh index.
+//! are binned in one pass over a node's triangles, a child's box comes from the union of its
+//! parent's bins and the box of its triangles' centres from the partition, so each level
+//! reads its triangles twice: bins, then partition). Boxes and triangles are stored in `f32`,
+//! relative to the centre of the mesh's box, to halve the memory read per ray; queries take
+//! and return `f64`. The tree knows only boxes and triangle numbers: what a hit means (wall,
+//! undercut) is the caller's business. The finished tree keeps the two children of a node
+//! side by side in one 64-byte cache line, so a step of the descent, which tests both boxes,
+//! reads one line; each triangle carries its mesh index.
 //!
 //! A query that stays in a known ball (the short rays and nearest-point queries of the wall
 //! thickness's cross-width check) can start from the few subtrees that hold every triangle
