@@ -6,13 +6,14 @@
 //!
 //! The tree is built once per mesh with a binned surface-area heuristic (12 bins per axis,
 //! leaves of at most 4 triangles; the top levels are built on both threads; the three axes
-//! are binned in one pass over a node's triangles, and a child's box comes from the union of
-//! its parent's bins, so each level reads its triangles twice: bins, then partition). Boxes and
-//! triangles are stored in `f32`, relative to the centre of the mesh's box, to halve the
-//! memory read per ray; queries take and return `f64`. The tree knows only boxes and triangle
-//! numbers: what a hit means (wall, undercut) is the caller's business. The finished tree
-//! keeps the two children of a node side by side in one 64-byte cache line, so a step of the
-//! descent, which tests both boxes, reads one line; each triangle carries its mesh index.
+//! are binned in one pass over a node's triangles, a child's box comes from the union of its
+//! parent's bins and the box of its triangles' centres from the partition, so each level
+//! reads its triangles twice: bins, then partition). Boxes and triangles are stored in `f32`,
+//! relative to the centre of the mesh's box, to halve the memory read per ray; queries take
+//! and return `f64`. The tree knows only boxes and triangle numbers: what a hit means (wall,
+//! undercut) is the caller's business. The finished tree keeps the two children of a node
+//! side by side in one 64-byte cache line, so a step of the descent, which tests both boxes,
+//! reads one line; each triangle carries its mesh index.
 //!
 //! A query that stays in a known ball (the short rays and nearest-point queries of the wall
 //! thickness's cross-width check) can start from the few subtrees that hold every triangle
@@ -28,7 +29,7 @@
 use std::cmp::Ordering;
 use std::ops::ControlFlow;
 
-use glam::{BVec4A, Vec3, Vec3A, Vec4};
+use glam::{BVec3A, BVec4A, Vec3, Vec3A, Vec4};
 use rayon::join;
 use rayon::prelude::*;
 
@@ -1007,7 +1008,8 @@ fn closest_on_triangle(a: Vec3, ab: Vec3, ac: Vec3, p: Vec3) -> Vec3 {
 /// Builds the subtree over `items` (reordered in place into leaf order); node links are
 /// relative to the returned vector, triangle links relative to `first`.
 fn build(items: &mut [Item], first: usize, known: Option<Extent>) -> Vec<Node> {
-    let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
+    // About 0.64 nodes a triangle on the shared parts: room for that without growing.
+    let mut nodes = Vec::with_capacity(items.len() * 3 / 4 + 16);
     build_into(items, first, &mut nodes, known);
     nodes
 }
@@ -1040,6 +1042,7 @@ impl Extent {
         self.centres.grow(c, c);
     }
 
+    #[cfg(test)]
     fn join(&mut self, other: &Extent) {
         self.bounds.grow(other.bounds.min, other.bounds.max);
         self.centres.grow(other.centres.min, other.centres.max);
@@ -1076,12 +1079,12 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Op
     let (left, right) = items.split_at_mut(mid);
     nodes[me].count = 0;
     if left.len() + right.len() > PARALLEL_MIN {
-        let (l, r) = join(
-            || build(left, first, l_known),
+        // The left subtree goes on in `nodes` (it follows its parent); only the right one,
+        // built on the other thread, is copied after it.
+        let ((), r) = join(
+            || build_into(left, first, nodes, l_known),
             || build(right, first + mid, r_known),
         );
-        let base = nodes.len();
-        append(nodes, l, base);
         nodes[me].link = nodes.len() as u32;
         let base = nodes.len();
         append(nodes, r, base);
@@ -1245,26 +1248,24 @@ fn split_binned(
     scale: Vec3A,
 ) -> SplitAnswer {
     let n_axes = axes.len();
-    // The bin of a centre along an axis. A centre lies at or above `lo` and at most a
-    // rounding above `lo + extent`, so the scaled offset is in [0, BINS + 1) and its
-    // conversion to `i32` is the conversion to `usize` the split was first written with,
-    // without the latter's range handling.
-    let bin_of =
-        |axis: usize, c: f32| (((c - lo[axis]) * scale[axis]) as i32).min(BINS as i32 - 1) as usize;
-    let mut bins = [[Extent::EMPTY; BINS]; 3];
+    // Each bin's box of items (the centres' boxes of the two sides come from the
+    // partition, which reads every item anyway, and only for the chosen axis).
+    let mut bins = [[Bounds::EMPTY; BINS]; 3];
     let mut counts = [[0u32; BINS]; 3];
     if items.len() >= WIDE_BINNING && n_axes == 3 {
         // Neighbouring items mostly fall into the same bins, so one set of bins is a chain
         // of dependent minima through memory; two sets, one for the even and one for the
         // odd items, break it. Minima and maxima are exact, so their union is the one set.
-        let mut odd = [[Extent::EMPTY; BINS]; 3];
+        let mut odd = [[Bounds::EMPTY; BINS]; 3];
         let mut pairs = items.chunks_exact(2);
         for pair in &mut pairs {
             let (p, q) = (&pair[0], &pair[1]);
             let (bp, bq) = (bins_of(p, lo, scale), bins_of(q, lo, scale));
+            let (p_min, p_max) = (Vec3A::from(p.min), Vec3A::from(p.max));
+            let (q_min, q_max) = (Vec3A::from(q.min), Vec3A::from(q.max));
             for axis in 0..3 {
-                bins[axis][bp[axis]].add(p);
-                odd[axis][bq[axis]].add(q);
+                bins[axis][bp[axis]].grow(p_min, p_max);
+                odd[axis][bq[axis]].grow(q_min, q_max);
                 counts[axis][bp[axis]] += 1;
                 counts[axis][bq[axis]] += 1;
             }
@@ -1272,21 +1273,21 @@ fn split_binned(
         for it in pairs.remainder() {
             let b = bins_of(it, lo, scale);
             for axis in 0..3 {
-                bins[axis][b[axis]].add(it);
+                bins[axis][b[axis]].grow(Vec3A::from(it.min), Vec3A::from(it.max));
                 counts[axis][b[axis]] += 1;
             }
         }
         for (set, other) in bins.iter_mut().zip(&odd) {
             for (e, o) in set.iter_mut().zip(other) {
-                e.join(o);
+                e.grow(o.min, o.max);
             }
         }
     } else {
         for it in items.iter() {
+            let b = bins_of(it, lo, scale);
             for &axis in axes {
-                let b = bin_of(axis, it.centre[axis]);
-                bins[axis][b].add(it);
-                counts[axis][b] += 1;
+                bins[axis][b[axis]].grow(Vec3A::from(it.min), Vec3A::from(it.max));
+                counts[axis][b[axis]] += 1;
             }
         }
     }
@@ -1299,7 +1300,7 @@ fn split_binned(
         let mut n = 0u32;
         let mut right_count = [0u32; BINS];
         for b in (1..BINS).rev() {
-            acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
+            acc.grow(boxes[b].min, boxes[b].max);
             n += counts[b];
             right_area[b] = acc.half_area();
             right_count[b] = n;
@@ -1307,7 +1308,7 @@ fn split_binned(
         let mut acc = Bounds::EMPTY;
         let mut n = 0u32;
         for b in 0..BINS - 1 {
-            acc.grow(boxes[b].bounds.min, boxes[b].bounds.max);
+            acc.grow(boxes[b].min, boxes[b].max);
             n += counts[b];
             let (nl, nr) = (n, right_count[b + 1]);
             if nl == 0 || nr == 0 {
@@ -1324,17 +1325,31 @@ fn split_binned(
         ControlFlow::Continue(chosen) => chosen,
         ControlFlow::Break(answer) => return answer,
     };
-    // Partition in place by the chosen plane, with the binning's own arithmetic.
-    let i = partition(items, |it| bin_of(axis, it.centre[axis]) < cut);
-    // The parts are the bins below and above the cut: their extents are the bins' unions.
-    let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
+    // Partition in place by the chosen plane, with the binning's own arithmetic: an item
+    // goes left when its bin is below `cut`, that is (its scaled offset being at least 0
+    // and `cut` at most the last bin) when the offset itself is below `cut`.
+    let (lo_axis, scale_axis, below) = (lo[axis], scale[axis], cut as f32);
+    let (i, [l_centres, r_centres]) =
+        partition(items, |it| (it.centre[axis] - lo_axis) * scale_axis < below);
+    // The parts' boxes are the unions of the bins below and above the cut (min and max are
+    // exact, so these are the boxes a pass over their items gives).
+    let (mut l_bounds, mut r_bounds) = (Bounds::EMPTY, Bounds::EMPTY);
     for (b, e) in bins[axis].iter().enumerate() {
-        if b < cut {
-            left.join(e);
+        let side = if b < cut {
+            &mut l_bounds
         } else {
-            right.join(e);
-        }
+            &mut r_bounds
+        };
+        side.grow(e.min, e.max);
     }
+    let left = Extent {
+        bounds: l_bounds,
+        centres: l_centres,
+    };
+    let right = Extent {
+        bounds: r_bounds,
+        centres: r_centres,
+    };
     (i > 0 && i < items.len()).then_some((i, Some((left, right))))
 }
 
@@ -1440,7 +1455,7 @@ fn split_few(
     for (g, b) in goes_left.iter_mut().zip(&of_item[..n]) {
         *g = (b[axis] as usize) < cut;
     }
-    let i = partition_by(items, &goes_left[..n]);
+    let (i, _) = partition_by(items, &goes_left[..n]);
     // The parts' extents: the union over their items is the union over their bins.
     let left = Extent::of(&items[..i]);
     let right = Extent::of(&items[i..]);
@@ -1451,20 +1466,24 @@ fn split_few(
 /// second set's emptying costs more than it saves.
 const WIDE_BINNING: usize = 256;
 
-/// The bins of an item's centre along the three axes, as [`split`]'s `bin_of` gives them
-/// (the same lane-wise arithmetic, so the same bins).
+/// The bins of an item's centre along the three axes: the whole part of its scaled offset
+/// from `lo`, at most the last bin.
+///
+/// A centre lies at or above `lo` and at most a rounding above `lo + extent`, so the scaled
+/// offset is in [0, BINS + 1), and its floor after the minimum is the truncation to an
+/// integer the split was first written with (`as i32`, then the minimum), without the
+/// conversion's range and NaN handling, which cost more than the rest of the binning. An axis
+/// without extent gives NaN, which the minimum turns into the last bin (such an axis is never
+/// binned). The floor plus 2^23 holds the bin in the low bits of its representation.
 #[inline]
 fn bins_of(it: &Item, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
-    let f = (Vec3A::from(it.centre) - lo) * scale;
-    let last = BINS as i32 - 1;
-    [
-        (f.x as i32).min(last) as usize,
-        (f.y as i32).min(last) as usize,
-        (f.z as i32).min(last) as usize,
-    ]
+    let f = ((Vec3A::from(it.centre) - lo) * scale).min(Vec3A::splat((BINS - 1) as f32));
+    let k = (f.floor() + Vec3A::splat(8_388_608.0)).to_array();
+    k.map(|v| (v.to_bits() & 0xF) as usize)
 }
 
-/// Partitions `items` so that those for which `left` holds come first; returns how many do.
+/// Partitions `items` so that those for which `left` holds come first; returns how many do
+/// and the boxes of the two sides' centres (left, right).
 ///
 /// The order is that of the two-ended partition the tree was first built with (the item at
 /// the front stays when it goes left, else it is swapped with the last unexamined one), so
@@ -1473,7 +1492,7 @@ fn bins_of(it: &Item, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
 /// present one went left, else the last. Sides are decided first for every item in a pass
 /// without branches, then the items are moved by selects in place of a branch that went
 /// either way at random.
-fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
+fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> (usize, [Bounds; 2]) {
     let n = items.len();
     let mut small = [false; 512];
     let mut large = Vec::new();
@@ -1490,10 +1509,14 @@ fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
 }
 
 /// [`partition`] with the sides decided: `sides[k]` tells whether the item at `k` goes left.
-fn partition_by(items: &mut [Item], sides: &[bool]) -> usize {
+///
+/// The loop is bound by the chain of its reads (the next item depends on the present one's
+/// side), so the two boxes of centres, grown beside it by selects, cost little.
+fn partition_by(items: &mut [Item], sides: &[bool]) -> (usize, [Bounds; 2]) {
     let n = items.len();
+    let mut centres = [Bounds::EMPTY; 2];
     if n == 0 {
-        return 0;
+        return (0, centres);
     }
     // `i` and `j` bound the slots not yet written; the present item came from the queue's
     // front or back and its slot is one of the free ones.
@@ -1506,12 +1529,23 @@ fn partition_by(items: &mut [Item], sides: &[bool]) -> usize {
         let from = from.min(n - 1);
         let (next, next_side) = (items[from], sides[from]);
         items[to] = present;
+        let c = Vec3A::from(present.centre);
+        let on_left = BVec3A::splat(side);
+        let [l, r] = &mut centres;
+        l.grow(
+            Vec3A::select(on_left, c, Bounds::EMPTY.min),
+            Vec3A::select(on_left, c, Bounds::EMPTY.max),
+        );
+        r.grow(
+            Vec3A::select(on_left, Bounds::EMPTY.min, c),
+            Vec3A::select(on_left, Bounds::EMPTY.max, c),
+        );
         i += side as usize;
         j -= !side as usize;
         present = next;
         side = next_side;
     }
-    i
+    (i, centres)
 }
 
 #[cfg(test)]
@@ -2079,10 +2113,10 @@ mod tests {
         let mut bins = [[Extent::EMPTY; BINS]; 3];
         let mut counts = [[0usize; BINS]; 3];
         for it in items.iter() {
+            let b = bins_of(it, lo, scale);
             for &axis in axes {
-                let b = bin_of(axis, it.centre[axis]);
-                bins[axis][b].add(it);
-                counts[axis][b] += 1;
+                bins[axis][b[axis]].add(it);
+                counts[axis][b[axis]] += 1;
             }
         }
         let mut best: Option<(f32, usize, f32)> = None; // (cost, axis, position)
@@ -2227,7 +2261,7 @@ mod tests {
             let left: Vec<bool> = (0..n).map(|_| rng.next() < 0.5).collect();
             let goes_left = |it: &Item| left[it.id as usize];
             let mut a = items.clone();
-            let i = partition(&mut a, goes_left);
+            let (i, _) = partition(&mut a, goes_left);
             // The partition the tree was first built with.
             let mut b = items;
             let (mut p, mut q) = (0, n);
