@@ -156,6 +156,11 @@ fn check_limits(
         ));
     }
     let keep: Vec<bool> = body_of.iter().map(|&b| b != u32::MAX).collect();
+    // The exact count (a pass of square roots over the triangles) only when the bound
+    // from the triangles' boxes does not already keep the limit.
+    if voxel::samples_bound(mesh, h, Some(&keep)) <= options.max_samples {
+        return Ok(());
+    }
     let samples = voxel::samples_for(mesh, h, Some(&keep));
     if samples > options.max_samples {
         return Err(FillError::too_large(
