@@ -156,6 +156,11 @@ fn check_limits(
         ));
     }
     let keep: Vec<bool> = body_of.iter().map(|&b| b != u32::MAX).collect();
+    // The exact count (a pass of square roots over the triangles) only when the bound
+    // from the triangles' boxes does not already keep the limit.
+    if voxel::samples_bound(mesh, h, Some(&keep)) <= options.max_samples {
+        return Ok(());
+    }
     let samples = voxel::samples_for(mesh, h, Some(&keep));
     if samples > options.max_samples {
         return Err(FillError::too_large(
@@ -1021,6 +1026,20 @@ pub fn several_gates(
     first: usize,
     k: usize,
 ) -> Option<MultiGate> {
+    several_gates_from(domain, candidates, objective, first, k, None)
+}
+
+/// [`several_gates`] with, when the caller has it, the field of `candidates[first]` for the
+/// objective already marched (the fill analysis has it from the balanced gate's fill); it
+/// is then not marched again, nor counted in the runs.
+pub fn several_gates_from(
+    domain: &Domain,
+    candidates: &[Source],
+    objective: Objective,
+    first: usize,
+    k: usize,
+    start: Option<&Field>,
+) -> Option<MultiGate> {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[candidates[first].cell as usize];
@@ -1032,8 +1051,13 @@ pub fn several_gates(
     }
     let mut runs = 0;
     let mut chosen = vec![first];
-    let mut field = march(v, &[candidates[first]], cost);
-    runs += 1;
+    let mut field = match start {
+        Some(f) => f.clone(),
+        None => {
+            runs += 1;
+            march(v, &[candidates[first]], cost)
+        }
+    };
     let from_centre = CentreMarches::new(v, cost);
     // Which cells hold a candidate the search may still take: the nearest of them to a far
     // point is needed, not the whole field from it.
@@ -1974,12 +1998,22 @@ pub fn analyse(
                 domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
             })
             .count();
-        let mut layout = several_gates(
+        // The balanced gate's fill marched the first gate's field when it beat the paper
+        // gate (the same source: its candidate's surface point and cell).
+        let first_field = balanced.as_ref().and_then(|(b, fields)| {
+            let f = fields.as_ref().filter(|_| b.search.candidate == start)?;
+            Some(match options.objective {
+                Objective::Length => &f.length,
+                Objective::Resistance => &f.fill,
+            })
+        });
+        let mut layout = several_gates_from(
             &domain,
             &candidates,
             options.objective,
             start,
             options.gates,
+            first_field,
         )
         .ok_or(FillError::TooFewCandidates {
             asked: options.gates,

@@ -161,6 +161,77 @@ fn floor_signed(x: f64) -> isize {
     }
 }
 
+/// Marks the cells of triangle `t`'s surface samples (rows at most `step` apart, samples
+/// at most `step` apart along each row) as (cell, `t`), each cell once per run of samples
+/// in it.
+#[inline]
+fn mark_samples(
+    mesh: &Mesh,
+    t: usize,
+    step: f64,
+    cell_of: &impl Fn(DVec3) -> usize,
+    out: &mut Vec<(u32, u32)>,
+) {
+    let ((a, b, c), rows, per_row) = sample_rows(mesh, t, step);
+    let mut last = usize::MAX;
+    for r in 0..=rows {
+        let s = r as f64 / rows as f64;
+        let (p, q) = (a + (c - a) * s, b + (c - b) * s);
+        let n = ceil_index((1.0 - s) * (per_row - 1) as f64).max(1);
+        for j in 0..=n {
+            let cell = cell_of(p + (q - p) * (j as f64 / n as f64));
+            if cell != last {
+                out.push((cell as u32, t as u32));
+                last = cell;
+            }
+        }
+    }
+}
+
+/// Margin, in cells, by which a triangle's extreme corners must lie off the cell faces
+/// for [`few_cells`]: far above the rounding of a sample's interpolated coordinates (about
+/// 1e-15 of the part's size), so the samples fall where the corners do.
+const CORNER_MARGIN: f64 = 1e-7;
+
+/// The cells that triangle `t`'s surface samples mark, found from its box alone when the
+/// box lies inside one cell, or inside two cells side by side with its lowest and highest
+/// corners along their axis inside each (every corner clear of the faces by
+/// [`CORNER_MARGIN`]): the samples lie in the box and include the corners, so they mark
+/// exactly those cells (dense numbers of the grid of [`Voxels::layout`]; the second the
+/// same as the first when there is one). `None` for other triangles, which are sampled.
+#[inline]
+fn few_cells(mesh: &Mesh, t: usize, origin: DVec3, h: f64, dims: [usize; 3]) -> Option<[usize; 2]> {
+    let [a, b, c] = mesh.corners(t);
+    let lo = (a.min(b).min(c) - origin) / h + 0.5;
+    let hi = (a.max(b).max(c) - origin) / h + 0.5;
+    let (mut first, mut second) = ([0usize; 3], [0usize; 3]);
+    let mut across = false;
+    for k in 0..3 {
+        // Inside the grid and off its last layer, as every surface cell is (a spare cell
+        // on each side), so the samples' clamp to the grid does not apply.
+        if !(lo[k] - CORNER_MARGIN >= 0.0 && hi[k] + CORNER_MARGIN < (dims[k] - 1) as f64) {
+            return None;
+        }
+        let i = (lo[k] - CORNER_MARGIN) as usize;
+        let j = (hi[k] + CORNER_MARGIN) as usize;
+        if j != i {
+            // Two cells along this axis only, each corner clear of the face between.
+            if across
+                || j != i + 1
+                || (lo[k] + CORNER_MARGIN) as usize != i
+                || (hi[k] - CORNER_MARGIN) as usize != j
+            {
+                return None;
+            }
+            across = true;
+        }
+        first[k] = i;
+        second[k] = j;
+    }
+    let dense = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+    Some([dense(first), dense(second)])
+}
+
 /// Upper bound of the surface samples a voxelisation at `h` takes over the triangles
 /// `keep` marks (all when `None`), computed without sampling.
 pub fn samples_for(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
@@ -172,6 +243,26 @@ pub fn samples_for(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
             (rows as f64 + 1.0) * per_row as f64
         })
         .sum()
+}
+
+/// An upper bound of [`samples_for`] from the triangles' boxes alone (no square roots): a
+/// triangle's longest edge, and so its height, is at most the sum of its box's sides `s`,
+/// so it takes at most (s / step + 2)^2 samples. Above the exact count by about a part in
+/// a million more than the rounding of the sums; NaN when a coordinate is.
+pub fn samples_bound(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
+    let step = SAMPLE_STEP * h;
+    let sum: f64 = (0..mesh.triangles.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&t| keep.is_none_or(|k| k[t]))
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            let side = a.max(b).max(c) - a.min(b).min(c);
+            let n = (side.x + side.y + side.z) / step + 2.0;
+            n * n
+        })
+        .sum();
+    sum * (1.0 + 1e-6)
 }
 
 impl Voxels {
@@ -240,19 +331,16 @@ impl Voxels {
                     if body_of[t] == EMPTY {
                         continue;
                     }
-                    let ((a, b, c), rows, per_row) = sample_rows(mesh, t, step);
-                    let mut last = usize::MAX;
-                    for r in 0..=rows {
-                        let s = r as f64 / rows as f64;
-                        let (p, q) = (a + (c - a) * s, b + (c - b) * s);
-                        let n = ceil_index((1.0 - s) * (per_row - 1) as f64).max(1);
-                        for j in 0..=n {
-                            let cell = cell_of(p + (q - p) * (j as f64 / n as f64));
-                            if cell != last {
-                                out.push((cell as u32, t as u32));
-                                last = cell;
+                    // A triangle inside one cell or two (most triangles of a fine
+                    // mesh) marks them from its box, without its samples.
+                    match few_cells(mesh, t, origin, h, dims) {
+                        Some([c0, c1]) => {
+                            out.push((c0 as u32, t as u32));
+                            if c1 != c0 {
+                                out.push((c1 as u32, t as u32));
                             }
                         }
+                        None => mark_samples(mesh, t, step, &cell_of, &mut out),
                     }
                 }
                 out
@@ -617,6 +705,94 @@ mod tests {
             }
             assert_eq!(floor_value(v).to_bits(), v.floor().to_bits(), "{v}");
         }
+    }
+
+    #[test]
+    fn a_triangle_in_one_or_two_cells_marks_the_cells_its_samples_mark() {
+        let (mut one, mut two) = (0, 0);
+        for name in ["plate", "cover", "cap", "tray", "bracket"] {
+            let mesh = sample(name).unwrap();
+            let diagonal = mesh.bounds().diagonal();
+            for h in [diagonal / 300.0, diagonal / 97.3, diagonal / 31.0] {
+                let (origin, dims) = Voxels::layout(&mesh.bounds(), h);
+                let cell_of = |p: DVec3| -> usize {
+                    let q = (p - origin) / h + 0.5;
+                    let c = [
+                        floor_index(q.x).min(dims[0] - 1),
+                        floor_index(q.y).min(dims[1] - 1),
+                        floor_index(q.z).min(dims[2] - 1),
+                    ];
+                    (c[2] * dims[1] + c[1]) * dims[0] + c[0]
+                };
+                for t in 0..mesh.triangles.len() {
+                    let mut sampled = Vec::new();
+                    mark_samples(&mesh, t, SAMPLE_STEP * h, &cell_of, &mut sampled);
+                    let mut sampled: Vec<usize> =
+                        sampled.iter().map(|&(c, _)| c as usize).collect();
+                    sampled.sort_unstable();
+                    sampled.dedup();
+                    let [lo, hi] = (0..3).fold([[0.0; 3]; 2], |[mut lo, mut hi], k| {
+                        let [a, b, c] = mesh.corners(t);
+                        lo[k] = (a[k].min(b[k]).min(c[k]) - origin[k]) / h + 0.5;
+                        hi[k] = (a[k].max(b[k]).max(c[k]) - origin[k]) / h + 0.5;
+                        [lo, hi]
+                    });
+                    let near_face = |x: f64| (x - x.round()).abs() <= CORNER_MARGIN;
+                    let spans: Vec<f64> = (0..3).map(|k| hi[k].floor() - lo[k].floor()).collect();
+                    match few_cells(&mesh, t, origin, h, dims) {
+                        Some([c0, c1]) if c0 == c1 => {
+                            one += 1;
+                            assert_eq!(sampled, [c0], "{name} {h} {t}");
+                        }
+                        Some([c0, c1]) => {
+                            two += 1;
+                            assert_eq!(sampled, [c0, c1], "{name} {h} {t}");
+                        }
+                        // Not taken only where the box reaches further, or a corner lies
+                        // within the margin of a face.
+                        None => assert!(
+                            spans.iter().sum::<f64>() > 1.0
+                                || (0..3).any(|k| near_face(lo[k]) || near_face(hi[k])),
+                            "{name} {h} {t}"
+                        ),
+                    }
+                }
+            }
+        }
+        assert!(one > 100 && two > 100, "{one} {two}");
+    }
+
+    #[test]
+    fn the_samples_bound_is_above_the_samples() {
+        for name in ["plate", "cover", "cap", "tray", "bracket"] {
+            let mesh = sample(name).unwrap();
+            let diagonal = mesh.bounds().diagonal();
+            for h in [
+                diagonal / 300.0,
+                diagonal / 97.3,
+                diagonal / 31.0,
+                diagonal / 2.0,
+            ] {
+                let exact = samples_for(&mesh, h, None);
+                let bound = samples_bound(&mesh, h, None);
+                assert!(
+                    bound >= exact && bound < 40.0 * exact,
+                    "{name} {h}: {bound} {exact}"
+                );
+                // Triangle by triangle, including slivers and points.
+                for t in 0..mesh.triangles.len() {
+                    let (rows, per_row) = sample_grid(&mesh, t, SAMPLE_STEP * h);
+                    let [a, b, c] = mesh.corners(t);
+                    let side = a.max(b).max(c) - a.min(b).min(c);
+                    let n = (side.x + side.y + side.z) / (SAMPLE_STEP * h) + 2.0;
+                    assert!(n * n >= ((rows + 1) * per_row) as f64, "{name} {h} {t}");
+                }
+            }
+        }
+        let mut sliver = sample("plate").unwrap();
+        let v0 = sliver.triangles[0][0];
+        sliver.triangles[1] = [v0, v0, v0];
+        assert!(samples_bound(&sliver, 0.5, None) >= samples_for(&sliver, 0.5, None));
     }
 
     #[test]

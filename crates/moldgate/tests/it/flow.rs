@@ -2,7 +2,10 @@
 //! melt goes around a hole, an open box fills over its walls, the balanced gate equals the
 //! brute-force best candidate, and several gates share the part.
 
-use moldgate::flow::{self, balanced_gate, march, several_gates, Domain, Objective, Source};
+use moldgate::flow::{
+    self, balanced_gate, march, several_gates, several_gates_from, Domain, MultiGate, Objective,
+    Source,
+};
 use moldgate::math::DVec3;
 use moldgate::samples::BoxUnion;
 use moldgate::{Material, Mesh};
@@ -221,6 +224,25 @@ fn two_gates_on_a_bar_sit_near_its_quarter_points_and_share_it_evenly() {
     assert!(two.balance > 0.9, "{}", two.balance);
     // More gates than candidates is refused.
     assert!(several_gates(&domain, &cands[..3], Objective::Length, 0, 4).is_none());
+    // Given the first gate's field, the search does not march it again: the same layout,
+    // one run fewer.
+    for objective in [Objective::Length, Objective::Resistance] {
+        let whole = several_gates(&domain, &cands, objective, start.candidate, 3).unwrap();
+        let field = march(
+            &domain.voxels,
+            &[cands[start.candidate]],
+            domain.cost(objective),
+        );
+        let given =
+            several_gates_from(&domain, &cands, objective, start.candidate, 3, Some(&field))
+                .unwrap();
+        let layout = |m: &MultiGate| {
+            let gates: Vec<_> = m.gates.iter().map(|g| (g.candidate, g.l_max_mm)).collect();
+            (gates, m.l_max_mm, m.balance)
+        };
+        assert_eq!(layout(&given), layout(&whole));
+        assert_eq!(given.runs + 1, whole.runs);
+    }
 }
 
 #[test]
