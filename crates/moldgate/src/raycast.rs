@@ -1748,12 +1748,17 @@ mod tests {
         // Triangles that are points and segments, and one with a corner at infinity (its
         // packet is left to the scalar function).
         let v = mesh.vertices.len() as u32;
-        mesh.vertices.extend([DVec3::ZERO, DVec3::X, DVec3::splat(f64::INFINITY)]);
+        mesh.vertices
+            .extend([DVec3::ZERO, DVec3::X, DVec3::splat(f64::INFINITY)]);
         mesh.triangles.push([v, v + 1, v + 2]);
         for k in 0..40 {
             let v = mesh.vertices.len() as u32;
             let a = DVec3::new(k as f64, 50.0, 20.0);
-            let b = if k % 2 == 0 { a } else { a + DVec3::new(0.5, 0.25, 0.0) };
+            let b = if k % 2 == 0 {
+                a
+            } else {
+                a + DVec3::new(0.5, 0.25, 0.0)
+            };
             mesh.vertices.extend([a, b, a]);
             mesh.triangles.push([v, v + 1, v + 2]);
         }
