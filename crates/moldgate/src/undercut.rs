@@ -49,6 +49,10 @@
 //! out has an undercut above its bound, so it is neither the least nor tied: the choice,
 //! and the undercut of every line drawn, are those of drawing every line, bit for bit. The
 //! lines left out report their bound ([`Candidate::evaluated`] is false: "at least").
+//! The principal axes get their first bound only after the first line drawn ray by ray, and
+//! it stops once it exceeds that line's undercut by more than the tie (so it is looser than
+//! the whole first bound, but still a lower bound): the axes are the likely choices of a
+//! designed part, and a principal axis near an axis is the dearest line to bound.
 //! On the 352k-triangle housing, five of its six lines stop at a bound.
 //!
 //! **Work beside the rays.** The first line drawn ray by ray is the one of least bound, the
@@ -77,7 +81,7 @@ use crate::centre::Centres;
 use crate::frame::{Direction, Frame};
 use crate::gate::projection::{self, BlockedRay, PointRay, RaySink};
 use crate::math::DVec3;
-use crate::mesh::Mesh;
+use crate::mesh::{LoadedMesh, Mesh};
 pub use crate::raycast::Sampling;
 use crate::raycast::{Bvh, Ray};
 
@@ -591,13 +595,46 @@ pub fn auto_direction_beside<T: Send>(
     mesh: &Mesh,
     sampling: Sampling,
     beside: impl Fn(Direction) -> T + Sync,
+    gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
+) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
+    choose(mesh, None, sampling, beside, gate_qualifies)
+}
+
+/// [`auto_direction_beside`] of a loaded part: its centres, summed at load, are not summed
+/// again ([`Centres::of`] the mesh gives the same bits).
+pub fn auto_direction_beside_loaded<T: Send>(
+    part: &LoadedMesh,
+    sampling: Sampling,
+    beside: impl Fn(Direction) -> T + Sync,
+    gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
+) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
+    choose(
+        &part.mesh,
+        Some(part.centres),
+        sampling,
+        beside,
+        gate_qualifies,
+    )
+}
+
+/// [`auto_direction_beside`], with the mesh's centres when they are known.
+fn choose<T: Send>(
+    mesh: &Mesh,
+    centres: Option<Centres>,
+    sampling: Sampling,
+    beside: impl Fn(Direction) -> T + Sync,
     mut gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
 ) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
     // The principal axes are summed in order on one thread (their bits depend on it); the
-    // centres and what every line shares are made on the others meanwhile.
+    // centres (unless known) and what every line shares are made on the others meanwhile.
     let (axes, (centres, surface)) = rayon::join(
         || principal_axes(mesh),
-        || (Centres::of(mesh), Surface::new(mesh, sampling)),
+        || {
+            (
+                centres.unwrap_or_else(|| Centres::of(mesh)),
+                Surface::new(mesh, sampling),
+            )
+        },
     );
     if !(centres.area_mm2.is_finite() && centres.area_mm2 > 0.0) {
         return Err(DemoldError::NothingToEvaluate);
@@ -641,18 +678,38 @@ pub fn auto_direction_beside<T: Send>(
                         (lo.min(h), hi.max(h))
                     });
             let direction = Direction::new(dir).expect("unit line");
-            let bound = surface.lower_bound(direction, 0, f64::INFINITY);
+            // A principal axis is bounded later (see `pending` below): until then its bound
+            // is infinite, so no line is taken before it for it.
+            let bound = match kind {
+                CandidateKind::Axis => surface.lower_bound(direction, 0, f64::INFINITY),
+                CandidateKind::Principal => Undercut {
+                    area_mm2: f64::INFINITY,
+                    share: f64::INFINITY,
+                },
+            };
             Candidate {
                 direction: direction.vector().to_array(),
                 kind,
                 undercut: bound,
                 extent_mm: hi - lo,
                 gate_qualifies: None,
-                evaluated: surface.largest[0].every,
+                evaluated: surface.largest[0].every && kind == CandidateKind::Axis,
             }
         })
         .collect();
     let tie = TIE_SHARE * centres.area_mm2;
+    // The principal axes get their first bound only once a line has been drawn ray by ray,
+    // and that bound stops as soon as it exceeds the least undercut by more than the tie.
+    // On a designed part they are rarely chosen, and they are the dearest lines to bound: a
+    // principal axis a few milliradians off an axis puts the rays and the triangles of every
+    // wall facing a side in thin strips. A line whose bound stopped so reports it (it is
+    // lower than the whole first bound, still a lower bound of its undercut). Which lines
+    // are drawn ray by ray, and so the choice, is unchanged by the order: every line whose
+    // undercut is within the tie of the least is drawn whatever the order of the bounds.
+    let mut pending: Vec<bool> = tried
+        .iter()
+        .map(|c| c.kind == CandidateKind::Principal)
+        .collect();
     // Every ray is drawn only for the lines that can still be chosen. The line of least bound
     // not drawn yet gets the next, tighter bound (more of the largest facets), and at the
     // last level every ray; until the least bound left exceeds the least undercut found by
@@ -668,8 +725,26 @@ pub fn auto_direction_beside<T: Send>(
             .filter(|c| c.evaluated)
             .map(|c| c.undercut.area_mm2)
             .fold(f64::INFINITY, f64::min);
+        if least.is_finite() && pending.contains(&true) {
+            let bounds: Vec<(usize, Undercut)> = (0..tried.len())
+                .filter(|&i| pending[i])
+                .collect::<Vec<_>>()
+                .into_par_iter()
+                .map(|i| {
+                    let d =
+                        Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
+                    (i, surface.lower_bound(d, 0, least + tie))
+                })
+                .collect();
+            for (i, bound) in bounds {
+                tried[i].undercut = bound;
+                tried[i].evaluated = surface.largest[0].every;
+                pending[i] = false;
+            }
+            continue;
+        }
         let next = (0..tried.len())
-            .filter(|&i| !tried[i].evaluated)
+            .filter(|&i| !tried[i].evaluated && !pending[i])
             .min_by(|&i, &j| {
                 tried[i]
                     .undercut

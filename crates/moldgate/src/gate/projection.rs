@@ -349,7 +349,9 @@ fn draw_blocks(
     while let Some(block) = next() {
         for (t, tri) in triangles[block.clone()].iter().enumerate() {
             let t = (block.start + t) as u32;
-            let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
+            // Each corner written out: `tri.map` with a closure is not always inlined.
+            let corner = |k: usize| uwh(frame, vertices[tri[k] as usize]);
+            let (a, b, c) = (corner(0), corner(1), corner(2));
             let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
                 continue;
             };
@@ -474,18 +476,36 @@ const CELL_RUN: usize = 1024;
 /// Orders the rays of one cell (the first at `from` in `placed`): those going down first,
 /// each part as [`Cell::orders`] says; its bounds.
 fn order_cell(from: u32, rays: &mut [PlacedRay]) -> Cell {
-    rays.sort_unstable_by_key(|r| r.up());
-    let split = rays.partition_point(|r| !r.up());
+    // Those going down first, by a partition in place: the order within each part is set
+    // by `order_part` (and which rays a triangle blocks does not depend on it).
+    let mut split = 0;
+    for k in 0..rays.len() {
+        if !rays[k].up() {
+            rays.swap(split, k);
+            split += 1;
+        }
+    }
     let (down, up) = rays.split_at_mut(split);
     let order_down = order_part(down, |p, q| q.height.total_cmp(&p.height));
     let order_up = order_part(up, |p, q| p.height.total_cmp(&q.height));
+    // A part in the order of height starts with its extreme.
+    let lowest = |part: &[PlacedRay], order: u8| match (part.first(), order) {
+        (Some(r), ORDER_HEIGHT) => r.height,
+        _ => part.iter().fold(f64::INFINITY, |m, r| m.min(r.height)),
+    };
+    let highest = |part: &[PlacedRay], order: u8| match (part.first(), order) {
+        (Some(r), ORDER_HEIGHT) => r.height,
+        _ => part.iter().fold(f64::NEG_INFINITY, |m, r| m.max(r.height)),
+    };
     Cell {
-        up: up.first().map_or(f32::INFINITY, |_| {
-            f32_at_most(up.iter().fold(f64::INFINITY, |m, r| m.min(r.height)))
-        }),
-        down: down.first().map_or(f32::NEG_INFINITY, |_| {
-            f32_at_least(down.iter().fold(f64::NEG_INFINITY, |m, r| m.max(r.height)))
-        }),
+        up: match up.is_empty() {
+            true => f32::INFINITY,
+            false => f32_at_most(lowest(up, order_up)),
+        },
+        down: match down.is_empty() {
+            true => f32::NEG_INFINITY,
+            false => f32_at_least(highest(down, order_down)),
+        },
         from,
         split: from + split as u32,
         orders: order_down | order_up << 2,
@@ -501,7 +521,9 @@ fn order_part(
     nearest_first: impl Fn(&PlacedRay, &PlacedRay) -> std::cmp::Ordering,
 ) -> u8 {
     if rays.len() <= CROWDED {
-        rays.sort_unstable_by(nearest_first);
+        if rays.len() > 1 {
+            rays.sort_unstable_by(nearest_first);
+        }
         return ORDER_HEIGHT;
     }
     let (lo, hi) = rays.iter().fold(
@@ -855,7 +877,10 @@ where
             .for_each(|(b, block)| {
                 for (k, tri) in block.iter().enumerate() {
                     let t = (offset + b * POINT_BLOCK + k) as u32;
-                    let [a, bb, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
+                    // Each corner written out: `tri.map` with a closure is not always
+                    // inlined (a tenth more instructions in this loop when it is not).
+                    let corner = |k: usize| uwh(frame, vertices[tri[k] as usize]);
+                    let (a, bb, c) = (corner(0), corner(1), corner(2));
                     let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
                         continue;
                     };

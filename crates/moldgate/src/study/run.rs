@@ -12,7 +12,7 @@ use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
 use crate::study::{judge, Demold, Hooks, Settings, Stage, StudyError};
 use crate::thickness::{wall_thickness_with, ThicknessOptions, WallThickness};
-use crate::undercut::auto_direction_beside;
+use crate::undercut::auto_direction_beside_loaded;
 
 /// One gate of the answer, as pictures and 3D files show it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -115,9 +115,13 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             // The gate along the first line drawn ray by ray (nearly always the one chosen)
             // is located while its rays are drawn: locate does not depend on them, and the
             // two together keep both threads busy. Along another line it is located again.
-            let (auto, early) =
-                auto_direction_beside(mesh, Sampling::Centroid, locate_along, gate_qualifies)
-                    .map_err(StudyError::Demold)?;
+            let (auto, early) = auto_direction_beside_loaded(
+                part,
+                Sampling::Centroid,
+                locate_along,
+                gate_qualifies,
+            )
+            .map_err(StudyError::Demold)?;
             demold_s = Some(t.elapsed().as_secs_f64());
             options.direction = auto.direction();
             let located = match early {

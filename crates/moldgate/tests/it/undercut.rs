@@ -351,3 +351,38 @@ fn a_tie_break_reads_the_work_beside_the_rays_for_its_line_only() {
         }
     }
 }
+
+#[test]
+fn demold_auto_of_a_loaded_part_is_that_of_its_mesh() {
+    // The loaded part's centres, summed at load, stand for `Centres::of` its mesh: the
+    // same choice, the same bounds and the same work beside, to the bit.
+    let mut meshes: Vec<_> = samples::SAMPLES
+        .iter()
+        .map(|info| samples::sample(info.name).unwrap())
+        .collect();
+    // Finer than the bounds' least count of facets, so lines stop at a bound.
+    meshes.push(samples::sample("cover").unwrap().subdivided().subdivided());
+    for mesh in meshes {
+        let part = moldgate::mesh::from_generated(mesh);
+        let beside = |d: moldgate::Direction| d.vector().to_array();
+        let of_mesh = moldgate::undercut::auto_direction_beside(
+            &part.mesh,
+            Sampling::Centroid,
+            beside,
+            |_, _| true,
+        )
+        .unwrap();
+        let of_part = moldgate::undercut::auto_direction_beside_loaded(
+            &part,
+            Sampling::Centroid,
+            beside,
+            |_, _| true,
+        )
+        .unwrap();
+        assert_eq!(of_part.0, of_mesh.0);
+        assert_eq!(
+            of_part.1.map(|(d, t)| (d.vector().to_array(), t)),
+            of_mesh.1.map(|(d, t)| (d.vector().to_array(), t))
+        );
+    }
+}
