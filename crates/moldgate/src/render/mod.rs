@@ -27,6 +27,7 @@
 mod canvas;
 mod encode;
 mod placed;
+mod pool;
 mod raster;
 
 use crate::math::{DVec2, DVec3};
@@ -34,7 +35,7 @@ use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
 pub use placed::PLACED_COLOUR;
-use raster::{draw, Colours, Depths, Facing, Panel};
+use raster::{draw_projected, Colours, Depths, Facing, Panel, Projection};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -188,12 +189,6 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         },
         None => FieldRange::of(&scene.field.per_vertex),
     };
-    let t: Vec<f32> = scene
-        .field
-        .per_vertex
-        .iter()
-        .map(|&v| range.unit(v))
-        .collect();
     let lut = Lut::viridis();
 
     let views: Vec<View> = [ViewKind::AlongDemold, ViewKind::Isometric]
@@ -207,17 +202,35 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         .collect();
     let diagonal = bounds_diagonal(scene);
     // The facets to skip need only the mesh, the depths the overlays look up only the
-    // scene: found beside the making of the canvas.
-    let (facing, (canvas, asked)) = rayon::join(
+    // scene, the views' projections of the mesh and the field's colour-map coordinates only
+    // the mesh and the cameras: all found beside one another and the making of the canvas.
+    let (facing, ((canvas, asked), (t, projections))) = rayon::join(
         || scene.topology.map(|topology| Facing::of(mesh, topology)),
         || {
             rayon::join(
-                || Canvas::new(width, height, WHITE),
                 || {
-                    views
+                    rayon::join(
+                        || Canvas::new(width, height, WHITE),
+                        || {
+                            views
+                                .iter()
+                                .map(|v| ask_depths(scene, v))
+                                .collect::<Vec<_>>()
+                        },
+                    )
+                },
+                || {
+                    let t: Vec<f32> = scene
+                        .field
+                        .per_vertex
                         .iter()
-                        .map(|v| ask_depths(scene, v))
-                        .collect::<Vec<_>>()
+                        .map(|&v| range.unit(v))
+                        .collect();
+                    let projections: Vec<Projection> = views
+                        .iter()
+                        .map(|v| Projection::new(mesh, &v.camera, v.panel, SAMPLES))
+                        .collect();
+                    (t, projections)
                 },
             )
         },
@@ -244,12 +257,12 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     // Both panels drawn and coloured into the canvas band by band on all threads, then the
     // overlays of each drawn over it, in a fixed order.
     let stride = canvas.width() as usize;
-    draw(
+    draw_projected(
         mesh,
         &t,
         facing.as_ref(),
         &mut panels,
-        SAMPLES,
+        &projections,
         canvas.pixmap.data_mut(),
         stride,
     );
