@@ -358,14 +358,12 @@ fn axes(scene: &Scene, kind: ViewKind) -> (DVec3, DVec3, DVec3) {
 /// The camera of a view, fitting the part and the gate discs into `area` (x, y, w, h).
 fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
     let (right, up, toward) = axes(scene, kind);
-    let mut lo = DVec2::splat(f64::INFINITY);
-    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    let (mut lo, mut hi) = projected_extent(&scene.mesh.vertices, right, up);
     let mut grow = |p: DVec3| {
         let q = DVec2::new(p.dot(right), p.dot(up));
         lo = lo.min(q);
         hi = hi.max(q);
     };
-    scene.mesh.vertices.iter().for_each(|&p| grow(p));
     for g in scene
         .gates
         .iter()
@@ -389,8 +387,33 @@ fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
 }
 
 fn bounds_diagonal(scene: &Scene) -> f64 {
-    let b = crate::math::Aabb::of_points(&scene.mesh.vertices);
+    use rayon::prelude::*;
+    let b = scene
+        .mesh
+        .vertices
+        .par_chunks(1 << 14)
+        .map(crate::math::Aabb::of_points)
+        .reduce(
+            || crate::math::Aabb::EMPTY,
+            |a, b| a.grown(b.min).grown(b.max),
+        );
     (b.max - b.min).length()
+}
+
+/// The least and greatest (x, y) of `points` projected on `right` and `up`, in blocks on
+/// all threads (the least and greatest are the same in any order).
+fn projected_extent(points: &[DVec3], right: DVec3, up: DVec3) -> (DVec2, DVec2) {
+    use rayon::prelude::*;
+    let empty = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    points
+        .par_chunks(1 << 14)
+        .map(|block| {
+            block.iter().fold(empty, |(lo, hi), p| {
+                let q = DVec2::new(p.dot(right), p.dot(up));
+                (lo.min(q), hi.max(q))
+            })
+        })
+        .reduce(|| empty, |(a, b), (c, d)| (a.min(c), b.max(d)))
 }
 
 /// The finite values of the field: their range, and how values map to 0..=1.
