@@ -591,9 +591,9 @@ pub fn draw(
 /// No z-buffer of a whole panel is kept: the picture's rows are drawn in bands of [`BAND`]
 /// rows of pixels on all threads, each band drawing the triangles that reach its rows of
 /// samples (and the row above and below, for the outline test) into buffers each thread
-/// reuses ([`Pooled`]), then colouring its pixels and answering the depths asked for in its rows while
-/// the samples are in the cache. Each triangle's band is found once beforehand (blocks of
-/// the mesh on all threads). A sample keeps the nearest facet and, at one depth, the first
+/// reuses ([`Pooled`]), then colouring its pixels and answering the depths asked for in
+/// its rows while the samples are in the cache. Each triangle's band is found once
+/// beforehand (blocks of the mesh on all threads). A sample keeps the nearest facet and, at one depth, the first
 /// in the mesh, and every row of a triangle is computed from its own coordinate, so a band
 /// holds exactly the samples a z-buffer of the whole panel would: the picture does not
 /// depend on the bands nor the threads.
