@@ -10,6 +10,7 @@
 //! is the bands' checksums combined. The bands are fixed by the picture's height, not by the
 //! threads, so the bytes are the same on any number of threads.
 
+use super::pool::{Pool, Pooled};
 use miniz_oxide::deflate::core::{
     compress_to_output, create_comp_flags_from_zip_params, CompressorOxide, TDEFLFlush, TDEFLStatus,
 };
@@ -33,19 +34,24 @@ pub fn png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
         ));
     }
     let bands = h.div_ceil(BAND_ROWS);
+    // Each running task's buffer of filtered rows is made once ([`Pooled`]).
+    let pool: Pool<Vec<u8>> = Pool::default();
     let compressed: Vec<(Vec<u8>, u32, usize)> = (0..bands)
         .into_par_iter()
-        .map(|band| {
-            let rows = band * BAND_ROWS..((band + 1) * BAND_ROWS).min(h);
-            let filtered = filter_up(rgba, w, rows);
-            let adler = simd_adler32::adler32(&filtered.as_slice());
-            let flush = if band + 1 == bands {
-                TDEFLFlush::Finish
-            } else {
-                TDEFLFlush::Sync
-            };
-            deflate(&filtered, flush).map(|bytes| (bytes, adler, filtered.len()))
-        })
+        .map_init(
+            || Pooled::take(&pool),
+            |filtered, band| {
+                let rows = band * BAND_ROWS..((band + 1) * BAND_ROWS).min(h);
+                filter_up(rgba, w, rows, filtered);
+                let adler = simd_adler32::adler32(&filtered.as_slice());
+                let flush = if band + 1 == bands {
+                    TDEFLFlush::Finish
+                } else {
+                    TDEFLFlush::Sync
+                };
+                deflate(filtered, flush).map(|bytes| (bytes, adler, filtered.len()))
+            },
+        )
         .collect::<Result<_, String>>()?;
     let mut zlib = Vec::with_capacity(6 + compressed.iter().map(|c| c.0.len()).sum::<usize>());
     // CMF: deflate with a 32 KiB window; FLG: the fastest level, and the check bits that make
@@ -70,10 +76,12 @@ pub fn png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// The filtered rows `rows` of the RGBA picture, `w` pixels wide: each row its filter type
-/// (2, "up") and its RGB bytes less those of the row above (zero above the first row).
-fn filter_up(rgba: &[u8], w: usize, rows: std::ops::Range<usize>) -> Vec<u8> {
-    let mut out = Vec::with_capacity(rows.len() * (3 * w + 1));
+/// Into `out` (emptied first), the filtered rows `rows` of the RGBA picture, `w` pixels
+/// wide: each row its filter type (2, "up") and its RGB bytes less those of the row above
+/// (zero above the first row).
+fn filter_up(rgba: &[u8], w: usize, rows: std::ops::Range<usize>, out: &mut Vec<u8>) {
+    out.clear();
+    out.reserve(rows.len() * (3 * w + 1));
     for y in rows {
         let row = &rgba[4 * w * y..4 * w * (y + 1)];
         out.push(2);
@@ -94,7 +102,6 @@ fn filter_up(rgba: &[u8], w: usize, rows: std::ops::Range<usize>) -> Vec<u8> {
             );
         }
     }
-    out
 }
 
 /// `data` as raw deflate blocks at [`LEVEL`], ended by `flush` (a sync flush: on a byte

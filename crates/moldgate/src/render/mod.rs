@@ -27,6 +27,7 @@
 mod canvas;
 mod encode;
 mod placed;
+mod pool;
 mod raster;
 
 use crate::math::{DVec2, DVec3};
@@ -34,7 +35,7 @@ use crate::scene::Scene;
 
 use canvas::{wrap, Align, Canvas, Rgb, TextStyle};
 pub use placed::PLACED_COLOUR;
-use raster::{draw, Colours, Depths, Facing, Panel};
+use raster::{draw_projected, Colours, Depths, Facing, Panel, Projection};
 pub use raster::{Camera, PixelRect};
 
 /// Size of the picture.
@@ -188,12 +189,6 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         },
         None => FieldRange::of(&scene.field.per_vertex),
     };
-    let t: Vec<f32> = scene
-        .field
-        .per_vertex
-        .iter()
-        .map(|&v| range.unit(v))
-        .collect();
     let lut = Lut::viridis();
 
     let views: Vec<View> = [ViewKind::AlongDemold, ViewKind::Isometric]
@@ -207,17 +202,35 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         .collect();
     let diagonal = bounds_diagonal(scene);
     // The facets to skip need only the mesh, the depths the overlays look up only the
-    // scene: found beside the making of the canvas.
-    let (facing, (canvas, asked)) = rayon::join(
+    // scene, the views' projections of the mesh and the field's colour-map coordinates only
+    // the mesh and the cameras: all found beside one another and the making of the canvas.
+    let (facing, ((canvas, asked), (t, projections))) = rayon::join(
         || scene.topology.map(|topology| Facing::of(mesh, topology)),
         || {
             rayon::join(
-                || Canvas::new(width, height, WHITE),
                 || {
-                    views
+                    rayon::join(
+                        || Canvas::new(width, height, WHITE),
+                        || {
+                            views
+                                .iter()
+                                .map(|v| ask_depths(scene, v))
+                                .collect::<Vec<_>>()
+                        },
+                    )
+                },
+                || {
+                    let t: Vec<f32> = scene
+                        .field
+                        .per_vertex
                         .iter()
-                        .map(|v| ask_depths(scene, v))
-                        .collect::<Vec<_>>()
+                        .map(|&v| range.unit(v))
+                        .collect();
+                    let projections: Vec<Projection> = views
+                        .iter()
+                        .map(|v| Projection::new(mesh, &v.camera, v.panel, SAMPLES))
+                        .collect();
+                    (t, projections)
                 },
             )
         },
@@ -244,12 +257,12 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     // Both panels drawn and coloured into the canvas band by band on all threads, then the
     // overlays of each drawn over it, in a fixed order.
     let stride = canvas.width() as usize;
-    draw(
+    draw_projected(
         mesh,
         &t,
         facing.as_ref(),
         &mut panels,
-        SAMPLES,
+        &projections,
         canvas.pixmap.data_mut(),
         stride,
     );
@@ -345,14 +358,12 @@ fn axes(scene: &Scene, kind: ViewKind) -> (DVec3, DVec3, DVec3) {
 /// The camera of a view, fitting the part and the gate discs into `area` (x, y, w, h).
 fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
     let (right, up, toward) = axes(scene, kind);
-    let mut lo = DVec2::splat(f64::INFINITY);
-    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    let (mut lo, mut hi) = projected_extent(&scene.mesh.vertices, right, up);
     let mut grow = |p: DVec3| {
         let q = DVec2::new(p.dot(right), p.dot(up));
         lo = lo.min(q);
         hi = hi.max(q);
     };
-    scene.mesh.vertices.iter().for_each(|&p| grow(p));
     for g in scene
         .gates
         .iter()
@@ -376,8 +387,33 @@ fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
 }
 
 fn bounds_diagonal(scene: &Scene) -> f64 {
-    let b = crate::math::Aabb::of_points(&scene.mesh.vertices);
+    use rayon::prelude::*;
+    let b = scene
+        .mesh
+        .vertices
+        .par_chunks(1 << 14)
+        .map(crate::math::Aabb::of_points)
+        .reduce(
+            || crate::math::Aabb::EMPTY,
+            |a, b| a.grown(b.min).grown(b.max),
+        );
     (b.max - b.min).length()
+}
+
+/// The least and greatest (x, y) of `points` projected on `right` and `up`, in blocks on
+/// all threads (the least and greatest are the same in any order).
+fn projected_extent(points: &[DVec3], right: DVec3, up: DVec3) -> (DVec2, DVec2) {
+    use rayon::prelude::*;
+    let empty = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    points
+        .par_chunks(1 << 14)
+        .map(|block| {
+            block.iter().fold(empty, |(lo, hi), p| {
+                let q = DVec2::new(p.dot(right), p.dot(up));
+                (lo.min(q), hi.max(q))
+            })
+        })
+        .reduce(|| empty, |(a, b), (c, d)| (a.min(c), b.max(d)))
 }
 
 /// The finite values of the field: their range, and how values map to 0..=1.

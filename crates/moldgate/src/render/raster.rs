@@ -5,6 +5,7 @@ use crate::math::{DVec2, DVec3};
 use crate::mesh::{Mesh, Topology};
 
 use super::canvas::Rgb;
+use super::pool::{Pool, Pooled};
 
 /// An orthographic camera mapping millimetres to pixels of the canvas.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -210,7 +211,7 @@ pub struct Panel<'a> {
     /// How the samples are coloured.
     pub colours: Colours<'a>,
     /// The places whose depth the overlays need, asked before drawing ([`Depths::ask`]) and
-    /// answered by [`draw`].
+    /// answered by [`draw_projected`].
     pub depths: Depths,
 }
 
@@ -288,7 +289,7 @@ impl Depths {
 
 /// A panel's view of the mesh, found before its bands are drawn: the vertices projected and
 /// the box of samples they reach.
-struct Projection {
+pub struct Projection {
     rect: PixelRect,
     ss: usize,
     /// Each mesh vertex in sample coordinates of the panel (pixel centres at +0.5) and its
@@ -304,7 +305,7 @@ struct Projection {
 
 impl Projection {
     #[inline(never)]
-    fn new(mesh: &Mesh, camera: &Camera, rect: PixelRect, ss: u32) -> Projection {
+    pub fn new(mesh: &Mesh, camera: &Camera, rect: PixelRect, ss: u32) -> Projection {
         use rayon::prelude::*;
         let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
         let s = ss as f64;
@@ -325,14 +326,30 @@ impl Projection {
         // vertices. It is grown by one sample so that no sample drawn lies on its edge
         // (except at the panel's edge), which keeps the outline test at its edges the
         // panel's, and out to whole pixels so that a pixel's samples are all in it or all
-        // outside.
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for p in &vertex {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+        // outside. (Least and greatest in blocks on all threads: the same whatever the
+        // order.)
+        let empty = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        let (lo, hi) = vertex
+            .par_chunks(1 << 14)
+            .map(|block| {
+                let (mut lo, mut hi) = empty;
+                for p in block {
+                    for k in 0..2 {
+                        lo[k] = lo[k].min(p[k]);
+                        hi[k] = hi[k].max(p[k]);
+                    }
+                }
+                (lo, hi)
+            })
+            .reduce(
+                || empty,
+                |(a_lo, a_hi), (b_lo, b_hi)| {
+                    (
+                        [a_lo[0].min(b_lo[0]), a_lo[1].min(b_lo[1])],
+                        [a_hi[0].max(b_hi[0]), a_hi[1].max(b_hi[1])],
+                    )
+                },
+            );
         let ssz = ss as usize;
         let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
             let last = n as f32 - 1.0;
@@ -512,10 +529,10 @@ fn front(facing: Option<&Facing>, k: usize, n: DVec3, toward: DVec3) -> bool {
     }
 }
 
-/// Rows of pixels drawn and coloured by one task of [`draw`].
+/// Rows of pixels drawn and coloured by one task of [`draw_projected`].
 const BAND: usize = 16;
 
-/// Triangles binned by one task of [`draw`].
+/// Triangles binned by one task of [`draw_projected`].
 const BIN_CHUNK: usize = 1 << 14;
 
 /// The triangles of one block of the mesh that each band of one panel draws: band `j`'s
@@ -537,7 +554,7 @@ struct Buffer {
     shade: Vec<f32>,
 }
 
-/// A task's buffers, reused from band to band.
+/// A task's buffers, reused from band to band (and from task to task: [`Pooled`]).
 #[derive(Default)]
 struct Scratch {
     buffer: Buffer,
@@ -546,27 +563,46 @@ struct Scratch {
     colours: Vec<[f32; 3]>,
 }
 
-/// Draws `mesh` into the panels of the picture whose opaque RGBA bytes are `rgba`,
-/// `stride` pixels a row, at `ss` x `ss` samples per pixel, and answers each panel's
-/// [`Depths`]. `t` is the colour-map coordinate of each vertex (NaN: no value), `facing`
-/// the facets to skip. Panels lie side by side; rows of a panel below the picture are not
-/// drawn (and their depths not answered).
-///
-/// No z-buffer of a whole panel is kept: the picture's rows are drawn in bands of [`BAND`]
-/// rows of pixels on all threads, each band drawing the triangles that reach its rows of
-/// samples (and the row above and below, for the outline test) into a buffer its thread
-/// reuses, then colouring its pixels and answering the depths asked for in its rows while
-/// the samples are in the cache. Each triangle's band is found once beforehand (blocks of
-/// the mesh on all threads). A sample keeps the nearest facet and, at one depth, the first
-/// in the mesh, and every row of a triangle is computed from its own coordinate, so a band
-/// holds exactly the samples a z-buffer of the whole panel would: the picture does not
-/// depend on the bands nor the threads.
+/// [`draw_projected`] with each panel's projection made here, at `ss` x `ss` samples per
+/// pixel.
+#[cfg(test)]
 pub fn draw(
     mesh: &Mesh,
     t: &[f32],
     facing: Option<&Facing>,
     panels: &mut [Panel],
     ss: u32,
+    rgba: &mut [u8],
+    stride: usize,
+) {
+    let projections: Vec<Projection> = panels
+        .iter()
+        .map(|p| Projection::new(mesh, &p.camera, p.rect, ss))
+        .collect();
+    draw_projected(mesh, t, facing, panels, &projections, rgba, stride);
+}
+
+/// Draws `mesh` into the panels of the picture whose opaque RGBA bytes are `rgba`,
+/// `stride` pixels a row, each seen as its [`Projection`] (made beforehand, beside other
+/// work), and answers each panel's [`Depths`]. `t` is the colour-map coordinate of each
+/// vertex (NaN: no value), `facing` the facets to skip. Panels lie side by side; rows of a
+/// panel below the picture are not drawn (and their depths not answered).
+///
+/// No z-buffer of a whole panel is kept: the picture's rows are drawn in bands of [`BAND`]
+/// rows of pixels on all threads, each band drawing the triangles that reach its rows of
+/// samples (and the row above and below, for the outline test) into buffers each thread
+/// reuses ([`Pooled`]), then colouring its pixels and answering the depths asked for in
+/// its rows while the samples are in the cache. Each triangle's band is found once
+/// beforehand (blocks of the mesh on all threads). A sample keeps the nearest facet and, at one depth, the first
+/// in the mesh, and every row of a triangle is computed from its own coordinate, so a band
+/// holds exactly the samples a z-buffer of the whole panel would: the picture does not
+/// depend on the bands nor the threads.
+pub fn draw_projected(
+    mesh: &Mesh,
+    t: &[f32],
+    facing: Option<&Facing>,
+    panels: &mut [Panel],
+    projections: &[Projection],
     rgba: &mut [u8],
     stride: usize,
 ) {
@@ -586,107 +622,113 @@ pub fn draw(
         return;
     }
     let bands = (bottom - top).div_ceil(BAND);
-    let projections: Vec<Projection> = panels
-        .iter()
-        .map(|p| Projection::new(mesh, &p.camera, p.rect, ss))
-        .collect();
     let count = projections.len();
     // Each facet's Lambert factor per panel (negated when it has no field value), and the
     // bands of each block of triangles.
     let mut shade = vec![0.0f32; mesh.triangles.len() * count];
+    // Each running task's lists of spans are made once ([`Pooled`]).
+    let pool: Pool<Vec<Vec<(u32, u32, u32)>>> = Pool::default();
     let bins: Vec<Vec<Bins>> = mesh
         .triangles
         .par_chunks(BIN_CHUNK)
         .zip(shade.par_chunks_mut(BIN_CHUNK * count))
         .enumerate()
-        .map(|(block, (triangles, shade))| {
-            let first = block * BIN_CHUNK;
-            let mut spans: Vec<Vec<(u32, u32, u32)>> = vec![Vec::new(); count];
-            for (i, &corners) in triangles.iter().enumerate() {
-                let [ia, ib, ic] = corners.map(|v| mesh.vertices[v as usize]);
-                let n = unit_normal(ia, ib, ic);
-                for (k, (panel, p)) in panels.iter().zip(&projections).enumerate() {
-                    if !front(facing, first + i, n, panel.camera.toward) {
-                        continue;
-                    }
-                    let Some((lo, hi)) = p.rows(corners) else {
-                        continue;
-                    };
-                    // Lambert: the facet normal against the light, both sides lit (meshes
-                    // are not always consistently oriented).
-                    let lit = (AMBIENT + DIFFUSE * n.dot(panel.light).abs()) as f32;
-                    // A value missing at one corner is missing over the whole facet.
-                    let has_value = !corners.iter().any(|&v| t[v as usize].is_nan());
-                    shade[i * count + k] = if has_value { lit } else { -lit };
-                    // The bands whose rows, or the row above or below them, it reaches.
-                    let offset = (p.rect.y as usize - top) * p.ss;
-                    let per_band = BAND * p.ss;
-                    let band = |row: usize| {
-                        if per_band.is_power_of_two() {
-                            row >> per_band.trailing_zeros()
-                        } else {
-                            row / per_band
+        .map_init(
+            || Pooled::take(&pool),
+            |spans, (block, (triangles, shade))| {
+                let first = block * BIN_CHUNK;
+                spans.resize_with(count, Vec::new);
+                spans.iter_mut().for_each(Vec::clear);
+                for (i, &corners) in triangles.iter().enumerate() {
+                    let [ia, ib, ic] = corners.map(|v| mesh.vertices[v as usize]);
+                    let n = unit_normal(ia, ib, ic);
+                    for (k, (panel, p)) in panels.iter().zip(projections).enumerate() {
+                        if !front(facing, first + i, n, panel.camera.toward) {
+                            continue;
                         }
-                    };
-                    let span = (
-                        band((offset + lo).saturating_sub(1)),
-                        band(offset + hi + 1).min(bands - 1),
-                    );
-                    spans[k].push(((first + i) as u32, span.0 as u32, span.1 as u32));
+                        let Some((lo, hi)) = p.rows(corners) else {
+                            continue;
+                        };
+                        // Lambert: the facet normal against the light, both sides lit (meshes
+                        // are not always consistently oriented).
+                        let lit = (AMBIENT + DIFFUSE * n.dot(panel.light).abs()) as f32;
+                        // A value missing at one corner is missing over the whole facet.
+                        let has_value = !corners.iter().any(|&v| t[v as usize].is_nan());
+                        shade[i * count + k] = if has_value { lit } else { -lit };
+                        // The bands whose rows, or the row above or below them, it reaches.
+                        let offset = (p.rect.y as usize - top) * p.ss;
+                        let per_band = BAND * p.ss;
+                        let band = |row: usize| {
+                            if per_band.is_power_of_two() {
+                                row >> per_band.trailing_zeros()
+                            } else {
+                                row / per_band
+                            }
+                        };
+                        let span = (
+                            band((offset + lo).saturating_sub(1)),
+                            band(offset + hi + 1).min(bands - 1),
+                        );
+                        spans[k].push(((first + i) as u32, span.0 as u32, span.1 as u32));
+                    }
                 }
-            }
-            spans
-                .iter()
-                .map(|spans| {
-                    let mut start = vec![0u32; bands + 1];
-                    for &(_, lo, hi) in spans {
-                        for j in lo..=hi {
-                            start[j as usize + 1] += 1;
+                spans
+                    .iter()
+                    .map(|spans| {
+                        let mut start = vec![0u32; bands + 1];
+                        for &(_, lo, hi) in spans {
+                            for j in lo..=hi {
+                                start[j as usize + 1] += 1;
+                            }
                         }
-                    }
-                    for j in 0..bands {
-                        start[j + 1] += start[j];
-                    }
-                    let mut next = start.clone();
-                    let mut entry = vec![0u32; start[bands] as usize];
-                    for &(k, lo, hi) in spans {
-                        for j in lo..=hi {
-                            let slot = &mut next[j as usize];
-                            entry[*slot as usize] = k;
-                            *slot += 1;
+                        for j in 0..bands {
+                            start[j + 1] += start[j];
                         }
-                    }
-                    Bins { start, entry }
-                })
-                .collect()
-        })
+                        let mut next = start.clone();
+                        let mut entry = vec![0u32; start[bands] as usize];
+                        for &(k, lo, hi) in spans {
+                            for j in lo..=hi {
+                                let slot = &mut next[j as usize];
+                                entry[*slot as usize] = k;
+                                *slot += 1;
+                            }
+                        }
+                        Bins { start, entry }
+                    })
+                    .collect()
+            },
+        )
         .collect();
     let shade = &shade;
     let bins = &bins;
-    let projections = &projections;
     let region = &mut rgba[4 * stride * top..4 * stride * bottom];
+    let pool: Pool<Scratch> = Pool::default();
     let answers: Vec<Vec<(usize, Vec<u32>)>> = region
         .par_chunks_mut(4 * stride * BAND)
         .enumerate()
-        .map_init(Scratch::default, |scratch, (band, chunk)| {
-            let rows = top + band * BAND..top + band * BAND + chunk.len() / (4 * stride);
-            panels
-                .iter()
-                .zip(projections)
-                .enumerate()
-                .map(|(k, (panel, p))| {
-                    let band = Band {
-                        mesh,
-                        t,
-                        p,
-                        shade: (shade, k, count),
-                        bins: bins.iter().map(|b| &b[k]).collect(),
-                        index: band,
-                    };
-                    band.draw(rows.clone(), chunk, stride, panel, scratch)
-                })
-                .collect()
-        })
+        .map_init(
+            || Pooled::take(&pool),
+            |pooled, (band, chunk)| {
+                let scratch: &mut Scratch = pooled;
+                let rows = top + band * BAND..top + band * BAND + chunk.len() / (4 * stride);
+                panels
+                    .iter()
+                    .zip(projections)
+                    .enumerate()
+                    .map(|(k, (panel, p))| {
+                        let band = Band {
+                            mesh,
+                            t,
+                            p,
+                            shade: (shade, k, count),
+                            bins: bins.iter().map(|b| &b[k]).collect(),
+                            index: band,
+                        };
+                        band.draw(rows.clone(), chunk, stride, panel, scratch)
+                    })
+                    .collect()
+            },
+        )
         .collect();
     for band in answers {
         for (panel, (first, keys)) in panels.iter_mut().zip(band) {
@@ -695,7 +737,7 @@ pub fn draw(
     }
 }
 
-/// One band of one panel: what [`draw`] draws it from.
+/// One band of one panel: what [`draw_projected`] draws it from.
 struct Band<'a> {
     mesh: &'a Mesh,
     t: &'a [f32],
