@@ -53,6 +53,9 @@ const LEAF_SIZE: usize = 4;
 const BINS: usize = 12;
 /// Subtrees with more triangles than this are built on another thread (the top levels only).
 const PARALLEL_MIN: usize = 16_384;
+/// Binary nodes in a subtree above which the four-wide collapse goes on in two threads
+/// (the largest subtrees only: each split copies one side's nodes once).
+const COLLAPSE_PARALLEL_MIN: usize = 32_768;
 
 /// A ray: where it starts, where it goes, the part of it that counts, and a triangle to skip.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -296,19 +299,13 @@ impl Bvh {
     /// Builds the tree over every triangle of `mesh`.
     pub fn new(mesh: &Mesh) -> Bvh {
         let (origin, nodes, ids) = binary_tree(mesh);
-        let mut wide = Collapse {
-            built: &nodes,
-            nodes: Vec::with_capacity(nodes.len() / 3 + 1),
-            leaves: Vec::with_capacity(nodes.len() / 2 + 1),
-            packets: 0,
-        };
-        let root = wide.child(0);
         let Collapse {
             nodes: wide_nodes,
             leaves,
             packets: n_packets,
+            root,
             ..
-        } = wide;
+        } = Collapse::of(&nodes, COLLAPSE_PARALLEL_MIN);
         // Each leaf's triangles, four by four, in leaf order (the order of `ids`): the first
         // triangle and the count of each packet, then the packets in parallel.
         let mut fours: Vec<(u32, u32)> = Vec::with_capacity(n_packets);
@@ -1100,18 +1097,46 @@ fn build_into(items: &mut [Item], first: usize, nodes: &mut Vec<Node>, known: Op
 /// the interior child of largest surface area into its two children until it has four or
 /// only leaves. The leaves keep their left-to-right order, so the leaf order (and `ids`) is
 /// the binary tree's; nodes are laid out depth first.
+///
+/// A node whose binary subtree has more than `parallel_min` nodes collapses its first
+/// children here and its last ones on another thread into a collapse of their own, whose
+/// nodes and leaves are then appended with their references moved: the tree one thread
+/// makes.
 struct Collapse<'a> {
     built: &'a [Node],
+    parallel_min: usize,
     nodes: Vec<Node4>,
     /// Each leaf's first triangle in leaf order and its count, in the order of its packets.
     leaves: Vec<(u32, u32)>,
     /// Packets of the leaves so far.
     packets: usize,
+    /// The reference to the root (see [`Collapse::of`]).
+    root: u32,
 }
 
-impl Collapse<'_> {
-    /// The reference to binary node `i` in the four-wide tree, made with its subtree.
-    fn child(&mut self, i: usize) -> u32 {
+impl<'a> Collapse<'a> {
+    /// The four-wide tree of the whole binary tree `built`.
+    fn of(built: &'a [Node], parallel_min: usize) -> Collapse<'a> {
+        let mut wide = Collapse::empty(built, parallel_min, built.len());
+        wide.root = wide.child(0, built.len());
+        wide
+    }
+
+    /// A collapse with nothing made yet, with room for a binary subtree of `span` nodes.
+    fn empty(built: &'a [Node], parallel_min: usize, span: usize) -> Collapse<'a> {
+        Collapse {
+            built,
+            parallel_min,
+            nodes: Vec::with_capacity(span / 3 + 1),
+            leaves: Vec::with_capacity(span / 2 + 1),
+            packets: 0,
+            root: NO_CHILD,
+        }
+    }
+
+    /// The reference to binary node `i` (its subtree is `built[i..end]`) in the four-wide
+    /// tree, made with its subtree.
+    fn child(&mut self, i: usize, end: usize) -> u32 {
         let n = self.built[i];
         // A leaf, or the empty tree's root (no triangle, no children).
         if n.count > 0 || self.built.len() == 1 {
@@ -1123,27 +1148,8 @@ impl Collapse<'_> {
             self.packets += packets;
             return leaf_ref(self.packets - packets, packets);
         }
-        let mut kids = [i + 1, n.link as usize, 0, 0];
-        let mut m = 2;
-        while m < 4 {
-            let widest = kids[..m]
-                .iter()
-                .enumerate()
-                .filter(|(_, &c)| self.built[c].count == 0)
-                .map(|(k, &c)| (k, half_area_of(&self.built[c])))
-                .fold(None, |best: Option<(usize, f32)>, (k, a)| match best {
-                    Some((_, b)) if b >= a => best,
-                    _ => Some((k, a)),
-                });
-            let Some((k, _)) = widest else {
-                break;
-            };
-            let c = kids[k];
-            kids.copy_within(k + 1..m, k + 2);
-            kids[k] = c + 1;
-            kids[k + 1] = self.built[c].link as usize;
-            m += 1;
-        }
+        let (kids, m) = self.opened(i, end);
+        let kids = &kids[..m];
         let me = self.nodes.len();
         self.nodes.push(Node4 {
             lo: [Vec4::INFINITY; 3],
@@ -1151,8 +1157,7 @@ impl Collapse<'_> {
             child: [NO_CHILD; 4],
         });
         let (mut lo, mut hi) = ([[f32::INFINITY; 4]; 3], [[f32::INFINITY; 4]; 3]);
-        let mut child = [NO_CHILD; 4];
-        for (k, &c) in kids[..m].iter().enumerate() {
+        for (k, &(c, _)) in kids.iter().enumerate() {
             let b = self.built[c];
             // An empty box (triangles without finite corners) stays the point at infinity.
             if (0..3).all(|axis| b.min[axis] <= b.max[axis]) {
@@ -1161,7 +1166,47 @@ impl Collapse<'_> {
                     hi[axis][k] = b.max[axis];
                 }
             }
-            child[k] = self.child(c);
+        }
+        let mut child = [NO_CHILD; 4];
+        if end - i > self.parallel_min {
+            // The children split into a first and a last run of about equal binary nodes.
+            let total = end - i;
+            let h = (1..m)
+                .min_by_key(|&h| (2 * (kids[h].0 - i)).abs_diff(total))
+                .unwrap_or(m);
+            let (here, there) = kids.split_at(h);
+            let (built, parallel_min) = (self.built, self.parallel_min);
+            let (mine, theirs) = child.split_at_mut(h);
+            let ((), other) = join(
+                || {
+                    for (r, &(c, e)) in mine.iter_mut().zip(here) {
+                        *r = self.child(c, e);
+                    }
+                },
+                || {
+                    let span = there.last().map_or(0, |l| l.1) - there.first().map_or(0, |f| f.0);
+                    let mut other = Collapse::empty(built, parallel_min, span);
+                    for (r, &(c, e)) in theirs.iter_mut().zip(there) {
+                        *r = other.child(c, e);
+                    }
+                    other
+                },
+            );
+            let (nodes, packets) = (self.nodes.len(), self.packets);
+            let moved = |r: u32| moved(r, nodes, packets);
+            for r in &mut child[h..m] {
+                *r = moved(*r);
+            }
+            self.nodes.extend(other.nodes.into_iter().map(|n| Node4 {
+                child: n.child.map(moved),
+                ..n
+            }));
+            self.leaves.extend(other.leaves);
+            self.packets += other.packets;
+        } else {
+            for (r, &(c, e)) in child.iter_mut().zip(kids) {
+                *r = self.child(c, e);
+            }
         }
         self.nodes[me] = Node4 {
             lo: lo.map(Vec4::from_array),
@@ -1169,6 +1214,47 @@ impl Collapse<'_> {
             child,
         };
         me as u32
+    }
+
+    /// The children of interior binary node `i` (its subtree `built[i..end]`) in the
+    /// four-wide tree, each with the end of its subtree, and how many there are.
+    fn opened(&self, i: usize, end: usize) -> ([(usize, usize); 4], usize) {
+        let link = self.built[i].link as usize;
+        let mut kids = [(i + 1, link), (link, end), (0, 0), (0, 0)];
+        let mut m = 2;
+        while m < 4 {
+            let widest = kids[..m]
+                .iter()
+                .enumerate()
+                .filter(|(_, &(c, _))| self.built[c].count == 0)
+                .map(|(k, &(c, _))| (k, half_area_of(&self.built[c])))
+                .fold(None, |best: Option<(usize, f32)>, (k, a)| match best {
+                    Some((_, b)) if b >= a => best,
+                    _ => Some((k, a)),
+                });
+            let Some((k, _)) = widest else {
+                break;
+            };
+            let (c, e) = kids[k];
+            let link = self.built[c].link as usize;
+            kids.copy_within(k + 1..m, k + 2);
+            kids[k] = (c + 1, link);
+            kids[k + 1] = (link, e);
+            m += 1;
+        }
+        (kids, m)
+    }
+}
+
+/// A four-wide child reference made in a collapse of its own, moved to follow `nodes` nodes
+/// and `packets` packets.
+fn moved(r: u32, nodes: usize, packets: usize) -> u32 {
+    if r == NO_CHILD {
+        r
+    } else if r & LEAF != 0 {
+        r + ((packets as u32) << PACKET_SHIFT)
+    } else {
+        r + nodes as u32
     }
 }
 
@@ -1925,6 +2011,36 @@ mod tests {
             hits > 2000 && nears > 2000 && partial > 500,
             "{hits} {nears} {partial}"
         );
+    }
+
+    #[test]
+    fn collapse_on_two_threads_makes_the_one_thread_tree() {
+        let mut meshes: Vec<Mesh> = ["cover", "bracket", "tray"]
+            .iter()
+            .map(|n| samples::sample(n).unwrap())
+            .collect();
+        meshes.push(triangle_soup(0x3c6e_f372_fe94_f82b, 20_000));
+        let bits = |n: &Node4| {
+            let lanes = n.lo.iter().chain(&n.hi).flat_map(|v| v.to_array());
+            (lanes.map(f32::to_bits).collect::<Vec<_>>(), n.child)
+        };
+        let mut split = 0;
+        for mesh in &meshes {
+            let (_, built, _) = binary_tree(mesh);
+            let one = Collapse::of(&built, usize::MAX);
+            // Every subtree of more than 16 binary nodes split between two collapses.
+            let two = Collapse::of(&built, 16);
+            assert_eq!(one.root, two.root);
+            assert_eq!(one.packets, two.packets);
+            assert_eq!(one.leaves, two.leaves);
+            let (a, b): (Vec<_>, Vec<_>) = (
+                one.nodes.iter().map(bits).collect(),
+                two.nodes.iter().map(bits).collect(),
+            );
+            assert_eq!(a, b);
+            split += built.len();
+        }
+        assert!(split > 10_000, "{split}");
     }
 
     #[test]
