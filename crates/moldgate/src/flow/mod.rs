@@ -589,36 +589,16 @@ pub fn fill_from_all(
         .iter()
         .map(|&p| domain.source(p))
         .collect::<Option<_>>()?;
-    sources.first()?;
-    let ((length, fill), pressure) = rayon::join(
-        || length_and_fill(domain, &sources),
-        || march(&domain.voxels, &sources, Some(&domain.pressure_cost)),
+    let src = *sources.first()?;
+    let (length, (fill, pressure)) = rayon::join(
+        || march(&domain.voxels, &sources, None),
+        || {
+            rayon::join(
+                || march(&domain.voxels, &sources, Some(&domain.fill_cost)),
+                || march(&domain.voxels, &sources, Some(&domain.pressure_cost)),
+            )
+        },
     );
-    Some(fill_of_fields(
-        domain, points, &sources, length, fill, pressure, material,
-    ))
-}
-
-/// The flow length and fill time fields from `sources`, marched side by side.
-fn length_and_fill(domain: &Domain, sources: &[Source]) -> (Field, Field) {
-    rayon::join(
-        || march(&domain.voxels, sources, None),
-        || march(&domain.voxels, sources, Some(&domain.fill_cost)),
-    )
-}
-
-/// [`fill_from_all`] from its three fields already marched from `sources` (those of
-/// `points`, not empty).
-fn fill_of_fields(
-    domain: &Domain,
-    points: &[DVec3],
-    sources: &[Source],
-    length: Field,
-    fill: Field,
-    pressure: Field,
-    material: &Material,
-) -> (GateFill, GateFields, Vec<GateShare>) {
-    let src = sources[0];
     let point = points[0];
     let v = &domain.voxels;
     let reached: Vec<u32> = (0..v.len() as u32)
@@ -666,7 +646,7 @@ fn fill_of_fields(
         weld_lines: weld_lines(v, &length.t),
     };
     let shares = shares_of(&length, points);
-    (gate_fill, GateFields { length, fill }, shares)
+    Some((gate_fill, GateFields { length, fill }, shares))
 }
 
 /// Each source's share of the cells a multi-source field reaches, and its largest value
@@ -910,29 +890,6 @@ pub fn balanced_gate_from(
     start: &Field,
     tolerance: f64,
 ) -> Option<Balanced> {
-    balanced_gate_beside(
-        domain,
-        candidates,
-        objective,
-        first,
-        start,
-        tolerance,
-        || (),
-    )
-    .0
-}
-
-/// [`balanced_gate_from`], running `beside` (another march) on the second core during the
-/// search's first march from a candidate, which otherwise runs alone.
-fn balanced_gate_beside<R: Send>(
-    domain: &Domain,
-    candidates: &[Source],
-    objective: Objective,
-    first: Source,
-    start: &Field,
-    tolerance: f64,
-    beside: impl FnOnce() -> R + Send,
-) -> (Option<Balanced>, R) {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[first.cell as usize];
@@ -940,10 +897,8 @@ fn balanced_gate_beside<R: Send>(
         .filter(|&i| domain.body[candidates[i].cell as usize] == body)
         .collect();
     if pool.is_empty() {
-        return (None, beside());
+        return None;
     }
-    let mut beside = Some(beside);
-    let mut done = None;
     let mut runs = 1;
     let mut far = far_points(v, &start.t, FAR_POINTS);
     let mut bound = vec![0.0f64; candidates.len()];
@@ -979,14 +934,7 @@ fn balanced_gate_beside<R: Send>(
             point: v.centre(candidates[best].cell),
             cell: candidates[best].cell,
         };
-        let field = match beside.take() {
-            Some(job) => {
-                let (field, r) = rayon::join(|| march(v, &[centred], cost), job);
-                done = Some(r);
-                field
-            }
-            None => march(v, &[centred], cost),
-        };
+        let field = march(v, &[centred], cost);
         runs += 1;
         let value = argmax(&field.t).1;
         if seen.is_none_or(|(v, _)| value < v) {
@@ -1001,17 +949,13 @@ fn balanced_gate_beside<R: Send>(
             } else {
                 seen.expect("one run")
             };
-            let balanced = Balanced {
+            return Some(Balanced {
                 candidate,
                 value,
                 lower_bound: bound[best],
                 runs,
                 proven,
-            };
-            return (
-                Some(balanced),
-                done.expect("run beside the first candidate"),
-            );
+            });
         }
         far = far_points(v, &field.t, FAR_POINTS);
     }
@@ -1913,14 +1857,17 @@ pub fn analyse(
         ));
     }
 
-    // The paper gate's flow length and fill time, then its pressure beside the balanced
-    // search (which needs only the first two), so that no core waits for the third march.
     let t = Instant::now();
-    let first = domain
-        .source(gate)
-        .ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
-    let (length, fill) = length_and_fill(&domain, &[first]);
-    let paper_s = seconds(t);
+    let (mut paper, paper_fields) =
+        fill_from(&domain, gate, material).ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
+    if paper.reached_share < 0.999 {
+        warnings.push(format!(
+            "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
+            paper.body,
+            100.0 * (1.0 - paper.reached_share)
+        ));
+    }
+    times.paper_s = seconds(t);
 
     // Candidates: the qualifying nodes' surface points on the voxelised part.
     let t = Instant::now();
@@ -1929,6 +1876,7 @@ pub fn analyse(
         .iter()
         .filter_map(|&p| domain.source(p))
         .collect();
+    let first = domain.source(gate).expect("checked by fill_from");
     let per_mm = seconds_per_mm(material);
     // The objective in its reported units: L_max in mm, or the fill time in s.
     let (objective_value, scale): (fn(&GateFill) -> f64, f64) = match options.objective {
@@ -1936,80 +1884,55 @@ pub fn analyse(
         Objective::Resistance => (|f| f.fill_time_s, per_mm),
     };
     let start = match options.objective {
-        Objective::Length => &length,
-        Objective::Resistance => &fill,
-    };
-    let (search, pressure) = balanced_gate_beside(
-        &domain,
-        &candidates,
-        options.objective,
-        first,
-        start,
-        h,
-        || march(&domain.voxels, &[first], Some(&domain.pressure_cost)),
-    );
-    let t_paper = Instant::now();
-    let (mut paper, paper_fields, _) =
-        fill_of_fields(&domain, &[gate], &[first], length, fill, pressure, material);
-    if paper.reached_share < 0.999 {
-        warnings.push(format!(
-            "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
-            paper.body,
-            100.0 * (1.0 - paper.reached_share)
-        ));
-    }
-    // The pressure march is counted in the balanced search's time.
-    let summary_s = seconds(t_paper);
-    times.paper_s = paper_s + summary_s;
-    let start = match options.objective {
         Objective::Length => &paper_fields.length,
         Objective::Resistance => &paper_fields.fill,
     };
-    let balanced = search.map(|search| {
-        let point = candidates[search.candidate].point;
-        let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
-        // The search marches from cell centres; the reported gate is the candidate's
-        // surface point, whose field differs by up to a cell. The search reports the
-        // value of the fill it gives, and the bound it proved capped at that value.
-        let bound = search.lower_bound * scale;
-        if objective_value(&fill) >= objective_value(&paper) {
-            // Within the discretisation the paper gate is as good (it is a candidate
-            // itself unless it is the aesthetic gate): keep it, so the balanced gate
-            // never does worse than the paper gate.
-            let value = objective_value(&paper);
-            let search = Balanced {
-                value,
-                lower_bound: bound.min(value),
-                ..search
-            };
-            let fill = BalancedFill {
-                fill: paper.clone(),
-                search,
-                improvement_pct: 0.0,
-                is_paper_gate: true,
-            };
-            (fill, None)
-        } else {
-            let value = objective_value(&fill);
-            let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
-            let search = Balanced {
-                value,
-                lower_bound: bound.min(value),
-                ..search
-            };
-            let fill = BalancedFill {
-                fill,
-                search,
-                improvement_pct,
-                is_paper_gate: false,
-            };
-            (fill, Some(fields))
-        }
-    });
+    let balanced = balanced_gate_from(&domain, &candidates, options.objective, first, start, h)
+        .map(|search| {
+            let point = candidates[search.candidate].point;
+            let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
+            // The search marches from cell centres; the reported gate is the candidate's
+            // surface point, whose field differs by up to a cell. The search reports the
+            // value of the fill it gives, and the bound it proved capped at that value.
+            let bound = search.lower_bound * scale;
+            if objective_value(&fill) >= objective_value(&paper) {
+                // Within the discretisation the paper gate is as good (it is a candidate
+                // itself unless it is the aesthetic gate): keep it, so the balanced gate
+                // never does worse than the paper gate.
+                let value = objective_value(&paper);
+                let search = Balanced {
+                    value,
+                    lower_bound: bound.min(value),
+                    ..search
+                };
+                let fill = BalancedFill {
+                    fill: paper.clone(),
+                    search,
+                    improvement_pct: 0.0,
+                    is_paper_gate: true,
+                };
+                (fill, None)
+            } else {
+                let value = objective_value(&fill);
+                let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
+                let search = Balanced {
+                    value,
+                    lower_bound: bound.min(value),
+                    ..search
+                };
+                let fill = BalancedFill {
+                    fill,
+                    search,
+                    improvement_pct,
+                    is_paper_gate: false,
+                };
+                (fill, Some(fields))
+            }
+        });
     if balanced.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
-    times.balanced_s = seconds(t) - summary_s;
+    times.balanced_s = seconds(t);
 
     let t = Instant::now();
     let suitability = if options.suitability {
@@ -2387,85 +2310,4 @@ fn per_vertex_of_cells(domain: &Domain, mesh: &Mesh, values: &[f32]) -> Vec<f32>
                 .map_or(f32::NAN, |c| values[c as usize])
         })
         .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::samples::sample;
-
-    /// The paper gate's pressure marched beside the balanced search gives the search and
-    /// the gate's fill of the marches one after the other, on one thread or two.
-    #[test]
-    fn pressure_beside_the_search_is_the_fill_and_search_alone() {
-        let material = Material::builtin("PP").unwrap();
-        for name in ["cover", "tray", "bracket"] {
-            let mesh = sample(name).unwrap();
-            let part = crate::mesh::from_generated(mesh.clone());
-            let analysis = crate::locate(&part, &crate::LocateOptions::default()).unwrap();
-            let h = mesh.bounds().diagonal() / 80.0;
-            let domain = Domain::new(&mesh, h, None, 2.0, &material);
-            let gate = analysis.gate().unwrap().point();
-            let first = domain.source(gate).unwrap();
-            let candidates: Vec<Source> = analysis
-                .qualifying_points
-                .iter()
-                .filter_map(|&p| domain.source(p))
-                .collect();
-            let (alone, alone_fields) = fill_from(&domain, gate, &material).unwrap();
-            let search = balanced_gate_from(
-                &domain,
-                &candidates,
-                Objective::Length,
-                first,
-                &alone_fields.length,
-                h,
-            );
-            for threads in [1, 2] {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
-                let (beside, pressure) = pool.install(|| {
-                    let (length, fill) = length_and_fill(&domain, &[first]);
-                    let (s, pressure) = balanced_gate_beside(
-                        &domain,
-                        &candidates,
-                        Objective::Length,
-                        first,
-                        &length,
-                        h,
-                        || march(&domain.voxels, &[first], Some(&domain.pressure_cost)),
-                    );
-                    let (f, _, _) = fill_of_fields(
-                        &domain,
-                        &[gate],
-                        &[first],
-                        length,
-                        fill,
-                        pressure,
-                        &material,
-                    );
-                    (s, f)
-                });
-                let key = |b: &Option<Balanced>| {
-                    b.as_ref().map(|b| {
-                        (
-                            b.candidate,
-                            b.value.to_bits(),
-                            b.lower_bound.to_bits(),
-                            b.runs,
-                        )
-                    })
-                };
-                assert_eq!(key(&beside), key(&search), "{name} on {threads} threads");
-                assert!(search.is_some(), "{name}");
-                assert_eq!(
-                    format!("{pressure:?}"),
-                    format!("{alone:?}"),
-                    "{name} on {threads} threads"
-                );
-            }
-        }
-    }
 }
