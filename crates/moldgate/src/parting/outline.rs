@@ -26,7 +26,7 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -82,6 +82,15 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
             .collect::<Vec<u32>>()
     });
     let body_of = |v: u32| body_of_vertex.as_ref().map_or(0, |b| b[v as usize]);
+    // Each body's triangles (a counting sort by body), so that a body's band reads its own
+    // triangles only and a part of many bodies is read once, not once a body; with marks of
+    // the vertices near the outline, shared by the bodies (no two bodies share a vertex).
+    let by_body = body_of_tri.as_deref().map(Groups::of);
+    drop(body_of_tri);
+    let marks: Vec<AtomicU8> = match by_body {
+        Some(_) => (0..mesh.vertices.len()).map(|_| AtomicU8::new(0)).collect(),
+        None => Vec::new(),
+    };
     let tolerance = 1e-3 * mesh.bounds().diagonal();
     let segment = |[a, b]: [u32; 2]| Segment {
         a: plane(a),
@@ -118,7 +127,14 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         raster.mark_band(&rim_segments, BAND_CELLS);
         drop(rim_segments);
         let near = |p: DVec2| raster.in_band(p);
-        let band = Band::new(mesh, topology, &plane, |v| body_of(v) == body, &near, &rim);
+        let scope = match &by_body {
+            Some(groups) => Scope::Body {
+                triangles: groups.of_body(body),
+                marks: &marks,
+            },
+            None => Scope::Whole,
+        };
+        let band = Band::new(mesh, topology, &plane, scope, &near, &rim);
         let projected = |edges: &[[u32; 2]]| -> f64 {
             edges
                 .iter()
@@ -332,6 +348,56 @@ struct Band {
     to: Vec<u32>,
 }
 
+/// Which triangles a [`Band`] is made from.
+#[derive(Clone, Copy)]
+enum Scope<'a> {
+    /// Every triangle of the mesh (a part of one body).
+    Whole,
+    /// One body's triangles (increasing), with marks of the mesh's vertices (0 for those of
+    /// bodies not yet read: the bodies share no vertex).
+    Body {
+        triangles: &'a [u32],
+        marks: &'a [AtomicU8],
+    },
+}
+
+/// The triangles of each body, in increasing order: a counting sort by body.
+struct Groups {
+    /// Where each body's run of `items` begins (one more entry at the end).
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Groups {
+    /// The triangles grouped by `label` (body numbers from 0).
+    fn of(label: &[u32]) -> Groups {
+        let count = label.iter().max().map_or(0, |&m| m as usize + 1);
+        let mut start = vec![0u32; count + 1];
+        for &l in label {
+            start[l as usize + 1] += 1;
+        }
+        for k in 0..count {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start[..count].to_vec();
+        let mut items = vec![0u32; label.len()];
+        for (i, &l) in label.iter().enumerate() {
+            items[fill[l as usize] as usize] = i as u32;
+            fill[l as usize] += 1;
+        }
+        Groups { start, items }
+    }
+
+    /// The triangles of body `body` (none for a body beyond the labels).
+    fn of_body(&self, body: u32) -> &[u32] {
+        let b = body as usize;
+        match (self.start.get(b), self.start.get(b + 1)) {
+            (Some(&s), Some(&e)) => &self.items[s as usize..e as usize],
+            _ => &[],
+        }
+    }
+}
+
 /// The bit of a [`Band::to`] entry that marks a rim edge (band numbers are below it).
 const ON_RIM: u32 = 1 << 31;
 
@@ -340,14 +406,34 @@ impl Band {
         mesh: &Mesh,
         topology: &Topology,
         plane: &(impl Fn(u32) -> DVec2 + Sync),
-        in_body: impl Fn(u32) -> bool + Sync,
+        scope: Scope<'_>,
         near: &(impl Fn(DVec2) -> bool + Sync),
         rim: &[[u32; 2]],
     ) -> Band {
-        let inside: Vec<bool> = (0..mesh.vertices.len() as u32)
-            .into_par_iter()
-            .map(|v| in_body(v) && near(plane(v)))
-            .collect();
+        // Whether each vertex of the scope is near the outline: for the whole mesh a flag
+        // per vertex; for a body, its triangles' corners marked (1 near, 2 not) in the
+        // shared marks (no other body has those vertices).
+        let inside: Vec<bool> = match scope {
+            Scope::Whole => (0..mesh.vertices.len() as u32)
+                .into_par_iter()
+                .map(|v| near(plane(v)))
+                .collect(),
+            Scope::Body { triangles, marks } => {
+                triangles.par_iter().for_each(|&t| {
+                    for v in mesh.triangles[t as usize] {
+                        let mark = &marks[v as usize];
+                        if mark.load(Ordering::Relaxed) == 0 {
+                            mark.store(if near(plane(v)) { 1 } else { 2 }, Ordering::Relaxed);
+                        }
+                    }
+                });
+                Vec::new()
+            }
+        };
+        let is_inside = |v: u32| match scope {
+            Scope::Whole => inside[v as usize],
+            Scope::Body { marks, .. } => marks[v as usize].load(Ordering::Relaxed) == 1,
+        };
         // An edge is taken from the triangle across it when that one comes later (or there
         // is none): on a non-manifold edge each triangle names the next one round it and the
         // last the first, so the first of them always takes it. A few edges may still come
@@ -356,15 +442,22 @@ impl Band {
         // corners' flags alone, in blocks of triangles in parallel.
         const BLOCK: usize = 16 * 1024;
         let triangles = &mesh.triangles;
-        let mut edges: Vec<[u32; 2]> = (0..triangles.len().div_ceil(BLOCK))
+        let in_scope = match scope {
+            Scope::Whole => triangles.len(),
+            Scope::Body { triangles, .. } => triangles.len(),
+        };
+        let triangle = |i: usize| match scope {
+            Scope::Whole => i,
+            Scope::Body { triangles, .. } => triangles[i] as usize,
+        };
+        let mut edges: Vec<[u32; 2]> = (0..in_scope.div_ceil(BLOCK))
             .into_par_iter()
             .flat_map_iter(|b| {
                 let mut found = Vec::new();
-                let start = b * BLOCK;
-                let block = &triangles[start..((b + 1) * BLOCK).min(triangles.len())];
-                for (i, &tri) in block.iter().enumerate() {
-                    let t = start + i;
-                    let corners = tri.map(|v| inside[v as usize]);
+                for i in b * BLOCK..((b + 1) * BLOCK).min(in_scope) {
+                    let t = triangle(i);
+                    let tri = triangles[t];
+                    let corners = tri.map(is_inside);
                     if u8::from(corners[0]) + u8::from(corners[1]) + u8::from(corners[2]) < 2 {
                         continue;
                     }
@@ -400,9 +493,15 @@ impl Band {
             rank.push(count);
             count += w.count_ones();
         }
-        let vertices: Vec<u32> = (0..mesh.vertices.len() as u32)
-            .filter(|&v| used[v as usize / 64] & (1 << (v % 64)) != 0)
-            .collect();
+        // Read from the set bits, word by word (not a test of every mesh vertex).
+        let mut vertices: Vec<u32> = Vec::with_capacity(count as usize);
+        for (w, &word) in used.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                vertices.push((w * 64) as u32 + bits.trailing_zeros());
+                bits &= bits - 1;
+            }
+        }
         let index = |v: u32| {
             let w = v as usize / 64;
             rank[w] + (used[w] & ((1u64 << (v % 64)) - 1)).count_ones()
@@ -517,7 +616,20 @@ mod tests {
             let middle = mesh.bounds().centre();
             let near = |p: DVec2| p.x <= middle.dot(frame.u);
             let rim: Vec<[u32; 2]> = side_edges(&mesh, &topology, &frame, WALL_TILT);
-            let band = Band::new(&mesh, &topology, &plane, |_| true, &near, &rim);
+            let band = Band::new(&mesh, &topology, &plane, Scope::Whole, &near, &rim);
+            // A body's band from its own triangles and the shared marks is the same.
+            let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+            let marks: Vec<AtomicU8> = (0..mesh.vertices.len()).map(|_| AtomicU8::new(0)).collect();
+            let scope = Scope::Body {
+                triangles: &all,
+                marks: &marks,
+            };
+            let of_body = Band::new(&mesh, &topology, &plane, scope, &near, &rim);
+            assert_eq!(
+                (&of_body.vertices, &of_body.start, &of_body.to),
+                (&band.vertices, &band.start, &band.to),
+                "{name}"
+            );
             let mut both: Vec<[u32; 2]> = mesh
                 .triangles
                 .iter()
@@ -548,6 +660,43 @@ mod tests {
             }
             assert_eq!(from_band, both, "{name}");
             assert!(marked > 0, "{name}: some rim edges are in the band");
+        }
+    }
+
+    /// A part of several bodies gets each body's own line: two copies of a sample side by
+    /// side (the second's triangles first, so that bodies and mesh order differ) give the
+    /// edges of the sample's line in both copies, and its rim twice.
+    #[test]
+    fn each_body_of_several_gets_its_own_line() {
+        for name in ["cover", "bracket", "tray"] {
+            let one = sample(name).unwrap();
+            let frame = Frame::new("+z".parse::<Direction>().unwrap());
+            let alone = outline(&one, &Topology::new(&one), &frame);
+            assert!(!alone.edges.is_empty(), "{name}");
+            let n = one.vertices.len() as u32;
+            let shift = 2.0 * one.bounds().diagonal() * frame.u;
+            let mut two = Mesh {
+                vertices: one.vertices.clone(),
+                triangles: Vec::new(),
+            };
+            two.vertices.extend(one.vertices.iter().map(|&p| p + shift));
+            two.triangles
+                .extend(one.triangles.iter().map(|t| t.map(|v| v + n)));
+            two.triangles.extend(one.triangles.iter().copied());
+            let topology = Topology::new(&two);
+            assert_eq!(topology.bodies, 2, "{name}");
+            let both = outline(&two, &topology, &frame);
+            let mut expected: Vec<[u32; 2]> = alone.edges.clone();
+            expected.extend(alone.edges.iter().map(|e| e.map(|v| v + n)));
+            expected.sort_unstable();
+            assert_eq!(both.edges, expected, "{name}");
+            assert_eq!(both.rims.len(), 2, "{name}");
+            for rim in &both.rims {
+                assert!(
+                    (rim.length_mm - alone.length_mm).abs() <= 1e-9 * alone.length_mm,
+                    "{name}"
+                );
+            }
         }
     }
 }
