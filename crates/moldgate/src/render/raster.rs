@@ -1062,38 +1062,15 @@ mod tests {
         ss: u32,
         light: DVec3,
     ) -> Layer {
-        let (panel_w, panel_h) = ((rect.w * ss) as usize, (rect.h * ss) as usize);
-        let s = ss as f64;
-        let projected: Vec<[f32; 3]> = mesh
-            .vertices
-            .iter()
-            .map(|&p| {
-                let q = camera.to_pixel(p);
-                [
-                    ((q.x - rect.x as f64) * s) as f32,
-                    ((q.y - rect.y as f64) * s) as f32,
-                    camera.depth(p) as f32,
-                ]
-            })
-            .collect();
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for p in &projected {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let ssz = ss as usize;
-        let span = |lo: f32, hi: f32, n: usize| -> (usize, usize) {
-            let last = n as f32 - 1.0;
-            let first = (floor(lo.clamp(-1.0, last)) - 1.0).clamp(0.0, last) as usize;
-            let end = (ceil(hi.clamp(0.0, last + 1.0)) + 1.0).clamp(0.0, last) as usize + 1;
-            (first / ssz * ssz, end.div_ceil(ssz) * ssz)
-        };
-        let (x0, x1) = span(lo[0], hi[0], panel_w);
-        let (y0, y1) = span(lo[1], hi[1], panel_h);
-        let (w, h) = (x1 - x0, y1.max(y0) - y0);
-        let w = if h == 0 { 0 } else { w };
+        // The same vertices and box of samples as the bands (what is compared is the drawing).
+        let Projection {
+            vertex: projected,
+            x0,
+            y0,
+            w,
+            h,
+            ..
+        } = Projection::new(mesh, camera, rect, ss);
         let mut layer = Layer {
             rect,
             ss,
