@@ -294,7 +294,12 @@ fn eikonal(a: [f64; 3], f: f64) -> f64 {
     // -0, so this is the order `total_cmp` gives.
     let (low, high) = (a[0].min(a[1]), a[0].max(a[1]));
     let (middle, top) = (high.min(a[2]), high.max(a[2]));
-    let a = [low.min(middle), low.max(middle), top];
+    solve_sorted([low.min(middle), low.max(middle), top], f)
+}
+
+/// The update of [`eikonal`] from its three values in increasing order.
+#[inline]
+fn solve_sorted(a: [f64; 3], f: f64) -> f64 {
     if a[0].is_infinite() {
         return f64::INFINITY;
     }
@@ -326,26 +331,7 @@ mod tests {
     /// The update as first written, sorting by `total_cmp`: the oracle of the sorting network.
     fn reference_eikonal(mut a: [f64; 3], f: f64) -> f64 {
         a.sort_by(f64::total_cmp);
-        if a[0].is_infinite() {
-            return f64::INFINITY;
-        }
-        let mut t = a[0] + f;
-        if a[1] < t {
-            let d = a[0] - a[1];
-            let disc = 2.0 * f * f - d * d;
-            if disc >= 0.0 {
-                t = 0.5 * (a[0] + a[1] + disc.sqrt());
-            }
-            if a[2] < t {
-                let s = a[0] + a[1] + a[2];
-                let q = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
-                let disc = s * s - 3.0 * (q - f * f);
-                if disc >= 0.0 {
-                    t = (s + disc.sqrt()) / 3.0;
-                }
-            }
-        }
-        t
+        solve_sorted(a, f)
     }
 
     #[test]

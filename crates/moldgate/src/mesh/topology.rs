@@ -456,6 +456,27 @@ mod tests {
         }
     }
 
+    /// Asserts that the topology's neighbours and edge counts are the brute force's, and
+    /// gives its open and non-manifold edge counts.
+    fn matches_brute_force(mesh: &Mesh, label: &str) -> (u64, u64) {
+        let (neighbours, edges, open, non_manifold) = brute_force(mesh);
+        let topology = Topology::new(mesh);
+        let found: Vec<[u32; 3]> = (0..neighbours.len())
+            .map(|t| topology.neighbours(t))
+            .collect();
+        assert_eq!(found, neighbours, "{label}");
+        assert_eq!(
+            (
+                topology.edges,
+                topology.open_edges,
+                topology.non_manifold_edges
+            ),
+            (edges, open, non_manifold),
+            "{label}"
+        );
+        (open, non_manifold)
+    }
+
     /// Every edge's triangles from a map keyed by the edge, the plain way.
     fn brute_force(mesh: &Mesh) -> (Vec<[u32; 3]>, u64, u64, u64) {
         let key = |a: u32, b: u32| (a.min(b), a.max(b));
@@ -515,21 +536,7 @@ mod tests {
                 vertices: vec![DVec3::ZERO; vertices as usize],
                 triangles,
             };
-            let (neighbours, edges, open, non_manifold) = brute_force(&mesh);
-            let topology = Topology::new(&mesh);
-            let found: Vec<[u32; 3]> = (0..neighbours.len())
-                .map(|t| topology.neighbours(t))
-                .collect();
-            assert_eq!(found, neighbours, "{vertices} vertices");
-            assert_eq!(
-                (
-                    topology.edges,
-                    topology.open_edges,
-                    topology.non_manifold_edges
-                ),
-                (edges, open, non_manifold),
-                "{vertices} vertices"
-            );
+            matches_brute_force(&mesh, &format!("{vertices} vertices"));
         }
     }
 
@@ -568,21 +575,7 @@ mod tests {
                 vertices: vec![DVec3::ZERO; (n * m) as usize],
                 triangles,
             };
-            let (neighbours, edges, open, non_manifold) = brute_force(&mesh);
-            let topology = Topology::new(&mesh);
-            let found: Vec<[u32; 3]> = (0..neighbours.len())
-                .map(|t| topology.neighbours(t))
-                .collect();
-            assert_eq!(found, neighbours, "{name}");
-            assert_eq!(
-                (
-                    topology.edges,
-                    topology.open_edges,
-                    topology.non_manifold_edges
-                ),
-                (edges, open, non_manifold),
-                "{name}"
-            );
+            let (open, non_manifold) = matches_brute_force(&mesh, name);
             if name == "closed" {
                 assert_eq!((open, non_manifold), (0, 0));
             } else {
