@@ -126,6 +126,19 @@ fn sample_rows(mesh: &Mesh, t: usize, step: f64) -> ((DVec3, DVec3, DVec3), usiz
     ((a, b, c), rows, per_row)
 }
 
+/// The index of the cell holding `p` in the grid of cells of size `h` from `origin`, `dims`
+/// cells along each axis (clamped into the grid).
+#[inline]
+fn cell_index(p: DVec3, origin: DVec3, h: f64, dims: [usize; 3]) -> usize {
+    let q = (p - origin) / h + 0.5;
+    let c = [
+        floor_index(q.x).min(dims[0] - 1),
+        floor_index(q.y).min(dims[1] - 1),
+        floor_index(q.z).min(dims[2] - 1),
+    ];
+    (c[2] * dims[1] + c[1]) * dims[0] + c[0]
+}
+
 /// `x.floor()` as an index, for `x >= 0` (a truncation, which is the floor there, with no
 /// call into the maths library); 0 below.
 #[inline]
@@ -309,15 +322,7 @@ impl Voxels {
         let bounds = mesh.bounds();
         let (origin, dims) = Self::layout(&bounds, h);
         let n_cells = dims[0] * dims[1] * dims[2];
-        let cell_of = |p: DVec3| -> usize {
-            let q = (p - origin) / h + 0.5;
-            let c = [
-                floor_index(q.x).min(dims[0] - 1),
-                floor_index(q.y).min(dims[1] - 1),
-                floor_index(q.z).min(dims[2] - 1),
-            ];
-            (c[2] * dims[1] + c[1]) * dims[0] + c[0]
-        };
+        let cell_of = |p: DVec3| cell_index(p, origin, h, dims);
 
         // Surface cells: rows of samples at most h/2 apart over every triangle.
         let step = SAMPLE_STEP * h;
@@ -715,15 +720,7 @@ mod tests {
             let diagonal = mesh.bounds().diagonal();
             for h in [diagonal / 300.0, diagonal / 97.3, diagonal / 31.0] {
                 let (origin, dims) = Voxels::layout(&mesh.bounds(), h);
-                let cell_of = |p: DVec3| -> usize {
-                    let q = (p - origin) / h + 0.5;
-                    let c = [
-                        floor_index(q.x).min(dims[0] - 1),
-                        floor_index(q.y).min(dims[1] - 1),
-                        floor_index(q.z).min(dims[2] - 1),
-                    ];
-                    (c[2] * dims[1] + c[1]) * dims[0] + c[0]
-                };
+                let cell_of = |p: DVec3| cell_index(p, origin, h, dims);
                 for t in 0..mesh.triangles.len() {
                     let mut sampled = Vec::new();
                     mark_samples(&mesh, t, SAMPLE_STEP * h, &cell_of, &mut sampled);
