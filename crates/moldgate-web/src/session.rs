@@ -200,6 +200,7 @@ impl Session {
                         .iter()
                         .map(|&p| frame.height(p) as f32)
                         .collect(),
+                    cells: None,
                 }
             }
             Colouring::WallThickness => Field {
@@ -210,6 +211,7 @@ impl Session {
                     .wall_thickness_per_vertex()
                     .ok_or("the wall thickness was not measured (turn on 'wall thickness')")?
                     .to_vec(),
+                cells: None,
             },
             Colouring::FillOrder => self
                 .study

@@ -136,7 +136,9 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
 
     let mesh = scene.mesh;
     if !mesh.triangles.is_empty() {
-        let part = part_geometry(mesh, &scene.field.per_vertex, scene.frame.d);
+        // The part refined to the field's cells when the field has them.
+        let (surface, values) = scene.surface();
+        let part = part_geometry(surface, values, scene.field.range(), scene.frame.d);
         let m = doc.triangles("part", &part, Look::Part);
         children.push(doc.node("part", m));
     }
@@ -311,7 +313,12 @@ struct Geometry {
 /// normal share one glTF vertex, so the output is in mesh-vertex order and needs no hashing.
 /// Runs of vertices are done in parallel and joined in order, so the result does not
 /// depend on the number of threads.
-fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry {
+fn part_geometry(
+    mesh: &Mesh,
+    field: &[f32],
+    range: Option<[f32; 2]>,
+    fallback_normal: DVec3,
+) -> Geometry {
     let n_vertices = mesh.vertices.len();
     let n_triangles = mesh.triangles.len();
     let normals: Vec<DVec3> = (0..n_triangles)
@@ -352,7 +359,7 @@ fn part_geometry(mesh: &Mesh, field: &[f32], fallback_normal: DVec3) -> Geometry
     }
     drop(fill);
 
-    let range = Range::of(field);
+    let range = range.map(|[min, max]| Range { min, max });
     let weighted = |c: u32| normals[c as usize / 3] * angles[c as usize / 3][c as usize % 3];
     // One run of vertices: its glTF vertices, and the run-local vertex of each corner.
     let run = |vertices: std::ops::Range<usize>| {
@@ -662,7 +669,7 @@ impl Document {
         while bin.len() % 4 != 0 {
             bin.push(0);
         }
-        let range = Range::of(&scene.field.per_vertex);
+        let range = scene.field.range().map(|[min, max]| Range { min, max });
         let bounds = scene.mesh.bounds();
         let gates: Vec<Value> = scene
             .gates
@@ -802,6 +809,7 @@ mod tests {
                         name: String::new(),
                         unit: String::new(),
                         per_vertex: vec![],
+                        cells: None,
                     },
                     gates: vec![],
                     placed: vec![],
@@ -880,7 +888,14 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| part_geometry(&mesh, &field, DVec3::Z))
+            pool.install(|| {
+                part_geometry(
+                    &mesh,
+                    &field,
+                    Range::of(&field).map(|r| [r.min, r.max]),
+                    DVec3::Z,
+                )
+            })
         };
         let (one, three) = (on(1), on(3));
         assert_eq!(one.positions, three.positions);

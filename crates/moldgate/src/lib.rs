@@ -36,6 +36,7 @@ pub mod batch_row;
 pub mod centre;
 pub mod clock;
 pub mod colormap;
+pub mod display;
 pub mod error;
 pub mod flow;
 pub mod frame;

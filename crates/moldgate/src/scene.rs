@@ -2,6 +2,9 @@
 //! of mass, the parting line and the qualifying region. Built once from an analysis and
 //! handed to the writers (PNG, glTF), so they all show the same thing.
 
+use std::sync::Arc;
+
+use crate::display::{CellField, Display};
 use crate::frame::Frame;
 use crate::gate::{Analysis, ChosenGate};
 use crate::math::DVec3;
@@ -16,6 +19,22 @@ pub struct Field {
     pub unit: String,
     /// One value per mesh vertex; NaN where unknown (drawn grey).
     pub per_vertex: Vec<f32>,
+    /// The field on the cells it was computed on, when it has them (the fill's fields):
+    /// the writers then draw it on the surface refined to the cells ([`crate::display`]),
+    /// and its colour bar spans the cells' values.
+    pub cells: Option<Arc<CellField>>,
+}
+
+impl Field {
+    /// The smallest and largest finite value of the field: over its cells when it has them
+    /// (the range the report quotes), over its vertices otherwise; `None` when none is
+    /// finite.
+    pub fn range(&self) -> Option<[f32; 2]> {
+        match &self.cells {
+            Some(c) => c.range(),
+            None => crate::colormap::Range::of(&self.per_vertex).map(|r| [r.min, r.max]),
+        }
+    }
 }
 
 /// A scalar per qualifying point (the gate-suitability map), shown as colours over the
@@ -64,6 +83,10 @@ pub struct Scene<'a> {
     pub frame: Frame,
     /// Colour field on the part.
     pub field: Field,
+    /// The surface the field is drawn on when it lives on cells: the part refined to the
+    /// cells with the field at its vertices (set by [`Scene::with_field`]); `None` draws
+    /// `field.per_vertex` on the part's own triangles.
+    pub display: Option<Arc<Display>>,
     /// The chosen gate and any further gates (several-gate runs), first is the main one.
     pub gates: Vec<Marker>,
     /// The gates the designer placed, in the order given (drawn apart from the answer's).
@@ -128,7 +151,9 @@ impl<'a> Scene<'a> {
                 name: "height along D".into(),
                 unit: "mm".into(),
                 per_vertex,
+                cells: None,
             },
+            display: None,
             gates,
             placed: Vec::new(),
             centre: analysis.centre,
@@ -156,14 +181,31 @@ impl<'a> Scene<'a> {
             name: field.name.clone(),
             unit: field.unit.clone(),
             per_vertex: vec![f32::NAN; self.mesh.vertices.len()],
+            cells: None,
         };
+        self.display = None;
         self.node_field = Some(field);
         self
     }
 
-    /// The same scene coloured by another field.
+    /// The same scene coloured by another field; a field on cells is drawn on the part
+    /// refined to them ([`crate::display::refine`]).
     pub fn with_field(mut self, field: Field) -> Scene<'a> {
+        self.display = field
+            .cells
+            .as_ref()
+            .and_then(|c| crate::display::refine(self.mesh, c))
+            .map(Arc::new);
         self.field = field;
         self
+    }
+
+    /// The triangles drawn and the field's value at each of their vertices: the refined
+    /// surface when there is one, else the part and `field.per_vertex`.
+    pub fn surface(&self) -> (&Mesh, &[f32]) {
+        match &self.display {
+            Some(d) => (&d.mesh, &d.values),
+            None => (self.mesh, &self.field.per_vertex),
+        }
     }
 }

@@ -1575,6 +1575,11 @@ pub struct FillAnalysis {
     /// several gates, the flow length and fill time of all of them together.
     #[serde(skip)]
     pub per_vertex: VertexFields,
+    /// The same field on the cells, in real units (NaN where unreached), with their lookup
+    /// by position: what the pictures draw ([`crate::display`]); `None` when the pictures
+    /// show the height along D.
+    #[serde(skip)]
+    pub field_cells: Option<std::sync::Arc<crate::display::CellField>>,
     /// The answer's gate point.
     #[serde(skip)]
     pub answer: Option<DVec3>,
@@ -1693,6 +1698,9 @@ impl FillAnalysis {
             name: name.into(),
             unit: unit.into(),
             per_vertex: values.clone(),
+            cells: (!values.is_empty())
+                .then(|| self.field_cells.clone())
+                .flatten(),
         })
     }
 }
@@ -2087,20 +2095,37 @@ pub fn analyse(
             march(&domain.voxels, &sources, cost)
         })
     };
-    match options.colour_by {
+    // The pictured field on the cells, in real units, kept for the pictures.
+    let on_cells = |t: &[f64], scale: f64| -> Vec<f32> {
+        t.par_iter()
+            .map(|&x| {
+                if x.is_finite() {
+                    (x * scale) as f32
+                } else {
+                    f32::NAN
+                }
+            })
+            .collect()
+    };
+    let cell_values = match options.colour_by {
         ColourBy::FlowLength => {
             let field = all_gates(None);
             let t = field.as_ref().map_or(&fields.length.t, |f| &f.t);
-            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, t, 1.0)
+            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, t, 1.0);
+            Some(on_cells(t, 1.0))
         }
         ColourBy::FillTime => {
             let field = all_gates(Some(&domain.fill_cost));
             let t = field.as_ref().map_or(&fields.fill.t, |f| &f.t);
-            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, t, per_mm)
+            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, t, per_mm);
+            Some(on_cells(t, per_mm))
         }
-        ColourBy::Wall => per_vertex.wall_mm = per_vertex_of_cells(&domain, mesh, &domain.wall_mm),
-        ColourBy::Height => {}
-    }
+        ColourBy::Wall => {
+            per_vertex.wall_mm = per_vertex_of_cells(&domain, mesh, &domain.wall_mm);
+            Some(domain.wall_mm.clone())
+        }
+        ColourBy::Height => None,
+    };
     snap_places(&domain, mesh, &mut paper);
     let mut balanced = balanced.map(|(b, _)| b);
     if let Some(b) = &mut balanced {
@@ -2126,6 +2151,9 @@ pub fn analyse(
         warnings,
         times,
         per_vertex,
+        field_cells: cell_values.map(|v| {
+            std::sync::Arc::new(crate::display::CellField::new(domain.voxels.into_grid(), v))
+        }),
         answer: Some(answer),
     })
 }

@@ -615,39 +615,19 @@ impl Voxels {
     /// The solid cell nearest `p`: the cell containing it if solid, else the nearest solid
     /// cell centre within two cells; `None` when there is none.
     pub fn cell_near(&self, p: DVec3) -> Option<u32> {
-        let q = ((p - self.origin) / self.h + 0.5).map(floor_value);
-        if q.cmpge(DVec3::ZERO).all() {
-            let (x, y, z) = (q.x as usize, q.y as usize, q.z as usize);
-            if x < self.dims[0] && y < self.dims[1] && z < self.dims[2] {
-                let i = self.index[(z * self.dims[1] + y) * self.dims[0] + x];
-                if i != EMPTY {
-                    return Some(i);
-                }
-            }
+        cell_near(self.origin, self.h, self.dims, &self.index, &self.cells, p)
+    }
+
+    /// What [`Voxels::cell_near`] needs, kept after the rest of the cells is dropped: the
+    /// lookup of a fill field's value at a point of the surface ([`crate::display`]).
+    pub fn into_grid(self) -> CellGrid {
+        CellGrid {
+            origin: self.origin,
+            h: self.h,
+            dims: self.dims,
+            index: self.index,
+            cells: self.cells,
         }
-        let mut best: Option<(f64, u32)> = None;
-        for dz in -2..=2i64 {
-            for dy in -2..=2i64 {
-                for dx in -2..=2i64 {
-                    let (x, y, z) = (q.x as i64 + dx, q.y as i64 + dy, q.z as i64 + dz);
-                    if x < 0 || y < 0 || z < 0 {
-                        continue;
-                    }
-                    let (x, y, z) = (x as usize, y as usize, z as usize);
-                    if x >= self.dims[0] || y >= self.dims[1] || z >= self.dims[2] {
-                        continue;
-                    }
-                    let i = self.index[(z * self.dims[1] + y) * self.dims[0] + x];
-                    if i != EMPTY {
-                        let d = self.centre(i).distance_squared(p);
-                        if best.is_none_or(|(bd, bi)| d < bd || (d == bd && i < bi)) {
-                            best = Some((d, i));
-                        }
-                    }
-                }
-            }
-        }
-        best.map(|(_, i)| i)
     }
 
     /// Connected components of the solid cells (26-neighbour), numbered from 0 in cell order.
@@ -676,6 +656,86 @@ impl Voxels {
         }
         (label, count as usize)
     }
+}
+
+/// The solid cells' lookup by position, without the rest of [`Voxels`]: made by
+/// [`Voxels::into_grid`] once the fill is done.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellGrid {
+    /// Centre of cell (0, 0, 0).
+    pub origin: DVec3,
+    /// Cell side, mm.
+    pub h: f64,
+    /// Cells along x, y, z.
+    pub dims: [usize; 3],
+    index: Vec<u32>,
+    cells: Vec<[u32; 3]>,
+}
+
+impl CellGrid {
+    /// Number of solid cells.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// True when no cell is solid.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// [`Voxels::cell_near`]: the same cell for the same point.
+    pub fn cell_near(&self, p: DVec3) -> Option<u32> {
+        cell_near(self.origin, self.h, self.dims, &self.index, &self.cells, p)
+    }
+}
+
+/// The solid cell nearest `p` in a dense `index` of cells of side `h` from `origin`
+/// (see [`Voxels::cell_near`]).
+fn cell_near(
+    origin: DVec3,
+    h: f64,
+    dims: [usize; 3],
+    index: &[u32],
+    cells: &[[u32; 3]],
+    p: DVec3,
+) -> Option<u32> {
+    let centre = |i: u32| {
+        let [x, y, z] = cells[i as usize];
+        origin + DVec3::new(x as f64, y as f64, z as f64) * h
+    };
+    let q = ((p - origin) / h + 0.5).map(floor_value);
+    if q.cmpge(DVec3::ZERO).all() {
+        let (x, y, z) = (q.x as usize, q.y as usize, q.z as usize);
+        if x < dims[0] && y < dims[1] && z < dims[2] {
+            let i = index[(z * dims[1] + y) * dims[0] + x];
+            if i != EMPTY {
+                return Some(i);
+            }
+        }
+    }
+    let mut best: Option<(f64, u32)> = None;
+    for dz in -2..=2i64 {
+        for dy in -2..=2i64 {
+            for dx in -2..=2i64 {
+                let (x, y, z) = (q.x as i64 + dx, q.y as i64 + dy, q.z as i64 + dz);
+                if x < 0 || y < 0 || z < 0 {
+                    continue;
+                }
+                let (x, y, z) = (x as usize, y as usize, z as usize);
+                if x >= dims[0] || y >= dims[1] || z >= dims[2] {
+                    continue;
+                }
+                let i = index[(z * dims[1] + y) * dims[0] + x];
+                if i != EMPTY {
+                    let d = centre(i).distance_squared(p);
+                    if best.is_none_or(|(bd, bi)| d < bd || (d == bd && i < bi)) {
+                        best = Some((d, i));
+                    }
+                }
+            }
+        }
+    }
+    best.map(|(_, i)| i)
 }
 
 #[cfg(test)]

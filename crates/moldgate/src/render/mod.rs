@@ -168,15 +168,16 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     if width < MIN_SIZE.0 || height < MIN_SIZE.1 || width > MAX_SIDE || height > MAX_SIDE {
         return Err(RenderError::Size { width, height });
     }
-    let mesh = scene.mesh;
-    if mesh.triangles.is_empty() {
+    if scene.mesh.triangles.is_empty() {
         return Err(RenderError::EmptyMesh);
     }
-    if scene.field.per_vertex.len() != mesh.vertices.len() {
+    // The triangles drawn: the part's, or the part refined to the field's cells.
+    let (mesh, values) = scene.surface();
+    if values.len() != mesh.vertices.len() {
         return Err(RenderError::FieldLength {
             name: scene.field.name.clone(),
             expected: mesh.vertices.len(),
-            got: scene.field.per_vertex.len(),
+            got: values.len(),
         });
     }
     let k = (width as f32 / 1600.0).min(height as f32 / 900.0);
@@ -187,7 +188,14 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             has_missing: true,
             ..FieldRange::of(&f.per_node)
         },
-        None => FieldRange::of(&scene.field.per_vertex),
+        // A field on cells spans its cells' values (the range the report quotes).
+        None => match (&scene.field.cells, scene.field.range()) {
+            (Some(_), Some([lo, hi])) => FieldRange {
+                min_max: Some((lo, hi)),
+                has_missing: values.iter().any(|v| !v.is_finite()),
+            },
+            _ => FieldRange::of(values),
+        },
     };
     let lut = Lut::viridis();
 
@@ -205,7 +213,15 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     // scene, the views' projections of the mesh and the field's colour-map coordinates only
     // the mesh and the cameras: all found beside one another and the making of the canvas.
     let (facing, ((canvas, asked), (t, projections))) = rayon::join(
-        || scene.topology.map(|topology| Facing::of(mesh, topology)),
+        || {
+            scene.topology.map(|topology| {
+                let facing = Facing::of(scene.mesh, topology);
+                match &scene.display {
+                    Some(d) => facing.of_pieces(&d.parent),
+                    None => facing,
+                }
+            })
+        },
         || {
             rayon::join(
                 || {
@@ -220,12 +236,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
                     )
                 },
                 || {
-                    let t: Vec<f32> = scene
-                        .field
-                        .per_vertex
-                        .iter()
-                        .map(|&v| range.unit(v))
-                        .collect();
+                    let t: Vec<f32> = values.iter().map(|&v| range.unit(v)).collect();
                     let projections: Vec<Projection> = views
                         .iter()
                         .map(|v| Projection::new(mesh, &v.camera, v.panel, SAMPLES))

@@ -140,6 +140,20 @@ impl Facing {
     }
 }
 
+impl Facing {
+    /// The same facets for a surface whose triangle `i` lies in mesh triangle `parent[i]`
+    /// (a refined surface, [`crate::display::Display`]): each piece faces as its mesh
+    /// triangle does.
+    pub fn of_pieces(self, parent: &[u32]) -> Facing {
+        let inward = if self.inward.is_empty() {
+            Vec::new()
+        } else {
+            parent.iter().map(|&t| self.inward[t as usize]).collect()
+        };
+        Facing { inward, ..self }
+    }
+}
+
 /// `x.floor()` for finite `x` within the range of `i32`, without the library call it
 /// compiles to on the baseline x86-64.
 #[inline]

@@ -139,6 +139,7 @@ fn empty_field() -> Field {
         name: "nothing".into(),
         unit: String::new(),
         per_vertex: Vec::new(),
+        cells: None,
     }
 }
 
@@ -322,6 +323,7 @@ fn cube_has_sharp_edges() {
         name: "height along D".into(),
         unit: "mm".into(),
         per_vertex: mesh.vertices.iter().map(|p| p.z as f32).collect(),
+        cells: None,
     };
     let scene = Scene {
         mesh: &mesh,

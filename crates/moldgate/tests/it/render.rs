@@ -165,6 +165,7 @@ fn the_field_colours_the_part_where_the_values_are() {
         name: "fill order".into(),
         unit: "".into(),
         per_vertex: vec![f32::NAN; part.mesh.vertices.len()],
+        cells: None,
     });
     let picture = render(&unknown, &RenderOptions::default()).unwrap();
     let image = decode(&picture.png().unwrap());
@@ -201,6 +202,7 @@ fn bad_requests_are_errors() {
         name: "thickness".into(),
         unit: "mm".into(),
         per_vertex: vec![1.0; 3],
+        cells: None,
     });
     assert!(matches!(
         png(&short, &RenderOptions::default()),

@@ -1,0 +1,294 @@
+//! The surface a field of the fill analysis is drawn on, at the resolution of its cells.
+//!
+//! The fill's fields (flow length, fill time, the wall it used) live on voxel cells, while
+//! the writers (the PNG, the GLB, and the HTML page that shows the PNG) colour a triangle by
+//! blending its corners' values. On a coarse mesh a triangle spans many cells, so the
+//! blend of three corners misses the field in between: the floor around a gate, tens of
+//! millimetres across in two triangles, would read as far from the gate as its corners. A
+//! [`Display`] is the part's surface refined so that no edge is longer than about a cell
+//! ([`refine`]), with the field sampled from the cells at every vertex: drawn linearly
+//! over these smaller triangles, the colours follow the cells.
+//!
+//! The refinement splits an edge in its middle while it is longer than the chosen length,
+//! a decision made from the edge's two ends alone, so both triangles of an edge split it
+//! at the same points and the refined surface has no cracks (nor T-junctions). Triangles
+//! whose edges are all short enough are kept as they are, with their own vertices: where
+//! the mesh is already finer than the cells nothing changes. The height along D is linear
+//! over a triangle and is never refined.
+//!
+//! **Limit.** The refined surface has at most [`MAX_DISPLAY_TRIANGLES`] triangles (or the
+//! mesh's own count, when larger): the count is taken before any vertex is made (a lower
+//! bound per triangle first, then the exact count), and when the cell's length would give
+//! more, the length is doubled until it fits, so a finer field is drawn at a coarser
+//! resolution rather than refused.
+
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+
+use crate::flow::voxel::CellGrid;
+use crate::math::DVec3;
+use crate::mesh::Mesh;
+
+/// The most triangles a refined surface may have (when the mesh itself has fewer).
+pub const MAX_DISPLAY_TRIANGLES: usize = 4_000_000;
+
+/// A field with one value per solid cell, in real units (NaN where unknown), and the cells'
+/// lookup by position.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellField {
+    grid: CellGrid,
+    values: Vec<f32>,
+}
+
+impl CellField {
+    /// The field `values` (one per cell of `grid`).
+    pub fn new(grid: CellGrid, values: Vec<f32>) -> CellField {
+        debug_assert_eq!(grid.len(), values.len());
+        CellField { grid, values }
+    }
+
+    /// The cell side, mm.
+    pub fn cell_mm(&self) -> f64 {
+        self.grid.h
+    }
+
+    /// The value at `p`: the value of the solid cell nearest it ([`CellGrid::cell_near`]),
+    /// NaN where no cell is near or the value is unknown.
+    pub fn value_at(&self, p: DVec3) -> f32 {
+        self.grid
+            .cell_near(p)
+            .map_or(f32::NAN, |c| self.values[c as usize])
+    }
+
+    /// The smallest and largest finite value over every cell, the field's real range (the
+    /// one the report quotes); `None` when no value is finite.
+    pub fn range(&self) -> Option<[f32; 2]> {
+        let (lo, hi) = self
+            .values
+            .par_chunks(1 << 16)
+            .map(|block| {
+                block
+                    .iter()
+                    .filter(|v| v.is_finite())
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                        (lo.min(v), hi.max(v))
+                    })
+            })
+            .reduce(
+                || (f32::INFINITY, f32::NEG_INFINITY),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
+        (lo <= hi).then_some([lo, hi])
+    }
+}
+
+/// The part's surface as drawn for a field on cells: refined triangles, the triangle of the
+/// mesh each comes from, and the field at every vertex.
+#[derive(Debug, Clone)]
+pub struct Display {
+    /// The refined surface: the mesh's vertices first (same numbers), then the new ones.
+    pub mesh: Mesh,
+    /// For each triangle of `mesh`, the mesh triangle it lies in (in order: the triangles of
+    /// mesh triangle 0 first).
+    pub parent: Vec<u32>,
+    /// The field at each vertex of `mesh`, sampled from the cells.
+    pub values: Vec<f32>,
+    /// The longest an edge of the refined surface may be, mm (the cell's side, or a
+    /// multiple of it when the limit asked for it).
+    pub edge_mm: f64,
+}
+
+/// The surface of `mesh` refined for `field` (see the module documentation), or `None`
+/// when no edge is longer than the field's cell (the mesh is drawn as it is).
+pub fn refine(mesh: &Mesh, field: &CellField) -> Option<Display> {
+    refine_within(mesh, field, MAX_DISPLAY_TRIANGLES.max(mesh.triangles.len()))
+}
+
+/// [`refine`] with at most `limit` triangles.
+pub fn refine_within(mesh: &Mesh, field: &CellField, limit: usize) -> Option<Display> {
+    let cell = field.cell_mm();
+    if !(cell > 0.0 && cell.is_finite()) || mesh.triangles.is_empty() {
+        return None;
+    }
+    let longest = mesh
+        .triangles
+        .par_iter()
+        .map(|tri| {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            a.distance_squared(b)
+                .max(b.distance_squared(c))
+                .max(c.distance_squared(a))
+        })
+        .reduce(|| 0.0, f64::max)
+        .sqrt();
+    // The shortest edge length the limit allows, by doubling from the cell.
+    let mut edge = cell;
+    let triangles = loop {
+        if longest <= edge {
+            return None; // every edge is short enough: nothing to refine
+        }
+        if lower_bound(mesh, edge) <= limit as f64 {
+            let n = count(mesh, edge, limit);
+            if n <= limit {
+                break n;
+            }
+        }
+        edge *= 2.0;
+    };
+    let (vertices, triangles, parent) = split_all(mesh, edge, triangles);
+    let values: Vec<f32> = vertices.par_iter().map(|&p| field.value_at(p)).collect();
+    Some(Display {
+        mesh: Mesh {
+            vertices,
+            triangles,
+        },
+        parent,
+        values,
+        edge_mm: edge,
+    })
+}
+
+/// Whether the edge from `a` to `b` is split at length `edge` (the same answer from either
+/// end: the squares of the negated differences are the same).
+#[inline]
+fn long(a: DVec3, b: DVec3, edge2: f64) -> bool {
+    a.distance_squared(b) > edge2
+}
+
+/// A lower bound of the refined triangles at `edge`: each is at most equilateral of side
+/// `edge` in area, and each holds at most one piece of its mesh triangle's longest edge.
+fn lower_bound(mesh: &Mesh, edge: f64) -> f64 {
+    let most_area = 3f64.sqrt() / 4.0 * edge * edge;
+    mesh.triangles
+        .par_iter()
+        .map(|tri| {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            let side = a.distance(b).max(b.distance(c)).max(c.distance(a));
+            (area / most_area).max((side / edge).ceil()).max(1.0)
+        })
+        .sum()
+}
+
+/// The exact number of refined triangles at `edge`, or more than `limit` once it is over
+/// (each mesh triangle's count stops there too).
+fn count(mesh: &Mesh, edge: f64, limit: usize) -> usize {
+    let edge2 = edge * edge;
+    mesh.triangles
+        .par_iter()
+        .map(|tri| {
+            let corners = tri.map(|v| mesh.vertices[v as usize]);
+            let mut n = 0usize;
+            let mut stack = vec![corners];
+            while let Some(t) = stack.pop() {
+                if n > limit {
+                    break;
+                }
+                let before = stack.len();
+                split_one(t, t, edge2, |a, b| (a + b) * 0.5, &mut stack);
+                if stack.len() == before {
+                    n += 1;
+                }
+            }
+            n
+        })
+        .reduce(|| 0, |a, b| a.saturating_add(b).min(limit + 1))
+}
+
+/// Splits triangle `t` (corners in order, at positions `p`) once: pushes its two to four
+/// children on `out` when an edge is longer than `edge2.sqrt()`, nothing otherwise.
+/// `mid(a, b)` makes the middle of an edge, at `(a + b) / 2`. One split edge: two children
+/// through the middle and the opposite corner; two: the corner triangle between them and
+/// the rest cut along its shorter diagonal; three: four children. Children keep the
+/// triangle's winding.
+#[inline]
+fn split_one<V: Copy>(
+    t: [V; 3],
+    p: [DVec3; 3],
+    edge2: f64,
+    mut mid: impl FnMut(V, V) -> V,
+    out: &mut Vec<[V; 3]>,
+) {
+    let split = [
+        long(p[0], p[1], edge2),
+        long(p[1], p[2], edge2),
+        long(p[2], p[0], edge2),
+    ];
+    let [v0, v1, v2] = t;
+    match split {
+        [false, false, false] => {}
+        [true, true, true] => {
+            let (m01, m12, m20) = (mid(v0, v1), mid(v1, v2), mid(v2, v0));
+            out.extend([
+                [v0, m01, m20],
+                [m01, v1, m12],
+                [m20, m12, v2],
+                [m01, m12, m20],
+            ]);
+        }
+        _ => {
+            // Turn the corners round so that edge 0 -> 1 is split, and with two split edges,
+            // 1 -> 2 is the other.
+            let k = match split {
+                [true, false, false] | [true, true, false] => 0,
+                [false, true, false] | [false, true, true] => 1,
+                _ => 2,
+            };
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let (pa, pb, pc) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+            let mab = mid(a, b);
+            if split.iter().filter(|&&s| s).count() == 1 {
+                out.extend([[a, mab, c], [mab, b, c]]);
+            } else {
+                let mbc = mid(b, c);
+                out.push([mab, b, mbc]);
+                // The quadrilateral a, mab, mbc, c along its shorter diagonal.
+                let (pmab, pmbc) = ((pa + pb) * 0.5, (pb + pc) * 0.5);
+                if pa.distance_squared(pmbc) <= pmab.distance_squared(pc) {
+                    out.extend([[a, mab, mbc], [a, mbc, c]]);
+                } else {
+                    out.extend([[a, mab, c], [mab, mbc, c]]);
+                }
+            }
+        }
+    }
+}
+
+/// The refined surface at `edge`: vertices (the mesh's, then one per split edge, numbered
+/// in the order the mesh's triangles meet them), triangles and their mesh triangles. A
+/// split edge's middle is looked up by its two ends, so both its triangles share it.
+fn split_all(mesh: &Mesh, edge: f64, count: usize) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
+    let edge2 = edge * edge;
+    // About one vertex for two triangles on a closed surface.
+    let new_vertices = (count / 2).saturating_sub(mesh.vertices.len() / 2);
+    let mut vertices = Vec::with_capacity(mesh.vertices.len() + new_vertices);
+    vertices.extend_from_slice(&mesh.vertices);
+    let mut triangles = Vec::with_capacity(count);
+    let mut parent = Vec::with_capacity(count);
+    let mut middles: FxHashMap<(u32, u32), u32> = FxHashMap::default();
+    middles.reserve(new_vertices);
+    let mut stack: Vec<[u32; 3]> = Vec::new();
+    let mut children: Vec<[u32; 3]> = Vec::with_capacity(4);
+    for (t, &tri) in mesh.triangles.iter().enumerate() {
+        stack.push(tri);
+        while let Some(s) = stack.pop() {
+            let p = s.map(|v| vertices[v as usize]);
+            children.clear();
+            let mid = |a: u32, b: u32| {
+                *middles.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    vertices.push((vertices[a as usize] + vertices[b as usize]) * 0.5);
+                    (vertices.len() - 1) as u32
+                })
+            };
+            split_one(s, p, edge2, mid, &mut children);
+            if children.is_empty() {
+                triangles.push(s);
+                parent.push(t as u32);
+            } else {
+                // Last pushed is taken first: reversed, a triangle's pieces come in order.
+                stack.extend(children.iter().rev());
+            }
+        }
+    }
+    (vertices, triangles, parent)
+}
