@@ -292,3 +292,114 @@ fn split_all(mesh: &Mesh, edge: f64, count: usize) -> (Vec<DVec3>, Vec<[u32; 3]>
     }
     (vertices, triangles, parent)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flow::voxel::Voxels;
+
+    /// A closed box `x` by `y` by `z` mm of 12 triangles, wound outwards.
+    fn cuboid(x: f64, y: f64, z: f64) -> Mesh {
+        let vertices = (0..8)
+            .map(|i| {
+                DVec3::new(
+                    if i & 1 == 0 { 0.0 } else { x },
+                    if i & 2 == 0 { 0.0 } else { y },
+                    if i & 4 == 0 { 0.0 } else { z },
+                )
+            })
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles = quads
+            .iter()
+            .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+            .collect();
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+
+    fn area(m: &Mesh, t: usize) -> f64 {
+        let [a, b, c] = m.corners(t);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    #[test]
+    fn the_refined_surface_is_closed_short_edged_and_covers_each_triangle() {
+        let mesh = cuboid(40.0, 25.0, 3.0);
+        for edge in [0.7, 2.0, 4.5] {
+            let n = count(&mesh, edge, usize::MAX - 1);
+            let (vertices, triangles, parent) = split_all(&mesh, edge, n);
+            assert_eq!(triangles.len(), n);
+            assert!(n as f64 >= lower_bound(&mesh, edge));
+            let refined = Mesh {
+                vertices,
+                triangles,
+            };
+            // No crack and no T-junction: every directed edge has its reverse once.
+            let mut edges: FxHashMap<(u32, u32), i32> = FxHashMap::default();
+            for tri in &refined.triangles {
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    *edges.entry((a, b)).or_default() += 1;
+                    let [p, q] = [a, b].map(|v| refined.vertices[v as usize]);
+                    assert!(p.distance(q) <= edge, "{edge}: {}", p.distance(q));
+                }
+            }
+            for (&(a, b), &k) in &edges {
+                assert_eq!(k, 1);
+                assert_eq!(edges.get(&(b, a)), Some(&1), "{edge}: edge {a}-{b}");
+            }
+            // The pieces of each triangle tile it, facing its way.
+            let mut covered = vec![0.0; mesh.triangles.len()];
+            for (i, &t) in parent.iter().enumerate() {
+                covered[t as usize] += area(&refined, i);
+                assert!(refined.normal(i).dot(mesh.normal(t as usize)) > 0.999);
+            }
+            for (t, &a) in covered.iter().enumerate() {
+                assert!((a - area(&mesh, t)).abs() < 1e-9 * area(&mesh, t), "{t}");
+            }
+            // The mesh's vertices keep their numbers.
+            assert_eq!(refined.vertices[..8], mesh.vertices[..]);
+        }
+    }
+
+    fn field_on(mesh: &Mesh, h: f64) -> CellField {
+        let grid = Voxels::new(mesh, h).into_grid();
+        // Any value per cell: its number.
+        let values = (0..grid.len()).map(|c| c as f32).collect();
+        CellField::new(grid, values)
+    }
+
+    #[test]
+    fn a_mesh_finer_than_the_cells_is_drawn_as_it_is() {
+        let mesh = cuboid(4.0, 3.0, 2.0);
+        assert!(refine(&mesh, &field_on(&mesh, 6.0)).is_none());
+        let d = refine(&mesh, &field_on(&mesh, 0.5)).expect("refined");
+        assert_eq!(d.edge_mm, 0.5);
+        assert_eq!(d.values.len(), d.mesh.vertices.len());
+        assert!(d.values.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn over_the_limit_the_edge_doubles_until_the_surface_fits() {
+        let mesh = cuboid(40.0, 25.0, 3.0);
+        let field = field_on(&mesh, 0.5);
+        let free = refine_within(&mesh, &field, usize::MAX / 2).unwrap();
+        assert_eq!(free.edge_mm, 0.5);
+        let limit = free.mesh.triangles.len() / 5;
+        let bounded = refine_within(&mesh, &field, limit).unwrap();
+        assert!(bounded.edge_mm >= 1.0, "{}", bounded.edge_mm);
+        assert!(bounded.mesh.triangles.len() <= limit);
+        // Half that length was over the limit: the first length that fits is kept.
+        assert!(count(&mesh, bounded.edge_mm / 2.0, limit) > limit);
+    }
+}

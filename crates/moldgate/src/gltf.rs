@@ -811,6 +811,7 @@ mod tests {
                         per_vertex: vec![],
                         cells: None,
                     },
+                    display: None,
                     gates: vec![],
                     placed: vec![],
                     centre: DVec3::ZERO,

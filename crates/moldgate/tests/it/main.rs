@@ -5,6 +5,7 @@
 mod analysis_properties;
 mod closed_forms;
 mod common;
+mod fill_pictures;
 mod flow;
 mod fuzz_regressions;
 mod glb;

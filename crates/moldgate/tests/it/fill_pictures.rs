@@ -1,0 +1,144 @@
+//! Pictures of the fill on a coarse mesh: the field is drawn at the resolution of its cells,
+//! not blended from the corners of large triangles, and the colour bar spans the field's
+//! real range (the one the report quotes), in the PNG and the GLB alike.
+
+use moldgate::math::DVec3;
+use moldgate::mesh::{from_generated, LoadedMesh, Mesh};
+use moldgate::render::{render, RenderOptions};
+use moldgate::study::{study, StudyOptions};
+
+/// A plate `x` by `y` by `z` mm in 12 triangles (two a face), wound outwards.
+fn coarse_plate(x: f64, y: f64, z: f64) -> LoadedMesh {
+    let vertices = (0..8)
+        .map(|i| {
+            DVec3::new(
+                if i & 1 == 0 { 0.0 } else { x },
+                if i & 2 == 0 { 0.0 } else { y },
+                if i & 4 == 0 { 0.0 } else { z },
+            )
+        })
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    from_generated(Mesh {
+        vertices,
+        triangles,
+    })
+}
+
+fn options(json: &str) -> StudyOptions {
+    serde_json::from_str(json).unwrap()
+}
+
+/// The `field` object of a GLB's scene extras.
+fn glb_field(glb: &[u8]) -> serde_json::Value {
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&glb[20..20 + len]).unwrap();
+    json["asset"]["extras"]["field"].clone()
+}
+
+/// The darkest luminance of the pixels within `r` of `(x, y)` (the hatching of the
+/// qualifying region is light, so the darkest pixel is the field's colour).
+fn darkest(picture: &moldgate::render::Picture, x: f64, y: f64, r: i64) -> f64 {
+    let mut best = f64::MAX;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let (px, py) = ((x as i64 + dx) as u32, (y as i64 + dy) as u32);
+            if let Some([red, g, b]) = picture.pixel(px, py) {
+                best = best.min(0.2126 * red as f64 + 0.7152 * g as f64 + 0.0722 * b as f64);
+            }
+        }
+    }
+    best
+}
+
+#[test]
+fn flow_length_on_a_coarse_plate_is_drawn_from_the_cells() {
+    // Two triangles a face: every corner is some 60 mm of flow from the central gate.
+    let part = coarse_plate(100.0, 70.0, 3.0);
+    let s = study(
+        &part,
+        &options(r#"{ "fill": true, "color_by": "flow_length", "demold": "+z" }"#),
+    )
+    .unwrap();
+    let fill = s.fill().unwrap();
+    let paper = fill.paper.as_ref().unwrap();
+    let gate = s.gates()[0].point;
+    assert!((gate.z - 3.0).abs() < 1e-9, "{gate}");
+
+    // The colour bar (and the GLB's range) spans the cells: from about 0 at the gate to
+    // the longest flow the report quotes.
+    let scene = s.scene(&part, "plate").unwrap();
+    let [lo, hi] = scene.field.range().unwrap();
+    assert!((lo as f64) < fill.cell_mm, "{lo} mm at the gate");
+    assert_eq!(hi, paper.l_max_mm as f32);
+    let field = glb_field(&s.glb(&part, "plate").unwrap());
+    assert_eq!(field["min"].as_f64().unwrap(), lo as f64);
+    assert_eq!(field["max"].as_f64().unwrap(), hi as f64);
+
+    // The drawn surface holds vertices near the gate with values near 0.
+    let (surface, values) = scene.surface();
+    let near = (0..surface.vertices.len())
+        .min_by(|&a, &b| {
+            let d = |v: usize| surface.vertices[v].distance(gate);
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    assert!(surface.vertices[near].distance(gate) <= fill.cell_mm);
+    assert!(
+        (values[near] as f64) < 2.0 * fill.cell_mm,
+        "{}",
+        values[near]
+    );
+
+    // In the picture along D, the top face is dark (short flow) beside the gate and bright
+    // (long flow) near a corner.
+    let picture = render(&scene, &RenderOptions::default()).unwrap();
+    let camera = picture.views[0].camera;
+    let beside = camera.to_pixel(gate + DVec3::new(8.0, 0.0, 0.0));
+    let corner = camera.to_pixel(DVec3::new(92.0, 62.0, 3.0));
+    let (dark, bright) = (
+        darkest(&picture, beside.x, beside.y, 4),
+        darkest(&picture, corner.x, corner.y, 4),
+    );
+    assert!(
+        dark + 60.0 < bright,
+        "beside the gate {dark}, near a corner {bright}"
+    );
+}
+
+#[test]
+fn the_fill_time_bar_ends_at_the_reported_fill_time() {
+    let part = coarse_plate(100.0, 70.0, 3.0);
+    let s = study(&part, &options(r#"{ "fill": true, "demold": "+z" }"#)).unwrap();
+    let fill = s.fill().unwrap();
+    let scene = s.scene(&part, "plate").unwrap();
+    let [lo, hi] = scene.field.range().unwrap();
+    assert_eq!(hi, fill.paper.as_ref().unwrap().fill_time_s as f32);
+    assert!(lo < hi / 10.0, "{lo} {hi}");
+}
+
+#[test]
+fn the_height_along_d_is_drawn_on_the_part_itself() {
+    let part = coarse_plate(100.0, 70.0, 3.0);
+    let s = study(
+        &part,
+        &options(r#"{ "fill": true, "color_by": "height", "demold": "+z" }"#),
+    )
+    .unwrap();
+    let scene = s.scene(&part, "plate").unwrap();
+    assert!(scene.display.is_none() && scene.field.cells.is_none());
+    let (surface, values) = scene.surface();
+    assert_eq!(surface.triangles, part.mesh.triangles);
+    assert_eq!(values, &scene.field.per_vertex[..]);
+}
