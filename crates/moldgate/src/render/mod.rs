@@ -189,8 +189,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             ..FieldRange::of(&f.per_node)
         },
         // A field on cells spans its cells' values (the range the report quotes).
-        None => match (&scene.field.cells, scene.field.range()) {
-            (Some(_), Some([lo, hi])) => FieldRange {
+        None => match scene.field.cells.as_ref().and_then(|c| c.range()) {
+            Some([lo, hi]) => FieldRange {
                 min_max: Some((lo, hi)),
                 has_missing: values.iter().any(|v| !v.is_finite()),
             },
