@@ -361,7 +361,8 @@ pub fn render(r: &Report) -> String {
             .map(|c| {
                 let at_least = if c.evaluated { "" } else { "at least " };
                 format!(
-                    "{} {at_least}{:.1} mm^2",
+                    "{} {}: {at_least}{:.1} mm^2",
+                    c.label(),
                     v3(c.direction),
                     c.undercut.area_mm2
                 )
@@ -370,7 +371,7 @@ pub fn render(r: &Report) -> String {
         let _ = writeln!(
             s,
             "demold auto: undercut of each direction tried: {}",
-            tried.join(", ")
+            tried.join("; ")
         );
     }
     if let Some(w) = &r.wall_thickness {
