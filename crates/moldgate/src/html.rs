@@ -648,7 +648,8 @@ fn fill_table(h: &mut String, r: &Report) {
             .collect();
         let _ = writeln!(
             h,
-            "<p>Last to fill from the answer's gate: {}.</p>",
+            "<p>Last to fill from the answer's gate (where the fill ends and air may be trapped: \
+             places reached in the last 20 % of the fill time): {}.</p>",
             if last.is_empty() {
                 "none".to_string()
             } else {
