@@ -214,3 +214,26 @@ fn a_grid_gate_on_a_rib_is_warned_not_flat_alike_in_the_report_and_the_page() {
         "the page's warnings lack {warning}"
     );
 }
+
+#[test]
+fn asking_for_the_wall_of_every_facet_does_not_change_the_fill() {
+    // With --wall-thickness the fill reads the walls of every facet instead of measuring its
+    // own samples; it used to take their area-weighted median as its nominal wall and its
+    // cell size from it, so every number of the fill moved (on the 352k housing the cell went
+    // from 0.689 to 0.750 mm and the balanced gate's flow-cell wall from 1.00 to 1.50 mm).
+    for info in moldgate::samples::SAMPLES {
+        let part = sample(info.name);
+        let fill = study(&part, &options(r#"{"fill": true, "gates": 2}"#)).unwrap();
+        let both = study(
+            &part,
+            &options(r#"{"fill": true, "gates": 2, "wall_thickness": true}"#),
+        )
+        .unwrap();
+        assert_eq!(
+            timeless(fill.report())["fill"],
+            timeless(both.report())["fill"],
+            "{}",
+            info.name
+        );
+    }
+}
