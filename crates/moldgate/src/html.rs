@@ -431,8 +431,8 @@ fn placed_table(h: &mut String, r: &Report) {
     };
     let _ = writeln!(
         h,
-        "<table>\n<tr><th>Fill from</th><th>Gate (mm)</th><th>longest flow path L_max</th><th>flow length / wall L/t</th><th>Pressure (Eq. 1)</th>\
-         <th>Fill time</th><th>Flow-cell wall at the gate</th><th>Last to fill</th><th>Weld lines</th></tr>"
+        "<table>\n<tr><th>Fill from</th><th>Gate (mm)</th><th>longest flow path<br>L_max</th><th>flow length / wall<br>L/t</th><th>Pressure (Eq. 1)</th>\
+         <th>Fill time</th><th>Flow-cell wall<br>at the gate</th><th>Last to fill</th><th>Weld lines</th></tr>"
     );
     let line = |h: &mut String, label: &str, g: &crate::flow::GateFill| {
         let last = g
@@ -549,9 +549,9 @@ fn fill_table(h: &mut String, r: &Report) {
     }
     let _ = writeln!(
         h,
-        "<table id=\"fill-gates\">\n<tr><th>gate</th><th>point</th><th>longest flow path L_max</th>\
-         <th>flow length / wall L/t</th><th>pressure (Eq. 1)</th><th>fill time (estimate)</th>\
-         <th>flow-cell wall at the gate</th></tr>"
+        "<table id=\"fill-gates\">\n<tr><th>gate</th><th>point</th><th>longest flow path<br>L_max</th>\
+         <th>flow length / wall<br>L/t</th><th>pressure<br>(Eq. 1)</th><th>fill time<br>(estimate)</th>\
+         <th>flow-cell wall<br>at the gate</th></tr>"
     );
     if let Some(p) = &f.paper {
         // The fill of the answer's gate: the parting-line gate in aesthetic mode.
@@ -608,7 +608,7 @@ fn fill_table(h: &mut String, r: &Report) {
             h,
             "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
              centre of mass; each body's fill time is taken against its own nominal wall):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
-             <th>nominal wall</th><th>gate</th><th>longest flow path L_max</th><th>fill time (estimate)</th></tr>"
+             <th>nominal wall</th><th>gate</th><th>longest flow path<br>L_max</th><th>fill time (estimate)</th></tr>"
         );
         for b in &f.body_gates {
             let cells = match (b.gate, b.l_max_mm, b.fill_time_s) {
