@@ -44,7 +44,7 @@ function gateSection(r) {
   ];
   if (paper && mode === "paper") {
     rows.push(["Surface normal", v3(paper.normal, 3), { id: "gate-normal", ...xyz(paper.normal) }]);
-    rows.push(["Wall under the gate (along D)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+    rows.push(["Wall under the gate (along D, the paper's rule)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
     rows.push(["From the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
   }
   rows.push([
@@ -53,7 +53,7 @@ function gateSection(r) {
     { id: "gate-radius", "data-value": r.options.gate_radius_mm },
   ]);
   if (r.wall_thickness) {
-    rows.push(["Wall across at the gate (measured everywhere)", mm(r.wall_thickness.at_gate_mm), { "data-value": r.wall_thickness.at_gate_mm }]);
+    rows.push(["Wall of the gate's facet (across, every facet measured)", mm(r.wall_thickness.at_gate_mm), { "data-value": r.wall_thickness.at_gate_mm }]);
   }
   const several = r.fill?.several;
   const content = [list("gate", rows)];
@@ -86,9 +86,9 @@ function gateFill(id, title, f) {
     ? f.flow_ratio.toFixed(0)
     : `${f.flow_ratio.toFixed(0)} ${f.exceeds_flow_ratio ? "EXCEEDS" : "within"} the material's limit of ${limit.toFixed(0)}`;
   const rows = [
-    ["Longest flow L_max", `${f.l_max_mm.toFixed(1)} mm (mean ${f.l_mean_mm.toFixed(1)})`, { class: "l-max", "data-value": f.l_max_mm }],
-    ["Wall across at the gate (flow model)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
-    ["Flow ratio L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
+    ["Longest flow path L_max", `${f.l_max_mm.toFixed(1)} mm (mean ${f.l_mean_mm.toFixed(1)})`, { class: "l-max", "data-value": f.l_max_mm }],
+    ["Flow-cell wall at the gate (the fill model's sample)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
+    ["Flow length / wall L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
     ["Fill pressure (Eq. 1)", `${f.pressure_mpa.toFixed(1)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
   ];

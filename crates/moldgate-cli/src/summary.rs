@@ -27,7 +27,7 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     };
     let _ = writeln!(
         s,
-        "  {label} {}: wall across {:.2} mm, longest flow {:.1} mm (mean {:.1}), flow/wall {:.0}{limit}, pressure {:.1} MPa, fill time {:.3} s (estimate)",
+        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {:.1} MPa, fill time {:.3} s (estimate)",
         v3(g.gate),
         g.wall_across_mm,
         g.l_max_mm,
@@ -53,11 +53,15 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         f.bodies,
         if f.bodies == 1 { "body" } else { "bodies" }
     );
+    let _ = writeln!(
+        s,
+        "  (flow-cell wall: the wall of the fill's cell at a point, measured across one facet through the cell, which near a rib or step may not be the gate's own facet; the paper's wall along D is the node's ray; --wall-thickness measures every facet)"
+    );
     if let Some(w) = &f.wall {
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
         let _ = writeln!(
             s,
-            "  wall at {} surface samples ({} slivers left out): min {}, 5 % {}, median {}, 95 % {}, max {} mm",
+            "  flow-cell walls (the fill model's: one facet sampled per surface cell, {} cells, {} slivers left out): min {}, 5 % {}, median {}, 95 % {}, max {} mm",
             w.samples,
             w.slivers,
             mm(w.min_mm),
@@ -72,7 +76,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
             let _ = writeln!(
                 s,
-                "    last to fill #{}: {} at {:.1} mm, {:.3} s",
+                "    last to fill #{} (in the last 20 % of the fill): {} at {:.1} mm, {:.3} s",
                 i + 1,
                 v3(q.point),
                 q.flow_length_mm,
@@ -280,7 +284,7 @@ pub fn render(r: &Report) -> String {
     if let Some(g) = &r.paper_gate {
         let _ = writeln!(
             s,
-            "paper gate: {} mm, normal {}, wall along D {} (disc min {}), {:.3} mm from the centre of mass",
+            "paper gate: {} mm, normal {}, wall along D {} (the paper's rule: the node's ray; thinnest under the disc {}), {:.3} mm from the centre of mass",
             v3(g.point),
             v3(g.normal),
             mm(g.thickness_mm, open),
@@ -361,7 +365,8 @@ pub fn render(r: &Report) -> String {
             .map(|c| {
                 let at_least = if c.evaluated { "" } else { "at least " };
                 format!(
-                    "{} {at_least}{:.1} mm^2",
+                    "{} {}: {at_least}{:.1} mm^2",
+                    c.label(),
                     v3(c.direction),
                     c.undercut.area_mm2
                 )
@@ -370,13 +375,13 @@ pub fn render(r: &Report) -> String {
         let _ = writeln!(
             s,
             "demold auto: undercut of each direction tried: {}",
-            tried.join(", ")
+            tried.join("; ")
         );
     }
     if let Some(w) = &r.wall_thickness {
         let _ = writeln!(
             s,
-            "wall thickness: min {}, nominal {}, max {}, across at the gate {} ({:.1} % of the area unknown)",
+            "wall thickness of every facet (across, along its inverted normal): min {}, nominal {}, max {}, at the gate's facet {} ({:.1} % of the area unknown)",
             mm(w.min_mm, open),
             mm(w.nominal_mm, open),
             mm(w.max_mm, open),

@@ -279,7 +279,7 @@ fn summary_table(h: &mut String, r: &Report) {
             h,
             "Grid gate",
             &format!(
-                "{} mm, normal {}, wall along D {} (thinnest under the disc {}), {}",
+                "{} mm, normal {}, wall along D {} (the paper's rule: the node's ray; thinnest under the disc {}), {}",
                 v3(g.point),
                 v3(g.normal),
                 wall(g.thickness_mm),
@@ -300,9 +300,10 @@ fn summary_table(h: &mut String, r: &Report) {
         };
         row(
             h,
-            "Wall thickness everywhere",
+            "Wall thickness of every facet",
             &format!(
-                "min {}, nominal {}, max {}, across at the gate {}{slivers}",
+                "min {}, nominal {}, max {} (each facet across, along its inverted normal), \
+                 at the gate's facet {}{slivers}",
                 mm(w.min_mm),
                 mm(w.nominal_mm),
                 mm(w.max_mm),
@@ -430,8 +431,8 @@ fn placed_table(h: &mut String, r: &Report) {
     };
     let _ = writeln!(
         h,
-        "<table>\n<tr><th>Fill from</th><th>Gate (mm)</th><th>L_max</th><th>L/t</th><th>Pressure (Eq. 1)</th>\
-         <th>Fill time</th><th>Wall across</th><th>Last to fill</th><th>Weld lines</th></tr>"
+        "<table>\n<tr><th>Fill from</th><th>Gate (mm)</th><th>longest flow path<br>L_max</th><th>flow length / wall<br>L/t</th><th>Pressure (Eq. 1)</th>\
+         <th>Fill time</th><th>Flow-cell wall<br>at the gate</th><th>Last to fill</th><th>Weld lines</th></tr>"
     );
     let line = |h: &mut String, label: &str, g: &crate::flow::GateFill| {
         let last = g
@@ -470,7 +471,7 @@ fn placed_table(h: &mut String, r: &Report) {
             if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
                 let _ = writeln!(
                     h,
-                    "<li>your gate {} fills {:.1} % of the volume first, L_max {l:.1} mm in it</li>",
+                    "<li>your gate {} fills {:.1} % of the volume first, longest flow path L_max {l:.1} mm in it</li>",
                     i + 1,
                     100.0 * share
                 );
@@ -481,7 +482,7 @@ fn placed_table(h: &mut String, r: &Report) {
 }
 
 /// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure,
-/// the estimated fill time and the wall across at the gate.
+/// the estimated fill time and the flow-cell wall at the gate.
 fn fill_cells(g: &crate::flow::GateFill) -> String {
     let limit = match (g.flow_ratio_limit, g.exceeds_flow_ratio) {
         (Some(m), true) => format!(" <b class=\"warn\">exceeds the material's {m:.0}</b>"),
@@ -535,8 +536,10 @@ fn fill_table(h: &mut String, r: &Report) {
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2} mm"));
         let _ = writeln!(
             h,
-            "<p>Wall across the surface at {} samples: min {} ({} slivers thinner than 5 % of \
-             the median left out), median {}, max {}.</p>",
+            "<p>Flow-cell walls (the fill model's: one facet sampled per surface cell, across \
+             it) at {} cells: min {} ({} slivers thinner than 5 % of the median left out), median \
+             {}, max {}. (<i>Wall thickness of every facet</i>, with \
+             <code>--wall-thickness</code>, measures each facet instead.)</p>",
             w.samples,
             mm(w.min_mm),
             w.slivers,
@@ -546,8 +549,9 @@ fn fill_table(h: &mut String, r: &Report) {
     }
     let _ = writeln!(
         h,
-        "<table id=\"fill-gates\">\n<tr><th>gate</th><th>point</th><th>L_max</th><th>L/t</th>\
-         <th>pressure (Eq. 1)</th><th>fill time (estimate)</th><th>wall across at the gate</th></tr>"
+        "<table id=\"fill-gates\">\n<tr><th>gate</th><th>point</th><th>longest flow path<br>L_max</th>\
+         <th>flow length / wall<br>L/t</th><th>pressure<br>(Eq. 1)</th><th>fill time<br>(estimate)</th>\
+         <th>flow-cell wall<br>at the gate</th></tr>"
     );
     if let Some(p) = &f.paper {
         // The fill of the answer's gate: the parting-line gate in aesthetic mode.
@@ -575,7 +579,7 @@ fn fill_table(h: &mut String, r: &Report) {
     if let Some(m) = &f.several {
         // With the resistance objective the several-gate values are fill times.
         let (what, unit, digits) = match f.objective {
-            crate::flow::Objective::Length => ("L_max", "mm", 1),
+            crate::flow::Objective::Length => ("longest flow path L_max", "mm", 1),
             crate::flow::Objective::Resistance => ("fill time", "s", 3),
         };
         let _ = writeln!(
@@ -604,7 +608,7 @@ fn fill_table(h: &mut String, r: &Report) {
             h,
             "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
              centre of mass; each body's fill time is taken against its own nominal wall):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
-             <th>nominal wall</th><th>gate</th><th>L_max</th><th>fill time (estimate)</th></tr>"
+             <th>nominal wall</th><th>gate</th><th>longest flow path<br>L_max</th><th>fill time (estimate)</th></tr>"
         );
         for b in &f.body_gates {
             let cells = match (b.gate, b.l_max_mm, b.fill_time_s) {
@@ -648,7 +652,8 @@ fn fill_table(h: &mut String, r: &Report) {
             .collect();
         let _ = writeln!(
             h,
-            "<p>Last to fill from the answer's gate: {}.</p>",
+            "<p>Last to fill from the answer's gate (where the fill ends and air may be trapped: \
+             places reached in the last 20 % of the fill time): {}.</p>",
             if last.is_empty() {
                 "none".to_string()
             } else {
@@ -679,7 +684,7 @@ fn fill_table(h: &mut String, r: &Report) {
 fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
     let Some(m) = &f.suitability else { return };
     let (what, digits) = match m.objective {
-        crate::flow::Objective::Length => ("L_max", 1),
+        crate::flow::Objective::Length => ("longest flow path L_max", 1),
         crate::flow::Objective::Resistance => ("fill time", 3),
     };
     let unit = m.unit;
@@ -776,9 +781,9 @@ where the mould halves meet. Aesthetic parts (<code>--aesthetic</code>) take the
 (height along D until a flow or thickness analysis provides another field).</dd>
 <dt>Fill analysis</dt><dd>A geometric model of the melt's way through the part: the part as
 cubic cells, and the shortest way from the gate to every cell through the solid.</dd>
-<dt>L_max</dt><dd>The longest flow length: the way the melt travels from the gate to the
+<dt>L_max (longest flow path)</dt><dd>The longest flow length: the way the melt travels from the gate to the
 place it reaches last, in mm.</dd>
-<dt>L/t</dt><dd>L_max over the nominal wall thickness. Each material fills reliably only up to
+<dt>L/t (flow length / wall)</dt><dd>L_max over the nominal wall thickness. Each material fills reliably only up to
 a ratio (its limit, from design guides); above it the part may not fill.</dd>
 <dt>Pressure (Eq. 1)</dt><dd>The pressure drop of the melt along that way at the optimal
 shear rate, 12 &mu; v L / H&sup2; summed along the path, in MPa.</dd>
@@ -786,9 +791,16 @@ shear rate, 12 &mu; v L / H&sup2; summed along the path, in MPa.</dd>
 from the gate, each mm weighted by the wall's resistance ((H_ref/H)^((n+1)/n), thin walls
 slow the front), over the front speed of Eq. 7. Comparable between gates and parts; a
 geometric estimate, not a simulation.</dd>
-<dt>Wall along D, wall across</dt><dd>The paper's wall at the gate is measured along the
-demolding direction D; the fill reads the wall across the surface (along the inverted
-normal), as the flow sees it. The two differ where the gate sits near a rib or step.</dd>
+<dt>Wall along D, flow-cell wall, facet wall</dt><dd>Three measures of a wall.
+<b>Wall along D</b> (the paper's rule): the node's ray along the demolding direction D,
+from the gate through the part; \"thinnest under the disc\" is the least over the gate's
+circle. <b>Flow-cell wall</b> (the fill): the wall of the fill's cell at a point, measured
+across one facet that passes through the cell (along its inverted normal), as the flow
+resistance sees it; the fill's min and max are over one such sample per surface cell. Near
+a rib or step that facet may be the rib's side rather than the gate's own facet.
+<b>Facet wall</b> (<code>--wall-thickness</code>): every facet measured across, along its
+inverted normal; \"at the gate's facet\" is the facet the gate lies on. The three agree on a
+flat wall and differ where the gate sits on a rib, boss or step.</dd>
 <dt>Slivers</dt><dd>Facets thinner than 5 % of the nominal wall (films such as a 0.01 mm
 step): not mouldable walls, counted apart from the minimum.</dd>
 <dt>Bodies</dt><dd>The mesh's separate pieces. Melt never flows from one body to another: a

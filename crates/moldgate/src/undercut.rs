@@ -538,6 +538,38 @@ pub struct Candidate {
     pub gate_qualifies: Option<bool>,
 }
 
+impl Candidate {
+    /// What the line is, for a reader of the list of lines tried: "x axis", or for a
+    /// principal axis its angle to the nearest world axis ("principal axis 0.027 deg from
+    /// z"), so that a principal axis that prints as an axis at three decimals is told from
+    /// that axis. Angles are printed to 0.001 degree; below that, "within 0.001 deg of z".
+    pub fn label(&self) -> String {
+        let d = DVec3::from_array(self.direction);
+        let a = d.abs();
+        // The nearest axis, and the length of the components across it.
+        let (axis, across) = if a.x >= a.y && a.x >= a.z {
+            ("x", a.y.hypot(a.z))
+        } else if a.y >= a.z {
+            ("y", a.x.hypot(a.z))
+        } else {
+            ("z", a.x.hypot(a.y))
+        };
+        match self.kind {
+            CandidateKind::Axis => format!("{axis} axis"),
+            CandidateKind::Principal => {
+                // asin of the components across the axis keeps its precision near 0 (acos
+                // of a cosine near 1 does not).
+                let deg = across.min(1.0).asin().to_degrees();
+                if deg < 0.0005 {
+                    format!("principal axis within 0.001 deg of {axis}")
+                } else {
+                    format!("principal axis {deg:.3} deg from {axis}")
+                }
+            }
+        }
+    }
+}
+
 /// The result of [`auto_direction`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AutoDemold {
@@ -949,6 +981,46 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_principal_axis_near_a_world_axis_is_labelled_with_its_angle() {
+        // deskhop_case_bottom's third principal axis prints as (0.000, 0.000, 1.000) beside
+        // the z axis: the label tells the two lines apart.
+        let candidate = |direction: [f64; 3], kind| Candidate {
+            direction,
+            kind,
+            undercut: Undercut {
+                area_mm2: 0.0,
+                share: 0.0,
+            },
+            evaluated: true,
+            extent_mm: 1.0,
+            gate_qualifies: None,
+        };
+        assert_eq!(
+            candidate([0.0, 0.0, 1.0], CandidateKind::Axis).label(),
+            "z axis"
+        );
+        assert_eq!(
+            candidate([0.0, -1.0, 0.0], CandidateKind::Axis).label(),
+            "y axis"
+        );
+        let tilt = 0.027f64.to_radians();
+        let near_z = [tilt.sin(), 0.0, tilt.cos()];
+        assert_eq!(
+            candidate(near_z, CandidateKind::Principal).label(),
+            "principal axis 0.027 deg from z"
+        );
+        assert_eq!(
+            candidate([0.0, 1.0, 0.0], CandidateKind::Principal).label(),
+            "principal axis within 0.001 deg of y"
+        );
+        let diagonal = [0.5f64.sqrt(), -(0.5f64.sqrt()), 0.0];
+        assert_eq!(
+            candidate(diagonal, CandidateKind::Principal).label(),
+            "principal axis 45.000 deg from x"
+        );
+    }
     use super::*;
 
     /// A grid of `side` x `side` unit squares, two triangles each, at height `height(i, j)`.

@@ -50,6 +50,11 @@ fn comparable(mut v: Value) -> Value {
     v.as_object_mut().unwrap().remove("input");
     if let Some(fill) = v.get_mut("fill").and_then(Value::as_object_mut) {
         fill.remove("times");
+        // The fill's flow-cell walls are reported with --wall-thickness too (read from its
+        // every-facet walls), with the time it took.
+        if let Some(wall) = fill.get_mut("wall").and_then(Value::as_object_mut) {
+            wall.remove("time_s");
+        }
     }
     if let Some(wall) = v.get_mut("wall_thickness").and_then(Value::as_object_mut) {
         wall.remove("time_s");

@@ -154,7 +154,10 @@ fn unknown_thickness_on_a_closed_mesh_does_not_blame_holes() {
     assert_eq!(out.status.code(), Some(4));
     let summary = String::from_utf8_lossy(&out.stdout);
     assert!(!summary.contains("open mesh"), "{summary}");
-    assert!(summary.contains("at the gate none (no gate)"), "{summary}");
+    assert!(
+        summary.contains("at the gate's facet none (no gate)"),
+        "{summary}"
+    );
 }
 
 #[test]

@@ -535,8 +535,9 @@ pub struct GateFill {
     pub exceeds_flow_ratio: bool,
     /// Pressure drop to the last point by Eq. 1 along the path with local walls, MPa.
     pub pressure_mpa: f64,
-    /// The last places to fill (local maxima of the fill order, highest first): air-trap
-    /// candidates.
+    /// The last places to fill, where the fill ends and air may be trapped: local maxima of
+    /// the fill order reached at [`LAST_TO_FILL_SHARE`] (80 %) of the fill time or later,
+    /// highest first, at most five. Dead ends that fill earlier are not listed.
     pub last_to_fill: Vec<PointValue>,
     /// Where fronts meet head on after flowing around an obstacle.
     pub weld_lines: Vec<WeldLine>,
@@ -684,8 +685,17 @@ pub fn argmax(t: &[f64]) -> (u32, f64) {
     best
 }
 
-/// Local maxima of `order` over the 26 neighbours, highest first, at least a tenth of the
-/// largest flow length apart, at most `count` of them.
+/// The places listed as last to fill are those the front reaches in the last part of the
+/// fill: at [`LAST_TO_FILL_SHARE`] of the fill time or later. A dead end near the gate (a
+/// rib, a boss) is a local maximum of the fill time too, but it fills early: air there is
+/// pushed out while the front still moves on elsewhere, so it is neither the end of the fill
+/// nor where air is trapped last. (On the 352k housing such a place filled at 0.025 s of a
+/// 0.106 s fill.)
+pub const LAST_TO_FILL_SHARE: f64 = 0.8;
+
+/// Local maxima of `order` over the 26 neighbours that fill at [`LAST_TO_FILL_SHARE`] of
+/// its largest value or later, highest first, at least a tenth of the largest flow length
+/// apart, at most `count` of them.
 fn last_to_fill(
     v: &Voxels,
     order: &[f64],
@@ -694,10 +704,12 @@ fn last_to_fill(
     count: usize,
 ) -> Vec<PointValue> {
     let offsets = voxel::neighbour_offsets();
+    let late = LAST_TO_FILL_SHARE * argmax(order).1;
     let mut maxima: Vec<u32> = (0..v.len() as u32)
         .filter(|&c| {
             let t = order[c as usize];
             t.is_finite()
+                && t >= late
                 && offsets.iter().all(|&(o, _)| {
                     v.neighbour(c, o)
                         .is_none_or(|n| order[n as usize] <= t || !order[n as usize].is_finite())
@@ -1545,7 +1557,8 @@ pub struct FillAnalysis {
     pub nominal_wall_mm: f64,
     /// Where the cell walls came from.
     pub wall_source: WallSource,
-    /// The wall thickness measured for the analysis (with [`Walls::Measure`]).
+    /// The flow-cell walls of the analysis, one sample per surface cell (measured with
+    /// [`Walls::Measure`] or read from [`Walls::Given`]).
     pub wall: Option<WallSummary>,
     /// What the balanced gate minimises.
     pub objective: Objective,
@@ -1711,8 +1724,12 @@ pub enum Walls<'a> {
     /// Measure it with this tree: one ray per surface cell, from the centroid of a triangle
     /// through the cell along its inverted normal ([`crate::thickness`]'s rule).
     Measure(&'a Bvh),
-    /// Given per triangle (NaN where unknown), with the nominal wall.
-    Given(&'a [f32], f64),
+    /// Given per triangle by [`crate::thickness`]'s rule (NaN where unknown), as
+    /// [`crate::thickness::wall_thickness_with`] measures every facet. The fill reads them
+    /// as it reads its own samples (the cell size from the 2 V / A estimate, the nominal wall
+    /// the median over the surface cells), so its answer is the one of [`Walls::Measure`]:
+    /// asking for the wall of every facet beside the fill does not change the fill.
+    Given(&'a [f32]),
     /// A uniform wall of 2 V / A.
     Estimate,
 }
@@ -1772,15 +1789,7 @@ pub fn analyse(
     } else {
         mesh.bounds().diagonal() / 100.0
     };
-    let (h, coarsened) = choose_cell(
-        mesh,
-        &bodies.of_triangle,
-        match walls {
-            Walls::Given(_, n) if n.is_finite() && n > 0.0 => n,
-            _ => estimate,
-        },
-        &options.flow,
-    )?;
+    let (h, coarsened) = choose_cell(mesh, &bodies.of_triangle, estimate, &options.flow)?;
     if let Some(why) = coarsened {
         warnings.push(format!(
             "flow cells coarsened to {h:.4} mm to keep a limit ({why})"
@@ -1796,14 +1805,12 @@ pub fn analyse(
             h,
         ));
     }
-    let mut measured = None;
-    let mut body_nominal = Vec::new();
-    let (per_triangle, nominal, wall_source, wall) = match walls {
-        Walls::Given(w, n) if n.is_finite() && n > 0.0 => {
-            (Some(w.to_vec()), n, WallSource::Measured, None)
-        }
+    // The walls per triangle: given, or measured here for the triangles of the surface
+    // cells only. Either way the cells read them alike, so the fill does not depend on
+    // whether every facet was measured beside it.
+    let t_wall = Instant::now();
+    let measured = match walls {
         Walls::Measure(bvh) => {
-            let t = Instant::now();
             let mut owners: Vec<u32> = voxels
                 .triangle
                 .iter()
@@ -1813,26 +1820,35 @@ pub fn analyse(
                 .collect();
             owners.sort_unstable();
             owners.dedup();
-            let w = crate::thickness::wall_thickness_of(
+            Some(crate::thickness::wall_thickness_of(
                 mesh,
                 bvh,
                 &crate::thickness::ThicknessOptions::default(),
                 &owners,
-            );
-            let summary = summarise_walls(&voxels, &w, seconds(t));
+            ))
+        }
+        _ => None,
+    };
+    let triangle_walls = match walls {
+        Walls::Given(w) => Some(w),
+        Walls::Measure(_) => measured.as_deref(),
+        Walls::Estimate => None,
+    };
+    let mut body_nominal = Vec::new();
+    let (nominal, wall_source, wall) = match triangle_walls {
+        Some(w) => {
+            let summary = summarise_walls(&voxels, w, seconds(t_wall));
             let nominal = summary.nominal_mm.unwrap_or(estimate);
-            body_nominal = body_nominal_walls(&voxels, &w);
-            measured = Some(w);
+            body_nominal = body_nominal_walls(&voxels, w);
             let source = if summary.nominal_mm.is_some() {
                 WallSource::Measured
             } else {
                 WallSource::VolumeOverArea
             };
-            (None, nominal, source, Some(summary))
+            (nominal, source, Some(summary))
         }
-        _ => (None, estimate, WallSource::VolumeOverArea, None),
+        None => (estimate, WallSource::VolumeOverArea, None),
     };
-    let triangle_walls = per_triangle.as_deref().or(measured.as_deref());
     // The cell size is set from an estimate of the wall before it is measured; warn only
     // when the measured wall is less than 1.5 cells across.
     if h > nominal / 1.5 {

@@ -757,6 +757,9 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         })
     };
     let grid_gate = pick(options.nearest);
+    if let Some(g) = grid_gate.filter(|g| !g.flat) {
+        warnings.push(not_flat_warning(&hits, g.node, flat_tolerance_mm));
+    }
     let other_rule_gate = pick(match options.nearest {
         Nearest::Surface3d => Nearest::Plane2d,
         Nearest::Plane2d => Nearest::Surface3d,
@@ -916,6 +919,21 @@ pub(crate) struct NodeVerdict {
     pub(crate) disc_thickness: Option<f64>,
     /// Every circle point within the flatness tolerance of the node's height.
     pub(crate) flat: bool,
+}
+
+/// The warning of a grid gate whose circle is not flat (the paper does not require it, so
+/// the gate may sit on a step or a rib): how far its circle's points lie from the gate's
+/// height along D. It is one of the analysis's warnings, so every front end (the summary,
+/// the JSON, the page, the batch rows) says it alike.
+fn not_flat_warning(hits: &Projection, node: usize, flat_tol: f64) -> String {
+    let gate = hits.nodes[node].first;
+    let step = (0..hits.circle_count())
+        .filter_map(|k| hits.circle(k, node))
+        .map(|p| (p.height - gate).abs())
+        .fold(0.0f64, f64::max);
+    format!(
+        "the grid gate's disc is not flat: its circle reaches {step:.2} mm off the gate's height along D (a step, rib or slope; flatness tolerance {flat_tol:.3} mm; --require-flat keeps only flat nodes)"
+    )
 }
 
 fn judge(i: usize, hits: &Projection, flat_tol: f64) -> NodeVerdict {

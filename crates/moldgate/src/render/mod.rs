@@ -538,35 +538,58 @@ fn draw_overlays(
         }
     }
     draw_centre_symbol(canvas, c.x as f32, c.y as f32, reach, k);
-    canvas.text(
-        c.x as f32 - reach - 6.0 * k,
-        c.y as f32 + 18.0 * k,
-        if depths.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
-            "centre of mass"
-        } else {
-            // It lies inside the part or behind it: say so, the cross is drawn over it.
-            "centre of mass (hidden)"
-        },
-        &TextStyle::new(13.0 * k, INK).halo(WHITE),
-        Align::Right,
-    );
+    let (cx, cy) = (c.x as f32, c.y as f32);
+    // What a gate's label must not cover: the centre's cross (its two arms), its label and
+    // every gate disc; each label placed is added.
+    let arm = 3.0 * k;
+    let mut taken: Vec<LabelBox> = vec![
+        [cx - reach, cy - arm, cx + reach, cy + arm],
+        [cx - arm, cy - reach, cx + arm, cy + reach],
+    ];
+    let centre_label = if depths.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
+        "centre of mass"
+    } else {
+        // It lies inside the part or behind it: say so, the cross is drawn over it.
+        "centre of mass (hidden)"
+    };
+    let centre_style = TextStyle::new(13.0 * k, INK).halo(WHITE);
+    let (lx, ly) = (cx - reach - 6.0 * k, cy + 18.0 * k);
+    canvas.text(lx, ly, centre_label, &centre_style, Align::Right);
+    taken.push(text_box(lx, ly, centre_label, &centre_style, Align::Right));
 
-    for (i, g) in scene.gates.iter().enumerate() {
-        let (outline, r) = gate_outline(cam, g);
-        let p = cam.to_pixel(g.point);
-        draw_gate(canvas, &outline, p.x as f32, p.y as f32, r, k);
+    let discs: Vec<(Vec<[f32; 2]>, f32, [f32; 2])> = scene
+        .gates
+        .iter()
+        .map(|g| {
+            let (outline, r) = gate_outline(cam, g);
+            let p = cam.to_pixel(g.point);
+            (outline, r, [p.x as f32, p.y as f32])
+        })
+        .collect();
+    taken.extend(
+        discs
+            .iter()
+            .map(|(_, r, [x, y])| [x - r, y - r, x + r, y + r]),
+    );
+    let gate_style = TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE);
+    let panel = view.panel;
+    let inside = [
+        panel.x as f32,
+        panel.y as f32,
+        (panel.x + panel.w) as f32,
+        (panel.y + panel.h) as f32,
+    ];
+    for (i, (outline, r, [x, y])) in discs.iter().enumerate() {
+        draw_gate(canvas, outline, *x, *y, *r, k);
         let label = if scene.gates.len() > 1 {
             format!("gate {}", i + 1)
         } else {
             "gate".to_string()
         };
-        canvas.text(
-            p.x as f32 + r + 12.0 * k,
-            p.y as f32 - r - 8.0 * k,
-            &label,
-            &TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE),
-            Align::Left,
-        );
+        let (tx, ty, align) =
+            gate_label_place([*x, *y], *r, &label, &gate_style, &taken, inside, k);
+        canvas.text(tx, ty, &label, &gate_style, align);
+        taken.push(text_box(tx, ty, &label, &gate_style, align));
     }
 
     placed::draw_placed(canvas, scene, view, k);
@@ -818,6 +841,63 @@ fn draw_qualifying(
             }
         }
     }
+}
+
+/// A label's box in pixels: left, top, right, bottom.
+type LabelBox = [f32; 4];
+
+/// Whether two boxes overlap (touching is not overlapping).
+fn overlaps(a: &LabelBox, b: &LabelBox) -> bool {
+    a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+}
+
+/// The box of `text` drawn by [`Canvas::text`] at (x, y), y its baseline, with its halo.
+fn text_box(x: f32, y: f32, text: &str, style: &TextStyle, align: Align) -> LabelBox {
+    let w = canvas::text_width(text, style);
+    let x0 = match align {
+        Align::Left => x,
+        Align::Centre => x - w / 2.0,
+        Align::Right => x - w,
+    };
+    [x0 - 1.5, y - style.size, x0 + w + 1.5, y + 0.3 * style.size]
+}
+
+/// Where a gate's label goes: beside its disc (centre `p`, radius `r` pixels), the first of
+/// upper right (the usual place), lower right, upper left, lower left, then the same a
+/// label's height farther out, whose box overlaps nothing `taken` and lies inside the
+/// panel (`inside`); the usual place when none does. Returns the text's anchor and
+/// alignment.
+fn gate_label_place(
+    p: [f32; 2],
+    r: f32,
+    label: &str,
+    style: &TextStyle,
+    taken: &[LabelBox],
+    inside: LabelBox,
+    k: f32,
+) -> (f32, f32, Align) {
+    let [x, y] = p;
+    let mut places = Vec::new();
+    for out in [0.0, style.size * 1.2, style.size * 2.4] {
+        places.extend([
+            (x + r + 12.0 * k, y - r - 8.0 * k - out, Align::Left),
+            (x + r + 12.0 * k, y + r + 20.0 * k + out, Align::Left),
+            (x - r - 12.0 * k, y - r - 8.0 * k - out, Align::Right),
+            (x - r - 12.0 * k, y + r + 20.0 * k + out, Align::Right),
+        ]);
+    }
+    places
+        .iter()
+        .copied()
+        .find(|&(tx, ty, align)| {
+            let b = text_box(tx, ty, label, style, align);
+            b[0] >= inside[0]
+                && b[1] >= inside[1]
+                && b[2] <= inside[2]
+                && b[3] <= inside[3]
+                && taken.iter().all(|t| !overlaps(&b, t))
+        })
+        .unwrap_or(places[0])
 }
 
 /// The hatch of the qualifying region at pixel (x, y): a white stripe with a dark edge, so
@@ -1224,7 +1304,18 @@ fn draw_side_bar(
     item(canvas, &mut y, &qualifying, &|c, cy| {
         let (w, h) = ((26.0 * k) as i32, (18.0 * k) as i32);
         let (x0, y0) = ((sx - 13.0 * k) as i32, (cy - 9.0 * k) as i32);
-        c.fill_rect(x0 as f32, y0 as f32, w as f32, h as f32, lut.rgb(0.75), 255);
+        // The hatch is white stripes with a dark edge over whatever colour the part has
+        // there: shown over a dark and a light colour of the map, as on the part.
+        let half = (w / 2) as f32;
+        c.fill_rect(x0 as f32, y0 as f32, half, h as f32, lut.rgb(0.1), 255);
+        c.fill_rect(
+            x0 as f32 + half,
+            y0 as f32,
+            w as f32 - half,
+            h as f32,
+            lut.rgb(0.9),
+            255,
+        );
         for yy in 0..h {
             for xx in 0..w {
                 let edge = xx == 0 || yy == 0 || xx + 1 == w || yy + 1 == h;
@@ -1265,6 +1356,37 @@ fn capitalised(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_gate_label_moves_off_the_centre_of_mass_and_other_labels() {
+        // watchy_yatari_bottom's isometric view: the gate's usual place (upper right of the
+        // disc) lies on the arm of the centre-of-mass cross.
+        let k = 1.0;
+        let style = TextStyle::new(15.0, GATE_COLOUR).bold();
+        let (gate, r) = ([500.0f32, 500.0f32], 8.0f32);
+        let usual = text_box(
+            gate[0] + r + 12.0,
+            gate[1] - r - 8.0,
+            "gate",
+            &style,
+            Align::Left,
+        );
+        let mid = (usual[1] + usual[3]) / 2.0;
+        let cross = [usual[0] - 10.0, mid - 3.0, usual[2] + 10.0, mid + 3.0];
+        let other = [usual[0], usual[3] + 10.0, usual[2], usual[3] + 60.0];
+        let taken = [cross, other];
+        let inside = [0.0, 0.0, 1000.0, 1000.0];
+        let (x, y, align) = gate_label_place(gate, r, "gate", &style, &taken, inside, k);
+        let placed = text_box(x, y, "gate", &style, align);
+        for t in &taken {
+            assert!(!overlaps(&placed, t), "{placed:?} overlaps {t:?}");
+        }
+        let disc = [gate[0] - r, gate[1] - r, gate[0] + r, gate[1] + r];
+        assert!(!overlaps(&placed, &disc));
+        // With nothing in the way the label keeps its usual place.
+        let (x, y, _) = gate_label_place(gate, r, "gate", &style, &[], inside, k);
+        assert_eq!((x, y), (gate[0] + r + 12.0, gate[1] - r - 8.0));
+    }
 
     #[test]
     fn nice_numbers() {

@@ -172,9 +172,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             };
             enter(Stage::Fill)?;
             let walls = match (&wall, &bvh) {
-                (Some((w, _)), _) if w.nominal_mm.is_some() => {
-                    flow::Walls::Given(&w.per_triangle, w.nominal_mm.unwrap_or_default())
-                }
+                (Some((w, _)), _) if w.nominal_mm.is_some() => flow::Walls::Given(&w.per_triangle),
                 (_, Some(bvh)) => flow::Walls::Measure(bvh),
                 _ => flow::Walls::Estimate,
             };
@@ -348,7 +346,7 @@ fn answer_gates(
             g.distance_3d_mm = DVec3::from_array(first.point).distance(analysis.centre);
         }
         subtitle = format!(
-            "{} gates, L_max {:.1} mm, R = {r:.2} mm",
+            "{} gates, longest flow path L_max {:.1} mm, R = {r:.2} mm",
             answer.len(),
             several.l_max_mm
         );

@@ -803,3 +803,26 @@ fn balanced_gate_and_suitability_map_hold_against_brute_force_on_the_samples() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+#[test]
+fn last_to_fill_lists_only_places_reached_in_the_last_part_of_the_fill() {
+    // A bar 100 x 10 x 3 gated near one end, with a fin 10 mm long beside the gate: the
+    // fin's tip and the bar's near end are local maxima of the fill time that fill early;
+    // only the bar's far end fills last.
+    let part = boxes(&[
+        ([0.0, 0.0, 0.0], [100.0, 10.0, 3.0], true),
+        ([10.0, 10.0, 0.0], [13.0, 20.0, 3.0], true),
+    ]);
+    let domain = Domain::new(&part, 0.5, None, 3.0, &pp());
+    let (fill, _) = flow::fill_from(&domain, DVec3::new(5.0, 5.0, 3.0), &pp()).unwrap();
+    assert!(!fill.last_to_fill.is_empty());
+    for q in &fill.last_to_fill {
+        assert!(
+            q.fill_time_s >= flow::LAST_TO_FILL_SHARE * fill.fill_time_s,
+            "{q:?} fills before the last part of the fill ({} s)",
+            fill.fill_time_s
+        );
+        assert!(q.point[0] > 80.0, "{q:?} is not at the far end of the bar");
+    }
+    assert_eq!(fill.last_to_fill[0].fill_time_s, fill.fill_time_s);
+}

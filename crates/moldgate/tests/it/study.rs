@@ -188,3 +188,52 @@ fn the_html_report_gives_each_body_its_own_nominal_wall() {
         assert!(page.contains(&cell), "{cell} not in the bodies table");
     }
 }
+
+#[test]
+fn a_grid_gate_on_a_rib_is_warned_not_flat_alike_in_the_report_and_the_page() {
+    // A plate 40 x 40 x 2 with a rib 2 mm wide and 1 mm high across its middle: the centre
+    // of mass is over the rib, the grid gate on its top, and the gate's circle (R = 1.43 mm
+    // for PP) reaches down the rib's sides onto the plate, 1 mm lower.
+    let mut part = moldgate::samples::BoxUnion::default();
+    part.add([-20.0, -20.0, 0.0], [20.0, 20.0, 2.0]);
+    part.add([-1.0, -20.0, 2.0], [1.0, 20.0, 3.0]);
+    let part = moldgate::mesh::from_generated(part.mesh());
+    let s = study(&part, &options(r#"{"demold": "+z"}"#)).unwrap();
+    let gate = s.report().paper_gate.as_ref().unwrap();
+    assert!(!gate.flat, "{gate:?}");
+    let warning = s
+        .report()
+        .warnings
+        .iter()
+        .find(|w| w.contains("not flat"))
+        .unwrap_or_else(|| panic!("no flatness warning in {:?}", s.report().warnings));
+    assert!(warning.contains("1.00 mm"), "{warning}");
+    let page = s.html(None).unwrap();
+    assert!(
+        page.contains(&moldgate::html::escape(warning)),
+        "the page's warnings lack {warning}"
+    );
+}
+
+#[test]
+fn asking_for_the_wall_of_every_facet_does_not_change_the_fill() {
+    // With --wall-thickness the fill reads the walls of every facet instead of measuring its
+    // own samples; it used to take their area-weighted median as its nominal wall and its
+    // cell size from it, so every number of the fill moved (on the 352k housing the cell went
+    // from 0.689 to 0.750 mm and the balanced gate's flow-cell wall from 1.00 to 1.50 mm).
+    for info in moldgate::samples::SAMPLES {
+        let part = sample(info.name);
+        let fill = study(&part, &options(r#"{"fill": true, "gates": 2}"#)).unwrap();
+        let both = study(
+            &part,
+            &options(r#"{"fill": true, "gates": 2, "wall_thickness": true}"#),
+        )
+        .unwrap();
+        assert_eq!(
+            timeless(fill.report())["fill"],
+            timeless(both.report())["fill"],
+            "{}",
+            info.name
+        );
+    }
+}
