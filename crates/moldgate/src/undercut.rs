@@ -57,7 +57,8 @@
 //!
 //! **Work beside the rays.** The first line drawn ray by ray is the one of least bound, the
 //! one chosen unless another ties with it: [`auto_direction_beside`] runs a caller's work
-//! (the study's `locate`) at the same time as its rays, along it or along a shallower line
+//! (the study's `locate`) at the same time as its rays and the rest of the choice after
+//! them (the principal axes' bounds, tighter bounds), along it or along a shallower line
 //! whose bound may tie with it, so that the gate of the chosen line is found while the
 //! rays are drawn, not after.
 //!
@@ -580,15 +581,15 @@ pub fn auto_direction_checked(
 }
 
 /// [`auto_direction_checked`] that also runs `beside` once, along the likeliest choice,
-/// at the same time as the rays of the first line it draws ray by ray, and hands back that
-/// line with what `beside` gave.
+/// at the same time as the rays of the first line it draws ray by ray and the rest of the
+/// choice after them, and hands back that line with what `beside` gave.
 ///
 /// The first line drawn ray by ray is the one of least lower bound, which is the one
 /// chosen unless another line ties with it; the likeliest choice is that line, or among
 /// the lines whose bounds are within the tie of its bound the one the tie-break would take
 /// (the shallowest draw). A caller that needs the work of `beside` along the chosen line
-/// (the study's `locate`) starts it early, and its sequential steps fill the time the rays
-/// leave a thread idle. When the tie-break asks about that line, `gate_qualifies` gets what
+/// (the study's `locate`) starts it early, and its sequential steps and the choice's fill
+/// the time each other leaves a thread idle. When the tie-break asks about that line, `gate_qualifies` gets what
 /// `beside` gave for it (`Some`), else `None`. The choice and every undercut are those of
 /// [`auto_direction_checked`]: `beside` reads nothing of the rays.
 pub fn auto_direction_beside<T: Send>(
