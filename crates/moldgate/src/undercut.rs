@@ -57,7 +57,8 @@
 //!
 //! **Work beside the rays.** The first line drawn ray by ray is the one of least bound, the
 //! one chosen unless another ties with it: [`auto_direction_beside`] runs a caller's work
-//! (the study's `locate`) at the same time as its rays, along it or along a shallower line
+//! (the study's `locate`) at the same time as its rays and the rest of the choice after
+//! them (the principal axes' bounds, tighter bounds), along it or along a shallower line
 //! whose bound may tie with it, so that the gate of the chosen line is found while the
 //! rays are drawn, not after.
 //!
@@ -612,15 +613,15 @@ pub fn auto_direction_checked(
 }
 
 /// [`auto_direction_checked`] that also runs `beside` once, along the likeliest choice,
-/// at the same time as the rays of the first line it draws ray by ray, and hands back that
-/// line with what `beside` gave.
+/// at the same time as the rays of the first line it draws ray by ray and the rest of the
+/// choice after them, and hands back that line with what `beside` gave.
 ///
 /// The first line drawn ray by ray is the one of least lower bound, which is the one
 /// chosen unless another line ties with it; the likeliest choice is that line, or among
 /// the lines whose bounds are within the tie of its bound the one the tie-break would take
 /// (the shallowest draw). A caller that needs the work of `beside` along the chosen line
-/// (the study's `locate`) starts it early, and its sequential steps fill the time the rays
-/// leave a thread idle. When the tie-break asks about that line, `gate_qualifies` gets what
+/// (the study's `locate`) starts it early, and its sequential steps and the choice's fill
+/// the time each other leaves a thread idle. When the tie-break asks about that line, `gate_qualifies` gets what
 /// `beside` gave for it (`Some`), else `None`. The choice and every undercut are those of
 /// [`auto_direction_checked`]: `beside` reads nothing of the rays.
 pub fn auto_direction_beside<T: Send>(
@@ -671,64 +672,7 @@ fn choose<T: Send>(
     if !(centres.area_mm2.is_finite() && centres.area_mm2 > 0.0) {
         return Err(DemoldError::NothingToEvaluate);
     }
-    let bounds = mesh.bounds();
-    let bulk = centres.volume.unwrap_or(centres.surface);
-    let ahead = bounds.centre() - bulk;
-    let mut lines: Vec<(DVec3, CandidateKind)> = vec![
-        (DVec3::X, CandidateKind::Axis),
-        (DVec3::Y, CandidateKind::Axis),
-        (DVec3::Z, CandidateKind::Axis),
-    ];
-    for axis in axes {
-        if lines.iter().all(|(l, _)| l.dot(axis).abs() < 1.0 - 1e-12) {
-            lines.push((axis, CandidateKind::Principal));
-        }
-    }
-    let mut tried: Vec<Candidate> = lines
-        .into_par_iter()
-        .map(|(line, kind)| {
-            let along = ahead.dot(line);
-            let sign = if along.abs() <= 1e-6 * bounds.diagonal() {
-                let largest = if line.x.abs() >= line.y.abs() && line.x.abs() >= line.z.abs() {
-                    line.x
-                } else if line.y.abs() >= line.z.abs() {
-                    line.y
-                } else {
-                    line.z
-                };
-                largest.signum()
-            } else {
-                along.signum()
-            };
-            // Adding 0 turns the -0 components of a negated axis into +0.
-            let dir = line * sign + DVec3::ZERO;
-            let (lo, hi) =
-                mesh.vertices
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                        let h = v.dot(dir);
-                        (lo.min(h), hi.max(h))
-                    });
-            let direction = Direction::new(dir).expect("unit line");
-            // A principal axis is bounded later (see `pending` below): until then its bound
-            // is infinite, so no line is taken before it for it.
-            let bound = match kind {
-                CandidateKind::Axis => surface.lower_bound(direction, 0, f64::INFINITY),
-                CandidateKind::Principal => Undercut {
-                    area_mm2: f64::INFINITY,
-                    share: f64::INFINITY,
-                },
-            };
-            Candidate {
-                direction: direction.vector().to_array(),
-                kind,
-                undercut: bound,
-                extent_mm: hi - lo,
-                gate_qualifies: None,
-                evaluated: surface.largest[0].every && kind == CandidateKind::Axis,
-            }
-        })
-        .collect();
+    let tried = candidates(mesh, &surface, &centres, axes);
     let tie = TIE_SHARE * centres.area_mm2;
     // The principal axes get their first bound only once a line has been drawn ray by ray,
     // and that bound stops as soon as it exceeds the least undercut by more than the tie.
@@ -738,84 +682,33 @@ fn choose<T: Send>(
     // lower than the whole first bound, still a lower bound of its undercut). Which lines
     // are drawn ray by ray, and so the choice, is unchanged by the order: every line whose
     // undercut is within the tie of the least is drawn whatever the order of the bounds.
-    let mut pending: Vec<bool> = tried
-        .iter()
-        .map(|c| c.kind == CandidateKind::Principal)
-        .collect();
-    // Every ray is drawn only for the lines that can still be chosen. The line of least bound
-    // not drawn yet gets the next, tighter bound (more of the largest facets), and at the
-    // last level every ray; until the least bound left exceeds the least undercut found by
-    // more than the tie. A line left out has an undercut at least its bound, so it is neither
-    // the least nor tied with it: the choice is the one every line drawn would give.
-    let mut level = vec![0; tried.len()];
+    let mut settling = Settling::new(&surface, tried, tie);
     // The line `beside` worked along, beside the first line drawn ray by ray, and what it
-    // gave.
-    let mut early: Option<(Direction, T)> = None;
-    loop {
-        let least = tried
-            .iter()
-            .filter(|c| c.evaluated)
-            .map(|c| c.undercut.area_mm2)
-            .fold(f64::INFINITY, f64::min);
-        if least.is_finite() && pending.contains(&true) {
-            let bounds: Vec<(usize, Undercut)> = (0..tried.len())
-                .filter(|&i| pending[i])
-                .collect::<Vec<_>>()
-                .into_par_iter()
-                .map(|i| {
-                    let d =
-                        Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
-                    (i, surface.lower_bound(d, 0, least + tie))
-                })
-                .collect();
-            for (i, bound) in bounds {
-                tried[i].undercut = bound;
-                tried[i].evaluated = surface.largest[0].every;
-                pending[i] = false;
-            }
-            continue;
+    // gave. The rest of the choice (the principal axes' bounds, tighter bounds, any other
+    // line drawn ray by ray) needs nothing of `beside` either, so it runs on the same side
+    // of the join as those rays, and fills the time `beside`'s sequential steps leave a
+    // thread idle; it reads nothing `beside` gives, so it is the same choice.
+    let early = match settling.settle(Stop::BeforeEveryRay) {
+        None => None,
+        Some(i) => {
+            let likeliest = likeliest_choice(&settling.tried, i, tie);
+            let along = Direction::new(DVec3::from_array(settling.tried[likeliest].direction))
+                .expect("unit line");
+            let d =
+                Direction::new(DVec3::from_array(settling.tried[i].direction)).expect("unit line");
+            let ((), done) = rayon::join(
+                || {
+                    settling.tried[i].undercut = settling.surface.undercut(d);
+                    settling.tried[i].evaluated = true;
+                    let none = settling.settle(Stop::Never);
+                    debug_assert!(none.is_none());
+                },
+                || beside(along),
+            );
+            Some((along, done))
         }
-        let next = (0..tried.len())
-            .filter(|&i| !tried[i].evaluated && !pending[i])
-            .min_by(|&i, &j| {
-                tried[i]
-                    .undercut
-                    .area_mm2
-                    .total_cmp(&tried[j].undercut.area_mm2)
-            });
-        let Some(i) = next.filter(|&i| tried[i].undercut.area_mm2 <= least + tie) else {
-            break;
-        };
-        let d = Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
-        // The first line drawn goes to every ray at once: its tighter bound would only put
-        // off the drawing of the line that is, nearly always, the one chosen. A later line's
-        // tighter bound need only exceed the least undercut by more than the tie, and stops
-        // drawing once it does.
-        level[i] = match least.is_finite() {
-            true => level[i] + 1,
-            false => BOUND_LEVELS.len(),
-        };
-        if level[i] < BOUND_LEVELS.len() {
-            let bound = surface.lower_bound(d, level[i], least + tie);
-            tried[i].evaluated = surface.largest[level[i]].every;
-            if bound.area_mm2 > tried[i].undercut.area_mm2 || tried[i].evaluated {
-                tried[i].undercut = bound;
-            }
-        } else {
-            tried[i].undercut = match early {
-                None => {
-                    let likeliest = likeliest_choice(&tried, i, tie);
-                    let along = Direction::new(DVec3::from_array(tried[likeliest].direction))
-                        .expect("unit line");
-                    let (undercut, done) = rayon::join(|| surface.undercut(d), || beside(along));
-                    early = Some((along, done));
-                    undercut
-                }
-                Some(_) => surface.undercut(d),
-            };
-            tried[i].evaluated = true;
-        }
-    }
+    };
+    let mut tried = settling.tried;
     let least = tried
         .iter()
         .filter(|c| c.evaluated)
@@ -850,6 +743,189 @@ fn choose<T: Send>(
         },
         early,
     ))
+}
+
+/// The lines [`auto_direction`] tries (the axes, then the principal axes `axes` not equal
+/// to one of them), each signed, with its extent and, for an axis, its first lower bound; a
+/// principal axis's bound is infinite until [`Settling::settle`] bounds it.
+fn candidates(
+    mesh: &Mesh,
+    surface: &Surface,
+    centres: &Centres,
+    axes: Vec<DVec3>,
+) -> Vec<Candidate> {
+    let bounds = mesh.bounds();
+    let bulk = centres.volume.unwrap_or(centres.surface);
+    let ahead = bounds.centre() - bulk;
+    let mut lines: Vec<(DVec3, CandidateKind)> = vec![
+        (DVec3::X, CandidateKind::Axis),
+        (DVec3::Y, CandidateKind::Axis),
+        (DVec3::Z, CandidateKind::Axis),
+    ];
+    for axis in axes {
+        if lines.iter().all(|(l, _)| l.dot(axis).abs() < 1.0 - 1e-12) {
+            lines.push((axis, CandidateKind::Principal));
+        }
+    }
+    lines
+        .into_par_iter()
+        .map(|(line, kind)| {
+            let along = ahead.dot(line);
+            let sign = if along.abs() <= 1e-6 * bounds.diagonal() {
+                let largest = if line.x.abs() >= line.y.abs() && line.x.abs() >= line.z.abs() {
+                    line.x
+                } else if line.y.abs() >= line.z.abs() {
+                    line.y
+                } else {
+                    line.z
+                };
+                largest.signum()
+            } else {
+                along.signum()
+            };
+            // Adding 0 turns the -0 components of a negated axis into +0.
+            let dir = line * sign + DVec3::ZERO;
+            let (lo, hi) =
+                mesh.vertices
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        let h = v.dot(dir);
+                        (lo.min(h), hi.max(h))
+                    });
+            let direction = Direction::new(dir).expect("unit line");
+            // A principal axis is bounded later (see `choose`): until then its bound
+            // is infinite, so no line is taken before it for it.
+            let bound = match kind {
+                CandidateKind::Axis => surface.lower_bound(direction, 0, f64::INFINITY),
+                CandidateKind::Principal => Undercut {
+                    area_mm2: f64::INFINITY,
+                    share: f64::INFINITY,
+                },
+            };
+            Candidate {
+                direction: direction.vector().to_array(),
+                kind,
+                undercut: bound,
+                extent_mm: hi - lo,
+                gate_qualifies: None,
+                evaluated: surface.largest[0].every && kind == CandidateKind::Axis,
+            }
+        })
+        .collect()
+}
+
+/// When [`Settling::settle`] hands a line back instead of drawing it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Stop {
+    /// Before the first line drawn ray by ray: it is handed back, its level set.
+    BeforeEveryRay,
+    /// Never: every line that can still be chosen is drawn.
+    Never,
+}
+
+/// Where [`auto_direction`]'s choice stands between its steps: the lines and what is known
+/// of their undercuts, the principal axes still waiting for their first bound, and each
+/// line's bound level.
+struct Settling<'s, 'a> {
+    surface: &'s Surface<'a>,
+    tried: Vec<Candidate>,
+    pending: Vec<bool>,
+    level: Vec<usize>,
+    tie: f64,
+}
+
+impl<'s, 'a> Settling<'s, 'a> {
+    /// The choice before its first step: the principal axes wait for their first bound.
+    fn new(surface: &'s Surface<'a>, tried: Vec<Candidate>, tie: f64) -> Settling<'s, 'a> {
+        Settling {
+            surface,
+            pending: tried
+                .iter()
+                .map(|c| c.kind == CandidateKind::Principal)
+                .collect(),
+            level: vec![0; tried.len()],
+            tried,
+            tie,
+        }
+    }
+
+    /// Bounds lines and draws them ray by ray until no line left out can be chosen (see
+    /// the module). With [`Stop::BeforeEveryRay`], hands back the first line to be drawn
+    /// ray by ray, undrawn, when no line has been drawn yet; else `None`.
+    fn settle(&mut self, stop: Stop) -> Option<usize> {
+        let Settling {
+            surface,
+            tried,
+            pending,
+            level,
+            tie,
+        } = self;
+        let (surface, tie) = (*surface, *tie);
+        // Every ray is drawn only for the lines that can still be chosen. The line of least
+        // bound not drawn yet gets the next, tighter bound (more of the largest facets), and
+        // at the last level every ray; until the least bound left exceeds the least undercut
+        // found by more than the tie. A line left out has an undercut at least its bound, so
+        // it is neither the least nor tied with it: the choice is the one every line drawn
+        // would give.
+        loop {
+            let least = tried
+                .iter()
+                .filter(|c| c.evaluated)
+                .map(|c| c.undercut.area_mm2)
+                .fold(f64::INFINITY, f64::min);
+            // The principal axes get their first bound only once a line has been drawn ray
+            // by ray, and that bound stops as soon as it exceeds the least undercut by more
+            // than the tie (see `choose`).
+            if least.is_finite() && pending.contains(&true) {
+                let bounds: Vec<(usize, Undercut)> = (0..tried.len())
+                    .filter(|&i| pending[i])
+                    .collect::<Vec<_>>()
+                    .into_par_iter()
+                    .map(|i| {
+                        let d = Direction::new(DVec3::from_array(tried[i].direction))
+                            .expect("unit line");
+                        (i, surface.lower_bound(d, 0, least + tie))
+                    })
+                    .collect();
+                for (i, bound) in bounds {
+                    tried[i].undercut = bound;
+                    tried[i].evaluated = surface.largest[0].every;
+                    pending[i] = false;
+                }
+                continue;
+            }
+            let next = (0..tried.len())
+                .filter(|&i| !tried[i].evaluated && !pending[i])
+                .min_by(|&i, &j| {
+                    tried[i]
+                        .undercut
+                        .area_mm2
+                        .total_cmp(&tried[j].undercut.area_mm2)
+                });
+            let i = next.filter(|&i| tried[i].undercut.area_mm2 <= least + tie)?;
+            let d = Direction::new(DVec3::from_array(tried[i].direction)).expect("unit line");
+            // The first line drawn goes to every ray at once: its tighter bound would only
+            // put off the drawing of the line that is, nearly always, the one chosen. A later
+            // line's tighter bound need only exceed the least undercut by more than the tie,
+            // and stops drawing once it does.
+            level[i] = match least.is_finite() {
+                true => level[i] + 1,
+                false => BOUND_LEVELS.len(),
+            };
+            if level[i] < BOUND_LEVELS.len() {
+                let bound = surface.lower_bound(d, level[i], least + tie);
+                tried[i].evaluated = surface.largest[level[i]].every;
+                if bound.area_mm2 > tried[i].undercut.area_mm2 || tried[i].evaluated {
+                    tried[i].undercut = bound;
+                }
+            } else if stop == Stop::BeforeEveryRay && !least.is_finite() {
+                return Some(i);
+            } else {
+                tried[i].undercut = surface.undercut(d);
+                tried[i].evaluated = true;
+            }
+        }
+    }
 }
 
 /// The line [`auto_direction_beside`] works along while line `first`, the line of least
@@ -1268,6 +1344,43 @@ mod tests {
         assert!(near > 1000, "{near} lines near the tolerance");
         let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
         assert_eq!(faces_side(flat, DVec3::Z), None);
+    }
+
+    #[test]
+    fn the_choice_settled_beside_other_work_is_the_one_settled_at_once() {
+        // `choose` stops before the first line drawn ray by ray, draws it beside the
+        // caller's work and settles the rest there: the same steps as settling at once. A
+        // tilted, wavy grid of more facets than the least bound level, so that lines are
+        // bounded, one is drawn ray by ray and principal axes are bounded after it.
+        let mesh = grid(70, |i, j| {
+            0.5 * (i as f64 * 0.7).sin() * (j as f64 * 0.3).cos() + 0.05 * i as f64
+        });
+        let surface = Surface::new(&mesh, Sampling::Centroid);
+        assert!(!surface.largest[0].every);
+        let centres = Centres::of(&mesh);
+        let tried = candidates(&mesh, &surface, &centres, principal_axes(&mesh));
+        assert!(tried.iter().any(|c| c.kind == CandidateKind::Principal));
+        let tie = TIE_SHARE * centres.area_mm2;
+        let mut at_once = Settling::new(&surface, tried.clone(), tie);
+        assert_eq!(at_once.settle(Stop::Never), None);
+        let mut in_two = Settling::new(&surface, tried, tie);
+        let i = in_two
+            .settle(Stop::BeforeEveryRay)
+            .expect("a line to draw ray by ray");
+        assert!(in_two.tried.iter().all(|c| !c.evaluated));
+        assert!(in_two.pending.contains(&true));
+        let d = Direction::new(DVec3::from_array(in_two.tried[i].direction)).unwrap();
+        in_two.tried[i].undercut = surface.undercut(d);
+        in_two.tried[i].evaluated = true;
+        assert_eq!(in_two.settle(Stop::Never), None);
+        assert!(!in_two.pending.contains(&true));
+        assert_eq!(in_two.level, at_once.level);
+        for (a, b) in in_two.tried.iter().zip(&at_once.tried) {
+            assert_eq!(a.undercut.area_mm2.to_bits(), b.undercut.area_mm2.to_bits());
+            assert_eq!(a.undercut.share.to_bits(), b.undercut.share.to_bits());
+            assert_eq!(a.evaluated, b.evaluated);
+        }
+        assert!(at_once.tried[i].evaluated);
     }
 
     #[test]
