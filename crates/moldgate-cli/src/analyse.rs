@@ -146,17 +146,6 @@ pub struct Analysed {
 /// Loads and studies one part. A part without a gate is a study whose report says why; the
 /// error is for a part that could not be studied at all.
 pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, Failure> {
-    analyse_beside(source, s, hooks, |_| ()).map(|(analysed, ())| analysed)
-}
-
-/// [`analyse`], with `beside` run on the loaded part at the same time as its study (in a
-/// `rayon::join`, so on the cores the study leaves idle).
-pub fn analyse_beside<T: Send>(
-    source: Source,
-    s: &Settings,
-    hooks: &Hooks,
-    beside: impl FnOnce(&LoadedMesh) -> T + Send,
-) -> Result<(Analysed, T), Failure> {
     let t = Instant::now();
     let (part, input) = match source {
         Source::File(path) => {
@@ -185,11 +174,7 @@ pub fn analyse_beside<T: Send>(
         .clone()
         .or(input.sample.clone())
         .unwrap_or_default();
-    let (study, beside) = rayon::join(
-        || moldgate::study_with(&part, &s.study, hooks),
-        || beside(&part),
-    );
-    let mut study = study.map_err(|e| failure(&e, &name))?;
+    let mut study = moldgate::study_with(&part, &s.study, hooks).map_err(|e| failure(&e, &name))?;
     study.set_input(input, load_s);
-    Ok((Analysed { part, study }, beside))
+    Ok(Analysed { part, study })
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use moldgate::study::Hooks;
 
-use crate::analyse::{analyse_beside, failure, settings, Analysed, Source};
+use crate::analyse::{analyse, failure, settings, Analysed, Source};
 use crate::args::LocateArgs;
 use crate::output::{print_stdout, refuse_input, write_atomic};
 use crate::progress::Progress;
@@ -43,13 +43,9 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
         progress: Some(&observer),
         cancel: None,
     };
-    // The facets the picture's views skip need only the part: found beside its study.
-    let picture = a.png.is_some() || a.report.is_some();
-    let analysed = analyse_beside(source, &settings, &hooks, |part| {
-        picture.then(|| moldgate::render::Facets::of(&part.mesh, Some(&part.topology)))
-    });
+    let analysed = analyse(source, &settings, &hooks);
     progress.finish();
-    let (Analysed { part, study }, facets) = analysed?;
+    let Analysed { part, study } = analysed?;
     let json = study.report_json().map_err(|e| failure(&e, ""))?;
     if let Some(out) = &a.output {
         write_atomic(out, json.as_bytes())?;
@@ -60,7 +56,7 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
             .map_err(|e| failure(&e, &path.display().to_string()))?;
         write_atomic(path, &bytes)?;
     }
-    crate::pictures::write(&a, &study, &part, source.title(), facets.as_ref())?;
+    crate::pictures::write(&a, &study, &part, source.title())?;
     let report = study.report();
     if a.json {
         print_stdout(&json)?;

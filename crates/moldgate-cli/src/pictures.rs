@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use moldgate::mesh::LoadedMesh;
-use moldgate::render::{Facets, RenderOptions};
+use moldgate::render::RenderOptions;
 use moldgate::Study;
 
 use crate::analyse::failure;
@@ -73,15 +73,12 @@ pub fn write(
     study: &Study,
     part: &LoadedMesh,
     title: String,
-    facets: Option<&Facets>,
 ) -> Result<(), Failure> {
     if a.png.is_none() && a.report.is_none() {
         return Ok(());
     }
     let t = Instant::now();
-    let png = study
-        .png_with(part, title, facets)
-        .map_err(|e| failure(&e, ""))?;
+    let png = study.png(part, title).map_err(|e| failure(&e, ""))?;
     let render_s = t.elapsed().as_secs_f64();
     if let Some(path) = &a.png {
         // Whole or not at all, without waiting for the disk (`Flush::Kernel`).

@@ -162,63 +162,8 @@ pub fn png(scene: &Scene, options: &RenderOptions) -> Result<Vec<u8>, RenderErro
     render(scene, options)?.png()
 }
 
-/// [`png`], with the facets to skip found beforehand ([`Facets::of`]).
-pub fn png_with(
-    scene: &Scene,
-    options: &RenderOptions,
-    facets: Option<&Facets>,
-) -> Result<Vec<u8>, RenderError> {
-    render_with(scene, options, facets)?.png()
-}
-
-/// Which facets the views of a part skip ([`Facing`]): they need only the mesh and its
-/// topology, so a front end that will draw a picture can find them beside the analysis
-/// ([`png_with`], [`crate::Study::png_with`]) rather than in the picture's time.
-pub struct Facets {
-    facing: Option<Facing>,
-    /// The mesh they belong to: the address and length of its triangles, and whether its
-    /// topology was given.
-    of: (usize, usize, bool),
-}
-
-impl Facets {
-    /// The facets the views of `mesh` skip, when its `topology` is known (those a scene
-    /// [`Scene::with_topology`] skips); none without it.
-    pub fn of(mesh: &crate::mesh::Mesh, topology: Option<&crate::mesh::Topology>) -> Facets {
-        Facets {
-            facing: topology.map(|t| Facing::of(mesh, t)),
-            of: Facets::key(mesh, topology.is_some()),
-        }
-    }
-
-    fn key(mesh: &crate::mesh::Mesh, topology: bool) -> (usize, usize, bool) {
-        (
-            mesh.triangles.as_ptr() as usize,
-            mesh.triangles.len(),
-            topology,
-        )
-    }
-
-    /// The facets to skip, when these are the scene's (the same mesh, with or without its
-    /// topology as the scene has it).
-    fn of_scene(&self, scene: &Scene) -> Option<Option<&Facing>> {
-        (self.of == Facets::key(scene.mesh, scene.topology.is_some()))
-            .then_some(self.facing.as_ref())
-    }
-}
-
 /// Draws the scene.
 pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderError> {
-    render_with(scene, options, None)
-}
-
-/// [`render`], with the facets to skip found beforehand (used when they are the scene
-/// mesh's; found here otherwise).
-pub fn render_with(
-    scene: &Scene,
-    options: &RenderOptions,
-    facets: Option<&Facets>,
-) -> Result<Picture, RenderError> {
     let (width, height) = (options.width, options.height);
     if width < MIN_SIZE.0 || height < MIN_SIZE.1 || width > MAX_SIDE || height > MAX_SIDE {
         return Err(RenderError::Size { width, height });
@@ -259,12 +204,8 @@ pub fn render_with(
     // The facets to skip need only the mesh, the depths the overlays look up only the
     // scene, the views' projections of the mesh and the field's colour-map coordinates only
     // the mesh and the cameras: all found beside one another and the making of the canvas.
-    let given = facets.and_then(|f| f.of_scene(scene));
-    let (found, ((canvas, asked), (t, projections))) = rayon::join(
-        || match given {
-            Some(_) => None,
-            None => scene.topology.map(|topology| Facing::of(mesh, topology)),
-        },
+    let (facing, ((canvas, asked), (t, projections))) = rayon::join(
+        || scene.topology.map(|topology| Facing::of(mesh, topology)),
         || {
             rayon::join(
                 || {
@@ -294,7 +235,6 @@ pub fn render_with(
             )
         },
     );
-    let facing = given.unwrap_or(found.as_ref());
     let mut canvas = canvas.ok_or(RenderError::Size { width, height })?;
     let sample_mm = |v: &View| 1.0 / (v.camera.scale * SAMPLES as f64);
     let mut panels: Vec<Panel> = views
@@ -320,7 +260,7 @@ pub fn render_with(
     draw_projected(
         mesh,
         &t,
-        facing,
+        facing.as_ref(),
         &mut panels,
         &projections,
         canvas.pixmap.data_mut(),

@@ -532,18 +532,6 @@ impl Study {
     /// The 1600x900 PNG picture of the study (the view along D and an isometric view), its
     /// second title line naming the material and the demolding direction.
     pub fn png(&self, part: &LoadedMesh, title: impl Into<String>) -> Result<Vec<u8>, StudyError> {
-        self.png_with(part, title, None)
-    }
-
-    /// [`Study::png`], with the facets its views skip found beforehand
-    /// ([`crate::render::Facets::of`] of the part's mesh and topology, for instance beside
-    /// the study).
-    pub fn png_with(
-        &self,
-        part: &LoadedMesh,
-        title: impl Into<String>,
-        facets: Option<&crate::render::Facets>,
-    ) -> Result<Vec<u8>, StudyError> {
         let mut scene = self.scene(part, title)?;
         let d = self.report.options.demold;
         // A direction such as -z reads (0.000, 0.000, -1.000), not with negative zeros.
@@ -554,8 +542,7 @@ impl Study {
             ),
             false,
         );
-        crate::render::png_with(&scene, &RenderOptions::default(), facets)
-            .map_err(StudyError::Render)
+        crate::render::png(&scene, &RenderOptions::default()).map_err(StudyError::Render)
     }
 
     /// The study as binary glTF 2.0 (see [`crate::gltf`]).

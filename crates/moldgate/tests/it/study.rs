@@ -100,39 +100,6 @@ fn per_vertex_fields_and_outputs_of_a_full_study() {
     ));
 }
 
-/// The facets to skip found beforehand (beside the study, as the command line does) give
-/// the picture drawn without them; those of another mesh (here the part turned inside out,
-/// whose views would skip the other side) are not used.
-#[test]
-fn a_picture_with_its_facets_found_beforehand_is_the_same_picture() {
-    use moldgate::render::Facets;
-    for name in ["cover", "bracket"] {
-        let part = sample(name);
-        let s = study(&part, &StudyOptions::default()).unwrap();
-        let png = s.png(&part, name).unwrap();
-        let facets = Facets::of(&part.mesh, Some(&part.topology));
-        assert_eq!(
-            s.png_with(&part, name, Some(&facets)).unwrap(),
-            png,
-            "{name}"
-        );
-        let mut turned = part.mesh.clone();
-        for t in &mut turned.triangles {
-            t.swap(1, 2);
-        }
-        let turned = moldgate::mesh::from_generated(turned);
-        let other = Facets::of(&turned.mesh, Some(&turned.topology));
-        assert_eq!(
-            s.png_with(&part, name, Some(&other)).unwrap(),
-            png,
-            "{name}"
-        );
-        // Without the topology, the scene's facets are not these either.
-        let none = Facets::of(&part.mesh, None);
-        assert_eq!(s.png_with(&part, name, Some(&none)).unwrap(), png, "{name}");
-    }
-}
-
 #[test]
 fn progress_comes_in_order_and_ends_at_one() {
     let part = sample("plate");
