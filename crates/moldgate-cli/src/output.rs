@@ -73,25 +73,6 @@ static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// The temporary file is flushed to the disk (`fsync`) before the rename, so that after a
 /// power cut or a crash of the system the file is the old one or the complete new one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
-    write_whole(path, bytes, Flush::ToDisk)
-}
-
-/// Whether [`write_whole`] waits for the file to reach the disk before renaming it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Flush {
-    /// `fsync` before the rename: whole or not at all also across a power cut.
-    ToDisk,
-    /// No `fsync`: whole or not at all for every reader and when the process is killed
-    /// (the rename is atomic), but a power cut or a crash of the system within the
-    /// kernel's write-back delay (seconds) may leave the file missing or, where the file
-    /// system orders the rename before the data, empty. For files as cheap to make again as
-    /// a picture, whose `fsync` the command would otherwise wait for (1 to 23 ms measured,
-    /// docs/performance.md).
-    Kernel,
-}
-
-/// [`write_atomic`], with the flush to the disk before the rename chosen by `flush`.
-pub fn write_whole(path: &Path, bytes: &[u8], flush: Flush) -> Result<(), Failure> {
     let fail = |e: &dyn std::fmt::Display| {
         Failure::output(format!("{}: cannot write: {e}", path.display()))
     };
@@ -125,10 +106,7 @@ pub fn write_whole(path: &Path, bytes: &[u8], flush: Flush) -> Result<(), Failur
     let result = tmp
         .as_file_mut()
         .write_all(bytes)
-        .and_then(|_| match flush {
-            Flush::ToDisk => tmp.as_file().sync_all(),
-            Flush::Kernel => Ok(()),
-        })
+        .and_then(|_| tmp.as_file().sync_all())
         .and_then(|_| tmp.persist(&target).map(drop).map_err(|e| e.error));
     // On an error the temporary file is removed when `tmp` is dropped.
     release(&registered);

@@ -9,7 +9,7 @@ use moldgate::Study;
 
 use crate::analyse::failure;
 use crate::args::LocateArgs;
-use crate::output::{refuse_input, same_file, write_atomic, write_whole, Flush};
+use crate::output::{refuse_input, same_file, write_atomic};
 use crate::Failure;
 
 /// Checks every output path before any work: `--png`, `--glb` and `--report` end in their
@@ -81,8 +81,7 @@ pub fn write(
     let png = study.png(part, title).map_err(|e| failure(&e, ""))?;
     let render_s = t.elapsed().as_secs_f64();
     if let Some(path) = &a.png {
-        // Whole or not at all, without waiting for the disk (`Flush::Kernel`).
-        write_whole(path, &png, Flush::Kernel)?;
+        write_atomic(path, &png)?;
         let options = RenderOptions::default();
         eprintln!(
             "wrote {} ({}x{} pixels, drawn in {:.0} ms)",
