@@ -66,7 +66,8 @@ h2 { font-size: 1.2em; margin-top: 1.6em; border-bottom: 1px solid #ccd; }
 img { max-width: 100%; height: auto; border: 1px solid #ccd; }
 table { border-collapse: collapse; }
 td, th { text-align: left; padding: 3px 12px 3px 0; vertical-align: top; }
-th { font-weight: 600; white-space: nowrap; }
+th { font-weight: 600; }
+tr:first-child th { white-space: nowrap; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; }
 tr + tr td, tr + tr th { border-top: 1px solid #eef; }
 dt { font-weight: 600; margin-top: 0.5em; }
