@@ -255,10 +255,136 @@ fn split_one<V: Copy>(
     }
 }
 
+/// The place of a mesh edge's far end along it, for the middles on the edge: they halve it
+/// exactly 62 levels deep, far below any refinement within the limit.
+const ALONG_ONE: u64 = 1 << 62;
+
+/// Where a new vertex lies: on the mesh edge from vertex `lo` to vertex `hi` (`lo < hi`), at
+/// `along / ALONG_ONE` of the way from `lo`; `lo == u32::MAX` inside a mesh triangle.
+#[derive(Debug, Clone, Copy)]
+struct Along {
+    lo: u32,
+    hi: u32,
+    along: u64,
+}
+
 /// The refined surface at `edge`: vertices (the mesh's, then one per split edge, numbered
-/// in the order the mesh's triangles meet them), triangles and their mesh triangles. A
-/// split edge's middle is looked up by its two ends, so both its triangles share it.
+/// in the order the mesh's triangles meet them), triangles and their mesh triangles; the
+/// output of [`split_all_in_order`].
+///
+/// A middle inside a mesh triangle is met by that triangle alone, so it is looked up among
+/// that triangle's middles only (a small table, cleared for each triangle); a middle on a
+/// mesh edge is met by the triangles on both sides, and is looked up by the edge and its
+/// place along it. That holds unless two triangles have the same three corners, or one
+/// repeats a corner: such meshes take [`split_all_in_order`].
 fn split_all(mesh: &Mesh, edge: f64, count: usize) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
+    let edge2 = edge * edge;
+    let mut split: Vec<[u32; 3]> = mesh
+        .triangles
+        .par_iter()
+        .filter(|tri| {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            long(a, b, edge2) || long(b, c, edge2) || long(c, a, edge2)
+        })
+        .map(|tri| {
+            let mut t = *tri;
+            t.sort_unstable();
+            t
+        })
+        .collect();
+    split.par_sort_unstable();
+    if split.par_windows(2).any(|w| w[0] == w[1])
+        || split.par_iter().any(|t| t[0] == t[1] || t[1] == t[2])
+    {
+        return split_all_in_order(mesh, edge, count);
+    }
+    drop(split);
+    let first = mesh.vertices.len() as u32;
+    let new_vertices = (count / 2).saturating_sub(mesh.vertices.len() / 2);
+    let mut vertices = Vec::with_capacity(mesh.vertices.len() + new_vertices);
+    vertices.extend_from_slice(&mesh.vertices);
+    let mut along: Vec<Along> = Vec::with_capacity(new_vertices);
+    let mut triangles = Vec::with_capacity(count);
+    let mut parent = Vec::with_capacity(count);
+    let mut on_edges: FxHashMap<(u32, u32, u64), u32> = FxHashMap::default();
+    let mut middles: FxHashMap<(u32, u32), u32> = FxHashMap::default();
+    let mut stack: Vec<[u32; 3]> = Vec::new();
+    let mut children: Vec<[u32; 3]> = Vec::with_capacity(4);
+    for (t, &tri) in mesh.triangles.iter().enumerate() {
+        middles.clear();
+        stack.push(tri);
+        while let Some(s) = stack.pop() {
+            let p = s.map(|v| vertices[v as usize]);
+            children.clear();
+            let mid = |a: u32, b: u32| {
+                *middles.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let on = on_edge(a, b, first, &along);
+                    let mut make = || {
+                        vertices.push((vertices[a as usize] + vertices[b as usize]) * 0.5);
+                        along.push(on);
+                        (vertices.len() - 1) as u32
+                    };
+                    if on.lo == u32::MAX {
+                        make()
+                    } else {
+                        *on_edges
+                            .entry((on.lo, on.hi, on.along))
+                            .or_insert_with(make)
+                    }
+                })
+            };
+            split_one(s, p, edge2, mid, &mut children);
+            if children.is_empty() {
+                triangles.push(s);
+                parent.push(t as u32);
+            } else {
+                // Last pushed is taken first: reversed, a triangle's pieces come in order.
+                stack.extend(children.iter().rev());
+            }
+        }
+    }
+    (vertices, triangles, parent)
+}
+
+/// Where the middle of vertices `a` and `b` lies ([`Along`]); vertices from `first` on are
+/// new, `along` holds theirs.
+fn on_edge(a: u32, b: u32, first: u32, along: &[Along]) -> Along {
+    const INSIDE: Along = Along {
+        lo: u32::MAX,
+        hi: u32::MAX,
+        along: 0,
+    };
+    let of = |v: u32| (v >= first).then(|| along[(v - first) as usize]);
+    let (lo, hi) = match (of(a), of(b)) {
+        (None, None) => (a.min(b), a.max(b)),
+        (Some(x), _) | (None, Some(x)) => (x.lo, x.hi),
+    };
+    if lo == u32::MAX {
+        return INSIDE;
+    }
+    let place = |v: u32| match of(v) {
+        None if v == lo => Some(0),
+        None if v == hi => Some(ALONG_ONE),
+        None => None,
+        Some(x) => ((x.lo, x.hi) == (lo, hi)).then_some(x.along),
+    };
+    match (place(a), place(b)) {
+        (Some(x), Some(y)) => Along {
+            lo,
+            hi,
+            along: (x + y) / 2,
+        },
+        _ => INSIDE,
+    }
+}
+
+/// [`split_all`] with every middle looked up by its two ends in one table: the reference
+/// (and the way for meshes with a repeated triangle or corner).
+fn split_all_in_order(
+    mesh: &Mesh,
+    edge: f64,
+    count: usize,
+) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
     let edge2 = edge * edge;
     // About one vertex for two triangles on a closed surface.
     let new_vertices = (count / 2).saturating_sub(mesh.vertices.len() / 2);
@@ -370,6 +496,39 @@ mod tests {
             }
             // The mesh's vertices keep their numbers.
             assert_eq!(refined.vertices[..8], mesh.vertices[..]);
+        }
+    }
+
+    /// A closed, uneven surface: the box's corners moved apart by different amounts, so
+    /// its edges split to different depths, and a long thin sliver.
+    fn uneven() -> Mesh {
+        let mut m = cuboid(37.0, 21.0, 4.0);
+        for (i, v) in m.vertices.iter_mut().enumerate() {
+            *v += DVec3::new(0.37 * i as f64, 1.3 * (i % 3) as f64, 0.71 * (i % 2) as f64);
+        }
+        m
+    }
+
+    #[test]
+    fn middles_looked_up_by_triangle_and_edge_number_as_one_table_does() {
+        let mut repeated = uneven();
+        let again = repeated.triangles[3];
+        repeated.triangles.push([again[1], again[2], again[0]]);
+        for mesh in [cuboid(40.0, 25.0, 3.0), uneven(), repeated] {
+            for edge in [0.45, 1.3, 2.0, 7.0] {
+                let n = count(&mesh, edge, usize::MAX - 1);
+                let fast = split_all(&mesh, edge, n);
+                let reference = split_all_in_order(&mesh, edge, n);
+                assert_eq!(fast.1, reference.1, "{edge}");
+                assert_eq!(fast.2, reference.2, "{edge}");
+                assert_eq!(fast.0.len(), reference.0.len(), "{edge}");
+                for (p, q) in fast.0.iter().zip(&reference.0) {
+                    assert_eq!(
+                        p.to_array().map(f64::to_bits),
+                        q.to_array().map(f64::to_bits)
+                    );
+                }
+            }
         }
     }
 

@@ -190,12 +190,20 @@ impl<'a> Scene<'a> {
 
     /// The same scene coloured by another field; a field on cells is drawn on the part
     /// refined to them ([`crate::display::refine`]).
-    pub fn with_field(mut self, field: Field) -> Scene<'a> {
-        self.display = field
+    pub fn with_field(self, field: Field) -> Scene<'a> {
+        let display = field
             .cells
             .as_ref()
             .and_then(|c| crate::display::refine(self.mesh, c))
             .map(Arc::new);
+        self.with_refined_field(field, display)
+    }
+
+    /// The same scene coloured by `field`, drawn on `display`: what [`Scene::with_field`]
+    /// refines, made before (by [`crate::display::refine`] for this scene's mesh and
+    /// `field`'s cells) and shared between scenes.
+    pub fn with_refined_field(mut self, field: Field, display: Option<Arc<Display>>) -> Scene<'a> {
+        self.display = display;
         self.field = field;
         self
     }

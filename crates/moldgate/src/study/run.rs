@@ -1,6 +1,9 @@
 //! Running a study, and what it gives.
 
+use std::sync::{Arc, OnceLock};
+
 use crate::clock::Instant;
+use crate::display::Display;
 
 use crate::flow::{self, FillAnalysis, FillError, FillOptions, Strategy};
 use crate::gate::{Analysis, ChosenGate};
@@ -40,6 +43,10 @@ pub struct Study {
     subtitle: String,
     material_name: String,
     size: (usize, usize),
+    /// The part refined to the fill field's cells ([`crate::display::refine`]), made the
+    /// first time a scene needs it and shared by every later one (the PNG, the GLB and the
+    /// HTML page of one run draw the same surface); `None` inside when nothing is refined.
+    display: OnceLock<Option<Arc<Display>>>,
 }
 
 /// Fewer grid nodes on the part than this (10 x 10) draw a warning: the grid is too coarse
@@ -272,6 +279,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         subtitle,
         material_name: s.material.name.clone(),
         size: (mesh.vertices.len(), mesh.triangles.len()),
+        display: OnceLock::new(),
     })
 }
 
@@ -494,11 +502,13 @@ impl Study {
     ) -> Result<Scene<'a>, StudyError> {
         self.check_part(part)?;
         let mut scene = Scene::new(&part.mesh, &self.analysis, title).with_topology(&part.topology);
-        if let Some(f) = self.fill_field() {
-            scene = scene.with_field(f);
-        }
+        // The suitability map takes the place of the fill's field (the part is grey), so the
+        // field is refined only when it is drawn.
         if let Some(f) = self.suitability_field() {
             scene = scene.with_node_field(f);
+        } else if let Some(f) = self.fill_field() {
+            let display = self.display(part, &f);
+            scene = scene.with_refined_field(f, display);
         }
         let r = self.analysis.options.gate_radius_mm;
         scene.gates = self
@@ -525,6 +535,17 @@ impl Study {
             .collect();
         scene.subtitle = self.subtitle.clone();
         Ok(scene)
+    }
+
+    /// The part refined for the fill's field `field` (this study's [`Study::fill_field`]),
+    /// made once: the part is the studied one ([`Study::scene`] checks it).
+    fn display(&self, part: &LoadedMesh, field: &Field) -> Option<Arc<Display>> {
+        self.display
+            .get_or_init(|| {
+                let cells = field.cells.as_ref()?;
+                crate::display::refine(&part.mesh, cells).map(Arc::new)
+            })
+            .clone()
     }
 
     /// The 1600x900 PNG picture of the study (the view along D and an isometric view), its

@@ -142,3 +142,44 @@ fn the_height_along_d_is_drawn_on_the_part_itself() {
     assert_eq!(surface.triangles, part.mesh.triangles);
     assert_eq!(values, &scene.field.per_vertex[..]);
 }
+
+#[test]
+fn the_refined_surface_is_made_once_a_study_and_is_the_one_refine_makes() {
+    let part = coarse_plate(100.0, 70.0, 3.0);
+    let s = study(
+        &part,
+        &options(r#"{ "fill": true, "color_by": "flow_length", "demold": "+z" }"#),
+    )
+    .unwrap();
+    let (first, second) = (
+        s.scene(&part, "plate").unwrap(),
+        s.scene(&part, "plate").unwrap(),
+    );
+    let (a, b) = (first.display.unwrap(), second.display.unwrap());
+    // The PNG, the GLB and the page share one surface...
+    assert!(std::sync::Arc::ptr_eq(&a, &b));
+    // ... the one a scene refining its own field draws.
+    let fresh = moldgate::scene::Scene::new(&part.mesh, s.analysis(), "plate")
+        .with_field(s.fill_field().unwrap());
+    let d = fresh.display.unwrap();
+    assert_eq!(a.mesh.vertices, d.mesh.vertices);
+    assert_eq!(a.mesh.triangles, d.mesh.triangles);
+    assert_eq!(a.parent, d.parent);
+    assert_eq!(
+        a.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        d.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn the_suitability_map_is_drawn_on_the_parts_own_triangles() {
+    let part = coarse_plate(100.0, 70.0, 3.0);
+    let s = study(
+        &part,
+        &options(r#"{ "fill": true, "suitability": true, "demold": "+z" }"#),
+    )
+    .unwrap();
+    assert!(s.fill_field().unwrap().cells.is_some());
+    let scene = s.scene(&part, "plate").unwrap();
+    assert!(scene.node_field.is_some() && scene.display.is_none());
+}
