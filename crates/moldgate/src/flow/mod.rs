@@ -902,6 +902,23 @@ pub fn balanced_gate_from(
     start: &Field,
     tolerance: f64,
 ) -> Option<Balanced> {
+    balanced_search(
+        domain, candidates, objective, first, start, tolerance, FAR_REACH,
+    )
+}
+
+/// [`balanced_gate_from`], its runs from far points stopped past `far_reach` times the
+/// least worst value known (any positive reach gives the same answer; the tests try
+/// several).
+fn balanced_search(
+    domain: &Domain,
+    candidates: &[Source],
+    objective: Objective,
+    first: Source,
+    start: &Field,
+    tolerance: f64,
+    far_reach: f64,
+) -> Option<Balanced> {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[first.cell as usize];
@@ -913,29 +930,66 @@ pub fn balanced_gate_from(
     }
     let mut runs = 1;
     let mut far = far_points(v, &start.t, FAR_POINTS);
+    // Per candidate, the largest value at it of the far points' marches: its bound when
+    // `exact`, else a lower bound (a march stopped before reaching it gives its reach).
     let mut bound = vec![0.0f64; candidates.len()];
+    let mut exact = vec![true; candidates.len()];
+    // Per candidate, the largest value at it of the runs that reached it (its bound once
+    // every run has).
+    let mut reached = vec![0.0f64; candidates.len()];
+    // The far points whose marches stopped early, to be marched whole when the bounds
+    // they left inexact are needed.
+    let mut stopped: Vec<u32> = Vec::new();
     let max_runs = 40;
     let mut seen: Option<(f64, usize)> = None;
+    let far_source = |f: u32| Source {
+        point: v.centre(f),
+        cell: f,
+    };
     loop {
-        // Runs from the new far points, in parallel; each raises the bounds.
-        let fields: Vec<Field> = far
+        // Runs from the new far points, in parallel; each raises the bounds. A run stops
+        // past `limit`, a little over the least worst value known (the first gate's, or
+        // the best candidate's evaluated so far): the least bound, all the search reads
+        // exactly, is below every candidate's worst value, and a candidate not reached by
+        // then is bounded by the reach.
+        let limit = far_reach * seen.map_or(argmax(&start.t).1, |(s, _)| s.min(argmax(&start.t).1));
+        let fields: Vec<(Field, f64)> = far
             .par_iter()
-            .map(|&f| {
-                march(
-                    v,
-                    &[Source {
-                        point: v.centre(f),
-                        cell: f,
-                    }],
-                    cost,
-                )
-            })
+            .map(|&f| march_until(v, &[far_source(f)], cost, |_, t| beyond(t, limit)))
             .collect();
         runs += fields.len();
-        for field in &fields {
-            for &i in &pool {
-                bound[i] = bound[i].max(field.t[candidates[i].cell as usize]);
+        for ((field, reach), &f) in fields.iter().zip(&far) {
+            if reach.is_finite() {
+                stopped.push(f);
             }
+            for &i in &pool {
+                let t = field.t[candidates[i].cell as usize];
+                if t.is_finite() || reach.is_infinite() {
+                    reached[i] = reached[i].max(t);
+                    bound[i] = bound[i].max(t);
+                } else {
+                    bound[i] = bound[i].max(*reach);
+                    exact[i] = false;
+                }
+            }
+        }
+        // The least bound decides when its candidate's bound is exact and every inexact
+        // bound is surely beyond it (then that candidate's true bound is too); else the
+        // stopped runs are marched whole, which makes every bound exact. Either way the
+        // choice is the one of whole runs.
+        if !bounds_decide(&pool, &bound, &exact) {
+            let whole: Vec<Field> = stopped
+                .par_iter()
+                .map(|&f| march(v, &[far_source(f)], cost))
+                .collect();
+            for &i in &pool {
+                for field in &whole {
+                    reached[i] = reached[i].max(field.t[candidates[i].cell as usize]);
+                }
+                bound[i] = reached[i];
+                exact[i] = true;
+            }
+            stopped.clear();
         }
         let &best = pool
             .iter()
@@ -975,6 +1029,25 @@ pub fn balanced_gate_from(
 
 /// Far points taken from each run of the balanced search.
 const FAR_POINTS: usize = 6;
+
+/// How far the balanced search's runs from far points reach, as a multiple of the least
+/// worst value known (a first guess of the least bound; the search stays exact whatever it
+/// is, and marches a run whole again when the guess was short).
+const FAR_REACH: f64 = 1.02;
+
+/// True when the least of the pool's bounds, the candidate the search takes (the lowest
+/// index among equals), is the one whole runs give: its bound is exact and every inexact
+/// (lower) bound is surely beyond it.
+fn bounds_decide(pool: &[usize], bound: &[f64], exact: &[bool]) -> bool {
+    let &best = pool
+        .iter()
+        .min_by(|&&a, &&b| bound[a].total_cmp(&bound[b]).then(a.cmp(&b)))
+        .expect("non-empty pool");
+    exact[best]
+        && pool
+            .iter()
+            .all(|&i| exact[i] || beyond(bound[i] * (1.0 - 2.4e-7), bound[best]))
+}
 
 /// The cell of the largest value, then other local maxima of `t` within 5 % of it and at
 /// least a quarter of it away from those already taken, up to `count`.
@@ -2354,4 +2427,125 @@ fn per_vertex_of_cells(domain: &Domain, mesh: &Mesh, values: &[f32]) -> Vec<f32>
                 .map_or(f32::NAN, |c| values[c as usize])
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The balanced search as it was before its runs from far points stopped early (every
+    /// run whole): the oracle of [`balanced_search`].
+    fn reference_balanced(
+        domain: &Domain,
+        candidates: &[Source],
+        objective: Objective,
+        first: Source,
+        start: &Field,
+        tolerance: f64,
+    ) -> Option<Balanced> {
+        let cost = domain.cost(objective);
+        let v = &domain.voxels;
+        let body = domain.body[first.cell as usize];
+        let pool: Vec<usize> = (0..candidates.len())
+            .filter(|&i| domain.body[candidates[i].cell as usize] == body)
+            .collect();
+        if pool.is_empty() {
+            return None;
+        }
+        let mut runs = 1;
+        let mut far = far_points(v, &start.t, FAR_POINTS);
+        let mut bound = vec![0.0f64; candidates.len()];
+        let mut seen: Option<(f64, usize)> = None;
+        let centred = |c: u32| Source {
+            point: v.centre(c),
+            cell: c,
+        };
+        loop {
+            for &f in &far {
+                let field = march(v, &[centred(f)], cost);
+                runs += 1;
+                for &i in &pool {
+                    bound[i] = bound[i].max(field.t[candidates[i].cell as usize]);
+                }
+            }
+            let &best = pool
+                .iter()
+                .min_by(|&&a, &&b| bound[a].total_cmp(&bound[b]).then(a.cmp(&b)))
+                .expect("non-empty pool");
+            let field = march(v, &[centred(candidates[best].cell)], cost);
+            runs += 1;
+            let value = argmax(&field.t).1;
+            if seen.is_none_or(|(v, _)| value < v) {
+                seen = Some((value, best));
+            }
+            let proven = value <= bound[best] + tolerance;
+            if proven || runs >= 40 {
+                let (value, candidate) = if proven {
+                    (value, best)
+                } else {
+                    seen.expect("one run")
+                };
+                return Some(Balanced {
+                    candidate,
+                    value,
+                    lower_bound: bound[best],
+                    runs,
+                    proven,
+                });
+            }
+            far = far_points(v, &field.t, FAR_POINTS);
+        }
+    }
+
+    #[test]
+    fn the_balanced_search_with_runs_stopped_early_is_the_search_of_whole_runs() {
+        use crate::samples::sample;
+        let pp = Material::builtin("PP").expect("PP");
+        for name in ["plate", "bracket", "cover", "tray", "cap"] {
+            let mesh = sample(name).expect("sample");
+            for h in [1.0, 1.5] {
+                let domain = Domain::new(&mesh, h, None, 2.0, &pp);
+                let n = domain.voxels.len() as u32;
+                // Candidates spread over the cells, cell centres nudged off as surface
+                // points are; the first gate one of them.
+                let candidates: Vec<Source> = (0..n)
+                    .step_by(7)
+                    .map(|c| Source {
+                        point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
+                        cell: c,
+                    })
+                    .collect();
+                let first = candidates[candidates.len() / 3];
+                for objective in [Objective::Length, Objective::Resistance] {
+                    let start = march(&domain.voxels, &[first], domain.cost(objective));
+                    let old =
+                        reference_balanced(&domain, &candidates, objective, first, &start, 0.5 * h)
+                            .expect("a pool");
+                    // Reaches far too short (every run stopped, the bounds completed),
+                    // about the least bound, the one used, and one no run gets to.
+                    for far_reach in [0.3, 0.7, 0.95, FAR_REACH, 10.0] {
+                        let new = balanced_search(
+                            &domain,
+                            &candidates,
+                            objective,
+                            first,
+                            &start,
+                            0.5 * h,
+                            far_reach,
+                        )
+                        .expect("a pool");
+                        let what = format!("{name} h {h} {objective:?} reach {far_reach}");
+                        assert_eq!(new.candidate, old.candidate, "{what}");
+                        assert_eq!(new.value.to_bits(), old.value.to_bits(), "{what}");
+                        assert_eq!(
+                            new.lower_bound.to_bits(),
+                            old.lower_bound.to_bits(),
+                            "{what}"
+                        );
+                        assert_eq!((new.runs, new.proven), (old.runs, old.proven), "{what}");
+                    }
+                }
+            }
+        }
+    }
 }
