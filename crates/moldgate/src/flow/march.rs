@@ -111,14 +111,26 @@ impl Queue {
                 if first >= len {
                     break;
                 }
-                let mut child = first;
-                let mut least = self.heap[first];
-                for j in first + 1..(first + Self::ARITY).min(len) {
-                    if self.heap[j] < least {
-                        least = self.heap[j];
-                        child = j;
+                let (child, least) = match self.heap.get(first..first + Self::ARITY) {
+                    // All four children: the least without branches, and its place from
+                    // the cell's own (the keys are distinct, so it is the one child the
+                    // loop below finds).
+                    Some(&[a, b, c, d]) => {
+                        let least = a.min(b).min(c.min(d));
+                        (self.at[least as u32 as usize] as usize, least)
                     }
-                }
+                    _ => {
+                        let mut child = first;
+                        let mut least = self.heap[first];
+                        for j in first + 1..len {
+                            if self.heap[j] < least {
+                                least = self.heap[j];
+                                child = j;
+                            }
+                        }
+                        (child, least)
+                    }
+                };
                 if least >= last {
                     break;
                 }
