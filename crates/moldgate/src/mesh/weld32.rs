@@ -266,19 +266,28 @@ impl Welder32 {
         vertices.par_extend(whole.keys.par_iter().map(|&k| widen(k)));
         whole.keys = Vec::new();
         for ((run, found), number) in later.iter_mut().zip(&found).zip(&number) {
-            vertices.par_extend(
-                run.keys
-                    .par_iter()
-                    .zip(found)
-                    .filter(|(_, &f)| f == NEW)
-                    .map(|(&k, _)| widen(k)),
+            // A run's new vertices go straight into the room made for them, on this thread
+            // beside the renumbering of its triangles: a filtered parallel extend would
+            // collect them in blocks grown by copying (fresh pages, zeroed and faulted).
+            let (keys, triangles) = (&run.keys, &run.triangles);
+            rayon::join(
+                || {
+                    vertices.extend(
+                        keys.iter()
+                            .zip(found)
+                            .filter(|(_, &f)| f == NEW)
+                            .map(|(&k, _)| widen(k)),
+                    )
+                },
+                || {
+                    whole.triangles.par_extend(
+                        triangles
+                            .par_iter()
+                            .map(|tri| tri.map(|v| number[v as usize])),
+                    )
+                },
             );
             run.keys = Vec::new();
-            whole.triangles.par_extend(
-                run.triangles
-                    .par_iter()
-                    .map(|tri| tri.map(|v| number[v as usize])),
-            );
             run.triangles = Vec::new();
             whole.collapsed += run.collapsed;
         }

@@ -106,12 +106,14 @@ fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec
     let fixed = faces_fixed_side(mesh, frame.d, tilt);
     // Each edge between the sides is found from its triangle that faces the fixed side,
     // in blocks of triangles in parallel (the edges are sorted below). A plain loop a
-    // block: most triangles are passed over on their own flag.
+    // block: most triangles are passed over on their own flag. The blocks' lists are
+    // joined once, at their total size (a list grown edge by edge would be copied as it
+    // grows, into fresh pages).
     const BLOCK: usize = 16 * 1024;
     let check = topology.non_manifold_edges > 0;
     let mut edges: Vec<[u32; 2]> = (0..mesh.triangles.len().div_ceil(BLOCK))
         .into_par_iter()
-        .flat_map_iter(|b| {
+        .map(|b| {
             let mut found = Vec::new();
             for t in b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len()) {
                 if !fixed[t] {
@@ -135,7 +137,8 @@ fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec
             }
             found
         })
-        .collect();
+        .collect::<Vec<Vec<[u32; 2]>>>()
+        .concat();
     // Sorted on this thread: the edges between the sides are a few per cent of the mesh's
     // (25,768 of 528,519 on the 352k part), too few for the parallel sort to pay, and the
     // rays use the other thread meanwhile.

@@ -439,7 +439,8 @@ impl Band {
         // last the first, so the first of them always takes it. A few edges may still come
         // twice; the runs are deduplicated below.
         // Most triangles have no two corners in the band, and are passed over on the
-        // corners' flags alone, in blocks of triangles in parallel.
+        // corners' flags alone, in blocks of triangles in parallel, whose lists are joined
+        // once at their total size.
         const BLOCK: usize = 16 * 1024;
         let triangles = &mesh.triangles;
         let in_scope = match scope {
@@ -452,7 +453,7 @@ impl Band {
         };
         let mut edges: Vec<[u32; 2]> = (0..in_scope.div_ceil(BLOCK))
             .into_par_iter()
-            .flat_map_iter(|b| {
+            .map(|b| {
                 let mut found = Vec::new();
                 for i in b * BLOCK..((b + 1) * BLOCK).min(in_scope) {
                     let t = triangle(i);
@@ -476,7 +477,8 @@ impl Band {
                 }
                 found
             })
-            .collect();
+            .collect::<Vec<Vec<[u32; 2]>>>()
+            .concat();
         // The band's vertices are the ends of its edges, in the mesh's order, numbered by
         // rank in a bit set of the mesh's vertices (a count per word of 64 and the bits
         // below in the word: no search per edge end, and no number per mesh vertex).
