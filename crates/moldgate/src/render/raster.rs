@@ -496,8 +496,11 @@ impl Setup {
         // A sliver of overlap rather than a crack where two triangles meet: samples on a
         // shared edge would otherwise be missed by both when rounding goes against them
         // (the depth test settles the overlap). One test, not three branches.
+        // (Both weights at least `-EDGE_SLACK` as their lesser is: the same test, one
+        // comparison fewer; a NaN weight fails it either way, through the sum.)
         let inside = |wa: f32, wb: f32| {
-            (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
+            let least = if wa < wb { wa } else { wb };
+            (least >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
         };
         let n = end - first;
         for y in rows {
