@@ -496,8 +496,11 @@ impl Setup {
         // A sliver of overlap rather than a crack where two triangles meet: samples on a
         // shared edge would otherwise be missed by both when rounding goes against them
         // (the depth test settles the overlap). One test, not three branches.
+        // (Both weights at least `-EDGE_SLACK` as their lesser is: the same test, one
+        // comparison fewer; a NaN weight fails it either way, through the sum.)
         let inside = |wa: f32, wb: f32| {
-            (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
+            let least = if wa < wb { wa } else { wb };
+            (least >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
         };
         let n = end - first;
         for y in rows {
@@ -508,14 +511,17 @@ impl Setup {
             let row = (y - first_row) * w;
             if n <= MASKED_ROW {
                 // The weights are stepped from the row's first column, so every sample
-                // sees the sums the sample-by-sample stepping gives it.
+                // sees the sums the sample-by-sample stepping gives it. Each sample's bit
+                // enters at the top and moves down a place a sample (a shift by a
+                // constant, not by the sample's place): sample k's is bit k at the end.
                 let mut bits = 0u64;
-                for (k, step) in steps[..n].iter_mut().enumerate() {
+                for step in &mut steps[..n] {
                     *step = [wa, wb];
-                    bits |= u64::from(inside(wa, wb)) << k;
+                    bits = bits >> 1 | u64::from(inside(wa, wb)) << 63;
                     wa += dwa;
                     wb += dwb;
                 }
+                let bits = bits >> (MASKED_ROW - n);
                 if bits == 0 {
                     continue;
                 }
