@@ -753,9 +753,10 @@ impl Sampling {
 }
 
 /// Entries of a query's stack kept in place: a descent pushes at most three a level, and the
-/// tree of a real part is 10 to 15 levels deep. A deeper one (a degenerate mesh) spills into
-/// a vector.
-const STACK: usize = 64;
+/// four-wide tree of a real part is 8 to 10 levels deep. A deeper one (a degenerate mesh)
+/// spills into a vector. Every query clears its stack first (the wall thickness makes about
+/// eight a facet), so it is no longer than that needs.
+const STACK: usize = 32;
 
 /// The subtrees a query has still to search, each with its key (the ray's entry distance,
 /// or the squared distance to its box), last in first out.
