@@ -754,8 +754,8 @@ impl Sampling {
 
 /// Entries of a query's stack kept in place: a descent pushes at most three a level, and the
 /// four-wide tree of a real part is 8 to 10 levels deep. A deeper one (a degenerate mesh)
-/// spills into a vector. Every query clears its stack first (the wall thickness makes about
-/// eight a facet), so it is no longer than that needs.
+/// spills into a vector. Each query zeroes these entries first, and the wall thickness makes
+/// about eight queries a facet: they are no more than a descent needs.
 const STACK: usize = 32;
 
 /// The subtrees a query has still to search, each with its key (the ray's entry distance,
@@ -2130,6 +2130,29 @@ mod tests {
             }
             assert!(found > 100, "{name}: only {found} found, test too weak");
         }
+    }
+
+    #[test]
+    fn stack_spills_and_refills_in_order() {
+        // Pushes and pops far past the in-place entries, against a vector: last in, first
+        // out, across every spill and refill.
+        let (mut stack, mut model) = (Stack::new(), Vec::new());
+        let mut rng = Rng(7);
+        let mut deepest = 0;
+        for i in 0..20_000u32 {
+            if rng.next() < 0.6 {
+                stack.push((i, i as f32));
+                model.push((i, i as f32));
+            } else {
+                assert_eq!(stack.pop(), model.pop());
+            }
+            deepest = deepest.max(model.len());
+        }
+        while let Some(item) = model.pop() {
+            assert_eq!(stack.pop(), Some(item));
+        }
+        assert_eq!(stack.pop(), None);
+        assert!(deepest > 4 * STACK, "only {deepest} deep, test too weak");
     }
 
     #[test]
