@@ -583,8 +583,11 @@ fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, best2: &mut f32, best: &m
     }
     let (h, nn) = (h.to_array(), nn.to_array());
     let (d2, scalar) = closest_distance2(tri, q4);
+    // The best only shrinks, so a lane no nearer than it now is never taken below: only the
+    // nearer lanes, and those left to the scalar function, go through the loop.
+    let nearer = d2.cmplt(Vec4::splat(*best2)).bitmask() | scalar;
     let d2 = d2.to_array();
-    for k in lanes(maybe) {
+    for k in lanes(maybe & nearer) {
         let id = tri.id[k];
         if id == NO_TRIANGLE || (nn[k] > 0.0 && h[k] * h[k] >= *best2 * nn[k]) {
             continue;
