@@ -583,8 +583,11 @@ fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, best2: &mut f32, best: &m
     }
     let (h, nn) = (h.to_array(), nn.to_array());
     let (d2, scalar) = closest_distance2(tri, q4);
+    // The best only shrinks, so a lane no nearer than it now is never taken below: only the
+    // nearer lanes, and those left to the scalar function, go through the loop.
+    let nearer = d2.cmplt(Vec4::splat(*best2)).bitmask() | scalar;
     let d2 = d2.to_array();
-    for k in lanes(maybe) {
+    for k in lanes(maybe & nearer) {
         let id = tri.id[k];
         if id == NO_TRIANGLE || (nn[k] > 0.0 && h[k] * h[k] >= *best2 * nn[k]) {
             continue;
@@ -753,9 +756,10 @@ impl Sampling {
 }
 
 /// Entries of a query's stack kept in place: a descent pushes at most three a level, and the
-/// tree of a real part is 10 to 15 levels deep. A deeper one (a degenerate mesh) spills into
-/// a vector.
-const STACK: usize = 64;
+/// four-wide tree of a real part is 8 to 10 levels deep. A deeper one (a degenerate mesh)
+/// spills into a vector. Each query zeroes these entries first, and the wall thickness makes
+/// about eight queries a facet: they are no more than a descent needs.
+const STACK: usize = 32;
 
 /// The subtrees a query has still to search, each with its key (the ray's entry distance,
 /// or the squared distance to its box), last in first out.
@@ -2129,6 +2133,29 @@ mod tests {
             }
             assert!(found > 100, "{name}: only {found} found, test too weak");
         }
+    }
+
+    #[test]
+    fn stack_spills_and_refills_in_order() {
+        // Pushes and pops far past the in-place entries, against a vector: last in, first
+        // out, across every spill and refill.
+        let (mut stack, mut model) = (Stack::new(), Vec::new());
+        let mut rng = Rng(7);
+        let mut deepest = 0;
+        for i in 0..20_000u32 {
+            if rng.next() < 0.6 {
+                stack.push((i, i as f32));
+                model.push((i, i as f32));
+            } else {
+                assert_eq!(stack.pop(), model.pop());
+            }
+            deepest = deepest.max(model.len());
+        }
+        while let Some(item) = model.pop() {
+            assert_eq!(stack.pop(), Some(item));
+        }
+        assert_eq!(stack.pop(), None);
+        assert!(deepest > 4 * STACK, "only {deepest} deep, test too weak");
     }
 
     #[test]

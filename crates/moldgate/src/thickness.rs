@@ -156,13 +156,47 @@ pub fn wall_thickness(mesh: &Mesh, options: &ThicknessOptions) -> WallThickness 
 
 /// [`wall_thickness`] with a tree already built over `mesh`.
 pub fn wall_thickness_with(mesh: &Mesh, bvh: &Bvh, options: &ThicknessOptions) -> WallThickness {
-    let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-    summarise(mesh, wall_thickness_of(mesh, bvh, options, &all))
+    // Every triangle: the tree's leaf order is already the order to cast in.
+    let per_triangle = if bvh.len() == mesh.triangles.len() {
+        thickness_in_order(mesh, bvh, options, bvh.leaf_order())
+    } else {
+        let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+        wall_thickness_of(mesh, bvh, options, &all)
+    };
+    summarise(mesh, per_triangle)
 }
 
 /// The thickness of the listed triangles only (NaN for the others), in the mesh's order:
 /// for analyses that sample the surface, such as one triangle per flow cell.
 pub fn wall_thickness_of(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    options: &ThicknessOptions,
+    triangles: &[u32],
+) -> Vec<f32> {
+    // Cast in the tree's leaf order: neighbouring facets send their rays through the same
+    // boxes, which stay in the cache.
+    if bvh.len() != mesh.triangles.len() {
+        return thickness_in_order(mesh, bvh, options, triangles);
+    }
+    let mut wanted = vec![false; mesh.triangles.len()];
+    for &t in triangles {
+        if let Some(w) = wanted.get_mut(t as usize) {
+            *w = true;
+        }
+    }
+    let order: Vec<u32> = bvh
+        .leaf_order()
+        .iter()
+        .copied()
+        .filter(|&t| wanted[t as usize])
+        .collect();
+    thickness_in_order(mesh, bvh, options, &order)
+}
+
+/// The thickness of the listed triangles (NaN for the others), in the mesh's order, cast in
+/// the order listed.
+fn thickness_in_order(
     mesh: &Mesh,
     bvh: &Bvh,
     options: &ThicknessOptions,
@@ -179,25 +213,6 @@ pub fn wall_thickness_of(
         band_slack: 1e-4 * diagonal,
     };
     let min_area = 1e-12 * diagonal * diagonal;
-    // Cast in the tree's leaf order: neighbouring facets send their rays through the same
-    // boxes, which stay in the cache.
-    let order: Vec<u32> = if bvh.len() == mesh.triangles.len() {
-        let mut wanted = vec![false; mesh.triangles.len()];
-        for &t in triangles {
-            if let Some(w) = wanted.get_mut(t as usize) {
-                *w = true;
-            }
-        }
-        let order = bvh.leaf_order();
-        order
-            .iter()
-            .copied()
-            .filter(|&t| wanted[t as usize])
-            .collect()
-    } else {
-        triangles.to_vec()
-    };
-    let triangles = &order[..];
     let values: Vec<f32> = triangles
         .par_iter()
         .with_min_len(256)
