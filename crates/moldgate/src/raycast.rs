@@ -510,7 +510,9 @@ impl Bvh {
     }
 
     /// The triangle nearest to `p` among those nearer than `radius`, with its distance; `None`
-    /// when no triangle comes within `radius`.
+    /// when no triangle comes within `radius`. Of triangles at the same distance (a corner or
+    /// an edge they share is nearest) the one of least index is named, whatever the tree's
+    /// shape: trees built differently over one mesh name the same triangle.
     pub fn nearest_within(&self, p: DVec3, radius: f64) -> Option<Hit> {
         self.nearest_within_in(p, radius, &Region::WHOLE)
     }
@@ -524,8 +526,7 @@ impl Bvh {
         let q = (p - self.origin).as_vec3();
         let q4 = Point4::splat(q);
         let r = radius.min(f32::MAX as f64) as f32;
-        let mut best2 = r * r;
-        let mut best: Option<u32> = None;
+        let mut near = Nearest::new(q, r);
         // Subtrees still to search, with the squared distance to their box.
         let mut stack = Stack::new();
         if region.len == 0 {
@@ -533,13 +534,13 @@ impl Bvh {
         }
         for group in region.groups().iter().rev() {
             let d2 = box_distance2(group, &q4);
-            let inside = d2.cmplt(Vec4::splat(best2)).bitmask();
+            let inside = d2.cmplt(Vec4::splat(near.cut2)).bitmask();
             if let Some(first) = descend(inside, d2, &group.child, &mut stack) {
                 stack.push((first, 0.0));
             }
         }
         'pop: while let Some((mut r, d2)) = stack.pop() {
-            if d2 >= best2 {
+            if d2 >= near.cut2 {
                 continue;
             }
             loop {
@@ -548,48 +549,102 @@ impl Bvh {
                         continue 'pop;
                     }
                     for packet in &self.packets[leaf_packets(r)] {
-                        nearest_in_packet(packet, q, &q4, &mut best2, &mut best);
+                        nearest_in_packet(packet, q, &q4, &mut near);
                     }
                     continue 'pop;
                 }
                 let node = &self.nodes[r as usize];
                 let d2 = box_distance2(node, &q4);
-                let inside = d2.cmplt(Vec4::splat(best2)).bitmask();
+                let inside = d2.cmplt(Vec4::splat(near.cut2)).bitmask();
                 match descend(inside, d2, &node.child, &mut stack) {
                     Some(next) => r = next,
                     None => continue 'pop,
                 }
             }
         }
-        best.map(|triangle| Hit {
+        let best2 = near.best2;
+        near.best.map(|triangle| Hit {
             triangle,
             distance: (best2 as f64).sqrt(),
         })
     }
 }
 
+/// The best triangle of a nearest-point search so far: the least squared distance, and of
+/// equal ones the least index, so that the answer does not hang on the order the tree is
+/// searched in.
+struct Nearest {
+    /// Squared distance of the best triangle, or the squared radius while there is none.
+    best2: f32,
+    best: Option<u32>,
+    /// Boxes and planes at least this far (squared) hold no triangle that can be the best:
+    /// the best distance plus [`Nearest::slack`]. The bounds and the triangles' distances are
+    /// rounded apart in `f32`, so a triangle at the best's distance may sit in a box whose
+    /// rounded distance is a few units in the last place farther; without the slack the tree
+    /// searched first would decide the tie.
+    cut2: f32,
+    /// Some sixteen units in the last place of the coordinates the search reads, mm.
+    slack: f32,
+}
+
+impl Nearest {
+    fn new(q: Vec3, radius: f32) -> Nearest {
+        let slack = 16.0 * f32::EPSILON * (q.abs().max_element() + radius);
+        let mut near = Nearest {
+            best2: radius * radius,
+            best: None,
+            cut2: 0.0,
+            slack,
+        };
+        near.cut2 = near.cut_of(near.best2);
+        near
+    }
+
+    fn cut_of(&self, best2: f32) -> f32 {
+        let reach = best2.sqrt() + self.slack;
+        reach * reach
+    }
+
+    /// Takes triangle `id` at squared distance `d2` if it is nearer than the best, or as near
+    /// with a lesser index.
+    #[inline(always)]
+    fn offer(&mut self, id: u32, d2: f32) {
+        let better = match self.best {
+            None => d2 < self.best2,
+            Some(best) => d2 < self.best2 || (d2 == self.best2 && id < best),
+        };
+        if better {
+            if d2 != self.best2 {
+                self.cut2 = self.cut_of(d2);
+            }
+            self.best2 = d2;
+            self.best = Some(id);
+        }
+    }
+}
+
 /// The nearest-point search's step over one packet for the point `q`: each triangle nearer
-/// than `sqrt(best2)` becomes the best.
+/// than the best (or as near, of lesser index) becomes the best.
 #[inline(always)]
-fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, best2: &mut f32, best: &mut Option<u32>) {
-    // A triangle whose plane is no nearer than the best so far cannot be nearer itself: most
-    // are ruled out so, without the full search (lanes set in `maybe`; the test is made again
-    // with the best as it shrinks, in the scalar arithmetic).
+fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, near: &mut Nearest) {
+    // A triangle whose plane is no nearer than the best so far (and the slack) cannot be
+    // nearer itself: most are ruled out so, without the full search (lanes set in `maybe`;
+    // the test is made again with the best as it shrinks, in the scalar arithmetic).
     let (h, nn) = plane_distance(tri, q4);
-    let far = nn.cmpgt(Vec4::ZERO) & (h * h).cmpge(nn * *best2);
+    let far = nn.cmpgt(Vec4::ZERO) & (h * h).cmpge(nn * near.cut2);
     let maybe = (!far).bitmask();
     if maybe == 0 {
         return;
     }
     let (h, nn) = (h.to_array(), nn.to_array());
     let (d2, scalar) = closest_distance2(tri, q4);
-    // The best only shrinks, so a lane no nearer than it now is never taken below: only the
-    // nearer lanes, and those left to the scalar function, go through the loop.
-    let nearer = d2.cmplt(Vec4::splat(*best2)).bitmask() | scalar;
+    // The best only shrinks, so a lane farther than it now is never taken below: only the
+    // lanes as near or nearer, and those left to the scalar function, go through the loop.
+    let nearer = d2.cmple(Vec4::splat(near.best2)).bitmask() | scalar;
     let d2 = d2.to_array();
     for k in lanes(maybe & nearer) {
         let id = tri.id[k];
-        if id == NO_TRIANGLE || (nn[k] > 0.0 && h[k] * h[k] >= *best2 * nn[k]) {
+        if id == NO_TRIANGLE || (nn[k] > 0.0 && h[k] * h[k] >= near.cut2 * nn[k]) {
             continue;
         }
         let d2 = if scalar & (1 << k) == 0 {
@@ -598,10 +653,7 @@ fn nearest_in_packet(tri: &Tri4, q: Vec3, q4: &Point4, best2: &mut f32, best: &m
             let [a, ab, ac] = [tri.a, tri.ab, tri.ac].map(|v| Vec3::new(v[0][k], v[1][k], v[2][k]));
             closest_on_triangle(a, ab, ac, q).distance_squared(q)
         };
-        if d2 < *best2 {
-            *best2 = d2;
-            *best = Some(id);
-        }
+        near.offer(id, d2);
     }
 }
 
@@ -1822,6 +1874,20 @@ mod tests {
                 .map(f64::from)
         }
 
+        /// The nearest triangle by brute force, of equal distances the least index: what
+        /// [`Bvh::nearest_within`] names, whatever the tree.
+        fn nearest_named(&self, p: DVec3, radius: f64) -> Option<(u32, f64)> {
+            let q = (p - self.origin).as_vec3();
+            let r = radius as f32;
+            self.tris
+                .iter()
+                .filter(|t| t.3 != NO_TRIANGLE)
+                .map(|&(a, ab, ac, id)| (closest_on_triangle(a, ab, ac, q).distance_squared(q), id))
+                .filter(|&(d2, _)| d2 < r * r)
+                .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))
+                .map(|(d2, id)| (id, (d2 as f64).sqrt()))
+        }
+
         fn nearest_within(&self, p: DVec3, radius: f64) -> Option<f64> {
             let q = (p - self.origin).as_vec3();
             let r = radius as f32;
@@ -2099,6 +2165,63 @@ mod tests {
         let h = bvh.nearest_within(p, 10.0).unwrap();
         assert!((h.distance - 5.0).abs() < 1e-5, "{h:?}");
         assert!(bvh.nearest_within(p, 4.9).is_none());
+    }
+
+    #[test]
+    fn nearest_names_the_least_index_of_equally_near_triangles() {
+        // Points at corners and edge middles of the mesh and just off them, where several
+        // triangles are equally near: the tree names the brute force's triangle (the least
+        // index among the nearest), from the root and from a region, as a tree of another
+        // shape would.
+        let (mut ties, mut named) = (0, 0);
+        for name in ["cover", "cap", "bracket", "tray"] {
+            let mesh = samples::sample(name).unwrap();
+            let bvh = Bvh::new(&mesh);
+            let old = BinaryTree::new(&mesh);
+            let mut rng = Rng(0x9e37_79b9);
+            for t in (0..mesh.triangles.len()).step_by(1 + mesh.triangles.len() / 300) {
+                let [a, b, c] = mesh.corners(t);
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                for p in [
+                    a,
+                    (a + b) * 0.5,
+                    b + n * 0.3,
+                    (b + c) * 0.5 - n * 0.7,
+                    c - n * 2.0,
+                ] {
+                    let radius = 0.5 + 5.0 * rng.next();
+                    let want = old.nearest_named(p, radius);
+                    let got = bvh
+                        .nearest_within(p, radius)
+                        .map(|h| (h.triangle, h.distance));
+                    assert_eq!(got, want, "{name}: at {p}, {radius}");
+                    let region = bvh.region(p, radius * 1.001 + 1e-3);
+                    let inside = bvh.nearest_within_in(p, radius, &region);
+                    assert_eq!(
+                        inside.map(|h| (h.triangle, h.distance)),
+                        want,
+                        "{name}: {p}"
+                    );
+                    if let Some((id, d)) = want {
+                        named += 1;
+                        let q = (p - old.origin).as_vec3();
+                        let as_near = old
+                            .tris
+                            .iter()
+                            .filter(|t| t.3 != NO_TRIANGLE && t.3 != id)
+                            .any(|&(a, ab, ac, _)| {
+                                let d2 = closest_on_triangle(a, ab, ac, q).distance_squared(q);
+                                (d2 as f64).sqrt() == d
+                            });
+                        ties += usize::from(as_near);
+                    }
+                }
+            }
+        }
+        assert!(
+            named > 1000 && ties > 200,
+            "{named} named, {ties} ties: test too weak"
+        );
     }
 
     #[test]
