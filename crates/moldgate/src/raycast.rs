@@ -1098,7 +1098,7 @@ fn build_morton(items: &mut [Item]) -> Vec<Node> {
             code << 32 | it.id as u64
         })
         .collect();
-    keys.par_sort_unstable();
+    sort_by_code(&mut keys);
     let sorted: Vec<Item> = keys.par_iter().map(|&k| items[k as u32 as usize]).collect();
     items.copy_from_slice(&sorted);
     drop(sorted);
@@ -1107,6 +1107,33 @@ fn build_morton(items: &mut [Item]) -> Vec<Node> {
     let mut nodes = Vec::with_capacity(items.len() * 3 / 4 + 16);
     morton_into(items, &codes, 0, &mut nodes);
     nodes
+}
+
+/// Sorts keys `code << 32 | index` given in the order of their indices, with codes of
+/// `3 * MORTON_BITS` bits: three stable counting passes of `MORTON_BITS` bits over the
+/// codes, so that equal codes keep their indices' order (the order of sorting the whole
+/// keys, for a few passes over them instead of a comparison sort).
+fn sort_by_code(keys: &mut Vec<u64>) {
+    const BUCKETS: usize = 1 << MORTON_BITS;
+    let mut other = vec![0u64; keys.len()];
+    for pass in 0..3 {
+        let shift = 32 + MORTON_BITS * pass;
+        let bucket = |k: u64| (k >> shift) as usize & (BUCKETS - 1);
+        let mut start = [0usize; BUCKETS];
+        for &k in keys.iter() {
+            start[bucket(k)] += 1;
+        }
+        let mut sum = 0;
+        for s in start.iter_mut() {
+            (*s, sum) = (sum, sum + *s);
+        }
+        for &k in keys.iter() {
+            let b = bucket(k);
+            other[start[b]] = k;
+            start[b] += 1;
+        }
+        std::mem::swap(keys, &mut other);
+    }
 }
 
 /// Builds the node of `items` (whose codes are `codes`) and its subtree into `nodes`;
@@ -1872,6 +1899,22 @@ mod tests {
                 assert_eq!(bvh.any_hit(&ray), got.is_some());
             }
             assert!(hits > 500, "{name}: only {hits} hits, test too weak");
+        }
+    }
+
+    #[test]
+    fn counting_sort_of_morton_keys_is_the_sort_of_the_keys() {
+        let mut rng = Rng(0x1234_5678_9abc_def1);
+        for n in [0usize, 1, 5, 1000, 20_000] {
+            // Few distinct codes in the small cases (many ties), all of them in the last.
+            let spread = if n < 1000 { 7.0 } else { (1u64 << 30) as f64 };
+            let mut keys: Vec<u64> = (0..n as u64)
+                .map(|i| ((rng.next() * spread) as u64) << 32 | i)
+                .collect();
+            let mut want = keys.clone();
+            want.sort_unstable();
+            sort_by_code(&mut keys);
+            assert_eq!(keys, want, "{n} keys");
         }
     }
 
