@@ -8,7 +8,9 @@ use moldgate::raycast::Bvh;
 use moldgate::thickness::{wall_thickness_of, CrossCheck, ThicknessOptions};
 
 fn main() {
-    let path = std::env::args().nth(1).expect("usage: morton_walls PART.stl");
+    let path = std::env::args()
+        .nth(1)
+        .expect("usage: morton_walls PART.stl");
     let bytes = std::fs::read(&path).expect("read the part");
     let part = mesh::read_stl(&bytes[..], bytes.len() as u64, Units::Mm).expect("a valid STL");
     let mesh = &part.mesh;
@@ -34,7 +36,10 @@ fn main() {
             let chord = a[t].max(b[t]) as f64;
             let tie = [0.25, 0.5, 0.75].iter().any(|&at| {
                 let m = c - n * (at * chord);
-                let (x, y) = (sah.nearest_within(m, chord), morton.nearest_within(m, chord));
+                let (x, y) = (
+                    sah.nearest_within(m, chord),
+                    morton.nearest_within(m, chord),
+                );
                 x.map(|h| h.distance) == y.map(|h| h.distance)
                     && x.map(|h| h.triangle) != y.map(|h| h.triangle)
             });
@@ -43,6 +48,8 @@ fn main() {
                 println!("  facet {t}: {} vs {}", a[t], b[t]);
             }
         }
-        println!("  of which a point of the chord has two nearest triangles at one distance: {ties}");
+        println!(
+            "  of which a point of the chord has two nearest triangles at one distance: {ties}"
+        );
     }
 }

@@ -1091,7 +1091,9 @@ fn build_morton(items: &mut [Item]) -> Vec<Node> {
             let code = if it.min.x <= it.max.x {
                 let q = ((Vec3A::from(it.centre) - centres.min) * scale)
                     .clamp(Vec3A::ZERO, Vec3A::splat(top));
-                spread_bits(q.x as u32) | spread_bits(q.y as u32) << 1 | spread_bits(q.z as u32) << 2
+                spread_bits(q.x as u32)
+                    | spread_bits(q.y as u32) << 1
+                    | spread_bits(q.z as u32) << 2
             } else {
                 0
             };
@@ -1937,7 +1939,10 @@ mod tests {
             let (mut hits, mut near) = (0, 0);
             for i in 0..3000 {
                 let (o, skip) = if i % 2 == 0 {
-                    (b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next()), None)
+                    (
+                        b.min + (b.max - b.min) * DVec3::new(rng.next(), rng.next(), rng.next()),
+                        None,
+                    )
                 } else {
                     let t = (rng.next() * mesh.triangles.len() as f64) as usize;
                     let [a, b, c] = mesh.corners(t.min(mesh.triangles.len() - 1));
@@ -1946,7 +1951,11 @@ mod tests {
                 let mut ray = Ray::new(o, rng.unit()).within(1e-6 * diagonal, f64::INFINITY);
                 ray.skip = skip;
                 let (want, got) = (sah.first_hit(&ray), morton.first_hit(&ray));
-                assert_eq!(want.map(|h| h.distance), got.map(|h| h.distance), "{name} {ray:?}");
+                assert_eq!(
+                    want.map(|h| h.distance),
+                    got.map(|h| h.distance),
+                    "{name} {ray:?}"
+                );
                 hits += want.is_some() as usize;
                 assert_eq!(sah.any_hit(&ray), morton.any_hit(&ray));
                 let radius = rng.next() * 0.2 * diagonal;
@@ -1960,7 +1969,11 @@ mod tests {
                     sah.nearest_within_in(o, 0.5 * radius, &region.0),
                     morton.nearest_within_in(o, 0.5 * radius, &region.1),
                 );
-                assert_eq!(want.map(|h| h.distance), got.map(|h| h.distance), "{name} {o}");
+                assert_eq!(
+                    want.map(|h| h.distance),
+                    got.map(|h| h.distance),
+                    "{name} {o}"
+                );
                 near += want.is_some() as usize;
                 let (mut a, mut b) = (Vec::new(), Vec::new());
                 sah.for_each_hit(&ray, |h| {
@@ -1975,7 +1988,10 @@ mod tests {
                 b.sort_by(|x, y| x.0.cmp(&y.0));
                 assert_eq!(a, b);
             }
-            assert!(hits > 1000 && near > 300, "{name}: {hits} hits, {near} near: too weak");
+            assert!(
+                hits > 1000 && near > 300,
+                "{name}: {hits} hits, {near} near: too weak"
+            );
         }
     }
 

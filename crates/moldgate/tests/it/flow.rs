@@ -854,7 +854,11 @@ fn walls_through_the_morton_tree_give_the_fill_of_the_surface_area_tree() {
         };
         let sah = fill(&moldgate::raycast::Bvh::new(&mesh));
         let morton = fill(&moldgate::raycast::Bvh::new_morton(&mesh));
-        assert!(sah["wall"]["nominal_mm"].is_number(), "{}: no walls measured", info.name);
+        assert!(
+            sah["wall"]["nominal_mm"].is_number(),
+            "{}: no walls measured",
+            info.name
+        );
         assert_eq!(sah, morton, "{}", info.name);
     }
 }
