@@ -1984,8 +1984,8 @@ mod tests {
                     b.push((h.triangle, h.distance));
                     true
                 });
-                a.sort_by(|x, y| x.0.cmp(&y.0));
-                b.sort_by(|x, y| x.0.cmp(&y.0));
+                a.sort_by_key(|x| x.0);
+                b.sort_by_key(|x| x.0);
                 assert_eq!(a, b);
             }
             assert!(
