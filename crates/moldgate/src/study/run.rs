@@ -76,8 +76,10 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     let auto_demold = s.demold == Demold::Auto;
     let wants_tree = s.wall_thickness || s.fill.is_some();
     // The fill alone casts one ray per surface cell (a few per cent of the facets): a tree
-    // a tenth as dear to build, whose queries cost more, gives it the same walls
-    // (`Bvh::new_morton`). The wall of every facet takes the tree of the fastest queries.
+    // a fifth as dear to build, whose queries cost a fifth more, gives it the same rays
+    // (`Bvh::new_morton`; the cross-width check's nearest surface may name another
+    // triangle at one `f32` distance, docs/performance.md). The wall of every facet takes
+    // the tree of the fastest queries.
     let morton = !s.wall_thickness;
     let build_tree = || {
         let t = Instant::now();
