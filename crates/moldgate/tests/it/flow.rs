@@ -826,3 +826,39 @@ fn last_to_fill_lists_only_places_reached_in_the_last_part_of_the_fill() {
     }
     assert_eq!(fill.last_to_fill[0].fill_time_s, fill.fill_time_s);
 }
+
+#[test]
+fn walls_through_the_morton_tree_give_the_fill_of_the_surface_area_tree() {
+    // The study measures the fill's walls through `Bvh::new_morton` when nothing else needs
+    // a tree: on every sample part the fill is the one of the usual tree, walls and all.
+    for info in moldgate::samples::SAMPLES {
+        let mesh = moldgate::samples::sample(info.name).unwrap();
+        let part = moldgate::mesh::from_generated(mesh.clone());
+        let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+        let fill = |bvh: &moldgate::raycast::Bvh| {
+            let f = flow::analyse(
+                &mesh,
+                &analysis,
+                &pp(),
+                flow::Walls::Measure(bvh),
+                &flow::FillOptions {
+                    gates: 2,
+                    ..flow::FillOptions::default()
+                },
+            )
+            .unwrap();
+            let mut json = serde_json::to_value(&f).unwrap();
+            json.as_object_mut().unwrap().remove("times");
+            json["wall"].as_object_mut().unwrap().remove("time_s");
+            json
+        };
+        let sah = fill(&moldgate::raycast::Bvh::new(&mesh));
+        let morton = fill(&moldgate::raycast::Bvh::new_morton(&mesh));
+        assert!(
+            sah["wall"]["nominal_mm"].is_number(),
+            "{}: no walls measured",
+            info.name
+        );
+        assert_eq!(sah, morton, "{}", info.name);
+    }
+}
