@@ -430,8 +430,16 @@ pub fn render(r: &Report) -> String {
     }
     if let (Some(x), Some(f)) = (t.fill_s, &r.fill) {
         let ft = &f.times;
+        // Cells made beside the gate search are in the tree's join, not in the fill's time.
+        let beside = match ft.cells_beside_s > 0.0 {
+            true => format!(
+                " ({:.1} of them beside the gate search)",
+                ms(ft.cells_beside_s)
+            ),
+            false => String::new(),
+        };
         stages.push(format!(
-            "fill {:.1}: wall samples {:.1}, cells {:.1}, paper gate {:.1}, balanced search {:.1}, several gates {:.1}",
+            "fill {:.1}: wall samples {:.1}, cells {:.1}{beside}, paper gate {:.1}, balanced search {:.1}, several gates {:.1}",
             ms(x),
             ms(ft.wall_s),
             ms(ft.voxels_s),

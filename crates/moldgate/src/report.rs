@@ -510,6 +510,8 @@ impl Report {
             + t.several_s
             + t.placed_s
             + t.suitability_s.unwrap_or(0.0);
+        // The cells made beside the gate search are in the time of that join already.
+        let fill_s = fill_s - t.cells_beside_s;
         self.timings.fill_s = Some(fill_s);
         self.timings.total_s += fill_s;
         self.warnings.extend(fill.warnings.iter().cloned());

@@ -1527,6 +1527,9 @@ pub struct FlowTimes {
     /// Building the ray-casting tree the wall is measured with (set by the caller, which
     /// may share the tree with other analyses; 0 when not measured).
     pub tree_s: f64,
+    /// Of `voxels_s`, the time the bodies and cells took beside the search for the gate
+    /// (when the caller made them there: [`prepare`]); 0 when made in the fill's own stage.
+    pub cells_beside_s: f64,
     /// Fields from the paper gate.
     pub paper_s: f64,
     /// Balanced-gate search and its fields.
@@ -1831,6 +1834,64 @@ pub struct WallSummary {
     pub time_s: f64,
 }
 
+/// The part's bodies and cells, which the fill analysis makes before it needs the gate: they
+/// depend on the mesh, its centres (the part's, summed at load) and the limits alone, so a
+/// caller can make them beside the search for the gate ([`prepare`], [`analyse_prepared`]).
+#[derive(Debug)]
+pub struct Cells {
+    bodies: Bodies,
+    /// The wall estimated from the centres (2 V / A), mm.
+    estimate: f64,
+    /// The limit that coarsened the cells, if one did.
+    coarsened: Option<FillError>,
+    voxels: Voxels,
+    /// Seconds spent making them.
+    seconds: f64,
+}
+
+impl Cells {
+    /// Seconds spent making them.
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+}
+
+/// The bodies and cells of `mesh` for the fill analysis (the first part of [`analyse`]);
+/// `centres` are the part's (those of its [`crate::gate::Analysis`]). Every limit of
+/// [`FlowOptions`] on the cells is checked before the work it bounds.
+pub fn prepare(
+    mesh: &Mesh,
+    centres: &crate::centre::Centres,
+    options: &FillOptions,
+) -> Result<Cells, FillError> {
+    let t = Instant::now();
+    let bodies = Bodies::of(mesh);
+    let c = centres;
+    let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
+        2.0 * c.volume_mm3 / c.area_mm2
+    } else {
+        mesh.bounds().diagonal() / 100.0
+    };
+    let (h, coarsened) = choose_cell(mesh, &bodies.of_triangle, estimate, &options.flow)?;
+    // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
+    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
+    if voxels.len() as f64 > options.flow.max_solid_cells {
+        return Err(FillError::too_large(
+            "solid cells",
+            voxels.len() as f64,
+            options.flow.max_solid_cells,
+            h,
+        ));
+    }
+    Ok(Cells {
+        bodies,
+        estimate,
+        coarsened,
+        voxels,
+        seconds: seconds(t),
+    })
+}
+
 /// Runs the fill analysis of a located part: fields from the paper gate, the balanced gate
 /// (always computed, so the report can compare), several gates when asked for, and a gate
 /// per body when the part has several. Every limit of [`FlowOptions`] is checked before the
@@ -1841,6 +1902,23 @@ pub fn analyse(
     material: &Material,
     walls: Walls,
     options: &FillOptions,
+) -> Result<FillAnalysis, FillError> {
+    analyse_prepared(mesh, analysis, material, walls, options, || {
+        prepare(mesh, &analysis.centres, options)
+    })
+}
+
+/// [`analyse`] with the bodies and cells of [`prepare`] (the same mesh, the analysis's
+/// centres and the same options), made beforehand or by `cells` when asked: the same
+/// answer, and the same errors in the same order (the gate and the count of gates are
+/// checked before the cells' error is given).
+pub fn analyse_prepared(
+    mesh: &Mesh,
+    analysis: &crate::gate::Analysis,
+    material: &Material,
+    walls: Walls,
+    options: &FillOptions,
+    cells: impl FnOnce() -> Result<Cells, FillError>,
 ) -> Result<FillAnalysis, FillError> {
     let gate = analysis
         .gate()
@@ -1854,28 +1932,18 @@ pub fn analyse(
     }
     let mut warnings = Vec::new();
     let mut times = FlowTimes::default();
+    let Cells {
+        bodies,
+        estimate,
+        coarsened,
+        voxels,
+        seconds: cells_s,
+    } = cells()?;
     let t = Instant::now();
-    let bodies = Bodies::of(mesh);
-    let c = &analysis.centres;
-    let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
-        2.0 * c.volume_mm3 / c.area_mm2
-    } else {
-        mesh.bounds().diagonal() / 100.0
-    };
-    let (h, coarsened) = choose_cell(mesh, &bodies.of_triangle, estimate, &options.flow)?;
+    let h = voxels.h;
     if let Some(why) = coarsened {
         warnings.push(format!(
             "flow cells coarsened to {h:.4} mm to keep a limit ({why})"
-        ));
-    }
-    // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
-    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
-    if voxels.len() as f64 > options.flow.max_solid_cells {
-        return Err(FillError::too_large(
-            "solid cells",
-            voxels.len() as f64,
-            options.flow.max_solid_cells,
-            h,
         ));
     }
     // The walls per triangle: given, or measured here for the triangles of the surface
@@ -1939,7 +2007,8 @@ pub fn analyse(
         domain.body_volume_mm3 = bodies.volume_mm3.clone();
     }
     times.wall_s = wall.as_ref().map_or(0.0, |w| w.time_s);
-    times.voxels_s = seconds(t) - times.wall_s;
+    // The cells' own time, wherever they were made, and what followed them here.
+    times.voxels_s = cells_s + seconds(t) - times.wall_s;
     if bodies.count > 1 {
         warnings.push(format!(
             "the part has {} separate bodies; a gate fills only its own body (see the gate per body)",

@@ -92,12 +92,25 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // With the demolding direction given, the gate does not need the tree: both are built
     // at once (on a machine of two threads the tree costs about as much as the gate).
     // The wall time of the tree and locate together, when built alongside.
+    // The fill's bodies and cells need neither the gate nor the tree (only the mesh, its
+    // centres summed at load and the limits): made beside them too, they fill the gaps
+    // of both threads (the bodies are one serial pass).
     let mut joined_s = None;
+    let mut cells = None;
     let (bvh, tree_s, located) = if wants_tree && !auto_demold {
         enter(Stage::Tree)?;
         enter(Stage::Locate)?;
         let t = Instant::now();
-        let ((bvh, tree_s), located) = rayon::join(build_tree, || crate::locate(part, &options));
+        let prepare = || {
+            s.fill
+                .as_ref()
+                .map(|o| flow::prepare(mesh, &part.centres, o))
+        };
+        let (((bvh, tree_s), prepared), located) = rayon::join(
+            || rayon::join(build_tree, prepare),
+            || crate::locate(part, &options),
+        );
+        cells = prepared;
         joined_s = Some(t.elapsed().as_secs_f64());
         (Some(bvh), tree_s, Some(located))
     } else if wants_tree {
@@ -179,6 +192,11 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         _ => None,
     };
     let placed = (!snapped.is_empty()).then(|| judge::judge(mesh, &analysis, &snapped));
+    // The time the cells took beside the gate search, counted in the join's time.
+    let cells_beside_s = cells
+        .as_ref()
+        .and_then(|c| c.as_ref().ok())
+        .map_or(0.0, flow::Cells::seconds);
     let fill = match &s.fill {
         Some(o) if analysis.gate().is_ok() => {
             let o = &FillOptions {
@@ -191,9 +209,14 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 (_, Some(bvh)) => flow::Walls::Measure(bvh),
                 _ => flow::Walls::Estimate,
             };
-            let mut f =
-                flow::analyse(mesh, &analysis, &s.material, walls, o).map_err(StudyError::Fill)?;
+            let prepared = || match cells.take() {
+                Some(made) => made,
+                None => flow::prepare(mesh, &analysis.centres, o),
+            };
+            let mut f = flow::analyse_prepared(mesh, &analysis, &s.material, walls, o, prepared)
+                .map_err(StudyError::Fill)?;
             f.times.tree_s = tree_s;
+            f.times.cells_beside_s = cells_beside_s;
             Some(f)
         }
         _ => None,
@@ -235,9 +258,10 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // The tree serves several stages: counted once, on its own.
     if bvh.is_some() {
         report.timings.tree_s = Some(tree_s);
-        // Built alongside locate, the tree adds only the time it ran past locate's own.
+        // Built alongside locate (with the fill's cells), the tree adds only the time it ran
+        // past locate's own.
         report.timings.total_s += match joined_s {
-            Some(joined) => (joined - locate_total_s).clamp(0.0, tree_s),
+            Some(joined) => (joined - locate_total_s).clamp(0.0, tree_s + cells_beside_s),
             None => tree_s,
         };
     }
