@@ -664,6 +664,13 @@ const CROWDED: usize = 32;
 /// Triangles per task of [`blocked`].
 const POINT_BLOCK: usize = 2048;
 
+/// Tasks a run of [`blocked_until`] is cut in at least, when that leaves each
+/// [`POINT_BLOCK_LEAST`] triangles or more.
+const POINT_TASKS: usize = 8;
+
+/// Triangles per task of [`blocked_until`] at least.
+const POINT_BLOCK_LEAST: usize = 256;
+
 /// Rays per block of [`blocked`] (the slice handed to [`blocked_in_blocks`]).
 const RAY_BLOCK: usize = 4096;
 
@@ -872,59 +879,48 @@ where
     let hit: Vec<AtomicBool> = (0..placed_len).map(|_| AtomicBool::new(false)).collect();
     // Draws the triangles `offset..offset + part.len()`.
     let draw = |offset: usize, part: &[[u32; 3]]| {
-        part.par_chunks(POINT_BLOCK)
-            .enumerate()
-            .for_each(|(b, block)| {
-                for (k, tri) in block.iter().enumerate() {
-                    let t = (offset + b * POINT_BLOCK + k) as u32;
-                    // Each corner written out: `tri.map` with a closure is not always
-                    // inlined (a tenth more instructions in this loop when it is not).
-                    let corner = |k: usize| uwh(frame, vertices[tri[k] as usize]);
-                    let (a, bb, c) = (corner(0), corner(1), corner(2));
-                    let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
-                        continue;
-                    };
-                    let Some((i0, i1)) =
-                        cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
-                    else {
-                        continue;
-                    };
-                    let Some((j0, j1)) =
-                        cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
-                    else {
-                        continue;
-                    };
-                    let mut drawn = PointTriangle::new(triangle, t, min_hit);
-                    for j in j0..=j1 {
-                        let row = j * n_u;
-                        // Each cell with the next, which ends it.
-                        for pair in cells[row + i0..=row + i1 + 1].windows(2) {
-                            let cell = &pair[0];
-                            // The rays going up that start below the triangle's top, and those
-                            // going down that start above its bottom (the cell's bounds are
-                            // rounded outwards, so no ray the exact test keeps is left out).
-                            if drawn.top - f64::from(cell.up) > min_hit {
-                                let (from, to) = (cell.split as usize, pair[1].from as usize);
-                                drawn.test(
-                                    &placed[from..to],
-                                    &hit[from..to],
-                                    cell.orders >> 2,
-                                    true,
-                                );
-                            }
-                            if f64::from(cell.down) - drawn.bottom > min_hit {
-                                let (from, to) = (cell.from as usize, cell.split as usize);
-                                drawn.test(
-                                    &placed[from..to],
-                                    &hit[from..to],
-                                    cell.orders & 3,
-                                    false,
-                                );
-                            }
+        // A run of a stopped bound is a few thousand triangles: in tasks of fewer, so that
+        // both threads draw it (which rays are blocked does not depend on the tasks).
+        let task = POINT_BLOCK.min(part.len().div_ceil(POINT_TASKS).max(POINT_BLOCK_LEAST));
+        part.par_chunks(task).enumerate().for_each(|(b, block)| {
+            for (k, tri) in block.iter().enumerate() {
+                let t = (offset + b * task + k) as u32;
+                // Each corner written out: `tri.map` with a closure is not always
+                // inlined (a tenth more instructions in this loop when it is not).
+                let corner = |k: usize| uwh(frame, vertices[tri[k] as usize]);
+                let (a, bb, c) = (corner(0), corner(1), corner(2));
+                let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
+                    continue;
+                };
+                let Some((i0, i1)) = cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
+                else {
+                    continue;
+                };
+                let Some((j0, j1)) = cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
+                else {
+                    continue;
+                };
+                let mut drawn = PointTriangle::new(triangle, t, min_hit);
+                for j in j0..=j1 {
+                    let row = j * n_u;
+                    // Each cell with the next, which ends it.
+                    for pair in cells[row + i0..=row + i1 + 1].windows(2) {
+                        let cell = &pair[0];
+                        // The rays going up that start below the triangle's top, and those
+                        // going down that start above its bottom (the cell's bounds are
+                        // rounded outwards, so no ray the exact test keeps is left out).
+                        if drawn.top - f64::from(cell.up) > min_hit {
+                            let (from, to) = (cell.split as usize, pair[1].from as usize);
+                            drawn.test(&placed[from..to], &hit[from..to], cell.orders >> 2, true);
+                        }
+                        if f64::from(cell.down) - drawn.bottom > min_hit {
+                            let (from, to) = (cell.from as usize, cell.split as usize);
+                            drawn.test(&placed[from..to], &hit[from..to], cell.orders & 3, false);
                         }
                     }
                 }
-            });
+            }
+        });
     };
     // The rays blocked so far, in the order of their numbers.
     let found = || {
@@ -1646,6 +1642,53 @@ mod tests {
                 let from_found: Vec<u32> = expected.iter().map(|b| b.ray).collect();
                 assert_eq!(from_flags, from_found, "{name} {d}");
             }
+        }
+    }
+
+    #[test]
+    fn triangles_drawn_in_small_tasks_block_the_rays_of_the_brute_force() {
+        // The cap subdivided twice: few enough triangles that a run is cut in tasks of
+        // fewer than `POINT_BLOCK`, on 1 and 3 threads, along a tilted line. Each ray starts
+        // a little behind its triangle's centroid, so that its own triangle is in its way:
+        // a triangle drawn under another's number would block it.
+        let mesh = crate::samples::sample("cap")
+            .unwrap()
+            .subdivided()
+            .subdivided();
+        let n = mesh.triangles.len();
+        assert!(
+            n >= 2 * POINT_BLOCK_LEAST && n.div_ceil(POINT_TASKS) < POINT_BLOCK,
+            "{n}"
+        );
+        let line = DVec3::new(0.2, 0.1, 1.0).normalize();
+        let frame = Frame::new(crate::frame::Direction::new(line).unwrap());
+        let min_hit = 1e-6 * mesh.bounds().diagonal();
+        let behind = 1e-3 * mesh.bounds().diagonal();
+        let rays: Vec<PointRay> = (0..n)
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t);
+                let way = if t % 2 == 0 { 1.0 } else { -1.0 };
+                PointRay {
+                    origin: (a + b + c) / 3.0 - line * (way * behind),
+                    triangle: t as u32,
+                    up: t % 2 == 0,
+                }
+            })
+            .collect();
+        let expected: Vec<bool> = rays
+            .iter()
+            .map(|&r| {
+                blocked_by_every_triangle(&mesh.vertices, &frame, &mesh.triangles, r, min_hit)
+            })
+            .collect();
+        assert!(expected.iter().filter(|&&b| b).count() > 100);
+        for threads in [1, 3] {
+            let found = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| blocked(&mesh.vertices, &frame, &mesh.triangles, &rays, min_hit));
+            assert_eq!(found, expected, "{threads} threads");
         }
     }
 
