@@ -318,10 +318,10 @@ impl Bvh {
     /// curve of their centres (a linear bounding volume hierarchy): about a fifth of the
     /// instructions of [`Bvh::new`], for queries that cost about a fifth more (its boxes
     /// overlap more). For a tree that serves few queries. Every query gives the hits of
-    /// [`Bvh::new`]'s tree but for which of two triangles at one `f32` distance is named
-    /// (the box tests only cull, and the triangle tests are the same arithmetic on the
-    /// same coordinates); a nearest-point query's order of visits also decides which
-    /// triangles its plane bound rules out against the best so far.
+    /// [`Bvh::new`]'s tree (the box tests only cull, and the triangle tests are the same
+    /// arithmetic on the same coordinates), but for which of two triangles at one `f32`
+    /// distance a ray names; a nearest-point query names the same triangle as well
+    /// ([`Bvh::nearest_within`]).
     pub fn new_morton(mesh: &Mesh) -> Bvh {
         Self::built(mesh, Build::Morton)
     }

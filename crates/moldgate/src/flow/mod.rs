@@ -946,13 +946,15 @@ fn balanced_search(
         point: v.centre(f),
         cell: f,
     };
+    // The first gate's worst value, the least known before any candidate is evaluated.
+    let first_worst = argmax(&start.t).1;
     loop {
         // Runs from the new far points, in parallel; each raises the bounds. A run stops
         // past `limit`, a little over the least worst value known (the first gate's, or
         // the best candidate's evaluated so far): the least bound, all the search reads
         // exactly, is below every candidate's worst value, and a candidate not reached by
         // then is bounded by the reach.
-        let limit = far_reach * seen.map_or(argmax(&start.t).1, |(s, _)| s.min(argmax(&start.t).1));
+        let limit = far_reach * seen.map_or(first_worst, |(s, _)| s.min(first_worst));
         let fields: Vec<(Field, f64)> = far
             .par_iter()
             .map(|&f| march_until(v, &[far_source(f)], cost, |_, t| beyond(t, limit)))
