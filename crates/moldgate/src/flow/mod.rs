@@ -590,16 +590,65 @@ pub fn fill_from_all(
         .iter()
         .map(|&p| domain.source(p))
         .collect::<Option<_>>()?;
-    let src = *sources.first()?;
-    let (length, (fill, pressure)) = rayon::join(
-        || march(&domain.voxels, &sources, None),
-        || {
-            rayon::join(
-                || march(&domain.voxels, &sources, Some(&domain.fill_cost)),
-                || march(&domain.voxels, &sources, Some(&domain.pressure_cost)),
-            )
-        },
-    );
+    let fields = march_layout(domain, &sources, [None, None, None]);
+    Some(summarise_layout(domain, points, &sources, material, fields))
+}
+
+/// The fields of a layout of gates: flow length, fill order and pressure, in that order
+/// ([`Kind`]). Those given are taken as they are (marched from the same `sources`); the
+/// others are marched side by side.
+fn march_layout(domain: &Domain, sources: &[Source], given: [Option<Field>; 3]) -> [Field; 3] {
+    let v = &domain.voxels;
+    let mut missing: Vec<(usize, Option<Field>)> = given.into_iter().enumerate().collect();
+    missing.par_iter_mut().for_each(|(kind, field)| {
+        if field.is_none() {
+            *field = Some(march(v, sources, Kind::ALL[*kind].cost(domain)));
+        }
+    });
+    let mut fields = missing.into_iter().map(|(_, f)| f.expect("marched above"));
+    std::array::from_fn(|_| fields.next().expect("three fields"))
+}
+
+/// The three fields of a gate's fill.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// Flow length: a cost of 1 per mm.
+    Length,
+    /// Fill order: the fill cost of each cell.
+    Fill,
+    /// Eq. 1 pressure: the pressure cost of each cell.
+    Pressure,
+}
+
+impl Kind {
+    const ALL: [Kind; 3] = [Kind::Length, Kind::Fill, Kind::Pressure];
+
+    fn cost(self, domain: &Domain) -> Option<&[f32]> {
+        match self {
+            Kind::Length => None,
+            Kind::Fill => Some(&domain.fill_cost),
+            Kind::Pressure => Some(&domain.pressure_cost),
+        }
+    }
+
+    /// The field the searches march for `objective`.
+    fn of(objective: Objective) -> Kind {
+        match objective {
+            Objective::Length => Kind::Length,
+            Objective::Resistance => Kind::Fill,
+        }
+    }
+}
+
+/// What [`fill_from_all`] reports of a layout, from its three fields.
+fn summarise_layout(
+    domain: &Domain,
+    points: &[DVec3],
+    sources: &[Source],
+    material: &Material,
+    [length, fill, pressure]: [Field; 3],
+) -> (GateFill, GateFields, Vec<GateShare>) {
+    let src = sources[0];
     let point = points[0];
     let v = &domain.voxels;
     let reached: Vec<u32> = (0..v.len() as u32)
@@ -647,7 +696,7 @@ pub fn fill_from_all(
         weld_lines: weld_lines(v, &length.t),
     };
     let shares = shares_of(&length, points);
-    Some((gate_fill, GateFields { length, fill }, shares))
+    (gate_fill, GateFields { length, fill }, shares)
 }
 
 /// Each source's share of the cells a multi-source field reaches, and its largest value
@@ -903,14 +952,25 @@ pub fn balanced_gate_from(
     tolerance: f64,
 ) -> Option<Balanced> {
     balanced_search(
-        domain, candidates, objective, first, start, tolerance, FAR_REACH,
+        domain,
+        candidates,
+        objective,
+        first,
+        start,
+        tolerance,
+        FAR_REACH,
+        |_| (),
     )
+    .map(|(b, _)| b)
 }
 
 /// [`balanced_gate_from`], its runs from far points stopped past `far_reach` times the
 /// least worst value known (any positive reach gives the same answer; the tests try
-/// several).
-fn balanced_search(
+/// several). Beside the run of each candidate it evaluates, `beside(candidate)` runs on
+/// the other core (that run alone would leave it idle); what it gave for the chosen
+/// candidate comes back with the choice, when that candidate was the last evaluated.
+#[allow(clippy::too_many_arguments)]
+fn balanced_search<T: Send>(
     domain: &Domain,
     candidates: &[Source],
     objective: Objective,
@@ -918,7 +978,8 @@ fn balanced_search(
     start: &Field,
     tolerance: f64,
     far_reach: f64,
-) -> Option<Balanced> {
+    beside: impl Fn(usize) -> T + Sync,
+) -> Option<(Balanced, Option<T>)> {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[first.cell as usize];
@@ -1002,7 +1063,7 @@ fn balanced_search(
             point: v.centre(candidates[best].cell),
             cell: candidates[best].cell,
         };
-        let field = march(v, &[centred], cost);
+        let (field, aside) = rayon::join(|| march(v, &[centred], cost), || beside(best));
         runs += 1;
         let value = argmax(&field.t).1;
         if seen.is_none_or(|(v, _)| value < v) {
@@ -1017,13 +1078,15 @@ fn balanced_search(
             } else {
                 seen.expect("one run")
             };
-            return Some(Balanced {
+            let aside = (candidate == best).then_some(aside);
+            let balanced = Balanced {
                 candidate,
                 value,
                 lower_bound: bound[best],
                 runs,
                 proven,
-            });
+            };
+            return Some((balanced, aside));
         }
         far = far_points(v, &field.t, FAR_POINTS);
     }
@@ -2025,16 +2088,19 @@ pub fn analyse_prepared(
         ));
     }
 
+    // The paper gate's fields, and the balanced search, which reads only the objective's
+    // field of them: the flow length and fill order are marched side by side, then the
+    // pressure beside the search. Beside the run of each candidate the search evaluates,
+    // the candidate's own flow length is marched for its fill (else one core would wait).
     let t = Instant::now();
-    let (mut paper, paper_fields) =
-        fill_from(&domain, gate, material).ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
-    if paper.reached_share < 0.999 {
-        warnings.push(format!(
-            "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
-            paper.body,
-            100.0 * (1.0 - paper.reached_share)
-        ));
-    }
+    let first = domain
+        .source(gate)
+        .ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
+    let v = &domain.voxels;
+    let (length, fill) = rayon::join(
+        || march(v, &[first], None),
+        || march(v, &[first], Some(&domain.fill_cost)),
+    );
     times.paper_s = seconds(t);
 
     // Candidates: the qualifying nodes' surface points on the voxelised part.
@@ -2044,7 +2110,34 @@ pub fn analyse_prepared(
         .iter()
         .filter_map(|&p| domain.source(p))
         .collect();
-    let first = domain.source(gate).expect("checked by fill_from");
+    let start = match Kind::of(options.objective) {
+        Kind::Fill => &fill,
+        _ => &length,
+    };
+    let (pressure, search) = rayon::join(
+        || march(v, &[first], Some(&domain.pressure_cost)),
+        || {
+            balanced_search(
+                &domain,
+                &candidates,
+                options.objective,
+                first,
+                start,
+                h,
+                FAR_REACH,
+                |c| march(v, &[candidates[c]], None),
+            )
+        },
+    );
+    let (mut paper, paper_fields, _) =
+        summarise_layout(&domain, &[gate], &[first], material, [length, fill, pressure]);
+    if paper.reached_share < 0.999 {
+        warnings.push(format!(
+            "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
+            paper.body,
+            100.0 * (1.0 - paper.reached_share)
+        ));
+    }
     let per_mm = seconds_per_mm(material);
     // The objective in its reported units: L_max in mm, or the fill time in s.
     let (objective_value, scale): (fn(&GateFill) -> f64, f64) = match options.objective {
@@ -2055,10 +2148,11 @@ pub fn analyse_prepared(
         Objective::Length => &paper_fields.length,
         Objective::Resistance => &paper_fields.fill,
     };
-    let balanced = balanced_gate_from(&domain, &candidates, options.objective, first, start, h)
-        .map(|search| {
+    let balanced = search.map(|(search, length)| {
             let point = candidates[search.candidate].point;
-            let (fill, fields) = fill_from(&domain, point, material).expect("on the part");
+            let sources = [candidates[search.candidate]];
+            let fields = march_layout(&domain, &sources, [length, None, None]);
+            let (fill, fields, _) = summarise_layout(&domain, &[point], &sources, material, fields);
             // The search marches from cell centres; the reported gate is the candidate's
             // surface point, whose field differs by up to a cell. The search reports the
             // value of the fill it gives, and the bound it proved capped at that value.
@@ -2603,9 +2697,14 @@ mod tests {
                             &start,
                             0.5 * h,
                             far_reach,
+                            |c| c,
                         )
                         .expect("a pool");
                         let what = format!("{name} h {h} {objective:?} reach {far_reach}");
+                        // What ran beside the chosen candidate's run is its own.
+                        let (new, aside) = new;
+                        assert!(aside.is_none_or(|c| c == new.candidate), "{what}");
+                        assert!(aside.is_some() || !new.proven, "{what}");
                         assert_eq!(new.candidate, old.candidate, "{what}");
                         assert_eq!(new.value.to_bits(), old.value.to_bits(), "{what}");
                         assert_eq!(
