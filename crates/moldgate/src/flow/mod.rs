@@ -1159,7 +1159,8 @@ pub struct MultiGate {
     pub l_max_mm: f64,
     /// Smallest volume share over the largest (1: perfectly even).
     pub balance: f64,
-    /// Marches it ran (a march from a cell it had marched from before is not run again).
+    /// Marches it ran (a march from a cell it had marched from before is not run again;
+    /// those of a gate examined ahead and dropped, when the gate before it moved, count).
     pub runs: usize,
 }
 
@@ -1189,6 +1190,20 @@ pub fn several_gates_from(
     first: usize,
     k: usize,
     start: Option<&Field>,
+) -> Option<MultiGate> {
+    several_gates_search(domain, candidates, objective, first, k, start, true)
+}
+
+/// [`several_gates_from`]; `look_ahead`: whether the next gate is examined at the same time as
+/// the present one (the same answer either way; the tests compare the two).
+fn several_gates_search(
+    domain: &Domain,
+    candidates: &[Source],
+    objective: Objective,
+    first: usize,
+    k: usize,
+    start: Option<&Field>,
+    look_ahead: bool,
 ) -> Option<MultiGate> {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
@@ -1374,68 +1389,82 @@ pub fn several_gates_from(
     // and would stay, so its three marches are not run again.
     let mut moves = 0usize;
     let mut stayed_at: Vec<Option<usize>> = vec![None; k];
-    for _round in 0..8 {
-        let mut improved = false;
-        let mut g = 0;
-        while g < k {
-            if stayed_at[g] == Some(moves) {
-                g += 1;
-                continue;
-            }
-            // The next gate is examined at the same time, from the same layout: its finding
-            // stands when gate g keeps its place (the layout is then unchanged), and is
-            // dropped when g moves (its marches from the ends of its share stay kept). The
-            // answer is that of one gate after the other; the runs count every march run.
-            let next = (g + 1..k).find(|&h| stayed_at[h] != Some(moves));
-            let (first, second) = match next {
-                Some(h) => {
-                    let (a, b) = rayon::join(
-                        || examine(g, &field, &chosen, worst),
-                        || examine(h, &field, &chosen, worst),
-                    );
-                    (a, Some((h, b)))
-                }
-                None => (examine(g, &field, &chosen, worst), None),
-            };
-            for (gate, found) in std::iter::once((g, first)).chain(second) {
-                g = gate + 1;
-                let kept = match found {
-                    Examined::Empty => false,
-                    Examined::Stays | Examined::Refused => {
-                        stayed_at[gate] = Some(moves);
-                        false
+    // Rounds of examining every gate in order, at most `ROUNDS`, while a round keeps a
+    // move. The gate examined at or after gate `g` of round `round` (`improved`: a move was
+    // kept earlier in that round), as (round, gate, improved); `None` when the search ends.
+    const ROUNDS: usize = 8;
+    let following = |mut round: usize,
+                     mut g: usize,
+                     mut improved: bool,
+                     moves: usize,
+                     stayed_at: &[Option<usize>]| loop {
+        if let Some(x) = (g..k).find(|&x| stayed_at[x] != Some(moves)) {
+            return Some((round, x, improved));
+        }
+        if !improved || round + 1 >= ROUNDS {
+            return None;
+        }
+        (round, g, improved) = (round + 1, 0, false);
+    };
+    // The examination that comes next when the gate examined now keeps its place, made at
+    // the same time from the same layout (round, gate, finding): it stands when it is the
+    // next one indeed and no move was kept in between (the layout is then unchanged), and
+    // is dropped otherwise (its marches from the ends of its share stay kept). The answer
+    // is that of one gate after the other; the runs count every march run.
+    let mut ahead: Option<(usize, usize, Examined)> = None;
+    let mut at = following(0, 0, false, moves, &stayed_at);
+    while let Some((round, g, mut improved)) = at {
+        let found = match ahead.take() {
+            Some((r, h, found)) if (r, h) == (round, g) => found,
+            _ => {
+                let mut stays = stayed_at.clone();
+                stays[g] = Some(moves);
+                match following(round, g + 1, improved, moves, &stays).filter(|_| look_ahead) {
+                    Some((r, h, _)) => {
+                        let (a, b) = rayon::join(
+                            || examine(g, &field, &chosen, worst),
+                            || examine(h, &field, &chosen, worst),
+                        );
+                        ahead = Some((r, h, b));
+                        a
                     }
-                    Examined::Tries {
-                        trial,
-                        field: trial_field,
-                    } => {
-                        let trial_worst = argmax(&trial_field.t).1;
-                        // Keep the move when the overall worst value does not grow and the
-                        // sum of the shares' worst values falls (a gate may improve its share
-                        // while another share still sets the overall worst).
-                        if trial_worst <= worst + 1e-9
-                            && share_sum(&trial_field, k) < share_sum(&field, k) - 1e-9
-                        {
-                            worst = trial_worst;
-                            chosen = trial;
-                            field = trial_field;
-                            moves += 1;
-                            true
-                        } else {
-                            stayed_at[gate] = Some(moves);
-                            false
-                        }
-                    }
-                };
-                if kept {
-                    improved = true;
-                    break;
+                    None => examine(g, &field, &chosen, worst),
                 }
             }
+        };
+        let kept = match found {
+            Examined::Empty => false,
+            Examined::Stays | Examined::Refused => {
+                stayed_at[g] = Some(moves);
+                false
+            }
+            Examined::Tries {
+                trial,
+                field: trial_field,
+            } => {
+                let trial_worst = argmax(&trial_field.t).1;
+                // Keep the move when the overall worst value does not grow and the sum of
+                // the shares' worst values falls (a gate may improve its share while
+                // another share still sets the overall worst).
+                if trial_worst <= worst + 1e-9
+                    && share_sum(&trial_field, k) < share_sum(&field, k) - 1e-9
+                {
+                    worst = trial_worst;
+                    chosen = trial;
+                    field = trial_field;
+                    moves += 1;
+                    true
+                } else {
+                    stayed_at[g] = Some(moves);
+                    false
+                }
+            }
+        };
+        if kept {
+            improved = true;
+            ahead = None;
         }
-        if !improved {
-            break;
-        }
+        at = following(round, g + 1, improved, moves, &stayed_at);
     }
     let reached = field.t.iter().filter(|t| t.is_finite()).count().max(1);
     let gates: Vec<GateShare> = chosen
@@ -1595,9 +1624,10 @@ pub struct FlowTimes {
     /// Of `voxels_s`, the time the bodies and cells took beside the search for the gate
     /// (when the caller made them there: [`prepare`]); 0 when made in the fill's own stage.
     pub cells_beside_s: f64,
-    /// Fields from the paper gate.
+    /// Fields from the paper gate: its flow length and fill order (its pressure field is
+    /// marched beside the balanced search and counted there).
     pub paper_s: f64,
-    /// Balanced-gate search and its fields.
+    /// Balanced-gate search and its fields, and the paper gate's pressure field.
     pub balanced_s: f64,
     /// Several gates.
     pub several_s: f64,
@@ -2129,8 +2159,13 @@ pub fn analyse_prepared(
             )
         },
     );
-    let (mut paper, paper_fields, _) =
-        summarise_layout(&domain, &[gate], &[first], material, [length, fill, pressure]);
+    let (mut paper, paper_fields, _) = summarise_layout(
+        &domain,
+        &[gate],
+        &[first],
+        material,
+        [length, fill, pressure],
+    );
     if paper.reached_share < 0.999 {
         warnings.push(format!(
             "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
@@ -2149,48 +2184,48 @@ pub fn analyse_prepared(
         Objective::Resistance => &paper_fields.fill,
     };
     let balanced = search.map(|(search, length)| {
-            let point = candidates[search.candidate].point;
-            let sources = [candidates[search.candidate]];
-            let fields = march_layout(&domain, &sources, [length, None, None]);
-            let (fill, fields, _) = summarise_layout(&domain, &[point], &sources, material, fields);
-            // The search marches from cell centres; the reported gate is the candidate's
-            // surface point, whose field differs by up to a cell. The search reports the
-            // value of the fill it gives, and the bound it proved capped at that value.
-            let bound = search.lower_bound * scale;
-            if objective_value(&fill) >= objective_value(&paper) {
-                // Within the discretisation the paper gate is as good (it is a candidate
-                // itself unless it is the aesthetic gate): keep it, so the balanced gate
-                // never does worse than the paper gate.
-                let value = objective_value(&paper);
-                let search = Balanced {
-                    value,
-                    lower_bound: bound.min(value),
-                    ..search
-                };
-                let fill = BalancedFill {
-                    fill: paper.clone(),
-                    search,
-                    improvement_pct: 0.0,
-                    is_paper_gate: true,
-                };
-                (fill, None)
-            } else {
-                let value = objective_value(&fill);
-                let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
-                let search = Balanced {
-                    value,
-                    lower_bound: bound.min(value),
-                    ..search
-                };
-                let fill = BalancedFill {
-                    fill,
-                    search,
-                    improvement_pct,
-                    is_paper_gate: false,
-                };
-                (fill, Some(fields))
-            }
-        });
+        let point = candidates[search.candidate].point;
+        let sources = [candidates[search.candidate]];
+        let fields = march_layout(&domain, &sources, [length, None, None]);
+        let (fill, fields, _) = summarise_layout(&domain, &[point], &sources, material, fields);
+        // The search marches from cell centres; the reported gate is the candidate's
+        // surface point, whose field differs by up to a cell. The search reports the
+        // value of the fill it gives, and the bound it proved capped at that value.
+        let bound = search.lower_bound * scale;
+        if objective_value(&fill) >= objective_value(&paper) {
+            // Within the discretisation the paper gate is as good (it is a candidate
+            // itself unless it is the aesthetic gate): keep it, so the balanced gate
+            // never does worse than the paper gate.
+            let value = objective_value(&paper);
+            let search = Balanced {
+                value,
+                lower_bound: bound.min(value),
+                ..search
+            };
+            let fill = BalancedFill {
+                fill: paper.clone(),
+                search,
+                improvement_pct: 0.0,
+                is_paper_gate: true,
+            };
+            (fill, None)
+        } else {
+            let value = objective_value(&fill);
+            let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
+            let search = Balanced {
+                value,
+                lower_bound: bound.min(value),
+                ..search
+            };
+            let fill = BalancedFill {
+                fill,
+                search,
+                improvement_pct,
+                is_paper_gate: false,
+            };
+            (fill, Some(fields))
+        }
+    });
     if balanced.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
@@ -2660,6 +2695,45 @@ mod tests {
             }
             far = far_points(v, &field.t, FAR_POINTS);
         }
+    }
+
+    #[test]
+    fn several_gates_examined_ahead_are_those_examined_one_after_the_other() {
+        use crate::samples::sample;
+        let pp = Material::builtin("PP").expect("PP");
+        let mut dropped = 0;
+        for name in ["plate", "bracket", "cover", "tray", "cap"] {
+            let mesh = sample(name).expect("sample");
+            let domain = Domain::new(&mesh, 1.5, None, 2.0, &pp);
+            let n = domain.voxels.len() as u32;
+            let candidates: Vec<Source> = (0..n)
+                .step_by(5)
+                .map(|c| Source {
+                    point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
+                    cell: c,
+                })
+                .collect();
+            for objective in [Objective::Length, Objective::Resistance] {
+                for k in [3, 4] {
+                    let run = |ahead| {
+                        several_gates_search(&domain, &candidates, objective, 0, k, None, ahead)
+                            .expect("enough candidates")
+                    };
+                    let (new, old) = (run(true), run(false));
+                    let what = format!("{name} {objective:?} k {k}");
+                    let gates = |m: &MultiGate| -> Vec<usize> {
+                        m.gates.iter().map(|g| g.candidate).collect()
+                    };
+                    assert_eq!(gates(&new), gates(&old), "{what}");
+                    assert_eq!(new.l_max_mm.to_bits(), old.l_max_mm.to_bits(), "{what}");
+                    assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
+                    assert!(new.runs >= old.runs, "{what}");
+                    // Examinations made ahead and dropped (a move was kept) add runs.
+                    dropped += (new.runs > old.runs) as usize;
+                }
+            }
+        }
+        assert!(dropped > 2, "{dropped}");
     }
 
     #[test]
