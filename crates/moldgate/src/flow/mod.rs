@@ -590,8 +590,15 @@ pub fn fill_from_all(
         .iter()
         .map(|&p| domain.source(p))
         .collect::<Option<_>>()?;
-    let fields = march_layout(domain, &sources, [None, None, None]);
-    Some(summarise_layout(domain, points, &sources, material, fields))
+    let [length, fill, pressure] = march_layout(domain, &sources, [None, None, None]);
+    let (gate_fill, shares) = summarise_layout(
+        domain,
+        points,
+        &sources,
+        material,
+        [&length, &fill, &pressure],
+    );
+    Some((gate_fill, GateFields { length, fill }, shares))
 }
 
 /// The fields of a layout of gates: flow length, fill order and pressure, in that order
@@ -646,8 +653,8 @@ fn summarise_layout(
     points: &[DVec3],
     sources: &[Source],
     material: &Material,
-    [length, fill, pressure]: [Field; 3],
-) -> (GateFill, GateFields, Vec<GateShare>) {
+    [length, fill, pressure]: [&Field; 3],
+) -> (GateFill, Vec<GateShare>) {
     let src = sources[0];
     let point = points[0];
     let v = &domain.voxels;
@@ -695,8 +702,8 @@ fn summarise_layout(
         last_to_fill: last_to_fill(v, &fill.t, &length.t, per_mm, 5),
         weld_lines: weld_lines(v, &length.t),
     };
-    let shares = shares_of(&length, points);
-    (gate_fill, GateFields { length, fill }, shares)
+    let shares = shares_of(length, points);
+    (gate_fill, shares)
 }
 
 /// Each source's share of the cells a multi-source field reaches, and its largest value
@@ -2144,8 +2151,15 @@ pub fn analyse_prepared(
         Kind::Fill => &fill,
         _ => &length,
     };
-    let (pressure, search) = rayon::join(
-        || march(v, &[first], Some(&domain.pressure_cost)),
+    // The paper gate's summary, beside the search too (it reads the fields the search
+    // does not change).
+    let ((pressure, mut paper), search) = rayon::join(
+        || {
+            let pressure = march(v, &[first], Some(&domain.pressure_cost));
+            let fields = [&length, &fill, &pressure];
+            let (paper, _) = summarise_layout(&domain, &[gate], &[first], material, fields);
+            (pressure, paper)
+        },
         || {
             balanced_search(
                 &domain,
@@ -2159,13 +2173,8 @@ pub fn analyse_prepared(
             )
         },
     );
-    let (mut paper, paper_fields, _) = summarise_layout(
-        &domain,
-        &[gate],
-        &[first],
-        material,
-        [length, fill, pressure],
-    );
+    drop(pressure);
+    let paper_fields = GateFields { length, fill };
     if paper.reached_share < 0.999 {
         warnings.push(format!(
             "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
@@ -2186,8 +2195,10 @@ pub fn analyse_prepared(
     let balanced = search.map(|(search, length)| {
         let point = candidates[search.candidate].point;
         let sources = [candidates[search.candidate]];
-        let fields = march_layout(&domain, &sources, [length, None, None]);
-        let (fill, fields, _) = summarise_layout(&domain, &[point], &sources, material, fields);
+        let [length, fill, pressure] = march_layout(&domain, &sources, [length, None, None]);
+        let fields = [&length, &fill, &pressure];
+        let (fill_summary, _) = summarise_layout(&domain, &[point], &sources, material, fields);
+        let (fill, fields) = (fill_summary, GateFields { length, fill });
         // The search marches from cell centres; the reported gate is the candidate's
         // surface point, whose field differs by up to a cell. The search reports the
         // value of the fill it gives, and the bound it proved capped at that value.
