@@ -1634,7 +1634,9 @@ pub struct FlowTimes {
     /// Fields from the paper gate: its flow length and fill order (its pressure field is
     /// marched beside the balanced search and counted there).
     pub paper_s: f64,
-    /// Balanced-gate search and its fields, and the paper gate's pressure field.
+    /// Balanced-gate search and its fields, and the paper gate's pressure field. With
+    /// several gates or the suitability map, the balanced gate's fill is made beside them
+    /// and counts here only where it made that stage longer.
     pub balanced_s: f64,
     /// Several gates.
     pub several_s: f64,
@@ -2128,7 +2130,8 @@ pub fn analyse_prepared(
     // The paper gate's fields, and the balanced search, which reads only the objective's
     // field of them: the flow length and fill order are marched side by side, then the
     // pressure beside the search. Beside the run of each candidate the search evaluates,
-    // the candidate's own flow length is marched for its fill (else one core would wait).
+    // the candidate's own field of the objective is marched for its fill (else one core
+    // would wait).
     let t = Instant::now();
     let first = domain
         .source(gate)
@@ -2169,7 +2172,13 @@ pub fn analyse_prepared(
                 start,
                 h,
                 FAR_REACH,
-                |c| march(v, &[candidates[c]], None),
+                |c| {
+                    march(
+                        v,
+                        &[candidates[c]],
+                        Kind::of(options.objective).cost(&domain),
+                    )
+                },
             )
         },
     );
@@ -2192,153 +2201,186 @@ pub fn analyse_prepared(
         Objective::Length => &paper_fields.length,
         Objective::Resistance => &paper_fields.fill,
     };
-    let balanced = search.map(|(search, length)| {
-        let point = candidates[search.candidate].point;
+    // The balanced gate: its objective's field was marched beside the search's last run,
+    // and decides whether it beats the paper gate (the same value its fill reports). Its
+    // other two fields and its summary, needed only for the report, are made beside the
+    // suitability map and the several-gate search, which read the objective's field only.
+    let kind = Kind::of(options.objective);
+    let head = search.map(|(search, aside)| {
         let sources = [candidates[search.candidate]];
-        let [length, fill, pressure] = march_layout(&domain, &sources, [length, None, None]);
-        let fields = [&length, &fill, &pressure];
-        let (fill_summary, _) = summarise_layout(&domain, &[point], &sources, material, fields);
-        let (fill, fields) = (fill_summary, GateFields { length, fill });
-        // The search marches from cell centres; the reported gate is the candidate's
-        // surface point, whose field differs by up to a cell. The search reports the
-        // value of the fill it gives, and the bound it proved capped at that value.
-        let bound = search.lower_bound * scale;
-        if objective_value(&fill) >= objective_value(&paper) {
-            // Within the discretisation the paper gate is as good (it is a candidate
-            // itself unless it is the aesthetic gate): keep it, so the balanced gate
-            // never does worse than the paper gate.
-            let value = objective_value(&paper);
-            let search = Balanced {
-                value,
-                lower_bound: bound.min(value),
-                ..search
-            };
-            let fill = BalancedFill {
-                fill: paper.clone(),
-                search,
-                improvement_pct: 0.0,
-                is_paper_gate: true,
-            };
-            (fill, None)
-        } else {
-            let value = objective_value(&fill);
+        let field = aside.unwrap_or_else(|| march(v, &sources, kind.cost(&domain)));
+        let value = argmax(&field.t).1 * scale;
+        let beats = value < objective_value(&paper);
+        (search, field, beats)
+    });
+    if head.is_none() {
+        warnings.push("no qualifying candidate feeds the gate's body".into());
+    }
+    times.balanced_s = seconds(t);
+    // The balanced gate's objective field, when it is the balanced gate's own (it beat the
+    // paper gate).
+    let balanced_field = head
+        .as_ref()
+        .filter(|(_, _, beats)| *beats)
+        .map(|(search, field, _)| (search, field));
+    let complete = || {
+        let t = Instant::now();
+        let balanced = head.as_ref().map(|(search, field, beats)| {
+            // The search marches from cell centres; the reported gate is the candidate's
+            // surface point, whose field differs by up to a cell. The search reports the
+            // value of the fill it gives, and the bound it proved capped at that value.
+            let bound = search.lower_bound * scale;
+            if !beats {
+                // Within the discretisation the paper gate is as good (it is a candidate
+                // itself unless it is the aesthetic gate): keep it, so the balanced gate
+                // never does worse than the paper gate.
+                let value = objective_value(&paper);
+                let search = Balanced {
+                    value,
+                    lower_bound: bound.min(value),
+                    ..*search
+                };
+                let fill = BalancedFill {
+                    fill: paper.clone(),
+                    search,
+                    improvement_pct: 0.0,
+                    is_paper_gate: true,
+                };
+                return (fill, None);
+            }
+            let point = candidates[search.candidate].point;
+            let sources = [candidates[search.candidate]];
+            let mut given = [None, None, None];
+            given[kind as usize] = Some(field.clone());
+            let [length, fill, pressure] = march_layout(&domain, &sources, given);
+            let fields = [&length, &fill, &pressure];
+            let (fill_summary, _) = summarise_layout(&domain, &[point], &sources, material, fields);
+            let value = objective_value(&fill_summary);
             let improvement_pct = 100.0 * (1.0 - value / objective_value(&paper));
             let search = Balanced {
                 value,
                 lower_bound: bound.min(value),
-                ..search
+                ..*search
             };
-            let fill = BalancedFill {
-                fill,
+            let balanced = BalancedFill {
+                fill: fill_summary,
                 search,
                 improvement_pct,
                 is_paper_gate: false,
             };
-            (fill, Some(fields))
-        }
-    });
-    if balanced.is_none() {
-        warnings.push("no qualifying candidate feeds the gate's body".into());
-    }
-    times.balanced_s = seconds(t);
-
-    let t = Instant::now();
-    let suitability = if options.suitability {
-        use suitability::Given;
-        // The paper gate is a node (or, the aesthetic gate, on the parting line: exact for
-        // a node only when it shares its cell).
-        let mut given = vec![Given {
-            field: start,
-            node_cell: Some(first.cell),
-        }];
-        let mut budget = 0;
-        if let Some((b, fields)) = &balanced {
-            budget = 2 * b.search.runs;
-            if let Some(f) = fields {
+            (balanced, Some(GateFields { length, fill }))
+        });
+        (balanced, seconds(t))
+    };
+    let rest = || -> Result<_, FillError> {
+        let mut times = FlowTimes::default();
+        let t = Instant::now();
+        let suitability = if options.suitability {
+            use suitability::Given;
+            // The paper gate is a node (or, the aesthetic gate, on the parting line: exact for
+            // a node only when it shares its cell).
+            let mut given = vec![Given {
+                field: start,
+                node_cell: Some(first.cell),
+            }];
+            let mut budget = 0;
+            if let Some((search, _, _)) = &head {
+                budget = 2 * search.runs;
+            }
+            if let Some((search, field)) = balanced_field {
                 given.push(Given {
-                    field: match options.objective {
-                        Objective::Length => &f.length,
-                        Objective::Resistance => &f.fill,
-                    },
-                    node_cell: Some(candidates[b.search.candidate].cell),
+                    field,
+                    node_cell: Some(candidates[search.candidate].cell),
                 });
             }
-        }
-        let map = suitability::suitability(
-            &domain,
-            &analysis.qualifying_points,
-            options.objective,
-            &given,
-            budget,
-            scale,
-            h,
-            options.flow.max_march_cells,
-        )?;
-        times.suitability_s = Some(seconds(t));
-        Some(map)
-    } else {
-        None
-    };
-
-    let t = Instant::now();
-    let several = if options.gates > 1 {
-        // Start from the balanced gate (or the paper gate's nearest candidate).
-        let start = match &balanced {
-            Some((b, _)) => b.search.candidate,
-            None => nearest_candidate(&candidates, gate).ok_or(FillError::TooFewCandidates {
-                asked: options.gates,
-                available: 0,
-            })?,
-        };
-        let k = options.gates as f64;
-        let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k + 1.0);
-        if work > options.flow.max_march_cells {
-            return Err(FillError::too_large(
-                "cell visits of the several-gate search",
-                work,
-                options.flow.max_march_cells,
+            let map = suitability::suitability(
+                &domain,
+                &analysis.qualifying_points,
+                options.objective,
+                &given,
+                budget,
+                scale,
                 h,
-            ));
-        }
-        let available = candidates
-            .iter()
-            .filter(|s| {
-                domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
-            })
-            .count();
-        // The balanced gate's fill marched the first gate's field when it beat the paper
-        // gate (the same source: its candidate's surface point and cell).
-        let first_field = balanced.as_ref().and_then(|(b, fields)| {
-            let f = fields.as_ref().filter(|_| b.search.candidate == start)?;
-            Some(match options.objective {
-                Objective::Length => &f.length,
-                Objective::Resistance => &f.fill,
-            })
-        });
-        let mut layout = several_gates_from(
-            &domain,
-            &candidates,
-            options.objective,
-            start,
-            options.gates,
-            first_field,
-        )
-        .ok_or(FillError::TooFewCandidates {
-            asked: options.gates,
-            available,
-        })?;
-        if options.objective == Objective::Resistance {
-            // Reported in seconds, like the single gate's objective.
-            layout.l_max_mm *= per_mm;
-            for g in &mut layout.gates {
-                g.l_max_mm *= per_mm;
+                options.flow.max_march_cells,
+            )?;
+            times.suitability_s = Some(seconds(t));
+            Some(map)
+        } else {
+            None
+        };
+
+        let t = Instant::now();
+        let several = if options.gates > 1 {
+            // Start from the balanced gate (or the paper gate's nearest candidate).
+            let start = match &head {
+                Some((search, _, _)) => search.candidate,
+                None => {
+                    nearest_candidate(&candidates, gate).ok_or(FillError::TooFewCandidates {
+                        asked: options.gates,
+                        available: 0,
+                    })?
+                }
+            };
+            let k = options.gates as f64;
+            let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k + 1.0);
+            if work > options.flow.max_march_cells {
+                return Err(FillError::too_large(
+                    "cell visits of the several-gate search",
+                    work,
+                    options.flow.max_march_cells,
+                    h,
+                ));
             }
-        }
-        Some(layout)
-    } else {
-        None
+            let available = candidates
+                .iter()
+                .filter(|s| {
+                    domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
+                })
+                .count();
+            // The balanced gate's fill marched the first gate's field when it beat the paper
+            // gate (the same source: its candidate's surface point and cell).
+            let first_field = balanced_field
+                .filter(|(search, _)| search.candidate == start)
+                .map(|(_, field)| field);
+            let mut layout = several_gates_from(
+                &domain,
+                &candidates,
+                options.objective,
+                start,
+                options.gates,
+                first_field,
+            )
+            .ok_or(FillError::TooFewCandidates {
+                asked: options.gates,
+                available,
+            })?;
+            if options.objective == Objective::Resistance {
+                // Reported in seconds, like the single gate's objective.
+                layout.l_max_mm *= per_mm;
+                for g in &mut layout.gates {
+                    g.l_max_mm *= per_mm;
+                }
+            }
+            Some(layout)
+        } else {
+            None
+        };
+        times.several_s = seconds(t);
+        Ok((suitability, several, times))
     };
-    times.several_s = seconds(t);
+    let t = Instant::now();
+    // Side by side only when there is a search or a map to make beside it.
+    let ((balanced, complete_s), rest) = if options.gates > 1 || options.suitability {
+        rayon::join(complete, rest)
+    } else {
+        (complete(), rest())
+    };
+    let (suitability, several, rest_times) = rest?;
+    // The balanced gate's fill counts where it made the join longer than the rest.
+    let rest_s = rest_times.suitability_s.unwrap_or(0.0) + rest_times.several_s;
+    times.balanced_s += (seconds(t) - rest_s).clamp(0.0, complete_s);
+    times.suitability_s = rest_times.suitability_s;
+    times.several_s = rest_times.several_s;
 
     let t = Instant::now();
     let placed = match options.placed.as_slice() {
@@ -2705,6 +2747,41 @@ mod tests {
                 });
             }
             far = far_points(v, &field.t, FAR_POINTS);
+        }
+    }
+
+    #[test]
+    fn a_layout_s_given_field_takes_the_place_of_its_kind() {
+        use crate::samples::sample;
+        let pp = Material::builtin("PP").expect("PP");
+        let mesh = sample("bracket").expect("sample");
+        let domain = Domain::new(&mesh, 1.0, None, 2.0, &pp);
+        // Costs that differ from cell to cell and from each other, so that a field in the
+        // wrong place shows.
+        let n = domain.voxels.len();
+        let domain = Domain {
+            fill_cost: (0..n).map(|i| 1.0 + (i % 5) as f32 * 0.3).collect(),
+            pressure_cost: (0..n).map(|i| 1.0 + (i % 3) as f32 * 0.7).collect(),
+            ..domain
+        };
+        let sources = [Source {
+            point: domain.voxels.centre(7),
+            cell: 7,
+        }];
+        let bits = |f: &Field| f.t.iter().map(|t| t.to_bits()).collect::<Vec<_>>();
+        let whole = march_layout(&domain, &sources, [None, None, None]);
+        for kind in Kind::ALL {
+            let mut given = [None, None, None];
+            given[kind as usize] = Some(march(&domain.voxels, &sources, kind.cost(&domain)));
+            let layout = march_layout(&domain, &sources, given);
+            for (a, b) in layout.iter().zip(&whole) {
+                assert_eq!(bits(a), bits(b), "{kind:?}");
+            }
+        }
+        assert_ne!(bits(&whole[0]), bits(&whole[1]));
+        assert_ne!(bits(&whole[1]), bits(&whole[2]));
+        for objective in [Objective::Length, Objective::Resistance] {
+            assert_eq!(Kind::of(objective).cost(&domain), domain.cost(objective));
         }
     }
 

@@ -669,6 +669,37 @@ fn balanced_search_bound_and_value_agree_on_every_sample() {
                 s.name, b.value, b.lower_bound, b.proven
             );
             failures.extend(check_search(s.name, &f));
+            // With two gates and the map asked for, the balanced gate's fields are made
+            // beside them: the same balanced gate and fill.
+            let beside = flow::analyse(
+                &mesh,
+                &analysis,
+                &pp(),
+                flow::Walls::Estimate,
+                &flow::FillOptions {
+                    objective,
+                    gates: 2,
+                    suitability: true,
+                    ..flow::FillOptions::default()
+                },
+            )
+            .unwrap();
+            let (a, b) = (
+                f.balanced.as_ref().unwrap(),
+                beside.balanced.as_ref().unwrap(),
+            );
+            let same = a.fill.gate == b.fill.gate
+                && a.fill.l_max_mm.to_bits() == b.fill.l_max_mm.to_bits()
+                && a.fill.fill_time_s.to_bits() == b.fill.fill_time_s.to_bits()
+                && a.fill.pressure_mpa.to_bits() == b.fill.pressure_mpa.to_bits()
+                && a.search.value.to_bits() == b.search.value.to_bits()
+                && a.is_paper_gate == b.is_paper_gate;
+            if !same {
+                failures.push(format!(
+                    "{} {objective:?}: the balanced fill differs beside the several gates",
+                    s.name
+                ));
+            }
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");
