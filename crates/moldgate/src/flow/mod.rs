@@ -686,6 +686,10 @@ fn summarise_layout(
             .copied()
             .unwrap_or(domain.nominal_wall_mm);
     let limit = material.max_flow_ratio;
+    let (last_to_fill, weld_lines) = rayon::join(
+        || last_to_fill(v, &fill.t, &length.t, per_mm, 5),
+        || weld_lines(v, &length.t),
+    );
     let gate_fill = GateFill {
         gate: point.to_array(),
         body: domain.body[src.cell as usize],
@@ -699,8 +703,8 @@ fn summarise_layout(
         flow_ratio_limit: limit,
         exceeds_flow_ratio: limit.is_some_and(|m| flow_ratio > m),
         pressure_mpa: p_max * pressure_factor_mpa_per_mm(material, domain.nominal_wall_mm),
-        last_to_fill: last_to_fill(v, &fill.t, &length.t, per_mm, 5),
-        weld_lines: weld_lines(v, &length.t),
+        last_to_fill,
+        weld_lines,
     };
     let shares = shares_of(length, points);
     (gate_fill, shares)
@@ -762,6 +766,7 @@ fn last_to_fill(
     let offsets = voxel::neighbour_offsets();
     let late = LAST_TO_FILL_SHARE * argmax(order).1;
     let mut maxima: Vec<u32> = (0..v.len() as u32)
+        .into_par_iter()
         .filter(|&c| {
             let t = order[c as usize];
             t.is_finite()
@@ -803,6 +808,7 @@ fn last_to_fill(
 fn front_direction(v: &Voxels, t: &[f64]) -> Vec<DVec3> {
     const AXES: [[i32; 3]; 3] = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
     (0..v.len() as u32)
+        .into_par_iter()
         .map(|c| {
             let tc = t[c as usize];
             if !tc.is_finite() {
@@ -833,27 +839,32 @@ fn weld_lines(v: &Voxels, t: &[f64]) -> Vec<WeldLine> {
     let dir = front_direction(v, t);
     let offsets = voxel::neighbour_offsets();
     let cos_limit = (120f64).to_radians().cos();
-    let mut angle = vec![f64::NAN; v.len()];
-    for c in 0..v.len() as u32 {
-        let dc = dir[c as usize];
-        if dc == DVec3::ZERO {
-            continue;
-        }
-        let pc = v.centre(c);
-        for &(o, _) in &offsets {
-            if let Some(n) = v.neighbour(c, o) {
-                let dn = dir[n as usize];
-                let towards = v.centre(n) - pc;
-                let cos = dc.dot(dn);
-                if cos < cos_limit && dc.dot(towards) > 0.0 && dn.dot(-towards) > 0.0 {
-                    let a = cos.clamp(-1.0, 1.0).acos().to_degrees();
-                    if angle[c as usize].is_nan() || angle[c as usize] < a {
-                        angle[c as usize] = a;
+    // Each cell's widest meeting angle with a neighbour (NaN where none meets it).
+    let angle: Vec<f64> = (0..v.len() as u32)
+        .into_par_iter()
+        .map(|c| {
+            let mut angle = f64::NAN;
+            let dc = dir[c as usize];
+            if dc == DVec3::ZERO {
+                return angle;
+            }
+            let pc = v.centre(c);
+            for &(o, _) in &offsets {
+                if let Some(n) = v.neighbour(c, o) {
+                    let dn = dir[n as usize];
+                    let towards = v.centre(n) - pc;
+                    let cos = dc.dot(dn);
+                    if cos < cos_limit && dc.dot(towards) > 0.0 && dn.dot(-towards) > 0.0 {
+                        let a = cos.clamp(-1.0, 1.0).acos().to_degrees();
+                        if angle.is_nan() || angle < a {
+                            angle = a;
+                        }
                     }
                 }
             }
-        }
-    }
+            angle
+        })
+        .collect();
     // Group the flagged cells (26-neighbour components).
     let mut seen = vec![false; v.len()];
     let mut groups = Vec::new();
