@@ -466,10 +466,7 @@ impl Domain {
 
     /// The cost array of an objective.
     pub fn cost(&self, objective: Objective) -> Option<&[f32]> {
-        match objective {
-            Objective::Length => None,
-            Objective::Resistance => Some(&self.fill_cost),
-        }
+        Kind::of(objective).cost(self)
     }
 }
 
@@ -551,6 +548,16 @@ pub struct GateFields {
     /// Fill order (resistance-weighted), mm of nominal wall; times [`seconds_per_mm`] it is
     /// the fill time.
     pub fill: Field,
+}
+
+impl GateFields {
+    /// The field the searches read for `objective`.
+    pub fn of(&self, objective: Objective) -> &Field {
+        match objective {
+            Objective::Length => &self.length,
+            Objective::Resistance => &self.fill,
+        }
+    }
 }
 
 /// Seconds per mm of fill-order path: 1 / v with v the Eq. 7 front velocity.
@@ -1001,9 +1008,7 @@ fn balanced_search<T: Send>(
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[first.cell as usize];
-    let pool: Vec<usize> = (0..candidates.len())
-        .filter(|&i| domain.body[candidates[i].cell as usize] == body)
-        .collect();
+    let pool = in_body(domain, candidates, body);
     if pool.is_empty() {
         return None;
     }
@@ -1108,6 +1113,13 @@ fn balanced_search<T: Send>(
         }
         far = far_points(v, &field.t, FAR_POINTS);
     }
+}
+
+/// The indices of the candidates in body `body`.
+fn in_body(domain: &Domain, candidates: &[Source], body: u32) -> Vec<usize> {
+    (0..candidates.len())
+        .filter(|&i| domain.body[candidates[i].cell as usize] == body)
+        .collect()
 }
 
 /// Far points taken from each run of the balanced search.
@@ -1226,9 +1238,7 @@ fn several_gates_search(
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[candidates[first].cell as usize];
-    let pool: Vec<usize> = (0..candidates.len())
-        .filter(|&i| domain.body[candidates[i].cell as usize] == body)
-        .collect();
+    let pool = in_body(domain, candidates, body);
     if k == 0 || pool.len() < k {
         return None;
     }
@@ -2148,10 +2158,12 @@ pub fn analyse_prepared(
         .source(gate)
         .ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
     let v = &domain.voxels;
+    let kind = Kind::of(options.objective);
     let (length, fill) = rayon::join(
-        || march(v, &[first], None),
-        || march(v, &[first], Some(&domain.fill_cost)),
+        || march(v, &[first], Kind::Length.cost(&domain)),
+        || march(v, &[first], Kind::Fill.cost(&domain)),
     );
+    let paper_fields = GateFields { length, fill };
     times.paper_s = seconds(t);
 
     // Candidates: the qualifying nodes' surface points on the voxelised part.
@@ -2161,18 +2173,15 @@ pub fn analyse_prepared(
         .iter()
         .filter_map(|&p| domain.source(p))
         .collect();
-    let start = match Kind::of(options.objective) {
-        Kind::Fill => &fill,
-        _ => &length,
-    };
+    let start = paper_fields.of(options.objective);
     // The paper gate's summary, beside the search too (it reads the fields the search
     // does not change).
-    let ((pressure, mut paper), search) = rayon::join(
+    let (mut paper, search) = rayon::join(
         || {
-            let pressure = march(v, &[first], Some(&domain.pressure_cost));
-            let fields = [&length, &fill, &pressure];
-            let (paper, _) = summarise_layout(&domain, &[gate], &[first], material, fields);
-            (pressure, paper)
+            let pressure = march(v, &[first], Kind::Pressure.cost(&domain));
+            let GateFields { length, fill } = &paper_fields;
+            let fields = [length, fill, &pressure];
+            summarise_layout(&domain, &[gate], &[first], material, fields).0
         },
         || {
             balanced_search(
@@ -2183,18 +2192,10 @@ pub fn analyse_prepared(
                 start,
                 h,
                 FAR_REACH,
-                |c| {
-                    march(
-                        v,
-                        &[candidates[c]],
-                        Kind::of(options.objective).cost(&domain),
-                    )
-                },
+                |c| march(v, &[candidates[c]], kind.cost(&domain)),
             )
         },
     );
-    drop(pressure);
-    let paper_fields = GateFields { length, fill };
     if paper.reached_share < 0.999 {
         warnings.push(format!(
             "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
@@ -2208,15 +2209,10 @@ pub fn analyse_prepared(
         Objective::Length => (|f| f.l_max_mm, 1.0),
         Objective::Resistance => (|f| f.fill_time_s, per_mm),
     };
-    let start = match options.objective {
-        Objective::Length => &paper_fields.length,
-        Objective::Resistance => &paper_fields.fill,
-    };
     // The balanced gate: its objective's field was marched beside the search's last run,
     // and decides whether it beats the paper gate (the same value its fill reports). Its
     // other two fields and its summary, needed only for the report, are made beside the
     // suitability map and the several-gate search, which read the objective's field only.
-    let kind = Kind::of(options.objective);
     let head = search.map(|(search, aside)| {
         let sources = [candidates[search.candidate]];
         let field = aside.unwrap_or_else(|| march(v, &sources, kind.cost(&domain)));
@@ -2342,12 +2338,12 @@ pub fn analyse_prepared(
                     h,
                 ));
             }
-            let available = candidates
-                .iter()
-                .filter(|s| {
-                    domain.body[s.cell as usize] == domain.body[candidates[start].cell as usize]
-                })
-                .count();
+            let available = in_body(
+                &domain,
+                &candidates,
+                domain.body[candidates[start].cell as usize],
+            )
+            .len();
             // The balanced gate's fill marched the first gate's field when it beat the paper
             // gate (the same source: its candidate's surface point and cell).
             let first_field = balanced_field
@@ -2710,9 +2706,7 @@ mod tests {
         let cost = domain.cost(objective);
         let v = &domain.voxels;
         let body = domain.body[first.cell as usize];
-        let pool: Vec<usize> = (0..candidates.len())
-            .filter(|&i| domain.body[candidates[i].cell as usize] == body)
-            .collect();
+        let pool = in_body(domain, candidates, body);
         if pool.is_empty() {
             return None;
         }

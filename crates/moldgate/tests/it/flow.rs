@@ -652,17 +652,24 @@ fn balanced_search_bound_and_value_agree_on_every_sample() {
             if analysis.gate().is_err() {
                 continue;
             }
-            let f = flow::analyse(
-                &mesh,
-                &analysis,
-                &pp(),
-                flow::Walls::Estimate,
-                &flow::FillOptions {
+            // `beside`: with two gates and the map, beside which the balanced gate's
+            // fields are made.
+            let fill = |beside: bool| {
+                let options = flow::FillOptions {
                     objective,
                     ..flow::FillOptions::default()
-                },
-            )
-            .unwrap();
+                };
+                let options = match beside {
+                    true => flow::FillOptions {
+                        gates: 2,
+                        suitability: true,
+                        ..options
+                    },
+                    false => options,
+                };
+                flow::analyse(&mesh, &analysis, &pp(), flow::Walls::Estimate, &options).unwrap()
+            };
+            let f = fill(false);
             let b = &f.balanced.as_ref().unwrap().search;
             eprintln!(
                 "{} {objective:?}: value {:.3}, bound {:.3}, proven {}",
@@ -671,19 +678,7 @@ fn balanced_search_bound_and_value_agree_on_every_sample() {
             failures.extend(check_search(s.name, &f));
             // With two gates and the map asked for, the balanced gate's fields are made
             // beside them: the same balanced gate and fill.
-            let beside = flow::analyse(
-                &mesh,
-                &analysis,
-                &pp(),
-                flow::Walls::Estimate,
-                &flow::FillOptions {
-                    objective,
-                    gates: 2,
-                    suitability: true,
-                    ..flow::FillOptions::default()
-                },
-            )
-            .unwrap();
+            let beside = fill(true);
             let (a, b) = (
                 f.balanced.as_ref().unwrap(),
                 beside.balanced.as_ref().unwrap(),
