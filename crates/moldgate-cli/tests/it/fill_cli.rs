@@ -104,6 +104,21 @@ fn several_gates_share_the_volume() {
 }
 
 #[test]
+fn the_summary_names_where_a_layout_of_gates_was_seeded() {
+    let out = moldgate(&["locate", "--sample", "tray", "--gates", "2"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("GATES ("))
+        .expect("a GATES line");
+    assert!(
+        line.starts_with("GATES (2 gates, seeded at the best single gate): "),
+        "{line}"
+    );
+}
+
+#[test]
 fn keep_out_and_cosmetic_move_or_refuse_the_gate() {
     let free = json(&["locate", "--sample", "plate", "--json"]);
     let g = point(&free["gate"]["point"]);
