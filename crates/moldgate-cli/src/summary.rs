@@ -158,21 +158,24 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         }
     }
     if let Some(m) = &f.several {
+        // The layout's values are of its objective: mm of flow length, or s of fill time.
+        let (what, unit, digits) = f.objective.value_words();
+        let worst = |x: f64| format!("{what} {x:.digits$} {unit}");
         let _ = writeln!(
             s,
-            "  {} gates: longest flow {:.1} mm, balance {:.2} (smallest share / largest)",
+            "  {} gates: {}, balance {:.2} (smallest share / largest)",
             m.gates.len(),
-            m.l_max_mm,
+            worst(m.l_max_mm),
             m.balance
         );
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "    gate {}: {} fills {:.1} % of the volume, longest flow {:.1} mm",
+                "    gate {}: {} fills {:.1} % of the volume, {}",
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
-                g.l_max_mm
+                worst(g.l_max_mm)
             );
         }
     }

@@ -579,10 +579,7 @@ fn fill_table(h: &mut String, r: &Report) {
     suitability_text(h, f);
     if let Some(m) = &f.several {
         // With the resistance objective the several-gate values are fill times.
-        let (what, unit, digits) = match f.objective {
-            crate::flow::Objective::Length => ("longest flow path L_max", "mm", 1),
-            crate::flow::Objective::Resistance => ("fill time", "s", 3),
-        };
+        let (what, unit, digits) = f.objective.value_words();
         let _ = writeln!(
             h,
             "<p id=\"several\">{} gates together: {what} {:.digits$} {unit}, balance {:.2} \
@@ -684,10 +681,7 @@ fn fill_table(h: &mut String, r: &Report) {
 /// and how wide the bounds of the others are.
 fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
     let Some(m) = &f.suitability else { return };
-    let (what, digits) = match m.objective {
-        crate::flow::Objective::Length => ("longest flow path L_max", 1),
-        crate::flow::Objective::Resistance => ("fill time", 3),
-    };
+    let (what, _, digits) = m.objective.value_words();
     let unit = m.unit;
     let (lo, hi) = m
         .nodes

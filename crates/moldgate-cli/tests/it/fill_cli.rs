@@ -119,6 +119,35 @@ fn the_summary_names_where_a_layout_of_gates_was_seeded() {
 }
 
 #[test]
+fn several_gates_minimising_the_fill_time_are_summarised_in_seconds() {
+    let out = moldgate(&[
+        "locate",
+        "--sample",
+        "tray",
+        "--gates",
+        "2",
+        "--objective",
+        "resistance",
+    ]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let layout: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("  2 gates: "))
+        .take(3)
+        .collect();
+    assert_eq!(layout.len(), 3, "{text}");
+    for line in layout {
+        assert!(
+            line.contains("fill time 0.")
+                && (line.contains(" s,") || line.ends_with(" s"))
+                && !line.contains(" mm"),
+            "{line}"
+        );
+    }
+}
+
+#[test]
 fn keep_out_and_cosmetic_move_or_refuse_the_gate() {
     let free = json(&["locate", "--sample", "plate", "--json"]);
     let g = point(&free["gate"]["point"]);

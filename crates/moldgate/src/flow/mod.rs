@@ -70,6 +70,18 @@ pub enum Objective {
     Resistance,
 }
 
+impl Objective {
+    /// How the searches' values of this objective read in a report: what they are, their
+    /// unit, and the decimals shown (L_max in mm; the fill time in s, which is what the
+    /// resistance objective's values are reported in).
+    pub fn value_words(self) -> (&'static str, &'static str, usize) {
+        match self {
+            Objective::Length => ("longest flow path L_max", "mm", 1),
+            Objective::Resistance => ("fill time", "s", 3),
+        }
+    }
+}
+
 /// Options of the fill analysis, with the limits that bound its work. Every limit is
 /// checked before the work it bounds: a cell size the user set is refused when it breaks
 /// one ([`FillError::TooLarge`]); a cell size chosen from the part is coarsened until it

@@ -347,7 +347,10 @@ fn answer_gates(
         "gate ({:.2}, {:.2}, {:.2}) mm, R = {:.2} mm",
         p.x, p.y, p.z, r
     );
-    let several = report.fill.as_ref().and_then(|f| f.several.clone());
+    let several = report
+        .fill
+        .as_ref()
+        .and_then(|f| Some((f.several.clone()?, f.objective)));
     let Some(g) = report.gate.as_mut() else {
         return (gates, subtitle);
     };
@@ -362,7 +365,7 @@ fn answer_gates(
             g.point[0], g.point[1], g.point[2]
         );
     }
-    if let Some(several) = several {
+    if let Some((several, objective)) = several {
         let answer: Vec<AnswerGate> = several
             .gates
             .iter()
@@ -384,8 +387,10 @@ fn answer_gates(
             g.point = first.point;
             g.distance_3d_mm = DVec3::from_array(first.point).distance(analysis.centre);
         }
+        // The layout's worst value is in its objective's unit (mm of L_max, s of fill time).
+        let (what, unit, digits) = objective.value_words();
         subtitle = format!(
-            "{} gates, longest flow path L_max {:.1} mm, R = {r:.2} mm",
+            "{} gates, {what} {:.digits$} {unit}, R = {r:.2} mm",
             answer.len(),
             several.l_max_mm
         );

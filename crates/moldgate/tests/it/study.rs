@@ -237,3 +237,22 @@ fn asking_for_the_wall_of_every_facet_does_not_change_the_fill() {
         );
     }
 }
+
+#[test]
+fn a_layout_of_gates_is_titled_in_its_objective_s_unit() {
+    let part = sample("tray");
+    for (objective, words) in [
+        ("length", "longest flow path L_max "),
+        ("resistance", "fill time "),
+    ] {
+        let json = format!(r#"{{ "gates": 2, "objective": "{objective}" }}"#);
+        let s = study(&part, &options(&json)).unwrap();
+        let subtitle = s.scene(&part, "tray").unwrap().subtitle;
+        let (_, unit, _) = s.report().fill.as_ref().unwrap().objective.value_words();
+        assert!(
+            subtitle.starts_with(&format!("2 gates, {words}")),
+            "{subtitle}"
+        );
+        assert!(subtitle.contains(&format!(" {unit}, R = ")), "{subtitle}");
+    }
+}
