@@ -58,11 +58,13 @@ function gateSection(r) {
   const several = r.fill?.several;
   const content = [list("gate", rows)];
   if (several) {
+    // The layout's values are of its objective: mm of L_max, or s of fill time.
+    const worst = (x) => (r.fill.objective === "resistance" ? `fill time ${x.toFixed(3)} s` : `L_max ${x.toFixed(1)} mm`);
     const ol = el("ol", { id: "several-gates" });
     for (const s of several.gates) {
-      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, L_max ${s.l_max_mm.toFixed(1)} mm`));
+      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, ${worst(s.l_max_mm)}`));
     }
-    content.push(el("p", {}, `${several.gates.length} gates: L_max ${several.l_max_mm.toFixed(1)} mm, balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
+    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several.l_max_mm)}, balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
   }
   return section("gate-result", "Gate", ...content);
 }

@@ -226,6 +226,32 @@ describe("moldgate in the browser", () => {
     await page.click("#defaults");
   });
 
+  test("the results' values keep a readable column beside long labels", async () => {
+    await page.selectOption("#demold", "-z");
+    assert.equal(await studySample(page, "cover"), "done");
+    const narrow = await page.$$eval("#results dl", (lists) =>
+      lists.flatMap((dl) => {
+        const width = dl.getBoundingClientRect().width;
+        return [...dl.querySelectorAll("dd")]
+          .filter((dd) => dd.getBoundingClientRect().width < 0.4 * width)
+          .map((dd) => `${dl.id}: ${dd.textContent} (${dd.getBoundingClientRect().width.toFixed(0)} of ${width.toFixed(0)} px)`);
+      }),
+    );
+    assert.deepEqual(narrow, []);
+    await page.click("#defaults");
+  });
+
+  test("several gates minimising the fill time are given in seconds", async () => {
+    await page.selectOption("#demold", "+z");
+    await page.selectOption("#objective", "resistance");
+    await page.fill("#gates", "2");
+    assert.equal(await studySample(page, "tray"), "done");
+    const worst = await page.textContent("#several-worst");
+    const expected = cli(["locate", "--sample", "tray", "--demold", "+z", "--objective", "resistance", "--gates", "2"]);
+    assert.equal(worst, `2 gates: fill time ${expected.fill.several.l_max_mm.toFixed(3)} s, balance ${expected.fill.several.balance.toFixed(2)} (smallest share / largest)`);
+    await page.click("#defaults");
+  });
+
   test("shift-click places a gate of the designer's, judged and filled as the command line does", async () => {
     await page.selectOption("#demold", "+z");
     await page.check("#fill");
