@@ -59,12 +59,12 @@ function gateSection(r) {
   const content = [list("gate", rows)];
   if (several) {
     // The layout's values are of its objective: mm of L_max, or s of fill time.
-    const worst = (x) => (r.fill.objective === "resistance" ? `fill time ${x.toFixed(3)} s` : `L_max ${x.toFixed(1)} mm`);
+    const worst = (x) => (x.fill_time_s != null ? `fill time ${x.fill_time_s.toFixed(3)} s` : `L_max ${x.l_max_mm.toFixed(1)} mm`);
     const ol = el("ol", { id: "several-gates" });
     for (const s of several.gates) {
-      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, ${worst(s.l_max_mm)}`));
+      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, ${worst(s)}`));
     }
-    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several.l_max_mm)}, balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
+    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
   }
   return section("gate-result", "Gate", ...content);
 }

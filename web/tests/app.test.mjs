@@ -248,7 +248,11 @@ describe("moldgate in the browser", () => {
     assert.equal(await studySample(page, "tray"), "done");
     const worst = await page.textContent("#several-worst");
     const expected = cli(["locate", "--sample", "tray", "--demold", "+z", "--objective", "resistance", "--gates", "2"]);
-    assert.equal(worst, `2 gates: fill time ${expected.fill.several.l_max_mm.toFixed(3)} s, balance ${expected.fill.several.balance.toFixed(2)} (smallest share / largest)`);
+    const several = expected.fill.several;
+    assert.equal(several.l_max_mm, null);
+    assert.equal(worst, `2 gates: fill time ${several.fill_time_s.toFixed(3)} s (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`);
+    const first = await page.textContent("#several-gates li");
+    assert.match(first, new RegExp(`, fill time ${several.gates[0].fill_time_s.toFixed(3)} s$`));
     await page.click("#defaults");
   });
 

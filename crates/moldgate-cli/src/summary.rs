@@ -163,9 +163,10 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         let worst = |x: f64| format!("{what} {x:.digits$} {unit}");
         let _ = writeln!(
             s,
-            "  {} gates: {}, balance {:.2} (smallest share / largest)",
+            "  {} gates: {} ({:.1} % shorter than with the best single gate), balance {:.2} (smallest share / largest)",
             m.gates.len(),
-            worst(m.l_max_mm),
+            worst(m.value()),
+            m.improvement_pct,
             m.balance
         );
         for (i, g) in m.gates.iter().enumerate() {
@@ -175,7 +176,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
-                worst(g.l_max_mm)
+                worst(g.value())
             );
         }
     }

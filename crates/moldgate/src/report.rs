@@ -17,7 +17,7 @@ use crate::undercut::AutoDemold;
 use crate::CentreKind;
 
 /// Version of the report's schema.
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// Where the part came from.
 #[derive(Debug, Clone, Serialize)]
@@ -209,8 +209,11 @@ pub struct AnswerGate {
     pub normal: [f64; 3],
     /// Share of the reached volume this gate fills first.
     pub volume_share: f64,
-    /// Largest flow value inside its share, mm.
-    pub l_max_mm: f64,
+    /// Longest flow path inside its share, mm (`None` when the layout minimised the fill
+    /// time).
+    pub l_max_mm: Option<f64>,
+    /// Fill time of its share, s (`None` when the layout minimised the flow length).
+    pub fill_time_s: Option<f64>,
 }
 
 /// Seconds per stage.

@@ -792,7 +792,7 @@ fn output_is_written_whole_as_json_without_temporary_files() {
 
     let text = std::fs::read_to_string(dir.path().join("out.json")).unwrap();
     let report: Value = serde_json::from_str(&text).unwrap();
-    assert_eq!(report["schema_version"], 2);
+    assert_eq!(report["schema_version"], 3);
     assert_eq!(report["input"]["path"], "part.stl");
     assert_eq!(report["input"]["bytes"], 84 + 12 * 50);
     assert_eq!(report["mesh"]["format"], "stl_binary");
@@ -816,7 +816,7 @@ fn output_is_written_whole_as_json_without_temporary_files() {
 fn json_on_stdout_matches_the_summary() {
     let (dir, _) = part("part.stl", ascii(&block()).as_bytes());
     let report = json(&moldgate(dir.path(), &["locate", "part.stl", "--json"]));
-    assert_eq!(report["schema_version"], 2);
+    assert_eq!(report["schema_version"], 3);
     assert_eq!(report["mesh"]["format"], "stl_ascii");
     assert_eq!(report["mesh"]["units"], "mm");
     assert_eq!(

@@ -70,7 +70,7 @@ fn png_and_report_are_written_whole_and_self_contained() {
         assert!(!html.contains(bad), "the page contains {bad}");
     }
     // The full JSON is in the page, escaped.
-    assert!(html.contains("&quot;schema_version&quot;: 2"));
+    assert!(html.contains("&quot;schema_version&quot;: 3"));
     assert!(!html.contains("\"schema_version\""));
     // No temporary files left.
     assert_eq!(listing(dir.path()), ["t.html", "t.json", "t.png"]);

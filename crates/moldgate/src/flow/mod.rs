@@ -748,7 +748,8 @@ fn shares_of(field: &Field, points: &[DVec3]) -> Vec<GateShare> {
             candidate: g,
             point: p.to_array(),
             volume_share: count[g] as f64 / reached as f64,
-            l_max_mm: l_max[g],
+            l_max_mm: Some(l_max[g]),
+            fill_time_s: None,
         })
         .collect()
 }
@@ -1188,8 +1189,19 @@ pub struct GateShare {
     pub point: [f64; 3],
     /// Share of the reached volume this gate fills first.
     pub volume_share: f64,
-    /// Largest flow value inside its share, mm.
-    pub l_max_mm: f64,
+    /// Longest flow path inside its share, mm; `None` when the layout minimised the fill
+    /// time (its shares are of the fill-time field, and only their time is known).
+    pub l_max_mm: Option<f64>,
+    /// Fill time of its share, s; `None` when the layout minimised the flow length.
+    pub fill_time_s: Option<f64>,
+}
+
+impl GateShare {
+    /// The value of the objective the layout minimised (mm of L_max or s of fill time, see
+    /// [`Objective::value_words`]).
+    pub fn value(&self) -> f64 {
+        self.l_max_mm.or(self.fill_time_s).unwrap_or(f64::NAN)
+    }
 }
 
 /// Several gates that together minimise the largest arrival value (a k-centre problem).
@@ -1197,14 +1209,31 @@ pub struct GateShare {
 pub struct MultiGate {
     /// The gates.
     pub gates: Vec<GateShare>,
-    /// Largest arrival value with all gates open, mm.
-    pub l_max_mm: f64,
+    /// Longest flow path with all gates open, mm; `None` when the layout minimised the
+    /// fill time.
+    pub l_max_mm: Option<f64>,
+    /// Fill time with all gates open, s; `None` when the layout minimised the flow length.
+    pub fill_time_s: Option<f64>,
+    /// How much shorter the objective is than with the best single gate (the balanced
+    /// gate, or the paper gate when no candidate beats it), %.
+    pub improvement_pct: f64,
     /// Smallest volume share over the largest (1: perfectly even).
     pub balance: f64,
     /// Marches it ran (a march from a cell it had marched from before is not run again;
     /// those of a gate examined ahead and dropped, when the gate before it moved, count).
     pub runs: usize,
 }
+
+impl MultiGate {
+    /// The value of the objective the layout minimised (see [`GateShare::value`]).
+    pub fn value(&self) -> f64 {
+        self.l_max_mm.or(self.fill_time_s).unwrap_or(f64::NAN)
+    }
+}
+
+/// A layout of several gates that shortens the objective by less than this against the
+/// best single gate is warned about: the extra gates buy little by this measure.
+pub const SMALL_LAYOUT_GAIN_PCT: f64 = 10.0;
 
 /// Places `k` gates among `candidates` (same body as `first`, which starts the layout):
 /// farthest-point seeding (each new gate is the candidate nearest, along the flow, to the
@@ -1523,7 +1552,8 @@ fn several_gates_search(
                 candidate: i,
                 point: candidates[i].point.to_array(),
                 volume_share: count as f64 / reached as f64,
-                l_max_mm: l_max,
+                l_max_mm: Some(l_max),
+                fill_time_s: None,
             }
         })
         .collect();
@@ -1536,7 +1566,9 @@ fn several_gates_search(
             .max(f64::MIN_POSITIVE);
     Some(MultiGate {
         gates,
-        l_max_mm: worst,
+        l_max_mm: Some(worst),
+        fill_time_s: None,
+        improvement_pct: 0.0,
         balance,
         runs: runs + from_centre.runs() + trial_runs.into_inner(),
     })
@@ -2235,6 +2267,11 @@ pub fn analyse_prepared(
     if head.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
+    // The best single gate's objective, which a layout of several gates is measured against:
+    // the balanced gate's, or the paper gate's when it stays.
+    let best_single = head.as_ref().map_or(objective_value(&paper), |(_, field, _)| {
+        (argmax(&field.t).1 * scale).min(objective_value(&paper))
+    });
     times.balanced_s = seconds(t);
     // The balanced gate's objective field, when it is the balanced gate's own (it beat the
     // paper gate).
@@ -2374,12 +2411,13 @@ pub fn analyse_prepared(
                 available,
             })?;
             if options.objective == Objective::Resistance {
-                // Reported in seconds, like the single gate's objective.
-                layout.l_max_mm *= per_mm;
+                // The search's values are of the fill-time field: seconds, under their name.
+                layout.fill_time_s = layout.l_max_mm.take().map(|x| x * per_mm);
                 for g in &mut layout.gates {
-                    g.l_max_mm *= per_mm;
+                    g.fill_time_s = g.l_max_mm.take().map(|x| x * per_mm);
                 }
             }
+            layout.improvement_pct = 100.0 * (1.0 - layout.value() / best_single);
             Some(layout)
         } else {
             None
@@ -2395,6 +2433,25 @@ pub fn analyse_prepared(
         (complete(), rest())
     };
     let (suitability, several, rest_times) = rest?;
+    if let Some(layout) = &several {
+        if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
+            let (what, unit, digits) = options.objective.value_words();
+            let why = match options.objective {
+                Objective::Resistance => {
+                    ": the fill time is set by the slowest, thinnest cells, which another gate hardly reaches sooner"
+                }
+                Objective::Length => "",
+            };
+            let digits = digits + 1;
+            warnings.push(format!(
+                "{} gates shorten the {what} by only {:.1} % against the best single gate, {:.digits$} against {:.digits$} {unit}{why}; by this measure one gate does about as well",
+                layout.gates.len(),
+                layout.improvement_pct,
+                layout.value(),
+                best_single,
+            ));
+        }
+    }
     // The balanced gate's fill counts where it made the join longer than the rest.
     let rest_s = rest_times.suitability_s.unwrap_or(0.0) + rest_times.several_s;
     times.balanced_s += (seconds(t) - rest_s).clamp(0.0, complete_s);
@@ -2830,7 +2887,7 @@ mod tests {
                         m.gates.iter().map(|g| g.candidate).collect()
                     };
                     assert_eq!(gates(&new), gates(&old), "{what}");
-                    assert_eq!(new.l_max_mm.to_bits(), old.l_max_mm.to_bits(), "{what}");
+                    assert_eq!(new.value().to_bits(), old.value().to_bits(), "{what}");
                     assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
                     assert!(new.runs >= old.runs, "{what}");
                     // Examinations made ahead and dropped (a move was kept) add runs.

@@ -354,7 +354,7 @@ impl PlacedGates {
                     self.gates.iter_mut().zip(&f.shares).zip(&f.wall_across_mm)
                 {
                     g.volume_share = Some(share.volume_share);
-                    g.l_max_mm = Some(share.l_max_mm);
+                    g.l_max_mm = share.l_max_mm;
                     g.wall_across_mm = Some(*wall);
                 }
                 self.fill = Some(f.fill);

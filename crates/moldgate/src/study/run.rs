@@ -374,6 +374,7 @@ fn answer_gates(
                 normal: normal_at(part, bvh, DVec3::from_array(s.point)).to_array(),
                 volume_share: s.volume_share,
                 l_max_mm: s.l_max_mm,
+                fill_time_s: s.fill_time_s,
             })
             .collect();
         gates = answer
@@ -392,7 +393,7 @@ fn answer_gates(
         subtitle = format!(
             "{} gates, {what} {:.digits$} {unit}, R = {r:.2} mm",
             answer.len(),
-            several.l_max_mm
+            several.value()
         );
         g.gates = Some(answer);
     }

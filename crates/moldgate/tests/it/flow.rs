@@ -213,14 +213,16 @@ fn two_gates_on_a_bar_sit_near_its_quarter_points_and_share_it_evenly() {
     xs.sort_by(f64::total_cmp);
     println!(
         "gates at x {xs:?}, L_max {:.2}, balance {:.3}",
-        two.l_max_mm, two.balance
+        two.value(),
+        two.balance
     );
     assert!(
         (xs[0] + 50.0).abs() < 4.0 && (xs[1] - 50.0).abs() < 4.0,
         "{xs:?}"
     );
     // Half of a 100 x 10 x 3 piece from the middle of its top: about sqrt(50^2 + 5^2 + 3^2).
-    assert!(two.l_max_mm < 55.0, "{}", two.l_max_mm);
+    assert!(two.value() < 55.0, "{}", two.value());
+    assert!(two.fill_time_s.is_none(), "{:?}", two.fill_time_s);
     assert!(two.balance > 0.9, "{}", two.balance);
     // More gates than candidates is refused.
     assert!(several_gates(&domain, &cands[..3], Objective::Length, 0, 4).is_none());

@@ -58,7 +58,7 @@ fn a_default_study_is_the_paper_s_locate() {
         assert_eq!(s.gates().len(), usize::from(analysis.gate().is_ok()));
         assert!(s.fill_time_per_vertex().is_none() && s.wall_thickness_per_vertex().is_none());
         let json: serde_json::Value = serde_json::from_str(&s.report_json().unwrap()).unwrap();
-        assert_eq!(json["schema_version"], 2);
+        assert_eq!(json["schema_version"], 3);
     }
 }
 
