@@ -140,7 +140,7 @@ fn several_gates_minimising_the_fill_time_are_summarised_in_seconds() {
     for line in layout {
         assert!(
             line.contains("fill time 0.")
-                && (line.contains(" s,") || line.ends_with(" s"))
+                && (line.contains(" s,") || line.contains(" s (") || line.ends_with(" s"))
                 && !line.contains(" mm"),
             "{line}"
         );
