@@ -341,16 +341,12 @@ pub fn render(r: &Report) -> String {
             };
             match &g.gates {
                 Some(gates) => {
-                    // The layout is seeded at the balanced search's candidate (the best single
-                    // gate) when there is one, else at the candidate nearest the method's gate.
-                    let seed = match r.fill.as_ref().and_then(|f| f.balanced.as_ref()) {
-                        Some(_) => "best single",
-                        None => mode,
-                    };
+                    // The layout is the better of two searches (from the best single gate,
+                    // and from the place it reaches last): no one gate seeds it.
                     let points: Vec<String> = gates.iter().map(|g| v3(g.point)).collect();
                     let _ = writeln!(
                         s,
-                        "GATES ({} gates, seeded at the {seed} gate): {} mm",
+                        "GATES ({} gates, one layout): {} mm",
                         gates.len(),
                         points.join(", ")
                     );

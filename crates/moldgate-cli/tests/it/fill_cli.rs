@@ -112,10 +112,7 @@ fn the_summary_names_where_a_layout_of_gates_was_seeded() {
         .lines()
         .find(|l| l.starts_with("GATES ("))
         .expect("a GATES line");
-    assert!(
-        line.starts_with("GATES (2 gates, seeded at the best single gate): "),
-        "{line}"
-    );
+    assert!(line.starts_with("GATES (2 gates, one layout): "), "{line}");
 }
 
 #[test]
