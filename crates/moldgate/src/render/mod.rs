@@ -552,11 +552,6 @@ fn draw_overlays(
         // It lies inside the part or behind it: say so, the cross is drawn over it.
         "centre of mass (hidden)"
     };
-    let centre_style = TextStyle::new(13.0 * k, INK).halo(WHITE);
-    let (lx, ly) = (cx - reach - 6.0 * k, cy + 18.0 * k);
-    canvas.text(lx, ly, centre_label, &centre_style, Align::Right);
-    taken.push(text_box(lx, ly, centre_label, &centre_style, Align::Right));
-
     let discs: Vec<(Vec<[f32; 2]>, f32, [f32; 2])> = scene
         .gates
         .iter()
@@ -571,7 +566,6 @@ fn draw_overlays(
             .iter()
             .map(|(_, r, [x, y])| [x - r, y - r, x + r, y + r]),
     );
-    let gate_style = TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE);
     let panel = view.panel;
     let inside = [
         panel.x as f32,
@@ -579,6 +573,21 @@ fn draw_overlays(
         (panel.x + panel.w) as f32,
         (panel.y + panel.h) as f32,
     ];
+    // The centre's label: lower left of the cross as usual, elsewhere around it when a
+    // gate's disc lies there (a gate of a layout often sits beside the centre).
+    let centre_style = TextStyle::new(13.0 * k, INK).halo(WHITE);
+    let (lx, ly, align) = centre_label_place(
+        [cx, cy],
+        reach,
+        centre_label,
+        &centre_style,
+        &taken,
+        inside,
+        k,
+    );
+    canvas.text(lx, ly, centre_label, &centre_style, align);
+    taken.push(text_box(lx, ly, centre_label, &centre_style, align));
+    let gate_style = TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE);
     for (i, (outline, r, [x, y])) in discs.iter().enumerate() {
         draw_gate(canvas, outline, *x, *y, *r, k);
         let label = if scene.gates.len() > 1 {
@@ -886,6 +895,44 @@ fn gate_label_place(
             (x - r - 12.0 * k, y + r + 20.0 * k + out, Align::Right),
         ]);
     }
+    first_free(&places, label, style, taken, inside)
+}
+
+/// Where the centre of mass's label goes: lower left of its cross (centre `c`, arms of
+/// `reach` pixels), then lower right, upper left, upper right, then the same farther out,
+/// the first whose box overlaps nothing `taken` (the cross's arms, the gates' discs) and
+/// lies inside the panel; the usual place when none does.
+fn centre_label_place(
+    c: [f32; 2],
+    reach: f32,
+    label: &str,
+    style: &TextStyle,
+    taken: &[LabelBox],
+    inside: LabelBox,
+    k: f32,
+) -> (f32, f32, Align) {
+    let [x, y] = c;
+    let mut places = Vec::new();
+    for out in [0.0, style.size * 1.4, style.size * 2.8] {
+        places.extend([
+            (x - reach - 6.0 * k, y + 18.0 * k + out, Align::Right),
+            (x + reach + 6.0 * k, y + 18.0 * k + out, Align::Left),
+            (x - reach - 6.0 * k, y - 8.0 * k - out, Align::Right),
+            (x + reach + 6.0 * k, y - 8.0 * k - out, Align::Left),
+        ]);
+    }
+    first_free(&places, label, style, taken, inside)
+}
+
+/// The first of `places` (text anchor and alignment) whose box overlaps nothing `taken`
+/// and lies inside `inside`; the first place when none does.
+fn first_free(
+    places: &[(f32, f32, Align)],
+    label: &str,
+    style: &TextStyle,
+    taken: &[LabelBox],
+    inside: LabelBox,
+) -> (f32, f32, Align) {
     places
         .iter()
         .copied()
@@ -1386,6 +1433,40 @@ mod tests {
         // With nothing in the way the label keeps its usual place.
         let (x, y, _) = gate_label_place(gate, r, "gate", &style, &[], inside, k);
         assert_eq!((x, y), (gate[0] + r + 12.0, gate[1] - r - 8.0));
+    }
+
+    #[test]
+    fn the_centre_label_moves_off_a_gate_disc_beside_the_cross() {
+        // The plate's two gates seen along D: gate 1's disc lies where the centre's label
+        // usually goes, lower left of the cross.
+        let k = 1.0;
+        let style = TextStyle::new(13.0, INK);
+        let (c, reach) = ([600.0f32, 500.0f32], 13.0f32);
+        let label = "centre of mass (hidden)";
+        let usual = text_box(c[0] - reach - 6.0, c[1] + 18.0, label, &style, Align::Right);
+        let disc = [
+            usual[0] + 20.0,
+            usual[1] - 5.0,
+            usual[0] + 40.0,
+            usual[1] + 15.0,
+        ];
+        let arms = [
+            [c[0] - reach, c[1] - 3.0, c[0] + reach, c[1] + 3.0],
+            [c[0] - 3.0, c[1] - reach, c[0] + 3.0, c[1] + reach],
+        ];
+        let taken = [arms[0], arms[1], disc];
+        let inside = [0.0, 0.0, 1200.0, 1000.0];
+        let (x, y, align) = centre_label_place(c, reach, label, &style, &taken, inside, k);
+        let placed = text_box(x, y, label, &style, align);
+        for t in &taken {
+            assert!(!overlaps(&placed, t), "{placed:?} overlaps {t:?}");
+        }
+        // With only the cross, the label keeps its usual place.
+        let (x, y, align) = centre_label_place(c, reach, label, &style, &arms, inside, k);
+        assert_eq!(
+            (x, y, align),
+            (c[0] - reach - 6.0, c[1] + 18.0, Align::Right)
+        );
     }
 
     #[test]
