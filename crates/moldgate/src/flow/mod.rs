@@ -1287,27 +1287,16 @@ pub fn several_gates_from(
             d(x).total_cmp(&d(y)).then(x.cmp(&y))
         })
         .filter(|&i| i != first);
-    // The two searches share their marches from cell centres.
-    let from_centre = CentreMarches::new(v, domain.cost(objective));
-    let search = Search {
-        domain,
-        candidates,
-        objective,
-        k,
-        look_ahead: true,
-        from_centre: &from_centre,
+    let search = |from: usize, given: Option<&Field>| {
+        several_gates_search(domain, candidates, objective, from, k, given, true)
     };
     let (a, b) = match second {
-        Some(second) => rayon::join(
-            || search.from(first, Some(start)),
-            || search.from(second, None),
-        ),
-        None => (search.from(first, Some(start)), None),
+        Some(second) => rayon::join(|| search(first, Some(start)), || search(second, None)),
+        None => (search(first, Some(start)), None),
     };
     let mut a = a?;
-    // Every march run counts once, whichever layout is kept.
-    let runs =
-        a.runs + b.as_ref().map_or(0, |b| b.runs) + usize::from(marched) + from_centre.runs();
+    // A march run for the start counts once, whichever layout is kept.
+    let runs = a.runs + b.as_ref().map_or(0, |b| b.runs) + usize::from(marched);
     if let Some(b) = b.filter(|b| b.value() < a.value()) {
         a = b;
     }
@@ -1317,7 +1306,6 @@ pub fn several_gates_from(
 
 /// [`several_gates_from`]; `look_ahead`: whether the next gate is examined at the same time as
 /// the present one (the same answer either way; the tests compare the two).
-#[cfg(test)]
 fn several_gates_search(
     domain: &Domain,
     candidates: &[Source],
@@ -1327,53 +1315,6 @@ fn several_gates_search(
     start: Option<&Field>,
     look_ahead: bool,
 ) -> Option<MultiGate> {
-    let from_centre = CentreMarches::new(&domain.voxels, domain.cost(objective));
-    let search = Search {
-        domain,
-        candidates,
-        objective,
-        k,
-        look_ahead,
-        from_centre: &from_centre,
-    };
-    let mut layout = search.from(first, start)?;
-    layout.runs += from_centre.runs();
-    Some(layout)
-}
-
-/// What a search for several gates reads: the marches from cell centres may be shared by
-/// searches of the same domain and objective run side by side (they depend on the cell
-/// alone), and their runs are counted by whoever made them.
-struct Search<'a, 'b> {
-    domain: &'a Domain,
-    candidates: &'a [Source],
-    objective: Objective,
-    k: usize,
-    look_ahead: bool,
-    from_centre: &'b CentreMarches<'a>,
-}
-
-impl Search<'_, '_> {
-    /// The layout from `first` (see [`several_gates_search`]); its runs leave out the
-    /// marches from cell centres.
-    fn from(&self, first: usize, start: Option<&Field>) -> Option<MultiGate> {
-        several_gates_search_in(self, first, start)
-    }
-}
-
-fn several_gates_search_in(
-    search: &Search,
-    first: usize,
-    start: Option<&Field>,
-) -> Option<MultiGate> {
-    let Search {
-        domain,
-        candidates,
-        objective,
-        k,
-        look_ahead,
-        from_centre,
-    } = *search;
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[candidates[first].cell as usize];
@@ -1390,6 +1331,7 @@ fn several_gates_search_in(
             march(v, &[candidates[first]], cost)
         }
     };
+    let from_centre = CentreMarches::new(v, cost);
     // Which cells hold a candidate the search may still take: the nearest of them to a far
     // point is needed, not the whole field from it.
     let mut open = vec![false; v.len()];
@@ -1667,7 +1609,7 @@ fn several_gates_search_in(
         fill_time_s: None,
         improvement_pct: 0.0,
         balance,
-        runs: runs + trial_runs.into_inner(),
+        runs: runs + from_centre.runs() + trial_runs.into_inner(),
     })
 }
 
