@@ -38,14 +38,26 @@ function gateSection(r) {
   const g = r.gate;
   const mode = g.strategy === "balanced" ? "balanced" : g.mode;
   const paper = r.paper_gate;
-  const rows = [
-    ["Gate point", `${v3(g.point)} mm`, { id: "gate-point", ...xyz(g.point) }],
-    ["Chosen by", { paper: "the paper's rule: nearest the centre of mass", aesthetic: "the parting line (aesthetic)", balanced: "the balanced fill" }[mode] ?? mode, { id: "gate-mode", "data-value": mode }],
-  ];
-  if (paper && mode === "paper") {
-    rows.push(["Surface normal", v3(paper.normal, 3), { id: "gate-normal", ...xyz(paper.normal) }]);
-    rows.push(["Wall under the gate (along D, the paper's rule)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
-    rows.push(["From the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
+  const several = r.fill?.several;
+  const rows = [];
+  if (several) {
+    // A layout: its gates are listed below; the paper gate's own rows say whose they are.
+    const minimised = r.fill.objective === "resistance" ? "fill time" : "longest flow path";
+    rows.push(["Gates", `${several.gates.length} gates sharing the part, listed below (gate 1 at ${v3(g.point)} mm)`, { id: "gate-point", ...xyz(g.point) }]);
+    rows.push(["Chosen by", `a layout of ${several.gates.length} gates minimising the ${minimised}`, { id: "gate-mode", "data-value": "several" }]);
+    if (paper) {
+      rows.push(["Paper gate (nearest the centre of mass)", `${v3(paper.point)} mm`, xyz(paper.point)]);
+      rows.push(["Wall under the paper gate (along D)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+      rows.push(["Paper gate from the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
+    }
+  } else {
+    rows.push(["Gate point", `${v3(g.point)} mm`, { id: "gate-point", ...xyz(g.point) }]);
+    rows.push(["Chosen by", { paper: "the paper's rule: nearest the centre of mass", aesthetic: "the parting line (aesthetic)", balanced: "the balanced fill" }[mode] ?? mode, { id: "gate-mode", "data-value": mode }]);
+    if (paper && mode === "paper") {
+      rows.push(["Surface normal", v3(paper.normal, 3), { id: "gate-normal", ...xyz(paper.normal) }]);
+      rows.push(["Wall under the gate (along D, the paper's rule)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+      rows.push(["From the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
+    }
   }
   rows.push([
     "Gate radius R",
@@ -55,7 +67,6 @@ function gateSection(r) {
   if (r.wall_thickness) {
     rows.push(["Wall of the gate's facet (across, every facet measured)", mm(r.wall_thickness.at_gate_mm), { "data-value": r.wall_thickness.at_gate_mm }]);
   }
-  const several = r.fill?.several;
   const content = [list("gate", rows)];
   if (several) {
     // The layout's values are of its objective: mm of L_max, or s of fill time.

@@ -251,6 +251,10 @@ describe("moldgate in the browser", () => {
     const several = expected.fill.several;
     assert.equal(several.l_max_mm, null);
     assert.equal(worst, `2 gates: fill time ${several.fill_time_s.toFixed(3)} s (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`);
+    // The gate section says it is a layout, and the paper gate's rows are named as such.
+    assert.equal(await page.getAttribute("#gate-mode", "data-value"), "several");
+    assert.match(await page.textContent("#gate"), /Paper gate \(nearest the centre of mass\)/);
+    assert.doesNotMatch(await page.textContent("#gate"), /Chosen by\s*the paper's rule/);
     const first = await page.textContent("#several-gates li");
     assert.match(first, new RegExp(`, fill time ${several.gates[0].fill_time_s.toFixed(3)} s$`));
     await page.click("#defaults");

@@ -637,6 +637,17 @@ fn fill_table(h: &mut String, r: &Report) {
         (crate::flow::Strategy::Balanced, Some(b)) => Some(&b.fill),
         _ => f.paper.as_ref(),
     };
+    // With several gates the answer is a layout, whose last places are not made here: say
+    // whose these are, and how to have the layout's.
+    let whose = match (&f.several, &f.strategy) {
+        (None, _) => "the answer's gate",
+        (Some(_), crate::flow::Strategy::Balanced) => {
+            "the balanced gate alone (for the layout's own, give its gates with --gate-at)"
+        }
+        (Some(_), _) => {
+            "the paper gate alone (for the layout's own, give its gates with --gate-at)"
+        }
+    };
     if let Some(g) = answer {
         let last: Vec<String> = g
             .last_to_fill
@@ -652,7 +663,7 @@ fn fill_table(h: &mut String, r: &Report) {
             .collect();
         let _ = writeln!(
             h,
-            "<p>Last to fill from the answer's gate (where the fill ends and air may be trapped: \
+            "<p>Last to fill from {whose} (where the fill ends and air may be trapped: \
              places reached in the last 20 % of the fill time): {}.</p>",
             if last.is_empty() {
                 "none".to_string()

@@ -77,6 +77,47 @@ fn png_and_report_are_written_whole_and_self_contained() {
 }
 
 #[test]
+fn the_report_of_a_layout_names_its_values_and_whose_last_places_it_lists() {
+    let dir = TempDir::new().unwrap();
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "cover",
+            "--demold",
+            "+z",
+            "--objective",
+            "resistance",
+            "--gates",
+            "3",
+            "--report",
+            "c.html",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let html = std::fs::read_to_string(dir.path().join("c.html")).unwrap();
+    let several = html
+        .lines()
+        .find(|l| l.starts_with("<p id=\"several\">"))
+        .expect("the layout's line");
+    assert!(
+        several.contains("3 gates together: fill time 0.") && several.contains("% shorter than"),
+        "{several}"
+    );
+    // The last places listed are a single gate's, and the page says so.
+    assert!(
+        html.contains("Last to fill from the paper gate alone"),
+        "{html}"
+    );
+    assert!(!html.contains("Last to fill from the answer's gate"));
+}
+
+#[test]
 fn bad_output_paths_fail_before_any_work_and_leave_nothing() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
