@@ -104,7 +104,8 @@ pub struct FlowOptions {
     /// Most gates of a several-gate layout. Default 32.
     pub max_gates: usize,
     /// Largest work of the several-gate search, in cell visits: solid cells times the
-    /// marches it may run (2 per added gate and 3 per gate in each of its 8 rounds).
+    /// marches it may run (2 per added gate and 3 per gate in each of its 8 rounds, for
+    /// each of its two starts).
     /// Default 2 billion (a minute or two on two cores).
     pub max_march_cells: f64,
 }
@@ -1219,8 +1220,9 @@ pub struct MultiGate {
     pub improvement_pct: f64,
     /// Smallest volume share over the largest (1: perfectly even).
     pub balance: f64,
-    /// Marches it ran (a march from a cell it had marched from before is not run again;
-    /// those of a gate examined ahead and dropped, when the gate before it moved, count).
+    /// Marches it ran, both searches summed (within a search a march from a cell it had
+    /// marched from before is not run again; those of a gate examined ahead and dropped,
+    /// when the gate before it moved, count).
     pub runs: usize,
 }
 
@@ -1239,8 +1241,8 @@ pub const SMALL_LAYOUT_GAIN_PCT: f64 = 10.0;
 /// farthest-point seeding (each new gate is the candidate nearest, along the flow, to the
 /// point the current gates reach last; a 2-approximation of the k-centre optimum), then
 /// rounds of local improvement in which each gate moves to the centre of its own share (the
-/// candidate nearest to both ends of the share's longest path), kept only while the
-/// overall worst value falls. The local improvement stops at a layout no single move
+/// candidate nearest to both ends of the share's longest path), kept while the overall
+/// worst value does not grow and the shares' worst values fall. The local improvement stops at a layout no single move
 /// betters, which depends on where it started (two gates on the `plate` sample from its
 /// middle: L_max 54.9 mm, from a corner: 41.4 mm), so the search runs twice, side by side:
 /// from `first`, and from the candidate nearest the place `first` reaches last; the layout
@@ -2419,7 +2421,8 @@ pub fn analyse_prepared(
                 }
             };
             let k = options.gates as f64;
-            let work = domain.voxels.len() as f64 * (2.0 * k + 24.0 * k + 1.0);
+            // Two searches, one from each start (see `several_gates`).
+            let work = domain.voxels.len() as f64 * 2.0 * (2.0 * k + 24.0 * k + 1.0);
             if work > options.flow.max_march_cells {
                 return Err(FillError::too_large(
                     "cell visits of the several-gate search",
@@ -2458,7 +2461,12 @@ pub fn analyse_prepared(
                     g.fill_time_s = g.l_max_mm.take().map(|x| x * per_mm);
                 }
             }
-            layout.improvement_pct = 100.0 * (1.0 - layout.value() / best_single);
+            // A best single gate of no finite, positive value leaves nothing to compare with.
+            layout.improvement_pct = if best_single.is_finite() && best_single > 0.0 {
+                100.0 * (1.0 - layout.value() / best_single)
+            } else {
+                0.0
+            };
             Some(layout)
         } else {
             None
@@ -2477,22 +2485,18 @@ pub fn analyse_prepared(
     if let Some(layout) = &several {
         if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
             let (what, unit, digits) = options.objective.value_words();
-            let why = match options.objective {
-                Objective::Resistance => {
-                    ": the fill time may be set by a few slow, thin places that only a gate beside them reaches sooner"
-                }
-                Objective::Length => "",
-            };
             let digits = digits + 1;
             let shares: Vec<String> = layout
                 .gates
                 .iter()
                 .map(|g| format!("{:.1}", 100.0 * g.volume_share))
                 .collect();
+            // The search is local: a small gain may be the part's (a fill time set by a few
+            // slow, thin places) or the search's (a layout it did not reach).
             warnings.push(format!(
-                "{} gates shorten the {what} by only {:.1} % against the best single gate, {:.digits$} against {:.digits$} {unit} (shares of the volume {} %){why}; by this measure the extra gates buy little",
+                "the layout of {} gates found shortens the {what} by only {:.1} % against the best single gate, {:.digits$} against {:.digits$} {unit} (shares of the volume {} %); the search is local and may miss a better layout: try your own gates with --gate-at",
                 layout.gates.len(),
-                layout.improvement_pct,
+                layout.improvement_pct.max(0.0),
                 layout.value(),
                 best_single,
                 shares.join(", "),

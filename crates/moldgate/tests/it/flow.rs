@@ -918,7 +918,9 @@ fn two_gates_on_the_plate_share_it_and_shorten_its_longest_flow_by_a_quarter() {
         "{xs:?}"
     );
     assert!(
-        !f.warnings.iter().any(|w| w.contains("buy little")),
+        !f.warnings
+            .iter()
+            .any(|w| w.contains("may miss a better layout")),
         "{:?}",
         f.warnings
     );
@@ -926,6 +928,7 @@ fn two_gates_on_the_plate_share_it_and_shorten_its_longest_flow_by_a_quarter() {
 
 #[test]
 fn a_layout_gives_the_value_it_minimised_under_its_own_name_and_its_gain_over_one_gate() {
+    let mut warned_on = Vec::new();
     for objective in ["length", "resistance"] {
         let json = format!(r#"{{ "demold": "+z", "gates": 2, "objective": "{objective}" }}"#);
         let r = study_of("tray", &json);
@@ -959,20 +962,58 @@ fn a_layout_gives_the_value_it_minimised_under_its_own_name_and_its_gain_over_on
         for (a, g) in answer.iter().zip(&m.gates) {
             assert_eq!((a.l_max_mm, a.fill_time_s), (g.l_max_mm, g.fill_time_s));
         }
-        // The tray's two gates shorten the longest flow by 1.9 % only (its longest path
-        // is held by its walls), and the report says so; with the fill time, by 22 %.
-        let warned = f.warnings.iter().any(|w| w.contains("buy little"));
+        // A layout that gains less than 10 % is warned about, and no other: the tray's two
+        // gates found by the length search gain 1.9 % (two gates placed by hand at
+        // (+-20, 0, 4) gain 20 %: the search is local, and the warning says so), those found
+        // by the fill time 22 %.
+        let warned = f
+            .warnings
+            .iter()
+            .any(|w| w.contains("may miss a better layout"));
         assert_eq!(
             warned,
             m.improvement_pct < moldgate::flow::SMALL_LAYOUT_GAIN_PCT,
             "{objective}: {:?}",
             f.warnings
         );
-        assert_eq!(
-            warned,
-            objective == "length",
-            "{objective}: {}",
-            m.improvement_pct
-        );
+        if warned {
+            warned_on.push(objective);
+        }
     }
+    // Today's search: the length layout is warned about, the fill-time layout is not.
+    assert_eq!(warned_on, ["length"]);
+}
+
+#[test]
+fn the_several_gate_search_is_refused_before_the_work_when_its_two_starts_exceed_the_limit() {
+    // Each start may run 2 marches per added gate and 3 per gate in each of 8 rounds, and
+    // one to begin with: the limit counts both starts' cell visits.
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let part = moldgate::mesh::from_generated(cover.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    let run = |max_march_cells: f64| {
+        flow::analyse(
+            &cover,
+            &analysis,
+            &pp(),
+            flow::Walls::Estimate,
+            &flow::FillOptions {
+                gates: 2,
+                flow: flow::FlowOptions {
+                    max_march_cells,
+                    ..flow::FlowOptions::default()
+                },
+                ..flow::FillOptions::default()
+            },
+        )
+    };
+    let cells = run(f64::INFINITY).unwrap().cells as f64;
+    let work = cells * 2.0 * (2.0 * 2.0 + 24.0 * 2.0 + 1.0);
+    let e = run(work * 0.999).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("cell visits of the several-gate search"),
+        "{e}"
+    );
+    assert!(run(work).is_ok());
 }
