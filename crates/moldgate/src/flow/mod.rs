@@ -1637,8 +1637,9 @@ struct Kept {
 }
 
 impl<'a> CentreMarches<'a> {
-    /// Bytes of fields kept at most (12 bytes a cell each).
-    const BYTES: usize = 256 << 20;
+    /// Bytes of fields kept at most (12 bytes a cell each): the two starts' searches run
+    /// side by side, 256 MiB in all.
+    const BYTES: usize = 128 << 20;
 
     fn new(voxels: &'a Voxels, cost: Option<&'a [f32]>) -> Self {
         CentreMarches {
