@@ -1242,8 +1242,8 @@ pub const SMALL_LAYOUT_GAIN_PCT: f64 = 10.0;
 /// point the current gates reach last; a 2-approximation of the k-centre optimum), then
 /// rounds of local improvement in which each gate moves to the centre of its own share (the
 /// candidate nearest to both ends of the share's longest path), kept while the overall
-/// worst value does not grow and the shares' worst values fall. The local improvement stops at a layout no single move
-/// betters, which depends on where it started (two gates on the `plate` sample from its
+/// worst value does not grow and the shares' worst values fall. The local improvement
+/// stops at a layout no single move betters, which depends on where it started (two gates on the `plate` sample from its
 /// middle: L_max 54.9 mm, from a corner: 41.4 mm), so the search runs twice, side by side:
 /// from `first`, and from the candidate nearest the place `first` reaches last; the layout
 /// of the lower worst value is kept (the first on a tie).
@@ -1259,7 +1259,7 @@ pub fn several_gates(
 
 /// [`several_gates`] with, when the caller has it, the field of `candidates[first]` for the
 /// objective already marched (the fill analysis has it from the balanced gate's fill); it
-/// is then not marched again, nor counted in the runs.
+/// is then not marched again, nor counted in the runs (the second start is found from it).
 pub fn several_gates_from(
     domain: &Domain,
     candidates: &[Source],
@@ -2303,9 +2303,11 @@ pub fn analyse_prepared(
         let sources = [candidates[search.candidate]];
         let field = aside.unwrap_or_else(|| march(v, &sources, kind.cost(&domain)));
         let value = argmax(&field.t).1 * scale;
-        let beats = value < objective_value(&paper);
-        (search, field, beats)
+        (search, field, value)
     });
+    // Whether the balanced gate's value beats the paper gate's.
+    let paper_value = objective_value(&paper);
+    let beats = |value: f64| value < paper_value;
     if head.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
@@ -2313,24 +2315,22 @@ pub fn analyse_prepared(
     // the balanced gate's, or the paper gate's when it stays.
     let best_single = head
         .as_ref()
-        .map_or(objective_value(&paper), |(_, field, _)| {
-            (argmax(&field.t).1 * scale).min(objective_value(&paper))
-        });
+        .map_or(paper_value, |(_, _, value)| value.min(paper_value));
     times.balanced_s = seconds(t);
     // The balanced gate's objective field, when it is the balanced gate's own (it beat the
     // paper gate).
     let balanced_field = head
         .as_ref()
-        .filter(|(_, _, beats)| *beats)
+        .filter(|(_, _, value)| beats(*value))
         .map(|(search, field, _)| (search, field));
     let complete = || {
         let t = Instant::now();
-        let balanced = head.as_ref().map(|(search, field, beats)| {
+        let balanced = head.as_ref().map(|(search, field, value)| {
             // The search marches from cell centres; the reported gate is the candidate's
             // surface point, whose field differs by up to a cell. The search reports the
             // value of the fill it gives, and the bound it proved capped at that value.
             let bound = search.lower_bound * scale;
-            if !beats {
+            if !beats(*value) {
                 // Within the discretisation the paper gate is as good (it is a candidate
                 // itself unless it is the aesthetic gate): keep it, so the balanced gate
                 // never does worse than the paper gate.
@@ -2911,22 +2911,31 @@ mod tests {
         }
     }
 
+    /// Five samples' domains (cells of 1.5 mm, PP) with every fifth cell a candidate,
+    /// each a little off its cell's centre: the several-gate searches' test cases.
+    fn sample_domains() -> Vec<(&'static str, Domain, Vec<Source>)> {
+        let pp = Material::builtin("PP").expect("PP");
+        ["plate", "bracket", "cover", "tray", "cap"]
+            .into_iter()
+            .map(|name| {
+                let mesh = crate::samples::sample(name).expect("sample");
+                let domain = Domain::new(&mesh, 1.5, None, 2.0, &pp);
+                let candidates = (0..domain.voxels.len() as u32)
+                    .step_by(5)
+                    .map(|c| Source {
+                        point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
+                        cell: c,
+                    })
+                    .collect();
+                (name, domain, candidates)
+            })
+            .collect()
+    }
+
     #[test]
     fn the_layout_of_two_starts_is_the_better_of_the_two_and_never_worse_than_the_first() {
-        use crate::samples::sample;
-        let pp = Material::builtin("PP").expect("PP");
         let mut better = 0;
-        for name in ["plate", "bracket", "cover", "tray", "cap"] {
-            let mesh = sample(name).expect("sample");
-            let domain = Domain::new(&mesh, 1.5, None, 2.0, &pp);
-            let n = domain.voxels.len() as u32;
-            let candidates: Vec<Source> = (0..n)
-                .step_by(5)
-                .map(|c| Source {
-                    point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
-                    cell: c,
-                })
-                .collect();
+        for (name, domain, candidates) in sample_domains() {
             for objective in [Objective::Length, Objective::Resistance] {
                 for k in [2, 3] {
                     let what = format!("{name} {objective:?} k {k}");
@@ -2953,20 +2962,8 @@ mod tests {
 
     #[test]
     fn several_gates_examined_ahead_are_those_examined_one_after_the_other() {
-        use crate::samples::sample;
-        let pp = Material::builtin("PP").expect("PP");
         let mut dropped = 0;
-        for name in ["plate", "bracket", "cover", "tray", "cap"] {
-            let mesh = sample(name).expect("sample");
-            let domain = Domain::new(&mesh, 1.5, None, 2.0, &pp);
-            let n = domain.voxels.len() as u32;
-            let candidates: Vec<Source> = (0..n)
-                .step_by(5)
-                .map(|c| Source {
-                    point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
-                    cell: c,
-                })
-                .collect();
+        for (name, domain, candidates) in sample_domains() {
             for objective in [Objective::Length, Objective::Resistance] {
                 for k in [3, 4] {
                     let run = |ahead| {
