@@ -264,18 +264,28 @@ pub fn samples_for(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
 /// a million more than the rounding of the sums; NaN when a coordinate is.
 pub fn samples_bound(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
     let step = SAMPLE_STEP * h;
-    let sum: f64 = (0..mesh.triangles.len())
-        .into_par_iter()
-        .with_min_len(4096)
-        .filter(|&t| keep.is_none_or(|k| k[t]))
-        .map(|t| {
-            let [a, b, c] = mesh.corners(t);
-            let side = a.max(b).max(c) - a.min(b).min(c);
-            let n = (side.x + side.y + side.z) / step + 2.0;
-            n * n
+    // Blocks of triangles summed in a plain loop each (and the blocks' sums in order), so
+    // the sum is the same on any number of threads and the loop is compiled as one.
+    const BLOCK: usize = 4096;
+    let sums: Vec<f64> = mesh
+        .triangles
+        .par_chunks(BLOCK)
+        .enumerate()
+        .map(|(i, block)| {
+            let mut sum = 0.0;
+            for (j, tri) in block.iter().enumerate() {
+                if keep.is_some_and(|k| !k[i * BLOCK + j]) {
+                    continue;
+                }
+                let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+                let side = a.max(b).max(c) - a.min(b).min(c);
+                let n = (side.x + side.y + side.z) / step + 2.0;
+                sum += n * n;
+            }
+            sum
         })
-        .sum();
-    sum * (1.0 + 1e-6)
+        .collect();
+    sums.iter().sum::<f64>() * (1.0 + 1e-6)
 }
 
 impl Voxels {
