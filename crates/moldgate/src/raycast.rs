@@ -49,6 +49,12 @@ const TINY_COMPONENT: f32 = 1e-30;
 
 /// Most triangles in a leaf.
 const LEAF_SIZE: usize = 4;
+/// Most triangles in a leaf of the Morton tree ([`Bvh::new_morton`]): three packets. Its
+/// splits follow the curve, not a cost, so small leaves only add nodes; on the 352k
+/// housing, leaves of 12 against 4 build the tree in 0.85 of the time and answer the fill's
+/// wall samples in 0.9 (one thread, the same walls).
+const MORTON_LEAF_SIZE: usize = 12;
+const _: () = assert!(MORTON_LEAF_SIZE <= 4 * LEAF_PACKETS);
 /// Bins per axis of the surface-area heuristic.
 const BINS: usize = 12;
 /// Subtrees with more triangles than this are built on another thread (the top levels only).
@@ -1114,7 +1120,7 @@ fn spread_bits(x: u32) -> u64 {
 /// item's centre quantised to `MORTON_BITS` bits per axis in the box of the centres, the
 /// items sorted by code and then by mesh index (one key, so the order is one whatever the
 /// threads), and each node split where its codes' highest differing bit changes (in the
-/// middle when its codes are all one), down to leaves of at most [`LEAF_SIZE`]. Each node's
+/// middle when its codes are all one), down to leaves of at most [`MORTON_LEAF_SIZE`]. Each node's
 /// box is the union of its children's, found as the recursion comes back up.
 fn build_morton(items: &mut [Item]) -> Vec<Node> {
     let centres = items
@@ -1200,7 +1206,7 @@ fn sort_by_code(keys: &mut Vec<u64>) {
 /// triangle links relative to `first`. Returns the node's box.
 fn morton_into(items: &[Item], codes: &[u64], first: usize, nodes: &mut Vec<Node>) -> Bounds {
     let me = nodes.len();
-    if items.len() <= LEAF_SIZE {
+    if items.len() <= MORTON_LEAF_SIZE {
         let mut b = Bounds::EMPTY;
         for it in items {
             b.grow(Vec3A::from(it.min), Vec3A::from(it.max));
