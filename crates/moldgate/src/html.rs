@@ -633,19 +633,17 @@ fn fill_table(h: &mut String, r: &Report) {
         }
         let _ = writeln!(h, "</table>");
     }
-    let answer = match (&f.strategy, &f.balanced) {
-        (crate::flow::Strategy::Balanced, Some(b)) => Some(&b.fill),
-        _ => f.paper.as_ref(),
+    // The fill whose last places are listed, and its gate's name.
+    let (answer, gate) = match (&f.strategy, &f.balanced) {
+        (crate::flow::Strategy::Balanced, Some(b)) => (Some(&b.fill), "balanced"),
+        _ => (f.paper.as_ref(), "paper"),
     };
     // With several gates the answer is a layout, whose last places are not made here: say
     // whose these are, and how to have the layout's.
-    let whose = match (&f.several, &f.strategy) {
-        (None, _) => "the answer's gate",
-        (Some(_), crate::flow::Strategy::Balanced) => {
-            "the balanced gate alone (for the layout's own, give its gates with --gate-at)"
-        }
-        (Some(_), _) => {
-            "the paper gate alone (for the layout's own, give its gates with --gate-at)"
+    let whose = match &f.several {
+        None => "the answer's gate".to_string(),
+        Some(_) => {
+            format!("the {gate} gate alone (for the layout's own, give its gates with --gate-at)")
         }
     };
     if let Some(g) = answer {

@@ -2921,6 +2921,11 @@ mod tests {
         }
     }
 
+    /// The candidates of a layout's gates, in order.
+    fn layout_gates(m: &MultiGate) -> Vec<usize> {
+        m.gates.iter().map(|g| g.candidate).collect()
+    }
+
     /// Five samples' domains (cells of 1.5 mm, PP) with every fifth cell a candidate,
     /// each a little off its cell's centre: the several-gate searches' test cases.
     fn sample_domains() -> Vec<(&'static str, Domain, Vec<Source>)> {
@@ -2958,10 +2963,11 @@ mod tests {
                     if both.value() < one.value() {
                         better += 1;
                     } else {
-                        let gates = |m: &MultiGate| -> Vec<usize> {
-                            m.gates.iter().map(|g| g.candidate).collect()
-                        };
-                        assert_eq!(gates(&both), gates(&one), "{what}: the first start's kept");
+                        assert_eq!(
+                            layout_gates(&both),
+                            layout_gates(&one),
+                            "{what}: the first start's kept"
+                        );
                     }
                 }
             }
@@ -2982,10 +2988,7 @@ mod tests {
                     };
                     let (new, old) = (run(true), run(false));
                     let what = format!("{name} {objective:?} k {k}");
-                    let gates = |m: &MultiGate| -> Vec<usize> {
-                        m.gates.iter().map(|g| g.candidate).collect()
-                    };
-                    assert_eq!(gates(&new), gates(&old), "{what}");
+                    assert_eq!(layout_gates(&new), layout_gates(&old), "{what}");
                     assert_eq!(new.value().to_bits(), old.value().to_bits(), "{what}");
                     assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
                     assert!(new.runs >= old.runs, "{what}");

@@ -885,17 +885,19 @@ fn gate_label_place(
     inside: LabelBox,
     k: f32,
 ) -> (f32, f32, Align) {
-    let [x, y] = p;
-    let mut places = Vec::new();
-    for out in [0.0, style.size * 1.2, style.size * 2.4] {
-        places.extend([
-            (x + r + 12.0 * k, y - r - 8.0 * k - out, Align::Left),
-            (x + r + 12.0 * k, y + r + 20.0 * k + out, Align::Left),
-            (x - r - 12.0 * k, y - r - 8.0 * k - out, Align::Right),
-            (x - r - 12.0 * k, y + r + 20.0 * k + out, Align::Right),
-        ]);
-    }
-    first_free(&places, label, style, taken, inside)
+    let around = Around {
+        side: r + 12.0 * k,
+        above: r + 8.0 * k,
+        below: r + 20.0 * k,
+        step: style.size * 1.2,
+    };
+    let order = [
+        Corner::UpperRight,
+        Corner::LowerRight,
+        Corner::UpperLeft,
+        Corner::LowerLeft,
+    ];
+    first_free(&around.places(p, order), label, style, taken, inside)
 }
 
 /// Where the centre of mass's label goes: lower left of its cross (centre `c`, arms of
@@ -911,17 +913,55 @@ fn centre_label_place(
     inside: LabelBox,
     k: f32,
 ) -> (f32, f32, Align) {
-    let [x, y] = c;
-    let mut places = Vec::new();
-    for out in [0.0, style.size * 1.4, style.size * 2.8] {
-        places.extend([
-            (x - reach - 6.0 * k, y + 18.0 * k + out, Align::Right),
-            (x + reach + 6.0 * k, y + 18.0 * k + out, Align::Left),
-            (x - reach - 6.0 * k, y - 8.0 * k - out, Align::Right),
-            (x + reach + 6.0 * k, y - 8.0 * k - out, Align::Left),
-        ]);
+    let around = Around {
+        side: reach + 6.0 * k,
+        above: 8.0 * k,
+        below: 18.0 * k,
+        step: style.size * 1.4,
+    };
+    let order = [
+        Corner::LowerLeft,
+        Corner::LowerRight,
+        Corner::UpperLeft,
+        Corner::UpperRight,
+    ];
+    first_free(&around.places(c, order), label, style, taken, inside)
+}
+
+/// A corner beside a mark where a label may go.
+#[derive(Clone, Copy)]
+enum Corner {
+    UpperRight,
+    LowerRight,
+    UpperLeft,
+    LowerLeft,
+}
+
+/// Label anchors around a mark: `side` pixels to its left or right (the text aligned
+/// away from the mark), `above` over it or `below` under it (the baseline), and again
+/// `step` and twice `step` farther up or down.
+struct Around {
+    side: f32,
+    above: f32,
+    below: f32,
+    step: f32,
+}
+
+impl Around {
+    /// The anchors around the mark at `p`, nearest first, each ring's corners in `order`.
+    fn places(&self, p: [f32; 2], order: [Corner; 4]) -> Vec<(f32, f32, Align)> {
+        let [x, y] = p;
+        let mut places = Vec::new();
+        for out in [0.0, self.step, 2.0 * self.step] {
+            places.extend(order.map(|corner| match corner {
+                Corner::UpperRight => (x + self.side, y - self.above - out, Align::Left),
+                Corner::LowerRight => (x + self.side, y + self.below + out, Align::Left),
+                Corner::UpperLeft => (x - self.side, y - self.above - out, Align::Right),
+                Corner::LowerLeft => (x - self.side, y + self.below + out, Align::Right),
+            }));
+        }
+        places
     }
-    first_free(&places, label, style, taken, inside)
 }
 
 /// The first of `places` (text anchor and alignment) whose box overlaps nothing `taken`
