@@ -70,6 +70,13 @@ impl Queue {
         }
     }
 
+    /// Empties the queue for `cells` cells.
+    fn clear(&mut self, cells: usize) {
+        self.heap.clear();
+        self.at.clear();
+        self.at.resize(cells, u32::MAX);
+    }
+
     /// Puts the cell of `key` in the queue at `key`, or moves it there if it is in the queue
     /// at a key not smaller (a value that fell).
     #[inline]
@@ -243,9 +250,9 @@ fn march_with(
     // (infinite while neither is accepted): what the fast-marching update of the cell reads,
     // kept up to date as its face neighbours are accepted, so that the update reads one
     // row and not the six neighbours' values.
-    let mut axis_least = vec![[f64::INFINITY; 3]; n];
+    let mut scratch = Scratch::take(n);
+    let Scratch { axis_least, queue } = &mut scratch;
     let mut known = vec![false; n];
-    let mut queue = Queue::new(n);
     let offsets = neighbour_offsets();
 
     seed(voxels, sources, &c, &mut t, &mut source, |k| queue.set(k));
@@ -263,6 +270,7 @@ fn march_with(
         known[v as usize] = true;
         let tv = t[v as usize];
         if stop(v, tv) {
+            scratch.give_back();
             return (Field { t, source }, Some((tv, known)));
         }
         let cv = c(v);
@@ -318,7 +326,44 @@ fn march_with(
         relax!(24, NO_AXIS);
         relax!(25, NO_AXIS);
     }
+    scratch.give_back();
     (Field { t, source }, None)
+}
+
+/// The working arrays of one march (the queue and each cell's least face neighbours),
+/// kept by each thread for its next march: a march of a search or a several-gate layout
+/// would otherwise map them afresh, and the kernel zero their pages, every time.
+struct Scratch {
+    axis_least: Vec<[f64; 3]>,
+    queue: Queue,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::Cell<Option<Scratch>> = const { std::cell::Cell::new(None) };
+}
+
+impl Scratch {
+    /// This thread's arrays for `n` cells, as a new march needs them (every least infinite,
+    /// the queue empty).
+    fn take(n: usize) -> Scratch {
+        match SCRATCH.with(|s| s.take()) {
+            Some(mut s) => {
+                s.axis_least.clear();
+                s.axis_least.resize(n, [f64::INFINITY; 3]);
+                s.queue.clear(n);
+                s
+            }
+            None => Scratch {
+                axis_least: vec![[f64::INFINITY; 3]; n],
+                queue: Queue::new(n),
+            },
+        }
+    }
+
+    /// Keeps the arrays for this thread's next march.
+    fn give_back(self) {
+        SCRATCH.with(|s| s.set(Some(self)));
+    }
 }
 
 /// The first-order upwind solution of sum_k (T - a_k)^2 = f^2 over the finite a_k, using as
@@ -572,6 +617,36 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_march_after_others_on_this_thread_gives_the_fields_of_fresh_arrays() {
+        // Each thread keeps its march's queue and face-neighbour arrays for the next march:
+        // after a march of more cells, of fewer, and one stopped early (cells left in its
+        // queue), a march gives the reference's fields bit for bit.
+        use crate::samples::sample;
+        let domains: Vec<Voxels> = ["bracket", "plate", "cover"]
+            .iter()
+            .map(|name| Voxels::new(&sample(name).expect("sample"), 1.0))
+            .collect();
+        let at = |v: &Voxels, c: u32| Source {
+            point: v.centre(c),
+            cell: c,
+        };
+        for (i, v) in domains.iter().enumerate() {
+            let before = &domains[(i + 1) % domains.len()];
+            let (_, reach) = march_until(before, &[at(before, 0)], None, |_, t| t > 3.0);
+            assert!(reach.is_finite(), "the march before stops early");
+            let src = [at(v, v.len() as u32 / 2)];
+            let (new, old) = (march(v, &src, None), reference_march(v, &src, None));
+            assert_eq!(new.source, old.source);
+            assert!(new
+                .t
+                .iter()
+                .zip(&old.t)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        assert!(domains.windows(2).any(|w| w[0].len() != w[1].len()));
     }
 
     #[test]
