@@ -331,8 +331,10 @@ fn march_with(
 }
 
 /// The working arrays of one march (the queue and each cell's least face neighbours),
-/// kept by each thread for its next march: a march of a search or a several-gate layout
-/// would otherwise map them afresh, and the kernel zero their pages, every time.
+/// kept by each thread for its next march while a [`KeepArrays`] lives: the marches of a
+/// search or of a several-gate layout would otherwise each map them afresh, and the
+/// kernel zero their pages every time (a 2 MiB page for the face neighbours of 41,541
+/// cells).
 struct Scratch {
     axis_least: Vec<[f64; 3]>,
     queue: Queue,
@@ -340,6 +342,34 @@ struct Scratch {
 
 thread_local! {
     static SCRATCH: std::cell::Cell<Option<Scratch>> = const { std::cell::Cell::new(None) };
+}
+
+/// How many [`KeepArrays`] live.
+static KEEPING: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// While one lives, each thread keeps its march's working arrays for its next march; when
+/// the last is dropped, every thread of the pool (and this one) lets them go, so that a
+/// long-lived process (the service, a Python session) does not hold them between
+/// analyses. An analysis that runs many marches (the fill's) holds one for its duration.
+pub(crate) struct KeepArrays(());
+
+impl KeepArrays {
+    pub(crate) fn new() -> KeepArrays {
+        KEEPING.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        KeepArrays(())
+    }
+}
+
+impl Drop for KeepArrays {
+    fn drop(&mut self) {
+        if KEEPING.fetch_sub(1, std::sync::atomic::Ordering::SeqCst) == 1 {
+            // A march running now holds its own arrays (taken out of its thread's slot), so
+            // only the kept ones go; the pool's threads let theirs go when they next look
+            // for work, without this thread waiting for them.
+            SCRATCH.with(|s| drop(s.take()));
+            rayon::spawn_broadcast(|_| SCRATCH.with(|s| drop(s.take())));
+        }
+    }
 }
 
 impl Scratch {
@@ -360,9 +390,11 @@ impl Scratch {
         }
     }
 
-    /// Keeps the arrays for this thread's next march.
+    /// Keeps the arrays for this thread's next march, while a [`KeepArrays`] lives.
     fn give_back(self) {
-        SCRATCH.with(|s| s.set(Some(self)));
+        if KEEPING.load(std::sync::atomic::Ordering::SeqCst) > 0 {
+            SCRATCH.with(|s| s.set(Some(self)));
+        }
     }
 }
 
@@ -625,6 +657,7 @@ mod tests {
         // after a march of more cells, of fewer, and one stopped early (cells left in its
         // queue), a march gives the reference's fields bit for bit.
         use crate::samples::sample;
+        let keep = KeepArrays::new();
         let domains: Vec<Voxels> = ["bracket", "plate", "cover"]
             .iter()
             .map(|name| Voxels::new(&sample(name).expect("sample"), 1.0))
@@ -647,6 +680,18 @@ mod tests {
                 .all(|(a, b)| a.to_bits() == b.to_bits()));
         }
         assert!(domains.windows(2).any(|w| w[0].len() != w[1].len()));
+        // Kept on this thread, for the largest domain seen.
+        let most = domains.iter().map(Voxels::len).max().expect("domains");
+        let kept = SCRATCH
+            .with(|s| s.take())
+            .expect("arrays kept while a keeper lives");
+        assert!(kept.axis_least.capacity() >= most);
+        drop(keep);
+        // Let go when the last keeper goes (other tests' fills may hold one meanwhile).
+        let _ = march(&domains[0], &[at(&domains[0], 0)], None);
+        if KEEPING.load(std::sync::atomic::Ordering::SeqCst) == 0 {
+            assert!(SCRATCH.with(|s| s.take()).is_none(), "kept with no keeper");
+        }
     }
 
     #[test]

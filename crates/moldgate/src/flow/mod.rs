@@ -1000,6 +1000,7 @@ pub fn balanced_gate_from(
     start: &Field,
     tolerance: f64,
 ) -> Option<Balanced> {
+    let _arrays = march::KeepArrays::new();
     balanced_search(
         domain,
         candidates,
@@ -1278,6 +1279,7 @@ pub fn several_gates_from(
     k: usize,
     start: Option<&Field>,
 ) -> Option<MultiGate> {
+    let _arrays = march::KeepArrays::new();
     let v = &domain.voxels;
     let marched = start.is_none();
     let field;
@@ -2151,6 +2153,8 @@ pub fn analyse_prepared(
             options.gates, options.flow.max_gates
         )));
     }
+    // The marches below keep their working arrays per thread until the analysis ends.
+    let _arrays = march::KeepArrays::new();
     let mut warnings = Vec::new();
     let mut times = FlowTimes::default();
     let Cells {
