@@ -246,41 +246,45 @@ fn binary_tree(mesh: &Mesh, how: Build) -> (DVec3, Vec<Node>, Vec<u32>) {
         DVec3::ZERO
     };
     let local = |v: DVec3| (v - origin).as_vec3();
-    let mut items: Vec<Item> = (0..mesh.triangles.len())
-        .into_par_iter()
-        .map(|t| {
-            let [a, b, c] = mesh.corners(t).map(local);
-            let min = a.min(b).min(c);
-            let max = a.max(b).max(c);
-            if !(min.is_finite() && max.is_finite()) {
-                // A corner not finite: the triangle can never be hit (its test gives
-                // NaN); an empty box keeps NaN and infinity out of the boxes' unions.
-                return Item {
-                    min: Vec3::INFINITY,
-                    max: Vec3::NEG_INFINITY,
-                    centre: Vec3::ZERO,
-                    id: t as u32,
-                };
-            }
-            Item {
-                min,
-                max,
-                centre: (min + max) * 0.5,
-                id: t as u32,
-            }
-        })
-        .collect();
-    let mut nodes = if items.is_empty() {
-        vec![Node {
+    let (mut nodes, ids) = if mesh.triangles.is_empty() {
+        let empty = Node {
             min: [f32::INFINITY; 3],
             link: 0,
             max: [f32::NEG_INFINITY; 3],
             count: 0,
-        }]
+        };
+        (vec![empty], Vec::new())
     } else {
         match how {
-            Build::SurfaceArea => build(&mut items, 0, None),
-            Build::Morton => build_morton(&mut items),
+            Build::SurfaceArea => {
+                let mut items: Vec<Item> = (0..mesh.triangles.len())
+                    .into_par_iter()
+                    .map(|t| {
+                        let (min, max) = triangle_box(mesh.corners(t).map(local));
+                        // The centre of an empty box is the origin.
+                        let centre = if min.x <= max.x {
+                            (min + max) * 0.5
+                        } else {
+                            Vec3::ZERO
+                        };
+                        Item {
+                            min,
+                            max,
+                            centre,
+                            id: t as u32,
+                        }
+                    })
+                    .collect();
+                let nodes = build(&mut items, 0, None);
+                (nodes, items.iter().map(|i| i.id).collect())
+            }
+            Build::Morton => {
+                let boxes: Vec<(Vec3, Vec3)> = (0..mesh.triangles.len())
+                    .into_par_iter()
+                    .map(|t| triangle_box(mesh.corners(t).map(local)))
+                    .collect();
+                build_morton(&boxes)
+            }
         }
     };
     // Pad every box: a ray through the face of a flat box (a triangle in an axis plane)
@@ -300,8 +304,21 @@ fn binary_tree(mesh: &Mesh, how: Build) -> (DVec3, Vec<Node>, Vec<u32>) {
             n.max[k] += pad;
         }
     }
-    let ids: Vec<u32> = items.iter().map(|i| i.id).collect();
     (origin, nodes, ids)
+}
+
+/// The `f32` box of a triangle's corners (relative to the tree's origin); a corner that is
+/// not finite gives the empty box (infinity to minus infinity): such a triangle can never
+/// be hit (its test gives NaN), and an empty box keeps NaN and infinity out of the boxes'
+/// unions.
+fn triangle_box([a, b, c]: [Vec3; 3]) -> (Vec3, Vec3) {
+    let min = a.min(b).min(c);
+    let max = a.max(b).max(c);
+    if min.is_finite() && max.is_finite() {
+        (min, max)
+    } else {
+        (Vec3::INFINITY, Vec3::NEG_INFINITY)
+    }
 }
 
 /// How the binary tree is split.
@@ -1122,15 +1139,18 @@ fn spread_bits(x: u32) -> u64 {
 /// threads), and each node split where its codes' highest differing bit changes (in the
 /// middle when its codes are all one), down to leaves of at most [`MORTON_LEAF_SIZE`]. Each node's
 /// box is the union of its children's, found as the recursion comes back up.
-fn build_morton(items: &mut [Item]) -> Vec<Node> {
-    let centres = items
+fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
+    // A triangle's centre, for a triangle with a box (the empty box of one without finite
+    // corners is left out, and sorts first below).
+    let centre = |&(min, max): &(Vec3, Vec3)| (min.x <= max.x).then(|| (min + max) * 0.5);
+    let centres = boxes
         .par_iter()
         .with_min_len(4096)
         .fold(
             || Bounds::EMPTY,
             |mut b, it| {
-                if it.min.x <= it.max.x {
-                    let c = Vec3A::from(it.centre);
+                if let Some(c) = centre(it) {
+                    let c = Vec3A::from(c);
                     b.grow(c, c);
                 }
                 b
@@ -1146,33 +1166,29 @@ fn build_morton(items: &mut [Item]) -> Vec<Node> {
     let extent = (centres.max - centres.min).max(Vec3A::splat(f32::MIN_POSITIVE));
     let top = ((1u32 << MORTON_BITS) - 1) as f32;
     let scale = Vec3A::splat(top) / extent;
-    // Items are numbered by their position, which is their mesh index (`binary_tree`).
-    let mut keys: Vec<u64> = items
+    let mut keys: Vec<u64> = boxes
         .par_iter()
         .with_min_len(4096)
-        .map(|it| {
-            // An item without a box (a corner not finite) sorts first; it is never hit.
-            let code = if it.min.x <= it.max.x {
-                let q = ((Vec3A::from(it.centre) - centres.min) * scale)
-                    .clamp(Vec3A::ZERO, Vec3A::splat(top));
+        .enumerate()
+        .map(|(id, it)| {
+            // A triangle without a box (a corner not finite) sorts first; it is never hit.
+            let code = centre(it).map_or(0, |c| {
+                let q =
+                    ((Vec3A::from(c) - centres.min) * scale).clamp(Vec3A::ZERO, Vec3A::splat(top));
                 spread_bits(q.x as u32)
                     | spread_bits(q.y as u32) << 1
                     | spread_bits(q.z as u32) << 2
-            } else {
-                0
-            };
-            code << 32 | it.id as u64
+            });
+            code << 32 | id as u64
         })
         .collect();
     sort_by_code(&mut keys);
-    let sorted: Vec<Item> = keys.par_iter().map(|&k| items[k as u32 as usize]).collect();
-    items.copy_from_slice(&sorted);
-    drop(sorted);
+    let ids: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
     keys.par_iter_mut().for_each(|k| *k >>= 32);
     let codes = keys;
-    let mut nodes = Vec::with_capacity(items.len() * 3 / 4 + 16);
-    morton_into(items, &codes, 0, &mut nodes);
-    nodes
+    let mut nodes = Vec::with_capacity(ids.len() * 3 / 4 + 16);
+    morton_into(&ids, boxes, &codes, 0, &mut nodes);
+    (nodes, ids)
 }
 
 /// Sorts keys `code << 32 | index` given in the order of their indices, with codes of
@@ -1204,12 +1220,20 @@ fn sort_by_code(keys: &mut Vec<u64>) {
 
 /// Builds the node of `items` (whose codes are `codes`) and its subtree into `nodes`;
 /// triangle links relative to `first`. Returns the node's box.
-fn morton_into(items: &[Item], codes: &[u64], first: usize, nodes: &mut Vec<Node>) -> Bounds {
+fn morton_into(
+    ids: &[u32],
+    boxes: &[(Vec3, Vec3)],
+    codes: &[u64],
+    first: usize,
+    nodes: &mut Vec<Node>,
+) -> Bounds {
+    let items = ids;
     let me = nodes.len();
     if items.len() <= MORTON_LEAF_SIZE {
         let mut b = Bounds::EMPTY;
-        for it in items {
-            b.grow(Vec3A::from(it.min), Vec3A::from(it.max));
+        for &id in items {
+            let (min, max) = boxes[id as usize];
+            b.grow(Vec3A::from(min), Vec3A::from(max));
         }
         nodes.push(Node {
             min: b.min.to_array(),
@@ -1238,10 +1262,10 @@ fn morton_into(items: &[Item], codes: &[u64], first: usize, nodes: &mut Vec<Node
         // The left subtree goes on in `nodes` (it follows its parent); only the right one,
         // built on the other thread, is copied after it.
         let (l, (r, sub)) = join(
-            || morton_into(left, l_codes, first, nodes),
+            || morton_into(left, boxes, l_codes, first, nodes),
             || {
                 let mut sub = Vec::with_capacity(right.len() * 3 / 4 + 16);
-                let r = morton_into(right, r_codes, first + mid, &mut sub);
+                let r = morton_into(right, boxes, r_codes, first + mid, &mut sub);
                 (r, sub)
             },
         );
@@ -1250,9 +1274,9 @@ fn morton_into(items: &[Item], codes: &[u64], first: usize, nodes: &mut Vec<Node
         append(nodes, sub, base);
         (l, r)
     } else {
-        let l = morton_into(left, l_codes, first, nodes);
+        let l = morton_into(left, boxes, l_codes, first, nodes);
         nodes[me].link = nodes.len() as u32;
-        let r = morton_into(right, r_codes, first + mid, nodes);
+        let r = morton_into(right, boxes, r_codes, first + mid, nodes);
         (l, r)
     };
     b.grow(r.min, r.max);
