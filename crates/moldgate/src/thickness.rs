@@ -412,18 +412,20 @@ fn is_closed(mesh: &Mesh) -> bool {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
     };
-    let n = mesh.vertices.len();
-    let (mut out, mut into) = (vec![0u64; n], vec![0u64; n]);
+    // Per vertex, the sum over the edges going out of it less the sum over those coming
+    // in (wrapping): zero exactly when the two sums agree. One array, not two: a fresh
+    // page of memory is dear (the kernel zeroes it).
+    let mut differ = vec![0u64; mesh.vertices.len()];
     for tri in &mesh.triangles {
         for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
-            let (Some(o), Some(i)) = (out.get_mut(a as usize), into.get_mut(b as usize)) else {
+            if a as usize >= differ.len() || b as usize >= differ.len() {
                 return false;
-            };
-            *o = o.wrapping_add(hash(b));
-            *i = i.wrapping_add(hash(a));
+            }
+            differ[a as usize] = differ[a as usize].wrapping_add(hash(b));
+            differ[b as usize] = differ[b as usize].wrapping_sub(hash(a));
         }
     }
-    out == into
+    differ.iter().all(|&d| d == 0)
 }
 
 /// Where a ray leaves the solid.

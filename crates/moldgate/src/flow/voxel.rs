@@ -31,6 +31,15 @@ use crate::mesh::Mesh;
 /// Marker for "no solid cell here" in the dense index.
 const EMPTY: u32 = u32::MAX;
 
+/// The triangles `0..n` in blocks of 4096, in order, for a parallel pass whose results are
+/// collected block by block.
+fn chunks(n: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize>> {
+    const BLOCK: usize = 4096;
+    (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(move |b| b * BLOCK..((b + 1) * BLOCK).min(n))
+}
+
 /// Solid cells of a part.
 #[derive(Debug, Clone)]
 pub struct Voxels {
@@ -337,12 +346,11 @@ impl Voxels {
         // Surface cells: rows of samples at most h/2 apart over every triangle.
         let step = SAMPLE_STEP * h;
         let mut owner = vec![EMPTY; n_cells];
-        let marks: Vec<Vec<(u32, u32)>> = (0..mesh.triangles.len())
-            .collect::<Vec<_>>()
-            .par_chunks(4096)
+        let marks: Vec<Vec<(u32, u32)>> = chunks(mesh.triangles.len())
             .map(|ts| {
-                let mut out = Vec::new();
-                for &t in ts {
+                // Most triangles mark one or two cells.
+                let mut out = Vec::with_capacity(2 * ts.len());
+                for t in ts {
                     if body_of[t] == EMPTY {
                         continue;
                     }
@@ -448,12 +456,10 @@ impl Voxels {
     ) -> (Vec<u32>, usize) {
         let [nx, ny, nz] = dims;
         // Crossings (column and body, z, +1 entering / -1 leaving, triangle), per triangle.
-        let crossings: Vec<Vec<Crossing>> = (0..mesh.triangles.len())
-            .collect::<Vec<_>>()
-            .par_chunks(4096)
+        let crossings: Vec<Vec<Crossing>> = chunks(mesh.triangles.len())
             .map(|ts| {
                 let mut out = Vec::new();
-                for &t in ts {
+                for t in ts {
                     if body_of[t] == EMPTY {
                         continue;
                     }
