@@ -2953,54 +2953,63 @@ mod tests {
 
     #[test]
     fn the_layout_of_two_starts_is_the_better_of_the_two_and_never_worse_than_the_first() {
-        let mut better = 0;
-        for (name, domain, candidates) in sample_domains() {
-            for objective in [Objective::Length, Objective::Resistance] {
-                for k in [2, 3] {
-                    let what = format!("{name} {objective:?} k {k}");
-                    let both = several_gates(&domain, &candidates, objective, 0, k).expect("k");
-                    let one =
-                        several_gates_search(&domain, &candidates, objective, 0, k, None, true)
-                            .expect("k");
-                    assert!(both.value() <= one.value(), "{what}");
-                    assert!(both.runs > one.runs, "{what}: both starts' marches count");
-                    if both.value() < one.value() {
-                        better += 1;
-                    } else {
-                        assert_eq!(
-                            layout_gates(&both),
-                            layout_gates(&one),
-                            "{what}: the first start's kept"
-                        );
+        // The samples side by side: the unit tests are built unoptimised.
+        let better: usize = sample_domains()
+            .par_iter()
+            .map(|(name, domain, candidates)| {
+                let mut better = 0;
+                for objective in [Objective::Length, Objective::Resistance] {
+                    for k in [2, 3] {
+                        let what = format!("{name} {objective:?} k {k}");
+                        let both = several_gates(domain, candidates, objective, 0, k).expect("k");
+                        let one =
+                            several_gates_search(domain, candidates, objective, 0, k, None, true)
+                                .expect("k");
+                        assert!(both.value() <= one.value(), "{what}");
+                        assert!(both.runs > one.runs, "{what}: both starts' marches count");
+                        if both.value() < one.value() {
+                            better += 1;
+                        } else {
+                            assert_eq!(
+                                layout_gates(&both),
+                                layout_gates(&one),
+                                "{what}: the first start's kept"
+                            );
+                        }
                     }
                 }
-            }
-        }
+                better
+            })
+            .sum();
         // The second start matters: it finds the better layout on some of these 20.
         assert!(better >= 3, "{better}");
     }
 
     #[test]
     fn several_gates_examined_ahead_are_those_examined_one_after_the_other() {
-        let mut dropped = 0;
-        for (name, domain, candidates) in sample_domains() {
-            for objective in [Objective::Length, Objective::Resistance] {
-                for k in [3, 4] {
-                    let run = |ahead| {
-                        several_gates_search(&domain, &candidates, objective, 0, k, None, ahead)
-                            .expect("enough candidates")
-                    };
-                    let (new, old) = (run(true), run(false));
-                    let what = format!("{name} {objective:?} k {k}");
-                    assert_eq!(layout_gates(&new), layout_gates(&old), "{what}");
-                    assert_eq!(new.value().to_bits(), old.value().to_bits(), "{what}");
-                    assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
-                    assert!(new.runs >= old.runs, "{what}");
-                    // Examinations made ahead and dropped (a move was kept) add runs.
-                    dropped += (new.runs > old.runs) as usize;
+        let dropped: usize = sample_domains()
+            .par_iter()
+            .map(|(name, domain, candidates)| {
+                let mut dropped = 0;
+                for objective in [Objective::Length, Objective::Resistance] {
+                    for k in [3, 4] {
+                        let run = |ahead| {
+                            several_gates_search(domain, candidates, objective, 0, k, None, ahead)
+                                .expect("enough candidates")
+                        };
+                        let (new, old) = (run(true), run(false));
+                        let what = format!("{name} {objective:?} k {k}");
+                        assert_eq!(layout_gates(&new), layout_gates(&old), "{what}");
+                        assert_eq!(new.value().to_bits(), old.value().to_bits(), "{what}");
+                        assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
+                        assert!(new.runs >= old.runs, "{what}");
+                        // Examinations made ahead and dropped (a move was kept) add runs.
+                        dropped += (new.runs > old.runs) as usize;
+                    }
                 }
-            }
-        }
+                dropped
+            })
+            .sum();
         assert!(dropped > 2, "{dropped}");
     }
 
@@ -3008,56 +3017,59 @@ mod tests {
     fn the_balanced_search_with_runs_stopped_early_is_the_search_of_whole_runs() {
         use crate::samples::sample;
         let pp = Material::builtin("PP").expect("PP");
-        for name in ["plate", "bracket", "cover", "tray", "cap"] {
+        let cases: Vec<(&str, f64)> = ["plate", "bracket", "cover", "tray", "cap"]
+            .into_iter()
+            .flat_map(|name| [(name, 1.0), (name, 1.5)])
+            .collect();
+        // The cases side by side: the unit tests are built unoptimised.
+        cases.par_iter().for_each(|&(name, h)| {
             let mesh = sample(name).expect("sample");
-            for h in [1.0, 1.5] {
-                let domain = Domain::new(&mesh, h, None, 2.0, &pp);
-                let n = domain.voxels.len() as u32;
-                // Candidates spread over the cells, cell centres nudged off as surface
-                // points are; the first gate one of them.
-                let candidates: Vec<Source> = (0..n)
-                    .step_by(7)
-                    .map(|c| Source {
-                        point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
-                        cell: c,
-                    })
-                    .collect();
-                let first = candidates[candidates.len() / 3];
-                for objective in [Objective::Length, Objective::Resistance] {
-                    let start = march(&domain.voxels, &[first], domain.cost(objective));
-                    let old =
-                        reference_balanced(&domain, &candidates, objective, first, &start, 0.5 * h)
-                            .expect("a pool");
-                    // Reaches far too short (every run stopped, the bounds completed),
-                    // about the least bound, the one used, and one no run gets to.
-                    for far_reach in [0.3, 0.7, 0.95, FAR_REACH, 10.0] {
-                        let new = balanced_search(
-                            &domain,
-                            &candidates,
-                            objective,
-                            first,
-                            &start,
-                            0.5 * h,
-                            far_reach,
-                            |c| c,
-                        )
+            let domain = Domain::new(&mesh, h, None, 2.0, &pp);
+            let n = domain.voxels.len() as u32;
+            // Candidates spread over the cells, cell centres nudged off as surface
+            // points are; the first gate one of them.
+            let candidates: Vec<Source> = (0..n)
+                .step_by(7)
+                .map(|c| Source {
+                    point: domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05),
+                    cell: c,
+                })
+                .collect();
+            let first = candidates[candidates.len() / 3];
+            for objective in [Objective::Length, Objective::Resistance] {
+                let start = march(&domain.voxels, &[first], domain.cost(objective));
+                let old =
+                    reference_balanced(&domain, &candidates, objective, first, &start, 0.5 * h)
                         .expect("a pool");
-                        let what = format!("{name} h {h} {objective:?} reach {far_reach}");
-                        // What ran beside the chosen candidate's run is its own.
-                        let (new, aside) = new;
-                        assert!(aside.is_none_or(|c| c == new.candidate), "{what}");
-                        assert!(aside.is_some() || !new.proven, "{what}");
-                        assert_eq!(new.candidate, old.candidate, "{what}");
-                        assert_eq!(new.value.to_bits(), old.value.to_bits(), "{what}");
-                        assert_eq!(
-                            new.lower_bound.to_bits(),
-                            old.lower_bound.to_bits(),
-                            "{what}"
-                        );
-                        assert_eq!((new.runs, new.proven), (old.runs, old.proven), "{what}");
-                    }
+                // Reaches far too short (every run stopped, the bounds completed),
+                // about the least bound, the one used, and one no run gets to.
+                for far_reach in [0.3, 0.7, 0.95, FAR_REACH, 10.0] {
+                    let new = balanced_search(
+                        &domain,
+                        &candidates,
+                        objective,
+                        first,
+                        &start,
+                        0.5 * h,
+                        far_reach,
+                        |c| c,
+                    )
+                    .expect("a pool");
+                    let what = format!("{name} h {h} {objective:?} reach {far_reach}");
+                    // What ran beside the chosen candidate's run is its own.
+                    let (new, aside) = new;
+                    assert!(aside.is_none_or(|c| c == new.candidate), "{what}");
+                    assert!(aside.is_some() || !new.proven, "{what}");
+                    assert_eq!(new.candidate, old.candidate, "{what}");
+                    assert_eq!(new.value.to_bits(), old.value.to_bits(), "{what}");
+                    assert_eq!(
+                        new.lower_bound.to_bits(),
+                        old.lower_bound.to_bits(),
+                        "{what}"
+                    );
+                    assert_eq!((new.runs, new.proven), (old.runs, old.proven), "{what}");
                 }
             }
-        }
+        });
     }
 }

@@ -1504,31 +1504,44 @@ mod tests {
         }
     }
 
-    /// Whether `ray` meets a triangle of `triangles` other than its own farther than
-    /// `min_hit` along it, by testing every triangle: the definition [`blocked_in_blocks`]
-    /// answers with its grid of cells.
-    fn blocked_by_every_triangle(
-        vertices: &[DVec3],
-        frame: &Frame,
-        triangles: &[[u32; 3]],
-        ray: PointRay,
-        min_hit: f64,
-    ) -> bool {
-        let s = frame.project(ray.origin);
-        let height = frame.height(ray.origin);
-        triangles.iter().enumerate().any(|(t, tri)| {
-            let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
-            let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
-                return false;
-            };
-            let edges = triangle.edges();
-            let e = edges.each_ref().map(|edge| edge.at(s));
-            let inside = (0..3).all(|m| e[m] > 0.0 || (e[m] == 0.0 && edges[m].owned));
-            let [ha, hb, hc] = triangle.h;
-            let h = (e[0] * ha + e[1] * hb + e[2] * hc) / (e[0] + e[1] + e[2]);
-            let along = if ray.up { h - height } else { height - h };
-            t as u32 != ray.triangle && inside && along > min_hit
-        })
+    /// Every triangle of a mesh seen along one line, each projected once: the brute force
+    /// that [`blocked_in_blocks`] must agree with.
+    struct EveryTriangle(Vec<Option<(ProjectedTriangle, [EdgeFn; 3])>>);
+
+    impl EveryTriangle {
+        fn new(vertices: &[DVec3], frame: &Frame, triangles: &[[u32; 3]]) -> EveryTriangle {
+            EveryTriangle(
+                triangles
+                    .iter()
+                    .map(|tri| {
+                        let [a, b, c] = tri.map(|v| uwh(frame, vertices[v as usize]));
+                        ProjectedTriangle::new(a, b, c).map(|t| {
+                            let edges = t.edges();
+                            (t, edges)
+                        })
+                    })
+                    .collect(),
+            )
+        }
+
+        /// Whether `ray` meets a triangle other than its own farther than `min_hit` along
+        /// it, by testing every triangle: the definition [`blocked_in_blocks`] answers with
+        /// its grid of cells.
+        fn block(&self, frame: &Frame, ray: PointRay, min_hit: f64) -> bool {
+            let s = frame.project(ray.origin);
+            let height = frame.height(ray.origin);
+            self.0.iter().enumerate().any(|(t, projected)| {
+                let Some((triangle, edges)) = projected else {
+                    return false;
+                };
+                let e = edges.each_ref().map(|edge| edge.at(s));
+                let inside = (0..3).all(|m| e[m] > 0.0 || (e[m] == 0.0 && edges[m].owned));
+                let [ha, hb, hc] = triangle.h;
+                let h = (e[0] * ha + e[1] * hb + e[2] * hc) / (e[0] + e[1] + e[2]);
+                let along = if ray.up { h - height } else { height - h };
+                t as u32 != ray.triangle && inside && along > min_hit
+            })
+        }
     }
 
     #[test]
@@ -1589,18 +1602,11 @@ mod tests {
                 DVec3::new(1.0, 1e-3, -2e-3),
             ] {
                 let frame = Frame::new(crate::frame::Direction::new(d).unwrap());
+                let every = EveryTriangle::new(&mesh.vertices, &frame, &mesh.triangles);
                 let expected: Vec<BlockedRay> = rays
-                    .iter()
+                    .par_iter()
                     .enumerate()
-                    .filter(|(_, &r)| {
-                        blocked_by_every_triangle(
-                            &mesh.vertices,
-                            &frame,
-                            &mesh.triangles,
-                            r,
-                            min_hit,
-                        )
-                    })
+                    .filter(|(_, &r)| every.block(&frame, r, min_hit))
                     .map(|(k, r)| BlockedRay {
                         ray: k as u32,
                         triangle: r.triangle,
@@ -1675,11 +1681,10 @@ mod tests {
                 }
             })
             .collect();
+        let every = EveryTriangle::new(&mesh.vertices, &frame, &mesh.triangles);
         let expected: Vec<bool> = rays
-            .iter()
-            .map(|&r| {
-                blocked_by_every_triangle(&mesh.vertices, &frame, &mesh.triangles, r, min_hit)
-            })
+            .par_iter()
+            .map(|&r| every.block(&frame, r, min_hit))
             .collect();
         assert!(expected.iter().filter(|&&b| b).count() > 100);
         for threads in [1, 3] {
