@@ -261,16 +261,11 @@ fn binary_tree(mesh: &Mesh, how: Build) -> (DVec3, Vec<Node>, Vec<u32>) {
                     .into_par_iter()
                     .map(|t| {
                         let (min, max) = triangle_box(mesh.corners(t).map(local));
-                        // The centre of an empty box is the origin.
-                        let centre = if min.x <= max.x {
-                            (min + max) * 0.5
-                        } else {
-                            Vec3::ZERO
-                        };
                         Item {
                             min,
                             max,
-                            centre,
+                            // The centre of an empty box is the origin.
+                            centre: box_centre((min, max)).unwrap_or(Vec3::ZERO),
                             id: t as u32,
                         }
                     })
@@ -319,6 +314,11 @@ fn triangle_box([a, b, c]: [Vec3; 3]) -> (Vec3, Vec3) {
     } else {
         (Vec3::INFINITY, Vec3::NEG_INFINITY)
     }
+}
+
+/// The centre of a triangle's box; `None` for the empty box of [`triangle_box`].
+fn box_centre((min, max): (Vec3, Vec3)) -> Option<Vec3> {
+    (min.x <= max.x).then(|| (min + max) * 0.5)
 }
 
 /// How the binary tree is split.
@@ -1140,16 +1140,15 @@ fn spread_bits(x: u32) -> u64 {
 /// middle when its codes are all one), down to leaves of at most [`MORTON_LEAF_SIZE`]. Each node's
 /// box is the union of its children's, found as the recursion comes back up.
 fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
-    // A triangle's centre, for a triangle with a box (the empty box of one without finite
-    // corners is left out, and sorts first below).
-    let centre = |&(min, max): &(Vec3, Vec3)| (min.x <= max.x).then(|| (min + max) * 0.5);
+    // The empty box of a triangle without finite corners has no centre: it is left out of
+    // the centres' bounds, and sorts first below.
     let centres = boxes
         .par_iter()
         .with_min_len(4096)
         .fold(
             || Bounds::EMPTY,
             |mut b, it| {
-                if let Some(c) = centre(it) {
+                if let Some(c) = box_centre(*it) {
                     let c = Vec3A::from(c);
                     b.grow(c, c);
                 }
@@ -1172,7 +1171,7 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
         .enumerate()
         .map(|(id, it)| {
             // A triangle without a box (a corner not finite) sorts first; it is never hit.
-            let code = centre(it).map_or(0, |c| {
+            let code = box_centre(*it).map_or(0, |c| {
                 let q =
                     ((Vec3A::from(c) - centres.min) * scale).clamp(Vec3A::ZERO, Vec3A::splat(top));
                 spread_bits(q.x as u32)
@@ -1218,8 +1217,8 @@ fn sort_by_code(keys: &mut Vec<u64>) {
     }
 }
 
-/// Builds the node of `items` (whose codes are `codes`) and its subtree into `nodes`;
-/// triangle links relative to `first`. Returns the node's box.
+/// Builds the node of the triangles `ids` (whose codes are `codes`, boxes `boxes[id]`) and
+/// its subtree into `nodes`; triangle links relative to `first`. Returns the node's box.
 fn morton_into(
     ids: &[u32],
     boxes: &[(Vec3, Vec3)],
@@ -1227,11 +1226,10 @@ fn morton_into(
     first: usize,
     nodes: &mut Vec<Node>,
 ) -> Bounds {
-    let items = ids;
     let me = nodes.len();
-    if items.len() <= MORTON_LEAF_SIZE {
+    if ids.len() <= MORTON_LEAF_SIZE {
         let mut b = Bounds::EMPTY;
-        for &id in items {
+        for &id in ids {
             let (min, max) = boxes[id as usize];
             b.grow(Vec3A::from(min), Vec3A::from(max));
         }
@@ -1239,13 +1237,13 @@ fn morton_into(
             min: b.min.to_array(),
             link: first as u32,
             max: b.max.to_array(),
-            count: items.len() as u32,
+            count: ids.len() as u32,
         });
         return b;
     }
     let (lo, hi) = (codes[0], codes[codes.len() - 1]);
     let mid = if lo == hi {
-        items.len() / 2
+        ids.len() / 2
     } else {
         let bit = 63 - (lo ^ hi).leading_zeros();
         codes.partition_point(|&c| c >> bit & 1 == 0)
@@ -1256,9 +1254,9 @@ fn morton_into(
         max: [0.0; 3],
         count: 0,
     });
-    let (left, right) = items.split_at(mid);
+    let (left, right) = ids.split_at(mid);
     let (l_codes, r_codes) = codes.split_at(mid);
-    let (mut b, r) = if items.len() > PARALLEL_MIN {
+    let (mut b, r) = if ids.len() > PARALLEL_MIN {
         // The left subtree goes on in `nodes` (it follows its parent); only the right one,
         // built on the other thread, is copied after it.
         let (l, (r, sub)) = join(

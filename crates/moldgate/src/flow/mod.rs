@@ -2951,65 +2951,65 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn the_layout_of_two_starts_is_the_better_of_the_two_and_never_worse_than_the_first() {
-        // The samples side by side: the unit tests are built unoptimised.
-        let better: usize = sample_domains()
+    /// How many of the cases `case` counts: every sample of [`sample_domains`] with both
+    /// objectives and each count of gates in `ks` (the case's name for its messages), the
+    /// samples side by side (the unit tests are built unoptimised).
+    fn count_cases(
+        ks: [usize; 2],
+        case: impl Fn(&str, &Domain, &[Source], Objective, usize) -> bool + Sync,
+    ) -> usize {
+        sample_domains()
             .par_iter()
             .map(|(name, domain, candidates)| {
-                let mut better = 0;
+                let mut counted = 0;
                 for objective in [Objective::Length, Objective::Resistance] {
-                    for k in [2, 3] {
+                    for k in ks {
                         let what = format!("{name} {objective:?} k {k}");
-                        let both = several_gates(domain, candidates, objective, 0, k).expect("k");
-                        let one =
-                            several_gates_search(domain, candidates, objective, 0, k, None, true)
-                                .expect("k");
-                        assert!(both.value() <= one.value(), "{what}");
-                        assert!(both.runs > one.runs, "{what}: both starts' marches count");
-                        if both.value() < one.value() {
-                            better += 1;
-                        } else {
-                            assert_eq!(
-                                layout_gates(&both),
-                                layout_gates(&one),
-                                "{what}: the first start's kept"
-                            );
-                        }
+                        counted += case(&what, domain, candidates, objective, k) as usize;
                     }
                 }
-                better
+                counted
             })
-            .sum();
+            .sum()
+    }
+
+    #[test]
+    fn the_layout_of_two_starts_is_the_better_of_the_two_and_never_worse_than_the_first() {
+        let better = count_cases([2, 3], |what, domain, candidates, objective, k| {
+            let both = several_gates(domain, candidates, objective, 0, k).expect("k");
+            let one =
+                several_gates_search(domain, candidates, objective, 0, k, None, true).expect("k");
+            assert!(both.value() <= one.value(), "{what}");
+            assert!(both.runs > one.runs, "{what}: both starts' marches count");
+            let better = both.value() < one.value();
+            if !better {
+                assert_eq!(
+                    layout_gates(&both),
+                    layout_gates(&one),
+                    "{what}: the first start's kept"
+                );
+            }
+            better
+        });
         // The second start matters: it finds the better layout on some of these 20.
         assert!(better >= 3, "{better}");
     }
 
     #[test]
     fn several_gates_examined_ahead_are_those_examined_one_after_the_other() {
-        let dropped: usize = sample_domains()
-            .par_iter()
-            .map(|(name, domain, candidates)| {
-                let mut dropped = 0;
-                for objective in [Objective::Length, Objective::Resistance] {
-                    for k in [3, 4] {
-                        let run = |ahead| {
-                            several_gates_search(domain, candidates, objective, 0, k, None, ahead)
-                                .expect("enough candidates")
-                        };
-                        let (new, old) = (run(true), run(false));
-                        let what = format!("{name} {objective:?} k {k}");
-                        assert_eq!(layout_gates(&new), layout_gates(&old), "{what}");
-                        assert_eq!(new.value().to_bits(), old.value().to_bits(), "{what}");
-                        assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
-                        assert!(new.runs >= old.runs, "{what}");
-                        // Examinations made ahead and dropped (a move was kept) add runs.
-                        dropped += (new.runs > old.runs) as usize;
-                    }
-                }
-                dropped
-            })
-            .sum();
+        let dropped = count_cases([3, 4], |what, domain, candidates, objective, k| {
+            let run = |ahead| {
+                several_gates_search(domain, candidates, objective, 0, k, None, ahead)
+                    .expect("enough candidates")
+            };
+            let (new, old) = (run(true), run(false));
+            assert_eq!(layout_gates(&new), layout_gates(&old), "{what}");
+            assert_eq!(new.value().to_bits(), old.value().to_bits(), "{what}");
+            assert_eq!(new.balance.to_bits(), old.balance.to_bits(), "{what}");
+            assert!(new.runs >= old.runs, "{what}");
+            // Examinations made ahead and dropped (a move was kept) add runs.
+            new.runs > old.runs
+        });
         assert!(dropped > 2, "{dropped}");
     }
 

@@ -1528,9 +1528,14 @@ mod tests {
         /// it, by testing every triangle: the definition [`blocked_in_blocks`] answers with
         /// its grid of cells.
         fn block(&self, frame: &Frame, ray: PointRay, min_hit: f64) -> bool {
+            self.first_blocking(frame, ray, min_hit).is_some()
+        }
+
+        /// The first triangle, in the mesh's order, that blocks `ray` (see [`Self::block`]).
+        fn first_blocking(&self, frame: &Frame, ray: PointRay, min_hit: f64) -> Option<usize> {
             let s = frame.project(ray.origin);
             let height = frame.height(ray.origin);
-            self.0.iter().enumerate().any(|(t, projected)| {
+            self.0.iter().enumerate().position(|(t, projected)| {
                 let Some((triangle, edges)) = projected else {
                     return false;
                 };
@@ -1717,25 +1722,10 @@ mod tests {
             })
             .collect();
         // The first triangle that blocks each ray, if any.
+        let brute = EveryTriangle::new(&mesh.vertices, &frame, &mesh.triangles);
         let first: Vec<Option<usize>> = rays
-            .iter()
-            .map(|r| {
-                let s = frame.project(r.origin);
-                let height = frame.height(r.origin);
-                mesh.triangles.iter().enumerate().position(|(t, tri)| {
-                    let [a, b, c] = tri.map(|v| uwh(&frame, mesh.vertices[v as usize]));
-                    let Some(triangle) = ProjectedTriangle::new(a, b, c) else {
-                        return false;
-                    };
-                    let edges = triangle.edges();
-                    let e = edges.each_ref().map(|edge| edge.at(s));
-                    let inside = (0..3).all(|m| e[m] > 0.0 || (e[m] == 0.0 && edges[m].owned));
-                    let [ha, hb, hc] = triangle.h;
-                    let h = (e[0] * ha + e[1] * hb + e[2] * hc) / (e[0] + e[1] + e[2]);
-                    let along = if r.up { h - height } else { height - h };
-                    t as u32 != r.triangle && inside && along > min_hit
-                })
-            })
+            .par_iter()
+            .map(|&r| brute.first_blocking(&frame, r, min_hit))
             .collect();
         let blocked_by = |count: usize| -> Vec<u32> {
             (0..rays.len() as u32)
