@@ -2953,7 +2953,7 @@ mod tests {
 
     /// How many of the cases `case` counts: every sample of [`sample_domains`] with both
     /// objectives and each count of gates in `ks` (the case's name for its messages), the
-    /// samples side by side (the unit tests are built unoptimised).
+    /// samples side by side.
     fn count_cases(
         ks: [usize; 2],
         case: impl Fn(&str, &Domain, &[Source], Objective, usize) -> bool + Sync,
@@ -3021,7 +3021,7 @@ mod tests {
             .into_iter()
             .flat_map(|name| [(name, 1.0), (name, 1.5)])
             .collect();
-        // The cases side by side: the unit tests are built unoptimised.
+        // The cases side by side.
         cases.par_iter().for_each(|&(name, h)| {
             let mesh = sample(name).expect("sample");
             let domain = Domain::new(&mesh, h, None, 2.0, &pp);

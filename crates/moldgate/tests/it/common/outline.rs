@@ -41,7 +41,19 @@ pub fn outline_perimeter(mesh: &Mesh, frame: &Frame, cells: usize) -> f64 {
         let j0 = (((tlo.y - lo.y) / fh - 0.5).floor().max(0.0)) as usize;
         let j1 = (((thi.y - lo.y) / fh - 0.5).ceil() as usize).min(fw - 1);
         for j in j0..=j1 {
-            for i in i0..=i1 {
+            // The samples of this row the triangle can cover, from where its edges cross
+            // the row, one sample wider on each side than that: each is then tested exactly.
+            let y = lo.y + (j as f64 + 0.5) * fh;
+            let Some((xl, xh)) = row_span([a, b, c], area, y) else {
+                continue;
+            };
+            let first = ((xl - lo.x) / fh - 0.5).ceil() - 1.0;
+            let last = ((xh - lo.x) / fh - 0.5).floor() + 1.0;
+            if last < i0 as f64 || first > i1 as f64 {
+                continue;
+            }
+            let (from, to) = (first.max(i0 as f64) as usize, last.min(i1 as f64) as usize);
+            for i in from..=to {
                 let p = lo + DVec2::new((i as f64 + 0.5) * fh, (j as f64 + 0.5) * fh);
                 let e = [
                     (b - a).perp_dot(p - a),
@@ -130,4 +142,26 @@ pub fn outline_perimeter(mesh: &Mesh, frame: &Frame, cells: usize) -> f64 {
         }
     }
     length
+}
+
+/// The interval of x where the row at `y` is inside the triangle `t` (signed area `area`),
+/// from its three edges' lines (empty when the first exceeds the second), or `None` when an
+/// edge along the row leaves it outside.
+fn row_span(t: [DVec2; 3], area: f64, y: f64) -> Option<(f64, f64)> {
+    let (mut xl, mut xh) = (f64::NEG_INFINITY, f64::INFINITY);
+    for k in 0..3 {
+        let (a, b) = (t[k], t[(k + 1) % 3]);
+        let d = b - a;
+        // The edge's test, (b - a) x (p - a) times the sign of the area, is c - s x.
+        let s = d.y * area.signum();
+        let c = (d.x * (y - a.y) + d.y * a.x) * area.signum();
+        if s > 0.0 {
+            xh = xh.min(c / s);
+        } else if s < 0.0 {
+            xl = xl.max(c / s);
+        } else if c < 0.0 {
+            return None;
+        }
+    }
+    Some((xl, xh))
 }
