@@ -54,7 +54,7 @@ pub fn outline_perimeter(mesh: &Mesh, frame: &Frame, cells: usize) -> f64 {
             }
             let (from, to) = (first.max(i0 as f64) as usize, last.min(i1 as f64) as usize);
             for i in from..=to {
-                let p = lo + DVec2::new((i as f64 + 0.5) * fh, (j as f64 + 0.5) * fh);
+                let p = DVec2::new(lo.x + (i as f64 + 0.5) * fh, y);
                 let e = [
                     (b - a).perp_dot(p - a),
                     (c - b).perp_dot(p - b),
