@@ -106,7 +106,7 @@ function gateFill(id, title, f) {
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
   ];
   const last = el("ol", { class: "last-to-fill" });
-  for (const q of f.last_to_fill.slice(0, 3)) last.append(el("li", xyz(q.point), `${v3(q.point, 1)} at ${q.flow_length_mm.toFixed(1)} mm`));
+  for (const q of f.last_to_fill.slice(0, 3)) last.append(el("li", xyz(q.point), `${v3(q.point, 1)}: ${q.flow_length_mm.toFixed(1)} mm of flow path from the gate`));
   const welds = el("ul", { class: "weld-lines" });
   for (const w of f.weld_lines.slice(0, 3)) welds.append(el("li", xyz(w.point), `near ${v3(w.point, 1)}, ${w.flow_length_mm.toFixed(1)} mm from the gate, fronts at ${w.meeting_angle_deg.toFixed(0)}°`));
   if (!f.weld_lines.length) welds.append(el("li", {}, "none found"));

@@ -76,7 +76,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
             let _ = writeln!(
                 s,
-                "    last to fill #{} (in the last 20 % of the fill): {} at {:.1} mm, {:.3} s",
+                "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from the gate, filled at {:.3} s",
                 i + 1,
                 v3(q.point),
                 q.flow_length_mm,

@@ -652,7 +652,7 @@ fn fill_table(h: &mut String, r: &Report) {
             .iter()
             .map(|p| {
                 format!(
-                    "{} ({:.1} mm, {:.3} s)",
+                    "{} ({:.1} mm of flow path from the gate, filled at {:.3} s)",
                     v3(p.point),
                     p.flow_length_mm,
                     p.fill_time_s
