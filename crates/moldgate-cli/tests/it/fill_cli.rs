@@ -103,6 +103,30 @@ fn several_gates_share_the_volume() {
     assert!(m["l_max_mm"].as_f64() <= r["fill"]["paper"]["l_max_mm"].as_f64());
 }
 
+/// Each place last to fill says what its length is (the flow path from the gate) and when it
+/// fills, with the report's numbers.
+#[test]
+fn last_to_fill_places_name_their_flow_path_length_and_fill_time() {
+    let args = ["locate", "--sample", "bracket", "--fill"];
+    let out = moldgate(&args);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("last to fill #"))
+        .collect();
+    let r = json(&[&args[..], &["--json"]].concat());
+    let places = r["fill"]["paper"]["last_to_fill"].as_array().unwrap();
+    assert!(!lines.is_empty());
+    assert_eq!(lines.len(), places.len().min(3), "{text}");
+    for (line, q) in lines.iter().zip(places) {
+        let length = q["flow_length_mm"].as_f64().unwrap();
+        let time = q["fill_time_s"].as_f64().unwrap();
+        let said = format!("{length:.1} mm of flow path from the gate, filled at {time:.3} s");
+        assert!(line.ends_with(&said), "{line} / {said}");
+    }
+}
+
 #[test]
 fn the_summary_names_where_a_layout_of_gates_was_seeded() {
     let out = moldgate(&["locate", "--sample", "tray", "--gates", "2"]);
