@@ -5,7 +5,7 @@
 //   native:  the whole command `moldgate locate FILE --demold +y`, process start to exit.
 // Also the first load's transferred size (gzip, as the test server sends it).
 //
-//   node web/tests/speed.mjs [FILE] [--demold +y] [--runs 7]
+//   node web/tests/speed.mjs [FILE] [--demold +y] [--fill] [--runs 7]
 // (after scripts/build-web.sh and cargo build --release -p moldgate-cli)
 import { execFileSync } from "node:child_process";
 import { existsSync } from "node:fs";
@@ -20,6 +20,9 @@ const option = (name, fallback) => {
 };
 const demold = option("--demold", "+y");
 const runs = Number(option("--runs", "7"));
+// --fill: the fill analysis on, in the page and in the native command alike.
+const fill = args.includes("--fill");
+if (fill) args.splice(args.indexOf("--fill"), 1);
 const file = args[0] ?? join(PARTS, "esp32s3box_bottom_housing_352k.stl");
 if (!existsSync(file)) {
   console.log(`speed: ${file} not found (give a file or set MOLDGATE_PARTS); nothing measured`);
@@ -39,6 +42,8 @@ const total = firstLoad.reduce((a, s) => a + s.bytes, 0);
 console.log(`  ${"total".padEnd(44)} ${kib(total).padStart(8)} KiB (${(total / 1e6).toFixed(2)} MB)`);
 
 await page.selectOption("#demold", demold);
+if (fill) await page.check("#fill");
+const nativeArgs = ["locate", file, "--demold", demold, ...(fill ? ["--fill"] : [])];
 const browser = [];
 const study = [];
 const glb = [];
@@ -54,9 +59,12 @@ for (let i = -1; i < runs; i++) {
     glb: Number(document.getElementById("time-glb").dataset.value),
   }));
   const start = process.hrtime.bigint();
-  execFileSync(CLI, ["locate", file, "--demold", demold], { stdio: "ignore" });
+  execFileSync(CLI, nativeArgs, { stdio: "ignore" });
   const nativeMs = Number(process.hrtime.bigint() - start) / 1e6;
-  if (i < 0) continue;
+  if (i < 0) {
+    console.log(`warm-up run (not counted): browser ${t.total.toFixed(0)} ms (study ${t.study.toFixed(0)}, GLB ${t.glb.toFixed(0)}), native ${nativeMs.toFixed(0)} ms`);
+    continue;
+  }
   browser.push(t.total);
   study.push(t.study);
   glb.push(t.glb);
@@ -65,7 +73,7 @@ for (let i = -1; i < runs; i++) {
 }
 const b = median(browser);
 const n = median(native);
-console.log(`${file}, demold ${demold}, medians of ${runs}:`);
+console.log(`${file}, demold ${demold}${fill ? ", fill analysis" : ""}, medians of ${runs}:`);
 console.log(`  browser, bytes to result on screen: ${b.toFixed(0)} ms (study in the worker ${median(study).toFixed(0)} ms, GLB ${median(glb).toFixed(0)} ms)`);
 console.log(`  native command:                      ${n.toFixed(0)} ms`);
 console.log(`  browser / native:                    ${(b / n).toFixed(2)}`);
