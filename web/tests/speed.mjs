@@ -2,7 +2,8 @@
 // interleaved so both see the same load:
 //   browser: from the file's bytes in the page to the result on screen (the study in the
 //            worker, the report, the GLB, three.js drawing it), as the page measures it;
-//   native:  the whole command `moldgate locate FILE --demold +y`, process start to exit.
+//   native:  the whole command `moldgate locate FILE --demold +y` (with `--fill` when the
+//            page's fill analysis is on), process start to exit.
 // Also the first load's transferred size (gzip, as the test server sends it).
 //
 //   node web/tests/speed.mjs [FILE] [--demold +y] [--fill] [--runs 7]
@@ -20,9 +21,12 @@ const option = (name, fallback) => {
 };
 const demold = option("--demold", "+y");
 const runs = Number(option("--runs", "7"));
+const flag = (name) => {
+  const i = args.indexOf(name);
+  return i >= 0 && args.splice(i, 1).length === 1;
+};
 // --fill: the fill analysis on, in the page and in the native command alike.
-const fill = args.includes("--fill");
-if (fill) args.splice(args.indexOf("--fill"), 1);
+const fill = flag("--fill");
 const file = args[0] ?? join(PARTS, "esp32s3box_bottom_housing_352k.stl");
 if (!existsSync(file)) {
   console.log(`speed: ${file} not found (give a file or set MOLDGATE_PARTS); nothing measured`);
@@ -61,15 +65,13 @@ for (let i = -1; i < runs; i++) {
   const start = process.hrtime.bigint();
   execFileSync(CLI, nativeArgs, { stdio: "ignore" });
   const nativeMs = Number(process.hrtime.bigint() - start) / 1e6;
-  if (i < 0) {
-    console.log(`warm-up run (not counted): browser ${t.total.toFixed(0)} ms (study ${t.study.toFixed(0)}, GLB ${t.glb.toFixed(0)}), native ${nativeMs.toFixed(0)} ms`);
-    continue;
-  }
+  const name = i < 0 ? "warm-up run (not counted)" : `run ${i + 1}`;
+  console.log(`${name}: browser ${t.total.toFixed(0)} ms (study ${t.study.toFixed(0)}, GLB ${t.glb.toFixed(0)}), native ${nativeMs.toFixed(0)} ms`);
+  if (i < 0) continue;
   browser.push(t.total);
   study.push(t.study);
   glb.push(t.glb);
   native.push(nativeMs);
-  console.log(`run ${i + 1}: browser ${t.total.toFixed(0)} ms (study ${t.study.toFixed(0)}, GLB ${t.glb.toFixed(0)}), native ${nativeMs.toFixed(0)} ms`);
 }
 const b = median(browser);
 const n = median(native);
