@@ -87,7 +87,12 @@ def main():
             raise SystemExit(f"--only: unknown {unknown}; the names are {[n for n, _ in OPTIONS]}")
         options = [o for o in OPTIONS if o[0] in names]
 
-    png = os.path.join(tempfile.mkdtemp(prefix="moldgate-speed-"), "part.png")
+    with tempfile.TemporaryDirectory(prefix="moldgate-speed-") as folder:
+        table(a, options, os.path.join(folder, "part.png"))
+
+
+def table(a, options, png):
+    """Runs the rounds of every part and prints the table; `png` is where --png writes."""
     print(f"binary {a.binary}; {a.runs} rounds a part, {os.cpu_count()} cores")
     print("load average before: " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
     print()
