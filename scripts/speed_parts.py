@@ -6,8 +6,9 @@ commands on each part listed in the shared parts' SOURCES.md, with the part's un
 natural demolding direction from that file, and prints per part the median whole-command
 time of plain `moldgate locate` and, for every option, its time and the median of its
 per-round ratio to plain locate: fill (--fill), balanced (--strategy balanced), gates3
-(--gates 3), walls (--wall-thickness), auto (--demold auto), png (--png). Each round runs every command of a part once, in a random
-order. The load average is printed before and after.
+(--gates 3), walls (--wall-thickness), auto (--demold auto), png (--png). Each round runs
+every command of a part once, in a random order. The load average is printed before and
+after.
 
     cargo build --release -p moldgate-cli
     python3 scripts/speed_parts.py [--runs 5] [--binary target/release/moldgate]
@@ -28,10 +29,8 @@ import subprocess
 import tempfile
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SHARED = next((p for p in (os.path.join(ROOT, *[".."] * up, "shared") for up in (1, 2))
-               if os.path.isdir(p)), os.path.join(ROOT, "..", "shared"))
-TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+# The speed table's folders and load average (this script's sibling).
+from speed_table import SHARED, TARGET, loadavg
 
 # (name, options); None: `--demold auto` in place of the part's direction.
 OPTIONS = [
@@ -71,7 +70,8 @@ def main():
     ap.add_argument("--runs", type=int, default=5, help="rounds a part (default 5)")
     ap.add_argument("--binary", default=os.path.join(TARGET, "release", "moldgate"))
     ap.add_argument("--parts", default=os.path.join(SHARED, "data", "parts"))
-    ap.add_argument("--only", help="comma-separated names to run besides plain locate (fill, balanced, gates3, walls, auto, png)")
+    ap.add_argument("--only", help="comma-separated names to run besides plain locate "
+                    "(fill, balanced, gates3, walls, auto, png)")
     a = ap.parse_args()
     if a.runs < 1:
         raise SystemExit("--runs must be at least 1")
@@ -94,7 +94,7 @@ def main():
 def table(a, options, png):
     """Runs the rounds of every part and prints the table; `png` is where --png writes."""
     print(f"binary {a.binary}; {a.runs} rounds a part, {os.cpu_count()} cores")
-    print("load average before: " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(f"load average before: {loadavg()}")
     print()
     print("| part | plain locate, ms | " + " | ".join(f"{n}: ms (ratio)" for n, _ in options) + " |")
     print("|---|---:|" + "---:|" * len(options))
@@ -127,7 +127,7 @@ def table(a, options, png):
 
         print(f"| {file} | " + " | ".join(cell(n) for n in commands) + " |", flush=True)
     print()
-    print("load average after:  " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(f"load average after:  {loadavg()}")
 
 
 if __name__ == "__main__":
