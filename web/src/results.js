@@ -2,6 +2,8 @@
 // same as `moldgate locate --json`). Raw numbers sit in data- attributes so tests can compare
 // them with the command line's to the last bit; the text is rounded for people.
 
+import { seconds } from "./format.js";
+
 const el = (tag, attrs = {}, ...children) => {
   const e = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs)) {
@@ -70,7 +72,7 @@ function gateSection(r) {
   const content = [list("gate", rows)];
   if (several) {
     // The layout's values are of its objective: mm of L_max, or s of fill time.
-    const worst = (x) => (x.fill_time_s != null ? `fill time ${x.fill_time_s.toFixed(3)} s` : `L_max ${x.l_max_mm.toFixed(1)} mm`);
+    const worst = (x) => (x.fill_time_s != null ? `fill time ${seconds(x.fill_time_s)} s` : `L_max ${x.l_max_mm.toFixed(1)} mm`);
     const ol = el("ol", { id: "several-gates" });
     for (const s of several.gates) {
       ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, ${worst(s)}`));
@@ -103,10 +105,11 @@ function gateFill(id, title, f) {
     ["Flow-cell wall at the gate (the fill model's sample)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
     ["Flow length / wall L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
     ["Fill pressure (Eq. 1)", `${f.pressure_mpa.toFixed(1)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
+    ["Fill time (estimate)", `${seconds(f.fill_time_s)} s`, { class: "fill-time", "data-value": f.fill_time_s }],
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
   ];
   const last = el("ol", { class: "last-to-fill" });
-  for (const q of f.last_to_fill.slice(0, 3)) last.append(el("li", xyz(q.point), `${v3(q.point, 1)}: ${q.flow_length_mm.toFixed(1)} mm of flow path from the gate`));
+  for (const q of f.last_to_fill.slice(0, 3)) last.append(el("li", xyz(q.point), `${v3(q.point, 1)}: ${q.flow_length_mm.toFixed(1)} mm of flow path from the gate, filled at ${seconds(q.fill_time_s)} s`));
   const welds = el("ul", { class: "weld-lines" });
   for (const w of f.weld_lines.slice(0, 3)) welds.append(el("li", xyz(w.point), `near ${v3(w.point, 1)}, ${w.flow_length_mm.toFixed(1)} mm from the gate, fronts at ${w.meeting_angle_deg.toFixed(0)}°`));
   if (!f.weld_lines.length) welds.append(el("li", {}, "none found"));
@@ -209,7 +212,7 @@ function placedSection(r) {
     if (r.fill?.balanced) rows.push(["Balanced gate", r.fill.balanced.fill, "placed-balanced"]);
     content.push(list("placed-fill-list", rows.map(([name, g, id]) => [
       name,
-      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${g.pressure_mpa.toFixed(1)} MPa (Eq. 1), fill ${g.fill_time_s.toFixed(3)} s, ${g.weld_lines.length} weld lines`,
+      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${g.pressure_mpa.toFixed(1)} MPa (Eq. 1), fill ${seconds(g.fill_time_s)} s, ${g.weld_lines.length} weld lines`,
       { id, "data-value": g.l_max_mm },
     ])));
   } else if (p.no_fill_reason) {

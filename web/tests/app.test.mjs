@@ -6,6 +6,7 @@ import { existsSync, readFileSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { after, before, describe, test } from "node:test";
 
+import { seconds } from "../src/format.js";
 import { CLI, PARTS, REPO, analyseAgain, cli, openApp, settled, shown, studyFile, studySample, tempDir } from "./harness.mjs";
 
 const TMP = tempDir();
@@ -218,6 +219,12 @@ describe("moldgate in the browser", () => {
     await assertSameGate(page, expected, "cover, balanced");
     const lmax = await page.$eval("#fill-result .l-max", (e) => Number(e.dataset.value));
     assert.equal(lmax, expected.fill.paper.l_max_mm);
+    // The fill time and the places last to fill read as the command line writes them.
+    const time = await page.$eval("#fill-paper .fill-time", (e) => [Number(e.dataset.value), e.textContent]);
+    assert.equal(time[0], expected.fill.paper.fill_time_s);
+    assert.ok(time[1].endsWith(`${seconds(expected.fill.paper.fill_time_s)} s`), time[1]);
+    const last = await page.$$eval("#fill-paper .last-to-fill li", (items) => items.map((e) => e.textContent));
+    assert.deepEqual(last.map((t) => t.split(", filled at ")[1]), expected.fill.paper.last_to_fill.slice(0, 3).map((q) => `${seconds(q.fill_time_s)} s`));
     for (const c of ["2", "3", "1"]) {
       await page.selectOption("#colouring", c);
       await page.waitForFunction((name) => document.getElementById("colour-bar").dataset.field?.startsWith(name), { 2: "wall", 3: "fill", 1: "height" }[c]);
@@ -250,13 +257,13 @@ describe("moldgate in the browser", () => {
     const expected = cli(["locate", "--sample", "tray", "--demold", "+z", "--objective", "resistance", "--gates", "2"]);
     const several = expected.fill.several;
     assert.equal(several.l_max_mm, null);
-    assert.equal(worst, `2 gates: fill time ${several.fill_time_s.toFixed(3)} s (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`);
+    assert.equal(worst, `2 gates: fill time ${seconds(several.fill_time_s)} s (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`);
     // The gate section says it is a layout, and the paper gate's rows are named as such.
     assert.equal(await page.getAttribute("#gate-mode", "data-value"), "several");
     assert.match(await page.textContent("#gate"), /Paper gate \(nearest the centre of mass\)/);
     assert.doesNotMatch(await page.textContent("#gate"), /Chosen by\s*the paper's rule/);
     const first = await page.textContent("#several-gates li");
-    assert.match(first, new RegExp(`, fill time ${several.gates[0].fill_time_s.toFixed(3)} s$`));
+    assert.match(first, new RegExp(`, fill time ${seconds(several.gates[0].fill_time_s)} s$`));
     await page.click("#defaults");
   });
 

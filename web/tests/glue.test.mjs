@@ -1,10 +1,11 @@
 // The JavaScript glue (src/moldgate.js) over the WebAssembly module, in Node without a
-// browser: the protocol, the library's errors, and recovery after a trap.
+// browser: the protocol, the library's errors, recovery after a trap, and the results' number format.
 import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { join } from "node:path";
 import { test } from "node:test";
 
+import { seconds } from "../src/format.js";
 import { Moldgate, MoldgateError } from "../src/moldgate.js";
 import { WEB } from "./harness.mjs";
 
@@ -49,4 +50,15 @@ test("a panic traps the call, its message is kept, and a fresh instance carries 
   assert.notEqual(mg.instance, first);
   const h = await mg.study(new Uint8Array(0), { sample: "cap", options: { demold: "-z" } });
   assert.ok(JSON.parse(await mg.report(h)).gate);
+});
+
+test("times keep three significant figures, as the command line writes them", () => {
+  // The same cases as the library's own test of `seconds_text`.
+  for (const [t, want] of [
+    [0.006123, "0.00612"], [0.01614, "0.0161"], [0.1614, "0.161"], [1.614, "1.61"], [16.14, "16.1"],
+    [161.4, "161"], [1614, "1614"], [0.1, "0.100"], [1, "1.00"], [0.0099996, "0.0100"], [9.996, "10.0"],
+    [99.96, "100"], [0, "0.000"], [1e-12, "0.000000000"],
+  ]) {
+    assert.equal(seconds(t), want, String(t));
+  }
 });

@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 
-use moldgate::report::Report;
+use moldgate::report::{seconds_text, Report};
 
 fn v3(p: [f64; 3]) -> String {
     format!("({:.3}, {:.3}, {:.3})", p[0], p[1], p[2])
@@ -27,14 +27,14 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     };
     let _ = writeln!(
         s,
-        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {:.1} MPa, fill time {:.3} s (estimate)",
+        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {:.1} MPa, fill time {} s (estimate)",
         v3(g.gate),
         g.wall_across_mm,
         g.l_max_mm,
         g.l_mean_mm,
         g.flow_ratio,
         g.pressure_mpa,
-        g.fill_time_s
+        seconds_text(g.fill_time_s)
     );
 }
 
@@ -76,11 +76,11 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
             let _ = writeln!(
                 s,
-                "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from the gate, filled at {:.3} s",
+                "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from the gate, filled at {} s",
                 i + 1,
                 v3(q.point),
                 q.flow_length_mm,
-                q.fill_time_s
+                seconds_text(q.fill_time_s)
             );
         }
         for w in p.weld_lines.iter().take(3) {
@@ -127,10 +127,11 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         }
     }
     if let Some(m) = &f.suitability {
-        let (what, digits) = match m.objective {
-            moldgate::flow::Objective::Length => ("longest flow", 1),
-            moldgate::flow::Objective::Resistance => ("fill time", 3),
+        let what = match m.objective {
+            moldgate::flow::Objective::Length => "longest flow",
+            moldgate::flow::Objective::Resistance => "fill time",
         };
+        let value = |x: f64| m.objective.value_text(x);
         let (lo, hi) = m
             .nodes
             .iter()
@@ -140,11 +141,13 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         if let Some(best) = m.best.map(|b| &m.nodes[b]) {
             let _ = writeln!(
                 s,
-                "  gate suitability: {} nodes scored by the {what} of a gate there, {lo:.digits$} to {hi:.digits$} {} (lower is better); best {} at {:.digits$} {}",
+                "  gate suitability: {} nodes scored by the {what} of a gate there, {} to {} {} (lower is better); best {} at {} {}",
                 m.nodes.len(),
+                value(lo),
+                value(hi),
                 m.unit,
                 v3(best.point),
-                best.score,
+                value(best.score),
                 m.unit
             );
             let _ = writeln!(
@@ -159,8 +162,8 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     }
     if let Some(m) = &f.several {
         // The layout's values are of its objective: mm of flow length, or s of fill time.
-        let (what, unit, digits) = f.objective.value_words();
-        let worst = |x: f64| format!("{what} {x:.digits$} {unit}");
+        let (what, unit) = f.objective.value_words();
+        let worst = |x: f64| format!("{what} {} {unit}", f.objective.value_text(x));
         let _ = writeln!(
             s,
             "  {} gates: {} ({:.1} % shorter than with the best single gate), balance {:.2} (smallest share / largest)",
@@ -183,7 +186,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("gate {} (qualifying node nearest its centre of mass), longest flow {l:.1} mm, fill time {t:.3} s at its own nominal wall of {:.2} mm", v3(g), b.nominal_wall_mm)
+                format!("gate {} (qualifying node nearest its centre of mass), longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), seconds_text(t), b.nominal_wall_mm)
             }
             _ => "no qualifying node on it: no gate".into(),
         };
@@ -562,10 +565,10 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             .map_or("-".to_string(), |q| v3(q.point));
         let _ = writeln!(
             s,
-            "  {label:<30} {:>6.1} mm {:>6.1} MPa {ratio:>16} {:>8.3} s {:>6}  {last}",
+            "  {label:<30} {:>6.1} mm {:>6.1} MPa {ratio:>16} {:>8} s {:>6}  {last}",
             g.l_max_mm,
             g.pressure_mpa,
-            g.fill_time_s,
+            seconds_text(g.fill_time_s),
             g.weld_lines.len()
         );
     };

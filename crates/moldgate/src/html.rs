@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use crate::report::{RadiusSource, Report};
+use crate::report::{seconds_text, RadiusSource, Report};
 
 /// Escapes text for HTML element content and attribute values.
 pub fn escape(s: &str) -> String {
@@ -491,12 +491,12 @@ fn fill_cells(g: &crate::flow::GateFill) -> String {
         (None, _) => " (no limit known for this material)".to_string(),
     };
     format!(
-        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{:.1} MPa</td><td class=\"n\">{:.3} s</td><td class=\"n\">{:.2} mm</td>",
+        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{:.1} MPa</td><td class=\"n\">{} s</td><td class=\"n\">{:.2} mm</td>",
         v3(g.gate),
         g.l_max_mm,
         g.flow_ratio,
         g.pressure_mpa,
-        g.fill_time_s,
+        seconds_text(g.fill_time_s),
         g.wall_across_mm
     )
 }
@@ -579,26 +579,26 @@ fn fill_table(h: &mut String, r: &Report) {
     suitability_text(h, f);
     if let Some(m) = &f.several {
         // With the resistance objective the several-gate values are fill times.
-        let (what, unit, digits) = f.objective.value_words();
+        let (what, unit) = f.objective.value_words();
         let _ = writeln!(
             h,
-            "<p id=\"several\">{} gates together: {what} {:.digits$} {unit} ({:.1} % shorter than \
+            "<p id=\"several\">{} gates together: {what} {} {unit} ({:.1} % shorter than \
              with the best single gate), balance {:.2} (smallest share over the largest).</p>\n\
              <table>\n<tr><th>gate</th><th>point</th>\
              <th>share of the volume</th><th>{what} in its share</th></tr>",
             m.gates.len(),
-            m.value(),
+            f.objective.value_text(m.value()),
             m.improvement_pct,
             m.balance
         );
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
                 h,
-                "<tr><th>{}</th><td>{} mm</td><td class=\"n\">{:.1} %</td><td class=\"n\">{:.digits$} {unit}</td></tr>",
+                "<tr><th>{}</th><td>{} mm</td><td class=\"n\">{:.1} %</td><td class=\"n\">{} {unit}</td></tr>",
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
-                g.value()
+                f.objective.value_text(g.value())
             );
         }
         let _ = writeln!(h, "</table>");
@@ -613,8 +613,9 @@ fn fill_table(h: &mut String, r: &Report) {
         for b in &f.body_gates {
             let cells = match (b.gate, b.l_max_mm, b.fill_time_s) {
                 (Some(g), Some(l), Some(t)) => format!(
-                    "<td>{} mm</td><td class=\"n\">{l:.1} mm</td><td class=\"n\">{t:.3} s</td>",
-                    v3(g)
+                    "<td>{} mm</td><td class=\"n\">{l:.1} mm</td><td class=\"n\">{} s</td>",
+                    v3(g),
+                    seconds_text(t)
                 ),
                 _ => "<td colspan=\"3\">no qualifying node on it: no gate</td>".to_string(),
             };
@@ -652,10 +653,10 @@ fn fill_table(h: &mut String, r: &Report) {
             .iter()
             .map(|p| {
                 format!(
-                    "{} ({:.1} mm of flow path from the gate, filled at {:.3} s)",
+                    "{} ({:.1} mm of flow path from the gate, filled at {} s)",
                     v3(p.point),
                     p.flow_length_mm,
-                    p.fill_time_s
+                    seconds_text(p.fill_time_s)
                 )
             })
             .collect();
@@ -692,31 +693,33 @@ fn fill_table(h: &mut String, r: &Report) {
 /// and how wide the bounds of the others are.
 fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
     let Some(m) = &f.suitability else { return };
-    let (what, _, digits) = m.objective.value_words();
+    let (what, _) = m.objective.value_words();
     let unit = m.unit;
+    let value = |x: f64| m.objective.value_text(x);
     let (lo, hi) = m
         .nodes
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), n| {
             (a.min(n.score), b.max(n.score))
         });
-    let best = m.best.map(|b| &m.nodes[b]);
+    let best = m.best.map_or("none".to_string(), |b| {
+        let n = &m.nodes[b];
+        format!("{} mm, {} {unit}", v3(n.point), value(n.score))
+    });
+    let gap = |g: Option<f64>| g.map_or("unbounded".to_string(), |g| format!("{g:.1} %"));
     let _ = writeln!(
         h,
         "<p id=\"suitability\">Gate suitability: {} qualifying nodes scored by the {what} of a \
-         gate at each (lower is better; the picture's colours), from {lo:.digits$} to \
-         {hi:.digits$} {unit}. {} scores are exact (to {:.digits$} {unit}), the others lower bounds \
-         whose upper bounds are at most {} above them (median {}). Best node: {}. {} marches.</p>",
+         gate at each (lower is better; the picture's colours), from {} to {} {unit}. {} scores \
+         are exact (to {} {unit}), the others lower bounds whose upper bounds are at most {} \
+         above them (median {}). Best node: {best}. {} marches.</p>",
         m.nodes.len(),
+        value(lo),
+        value(hi),
         m.exact,
-        m.tolerance,
-        m.max_gap_pct.map_or("unbounded".to_string(), |g| format!("{g:.1} %")),
-        m.median_gap_pct.map_or("unbounded".to_string(), |g| format!("{g:.1} %")),
-        best.map_or("none".to_string(), |n| format!(
-            "{} mm, {:.digits$} {unit}",
-            v3(n.point),
-            n.score
-        )),
+        value(m.tolerance),
+        gap(m.max_gap_pct),
+        gap(m.median_gap_pct),
         m.runs
     );
 }

@@ -523,6 +523,30 @@ impl Report {
     }
 }
 
+/// A time in seconds as people read it, without its unit: three significant figures
+/// (`0.00612`, `0.0161`, `0.161`, `1.61`, `16.1`, `161`), so that close times on a part that
+/// fills in milliseconds still show their order. Zero, negative and non-finite times are
+/// written with three decimals. The browser app's `seconds` (web/src/format.js) writes the
+/// same text.
+pub fn seconds_text(t: f64) -> String {
+    if !t.is_finite() || t <= 0.0 {
+        return format!("{t:.3}");
+    }
+    let decimals = |v: f64| (2 - v.log10().floor() as i64).clamp(0, 9) as usize;
+    let d = decimals(t);
+    let text = format!("{t:.d$}");
+    // Rounding may carry into the next power of ten (0.009996 -> 0.01000): one digit fewer.
+    let carried = match text.parse::<f64>() {
+        Ok(v) if v > 0.0 => decimals(v),
+        _ => d,
+    };
+    if carried < d {
+        format!("{t:.carried$}")
+    } else {
+        text
+    }
+}
+
 /// `text` with every negative zero number (`-0`, `-0.0`, `-0.000`) written without its
 /// sign, so a value that rounds to zero never reads `-0.000`. With `json`, text inside
 /// double-quoted strings is left alone (escapes honoured).
@@ -565,7 +589,32 @@ pub fn without_negative_zeros(text: &str, json: bool) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::without_negative_zeros;
+    use super::{seconds_text, without_negative_zeros};
+
+    #[test]
+    fn seconds_keep_three_significant_figures() {
+        for (t, want) in [
+            (0.006123, "0.00612"),
+            (0.01614, "0.0161"),
+            (0.1614, "0.161"),
+            (1.614, "1.61"),
+            (16.14, "16.1"),
+            (161.4, "161"),
+            (1614.0, "1614"),
+            (0.1, "0.100"),
+            (1.0, "1.00"),
+            // Rounding that carries into the next power of ten keeps three figures.
+            (0.0099996, "0.0100"),
+            (9.996, "10.0"),
+            (99.96, "100"),
+            (0.0, "0.000"),
+            (1e-12, "0.000000000"),
+        ] {
+            assert_eq!(seconds_text(t), want, "{t}");
+        }
+        // The order of two times on a part that fills in milliseconds shows.
+        assert_ne!(seconds_text(0.01512), seconds_text(0.01561));
+    }
 
     #[test]
     fn negative_zeros_lose_their_sign_and_nothing_else_changes() {

@@ -71,13 +71,22 @@ pub enum Objective {
 }
 
 impl Objective {
-    /// How the searches' values of this objective read in a report: what they are, their
-    /// unit, and the decimals shown (L_max in mm; the fill time in s, which is what the
-    /// resistance objective's values are reported in).
-    pub fn value_words(self) -> (&'static str, &'static str, usize) {
+    /// How the searches' values of this objective read in a report: what they are and their
+    /// unit (L_max in mm; the fill time in s, which is what the resistance objective's values
+    /// are reported in).
+    pub fn value_words(self) -> (&'static str, &'static str) {
         match self {
-            Objective::Length => ("longest flow path L_max", "mm", 1),
-            Objective::Resistance => ("fill time", "s", 3),
+            Objective::Length => ("longest flow path L_max", "mm"),
+            Objective::Resistance => ("fill time", "s"),
+        }
+    }
+
+    /// A value of this objective as a report writes it, without its unit: L_max to 0.1 mm,
+    /// a fill time to three significant figures ([`crate::report::seconds_text`]).
+    pub fn value_text(self, x: f64) -> String {
+        match self {
+            Objective::Length => format!("{x:.1}"),
+            Objective::Resistance => crate::report::seconds_text(x),
         }
     }
 }
@@ -2499,8 +2508,12 @@ pub fn analyse_prepared(
     let (suitability, several, rest_times) = rest?;
     if let Some(layout) = &several {
         if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
-            let (what, unit, digits) = options.objective.value_words();
-            let digits = digits + 1;
+            let (what, unit) = options.objective.value_words();
+            // Close values: L_max to 0.01 mm, a fill time to three significant figures.
+            let value = |x: f64| match options.objective {
+                Objective::Length => format!("{x:.2}"),
+                Objective::Resistance => crate::report::seconds_text(x),
+            };
             let shares: Vec<String> = layout
                 .gates
                 .iter()
@@ -2509,11 +2522,11 @@ pub fn analyse_prepared(
             // The search is local: a small gain may be the part's (a fill time set by a few
             // slow, thin places) or the search's (a layout it did not reach).
             warnings.push(format!(
-                "the layout of {} gates found shortens the {what} by only {:.1} % against the best single gate, {:.digits$} against {:.digits$} {unit} (shares of the volume {} %); the search is local and may miss a better layout: try your own gates with --gate-at",
+                "the layout of {} gates found shortens the {what} by only {:.1} % against the best single gate, {} against {} {unit} (shares of the volume {} %); the search is local and may miss a better layout: try your own gates with --gate-at",
                 layout.gates.len(),
                 layout.improvement_pct.max(0.0),
-                layout.value(),
-                best_single,
+                value(layout.value()),
+                value(best_single),
                 shares.join(", "),
             ));
         }

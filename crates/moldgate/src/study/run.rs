@@ -389,11 +389,11 @@ fn answer_gates(
             g.distance_3d_mm = DVec3::from_array(first.point).distance(analysis.centre);
         }
         // The layout's worst value is in its objective's unit (mm of L_max, s of fill time).
-        let (what, unit, digits) = objective.value_words();
+        let (what, unit) = objective.value_words();
         subtitle = format!(
-            "{} gates, {what} {:.digits$} {unit}, R = {r:.2} mm",
+            "{} gates, {what} {} {unit}, R = {r:.2} mm",
             answer.len(),
-            several.value()
+            objective.value_text(several.value())
         );
         g.gates = Some(answer);
     }

@@ -248,7 +248,7 @@ fn a_layout_of_gates_is_titled_in_its_objective_s_unit() {
         let json = format!(r#"{{ "gates": 2, "objective": "{objective}" }}"#);
         let s = study(&part, &options(&json)).unwrap();
         let subtitle = s.scene(&part, "tray").unwrap().subtitle;
-        let (_, unit, _) = s.report().fill.as_ref().unwrap().objective.value_words();
+        let (_, unit) = s.report().fill.as_ref().unwrap().objective.value_words();
         assert!(
             subtitle.starts_with(&format!("2 gates, {words}")),
             "{subtitle}"
