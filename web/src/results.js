@@ -132,7 +132,8 @@ function fillSection(f) {
 
 /** The gate-suitability map in words: the best node, the range, how many scores are exact. */
 function suitabilityPart(m) {
-  const digits = m.unit === "s" ? 3 : 1;
+  // L_max to 0.1 mm; a fill time to three significant figures, as everywhere.
+  const value = (x) => (m.unit === "s" ? seconds(x) : x.toFixed(1));
   const scores = m.nodes.map((n) => n.score);
   const lo = Math.min(...scores);
   const hi = Math.max(...scores);
@@ -140,8 +141,8 @@ function suitabilityPart(m) {
   const what = m.objective === "resistance" ? "fill time" : "L_max";
   const gap = m.max_gap_pct === null ? "unbounded" : `${m.max_gap_pct.toFixed(1)} %`;
   return el("div", { id: "suitability-result", "data-nodes": m.nodes.length, "data-exact": m.exact, "data-best": best ? best.score : "" },
-    el("p", {}, `Gate suitability: ${m.nodes.length.toLocaleString("en")} qualifying nodes scored by the ${what} of a gate at each, ${lo.toFixed(digits)} to ${hi.toFixed(digits)} ${m.unit} (lower is better; the 3D view colours them, dark blue best).`),
-    el("p", {}, best ? `Best node ${v3(best.point)} mm: ${best.score.toFixed(digits)} ${m.unit}. ${m.exact} scores exact, the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
+    el("p", {}, `Gate suitability: ${m.nodes.length.toLocaleString("en")} qualifying nodes scored by the ${what} of a gate at each, ${value(lo)} to ${value(hi)} ${m.unit} (lower is better; the 3D view colours them, dark blue best).`),
+    el("p", {}, best ? `Best node ${v3(best.point)} mm: ${value(best.score)} ${m.unit}. ${m.exact} scores exact, the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
 }
 
 function countsSection(c) {

@@ -252,9 +252,14 @@ describe("moldgate in the browser", () => {
     await page.selectOption("#demold", "+z");
     await page.selectOption("#objective", "resistance");
     await page.fill("#gates", "2");
+    await page.check("#suitability");
     assert.equal(await studySample(page, "tray"), "done");
     const worst = await page.textContent("#several-worst");
-    const expected = cli(["locate", "--sample", "tray", "--demold", "+z", "--objective", "resistance", "--gates", "2"]);
+    const expected = cli(["locate", "--sample", "tray", "--demold", "+z", "--objective", "resistance", "--gates", "2", "--suitability"]);
+    // The map's scores are fill times too, written as the command line writes them.
+    const map = expected.fill.suitability;
+    assert.equal(map.unit, "s");
+    assert.match(await page.textContent("#suitability-result"), new RegExp(`: ${seconds(map.nodes[map.best].score)} s\\. `));
     const several = expected.fill.several;
     assert.equal(several.l_max_mm, null);
     assert.equal(worst, `2 gates: fill time ${seconds(several.fill_time_s)} s (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`);
@@ -264,6 +269,7 @@ describe("moldgate in the browser", () => {
     assert.doesNotMatch(await page.textContent("#gate"), /Chosen by\s*the paper's rule/);
     const first = await page.textContent("#several-gates li");
     assert.match(first, new RegExp(`, fill time ${seconds(several.gates[0].fill_time_s)} s$`));
+    await page.uncheck("#suitability");
     await page.click("#defaults");
   });
 
