@@ -99,7 +99,24 @@ pub enum DemoldError {
     /// The mesh has no facet with area (or no finite one).
     #[error("no facet with area: no demolding direction can be evaluated")]
     NothingToEvaluate,
+    /// The lines' rays would cost more than [`AUTO_RAY_TEST_BUDGET`]: the triangles overlap
+    /// deeply along the lines tried (random, repeated or needle-like triangles), which the
+    /// surface of a moulded part does not.
+    #[error(
+        "the lines' rays passed the budget of {budget:.1e} ray-triangle tests and were stopped; the surface of a moulded part is crossed a few times by each ray, so this mesh holds overlapping, random or needle-like triangles; give the demolding direction instead"
+    )]
+    TooManyTests {
+        /// The budget of tests.
+        budget: f64,
+    },
 }
+
+/// The most ray-triangle tests the choice of a line may make, over every line it draws (a
+/// triangle counted for the rays of every cell its projected box covers, see
+/// [`projection::TestBudget`]). The shared parts' choices make 5.6e4 to 5.4e6 (the most,
+/// the 352k-triangle housing); 50,000 needle-like triangles spanning a 100 mm box, whose
+/// whole choice took 23 s on two threads, pass the budget after about 4 s and are refused.
+pub const AUTO_RAY_TEST_BUDGET: f64 = 1e9;
 
 /// The undercut of one demolding line.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -115,8 +132,10 @@ pub struct Undercut {
 /// Every ray of one line is parallel to it, so they are answered all at once by drawing the
 /// triangles into them ([`crate::gate::projection::blocked`], the gate's rasteriser at the
 /// rays' scattered start points) instead of tracing each through a tree.
+///
+/// Its drawing has no budget of tests (the choice of a line, [`auto_direction`], has).
 pub fn undercut(mesh: &Mesh, d: Direction, sampling: Sampling) -> Undercut {
-    Surface::new(mesh, sampling).undercut(d)
+    Surface::new(mesh, sampling, &projection::TestBudget::unlimited()).undercut(d)
 }
 
 /// What every line tried shares: the total area and the largest facets of each bound level.
@@ -132,6 +151,8 @@ struct Surface<'a> {
     /// triangles: what [`Surface::lower_bound`] draws.
     largest: Vec<Largest>,
     min_hit: f64,
+    /// The tests every drawing of the choice shares.
+    budget: &'a projection::TestBudget,
 }
 
 /// A facet's area and unit normal, `None` without a finite area.
@@ -196,7 +217,8 @@ fn faces_side(corners: [DVec3; 3], line: DVec3) -> Option<bool> {
 const RAY_BLOCK: usize = 1024;
 
 impl<'a> Surface<'a> {
-    fn new(mesh: &'a Mesh, sampling: Sampling) -> Surface<'a> {
+    /// What every line shares; its drawings charge their tests to `budget`.
+    fn new(mesh: &'a Mesh, sampling: Sampling, budget: &'a projection::TestBudget) -> Surface<'a> {
         let n = mesh.triangles.len();
         let areas: Vec<f64> = (0..n)
             .into_par_iter()
@@ -279,6 +301,7 @@ impl<'a> Surface<'a> {
             area,
             largest,
             min_hit: min_hit(mesh),
+            budget,
         }
     }
 
@@ -345,6 +368,7 @@ impl<'a> Surface<'a> {
             },
             self.min_hit,
             |found| area_of(found) > stop_above,
+            self.budget,
         );
         let area = area_of(&found);
         Undercut {
@@ -630,7 +654,14 @@ pub fn auto_direction_beside<T: Send>(
     beside: impl Fn(Direction) -> T + Sync,
     gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
 ) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
-    choose(mesh, None, sampling, beside, gate_qualifies)
+    choose(
+        mesh,
+        None,
+        sampling,
+        beside,
+        gate_qualifies,
+        &projection::TestBudget::new(AUTO_RAY_TEST_BUDGET),
+    )
 }
 
 /// [`auto_direction_beside`] of a loaded part: its centres, summed at load, are not summed
@@ -647,16 +678,19 @@ pub fn auto_direction_beside_loaded<T: Send>(
         sampling,
         beside,
         gate_qualifies,
+        &projection::TestBudget::new(AUTO_RAY_TEST_BUDGET),
     )
 }
 
-/// [`auto_direction_beside`], with the mesh's centres when they are known.
+/// [`auto_direction_beside`], with the mesh's centres when they are known, its drawings
+/// charged to `budget` (refused when they pass it).
 fn choose<T: Send>(
     mesh: &Mesh,
     centres: Option<Centres>,
     sampling: Sampling,
     beside: impl Fn(Direction) -> T + Sync,
     mut gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
+    budget: &projection::TestBudget,
 ) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
     // The principal axes are summed in order on one thread (their bits depend on it); the
     // centres (unless known) and what every line shares are made on the others meanwhile.
@@ -665,7 +699,7 @@ fn choose<T: Send>(
         || {
             (
                 centres.unwrap_or_else(|| Centres::of(mesh)),
-                Surface::new(mesh, sampling),
+                Surface::new(mesh, sampling, budget),
             )
         },
     );
@@ -709,6 +743,12 @@ fn choose<T: Send>(
         }
     };
     let mut tried = settling.tried;
+    // Past the budget the drawings stopped part way: no line's undercut is known.
+    if budget.exceeded() {
+        return Err(DemoldError::TooManyTests {
+            budget: budget.limit(),
+        });
+    }
     let least = tried
         .iter()
         .filter(|c| c.evaluated)
@@ -1125,6 +1165,78 @@ mod tests {
         }
     }
 
+    /// `n` needle-like triangles across a 100 mm box, each from one corner to the far corner
+    /// of its floor and up to a point of the box: triangles that overlap along every line.
+    fn needles(n: u32) -> Mesh {
+        let mut vertices = vec![DVec3::ZERO, DVec3::new(100.0, 100.0, 0.0)];
+        let mut triangles = Vec::new();
+        for k in 0..n {
+            let x = (k as f64 * 0.618_034).fract() * 100.0;
+            let z = (k as f64 * 0.414_214).fract() * 100.0;
+            vertices.push(DVec3::new(x, x + 1e-3, z));
+            triangles.push([0, 1, k + 2]);
+        }
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn the_choice_stops_at_its_budget_of_tests_whatever_the_threads() {
+        let mesh = needles(1500);
+        let choose_within = |budget: &projection::TestBudget| {
+            choose(&mesh, None, Sampling::Centroid, |_| (), |_, _| true, budget)
+                .map(|(auto, _)| auto.candidate().direction)
+        };
+        let free = projection::TestBudget::unlimited();
+        let answer = choose_within(&free).expect("no budget: a line");
+        let used = free.used();
+        assert!(used > 1_000_000, "{used}");
+        for threads in [1, 3] {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    // The tests of the whole choice are the same on any number of threads:
+                    // a budget of exactly them holds, one test fewer is passed.
+                    let exact = projection::TestBudget::new(used as f64);
+                    assert_eq!(choose_within(&exact), Ok(answer), "{threads} threads");
+                    assert_eq!(exact.used(), used, "{threads} threads");
+                    let short = projection::TestBudget::new(used as f64 - 1.0);
+                    assert_eq!(
+                        choose_within(&short),
+                        Err(DemoldError::TooManyTests {
+                            budget: used as f64 - 1.0
+                        }),
+                        "{threads} threads"
+                    );
+                });
+        }
+        // A tenth of the tests: the drawings stop soon after the budget is passed.
+        let tenth = projection::TestBudget::new(used as f64 / 10.0);
+        assert!(choose_within(&tenth).is_err());
+        assert!(tenth.used() < used / 5, "{} of {used}", tenth.used());
+        // A designed part is far within the budget of the command line.
+        let cap = crate::mesh::from_generated(crate::samples::sample("cap").unwrap());
+        let budget = projection::TestBudget::new(AUTO_RAY_TEST_BUDGET);
+        assert!(choose(
+            &cap.mesh,
+            None,
+            Sampling::Centroid,
+            |_| (),
+            |_, _| true,
+            &budget
+        )
+        .is_ok());
+        assert!(
+            (budget.used() as f64) < 1e-3 * AUTO_RAY_TEST_BUDGET,
+            "{}",
+            budget.used()
+        );
+    }
+
     /// The earlier code's rays of `count` facets along `line` (the k-th being facet
     /// `facet(k)`): every facet's normal and sample points made first and kept, the rays of
     /// those facing a side in one array, with the offsets of each facet's run.
@@ -1170,7 +1282,8 @@ mod tests {
         assert!(n > 4 * SUM_BLOCK && n / BOUND_LEVELS[0] < LARGEST_AT_LEAST);
         let mut partial = 0;
         for sampling in [Sampling::Centroid, Sampling::Spacing(0.6)] {
-            let surface = Surface::new(&mesh, sampling);
+            let free = projection::TestBudget::unlimited();
+            let surface = Surface::new(&mesh, sampling, &free);
             for d in [
                 DVec3::Z,
                 DVec3::new(0.8, -0.2, 0.5),
@@ -1232,7 +1345,8 @@ mod tests {
         let mesh = grid(50, |_, _| 0.0);
         let n = mesh.triangles.len();
         assert!(n / BOUND_LEVELS[1] < LARGEST_AT_LEAST && LARGEST_AT_LEAST < n);
-        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let free = projection::TestBudget::unlimited();
+        let surface = Surface::new(&mesh, Sampling::Centroid, &free);
         for largest in &surface.largest {
             assert!(!largest.every);
             assert_eq!(
@@ -1245,7 +1359,8 @@ mod tests {
         let mut mesh = mesh;
         let last = mesh.vertices.len() - 1;
         mesh.vertices[last].x += 0.5;
-        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let free = projection::TestBudget::unlimited();
+        let surface = Surface::new(&mesh, Sampling::Centroid, &free);
         let bigger: Vec<u32> = (0..n as u32)
             .filter(|&t| facet(mesh.corners(t as usize)).is_some_and(|(a, _)| a > 0.5))
             .collect();
@@ -1274,7 +1389,8 @@ mod tests {
         });
         let n = mesh.triangles.len();
         assert!(n / BOUND_LEVELS[0] > LARGEST_AT_LEAST);
-        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let free = projection::TestBudget::unlimited();
+        let surface = Surface::new(&mesh, Sampling::Centroid, &free);
         let areas: Vec<f64> = (0..n)
             .map(|t| facet(mesh.corners(t)).map_or(0.0, |(a, _)| a))
             .collect();
@@ -1355,7 +1471,8 @@ mod tests {
         let mesh = grid(70, |i, j| {
             0.5 * (i as f64 * 0.7).sin() * (j as f64 * 0.3).cos() + 0.05 * i as f64
         });
-        let surface = Surface::new(&mesh, Sampling::Centroid);
+        let free = projection::TestBudget::unlimited();
+        let surface = Surface::new(&mesh, Sampling::Centroid, &free);
         assert!(!surface.largest[0].every);
         let centres = Centres::of(&mesh);
         let tried = candidates(&mesh, &surface, &centres, principal_axes(&mesh));

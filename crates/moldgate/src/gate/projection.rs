@@ -14,7 +14,7 @@
 //! On an outline edge, where both triangles fold onto the same side, a grazing ray belongs to
 //! both or to neither; triangles seen exactly edge-on (zero projected area) are skipped.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
@@ -674,6 +674,63 @@ const POINT_BLOCK_LEAST: usize = 256;
 /// Rays per block of [`blocked`] (the slice handed to [`blocked_in_blocks`]).
 const RAY_BLOCK: usize = 4096;
 
+/// The ray-triangle tests that drawings of triangles into scattered rays ([`blocked_until`])
+/// may make together, counted as they draw: a triangle takes [`RAYS_A_CELL`] tests for each
+/// cell its projected box covers (the rays it may meet), charged before it is drawn. Once
+/// the limit is passed every drawing sharing the budget stops at its next triangle, and
+/// what they found is incomplete: the caller asks [`TestBudget::exceeded`] and refuses the
+/// work. Whether the limit is passed does not depend on the threads: the tests charged
+/// before it are those of the complete drawings, in whatever order they were made.
+#[derive(Debug)]
+pub struct TestBudget {
+    limit: u64,
+    used: AtomicU64,
+}
+
+/// Tests a task charges to a [`TestBudget`] at once (fewer atomic operations; a task
+/// passes the limit by at most this and one triangle's tests).
+const CHARGE_BATCH: u64 = 1 << 16;
+
+impl TestBudget {
+    /// A budget of `limit` tests.
+    pub fn new(limit: f64) -> TestBudget {
+        TestBudget {
+            limit: if limit >= u64::MAX as f64 {
+                u64::MAX
+            } else {
+                limit.max(0.0) as u64
+            },
+            used: AtomicU64::new(0),
+        }
+    }
+
+    /// No limit.
+    pub fn unlimited() -> TestBudget {
+        TestBudget::new(f64::INFINITY)
+    }
+
+    /// The limit, in tests.
+    pub fn limit(&self) -> f64 {
+        self.limit as f64
+    }
+
+    /// The tests charged so far.
+    pub fn used(&self) -> u64 {
+        self.used.load(Ordering::Relaxed)
+    }
+
+    /// Whether the tests charged passed the limit.
+    pub fn exceeded(&self) -> bool {
+        self.used() > self.limit
+    }
+
+    /// Charges `tests`; whether the limit still holds.
+    fn charge(&self, tests: u64) -> bool {
+        let before = self.used.fetch_add(tests, Ordering::Relaxed);
+        before.saturating_add(tests) <= self.limit
+    }
+}
+
 /// For every ray, whether it meets a triangle other than its own farther than `min_hit`
 /// along it: [`blocked_in_blocks`] on rays held in a slice.
 pub fn blocked(
@@ -731,6 +788,7 @@ where
         rays,
         min_hit,
         |_| false,
+        &TestBudget::unlimited(),
     )
 }
 
@@ -739,6 +797,10 @@ where
 /// is asked with the rays blocked so far (in the order of their numbers); when it says so,
 /// those are the answer. Every ray in it is blocked (by the triangles drawn), and which
 /// rays are in it does not depend on the number of threads.
+///
+/// The tests are charged to `budget`; once it is exceeded the drawing stops and what it
+/// returns is incomplete (see [`TestBudget`]).
+#[allow(clippy::too_many_arguments)] // The drawing's inputs, each used once.
 pub fn blocked_until<F>(
     vertices: &[DVec3],
     frame: &Frame,
@@ -747,6 +809,7 @@ pub fn blocked_until<F>(
     rays: F,
     min_hit: f64,
     mut enough: impl FnMut(&[BlockedRay]) -> bool,
+    budget: &TestBudget,
 ) -> Vec<BlockedRay>
 where
     F: Fn(usize, &mut RaySink) + Sync,
@@ -883,6 +946,11 @@ where
         // both threads draw it (which rays are blocked does not depend on the tasks).
         let task = POINT_BLOCK.min(part.len().div_ceil(POINT_TASKS).max(POINT_BLOCK_LEAST));
         part.par_chunks(task).enumerate().for_each(|(b, block)| {
+            if budget.exceeded() {
+                return;
+            }
+            // Tests counted here, charged to the budget in batches.
+            let mut owed = 0u64;
             for (k, tri) in block.iter().enumerate() {
                 let t = (offset + b * task + k) as u32;
                 // Each corner written out: `tri.map` with a closure is not always
@@ -900,6 +968,13 @@ where
                 else {
                     continue;
                 };
+                owed += ((i1 - i0 + 1) * (j1 - j0 + 1)) as u64 * RAYS_A_CELL as u64;
+                if owed >= CHARGE_BATCH {
+                    if !budget.charge(owed) {
+                        return;
+                    }
+                    owed = 0;
+                }
                 let mut drawn = PointTriangle::new(triangle, t, min_hit);
                 for j in j0..=j1 {
                     let row = j * n_u;
@@ -920,6 +995,7 @@ where
                     }
                 }
             }
+            budget.charge(owed);
         });
     };
     // The rays blocked so far, in the order of their numbers.
@@ -939,6 +1015,9 @@ where
     let size = triangles.len().div_ceil(rounds.max(1)).max(1);
     for (r, part) in triangles.chunks(size).enumerate() {
         draw(r * size, part);
+        if budget.exceeded() {
+            break;
+        }
         if (r + 1) * size < triangles.len() {
             let so_far = found();
             if enough(&so_far) {
@@ -1760,6 +1839,7 @@ mod tests {
                             },
                             min_hit,
                             |so_far| so_far.len() > wanted,
+                            &TestBudget::unlimited(),
                         )
                     });
                 let found: Vec<u32> = found.iter().map(|b| b.ray).collect();
