@@ -97,7 +97,7 @@ impl ApiError {
             StudyError::Cancelled { .. } => ApiError::new(
                 StatusCode::GATEWAY_TIMEOUT,
                 "timeout",
-                format!("the study took longer than the time limit and was stopped ({message})"),
+                format!("the study took longer than the time limit and was stopped between stages ({message})"),
             ),
             _ => ApiError::internal(message),
         }

@@ -524,7 +524,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
             StatusCode::GATEWAY_TIMEOUT,
             "timeout",
             format!(
-                "the study did not finish within {} s (--timeout) and was stopped",
+                "the study did not finish within {} s (--timeout); it stops at the end of the stage it is in, and its analysis slot is free then",
                 limits.timeout.as_secs_f64()
             ),
         )

@@ -159,6 +159,10 @@ pub const MAX_CIRCLE_POINTS: usize = 360;
 /// The largest node limit accepted ([`LocateOptions::max_nodes`]).
 pub const MAX_NODES_LIMIT: usize = 20_000_000;
 
+/// The most keep-out regions: each is tested at every node that hits the part (64 regions
+/// on the largest grid, 20 million nodes, are about a second of tests).
+pub const MAX_KEEP_OUT: usize = 64;
+
 /// The memory the rays' hit records may take, in bytes (3 GiB): with up to
 /// [`projection::MAX_RUNS`] sets of hits, one 24-byte record a node and one 8-byte record a
 /// node and circle point. The default 4 million nodes and 16 circle points need 2.3 GiB at
@@ -194,6 +198,7 @@ impl LocateOptions {
         for (option, value, limit) in [
             ("circle points", self.circle_points, MAX_CIRCLE_POINTS),
             ("the node limit", self.max_nodes, MAX_NODES_LIMIT),
+            ("keep-out regions", self.keep_out.len(), MAX_KEEP_OUT),
         ] {
             if value > limit {
                 return Err(OptionsError::AboveLimit {

@@ -434,6 +434,16 @@ impl StudyOptions {
                 ),
             ));
         }
+        if self.keep_out.len() > crate::gate::MAX_KEEP_OUT {
+            return Err(invalid(
+                "keep_out",
+                format!(
+                    "is given {} regions, over the limit of {}",
+                    self.keep_out.len(),
+                    crate::gate::MAX_KEEP_OUT
+                ),
+            ));
+        }
         let keep_out = self
             .keep_out
             .iter()
@@ -874,6 +884,28 @@ color_by = "flow_length"
             ..StudyOptions::default()
         };
         assert_eq!(o.validate().unwrap().gate_at.len(), MAX_GATE_AT);
+    }
+
+    #[test]
+    fn keep_out_regions_are_counted_before_they_are_read() {
+        let limit = crate::gate::MAX_KEEP_OUT;
+        // Over the limit, the count is refused before any region is read (these are not
+        // regions at all).
+        let o = StudyOptions {
+            keep_out: vec!["not a region".into(); limit + 1],
+            ..StudyOptions::default()
+        };
+        let e = o.validate().unwrap_err().to_string();
+        assert_eq!(e, "keep_out is given 65 regions, over the limit of 64");
+        let o = StudyOptions {
+            keep_out: vec!["sphere:0,0,0,1".into(); limit],
+            ..StudyOptions::default()
+        };
+        assert_eq!(o.validate().unwrap().locate.keep_out.len(), limit);
+        // The library's own options hold the same limit.
+        let mut locate = o.validate().unwrap().locate;
+        locate.keep_out.push(locate.keep_out[0].clone());
+        assert!(locate.validate().is_err());
     }
 
     #[test]
