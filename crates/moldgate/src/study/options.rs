@@ -276,6 +276,9 @@ pub struct Settings {
     pub fill: Option<FillOptions>,
     /// The designer's gates as given (`gate_at`), before they are moved onto the surface.
     pub gate_at: Vec<DVec3>,
+    /// Warnings about the options themselves (an option that changes nothing as given),
+    /// added to every part's report.
+    pub warnings: Vec<String>,
 }
 
 /// The most gates a designer may place (`gate_at`): as many as a several-gate layout
@@ -393,6 +396,13 @@ impl StudyOptions {
                 why: "the balanced gate is a grid node chosen by the fill, the aesthetic gate the point of the parting line nearest the centre of mass; choose one",
             });
         }
+        if self.aesthetic && self.gates > 1 {
+            return Err(StudyError::Conflict {
+                first: "gates",
+                second: "aesthetic",
+                why: "several gates are grid nodes placed by the fill, the aesthetic gate the one point of the parting line nearest the centre of mass; choose one",
+            });
+        }
         let gate_at = self.gate_at()?;
         let material = self.material(user)?;
         let demold = if self.auto_demold() {
@@ -501,14 +511,23 @@ impl StudyOptions {
         // The gate location's limits (circle points, the ray memory budget), checked here
         // so that every front end refuses the same options before any work.
         locate.validate().map_err(StudyError::Locate)?;
+        let fill = self.fill_options()?;
+        let mut warnings = Vec::new();
+        if fill.is_none() && self.objective != ObjectiveChoice::Length {
+            warnings.push(
+                "objective resistance changes nothing without the fill analysis: it is what the balanced gate, several gates and the suitability map minimise (ask for one, or for fill)"
+                    .to_string(),
+            );
+        }
         Ok(Settings {
             material,
             locate,
             radius_source,
             demold,
             wall_thickness: self.wall_thickness,
-            fill: self.fill_options()?,
+            fill,
             gate_at,
+            warnings,
         })
     }
 
@@ -733,6 +752,35 @@ color_by = "flow_length"
             e.starts_with("strategy and aesthetic cannot be used together"),
             "{e}"
         );
+        // Several gates are the fill's grid nodes: the aesthetic gate cannot be one of them.
+        let o: StudyOptions = serde_json::from_str(r#"{ "gates": 2, "aesthetic": true }"#).unwrap();
+        let e = o.validate().unwrap_err().to_string();
+        assert!(
+            e.starts_with("gates and aesthetic cannot be used together"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn an_objective_without_the_fill_is_warned_about() {
+        let warned = |json: &str| {
+            let o: StudyOptions = serde_json::from_str(json).unwrap();
+            o.validate().unwrap().warnings
+        };
+        let w = warned(r#"{ "objective": "resistance" }"#);
+        assert_eq!(w.len(), 1);
+        assert!(
+            w[0].starts_with("objective resistance changes nothing"),
+            "{w:?}"
+        );
+        for json in [
+            r#"{ "objective": "resistance", "fill": true }"#,
+            r#"{ "objective": "resistance", "gates": 2 }"#,
+            r#"{ "objective": "length" }"#,
+            "{}",
+        ] {
+            assert!(warned(json).is_empty(), "{json}");
+        }
     }
 
     fn material_named(name: &str, user: &[Material]) -> Result<Material, StudyError> {

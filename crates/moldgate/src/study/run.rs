@@ -175,6 +175,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         }
     };
     let mut analysis = located.map_err(StudyError::Locate)?;
+    analysis.warnings.extend(s.warnings.iter().cloned());
     if analysis.counts.centre_hits < MIN_NODES_ON_PART {
         analysis.warnings.push(format!(
             "only {} grid nodes fall on the part (spacing {:.3} mm): the gate is a coarse guess; use a smaller spacing",
