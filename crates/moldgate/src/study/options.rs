@@ -952,7 +952,7 @@ color_by = "flow_length"
         assert_eq!(o.validate().unwrap().locate.keep_out.len(), limit);
         // The library's own options hold the same limit.
         let mut locate = o.validate().unwrap().locate;
-        locate.keep_out.push(locate.keep_out[0].clone());
+        locate.keep_out.push(locate.keep_out[0]);
         assert!(locate.validate().is_err());
     }
 
