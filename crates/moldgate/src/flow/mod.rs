@@ -2530,6 +2530,26 @@ pub fn analyse_prepared(
                 shares.join(", "),
             ));
         }
+        // The layout's gates are all on the body of its first (the search keeps to it):
+        // on a part of several bodies, say so, and whose volume the shares are of.
+        let body = layout
+            .gates
+            .first()
+            .and_then(|g| domain.source(DVec3::from_array(g.point)))
+            .map(|s| domain.body[s.cell as usize]);
+        if let (true, Some(body)) = (domain.bodies > 1, body) {
+            let total: f64 = domain.body_volume_mm3.iter().sum();
+            let share = domain.body_volume_mm3[body as usize] / total.max(f64::MIN_POSITIVE);
+            warnings.push(format!(
+                "the layout of {} gates is on body {body} only ({:.1} % of the part's volume), and its shares are of that body's volume: {} none of its gates (a gate per body is listed with the fill)",
+                layout.gates.len(),
+                100.0 * share,
+                match domain.bodies - 1 {
+                    1 => "the other body gets".to_string(),
+                    n => format!("the other {n} bodies get"),
+                },
+            ));
+        }
     }
     // The balanced gate's fill counts where it made the join longer than the rest.
     let rest_s = rest_times.suitability_s.unwrap_or(0.0) + rest_times.several_s;

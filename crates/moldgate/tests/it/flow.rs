@@ -288,6 +288,35 @@ fn a_gate_fills_only_its_own_body_and_says_so() {
         "{:?}",
         f.warnings
     );
+    assert!(!f.warnings.iter().any(|w| w.contains("the layout of")));
+    // Two gates: both on the first gate's plate, which the warning names with its share.
+    let f = flow::analyse(
+        &two,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions {
+            gates: 2,
+            ..flow::FillOptions::default()
+        },
+    )
+    .unwrap();
+    let layout = f.several.as_ref().unwrap();
+    let plate = |p: [f64; 3]| p[0] > 45.0;
+    assert!(layout
+        .gates
+        .iter()
+        .all(|g| plate(g.point) == plate(layout.gates[0].point)));
+    let warning = f
+        .warnings
+        .iter()
+        .find(|w| w.starts_with("the layout of 2 gates is on body"))
+        .unwrap_or_else(|| panic!("{:?}", f.warnings));
+    assert!(
+        warning.contains("(50.0 % of the part's volume)")
+            && warning.contains("the other body gets none"),
+        "{warning}"
+    );
 }
 
 /// The fill analysis of `mesh` located along +z with default options but `flow`.
