@@ -2,7 +2,7 @@
 // same as `moldgate locate --json`). Raw numbers sit in data- attributes so tests can compare
 // them with the command line's to the last bit; the text is rounded for people.
 
-import { seconds } from "./format.js";
+import { seconds, threeFigures } from "./format.js";
 
 const el = (tag, attrs = {}, ...children) => {
   const e = document.createElement(tag);
@@ -104,7 +104,7 @@ function gateFill(id, title, f) {
     ["Longest flow path L_max", `${f.l_max_mm.toFixed(1)} mm (mean ${f.l_mean_mm.toFixed(1)})`, { class: "l-max", "data-value": f.l_max_mm }],
     ["Flow-cell wall at the gate (the fill model's sample)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
     ["Flow length / wall L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
-    ["Fill pressure (Eq. 1)", `${f.pressure_mpa.toFixed(1)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
+    ["Fill pressure (Eq. 1)", `${threeFigures(f.pressure_mpa)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
     ["Fill time (estimate)", `${seconds(f.fill_time_s)} s`, { class: "fill-time", "data-value": f.fill_time_s }],
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
   ];
@@ -213,7 +213,7 @@ function placedSection(r) {
     if (r.fill?.balanced) rows.push(["Balanced gate", r.fill.balanced.fill, "placed-balanced"]);
     content.push(list("placed-fill-list", rows.map(([name, g, id]) => [
       name,
-      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${g.pressure_mpa.toFixed(1)} MPa (Eq. 1), fill ${seconds(g.fill_time_s)} s, ${g.weld_lines.length} weld lines`,
+      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${threeFigures(g.pressure_mpa)} MPa (Eq. 1), fill ${seconds(g.fill_time_s)} s, ${g.weld_lines.length} weld lines`,
       { id, "data-value": g.l_max_mm },
     ])));
   } else if (p.no_fill_reason) {

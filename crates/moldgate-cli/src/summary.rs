@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 
-use moldgate::report::{seconds_text, Report};
+use moldgate::report::{seconds_text, three_figures, Report};
 
 fn v3(p: [f64; 3]) -> String {
     format!("({:.3}, {:.3}, {:.3})", p[0], p[1], p[2])
@@ -27,13 +27,13 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     };
     let _ = writeln!(
         s,
-        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {:.1} MPa, fill time {} s (estimate)",
+        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {} MPa, fill time {} s (estimate)",
         v3(g.gate),
         g.wall_across_mm,
         g.l_max_mm,
         g.l_mean_mm,
         g.flow_ratio,
-        g.pressure_mpa,
+        three_figures(g.pressure_mpa),
         seconds_text(g.fill_time_s)
     );
 }
@@ -565,9 +565,9 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             .map_or("-".to_string(), |q| v3(q.point));
         let _ = writeln!(
             s,
-            "  {label:<30} {:>6.1} mm {:>6.1} MPa {ratio:>16} {:>8} s {:>6}  {last}",
+            "  {label:<30} {:>6.1} mm {:>6} MPa {ratio:>16} {:>8} s {:>6}  {last}",
             g.l_max_mm,
-            g.pressure_mpa,
+            three_figures(g.pressure_mpa),
             seconds_text(g.fill_time_s),
             g.weld_lines.len()
         );

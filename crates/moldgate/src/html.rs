@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use crate::report::{seconds_text, RadiusSource, Report};
+use crate::report::{seconds_text, three_figures, RadiusSource, Report};
 
 /// Escapes text for HTML element content and attribute values.
 pub fn escape(s: &str) -> String {
@@ -491,11 +491,11 @@ fn fill_cells(g: &crate::flow::GateFill) -> String {
         (None, _) => " (no limit known for this material)".to_string(),
     };
     format!(
-        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{:.1} MPa</td><td class=\"n\">{} s</td><td class=\"n\">{:.2} mm</td>",
+        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{} MPa</td><td class=\"n\">{} s</td><td class=\"n\">{:.2} mm</td>",
         v3(g.gate),
         g.l_max_mm,
         g.flow_ratio,
-        g.pressure_mpa,
+        three_figures(g.pressure_mpa),
         seconds_text(g.fill_time_s),
         g.wall_across_mm
     )

@@ -523,12 +523,18 @@ impl Report {
     }
 }
 
-/// A time in seconds as people read it, without its unit: three significant figures
-/// (`0.00612`, `0.0161`, `0.161`, `1.61`, `16.1`, `161`), so that close times on a part that
-/// fills in milliseconds still show their order. Zero, negative and non-finite times are
-/// written with three decimals. The browser app's `seconds` (web/src/format.js) writes the
-/// same text.
+/// A time in seconds as people read it, without its unit: [`three_figures`], so that close
+/// times on a part that fills in milliseconds still show their order.
 pub fn seconds_text(t: f64) -> String {
+    three_figures(t)
+}
+
+/// A positive value to three significant figures (`0.00612`, `0.0161`, `0.161`, `1.61`,
+/// `16.1`, `161`, and `1614` above 999): the fill's times and pressures, which span
+/// milliseconds to seconds and hundredths to hundreds of MPa. Zero, negative and
+/// non-finite values are written with three decimals. The browser app's `threeFigures`
+/// (web/src/format.js) writes the same text.
+pub fn three_figures(t: f64) -> String {
     if !t.is_finite() || t <= 0.0 {
         return format!("{t:.3}");
     }
