@@ -85,15 +85,16 @@ pub(crate) fn router(app: Arc<App>, web_dir: Option<&Path>) -> Router {
             "this method is not allowed on this path (see /v1/openapi.json)",
         )
     });
-    r = match web_dir.filter(|d| d.is_dir()) {
-        Some(dir) => r.fallback_service(ServeDir::new(dir)),
-        None => r.fallback(|| async {
-            ApiError::new(
-                StatusCode::NOT_FOUND,
-                "not_found",
-                "no such path (see /v1/openapi.json)",
-            )
-        }),
+    // The folder by its real path, so that a file's real path can be checked to lie in it.
+    r = match web_dir
+        .and_then(|d| d.canonicalize().ok())
+        .filter(|d| d.is_dir())
+    {
+        Some(root) => {
+            let root = Arc::new(root);
+            r.fallback(move |req: axum::extract::Request| web_file(root.clone(), req))
+        }
+        None => r.fallback(|| async { not_found() }),
     };
     r.with_state(app)
         .layer(axum::middleware::from_fn(crate::log::log))
@@ -105,6 +106,78 @@ pub(crate) fn router(app: Arc<App>, web_dir: Option<&Path>) -> Router {
             HeaderName::from_static("cross-origin-embedder-policy"),
             HeaderValue::from_static("require-corp"),
         ))
+}
+
+fn not_found() -> ApiError {
+    ApiError::new(
+        StatusCode::NOT_FOUND,
+        "not_found",
+        "no such path (see /v1/openapi.json)",
+    )
+}
+
+/// A file of the browser app's folder `root` (a real path): only a file whose real path
+/// lies in the folder (no link out of it) and none of whose names is hidden (`.git`,
+/// `.env`); anything else, and a missing file, is the JSON 404 of an unknown path.
+async fn web_file(root: Arc<std::path::PathBuf>, req: axum::extract::Request) -> Response {
+    if !servable(&root, req.uri().path()) {
+        return not_found().into_response();
+    }
+    match ServeDir::new(root.as_path()).try_call(req).await {
+        Ok(res) if res.status() == StatusCode::NOT_FOUND => not_found().into_response(),
+        Ok(res) => res.map(axum::body::Body::new).into_response(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => not_found().into_response(),
+        Err(e) => {
+            ApiError::internal(format!("the web folder could not be read: {e}")).into_response()
+        }
+    }
+}
+
+/// Whether the URL path `url` names something under `root` (a real path) that may be
+/// served: its names decoded as the file server decodes them, none hidden or holding a
+/// backslash or NUL, and, when it exists, its real path (links followed) inside `root`.
+fn servable(root: &Path, url: &str) -> bool {
+    let Some(decoded) = percent_decoded(url) else {
+        return false;
+    };
+    let mut file = root.to_path_buf();
+    for name in decoded.split('/').filter(|n| !n.is_empty()) {
+        if name.starts_with('.') || name.contains(['\\', '\0']) {
+            return false;
+        }
+        file.push(name);
+    }
+    if file.is_dir() {
+        file.push("index.html");
+    }
+    // A missing file is answered 404 by the file server.
+    file.canonicalize()
+        .map_or(true, |real| real.starts_with(root))
+}
+
+/// `url` with its `%XX` escapes decoded; `None` when the bytes are not UTF-8.
+fn percent_decoded(url: &str) -> Option<String> {
+    let b = url.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (
+            b[i],
+            b.get(i + 1).and_then(|&c| hex(c)),
+            b.get(i + 2).and_then(|&c| hex(c)),
+        ) {
+            (b'%', Some(h), Some(l)) => {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+            }
+            (c, ..) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).ok()
 }
 
 fn json_response(v: serde_json::Value) -> Response {

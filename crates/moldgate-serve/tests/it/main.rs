@@ -2,3 +2,4 @@
 //! each file of this folder is a module, named for what it tests.
 
 mod openapi;
+mod web_dir;
