@@ -2597,6 +2597,23 @@ pub fn analyse_prepared(
         None => (fields, several.as_ref()),
     };
     let answer_body = domain.source(answer).map(|s| domain.body[s.cell as usize]);
+    // The map scores a node by the fill of its own body: on a part of several bodies the
+    // best node may be on a smaller body, not comparable with the answer's.
+    let best_body = suitability
+        .as_ref()
+        .and_then(|m| m.best.map(|b| &m.nodes[b]))
+        .and_then(|n| domain.source(DVec3::from_array(n.point)))
+        .map(|s| domain.body[s.cell as usize]);
+    if let (true, Some(best), Some(answer)) = (domain.bodies > 1, best_body, answer_body) {
+        if best != answer {
+            let total: f64 = domain.body_volume_mm3.iter().sum();
+            let share = domain.body_volume_mm3[best as usize] / total.max(f64::MIN_POSITIVE);
+            warnings.push(format!(
+                "the suitability map scores each node by the fill of its own body only: its best node is on body {best} ({:.1} % of the part's volume), not on the answer's body {answer}; compare nodes within one body",
+                100.0 * share
+            ));
+        }
+    }
     let body_gates = if domain.bodies > 1 {
         gates_per_body(&domain, &bodies, analysis, material, answer_body)
     } else {

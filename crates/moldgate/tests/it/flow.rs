@@ -1064,3 +1064,38 @@ fn the_several_gate_search_is_refused_before_the_work_when_its_two_starts_exceed
     );
     assert!(run(work).is_ok());
 }
+
+#[test]
+fn a_suitability_map_whose_best_node_is_on_another_body_says_so() {
+    // A long plate and a small one beside it: the centre of mass, so the paper gate, is on
+    // the long one; a gate on the small plate fills only that plate, so it scores best.
+    let two = boxes(&[
+        ([0.0, 0.0, 0.0], [60.0, 20.0, 3.0], true),
+        ([70.0, 0.0, 0.0], [90.0, 20.0, 3.0], true),
+    ]);
+    let part = moldgate::mesh::from_generated(two.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    let f = flow::analyse(
+        &two,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions {
+            suitability: true,
+            ..flow::FillOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(f.paper.as_ref().unwrap().gate[0] < 60.0);
+    let map = f.suitability.as_ref().unwrap();
+    assert!(map.nodes[map.best.unwrap()].point[0] > 65.0);
+    let warning = f
+        .warnings
+        .iter()
+        .find(|w| w.starts_with("the suitability map scores each node by the fill of its own body"))
+        .unwrap_or_else(|| panic!("{:?}", f.warnings));
+    assert!(
+        warning.contains("(25.0 % of the part's volume)"),
+        "{warning}"
+    );
+}
