@@ -188,7 +188,9 @@ pub enum OptionsError {
     },
     /// The grid would have more nodes than the limit.
     #[error(
-        "a spacing of {spacing_mm} mm gives a grid of {n_u} x {n_w} = {nodes} nodes, more than the limit of {limit}; use a spacing of at least {} mm",
+        "a spacing of {} mm gives a grid of {n_u} x {n_w} = {} nodes, more than the limit of {limit}; use a spacing of at least {} mm",
+        length_text(*.spacing_mm),
+        count_text(*.nodes),
         rounded_up(*.min_spacing_mm)
     )]
     GridTooLarge {
@@ -238,7 +240,9 @@ pub enum OptionsError {
     /// The automatic spacing gives too many nodes: the part is too large for its gate (most
     /// often a file in other units than the ones it was read in).
     #[error(
-        "the part spans {span_mm:.4e} mm, so the automatic spacing of {spacing_mm} mm gives {nodes} nodes, more than the limit of {limit}; check --units, or give a spacing of at least {} mm",
+        "the part spans {span_mm:.4e} mm, so the automatic spacing of {} mm (set from the gate radius) gives {} nodes, more than the limit of {limit}; check --units and the gate radius, or give a spacing of at least {} mm",
+        length_text(*.spacing_mm),
+        count_text(*.nodes),
         rounded_up(*.min_spacing_mm)
     )]
     PartTooLarge {
@@ -313,6 +317,25 @@ pub enum LocateError {
 
 /// `x` rounded up to four significant digits and written out, so that a suggested minimum is
 /// never below the true one (rounding to nearest could suggest a spacing that is refused).
+/// A length as given, or in scientific notation when it is very small or very large (a
+/// spacing of 1e-300 mm is not written with 300 zeros).
+fn length_text(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e9).contains(&x.abs()) {
+        format!("{x:.4e}")
+    } else {
+        x.to_string()
+    }
+}
+
+/// A count of nodes, saturated counts (past 64 bits) written as such.
+fn count_text(n: u64) -> String {
+    if n == u64::MAX {
+        "more than 1.8e19".to_string()
+    } else {
+        n.to_string()
+    }
+}
+
 fn rounded_up(x: f64) -> String {
     if !(x.is_finite() && x > 0.0) {
         return x.to_string();
@@ -329,6 +352,37 @@ fn rounded_up(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grids_too_large_for_any_count_say_so_readably() {
+        let e = OptionsError::GridTooLarge {
+            spacing_mm: 1e-300,
+            n_u: u64::MAX,
+            n_w: 3,
+            nodes: u64::MAX,
+            limit: 4_000_000,
+            min_spacing_mm: 0.049,
+        }
+        .to_string();
+        assert!(
+            e.starts_with("a spacing of 1.0000e-300 mm gives a grid of"),
+            "{e}"
+        );
+        assert!(e.contains("= more than 1.8e19 nodes"), "{e}");
+        let e = OptionsError::GridTooLarge {
+            spacing_mm: 0.01,
+            n_u: 12001,
+            n_w: 8001,
+            nodes: 96020001,
+            limit: 4_000_000,
+            min_spacing_mm: 0.049,
+        }
+        .to_string();
+        assert!(
+            e.starts_with("a spacing of 0.01 mm gives a grid of 12001 x 8001 = 96020001 nodes"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn excerpts_are_short_and_escape_control_bytes() {
