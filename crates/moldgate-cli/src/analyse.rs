@@ -71,6 +71,8 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
+        // The part's fault: its surface encloses no solid at the gate.
+        StudyError::Fill(f @ FillError::GateOffPart(..)) => Failure::input(format!("{part}: {f}")),
         StudyError::Fill(f) => Failure::usage(f.to_string()),
         StudyError::Render(RenderError::EmptyMesh) => Failure::input(e.to_string()),
         StudyError::Glb(g) => Failure::output(format!("{part}: {g}")),

@@ -106,6 +106,7 @@ fn study_error(e: &StudyError) -> (Status, PyErrBox) {
         StudyError::Fill(FillError::TooFewCandidates { .. }) => {
             (Status::NoGate, PyErrBox::NoGate(m))
         }
+        StudyError::Fill(FillError::GateOffPart(..)) => (Status::InputError, PyErrBox::Load(m)),
         StudyError::Fill(_) => (Status::OptionError, PyErrBox::Options(m)),
         StudyError::Demold(_) | StudyError::Render(RenderError::EmptyMesh) => {
             (Status::InputError, PyErrBox::Load(m))
@@ -193,6 +194,9 @@ pub fn batch_row(
                 let (status, _) = study_error(&e);
                 match &e {
                     StudyError::Demold(d) => (status, format!("{file}: --demold auto: {d}")),
+                    StudyError::Fill(f @ FillError::GateOffPart(..)) => {
+                        (status, format!("{file}: {f}"))
+                    }
                     _ => (status, e.to_string()),
                 }
             })?;

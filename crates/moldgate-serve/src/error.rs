@@ -87,6 +87,9 @@ impl ApiError {
             StudyError::Fill(FillError::TooFewCandidates { .. }) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "no_gate", message)
             }
+            StudyError::Fill(FillError::GateOffPart(..)) => {
+                ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message)
+            }
             StudyError::Fill(_) => ApiError::options(message),
             StudyError::Demold(_) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message).at("demold")

@@ -1913,7 +1913,7 @@ pub enum FillError {
     #[error("no gate to fill from: {0}")]
     NoGate(String),
     /// No solid cell near the gate.
-    #[error("the gate at ({0:.3}, {1:.3}, {2:.3}) is not on the voxelised part")]
+    #[error("the gate at ({0:.3}, {1:.3}, {2:.3}) is not on the voxelised part: the triangles do not enclose a solid there (an open, self-intersecting or random surface), so the fill cannot start")]
     GateOffPart(f64, f64, f64),
     /// More gates than candidates.
     #[error(
