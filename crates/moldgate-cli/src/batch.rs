@@ -168,14 +168,22 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     for row in &rows {
         match (&row.error, row.status) {
             (Some(reason), Status::Skipped) => {
-                eprintln!("moldgate: skipped {}: {reason}", row.file)
+                eprintln!(
+                    "moldgate: skipped {}: {}",
+                    crate::printable(&row.file),
+                    crate::printable(reason)
+                )
             }
-            (Some(reason), _) => eprintln!("moldgate: error: {}: {reason}", row.file),
+            (Some(reason), _) => eprintln!(
+                "moldgate: error: {}: {}",
+                crate::printable(&row.file),
+                crate::printable(reason)
+            ),
             _ => {}
         }
     }
     for f in &failures {
-        eprintln!("moldgate: error: {}", f.message);
+        eprintln!("moldgate: error: {}", crate::printable(&f.message));
     }
     let codes = outcomes
         .iter()
@@ -595,9 +603,15 @@ fn short_warning(joined: &str) -> String {
 
 /// The human table, and a closing count unless `quiet`.
 fn table(rows: &[BatchRow], quiet: bool) -> String {
-    let width = rows
+    // File names as given, with any control character escaped (a name is not a terminal
+    // command).
+    let names: Vec<String> = rows
         .iter()
-        .map(|r| r.file.chars().count())
+        .map(|r| crate::printable(&r.file).replace('\n', "\\n"))
+        .collect();
+    let width = names
+        .iter()
+        .map(|n| n.chars().count())
         .max()
         .unwrap_or(0)
         .max(4);
@@ -608,7 +622,7 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
         "part", "status", "triangles", "gate x, y, z (mm)", "dist mm", "R mm", "time s"
     );
     let dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
-    for r in rows {
+    for (r, name) in rows.iter().zip(&names) {
         let gate = match (r.gate_x_mm, r.gate_y_mm, r.gate_z_mm) {
             (Some(x), Some(y), Some(z)) => Some(format!("{x:.3}, {y:.3}, {z:.3}")),
             _ => None,
@@ -616,7 +630,7 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
         let _ = writeln!(
             out,
             "{:<width$}  {:<14} {:>9}  {:>28}  {:>8} {:>6} {:>7.3}  {}",
-            r.file,
+            name,
             r.status.name().replace('_', " "),
             dash(r.triangles.map(|t| t.to_string())),
             dash(gate),

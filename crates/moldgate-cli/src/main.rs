@@ -143,9 +143,31 @@ fn main() -> ExitCode {
         Err(f) => {
             // An empty message: the lines were printed already (a batch's end report).
             if !f.message.is_empty() {
-                let _ = writeln!(std::io::stderr(), "moldgate: error: {}", f.message);
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "moldgate: error: {}",
+                    printable(&f.message)
+                );
             }
             ExitCode::from(f.code)
         }
     }
+}
+
+/// `text` with its control characters but the line break escaped (`\u{1b}`): a message
+/// quotes file names and options as given, and a name holding a terminal escape must not
+/// reach the terminal as one.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(|c| c.is_control() && c != '\n') {
+        return text.into();
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() && c != '\n' {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out.into()
 }

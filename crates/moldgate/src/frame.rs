@@ -59,7 +59,9 @@ impl FromStr for Direction {
         let numbers: Option<Vec<f64>> = parts.iter().map(|p| p.parse::<f64>().ok()).collect();
         match numbers.as_deref() {
             Some(&[x, y, z]) => Direction::new(DVec3::new(x, y, z)),
-            _ => Err(OptionsError::BadDirection(s.to_string())),
+            _ => Err(OptionsError::BadDirection(crate::error::excerpt(
+                s.as_bytes(),
+            ))),
         }
     }
 }

@@ -53,7 +53,7 @@ impl FromStr for Region {
 
     /// Reads `box:x0,y0,z0,x1,y1,z1` (any two opposite corners) or `sphere:x,y,z,r`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let bad = || OptionsError::BadRegion(s.to_string());
+        let bad = || OptionsError::BadRegion(crate::error::excerpt(s.as_bytes()));
         let (shape, numbers) = s.split_once(':').ok_or_else(bad)?;
         let v: Vec<f64> = numbers
             .split(',')

@@ -158,3 +158,42 @@ fn odd_unit_parts_are_warned_in_the_batch_table_and_summary() {
         "{summary}"
     );
 }
+
+#[test]
+fn names_and_options_with_terminal_escapes_are_printed_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    // A broken file whose name holds an escape sequence, beside a good one.
+    let bad = dir.path().join("b\u{1b}[31mad.stl");
+    std::fs::write(&bad, "solid x\nfacet\n").unwrap();
+    std::fs::write(dir.path().join("good.stl"), tetrahedron(20.0)).unwrap();
+    for args in [
+        vec!["locate", bad.to_str().unwrap()],
+        vec!["locate", dir.path().to_str().unwrap()],
+        vec![
+            "locate",
+            "--sample",
+            "cover",
+            "--keep-out",
+            "box:\u{1b}[31m",
+        ],
+        vec!["locate", "--sample", "cover", "--demold", "\u{1b}[31mx"],
+        vec!["locate", "--sample", "cover", "--material", "P\u{1b}X"],
+    ] {
+        let out = moldgate(&args);
+        assert!(!out.status.success(), "{args:?}");
+        for (what, bytes) in [("stdout", &out.stdout), ("stderr", &out.stderr)] {
+            assert!(!bytes.contains(&0x1b), "{args:?}: a raw escape on {what}");
+        }
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("\\u{1b}"), "{args:?}: {stderr}");
+    }
+    // A long option value is quoted in part.
+    let long = format!("box:{}", "1,".repeat(5000));
+    let out = moldgate(&["locate", "--sample", "cover", "--keep-out", &long]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        out.stderr.len() < 400,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

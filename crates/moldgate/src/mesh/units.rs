@@ -57,7 +57,10 @@ impl FromStr for Units {
             "cm" => Ok(Units::Cm),
             "m" => Ok(Units::M),
             "in" | "inch" | "inches" => Ok(Units::In),
-            _ => Err(format!("unknown unit '{s}' (expected mm, cm, m or in)")),
+            _ => Err(format!(
+                "unknown unit '{}' (expected mm, cm, m or in)",
+                crate::error::excerpt(s.as_bytes())
+            )),
         }
     }
 }

@@ -316,7 +316,7 @@ fn lookup(query: &str, user: &[Material]) -> Result<Material, StudyError> {
                 }),
         );
     Err(StudyError::UnknownMaterial {
-        name: query.to_string(),
+        name: crate::error::excerpt(query.as_bytes()),
         closest: name::closest_of(query, known, SUGGESTIONS)
             .into_iter()
             .map(String::from)
