@@ -35,6 +35,14 @@ def test_non_finite_coordinates_name_the_vertex(value):
         moldgate.Part(v, F)
 
 
+@pytest.mark.parametrize("value", [1.1e9, -1e307])
+def test_coordinates_beyond_the_files_limit_name_the_vertex(value):
+    v = V.copy()
+    v[2, 1] = value
+    with pytest.raises(moldgate.LoadError, match=r"vertex 2: a coordinate of .* is beyond the limit of ±1e9 mm"):
+        moldgate.Part(v, F)
+
+
 @pytest.mark.parametrize("bad", [4, 1000, -1])
 def test_face_indices_out_of_range_name_the_triangle(bad):
     f = F.copy()

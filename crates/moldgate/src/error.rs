@@ -96,6 +96,21 @@ pub enum LoadError {
         /// The offending value.
         value: f64,
     },
+    /// A vertex of an array mesh with a coordinate beyond [`crate::mesh::MAX_COORDINATE_MM`]
+    /// once in millimetres, as a file's would be refused.
+    #[error(
+        "vertex {vertex}: a coordinate of {value:.4e} ({mm:.4e} mm) is beyond the limit of ±{limit_mm:.0e} mm; the arrays are not a part in these units"
+    )]
+    VertexOutOfRange {
+        /// 0-based vertex index.
+        vertex: u64,
+        /// The value as given, in the arrays' units.
+        value: f64,
+        /// The value in millimetres.
+        mm: f64,
+        /// The limit in millimetres.
+        limit_mm: f64,
+    },
     /// A triangle of an array mesh with a vertex index outside the vertex array.
     #[error("triangle {triangle} uses vertex {index}, outside the {vertices} vertices (0 to {})", vertices.saturating_sub(1))]
     IndexOutOfRange {

@@ -58,6 +58,20 @@ pub fn from_arrays(
     }) {
         return Err(LoadError::NonFiniteVertex { vertex, value });
     }
+    // The files' limit on coordinates, in millimetres (so every sum and square stays finite).
+    let limit = super::MAX_COORDINATE_MM / units.mm_per_unit();
+    if let Some((vertex, value)) = vertices.iter().enumerate().find_map(|(i, p)| {
+        p.iter()
+            .find(|c| c.abs() > limit)
+            .map(|&value| (i as u64, value))
+    }) {
+        return Err(LoadError::VertexOutOfRange {
+            vertex,
+            value,
+            mm: value * units.mm_per_unit(),
+            limit_mm: super::MAX_COORDINATE_MM,
+        });
+    }
     let n = vertices.len() as i64;
     if let Some((triangle, index)) = triangles.iter().enumerate().find_map(|(t, tri)| {
         tri.iter()
@@ -182,5 +196,26 @@ mod tests {
         assert_eq!(part.stats.duplicate_triangles, 1);
         assert_eq!(part.stats.collapsed_facets, 1);
         assert!(part.warnings.iter().any(|w| w.contains("1 degenerate")));
+    }
+
+    #[test]
+    fn coordinates_beyond_the_files_limit_are_refused_in_the_arrays_units() {
+        let tri = [[0, 1, 2]];
+        let v = |x: f64| vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, x, 0.0]];
+        // 1e9 mm is the limit; 1e8 m is beyond it, 1e8 mm within.
+        assert!(from_arrays(&v(1e9), &tri, Units::Mm).is_ok());
+        assert!(from_arrays(&v(1e8), &tri, Units::Mm).is_ok());
+        for (x, units) in [(1.1e9, Units::Mm), (1e8, Units::M), (1e307, Units::Mm)] {
+            match from_arrays(&v(x), &tri, units) {
+                Err(LoadError::VertexOutOfRange {
+                    vertex: 2, value, ..
+                }) => assert_eq!(value, x),
+                other => panic!("{x} {units:?}: {other:?}"),
+            }
+        }
+        let e = from_arrays(&v(1e307), &tri, Units::Mm)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("vertex 2: a coordinate of 1.0000e307"), "{e}");
     }
 }
