@@ -330,8 +330,6 @@ pub enum LocateError {
     },
 }
 
-/// `x` rounded up to four significant digits and written out, so that a suggested minimum is
-/// never below the true one (rounding to nearest could suggest a spacing that is refused).
 /// A length as given, or in scientific notation when it is very small or very large (a
 /// spacing of 1e-300 mm is not written with 300 zeros).
 fn length_text(x: f64) -> String {
@@ -351,6 +349,8 @@ fn count_text(n: u64) -> String {
     }
 }
 
+/// `x` rounded up to four significant digits and written out, so that a suggested minimum is
+/// never below the true one (rounding to nearest could suggest a spacing that is refused).
 fn rounded_up(x: f64) -> String {
     if !(x.is_finite() && x > 0.0) {
         return x.to_string();

@@ -496,6 +496,17 @@ impl Domain {
             .map(|cell| Source { point, cell })
     }
 
+    /// The body of the solid cell nearest a surface point, `None` when no cell is near it.
+    pub fn body_at(&self, point: DVec3) -> Option<u32> {
+        self.source(point).map(|s| self.body[s.cell as usize])
+    }
+
+    /// Body `b`'s share of the part's volume.
+    pub fn volume_share(&self, b: u32) -> f64 {
+        let total: f64 = self.body_volume_mm3.iter().sum();
+        self.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE)
+    }
+
     /// The cost array of an objective.
     pub fn cost(&self, objective: Objective) -> Option<&[f32]> {
         Kind::of(objective).cost(self)
@@ -2535,11 +2546,9 @@ pub fn analyse_prepared(
         let body = layout
             .gates
             .first()
-            .and_then(|g| domain.source(DVec3::from_array(g.point)))
-            .map(|s| domain.body[s.cell as usize]);
+            .and_then(|g| domain.body_at(DVec3::from_array(g.point)));
         if let (true, Some(body)) = (domain.bodies > 1, body) {
-            let total: f64 = domain.body_volume_mm3.iter().sum();
-            let share = domain.body_volume_mm3[body as usize] / total.max(f64::MIN_POSITIVE);
+            let share = domain.volume_share(body);
             warnings.push(format!(
                 "the layout of {} gates is on body {body} only ({:.1} % of the part's volume), and its shares are of that body's volume: {} none of its gates (a gate per body is listed with the fill)",
                 layout.gates.len(),
@@ -2596,18 +2605,16 @@ pub fn analyse_prepared(
         Some((_, f)) => (f, None),
         None => (fields, several.as_ref()),
     };
-    let answer_body = domain.source(answer).map(|s| domain.body[s.cell as usize]);
+    let answer_body = domain.body_at(answer);
     // The map scores a node by the fill of its own body: on a part of several bodies the
     // best node may be on a smaller body, not comparable with the answer's.
     let best_body = suitability
         .as_ref()
         .and_then(|m| m.best.map(|b| &m.nodes[b]))
-        .and_then(|n| domain.source(DVec3::from_array(n.point)))
-        .map(|s| domain.body[s.cell as usize]);
+        .and_then(|n| domain.body_at(DVec3::from_array(n.point)));
     if let (true, Some(best), Some(answer)) = (domain.bodies > 1, best_body, answer_body) {
         if best != answer {
-            let total: f64 = domain.body_volume_mm3.iter().sum();
-            let share = domain.body_volume_mm3[best as usize] / total.max(f64::MIN_POSITIVE);
+            let share = domain.volume_share(best);
             warnings.push(format!(
                 "the suitability map scores each node by the fill of its own body only: its best node is on body {best} ({:.1} % of the part's volume), not on the answer's body {answer}; compare nodes within one body",
                 100.0 * share
@@ -2701,6 +2708,7 @@ fn gates_per_body(
     material: &Material,
     answer_body: Option<u32>,
 ) -> Vec<BodyGate> {
+    // Summed once for every body (`Domain::volume_share` sums per call).
     let total: f64 = domain.body_volume_mm3.iter().sum();
     (0..domain.bodies as u32)
         .map(|b| {
@@ -2712,11 +2720,7 @@ fn gates_per_body(
             let gate = analysis
                 .qualifying_points
                 .iter()
-                .filter(|&&p| {
-                    domain
-                        .source(p)
-                        .is_some_and(|s| domain.body[s.cell as usize] == b)
-                })
+                .filter(|&&p| domain.body_at(p) == Some(b))
                 .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
                 .copied();
             let fill = gate.and_then(|g| fill_from(domain, g, material));

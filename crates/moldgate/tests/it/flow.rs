@@ -290,11 +290,8 @@ fn a_gate_fills_only_its_own_body_and_says_so() {
     );
     assert!(!f.warnings.iter().any(|w| w.contains("the layout of")));
     // Two gates: both on the first gate's plate, which the warning names with its share.
-    let f = flow::analyse(
+    let f = analyse_fill(
         &two,
-        &analysis,
-        &pp(),
-        flow::Walls::Estimate,
         &flow::FillOptions {
             gates: 2,
             ..flow::FillOptions::default()
@@ -324,18 +321,24 @@ fn analyse_with(
     mesh: &Mesh,
     flow: flow::FlowOptions,
 ) -> Result<flow::FillAnalysis, flow::FillError> {
-    let part = moldgate::mesh::from_generated(mesh.clone());
-    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
-    flow::analyse(
+    analyse_fill(
         mesh,
-        &analysis,
-        &pp(),
-        flow::Walls::Estimate,
         &flow::FillOptions {
             flow,
             ..flow::FillOptions::default()
         },
     )
+}
+
+/// The fill analysis of `mesh` located along +z with default options, PP and estimated
+/// walls, with `options`.
+fn analyse_fill(
+    mesh: &Mesh,
+    options: &flow::FillOptions,
+) -> Result<flow::FillAnalysis, flow::FillError> {
+    let part = moldgate::mesh::from_generated(mesh.clone());
+    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    flow::analyse(mesh, &analysis, &pp(), flow::Walls::Estimate, options)
 }
 
 /// Distance from `p` to the nearest triangle of `mesh` (brute force, exact: the plane's
@@ -1073,13 +1076,8 @@ fn a_suitability_map_whose_best_node_is_on_another_body_says_so() {
         ([0.0, 0.0, 0.0], [60.0, 20.0, 3.0], true),
         ([70.0, 0.0, 0.0], [90.0, 20.0, 3.0], true),
     ]);
-    let part = moldgate::mesh::from_generated(two.clone());
-    let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
-    let f = flow::analyse(
+    let f = analyse_fill(
         &two,
-        &analysis,
-        &pp(),
-        flow::Walls::Estimate,
         &flow::FillOptions {
             suitability: true,
             ..flow::FillOptions::default()
