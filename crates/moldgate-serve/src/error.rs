@@ -100,7 +100,7 @@ impl ApiError {
             StudyError::Cancelled { .. } => ApiError::new(
                 StatusCode::GATEWAY_TIMEOUT,
                 "timeout",
-                format!("the study took longer than the time limit and was stopped between stages ({message})"),
+                format!("the study took longer than the time limit and was stopped ({message})"),
             ),
             _ => ApiError::internal(message),
         }

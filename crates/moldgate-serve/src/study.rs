@@ -4,7 +4,6 @@
 
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -14,7 +13,7 @@ use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::report::Input;
-use moldgate::study::{Hooks, Settings, StudyOptions};
+use moldgate::study::{Cancel, Hooks, Settings, StudyOptions};
 use serde_json::{Map, Value};
 
 use crate::body::{self, BytesIn};
@@ -378,7 +377,7 @@ fn work(
     units: Units,
     settings: &Settings,
     output: Output,
-    cancel: &AtomicBool,
+    cancel: &Cancel,
 ) -> Result<Answer, ApiError> {
     let t = Instant::now();
     let part = load(&upload, units)?;
@@ -524,7 +523,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
             StatusCode::GATEWAY_TIMEOUT,
             "timeout",
             format!(
-                "the study did not finish within {} s (--timeout); it stops at the end of the stage it is in, and its analysis slot is free then",
+                "the study did not finish within {} s (--timeout); it stops within a march of the fill analysis, or at the end of any other stage it is in, and its analysis slot is free then",
                 limits.timeout.as_secs_f64()
             ),
         )
@@ -533,20 +532,33 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         .await
         .map_err(|_| timed_out())?
         .map_err(|_| ApiError::internal("the service is shutting down"))?;
-    let cancel = Arc::new(AtomicBool::new(false));
+    let cancel = Cancel::new();
     let flag = cancel.clone();
     let units = controls.units;
     let output = controls.output;
     let task = tokio::task::spawn_blocking(move || {
         // Both permits live until the study really ends, even after a 504 was answered.
         let _permits = (admitted, running);
-        guarded(|| work(upload, units, &settings, output, &flag))
+        let started = Instant::now();
+        let result = guarded(|| work(upload, units, &settings, output, &flag));
+        // After its 504, how long the study held its slot, and where it stopped.
+        if flag.is_cancelled() {
+            let how = match &result {
+                Ok(_) => "finished".to_string(),
+                Err(e) => e.message.clone(),
+            };
+            eprintln!(
+                "moldgate: a study past --timeout ended {:.2} s after it started: {how}",
+                started.elapsed().as_secs_f64()
+            );
+        }
+        result
     });
     match tokio::time::timeout_at(deadline, task).await {
         Ok(Ok(result)) => result,
         Ok(Err(join)) => Err(ApiError::internal(format!("the study failed: {join}"))),
         Err(_) => {
-            cancel.store(true, Ordering::Relaxed);
+            cancel.cancel();
             Err(timed_out())
         }
     }

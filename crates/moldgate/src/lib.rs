@@ -33,6 +33,7 @@
 #![deny(missing_docs)]
 
 pub mod batch_row;
+pub mod cancel;
 pub mod centre;
 pub mod clock;
 pub mod colormap;

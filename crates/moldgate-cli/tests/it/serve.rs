@@ -746,6 +746,37 @@ fn a_study_past_the_time_limit_is_stopped_with_504() {
     }
 }
 
+/// A study that outlives `--timeout` inside the fill (several gates and the suitability
+/// map on fine cells, several seconds) stops in the fill's marches, not at the end of the
+/// stage: the server's log says where it stopped and how long it held its slot.
+#[test]
+fn a_study_past_the_time_limit_stops_inside_its_fill() {
+    let s = start(&["--timeout", "1", "--analyses", "1"]);
+    let stl = sample_stl("cover");
+    let t = Instant::now();
+    let r = study_stl(s.addr, "fill=true&gates=4&suitability=true&cell=0.5", &stl);
+    let e = assert_error(&s, &r, 504, "timeout");
+    assert!(e["message"]
+        .as_str()
+        .unwrap()
+        .contains("it stops within a march of the fill analysis"));
+    while get(s.addr, "/healthz").json()["running"] != 0 {
+        assert!(t.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    println!(
+        "slot free {:.2} s after the request",
+        t.elapsed().as_secs_f64()
+    );
+    let log = s.log_text();
+    let ended = log
+        .lines()
+        .find(|l| l.contains("a study past --timeout ended"))
+        .unwrap_or_else(|| panic!("no line for the study's end in\n{log}"));
+    println!("{ended}");
+    assert!(ended.ends_with("(cancelled at the fill stage)"), "{ended}");
+}
+
 #[test]
 fn sigterm_finishes_the_request_in_flight_then_exits() {
     let mut s = start(&[]);

@@ -235,6 +235,9 @@ fn seed(
     }
 }
 
+/// Cells accepted between two readings of the cells' cancellation token.
+const CANCEL_CHECK: u32 = 4096;
+
 /// The march; when `stop` ends it early, also the last value accepted and which cells were.
 fn march_with(
     voxels: &Voxels,
@@ -265,11 +268,16 @@ fn march_with(
     // their own.
     let half_step: [f64; 26] = std::array::from_fn(|k| offsets[k].1 * h * 0.5);
     let table = &voxels.table;
+    let cancel = voxels.cancel.as_ref();
+    let mut accepted = 0u32;
     while let Some(entry) = queue.pop() {
         let v = entry as u32;
         known[v as usize] = true;
         let tv = t[v as usize];
-        if stop(v, tv) {
+        // A cancelled march stops as if `stop` had said so (its caller discards it).
+        accepted = accepted.wrapping_add(1);
+        let cancelled = accepted % CANCEL_CHECK == 0 && crate::cancel::is_set(cancel);
+        if cancelled || stop(v, tv) {
             scratch.give_back();
             return (Field { t, source }, Some((tv, known)));
         }
@@ -734,5 +742,31 @@ mod tests {
                     .all(|(a, b)| a.to_bits() == b.to_bits()));
             }
         }
+    }
+
+    #[test]
+    fn a_march_on_cancelled_cells_stops_within_a_check_of_cells() {
+        let mesh = crate::samples::sample("cover").expect("sample");
+        let mut v = Voxels::new(&mesh, 0.7);
+        assert!(v.len() > 20 * CANCEL_CHECK as usize, "{} cells", v.len());
+        let src = [Source {
+            point: v.centre(3),
+            cell: 3,
+        }];
+        let whole = march(&v, &src, None);
+        let token = crate::cancel::Cancel::new();
+        v.cancel = Some(token.clone());
+        // Not set: the same field.
+        let same = march(&v, &src, None);
+        assert!(same
+            .t
+            .iter()
+            .zip(&whole.t)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        token.cancel();
+        let (cut, reach) = march_until(&v, &src, None, |_, _| false);
+        let kept = cut.t.iter().filter(|t| t.is_finite()).count();
+        assert_eq!(kept, CANCEL_CHECK as usize);
+        assert!(reach.is_finite());
     }
 }

@@ -50,6 +50,7 @@ use crate::clock::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::cancel::Cancel;
 use crate::material::Material;
 use crate::math::DVec3;
 use crate::mesh::topology::body_of_triangle;
@@ -1939,6 +1940,9 @@ pub enum FillError {
     /// Bad option.
     #[error("{0}")]
     Option(String),
+    /// The caller's cancellation token was set while the analysis ran.
+    #[error("the fill analysis was cancelled")]
+    Cancelled,
     /// The work would break a limit of [`FlowOptions`]; nothing was allocated.
     #[error("{what}: {count:.3e} at a cell of {cell_mm:.4} mm, over the limit of {limit:.3e} (FlowOptions); choose a coarser cell")]
     TooLarge {
@@ -2146,7 +2150,7 @@ pub fn analyse(
     walls: Walls,
     options: &FillOptions,
 ) -> Result<FillAnalysis, FillError> {
-    analyse_prepared(mesh, analysis, material, walls, options, || {
+    analyse_prepared(mesh, analysis, material, walls, options, None, || {
         prepare(mesh, &analysis.centres, options)
     })
 }
@@ -2155,12 +2159,17 @@ pub fn analyse(
 /// centres and the same options), made beforehand or by `cells` when asked: the same
 /// answer, and the same errors in the same order (the gate and the count of gates are
 /// checked before the cells' error is given).
+///
+/// Once `cancel` is set, every march stops within a few thousand cells and the analysis
+/// returns [`FillError::Cancelled`] at its next check (between its steps), so that a
+/// service's timed-out study frees its core within a march or two, not minutes later.
 pub fn analyse_prepared(
     mesh: &Mesh,
     analysis: &crate::gate::Analysis,
     material: &Material,
     walls: Walls,
     options: &FillOptions,
+    cancel: Option<&Cancel>,
     cells: impl FnOnce() -> Result<Cells, FillError>,
 ) -> Result<FillAnalysis, FillError> {
     let gate = analysis
@@ -2181,9 +2190,15 @@ pub fn analyse_prepared(
         bodies,
         estimate,
         coarsened,
-        voxels,
+        mut voxels,
         seconds: cells_s,
     } = cells()?;
+    voxels.cancel = cancel.cloned();
+    let check = || match crate::cancel::is_set(cancel) {
+        true => Err(FillError::Cancelled),
+        false => Ok(()),
+    };
+    check()?;
     let t = Instant::now();
     let h = voxels.h;
     if let Some(why) = coarsened {
@@ -2285,6 +2300,7 @@ pub fn analyse_prepared(
     );
     let paper_fields = GateFields { length, fill };
     times.paper_s = seconds(t);
+    check()?;
 
     // Candidates: the qualifying nodes' surface points on the voxelised part.
     let t = Instant::now();
@@ -2516,6 +2532,9 @@ pub fn analyse_prepared(
     } else {
         (complete(), rest())
     };
+    // A cancelled march gives a field cut short, so the steps after it may fail: the
+    // cancellation is the error.
+    check()?;
     let (suitability, several, rest_times) = rest?;
     if let Some(layout) = &several {
         if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
@@ -2672,6 +2691,7 @@ pub fn analyse_prepared(
     if let Some(b) = &mut balanced {
         snap_places(&domain, mesh, &mut b.fill);
     }
+    check()?;
     Ok(FillAnalysis {
         cell_mm: h,
         cells: domain.voxels.len(),

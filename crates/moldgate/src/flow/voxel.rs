@@ -69,6 +69,9 @@ pub struct Voxels {
     pub interior_cells: usize,
     /// Columns whose crossings did not close (open mesh), filled with surface cells only.
     pub open_columns: usize,
+    /// Once set, every march through these cells stops within a few thousand cells (see
+    /// [`super::march`]); the caller that set it discards what the marches gave.
+    pub(crate) cancel: Option<crate::cancel::Cancel>,
 }
 
 /// Offsets of the 26 neighbours, with their lengths in cells.
@@ -418,6 +421,7 @@ impl Voxels {
             body,
             interior_cells,
             open_columns,
+            cancel: None,
         };
         voxels.table = voxels.neighbour_table();
         voxels.spread_triangles();

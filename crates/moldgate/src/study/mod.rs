@@ -18,13 +18,11 @@
 //! Options come in two forms ([`options`]): [`StudyOptions`], raw and shared by every front
 //! end (serde, the command line's flags in snake case and its defaults), and [`Settings`],
 //! validated once. [`study_with`] runs validated settings with [`Hooks`]: a progress
-//! observer and a cancellation flag checked between stages.
+//! observer and a cancellation token, checked between stages and inside the fill's marches.
 
 pub mod judge;
 mod options;
 mod run;
-
-use std::sync::atomic::{AtomicBool, Ordering};
 
 pub use options::{
     CentreChoice, ColorByChoice, Demold, MaterialChoice, NearestChoice, ObjectiveChoice, Settings,
@@ -32,6 +30,7 @@ pub use options::{
 };
 pub use run::{GateMarker, Study};
 
+pub use crate::cancel::Cancel;
 use crate::error::OptionsError;
 use crate::flow::FillError;
 use crate::gltf::GlbError;
@@ -89,15 +88,17 @@ pub struct Progress {
 /// What a front end hooks into a study: both optional, no threads of their own.
 ///
 /// The observer is called on the calling thread between stages (never inside a parallel
-/// loop), so it may take a lock or write to a terminal. The cancellation flag is read
-/// between stages; once set, the study returns [`StudyError::Cancelled`] naming the stage
-/// it did not start.
+/// loop), so it may take a lock or write to a terminal. The cancellation token is read
+/// between stages and, in the fill stage (whose several-gate search and suitability map may
+/// run for minutes on a large part), every few thousand cells of each march; once set, the
+/// study returns [`StudyError::Cancelled`] naming the stage it stopped at. The other stages
+/// run to their end (each is bounded by the part's size and the options' limits).
 #[derive(Clone, Copy, Default)]
 pub struct Hooks<'a> {
     /// Called with each stage as it starts, and with [`Stage::Report`] at 1.0 at the end.
     pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
     /// Set it (from another thread, a signal handler or a timer) to stop the study.
-    pub cancel: Option<&'a AtomicBool>,
+    pub cancel: Option<&'a Cancel>,
 }
 
 impl std::fmt::Debug for Hooks<'_> {
@@ -112,7 +113,7 @@ impl std::fmt::Debug for Hooks<'_> {
 impl Hooks<'_> {
     /// Reports `stage` at `fraction`, then fails if the study was cancelled.
     pub(crate) fn enter(&self, stage: Stage, fraction: f64) -> Result<(), StudyError> {
-        if self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if crate::cancel::is_set(self.cancel) {
             return Err(StudyError::Cancelled { stage });
         }
         if let Some(p) = self.progress {
@@ -176,10 +177,10 @@ pub enum StudyError {
     /// The fill analysis failed ([`FillError::TooFewCandidates`]: no gate layout exists).
     #[error("{0}")]
     Fill(FillError),
-    /// The study was cancelled before this stage.
-    #[error("cancelled before the {stage} stage")]
+    /// The study was cancelled: before `stage` started, or inside it (the fill stage).
+    #[error("cancelled at the {stage} stage")]
     Cancelled {
-        /// The stage that did not start.
+        /// The stage that did not start, or that stopped part way.
         stage: Stage,
     },
     /// The picture could not be drawn.

@@ -214,8 +214,10 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 Some(made) => made,
                 None => flow::prepare(mesh, &analysis.centres, o),
             };
-            let mut f = flow::analyse_prepared(mesh, &analysis, &s.material, walls, o, prepared)
-                .map_err(StudyError::Fill)?;
+            let cancel = hooks.cancel;
+            let mut f =
+                flow::analyse_prepared(mesh, &analysis, &s.material, walls, o, cancel, prepared)
+                    .map_err(StudyError::from)?;
             f.times.tree_s = tree_s;
             f.times.cells_beside_s = cells_beside_s;
             Some(f)
@@ -616,7 +618,10 @@ impl Study {
 
 impl From<FillError> for StudyError {
     fn from(e: FillError) -> Self {
-        StudyError::Fill(e)
+        match e {
+            FillError::Cancelled => StudyError::Cancelled { stage: Stage::Fill },
+            e => StudyError::Fill(e),
+        }
     }
 }
 

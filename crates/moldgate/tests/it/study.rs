@@ -1,11 +1,13 @@
 //! `moldgate::study` on the built-in samples: the same report as the stages called one by
 //! one, the optional parts reachable, progress in order, cancellation honoured.
 
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use moldgate::report::{Input, RadiusSource, Report};
-use moldgate::study::{study, study_with, Hooks, Progress, Stage, StudyError, StudyOptions};
+use moldgate::study::{
+    study, study_with, Cancel, Hooks, Progress, Stage, StudyError, StudyOptions,
+};
 use moldgate::{locate, LoadedMesh};
 
 fn sample(name: &str) -> LoadedMesh {
@@ -135,7 +137,8 @@ fn progress_comes_in_order_and_ends_at_one() {
 fn a_cancelled_study_stops_before_the_next_stage() {
     let part = sample("plate");
     let settings = options(r#"{ "fill": true }"#).validate().unwrap();
-    let cancel = AtomicBool::new(true);
+    let cancel = Cancel::new();
+    cancel.cancel();
     let hooks = Hooks {
         progress: None,
         cancel: Some(&cancel),
@@ -145,10 +148,10 @@ fn a_cancelled_study_stops_before_the_next_stage() {
         other => panic!("{other:?}"),
     }
     // Cancelled while locating: the fill never starts.
-    let cancel = AtomicBool::new(false);
+    let cancel = Cancel::new();
     let observer = |p: Progress| {
         if p.stage == Stage::Locate {
-            cancel.store(true, Ordering::Relaxed);
+            cancel.cancel();
         }
     };
     let hooks = Hooks {
@@ -157,9 +160,89 @@ fn a_cancelled_study_stops_before_the_next_stage() {
     };
     match study_with(&part, &settings, &hooks) {
         Err(e @ StudyError::Cancelled { .. }) => {
-            assert_eq!(e.to_string(), "cancelled before the fill stage")
+            assert_eq!(e.to_string(), "cancelled at the fill stage")
         }
         other => panic!("{other:?}"),
+    }
+}
+
+/// The fill stage reads the token inside: set as the stage starts, the study stops in it
+/// (before, it ran the whole fill and stopped at the report).
+#[test]
+fn a_study_cancelled_in_its_fill_stops_there() {
+    let part = sample("cover");
+    let settings = options(r#"{ "fill": true, "gates": 3, "suitability": true }"#)
+        .validate()
+        .unwrap();
+    let cancel = Cancel::new();
+    let observer = |p: Progress| {
+        if p.stage == Stage::Fill {
+            cancel.cancel();
+        }
+    };
+    let hooks = Hooks {
+        progress: Some(&observer),
+        cancel: Some(&cancel),
+    };
+    match study_with(&part, &settings, &hooks) {
+        Err(StudyError::Cancelled { stage }) => assert_eq!(stage, Stage::Fill),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Set at any moment of a long fill (several gates and the suitability map, about 1 s),
+/// the token ends the study with `Cancelled` at the fill stage, or the study finishes whole:
+/// marches cut short never give a wrong answer or a panic. Prints how soon it stopped.
+#[test]
+fn a_fill_cancelled_at_any_moment_stops_cleanly() {
+    let part = sample("cover");
+    let fine = r#"{ "fill": true, "gates": 3, "suitability": true, "cell": 1.0 }"#;
+    let settings = options(fine).validate().unwrap();
+    let whole = study(&part, &options(fine)).unwrap();
+    let expected = timeless(whole.report());
+    let fill_started = Mutex::new(None);
+    for delay_ms in [0, 5, 30, 100, 300, 700] {
+        let cancel = Cancel::new();
+        let observer = |p: Progress| {
+            if p.stage == Stage::Fill {
+                *fill_started.lock().unwrap() = Some(Instant::now());
+            }
+        };
+        let hooks = Hooks {
+            progress: Some(&observer),
+            cancel: Some(&cancel),
+        };
+        let (result, returned, cancelled) = std::thread::scope(|scope| {
+            let timer = cancel.clone();
+            let started = &fill_started;
+            let cancelling = scope.spawn(move || {
+                // Waits for the fill stage, then lets it run `delay_ms`.
+                let deadline = Instant::now() + Duration::from_secs(60);
+                while started.lock().unwrap().is_none() && Instant::now() < deadline {
+                    std::thread::sleep(Duration::from_micros(200));
+                }
+                std::thread::sleep(Duration::from_millis(delay_ms));
+                timer.cancel();
+                Instant::now()
+            });
+            let result = study_with(&part, &settings, &hooks);
+            let returned = Instant::now();
+            (result, returned, cancelling.join().unwrap())
+        });
+        *fill_started.lock().unwrap() = None;
+        match result {
+            Err(StudyError::Cancelled { stage }) => {
+                assert_eq!(stage, Stage::Fill, "cancelled after {delay_ms} ms");
+                let late = returned.saturating_duration_since(cancelled);
+                println!("cancelled {delay_ms} ms into the fill: returned {late:?} later");
+            }
+            Ok(s) => assert_eq!(
+                timeless(s.report()),
+                expected,
+                "finished after {delay_ms} ms"
+            ),
+            Err(e) => panic!("cancelled after {delay_ms} ms: {e}"),
+        }
     }
 }
 
