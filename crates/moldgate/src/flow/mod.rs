@@ -1162,6 +1162,60 @@ fn balanced_search<T: Send>(
 }
 
 /// The indices of the candidates in body `body`.
+/// A gate from the suitability map's best node that beats the balanced gate `b`.
+struct MapGate {
+    /// Its fill.
+    fill: GateFill,
+    /// Its flow length and fill order fields.
+    fields: GateFields,
+    /// Its search: its objective, and the map's bound, proven (the node is exact).
+    search: Balanced,
+}
+
+/// The map's best node as the balanced gate, when the search did not prove its own gate
+/// and the node is exact, on the body of the search (`first`'s), and of an objective lower
+/// than the search `b`'s by more than `cell` from its own surface point (`value` of a gate's summary,
+/// in the map's units). An exact best node is proven best among the nodes: every other
+/// node's score is a lower bound at least as high.
+fn map_best_gate(
+    domain: &Domain,
+    (candidates, first): (&[Source], Source),
+    map: &suitability::Suitability,
+    b: &Balanced,
+    material: &Material,
+    (value, cell): (fn(&GateFill) -> f64, f64),
+) -> Option<MapGate> {
+    if b.proven {
+        return None;
+    }
+    let best = &map.nodes[map.best?];
+    let point = DVec3::from_array(best.point);
+    let source = domain.source(point)?;
+    let candidate = candidates
+        .iter()
+        .position(|c| c.cell == source.cell && c.point == source.point)?;
+    let same_body = domain.body[source.cell as usize] == domain.body[first.cell as usize];
+    let gains = |v: f64| v < b.value - cell;
+    if best.kind != suitability::ScoreKind::Exact || !same_body || !gains(best.score) {
+        return None;
+    }
+    let [length, fill, pressure] = march_layout(domain, &[source], [None, None, None]);
+    let fields = [&length, &fill, &pressure];
+    let (summary, _) = summarise_layout(domain, &[point], &[source], material, fields);
+    let v = value(&summary);
+    gains(v).then_some(MapGate {
+        fill: summary,
+        fields: GateFields { length, fill },
+        search: Balanced {
+            candidate,
+            value: v,
+            lower_bound: best.score.min(v),
+            runs: 0,
+            proven: true,
+        },
+    })
+}
+
 fn in_body(domain: &Domain, candidates: &[Source], body: u32) -> Vec<usize> {
     (0..candidates.len())
         .filter(|&i| domain.body[candidates[i].cell as usize] == body)
@@ -2355,9 +2409,12 @@ pub fn analyse_prepared(
         let value = argmax(&field.t).1 * scale;
         (search, field, value)
     });
-    // Whether the balanced gate's value beats the paper gate's.
+    // Whether the balanced gate's value beats the paper gate's by more than one cell (the
+    // fields' resolution, in the objective's units): a smaller gain is the discretisation's,
+    // not the gate's, and does not move the gate.
     let paper_value = objective_value(&paper);
-    let beats = |value: f64| value < paper_value;
+    let cell_value = h * scale;
+    let beats = |value: f64| value < paper_value - cell_value;
     if head.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
@@ -2535,7 +2592,36 @@ pub fn analyse_prepared(
     // A cancelled march gives a field cut short, so the steps after it may fail: the
     // cancellation is the error.
     check()?;
-    let (suitability, several, rest_times) = rest?;
+    let (suitability, mut several, rest_times) = rest?;
+    let mut balanced = balanced;
+    if let (Some(map), Some((b, fields))) = (&suitability, balanced.as_mut()) {
+        let from = (&candidates[..], first);
+        let gain = (objective_value, cell_value);
+        if let Some(better) = map_best_gate(&domain, from, map, &b.search, material, gain) {
+            let old = b.search.value;
+            let value = better.search.value;
+            *b = BalancedFill {
+                improvement_pct: 100.0 * (1.0 - value / paper_value),
+                is_paper_gate: false,
+                search: Balanced {
+                    runs: b.search.runs,
+                    ..better.search
+                },
+                fill: better.fill,
+            };
+            *fields = Some(better.fields);
+            // The best single gate a layout of several is measured against is now lower.
+            if let Some(layout) = several.as_mut() {
+                layout.improvement_pct = 100.0 * (1.0 - layout.value() / value.min(best_single));
+            }
+            warnings.push(format!(
+                "the balanced search stopped at its limit of runs with a gate of {} {unit}; the suitability map's best node, {} {unit}, is exact and no node's bound is lower, so it is the balanced gate",
+                options.objective.value_text(old),
+                options.objective.value_text(value),
+                unit = options.objective.value_words().1,
+            ));
+        }
+    }
     if let Some(layout) = &several {
         if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
             let (what, unit) = options.objective.value_words();
@@ -3002,6 +3088,71 @@ mod tests {
     /// The candidates of a layout's gates, in order.
     fn layout_gates(m: &MultiGate) -> Vec<usize> {
         m.gates.iter().map(|g| g.candidate).collect()
+    }
+
+    /// The map's best node is the balanced gate only when the search is unproven, the node
+    /// exact, and its gate better by more than a cell.
+    #[test]
+    fn the_map_s_best_exact_node_replaces_an_unproven_search_s_worse_gate() {
+        let pp = Material::builtin("PP").expect("PP");
+        let mesh = crate::samples::sample("plate").expect("sample");
+        let domain = Domain::new(&mesh, 1.5, None, 2.0, &pp);
+        let candidates: Vec<Source> = (0..domain.voxels.len() as u32)
+            .step_by(37)
+            .filter_map(|c| domain.source(domain.voxels.centre(c) + DVec3::new(0.11, -0.07, 0.05)))
+            .collect();
+        let value = |i: usize| argmax(&march(&domain.voxels, &[candidates[i]], None).t).1;
+        let values: Vec<f64> = (0..candidates.len()).map(value).collect();
+        let best = (0..values.len())
+            .min_by(|&a, &b| values[a].total_cmp(&values[b]))
+            .unwrap();
+        let worst = (0..values.len())
+            .max_by(|&a, &b| values[a].total_cmp(&values[b]))
+            .unwrap();
+        let h = domain.voxels.h;
+        assert!(values[worst] - values[best] > 2.0 * h);
+        let map = |node: usize, kind| suitability::Suitability {
+            objective: Objective::Length,
+            unit: "mm",
+            tolerance: h,
+            nodes: vec![suitability::NodeScore {
+                node: 0,
+                point: candidates[node].point.to_array(),
+                score: values[node],
+                upper: Some(values[node]),
+                kind,
+            }],
+            best: Some(0),
+            exact: 1,
+            max_gap_pct: Some(0.0),
+            median_gap_pct: Some(0.0),
+            off_part: 0,
+            runs: 1,
+        };
+        let search = |i: usize, proven| Balanced {
+            candidate: i,
+            value: values[i],
+            lower_bound: 0.0,
+            runs: 40,
+            proven,
+        };
+        let value_of: fn(&GateFill) -> f64 = |f| f.l_max_mm;
+        let first = candidates[worst];
+        let take = |node: usize, kind, b: &Balanced| {
+            let from = (&candidates[..], first);
+            map_best_gate(&domain, from, &map(node, kind), b, &pp, (value_of, h))
+        };
+        let exact = suitability::ScoreKind::Exact;
+        let got = take(best, exact, &search(worst, false)).expect("the map's node");
+        assert_eq!(got.search.candidate, best);
+        assert!(got.search.proven);
+        assert!(got.search.value < values[worst] - h);
+        assert_eq!(got.fill.gate, candidates[best].point.to_array());
+        // A proven search, a node bounded only, or no gain of more than a cell: kept.
+        assert!(take(best, exact, &search(worst, true)).is_none());
+        let bounded = suitability::ScoreKind::LowerBound;
+        assert!(take(best, bounded, &search(worst, false)).is_none());
+        assert!(take(best, exact, &search(best, false)).is_none());
     }
 
     /// Five samples' domains (cells of 1.5 mm, PP) with every fifth cell a candidate,

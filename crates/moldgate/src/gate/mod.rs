@@ -372,7 +372,8 @@ pub struct Analysis {
     /// Nodes passing each rule.
     pub counts: RuleCounts,
     /// Surface points (first hit of the node's ray) of every qualifying node, in node
-    /// order.
+    /// order; when the gate of the largest fitting radius is the answer
+    /// ([`ThicknessFallback::LargestFitting`]), the nodes that qualify at that radius.
     pub qualifying_points: Vec<DVec3>,
     /// The nearest qualifying node, if any.
     pub grid_gate: Option<Gate>,
@@ -500,10 +501,11 @@ impl Analysis {
 }
 
 /// Searches the largest gate radius below `analysis`'s that fits (see [`RadiusFit`]).
+/// Also the qualifying points at the radius found (empty when none fits).
 fn largest_fitting_radius(
     part: &LoadedMesh,
     analysis: &Analysis,
-) -> Result<RadiusFit, OptionsError> {
+) -> Result<(RadiusFit, Vec<DVec3>), OptionsError> {
     let refused = analysis.options.gate_radius_mm;
     let options = LocateOptions {
         spacing: Spacing::Mm(analysis.grid.spacing),
@@ -512,13 +514,14 @@ fn largest_fitting_radius(
         ..analysis.options.clone()
     };
     let mut probes = 0;
-    let mut gate_at = |r: f64| -> Result<Option<Gate>, OptionsError> {
+    let mut gate_at = |r: f64| -> Result<Option<(Gate, Vec<DVec3>)>, OptionsError> {
         probes += 1;
         let o = LocateOptions {
             gate_radius_mm: r,
             ..options.clone()
         };
-        Ok(locate_once(part, &o)?.grid_gate)
+        let a = locate_once(part, &o)?;
+        Ok(a.grid_gate.map(|g| (g, a.qualifying_points)))
     };
     let floor = refused / FIT_FLOOR_DIVISOR;
     let mut best = gate_at(floor)?.map(|g| (floor, g));
@@ -535,15 +538,18 @@ fn largest_fitting_radius(
             }
         }
     }
-    Ok(RadiusFit {
+    let radius_mm = best.as_ref().map(|b| b.0);
+    let (gate, points) = best.map_or((None, Vec::new()), |(_, (g, p))| (Some(g), p));
+    let fit = RadiusFit {
         refused_mm: refused,
         floor_mm: floor,
-        radius_mm: best.map(|b| b.0),
-        gate: best.map(|b| b.1),
+        radius_mm,
+        gate,
         probes,
         reason: analysis.rule_that_removed_the_last_nodes(),
         accepted: false,
-    })
+    };
+    Ok((fit, points))
 }
 
 /// Locates the gate on a loaded part: the paper's algorithm, end to end.
@@ -554,7 +560,7 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
     let start = Instant::now();
     let mut analysis = locate_once(part, options)?;
     if analysis.thickness_removed_all() {
-        let mut fit = largest_fitting_radius(part, &analysis)?;
+        let (mut fit, points) = largest_fitting_radius(part, &analysis)?;
         if options.thickness_fallback == ThicknessFallback::LargestFitting {
             if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
                 analysis.warnings.push(format!(
@@ -562,6 +568,9 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
                     fit.refused_mm, fit.reason
                 ));
                 analysis.grid_gate = Some(gate);
+                // The nodes that qualify at that radius: the fill's candidates (the
+                // balanced gate, several gates, the suitability map).
+                analysis.qualifying_points = points;
                 fit.accepted = true;
             }
         }

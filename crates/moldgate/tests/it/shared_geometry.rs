@@ -419,7 +419,31 @@ fn abs_gate_that_the_thickness_rule_refuses_gets_the_largest_fitting_radius() {
     )
     .unwrap();
     assert_eq!(taken.gate().unwrap().point(), gate.point);
-    assert!(taken.radius_fit.unwrap().accepted);
+    assert!(taken.radius_fit.clone().unwrap().accepted);
+    // Its qualifying points are the nodes that qualify at the radius found (the fill's
+    // candidates), the gate's among them; at the refused radius there were none.
+    assert!(a.qualifying_points.is_empty());
+    let at_fit = locate(
+        &part,
+        &LocateOptions {
+            gate_radius_mm: r_fit,
+            spacing: moldgate::gate::Spacing::Mm(a.grid.spacing),
+            ..options.clone()
+        },
+    )
+    .unwrap();
+    assert_eq!(taken.qualifying_points, at_fit.qualifying_points);
+    assert!(taken.qualifying_points.contains(&gate.point));
+    // So the fill's balanced search has candidates on the gate's body.
+    let fill = moldgate::flow::analyse(
+        &part.mesh,
+        &taken,
+        &Material::builtin("ABS").unwrap(),
+        moldgate::flow::Walls::Estimate,
+        &moldgate::flow::FillOptions::default(),
+    )
+    .unwrap();
+    assert!(fill.balanced.is_some(), "{:?}", fill.warnings);
     assert!(
         taken.warnings.iter().any(|w| w.contains("1.915 mm")),
         "{:?}",
