@@ -61,9 +61,9 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
             flag(first),
             flag(second)
         )),
-        StudyError::UnknownMaterial { .. } => {
-            Failure::usage(format!("{e} (`moldgate materials` lists them all)"))
-        }
+        StudyError::UnknownMaterial { .. } => Failure::usage(format!(
+            "--material: {e} (`moldgate materials` lists them all)"
+        )),
         // The part's fault, not an option's: an input error that names the file.
         StudyError::Locate(
             l @ (OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. }),

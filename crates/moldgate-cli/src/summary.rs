@@ -259,11 +259,11 @@ pub fn render(r: &Report) -> String {
     );
     let _ = writeln!(
         s,
-        "demold {}, grid {} x {} nodes at {:.3} mm ({})",
+        "demold {}, grid {} x {} nodes at {} mm ({})",
         v3(o.demold),
         r.grid.n_u,
         r.grid.n_w,
-        o.spacing_mm,
+        three_figures(o.spacing_mm),
         o.spacing_rule
     );
     let _ = writeln!(

@@ -83,7 +83,10 @@ impl ApiError {
                 OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. },
             ) => ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message),
             // An option over its limit or budget, or a grid over max_nodes for the spacing.
-            StudyError::Locate(_) => ApiError::options(message).at("spacing"),
+            StudyError::Locate(l) => match l.field() {
+                Some(field) => ApiError::options(message).at(field),
+                None => ApiError::options(message),
+            },
             StudyError::Fill(FillError::TooFewCandidates { .. }) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "no_gate", message)
             }

@@ -288,6 +288,33 @@ pub enum OptionsError {
     },
 }
 
+impl OptionsError {
+    /// The [`crate::study::StudyOptions`] field the error is about, where one is (the
+    /// service's `at`): `spacing`, `circle_points`, `max_nodes`, ...
+    pub fn field(&self) -> Option<&'static str> {
+        let named = |option: &str| match option {
+            "gate radius" => Some("gate_radius"),
+            "circle points" => Some("circle_points"),
+            "the node limit" => Some("max_nodes"),
+            "keep-out regions" => Some("keep_out"),
+            "spacing" => Some("spacing"),
+            "grid offset" => Some("grid_offset"),
+            "flatness tolerance" => Some("flat_tol"),
+            _ => None,
+        };
+        match self {
+            OptionsError::NonPositive { option, .. } | OptionsError::AboveLimit { option, .. } => {
+                named(option)
+            }
+            OptionsError::GridTooLarge { .. } => Some("spacing"),
+            OptionsError::RayMemory { .. } => Some("max_nodes"),
+            OptionsError::BadRegion(_) => Some("keep_out"),
+            OptionsError::ZeroDirection(..) | OptionsError::BadDirection(_) => Some("demold"),
+            _ => None,
+        }
+    }
+}
+
 /// The most characters of the input an error message quotes.
 pub const EXCERPT_CHARS: usize = 40;
 
@@ -422,5 +449,52 @@ mod tests {
             let shown: f64 = rounded_up(x).parse().unwrap();
             assert!(shown >= x && shown <= x * 1.001, "{x} shown as {shown}");
         }
+    }
+
+    /// Every option a locate error names is a field of the study's options (the service
+    /// says where an error is by that field).
+    #[test]
+    fn locate_errors_name_a_field_of_the_study_options() {
+        let fields = serde_json::to_value(crate::study::StudyOptions::default()).unwrap();
+        let options = crate::LocateOptions::default();
+        let cases = [
+            crate::LocateOptions {
+                circle_points: 0,
+                ..options.clone()
+            },
+            crate::LocateOptions {
+                circle_points: 1 << 20,
+                ..options.clone()
+            },
+            crate::LocateOptions {
+                gate_radius_mm: f64::NAN,
+                ..options.clone()
+            },
+            crate::LocateOptions {
+                max_nodes: 0,
+                ..options.clone()
+            },
+            crate::LocateOptions {
+                spacing: crate::gate::Spacing::Mm(-1.0),
+                ..options.clone()
+            },
+            crate::LocateOptions {
+                grid_offset: f64::INFINITY,
+                ..options.clone()
+            },
+            crate::LocateOptions {
+                flat_tolerance_mm: Some(-1.0),
+                ..options.clone()
+            },
+        ];
+        for o in cases {
+            let e = o.validate().unwrap_err();
+            let field = e.field().unwrap_or_else(|| panic!("no field for {e}"));
+            assert!(fields.get(field).is_some(), "{field} ({e})");
+        }
+        assert_eq!(
+            OptionsError::BadDirection("x".into()).field(),
+            Some("demold")
+        );
     }
 }

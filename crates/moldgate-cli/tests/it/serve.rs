@@ -307,6 +307,18 @@ fn bad_options_are_400_with_the_librarys_message() {
         ("keep_out=cube:1,2,3", "keep_out", "keep_out"),
         ("gates=2&gates=3", "gates", "more than once"),
         ("units=furlong", "units", "units"),
+        // The library's limits name the option they are about.
+        (
+            "circle_points=100000",
+            "circle_points",
+            "circle points must be at most",
+        ),
+        (
+            "spacing=0.0001",
+            "spacing",
+            "a spacing of 0.0001 mm gives a grid",
+        ),
+        ("flat_tol=-1", "flat_tol", "flat"),
     ];
     for (query, place, needle) in cases {
         let r = study_stl(s.addr, query, &stl);

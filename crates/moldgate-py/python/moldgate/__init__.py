@@ -21,6 +21,7 @@ the GIL, so threads study parts in parallel.
 from __future__ import annotations
 
 import json as _json
+import math as _math
 import os as _os
 import time as _time
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
@@ -142,8 +143,15 @@ def _options_json(options: Mapping[str, Any]) -> str:
         options["keep_out"] = [options["keep_out"]]
     elif options.get("keep_out") is not None and not isinstance(options["keep_out"], list):
         options["keep_out"] = list(options["keep_out"])
+    for name, value in options.items():
+        # JSON has no NaN or infinity, and the options' integers fit 64 bits: said here by
+        # name, not as a JSON parser's complaint about the text it was given.
+        if isinstance(value, float) and not _math.isfinite(value):
+            raise OptionsError(f"{name} must be a finite number, got {value}")
+        if isinstance(value, int) and not isinstance(value, bool) and not -(2**63) <= value < 2**64:
+            raise OptionsError(f"{name} is out of range, got {value}")
     try:
-        return _json.dumps(options, default=_plain)
+        return _json.dumps(options, default=_plain, allow_nan=False)
     except (TypeError, ValueError) as e:
         raise OptionsError(f"cannot read the options: {e}") from None
 

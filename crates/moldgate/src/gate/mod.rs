@@ -13,7 +13,7 @@ use crate::centre::{CentreKind, Centres};
 use crate::error::{LocateError, OptionsError};
 use crate::frame::{Direction, Frame};
 use crate::keepout::Region;
-use crate::math::{DVec2, DVec3};
+use crate::math::{Aabb, DVec2, DVec3};
 use crate::mesh::LoadedMesh;
 pub use crate::parting::PartingRule;
 use crate::parting::{AestheticGate, PartingLine};
@@ -365,6 +365,9 @@ pub struct Analysis {
     pub centre: DVec3,
     /// The demolding frame.
     pub frame: Frame,
+    /// The diagonal of the part's box in the mesh's axes, mm (the size the loader's units
+    /// warning quotes).
+    pub diagonal_mm: f64,
     /// The grid of nodes.
     pub grid: Grid,
     /// Flatness tolerance used, in mm.
@@ -453,8 +456,7 @@ impl Analysis {
         }
         s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
         // A part whose size suggests other units fails for that reason more often than any.
-        let across =
-            DVec2::from_array(self.grid.box_hi).distance(DVec2::from_array(self.grid.box_lo));
+        let across = self.diagonal_mm;
         if crate::mesh::units::size_is_suspicious(across) {
             s += &format!(
                 "; the part is {across:.4} mm across as read: if the file is not in millimetres, pass --units (in, cm or m)"
@@ -591,18 +593,26 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
 
     let t = Instant::now();
     let frame = Frame::new(options.direction);
-    let (lo, hi) = mesh
+    // The box of the part seen along D, and its box in the mesh's axes (whose diagonal the
+    // loader's size warning gives, so that a message about the units quotes the same size).
+    let empty = || {
+        let (lo, hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        (DVec2::splat(lo), DVec2::splat(hi), Aabb::EMPTY)
+    };
+    let (lo, hi, bounds) = mesh
         .vertices
         .par_iter()
-        .map(|&p| frame.project(p))
-        .fold(
-            || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-            |(lo, hi), q| (lo.min(q), hi.max(q)),
-        )
-        .reduce(
-            || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
+        .fold(empty, |(lo, hi, b), &p| {
+            let q = frame.project(p);
+            (lo.min(q), hi.max(q), b.grown(p))
+        })
+        .reduce(empty, |a, b| {
+            (
+                a.0.min(b.0),
+                a.1.max(b.1),
+                a.2.grown(b.2.min).grown(b.2.max),
+            )
+        });
     let spacing = match options.spacing {
         Spacing::Auto => auto_spacing(hi - lo, r),
         Spacing::Mm(h) => h,
@@ -786,6 +796,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         centres,
         centre,
         frame,
+        diagonal_mm: bounds.diagonal(),
         grid,
         flat_tolerance_mm,
         counts,

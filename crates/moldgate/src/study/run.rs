@@ -178,8 +178,8 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     analysis.warnings.extend(s.warnings.iter().cloned());
     if analysis.counts.centre_hits < MIN_NODES_ON_PART {
         analysis.warnings.push(format!(
-            "only {} grid nodes fall on the part (spacing {:.3} mm): the gate is a coarse guess; use a smaller spacing",
-            analysis.counts.centre_hits, analysis.grid.spacing
+            "only {} grid nodes fall on the part (spacing {} mm): the gate is a coarse guess; use a smaller spacing",
+            analysis.counts.centre_hits, crate::report::three_figures(analysis.grid.spacing)
         ));
     }
     // The full wall map only when asked for; the fill analysis measures its own samples.

@@ -339,3 +339,31 @@ fn a_layout_of_gates_is_titled_in_its_objective_s_unit() {
         assert!(subtitle.contains(&format!(" {unit}, R = ")), "{subtitle}");
     }
 }
+
+/// A part whose size suggests other units: the no-gate reason quotes the size the loader's
+/// warning does (the box's diagonal in the mesh's axes), not another measure of it.
+#[test]
+fn a_part_of_suspicious_size_is_one_size_in_every_message() {
+    let mut mesh = moldgate::samples::sample("cover").unwrap();
+    for v in &mut mesh.vertices {
+        *v *= 0.001;
+    }
+    let part = moldgate::mesh::from_generated(mesh);
+    let warning = part
+        .warnings
+        .iter()
+        .find(|w| w.contains("mm across"))
+        .expect("the size warning");
+    let size = |text: &str| {
+        let at = text.find(" mm across").unwrap();
+        text[..at].rsplit(' ').next().unwrap().to_string()
+    };
+    let a = locate(&part, &moldgate::LocateOptions::default()).unwrap();
+    let reason = a.gate().unwrap_err().to_string();
+    assert!(reason.contains("mm across as read"), "{reason}");
+    assert_eq!(size(warning), size(&reason), "{warning} / {reason}");
+    // The box seen along D, which the reason used to quote, is another size.
+    let seen = moldgate::math::DVec2::from_array(a.grid.box_hi)
+        .distance(moldgate::math::DVec2::from_array(a.grid.box_lo));
+    assert_ne!(format!("{seen:.4}"), size(warning));
+}
