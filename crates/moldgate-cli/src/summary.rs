@@ -57,6 +57,10 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         s,
         "  (flow-cell wall: the wall of the fill's cell at a point, measured across one facet through the cell, which near a rib or step may not be the gate's own facet; the paper's wall along D is the node's ray; --wall-thickness measures every facet)"
     );
+    let _ = writeln!(
+        s,
+        "  (fill time: the way from the gate over the front speed of Eq. 7, each mm weighted by its wall; an estimate for comparing gates and parts, not the fill time of a moulding machine, which sets its own injection rate)"
+    );
     if let Some(w) = &f.wall {
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
         let _ = writeln!(

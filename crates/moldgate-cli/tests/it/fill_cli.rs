@@ -160,6 +160,15 @@ fn several_gates_minimising_the_fill_time_are_summarised_in_seconds() {
         .take(3)
         .collect();
     assert_eq!(layout.len(), 3, "{text}");
+    // What a fill time is, said once beside the numbers.
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.starts_with("  (fill time: ")
+                && l.contains("not the fill time of a moulding machine"))
+            .count(),
+        1,
+        "{text}"
+    );
     for line in layout {
         assert!(
             line.contains("fill time 0.")
