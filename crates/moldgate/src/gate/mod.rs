@@ -378,6 +378,10 @@ pub struct Analysis {
     /// order; when the gate of the largest fitting radius is the answer
     /// ([`ThicknessFallback::LargestFitting`]), the nodes that qualify at that radius.
     pub qualifying_points: Vec<DVec3>,
+    /// For each qualifying point, how far its node's circle reaches off its height along D,
+    /// mm: above [`Analysis::flat_tolerance_mm`] the seat is not flat (a step, rib or
+    /// slope). The fill's gates are qualifying points: their seats are warned by it.
+    pub qualifying_step_mm: Vec<f32>,
     /// The nearest qualifying node, if any.
     pub grid_gate: Option<Gate>,
     /// The qualifying node nearest by the other measure (2D when the rule is 3D and back),
@@ -503,11 +507,12 @@ impl Analysis {
 }
 
 /// Searches the largest gate radius below `analysis`'s that fits (see [`RadiusFit`]).
-/// Also the qualifying points at the radius found (empty when none fits).
+/// Also the qualifying points at the radius found, and their steps (empty when none fits).
+#[allow(clippy::type_complexity)]
 fn largest_fitting_radius(
     part: &LoadedMesh,
     analysis: &Analysis,
-) -> Result<(RadiusFit, Vec<DVec3>), OptionsError> {
+) -> Result<(RadiusFit, (Vec<DVec3>, Vec<f32>)), OptionsError> {
     let refused = analysis.options.gate_radius_mm;
     let options = LocateOptions {
         spacing: Spacing::Mm(analysis.grid.spacing),
@@ -516,14 +521,15 @@ fn largest_fitting_radius(
         ..analysis.options.clone()
     };
     let mut probes = 0;
-    let mut gate_at = |r: f64| -> Result<Option<(Gate, Vec<DVec3>)>, OptionsError> {
+    let mut gate_at = |r: f64| -> Result<Option<(Gate, (Vec<DVec3>, Vec<f32>))>, OptionsError> {
         probes += 1;
         let o = LocateOptions {
             gate_radius_mm: r,
             ..options.clone()
         };
         let a = locate_once(part, &o)?;
-        Ok(a.grid_gate.map(|g| (g, a.qualifying_points)))
+        Ok(a.grid_gate
+            .map(|g| (g, (a.qualifying_points, a.qualifying_step_mm))))
     };
     let floor = refused / FIT_FLOOR_DIVISOR;
     let mut best = gate_at(floor)?.map(|g| (floor, g));
@@ -541,7 +547,7 @@ fn largest_fitting_radius(
         }
     }
     let radius_mm = best.as_ref().map(|b| b.0);
-    let (gate, points) = best.map_or((None, Vec::new()), |(_, (g, p))| (Some(g), p));
+    let (gate, points) = best.map_or((None, Default::default()), |(_, (g, p))| (Some(g), p));
     let fit = RadiusFit {
         refused_mm: refused,
         floor_mm: floor,
@@ -572,7 +578,7 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
                 analysis.grid_gate = Some(gate);
                 // The nodes that qualify at that radius: the fill's candidates (the
                 // balanced gate, several gates, the suitability map).
-                analysis.qualifying_points = points;
+                (analysis.qualifying_points, analysis.qualifying_step_mm) = points;
                 fit.accepted = true;
             }
         }
@@ -757,6 +763,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         .iter()
         .map(|&i| frame.point(grid.node(i), centre_hits[i].first))
         .collect();
+    let qualifying_step_mm = pool.iter().map(|&i| disc_step(&hits, i) as f32).collect();
     let pick = |rule: Nearest| {
         nearest_node(&pool, &grid, &frame, centre, centre_hits, rule).map(|(i, ties)| {
             let hit = centre_hits[i];
@@ -801,6 +808,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         flat_tolerance_mm,
         counts,
         qualifying_points,
+        qualifying_step_mm,
         grid_gate,
         other_rule_gate,
         parting,
@@ -950,12 +958,17 @@ pub(crate) struct NodeVerdict {
 /// the gate may sit on a step or a rib): how far its circle's points lie from the gate's
 /// height along D. It is one of the analysis's warnings, so every front end (the summary,
 /// the JSON, the page, the batch rows) says it alike.
-fn not_flat_warning(hits: &Projection, node: usize, flat_tol: f64) -> String {
+/// How far a node's circle reaches off its own height along D, mm (0 on a flat seat).
+fn disc_step(hits: &Projection, node: usize) -> f64 {
     let gate = hits.nodes[node].first;
-    let step = (0..hits.circle_count())
+    (0..hits.circle_count())
         .filter_map(|k| hits.circle(k, node))
         .map(|p| (p.height - gate).abs())
-        .fold(0.0f64, f64::max);
+        .fold(0.0f64, f64::max)
+}
+
+fn not_flat_warning(hits: &Projection, node: usize, flat_tol: f64) -> String {
+    let step = disc_step(hits, node);
     format!(
         "the grid gate's disc is not flat: its circle reaches {step:.2} mm off the gate's height along D (a step, rib or slope; flatness tolerance {flat_tol:.3} mm; --require-flat keeps only flat nodes)"
     )

@@ -367,3 +367,36 @@ fn a_part_of_suspicious_size_is_one_size_in_every_message() {
         .distance(moldgate::math::DVec2::from_array(a.grid.box_lo));
     assert_ne!(format!("{seen:.4}"), size(warning));
 }
+
+/// A gate of a layout whose node's disc is not flat is warned, with its step; a gate on a
+/// flat seat is not; with `require_flat` every candidate is flat and nothing is warned.
+#[test]
+fn layout_gates_off_a_flat_seat_are_warned() {
+    let part = sample("bracket");
+    let mut warned = 0;
+    for (json, flat_only) in [
+        (r#"{ "gates": 2 }"#, false),
+        (r#"{ "gates": 3 }"#, false),
+        (r#"{ "gates": 3, "require_flat": true }"#, true),
+    ] {
+        let s = study(&part, &options(json)).unwrap();
+        let a = s.analysis();
+        let fill = s.report().fill.as_ref().unwrap();
+        for (k, g) in fill.several.as_ref().unwrap().gates.iter().enumerate() {
+            let p = moldgate::math::DVec3::from_array(g.point);
+            let i = a.qualifying_points.iter().position(|&q| q == p).unwrap();
+            let step = a.qualifying_step_mm[i] as f64;
+            let needle = format!("gate {} of the layout", k + 1);
+            let said = fill.warnings.iter().find(|w| w.starts_with(&needle));
+            match said {
+                Some(w) => {
+                    warned += 1;
+                    assert!(step > a.flat_tolerance_mm && !flat_only, "{json}: {w}");
+                    assert!(w.contains(&format!("{step:.2} mm off its height")), "{w}");
+                }
+                None => assert!(step <= a.flat_tolerance_mm, "{json}: gate {k}, step {step}"),
+            }
+        }
+    }
+    assert!(warned > 0, "the bracket's layouts have a gate on a step");
+}
