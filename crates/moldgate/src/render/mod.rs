@@ -133,6 +133,9 @@ pub struct Picture {
     canvas: Canvas,
     /// The two views, along D first.
     pub views: Vec<View>,
+    /// Per view, per gate of the scene: whether the part hides the gate's point there
+    /// (drawn faint and dashed, labelled "hidden").
+    pub hidden_gates: Vec<Vec<bool>>,
 }
 
 impl Picture {
@@ -277,9 +280,10 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         canvas.pixmap.data_mut(),
         stride,
     );
+    let mut hidden_gates = Vec::new();
     for (view, panel) in views.iter().zip(&panels) {
         let tolerance = (4.0 * sample_mm(view)).max(0.005 * diagonal);
-        draw_overlays(
+        let hidden = draw_overlays(
             &mut canvas,
             scene,
             view,
@@ -287,6 +291,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             (tolerance, &range),
             k,
         );
+        hidden_gates.push(hidden);
         canvas.stroke_rect(
             view.panel.x as f32 + 0.5,
             view.panel.y as f32 + 0.5,
@@ -298,7 +303,11 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     }
     draw_title(&mut canvas, scene, &layout, k);
     draw_side_bar(&mut canvas, scene, &layout, &range, &lut, k);
-    Ok(Picture { canvas, views })
+    Ok(Picture {
+        canvas,
+        views,
+        hidden_gates,
+    })
 }
 
 /// How far the stroked parting line may stray from its points, pixels.
@@ -507,7 +516,7 @@ fn draw_overlays(
     depths: &Depths,
     (tolerance, range): (f64, &FieldRange),
     k: f32,
-) {
+) -> Vec<bool> {
     let cam = &view.camera;
     draw_qualifying(canvas, scene, view, depths, tolerance, range);
 
@@ -552,19 +561,22 @@ fn draw_overlays(
         // It lies inside the part or behind it: say so, the cross is drawn over it.
         "centre of mass (hidden)"
     };
-    let discs: Vec<(Vec<[f32; 2]>, f32, [f32; 2])> = scene
+    // Each gate's disc, and whether the part hides its point in this view (a gate inside
+    // a box seen from outside): drawn faint and dashed, and labelled so.
+    let discs: Vec<(Vec<[f32; 2]>, f32, [f32; 2], bool)> = scene
         .gates
         .iter()
         .map(|g| {
             let (outline, r) = gate_outline(cam, g);
             let p = cam.to_pixel(g.point);
-            (outline, r, [p.x as f32, p.y as f32])
+            let hidden = !depths.visible(p.x, p.y, cam.depth(g.point), tolerance);
+            (outline, r, [p.x as f32, p.y as f32], hidden)
         })
         .collect();
     taken.extend(
         discs
             .iter()
-            .map(|(_, r, [x, y])| [x - r, y - r, x + r, y + r]),
+            .map(|(_, r, [x, y], _)| [x - r, y - r, x + r, y + r]),
     );
     let panel = view.panel;
     let inside = [
@@ -588,13 +600,16 @@ fn draw_overlays(
     canvas.text(lx, ly, centre_label, &centre_style, align);
     taken.push(text_box(lx, ly, centre_label, &centre_style, align));
     let gate_style = TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE);
-    for (i, (outline, r, [x, y])) in discs.iter().enumerate() {
-        draw_gate(canvas, outline, *x, *y, *r, k);
-        let label = if scene.gates.len() > 1 {
+    for (i, (outline, r, [x, y], hidden)) in discs.iter().enumerate() {
+        draw_gate(canvas, outline, [*x, *y, *r], *hidden, k);
+        let mut label = if scene.gates.len() > 1 {
             format!("gate {}", i + 1)
         } else {
             "gate".to_string()
         };
+        if *hidden {
+            label += " (hidden)";
+        }
         let (tx, ty, align) =
             gate_label_place([*x, *y], *r, &label, &gate_style, &taken, inside, k);
         canvas.text(tx, ty, &label, &gate_style, align);
@@ -628,6 +643,7 @@ fn draw_overlays(
         &TextStyle::new(14.0 * k, GREY),
         Align::Left,
     );
+    discs.iter().map(|d| d.3).collect()
 }
 
 /// The places whose depth the overlays of `view` look up (qualifying points, the parting
@@ -648,6 +664,10 @@ fn ask_depths(scene: &Scene, view: &View) -> Depths {
     }
     let c = cam.to_pixel(scene.centre);
     depths.ask(c.x, c.y);
+    for g in &scene.gates {
+        let q = cam.to_pixel(g.point);
+        depths.ask(q.x, q.y);
+    }
     depths
 }
 
@@ -1035,10 +1055,13 @@ fn gate_outline(cam: &Camera, g: &crate::scene::Marker) -> (Vec<[f32; 2]>, f32) 
     )
 }
 
-fn draw_gate(canvas: &mut Canvas, outline: &[[f32; 2]], x: f32, y: f32, r: f32, k: f32) {
-    canvas.stroke_polyline(outline, true, BLACK, 4.5 * k.max(0.7), None);
-    canvas.stroke_polyline(outline, true, WHITE, 2.5 * k.max(0.7), None);
-    canvas.fill_polygon(outline, GATE_COLOUR, 255);
+/// A gate's disc at (x, y) of radius r, pixels; a gate the part hides in the view is faint,
+/// its outline dashed.
+fn draw_gate(canvas: &mut Canvas, outline: &[[f32; 2]], [x, y, r]: [f32; 3], hidden: bool, k: f32) {
+    let dash = hidden.then_some([4.0 * k, 3.0 * k]);
+    canvas.stroke_polyline(outline, true, BLACK, 4.5 * k.max(0.7), dash);
+    canvas.stroke_polyline(outline, true, WHITE, 2.5 * k.max(0.7), dash);
+    canvas.fill_polygon(outline, GATE_COLOUR, if hidden { 110 } else { 255 });
     if r < 10.0 * k {
         // A small gate gets a ring around it so the eye finds it.
         canvas.stroke_circle(x, y, r + 9.0 * k, WHITE, 4.0 * k);

@@ -568,3 +568,26 @@ fn demold_auto_works_beside_the_rays_of_the_line_it_chooses() {
         "no part drew a line ray by ray: the test shows nothing"
     );
 }
+
+/// The PSU cover's paper gate sits on the floor inside its box: seen along D it shows, and
+/// in the isometric view the box's wall hides it, which the picture says ("hidden"). The
+/// plate's gate, on its top, shows in both views.
+#[test]
+fn a_gate_the_part_hides_is_drawn_hidden() {
+    let test = "a_gate_the_part_hides_is_drawn_hidden";
+    let hidden = |part: &LoadedMesh, demold: &str| {
+        let options: moldgate::StudyOptions =
+            serde_json::from_str(&format!(r#"{{ "demold": "{demold}" }}"#)).unwrap();
+        let s = moldgate::study(part, &options).unwrap();
+        let scene = s.scene(part, "part").unwrap();
+        let picture = moldgate::render::render(&scene, &Default::default()).unwrap();
+        picture.hidden_gates
+    };
+    let plate = mesh::from_generated(moldgate::samples::sample("plate").unwrap());
+    assert_eq!(hidden(&plate, "+z"), [[false], [false]]);
+    if parts_dir().is_none() {
+        return skip(test);
+    }
+    let psu = load("prusa_psu_cover_mk3_ascii.stl");
+    assert_eq!(hidden(&psu, "+z"), [[false], [true]]);
+}
