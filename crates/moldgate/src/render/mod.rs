@@ -563,21 +563,24 @@ fn draw_overlays(
     };
     // Each gate's disc, and whether the part hides its point in this view (a gate inside
     // a box seen from outside): drawn faint and dashed, and labelled so.
-    let discs: Vec<(Vec<[f32; 2]>, f32, [f32; 2], bool)> = scene
+    let discs: Vec<Disc> = scene
         .gates
         .iter()
         .map(|g| {
             let (outline, r) = gate_outline(cam, g);
             let p = cam.to_pixel(g.point);
-            let hidden = !depths.visible(p.x, p.y, cam.depth(g.point), tolerance);
-            (outline, r, [p.x as f32, p.y as f32], hidden)
+            Disc {
+                outline,
+                r,
+                at: [p.x as f32, p.y as f32],
+                hidden: !depths.visible(p.x, p.y, cam.depth(g.point), tolerance),
+            }
         })
         .collect();
-    taken.extend(
-        discs
-            .iter()
-            .map(|(_, r, [x, y], _)| [x - r, y - r, x + r, y + r]),
-    );
+    taken.extend(discs.iter().map(|d| {
+        let ([x, y], r) = (d.at, d.r);
+        [x - r, y - r, x + r, y + r]
+    }));
     let panel = view.panel;
     let inside = [
         panel.x as f32,
@@ -600,18 +603,18 @@ fn draw_overlays(
     canvas.text(lx, ly, centre_label, &centre_style, align);
     taken.push(text_box(lx, ly, centre_label, &centre_style, align));
     let gate_style = TextStyle::new(15.0 * k, GATE_COLOUR).bold().halo(WHITE);
-    for (i, (outline, r, [x, y], hidden)) in discs.iter().enumerate() {
-        draw_gate(canvas, outline, [*x, *y, *r], *hidden, k);
+    for (i, d) in discs.iter().enumerate() {
+        let ([x, y], r) = (d.at, d.r);
+        draw_gate(canvas, &d.outline, [x, y, r], d.hidden, k);
         let mut label = if scene.gates.len() > 1 {
             format!("gate {}", i + 1)
         } else {
             "gate".to_string()
         };
-        if *hidden {
+        if d.hidden {
             label += " (hidden)";
         }
-        let (tx, ty, align) =
-            gate_label_place([*x, *y], *r, &label, &gate_style, &taken, inside, k);
+        let (tx, ty, align) = gate_label_place([x, y], r, &label, &gate_style, &taken, inside, k);
         canvas.text(tx, ty, &label, &gate_style, align);
         taken.push(text_box(tx, ty, &label, &gate_style, align));
     }
@@ -643,7 +646,16 @@ fn draw_overlays(
         &TextStyle::new(14.0 * k, GREY),
         Align::Left,
     );
-    discs.iter().map(|d| d.3).collect()
+    discs.iter().map(|d| d.hidden).collect()
+}
+
+/// A gate's disc in a view: its outline and radius, pixels, its centre, and whether the
+/// part hides it there.
+struct Disc {
+    outline: Vec<[f32; 2]>,
+    r: f32,
+    at: [f32; 2],
+    hidden: bool,
 }
 
 /// The places whose depth the overlays of `view` look up (qualifying points, the parting
