@@ -1050,6 +1050,27 @@ fn gate_outline(cam: &Camera, g: &crate::scene::Marker) -> (Vec<[f32; 2]>, f32) 
         .collect();
     let r = pts.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
     let min_r = 3.0;
+    // A disc seen edge on (a gate on a wall parallel to the view) is a thin ellipse: its
+    // minor axis is widened to `min_r` so that it reads as a disc, not a sliver.
+    let minor = pts
+        .iter()
+        .map(|p| (*p - c).length())
+        .fold(f64::INFINITY, f64::min);
+    if r >= min_r && minor < min_r {
+        let far = pts.iter().copied().max_by(|a, b| {
+            (*a - c)
+                .length_squared()
+                .total_cmp(&(*b - c).length_squared())
+        });
+        let major = (far.unwrap_or(c) - c).normalize_or_zero();
+        let across = DVec2::new(-major.y, major.x);
+        // The projected circle is an ellipse of semi-axes r and `minor`: drawn again with
+        // `min_r` across.
+        for (i, p) in pts.iter_mut().enumerate() {
+            let a = i as f64 / 64.0 * std::f64::consts::TAU;
+            *p = c + major * (r * a.cos()) + across * (min_r * a.sin());
+        }
+    }
     if r < min_r {
         let stretch = if r > 1e-9 { min_r / r } else { 0.0 };
         for (i, p) in pts.iter_mut().enumerate() {
@@ -1074,8 +1095,12 @@ fn draw_gate(canvas: &mut Canvas, outline: &[[f32; 2]], [x, y, r]: [f32; 3], hid
     canvas.stroke_polyline(outline, true, BLACK, 4.5 * k.max(0.7), dash);
     canvas.stroke_polyline(outline, true, WHITE, 2.5 * k.max(0.7), dash);
     canvas.fill_polygon(outline, GATE_COLOUR, if hidden { 110 } else { 255 });
-    if r < 10.0 * k {
-        // A small gate gets a ring around it so the eye finds it.
+    // Small on screen, or seen edge on (narrow): a ring around it so the eye finds it.
+    let narrow = outline
+        .iter()
+        .map(|p| (p[0] - x).hypot(p[1] - y))
+        .fold(f32::INFINITY, f32::min);
+    if r < 10.0 * k || narrow < 4.0 * k {
         canvas.stroke_circle(x, y, r + 9.0 * k, WHITE, 4.0 * k);
         canvas.stroke_circle(x, y, r + 9.0 * k, GATE_COLOUR, 2.2 * k);
     }
@@ -1542,6 +1567,47 @@ mod tests {
             (x, y, align),
             (c[0] - reach - 6.0, c[1] + 18.0, Align::Right)
         );
+    }
+
+    /// A gate seen face on is its circle; seen edge on (on a wall along the view) it is
+    /// widened to an ellipse 3 px across each way, not left a sliver.
+    #[test]
+    fn a_gate_seen_edge_on_is_drawn_as_a_narrow_disc_not_a_sliver() {
+        let cam = Camera {
+            right: DVec3::X,
+            up: DVec3::Y,
+            toward: DVec3::Z,
+            centre: DVec2::ZERO,
+            scale: 5.0,
+            origin: DVec2::new(400.0, 300.0),
+        };
+        let extent = |normal: DVec3| {
+            let g = crate::scene::Marker {
+                point: DVec3::ZERO,
+                normal,
+                radius_mm: 1.5,
+            };
+            let (outline, r) = gate_outline(&cam, &g);
+            let d: Vec<f32> = outline
+                .iter()
+                .map(|p| (p[0] - 400.0).hypot(p[1] - 300.0))
+                .collect();
+            (
+                r,
+                d.iter().copied().fold(f32::INFINITY, f32::min),
+                d.iter().copied().fold(0.0, f32::max),
+            )
+        };
+        let (r, least, most) = extent(DVec3::Z);
+        assert!((r - 7.5).abs() < 1e-3 && (least - 7.5).abs() < 0.01 && (most - 7.5).abs() < 0.01);
+        for normal in [DVec3::X, DVec3::Y, DVec3::new(1.0, 0.0, 0.02).normalize()] {
+            let (r, least, most) = extent(normal);
+            assert!((r - 7.5).abs() < 1e-3, "{normal}: {r}");
+            assert!(
+                (least - 3.0).abs() < 0.01 && (most - 7.5).abs() < 0.01,
+                "{normal}: {least} {most}"
+            );
+        }
     }
 
     #[test]
