@@ -258,6 +258,17 @@ async fn multipart(
         .map_err(|e| bad(format!("the multipart body cannot be read: {e}")))?
     {
         let name = field.name().unwrap_or("").to_string();
+        // A second part of a name would silently replace the first: one study, one of each.
+        let twice = match name.as_str() {
+            "options" => options.is_some(),
+            "mesh" => mesh.is_some(),
+            _ => false,
+        };
+        if twice {
+            return Err(bad(format!(
+                "the '{name}' part is given more than once (a study takes one mesh and one options object; send several parts as several requests)"
+            )));
+        }
         match name.as_str() {
             "options" => {
                 let text = field

@@ -177,6 +177,36 @@ fn multipart_options_and_formats_give_the_same_report() {
         &body,
     );
     assert_eq!(assert_error(&s, &both, 400, "options")["where"], "material");
+    // Two mesh parts, or two options parts: refused, not the last one studied.
+    let mesh_part = format!(
+        "--{b}\r\ncontent-disposition: form-data; name=\"mesh\"; filename=\"plate.stl\"\r\ncontent-type: application/octet-stream\r\n\r\n"
+    );
+    let end = body.len() - format!("\r\n--{b}--\r\n").len();
+    for extra in [
+        mesh_part.as_bytes().to_vec(),
+        format!("--{b}\r\ncontent-disposition: form-data; name=\"options\"\r\n\r\n{{}}")
+            .into_bytes(),
+    ] {
+        let mut twice = body[..end].to_vec();
+        twice.extend_from_slice(b"\r\n");
+        twice.extend_from_slice(&extra);
+        if extra.starts_with(mesh_part.as_bytes()) {
+            twice.extend_from_slice(&stl);
+        }
+        twice.extend_from_slice(format!("\r\n--{b}--\r\n").as_bytes());
+        let r = request(
+            s.addr,
+            "POST",
+            "/v1/study",
+            &[("content-type", &ct)],
+            &twice,
+        );
+        let e = assert_error(&s, &r, 400, "body");
+        assert!(
+            e["message"].as_str().unwrap().contains("more than once"),
+            "{e}"
+        );
+    }
     // application/octet-stream with format=, and the format parameter over the type.
     let octet = request(
         s.addr,
