@@ -2,7 +2,8 @@
 //!
 //! Read: `v x y z [w]` (extra numbers such as vertex colours are ignored) and `f` with
 //! corners `i`, `i/j`, `i/j/k` or `i//k`, where `i` is 1-based or negative (relative to the
-//! vertices defined so far). Polygons are fanned into triangles from their first corner.
+//! vertices defined so far); the texture coordinate `j` and normal `k` are not used, but
+//! must exist (`vt` and `vn` lines before the face), as a malformed file is refused. Polygons are fanned into triangles from their first corner.
 //! Comments (`#`), and the statements that do not change the surface (`vt`, `vn`, `vp`, `o`,
 //! `g`, `s`, `usemtl`, `mtllib`, lines, points and the free-form statements) are skipped.
 //! Every error names its 1-based line.
@@ -70,6 +71,9 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
     let mut positions: Vec<DVec3> = Vec::new();
     let mut corners: Vec<usize> = Vec::new();
     let mut facets = 0u64;
+    // Texture coordinates and normals defined so far: a face's references to them are
+    // checked as its vertices are, though neither is used.
+    let mut defined = Defined::default();
     let mut line = Vec::new();
     let syntax = |line: u64, message: String| LoadError::Syntax {
         place: Place::Line(line),
@@ -124,7 +128,8 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
                             ),
                         ));
                     }
-                    corners.push(corner(tok, positions.len(), line_no)?);
+                    defined.vertices = positions.len();
+                    corners.push(corner(tok, &defined, line_no)?);
                 }
                 if corners.len() < 3 {
                     return Err(syntax(
@@ -145,6 +150,8 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
                     facets += 1;
                 }
             }
+            b"vt" => defined.textures += 1,
+            b"vn" => defined.normals += 1,
             other if SKIPPED.contains(&other) => {}
             other => {
                 return Err(syntax(
@@ -185,30 +192,67 @@ fn number(tok: &[u8], line: u64) -> Result<f64, LoadError> {
     Ok(value)
 }
 
-/// The 0-based vertex of a face corner `i`, `i/j`, `i/j/k` or `i//k`, given the number of
-/// vertices defined before this line.
-fn corner(tok: &[u8], defined: usize, line: u64) -> Result<usize, LoadError> {
+/// What a face corner may refer to: the vertices, texture coordinates and normals defined
+/// before its line.
+#[derive(Debug, Default)]
+struct Defined {
+    vertices: usize,
+    textures: usize,
+    normals: usize,
+}
+
+/// The 0-based vertex of a face corner `i`, `i/j`, `i/j/k` or `i//k`; the texture
+/// coordinate `j` and normal `k`, when given, must exist too (they are not used).
+fn corner(tok: &[u8], defined: &Defined, line: u64) -> Result<usize, LoadError> {
     let syntax = |message: String| LoadError::Syntax {
         place: Place::Line(line),
         message,
     };
     let shown = || excerpt(tok);
-    let index = tok.split(|&b| b == b'/').next().unwrap_or_default();
-    let i: i64 = std::str::from_utf8(index)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .ok_or_else(|| syntax(format!("expected a vertex index, found '{}'", shown())))?;
-    let resolved = match i {
-        0 => return Err(syntax("vertex index 0 (indices start at 1)".to_string())),
-        i if i > 0 => i - 1,
-        i => defined as i64 + i,
+    let mut parts = tok.split(|&b| b == b'/');
+    let index = |part: &[u8], what: &str, plural: &str, count: usize| {
+        let i: i64 = std::str::from_utf8(part)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| syntax(format!("expected a {what} index, found '{}'", shown())))?;
+        let resolved = match i {
+            0 => return Err(syntax(format!("{what} index 0 (indices start at 1)"))),
+            i if i > 0 => i - 1,
+            i => count as i64 + i,
+        };
+        if resolved < 0 || resolved >= count as i64 {
+            return Err(syntax(format!(
+                "{what} index {i} is out of range: {count} {plural} are defined before this line"
+            )));
+        }
+        Ok(resolved as usize)
     };
-    if resolved < 0 || resolved >= defined as i64 {
+    let vertex = index(
+        parts.next().unwrap_or_default(),
+        "vertex",
+        "vertices",
+        defined.vertices,
+    )?;
+    let others = [
+        (
+            "texture coordinate",
+            "texture coordinates",
+            defined.textures,
+        ),
+        ("normal", "normals", defined.normals),
+    ];
+    for ((what, plural, count), part) in others.into_iter().zip(parts.by_ref()) {
+        if !part.is_empty() {
+            index(part, what, plural, count)?;
+        }
+    }
+    if parts.next().is_some() {
         return Err(syntax(format!(
-            "vertex index {i} is out of range: {defined} vertices are defined before this line"
+            "expected a corner i, i/j, i/j/k or i//k, found '{}'",
+            shown()
         )));
     }
-    Ok(resolved as usize)
+    Ok(vertex)
 }
 
 #[cfg(test)]
@@ -265,5 +309,49 @@ mod tests {
             let err = read_str(&format!("{base}{bad}")).unwrap_err();
             assert_eq!(line_of(err), line, "{bad:?}");
         }
+    }
+
+    /// A face's texture and normal references are checked as its vertices are: against what
+    /// is defined before its line.
+    #[test]
+    fn texture_and_normal_references_must_exist() {
+        let base = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\n";
+        for good in [
+            "f 1/1 2/2 3/-1\n",
+            "f 1//1 2//1 3//-1\n",
+            "f 1/2/1 2/1/1 3/1/1\n",
+        ] {
+            assert!(read_str(&format!("{base}{good}")).is_ok(), "{good:?}");
+        }
+        for (bad, message) in [
+            (
+                "f 1/3 2/1 3/1\n",
+                "texture coordinate index 3 is out of range: 2 texture coordinates",
+            ),
+            (
+                "f 1/-3 2/1 3/1\n",
+                "texture coordinate index -3 is out of range",
+            ),
+            (
+                "f 1//2 2//1 3//1\n",
+                "normal index 2 is out of range: 1 normals",
+            ),
+            ("f 1/0 2/1 3/1\n", "texture coordinate index 0"),
+            (
+                "f 1/x 2/1 3/1\n",
+                "expected a texture coordinate index, found '1/x'",
+            ),
+            (
+                "f 1/1/1/1 2/1 3/1\n",
+                "expected a corner i, i/j, i/j/k or i//k, found '1/1/1/1'",
+            ),
+        ] {
+            let err = read_str(&format!("{base}{bad}")).unwrap_err();
+            assert!(err.to_string().contains(message), "{bad:?}: {err}");
+            assert_eq!(line_of(err), 7, "{bad:?}");
+        }
+        // Defined after the face: not yet there.
+        let later = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\nvt 0 0\n";
+        assert_eq!(line_of(read_str(later).unwrap_err()), 4);
     }
 }
