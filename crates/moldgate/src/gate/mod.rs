@@ -763,7 +763,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         .iter()
         .map(|&i| frame.point(grid.node(i), centre_hits[i].first))
         .collect();
-    let qualifying_step_mm = pool.iter().map(|&i| disc_step(&hits, i) as f32).collect();
+    let qualifying_step_mm = pool.iter().map(|&i| nodes[i].step as f32).collect();
     let pick = |rule: Nearest| {
         nearest_node(&pool, &grid, &frame, centre, centre_hits, rule).map(|(i, ties)| {
             let hit = centre_hits[i];
@@ -952,6 +952,9 @@ pub(crate) struct NodeVerdict {
     pub(crate) disc_thickness: Option<f64>,
     /// Every circle point within the flatness tolerance of the node's height.
     pub(crate) flat: bool,
+    /// How far the circle reaches off the node's height along D, mm (when it is on the
+    /// part; else 0).
+    pub(crate) step: f64,
 }
 
 /// The warning of a grid gate whose circle is not flat (the paper does not require it, so
@@ -983,15 +986,20 @@ fn judge(i: usize, hits: &Projection, flat_tol: f64) -> NodeVerdict {
         .chain(circles.clone().map(|k| circle(k).and_then(|p| p.thickness)))
         .flatten()
         .reduce(f64::min);
-    let flat = circle_on_part
-        && circles
-            .clone()
-            .all(|k| circle(k).is_some_and(|p| (p.height - c.first).abs() <= flat_tol));
+    let step = match circle_on_part {
+        true => circles
+            .filter_map(circle)
+            .map(|p| (p.height - c.first).abs())
+            .fold(0.0f64, |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) }),
+        false => 0.0,
+    };
+    let flat = circle_on_part && step <= flat_tol;
     NodeVerdict {
         centre_hit: c.is_hit(),
         circle_on_part,
         disc_thickness,
         flat,
+        step,
     }
 }
 
