@@ -59,6 +59,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
+use crate::cancel::Cancel;
 use crate::math::DVec3;
 use crate::mesh::Mesh;
 pub use crate::raycast::Sampling;
@@ -156,12 +157,33 @@ pub fn wall_thickness(mesh: &Mesh, options: &ThicknessOptions) -> WallThickness 
 
 /// [`wall_thickness`] with a tree already built over `mesh`.
 pub fn wall_thickness_with(mesh: &Mesh, bvh: &Bvh, options: &ThicknessOptions) -> WallThickness {
+    every_triangle(mesh, bvh, options, None)
+}
+
+/// [`wall_thickness_with`] that stops once `cancel` is set (each facet reads it before its
+/// rays): `None` when it was.
+pub fn wall_thickness_until(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    options: &ThicknessOptions,
+    cancel: &Cancel,
+) -> Option<WallThickness> {
+    let w = every_triangle(mesh, bvh, options, Some(cancel));
+    (!cancel.is_cancelled()).then_some(w)
+}
+
+fn every_triangle(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    options: &ThicknessOptions,
+    cancel: Option<&Cancel>,
+) -> WallThickness {
     // Every triangle: the tree's leaf order is already the order to cast in.
     let per_triangle = if bvh.len() == mesh.triangles.len() {
-        thickness_in_order(mesh, bvh, options, bvh.leaf_order())
+        thickness_in_order(mesh, bvh, options, bvh.leaf_order(), cancel)
     } else {
         let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-        wall_thickness_of(mesh, bvh, options, &all)
+        thickness_in_order(mesh, bvh, options, &all, cancel)
     };
     summarise(mesh, per_triangle)
 }
@@ -177,7 +199,7 @@ pub fn wall_thickness_of(
     // Cast in the tree's leaf order: neighbouring facets send their rays through the same
     // boxes, which stay in the cache.
     if bvh.len() != mesh.triangles.len() {
-        return thickness_in_order(mesh, bvh, options, triangles);
+        return thickness_in_order(mesh, bvh, options, triangles, None);
     }
     let mut wanted = vec![false; mesh.triangles.len()];
     for &t in triangles {
@@ -191,16 +213,17 @@ pub fn wall_thickness_of(
         .copied()
         .filter(|&t| wanted[t as usize])
         .collect();
-    thickness_in_order(mesh, bvh, options, &order)
+    thickness_in_order(mesh, bvh, options, &order, None)
 }
 
 /// The thickness of the listed triangles (NaN for the others), in the mesh's order, cast in
-/// the order listed.
+/// the order listed; once `cancel` is set, the facets not yet cast are NaN.
 fn thickness_in_order(
     mesh: &Mesh,
     bvh: &Bvh,
     options: &ThicknessOptions,
     triangles: &[u32],
+    cancel: Option<&Cancel>,
 ) -> Vec<f32> {
     let diagonal = mesh.bounds().diagonal();
     let diagonal = if diagonal.is_finite() { diagonal } else { 0.0 };
@@ -217,6 +240,9 @@ fn thickness_in_order(
         .par_iter()
         .with_min_len(256)
         .map(|&t| {
+            if crate::cancel::is_set(cancel) {
+                return f32::NAN;
+            }
             let t = t as usize;
             let corners = mesh.corners(t);
             let [a, b, c] = corners;

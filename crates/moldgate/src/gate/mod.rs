@@ -990,7 +990,10 @@ fn judge(i: usize, hits: &Projection, flat_tol: f64) -> NodeVerdict {
         true => circles
             .filter_map(circle)
             .map(|p| (p.height - c.first).abs())
-            .fold(0.0f64, |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) }),
+            .fold(
+                0.0f64,
+                |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) },
+            ),
         false => 0.0,
     };
     let flat = circle_on_part && step <= flat_tol;

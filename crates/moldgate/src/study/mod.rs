@@ -89,10 +89,11 @@ pub struct Progress {
 ///
 /// The observer is called on the calling thread between stages (never inside a parallel
 /// loop), so it may take a lock or write to a terminal. The cancellation token is read
-/// between stages and, in the fill stage (whose several-gate search and suitability map may
-/// run for minutes on a large part), every few thousand cells of each march; once set, the
-/// study returns [`StudyError::Cancelled`] naming the stage it stopped at. The other stages
-/// run to their end (each is bounded by the part's size and the options' limits).
+/// between stages, in the fill stage (whose several-gate search and suitability map may
+/// run for minutes on a large part) every few thousand cells of each march, and in the wall
+/// stage before each facet's rays; once set, the study returns [`StudyError::Cancelled`]
+/// naming the stage it stopped at. The other stages run to their end (each is bounded by
+/// the part's size and the options' limits).
 #[derive(Clone, Copy, Default)]
 pub struct Hooks<'a> {
     /// Called with each stage as it starts, and with [`Stage::Report`] at 1.0 at the end.
@@ -177,7 +178,8 @@ pub enum StudyError {
     /// The fill analysis failed ([`FillError::TooFewCandidates`]: no gate layout exists).
     #[error("{0}")]
     Fill(FillError),
-    /// The study was cancelled: before `stage` started, or inside it (the fill stage).
+    /// The study was cancelled: before `stage` started, or inside it (the fill and wall
+    /// stages).
     #[error("cancelled at the {stage} stage")]
     Cancelled {
         /// The stage that did not start, or that stopped part way.

@@ -400,3 +400,34 @@ fn layout_gates_off_a_flat_seat_are_warned() {
     }
     assert!(warned > 0, "the bracket's layouts have a gate on a step");
 }
+
+/// The wall stage reads the token before each facet's rays: set as the stage starts, the
+/// study stops in it (before, it measured every facet and stopped at the next stage).
+#[test]
+fn a_study_cancelled_in_its_wall_stage_stops_there() {
+    let part = sample("cover");
+    let settings = options(r#"{ "wall_thickness": true }"#).validate().unwrap();
+    let cancel = Cancel::new();
+    let observer = |p: Progress| {
+        if p.stage == Stage::WallThickness {
+            cancel.cancel();
+        }
+    };
+    let hooks = Hooks {
+        progress: Some(&observer),
+        cancel: Some(&cancel),
+    };
+    match study_with(&part, &settings, &hooks) {
+        Err(StudyError::Cancelled { stage }) => assert_eq!(stage, Stage::WallThickness),
+        other => panic!("{other:?}"),
+    }
+    // Not set: the whole wall map, as without a token.
+    let token = Cancel::new();
+    let hooks = Hooks {
+        progress: None,
+        cancel: Some(&token),
+    };
+    let with = study_with(&part, &settings, &hooks).unwrap();
+    let without = study(&part, &options(r#"{ "wall_thickness": true }"#)).unwrap();
+    assert_eq!(timeless(with.report()), timeless(without.report()));
+}
