@@ -123,7 +123,7 @@ function fillSection(f) {
     parts.push(gateFill("fill-balanced", "From the balanced gate", f.balanced.fill));
     parts.push(el("p", {}, `The balanced gate shortens the worst flow by ${f.balanced.improvement_pct.toFixed(1)} %.`));
   } else if (f.balanced) {
-    parts.push(el("p", {}, "The balanced gate is the paper's gate: no candidate does better."));
+    parts.push(el("p", {}, "The balanced gate is the paper's gate: no candidate does better by more than a flow cell."));
   }
   if (f.suitability) parts.push(suitabilityPart(f.suitability));
   for (const w of f.warnings || []) parts.push(el("p", { class: "warning" }, w));

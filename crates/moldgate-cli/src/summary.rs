@@ -101,8 +101,13 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         Some(b) if b.is_paper_gate => {
             let _ = writeln!(
                 s,
-                "  balanced gate: the paper gate (no candidate does better, {} flow fields)",
-                b.search.runs
+                "  balanced gate: the paper gate (no candidate does better by more than a flow cell, {} flow fields{})",
+                b.search.runs,
+                if b.search.proven {
+                    ""
+                } else {
+                    "; the search stopped unproven"
+                }
             );
         }
         Some(b) => {
@@ -593,7 +598,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             Some(b) if b.is_paper_gate => {
                 let _ = writeln!(
                     s,
-                    "  {:<30} the paper gate (no candidate does better)",
+                    "  {:<30} the paper gate (no candidate better by more than a cell)",
                     "balanced gate"
                 );
             }

@@ -564,7 +564,8 @@ fn fill_table(h: &mut String, r: &Report) {
     }
     if let Some(b) = &f.balanced {
         let label = if b.is_paper_gate {
-            "balanced gate (the paper gate: no better candidate)".to_string()
+            "balanced gate (the paper gate: no candidate better by more than a flow cell)"
+                .to_string()
         } else {
             format!("balanced gate ({:.1} % lower)", b.improvement_pct)
         };

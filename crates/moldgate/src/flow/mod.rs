@@ -2599,6 +2599,7 @@ pub fn analyse_prepared(
         let gain = (objective_value, cell_value);
         if let Some(better) = map_best_gate(&domain, from, map, &b.search, material, gain) {
             let old = b.search.value;
+            let map_score = map.best.map_or(f64::NAN, |i| map.nodes[i].score);
             let value = better.search.value;
             *b = BalancedFill {
                 improvement_pct: 100.0 * (1.0 - value / paper_value),
@@ -2615,8 +2616,9 @@ pub fn analyse_prepared(
                 layout.improvement_pct = 100.0 * (1.0 - layout.value() / value.min(best_single));
             }
             warnings.push(format!(
-                "the balanced search stopped at its limit of runs with a gate of {} {unit}; the suitability map's best node, {} {unit}, is exact and no node's bound is lower, so it is the balanced gate",
+                "the balanced search stopped unproven at its limit of runs with a gate of {} {unit}; the suitability map's best node is exact and no node's bound is lower (it scores {} {unit} from its cell's centre, {} {unit} from its surface point), so it is the balanced gate, proven by the map",
                 options.objective.value_text(old),
+                options.objective.value_text(map_score),
                 options.objective.value_text(value),
                 unit = options.objective.value_words().1,
             ));

@@ -221,8 +221,12 @@ fn corner(tok: &[u8], defined: &Defined, line: u64) -> Result<usize, LoadError> 
             i => count as i64 + i,
         };
         if resolved < 0 || resolved >= count as i64 {
+            let (noun, verb) = match count {
+                1 => (what, "is"),
+                _ => (plural, "are"),
+            };
             return Err(syntax(format!(
-                "{what} index {i} is out of range: {count} {plural} are defined before this line"
+                "{what} index {i} is out of range: {count} {noun} {verb} defined before this line"
             )));
         }
         Ok(resolved as usize)
@@ -334,7 +338,7 @@ mod tests {
             ),
             (
                 "f 1//2 2//1 3//1\n",
-                "normal index 2 is out of range: 1 normals",
+                "normal index 2 is out of range: 1 normal is defined",
             ),
             ("f 1/0 2/1 3/1\n", "texture coordinate index 0"),
             (

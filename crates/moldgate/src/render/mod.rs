@@ -1101,8 +1101,24 @@ fn draw_gate(canvas: &mut Canvas, outline: &[[f32; 2]], [x, y, r]: [f32; 3], hid
         .map(|p| (p[0] - x).hypot(p[1] - y))
         .fold(f32::INFINITY, f32::min);
     if r < 10.0 * k || narrow < 4.0 * k {
-        canvas.stroke_circle(x, y, r + 9.0 * k, WHITE, 4.0 * k);
-        canvas.stroke_circle(x, y, r + 9.0 * k, GATE_COLOUR, 2.2 * k);
+        let ring = r + 9.0 * k;
+        match hidden {
+            // Behind the part: a thin dashed ring.
+            true => {
+                let circle: Vec<[f32; 2]> = (0..48)
+                    .map(|i| {
+                        let a = i as f32 / 48.0 * std::f32::consts::TAU;
+                        [x + ring * a.cos(), y + ring * a.sin()]
+                    })
+                    .collect();
+                canvas.stroke_polyline(&circle, true, WHITE, 3.0 * k, None);
+                canvas.stroke_polyline(&circle, true, GATE_COLOUR, 1.4 * k, dash);
+            }
+            false => {
+                canvas.stroke_circle(x, y, ring, WHITE, 4.0 * k);
+                canvas.stroke_circle(x, y, ring, GATE_COLOUR, 2.2 * k);
+            }
+        }
     }
 }
 
