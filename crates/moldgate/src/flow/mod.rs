@@ -1216,6 +1216,54 @@ fn map_best_gate(
     })
 }
 
+/// A layout's gate filling less than this share of the volume does nothing useful.
+pub const IDLE_GATE_SHARE: f64 = 0.01;
+
+/// Warnings for a layout's gates that fill less than [`IDLE_GATE_SHARE`] of the volume, and
+/// for pairs closer than a gate's diameter (`2 radius_mm`), whose discs overlap: the local
+/// search can leave gates where they do nothing, and a designer should see it said.
+fn idle_or_overlapping(layout: &MultiGate, radius_mm: f64) -> Vec<String> {
+    let n = layout.gates.len();
+    let mut warnings = Vec::new();
+    let idle: Vec<String> = (0..n)
+        .filter(|&k| layout.gates[k].volume_share < IDLE_GATE_SHARE)
+        .map(|k| {
+            format!(
+                "gate {} ({:.1} %)",
+                k + 1,
+                100.0 * layout.gates[k].volume_share
+            )
+        })
+        .collect();
+    if !idle.is_empty() {
+        warnings.push(format!(
+            "{} of the layout of {n} gates fill less than {:.0} % of the volume each ({}): the search found no useful place for them, so {} gates do about as well",
+            idle.len(),
+            100.0 * IDLE_GATE_SHARE,
+            idle.join(", "),
+            n - idle.len(),
+        ));
+    }
+    let mut close = Vec::new();
+    for a in 0..n {
+        for b in a + 1..n {
+            let d = DVec3::from_array(layout.gates[a].point)
+                .distance(DVec3::from_array(layout.gates[b].point));
+            if d < 2.0 * radius_mm {
+                close.push(format!("gates {} and {} ({d:.2} mm)", a + 1, b + 1));
+            }
+        }
+    }
+    if !close.is_empty() {
+        warnings.push(format!(
+            "gates of the layout closer than a gate's diameter ({:.2} mm), whose discs overlap: {}",
+            2.0 * radius_mm,
+            close.join(", ")
+        ));
+    }
+    warnings
+}
+
 fn in_body(domain: &Domain, candidates: &[Source], body: u32) -> Vec<usize> {
     (0..candidates.len())
         .filter(|&i| domain.body[candidates[i].cell as usize] == body)
@@ -2648,6 +2696,7 @@ pub fn analyse_prepared(
                 shares.join(", "),
             ));
         }
+        warnings.extend(idle_or_overlapping(layout, analysis.options.gate_radius_mm));
         // The layout's gates are all on the body of its first (the search keeps to it):
         // on a part of several bodies, say so, and whose volume the shares are of.
         let body = layout
@@ -3090,6 +3139,52 @@ mod tests {
     /// The candidates of a layout's gates, in order.
     fn layout_gates(m: &MultiGate) -> Vec<usize> {
         m.gates.iter().map(|g| g.candidate).collect()
+    }
+
+    /// Idle gates and overlapping discs of a layout are warned; a sound layout is not.
+    #[test]
+    fn idle_and_overlapping_layout_gates_are_warned() {
+        let gate = |x: f64, share: f64| GateShare {
+            candidate: 0,
+            point: [x, 0.0, 0.0],
+            volume_share: share,
+            l_max_mm: None,
+            fill_time_s: None,
+        };
+        let layout = |gates: Vec<GateShare>| MultiGate {
+            gates,
+            l_max_mm: Some(10.0),
+            fill_time_s: None,
+            improvement_pct: 1.0,
+            balance: 0.0,
+            runs: 1,
+        };
+        let sound = layout(vec![gate(0.0, 0.5), gate(10.0, 0.5)]);
+        assert!(idle_or_overlapping(&sound, 1.4).is_empty());
+        let bad = layout(vec![
+            gate(0.0, 0.497),
+            gate(10.0, 0.048),
+            gate(10.97, 0.0),
+            gate(30.0, 0.454),
+            gate(11.94, 0.001),
+        ]);
+        let w = idle_or_overlapping(&bad, 1.425);
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(w[0].starts_with("2 of the layout of 5 gates fill less than 1 % of the volume each (gate 3 (0.0 %), gate 5 (0.1 %))"), "{}", w[0]);
+        assert!(w[0].ends_with("so 3 gates do about as well"), "{}", w[0]);
+        assert!(
+            w[1].contains("(2.85 mm)")
+                && w[1].contains("gates 2 and 3 (0.97 mm)")
+                && w[1].contains("gates 3 and 5 (0.97 mm)"),
+            "{}",
+            w[1]
+        );
+        assert!(w[1].contains("gates 2 and 5 (1.94 mm)"), "{}", w[1]);
+        assert!(
+            !w[1].contains("gates 1 and") && !w[1].contains("and 4"),
+            "{}",
+            w[1]
+        );
     }
 
     /// The map's best node is the balanced gate only when the search is unproven, the node

@@ -665,12 +665,26 @@ fn seat_warnings(analysis: &Analysis, fill: &flow::FillAnalysis) -> Vec<String> 
             warnings.push(words("the balanced gate".into(), b.fill.gate, step));
         }
     }
+    // A layout's gates off a flat seat, in one warning.
     if let Some(layout) = &fill.several {
-        for (k, g) in layout.gates.iter().enumerate() {
-            if let Some(step) = step_at(g.point) {
+        let off: Vec<(usize, f64)> = (0..layout.gates.len())
+            .filter_map(|k| step_at(layout.gates[k].point).map(|s| (k, s)))
+            .collect();
+        match off.as_slice() {
+            [] => {}
+            [(k, step)] => {
                 let what = format!("gate {} of the layout of {}", k + 1, layout.gates.len());
-                warnings.push(words(what, g.point, step));
+                warnings.push(words(what, layout.gates[*k].point, *step));
             }
+            _ => warnings.push(format!(
+                "{} gates of the layout of {} are not on a flat seat: {} (how far each disc reaches off its height along D: a step, rib or slope; flatness tolerance {tol:.3} mm; --require-flat keeps only flat nodes)",
+                off.len(),
+                layout.gates.len(),
+                off.iter()
+                    .map(|(k, s)| format!("gate {} {s:.2} mm", k + 1))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            )),
         }
     }
     warnings

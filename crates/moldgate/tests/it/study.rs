@@ -386,13 +386,19 @@ fn layout_gates_off_a_flat_seat_are_warned() {
             let p = moldgate::math::DVec3::from_array(g.point);
             let i = a.qualifying_points.iter().position(|&q| q == p).unwrap();
             let step = a.qualifying_step_mm[i] as f64;
-            let needle = format!("gate {} of the layout", k + 1);
-            let said = fill.warnings.iter().find(|w| w.starts_with(&needle));
+            // Alone: "gate 2 of the layout of 3 at ... reaches 1.23 mm off its height";
+            // several: "2 gates of the layout of 3 are not on a flat seat: gate 1 1.23 mm, ...".
+            let alone = format!("gate {} of the layout", k + 1);
+            let listed = format!("gate {} {step:.2} mm", k + 1);
+            let said = fill.warnings.iter().find(|w| {
+                w.starts_with(&alone) || (w.contains("gates of the layout") && w.contains(&listed))
+            });
             match said {
                 Some(w) => {
                     warned += 1;
                     assert!(step > a.flat_tolerance_mm && !flat_only, "{json}: {w}");
-                    assert!(w.contains(&format!("{step:.2} mm off its height")), "{w}");
+                    let quoted = format!("{step:.2} mm off its height");
+                    assert!(w.contains(&quoted) || w.contains(&listed), "{w}");
                 }
                 None => assert!(step <= a.flat_tolerance_mm, "{json}: gate {k}, step {step}"),
             }
