@@ -177,23 +177,19 @@ fn multipart_options_and_formats_give_the_same_report() {
         &body,
     );
     assert_eq!(assert_error(&s, &both, 400, "options")["where"], "material");
-    // Two mesh parts, or two options parts: refused, not the last one studied.
-    let mesh_part = format!(
-        "--{b}\r\ncontent-disposition: form-data; name=\"mesh\"; filename=\"plate.stl\"\r\ncontent-type: application/octet-stream\r\n\r\n"
-    );
-    let end = body.len() - format!("\r\n--{b}--\r\n").len();
-    for extra in [
-        mesh_part.as_bytes().to_vec(),
-        format!("--{b}\r\ncontent-disposition: form-data; name=\"options\"\r\n\r\n{{}}")
-            .into_bytes(),
+    // Two mesh parts, or two options parts: refused, not the last one studied. The body
+    // above less its closing line, one more part, and the closing line.
+    let closing = format!("\r\n--{b}--\r\n");
+    for (head, content) in [
+        ("name=\"mesh\"; filename=\"plate.stl\"", &stl[..]),
+        ("name=\"options\"", &b"{}"[..]),
     ] {
-        let mut twice = body[..end].to_vec();
-        twice.extend_from_slice(b"\r\n");
-        twice.extend_from_slice(&extra);
-        if extra.starts_with(mesh_part.as_bytes()) {
-            twice.extend_from_slice(&stl);
-        }
-        twice.extend_from_slice(format!("\r\n--{b}--\r\n").as_bytes());
+        let mut twice = body[..body.len() - closing.len()].to_vec();
+        twice.extend_from_slice(
+            format!("\r\n--{b}\r\ncontent-disposition: form-data; {head}\r\n\r\n").as_bytes(),
+        );
+        twice.extend_from_slice(content);
+        twice.extend_from_slice(closing.as_bytes());
         let r = request(
             s.addr,
             "POST",

@@ -1170,6 +1170,8 @@ struct MapGate {
     fields: GateFields,
     /// Its search: its objective, and the map's bound, proven (the node is exact).
     search: Balanced,
+    /// The map's score of the node (from its cell's centre).
+    map_score: f64,
 }
 
 /// The map's best node as the balanced gate, when the search did not prove its own gate
@@ -1213,7 +1215,65 @@ fn map_best_gate(
             runs: 0,
             proven: true,
         },
+        map_score: best.score,
     })
+}
+
+/// Warnings for the fill's own gates (the balanced gate when it moved from the paper gate,
+/// each gate of a layout) whose node's disc is not flat within the analysis's tolerance:
+/// the paper gate gets its warning from the gate search, and these are qualifying nodes
+/// too, whose seats were not checked for flatness (the paper does not require it).
+fn seat_warnings(
+    analysis: &crate::gate::Analysis,
+    balanced: Option<&BalancedFill>,
+    several: Option<&MultiGate>,
+) -> Vec<String> {
+    let tol = analysis.flat_tolerance_mm;
+    let step_at = |p: [f64; 3]| {
+        let p = DVec3::from_array(p);
+        analysis
+            .qualifying_points
+            .iter()
+            .position(|&q| q == p)
+            .and_then(|i| analysis.qualifying_step_mm.get(i))
+            .map(|&s| s as f64)
+            .filter(|&s| s > tol)
+    };
+    let words = |what: String, p: [f64; 3], step: f64| {
+        format!(
+            "{what} at ({:.3}, {:.3}, {:.3}) is not on a flat seat: its disc reaches {step:.2} mm off its height along D (a step, rib or slope; flatness tolerance {tol:.3} mm; --require-flat keeps only flat nodes)",
+            p[0], p[1], p[2]
+        )
+    };
+    let mut warnings = Vec::new();
+    if let Some(b) = balanced.filter(|b| !b.is_paper_gate) {
+        if let Some(step) = step_at(b.fill.gate) {
+            warnings.push(words("the balanced gate".into(), b.fill.gate, step));
+        }
+    }
+    // A layout's gates off a flat seat, in one warning.
+    if let Some(layout) = several {
+        let off: Vec<(usize, f64)> = (0..layout.gates.len())
+            .filter_map(|k| step_at(layout.gates[k].point).map(|s| (k, s)))
+            .collect();
+        match off.as_slice() {
+            [] => {}
+            [(k, step)] => {
+                let what = format!("gate {} of the layout of {}", k + 1, layout.gates.len());
+                warnings.push(words(what, layout.gates[*k].point, *step));
+            }
+            _ => warnings.push(format!(
+                "{} gates of the layout of {} are not on a flat seat: {} (how far each disc reaches off its height along D: a step, rib or slope; flatness tolerance {tol:.3} mm; --require-flat keeps only flat nodes)",
+                off.len(),
+                layout.gates.len(),
+                off.iter()
+                    .map(|(k, s)| format!("gate {} {s:.2} mm", k + 1))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            )),
+        }
+    }
+    warnings
 }
 
 /// A layout's gate filling less than this share of the volume does nothing useful.
@@ -2647,7 +2707,6 @@ pub fn analyse_prepared(
         let gain = (objective_value, cell_value);
         if let Some(better) = map_best_gate(&domain, from, map, &b.search, material, gain) {
             let old = b.search.value;
-            let map_score = map.best.map_or(f64::NAN, |i| map.nodes[i].score);
             let value = better.search.value;
             *b = BalancedFill {
                 improvement_pct: 100.0 * (1.0 - value / paper_value),
@@ -2666,7 +2725,7 @@ pub fn analyse_prepared(
             warnings.push(format!(
                 "the balanced search stopped unproven at its limit of runs with a gate of {} {unit}; the suitability map's best node is exact and no node's bound is lower (it scores {} {unit} from its cell's centre, {} {unit} from its surface point), so it is the balanced gate, proven by the map",
                 options.objective.value_text(old),
-                options.objective.value_text(map_score),
+                options.objective.value_text(better.map_score),
                 options.objective.value_text(value),
                 unit = options.objective.value_words().1,
             ));
@@ -2828,6 +2887,7 @@ pub fn analyse_prepared(
     if let Some(b) = &mut balanced {
         snap_places(&domain, mesh, &mut b.fill);
     }
+    warnings.extend(seat_warnings(analysis, balanced.as_ref(), several.as_ref()));
     check()?;
     Ok(FillAnalysis {
         cell_mm: h,

@@ -506,13 +506,16 @@ impl Analysis {
     }
 }
 
+/// The qualifying points of an analysis and their steps ([`Analysis::qualifying_points`],
+/// [`Analysis::qualifying_step_mm`]).
+type Qualifying = (Vec<DVec3>, Vec<f32>);
+
 /// Searches the largest gate radius below `analysis`'s that fits (see [`RadiusFit`]).
 /// Also the qualifying points at the radius found, and their steps (empty when none fits).
-#[allow(clippy::type_complexity)]
 fn largest_fitting_radius(
     part: &LoadedMesh,
     analysis: &Analysis,
-) -> Result<(RadiusFit, (Vec<DVec3>, Vec<f32>)), OptionsError> {
+) -> Result<(RadiusFit, Qualifying), OptionsError> {
     let refused = analysis.options.gate_radius_mm;
     let options = LocateOptions {
         spacing: Spacing::Mm(analysis.grid.spacing),
@@ -521,7 +524,7 @@ fn largest_fitting_radius(
         ..analysis.options.clone()
     };
     let mut probes = 0;
-    let mut gate_at = |r: f64| -> Result<Option<(Gate, (Vec<DVec3>, Vec<f32>))>, OptionsError> {
+    let mut gate_at = |r: f64| -> Result<Option<(Gate, Qualifying)>, OptionsError> {
         probes += 1;
         let o = LocateOptions {
             gate_radius_mm: r,
@@ -789,7 +792,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
     };
     let grid_gate = pick(options.nearest);
     if let Some(g) = grid_gate.filter(|g| !g.flat) {
-        warnings.push(not_flat_warning(&hits, g.node, flat_tolerance_mm));
+        warnings.push(not_flat_warning(nodes[g.node].step, flat_tolerance_mm));
     }
     let other_rule_gate = pick(match options.nearest {
         Nearest::Surface3d => Nearest::Plane2d,
@@ -960,18 +963,9 @@ pub(crate) struct NodeVerdict {
 /// The warning of a grid gate whose circle is not flat (the paper does not require it, so
 /// the gate may sit on a step or a rib): how far its circle's points lie from the gate's
 /// height along D. It is one of the analysis's warnings, so every front end (the summary,
-/// the JSON, the page, the batch rows) says it alike.
-/// How far a node's circle reaches off its own height along D, mm (0 on a flat seat).
-fn disc_step(hits: &Projection, node: usize) -> f64 {
-    let gate = hits.nodes[node].first;
-    (0..hits.circle_count())
-        .filter_map(|k| hits.circle(k, node))
-        .map(|p| (p.height - gate).abs())
-        .fold(0.0f64, f64::max)
-}
-
-fn not_flat_warning(hits: &Projection, node: usize, flat_tol: f64) -> String {
-    let step = disc_step(hits, node);
+/// the JSON, the page, the batch rows) says it alike. `step` is the node's
+/// ([`NodeVerdict::step`]).
+fn not_flat_warning(step: f64, flat_tol: f64) -> String {
     format!(
         "the grid gate's disc is not flat: its circle reaches {step:.2} mm off the gate's height along D (a step, rib or slope; flatness tolerance {flat_tol:.3} mm; --require-flat keeps only flat nodes)"
     )

@@ -230,8 +230,6 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                     .map_err(StudyError::from)?;
             f.times.tree_s = tree_s;
             f.times.cells_beside_s = cells_beside_s;
-            let seats = seat_warnings(&analysis, &f);
-            f.warnings.extend(seats);
             Some(f)
         }
         _ => None,
@@ -635,59 +633,6 @@ impl From<FillError> for StudyError {
             e => StudyError::Fill(e),
         }
     }
-}
-
-/// Warnings for the fill's own gates (the balanced gate when it moved from the paper gate,
-/// each gate of a layout) whose node's disc is not flat within the analysis's tolerance:
-/// the paper gate gets its warning from the gate search, and these are qualifying nodes
-/// too, whose seats were not checked for flatness (the paper does not require it).
-fn seat_warnings(analysis: &Analysis, fill: &flow::FillAnalysis) -> Vec<String> {
-    let tol = analysis.flat_tolerance_mm;
-    let step_at = |p: [f64; 3]| {
-        let p = DVec3::from_array(p);
-        analysis
-            .qualifying_points
-            .iter()
-            .position(|&q| q == p)
-            .and_then(|i| analysis.qualifying_step_mm.get(i))
-            .map(|&s| s as f64)
-            .filter(|&s| s > tol)
-    };
-    let words = |what: String, p: [f64; 3], step: f64| {
-        format!(
-            "{what} at ({:.3}, {:.3}, {:.3}) is not on a flat seat: its disc reaches {step:.2} mm off its height along D (a step, rib or slope; flatness tolerance {tol:.3} mm; --require-flat keeps only flat nodes)",
-            p[0], p[1], p[2]
-        )
-    };
-    let mut warnings = Vec::new();
-    if let Some(b) = fill.balanced.as_ref().filter(|b| !b.is_paper_gate) {
-        if let Some(step) = step_at(b.fill.gate) {
-            warnings.push(words("the balanced gate".into(), b.fill.gate, step));
-        }
-    }
-    // A layout's gates off a flat seat, in one warning.
-    if let Some(layout) = &fill.several {
-        let off: Vec<(usize, f64)> = (0..layout.gates.len())
-            .filter_map(|k| step_at(layout.gates[k].point).map(|s| (k, s)))
-            .collect();
-        match off.as_slice() {
-            [] => {}
-            [(k, step)] => {
-                let what = format!("gate {} of the layout of {}", k + 1, layout.gates.len());
-                warnings.push(words(what, layout.gates[*k].point, *step));
-            }
-            _ => warnings.push(format!(
-                "{} gates of the layout of {} are not on a flat seat: {} (how far each disc reaches off its height along D: a step, rib or slope; flatness tolerance {tol:.3} mm; --require-flat keeps only flat nodes)",
-                off.len(),
-                layout.gates.len(),
-                off.iter()
-                    .map(|(k, s)| format!("gate {} {s:.2} mm", k + 1))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            )),
-        }
-    }
-    warnings
 }
 
 fn non_empty(values: &[f32]) -> Option<&[f32]> {

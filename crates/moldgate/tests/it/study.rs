@@ -170,13 +170,17 @@ fn a_cancelled_study_stops_before_the_next_stage() {
 /// (before, it ran the whole fill and stopped at the report).
 #[test]
 fn a_study_cancelled_in_its_fill_stops_there() {
-    let part = sample("cover");
-    let settings = options(r#"{ "fill": true, "gates": 3, "suitability": true }"#)
-        .validate()
-        .unwrap();
+    let json = r#"{ "fill": true, "gates": 3, "suitability": true }"#;
+    assert_eq!(cancelled_as(json, Stage::Fill), Stage::Fill);
+}
+
+/// The stage a study of the cover sample with options `json` stops at when its token is
+/// set as `stage` starts.
+fn cancelled_as(json: &str, stage: Stage) -> Stage {
+    let settings = options(json).validate().unwrap();
     let cancel = Cancel::new();
     let observer = |p: Progress| {
-        if p.stage == Stage::Fill {
+        if p.stage == stage {
             cancel.cancel();
         }
     };
@@ -184,8 +188,8 @@ fn a_study_cancelled_in_its_fill_stops_there() {
         progress: Some(&observer),
         cancel: Some(&cancel),
     };
-    match study_with(&part, &settings, &hooks) {
-        Err(StudyError::Cancelled { stage }) => assert_eq!(stage, Stage::Fill),
+    match study_with(&sample("cover"), &settings, &hooks) {
+        Err(StudyError::Cancelled { stage }) => stage,
         other => panic!("{other:?}"),
     }
 }
@@ -411,22 +415,11 @@ fn layout_gates_off_a_flat_seat_are_warned() {
 /// study stops in it (before, it measured every facet and stopped at the next stage).
 #[test]
 fn a_study_cancelled_in_its_wall_stage_stops_there() {
+    let json = r#"{ "wall_thickness": true }"#;
+    let stage = Stage::WallThickness;
+    assert_eq!(cancelled_as(json, stage), stage);
     let part = sample("cover");
-    let settings = options(r#"{ "wall_thickness": true }"#).validate().unwrap();
-    let cancel = Cancel::new();
-    let observer = |p: Progress| {
-        if p.stage == Stage::WallThickness {
-            cancel.cancel();
-        }
-    };
-    let hooks = Hooks {
-        progress: Some(&observer),
-        cancel: Some(&cancel),
-    };
-    match study_with(&part, &settings, &hooks) {
-        Err(StudyError::Cancelled { stage }) => assert_eq!(stage, Stage::WallThickness),
-        other => panic!("{other:?}"),
-    }
+    let settings = options(json).validate().unwrap();
     // Not set: the whole wall map, as without a token.
     let token = Cancel::new();
     let hooks = Hooks {
