@@ -208,7 +208,7 @@ fn two_gates_on_a_bar_sit_near_its_quarter_points_and_share_it_evenly() {
     let domain = Domain::new(&bar, h, None, 3.0, &pp());
     let (cands, first) = candidates(&bar, &domain, "+z", 2.0);
     let start = balanced_gate(&domain, &cands, Objective::Length, first, 0.5 * h).unwrap();
-    let two = several_gates(&domain, &cands, Objective::Length, start.candidate, 2).unwrap();
+    let two = several_gates(&domain, &cands, Objective::Length, start.candidate, 2, 2.85).unwrap();
     let mut xs: Vec<f64> = two.gates.iter().map(|g| g.point[0]).collect();
     xs.sort_by(f64::total_cmp);
     println!(
@@ -225,19 +225,48 @@ fn two_gates_on_a_bar_sit_near_its_quarter_points_and_share_it_evenly() {
     assert!(two.fill_time_s.is_none(), "{:?}", two.fill_time_s);
     assert!(two.balance > 0.9, "{}", two.balance);
     // More gates than candidates is refused.
-    assert!(several_gates(&domain, &cands[..3], Objective::Length, 0, 4).is_none());
+    assert!(several_gates(&domain, &cands[..3], Objective::Length, 0, 4, 2.85).is_none());
+    // No two gates are nearer than the distance asked: three on the 100 mm bar at least 30
+    // mm apart; two at least 120 mm apart do not fit on it.
+    let apart =
+        several_gates(&domain, &cands, Objective::Length, start.candidate, 3, 30.0).unwrap();
+    for (i, a) in apart.gates.iter().enumerate() {
+        for b in &apart.gates[i + 1..] {
+            let d = (0..3)
+                .map(|j| (a.point[j] - b.point[j]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(d >= 30.0, "{d} mm: {:?} and {:?}", a.point, b.point);
+        }
+    }
+    assert!(several_gates(
+        &domain,
+        &cands,
+        Objective::Length,
+        start.candidate,
+        2,
+        120.0
+    )
+    .is_none());
     // Given the first gate's field, the search does not march it again: the same layout,
     // one run fewer.
     for objective in [Objective::Length, Objective::Resistance] {
-        let whole = several_gates(&domain, &cands, objective, start.candidate, 3).unwrap();
+        let whole = several_gates(&domain, &cands, objective, start.candidate, 3, 2.85).unwrap();
         let field = march(
             &domain.voxels,
             &[cands[start.candidate]],
             domain.cost(objective),
         );
-        let given =
-            several_gates_from(&domain, &cands, objective, start.candidate, 3, Some(&field))
-                .unwrap();
+        let given = several_gates_from(
+            &domain,
+            &cands,
+            objective,
+            start.candidate,
+            3,
+            2.85,
+            Some(&field),
+        )
+        .unwrap();
         let layout = |m: &MultiGate| {
             let gates: Vec<_> = m.gates.iter().map(|g| (g.candidate, g.l_max_mm)).collect();
             (gates, m.l_max_mm, m.balance)
