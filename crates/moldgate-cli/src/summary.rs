@@ -328,19 +328,30 @@ pub fn render(r: &Report) -> String {
         placed_gates(&mut s, r, p, open);
     }
     if let Some(f) = &r.radius_fit {
+        // Why R_gate was refused: every disc wholly on the part sits on a wall no thicker
+        // than it; where the part is thicker, it is too narrow for the disc.
+        let why = match f.thickest_wall_mm {
+            Some(th) => format!(
+                "at R_gate = {:.3} mm every disc wholly on the part sits on a wall of at most {th:.3} mm, and any thicker wall is too narrow for the disc",
+                f.refused_mm
+            ),
+            None => format!(
+                "at R_gate = {:.3} mm no disc wholly on the part has a wall thicker than the radius",
+                f.refused_mm
+            ),
+        };
         let _ = match (f.radius_mm, &f.gate) {
             (Some(radius), Some(g)) => writeln!(
                 s,
-                "largest gate radius that fits: {radius:.3} mm (the material's {:.3} mm is thicker than the wall allows), gate {} mm, {:.3} mm from the centre of mass{}",
-                f.refused_mm,
+                "largest gate radius that fits: {radius:.3} mm ({why}), gate {} mm, {:.3} mm from the centre of mass{}",
                 v3(g.point),
                 g.distance_3d_mm,
                 if f.accepted { ", taken (--fit-radius)" } else { "; --fit-radius takes it" }
             ),
             _ => writeln!(
                 s,
-                "largest gate radius that fits: none down to {:.3} mm (the material's {:.3} mm is thicker than the wall allows)",
-                f.floor_mm, f.refused_mm
+                "largest gate radius that fits: none down to {:.3} mm ({why})",
+                f.floor_mm
             ),
         };
     }

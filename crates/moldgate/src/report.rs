@@ -326,6 +326,10 @@ pub struct RadiusFitReport {
     pub probes: usize,
     /// Whether that gate is the answer (`--fit-radius`).
     pub accepted: bool,
+    /// The thickest wall under a disc wholly on the part at `refused_mm`, mm (`null` when
+    /// none is known): the radius had to fall below it; thicker walls, if any, are too
+    /// narrow for that disc.
+    pub thickest_wall_mm: Option<f64>,
 }
 
 /// Statistics of [`crate::thickness::WallThickness`] and the value at the gate.
@@ -490,6 +494,7 @@ impl Report {
                 floor_mm: f.floor_mm,
                 probes: f.probes,
                 accepted: f.accepted,
+                thickest_wall_mm: f.thickest_wall_mm,
             }),
             placed_gates: None,
         }

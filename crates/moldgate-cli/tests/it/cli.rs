@@ -1148,6 +1148,13 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
         text.contains("largest gate radius that fits: 1.5"),
         "{text}"
     );
+    // Why: the thickest wall under a disc wholly on the cap is its 1.6 mm wall.
+    assert!(
+        text.contains(
+            "at R_gate = 2.500 mm every disc wholly on the part sits on a wall of at most 1.600 mm"
+        ),
+        "{text}"
+    );
     let out = moldgate(dir.path(), &[&args[..], &["--json"]].concat());
     assert_fails(&out, NO_GATE, &["walls thicker than 2.500 mm"]);
     let r: Value = serde_json::from_str(&stdout(&out)).unwrap();
@@ -1156,6 +1163,12 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
     let radius = fit["radius_mm"].as_f64().unwrap();
     assert!(radius < 1.6 && radius > 1.6 - 0.0088, "{fit}");
     assert_eq!(fit["refused_mm"].as_f64(), Some(2.5));
+    let thickest = fit["thickest_wall_mm"].as_f64().unwrap();
+    assert!((thickest - 1.6).abs() < 1e-6, "{fit}");
+    assert!(fit["reason"]
+        .as_str()
+        .unwrap()
+        .contains("(the thickest 1.600 mm)"));
     assert!(fit["reason"]
         .as_str()
         .unwrap()

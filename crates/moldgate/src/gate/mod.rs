@@ -84,6 +84,10 @@ pub struct RadiusFit {
     pub reason: String,
     /// Whether the fitting gate is the answer ([`ThicknessFallback::LargestFitting`]).
     pub accepted: bool,
+    /// The thickest wall under a disc wholly on the part at the refused radius, mm (`None`
+    /// when no such disc has a known wall): the radius had to fall below it, and the
+    /// thicker walls of the part, if any, are too narrow for that disc.
+    pub thickest_wall_mm: Option<f64>,
 }
 
 /// The search's smallest radius is R_gate divided by this.
@@ -374,6 +378,9 @@ pub struct Analysis {
     pub flat_tolerance_mm: f64,
     /// Nodes passing each rule.
     pub counts: RuleCounts,
+    /// The thickest wall under a disc wholly on the part (the thickness rule's measure over
+    /// the nodes of [`RuleCounts::circle_on_part`]), mm; `None` when none is known.
+    pub thickest_disc_wall_mm: Option<f64>,
     /// Surface points (first hit of the node's ray) of every qualifying node, in node
     /// order; when the gate of the largest fitting radius is the answer
     /// ([`ThicknessFallback::LargestFitting`]), the nodes that qualify at that radius.
@@ -482,6 +489,9 @@ impl Analysis {
                 "; {} of those have walls thicker than {r:.3} mm",
                 c.thicker_than_radius + c.thickness_unknown
             );
+            if let Some(th) = self.thickest_disc_wall_mm.filter(|&th| th <= r) {
+                s += &format!(" (the thickest {th:.3} mm)");
+            }
         }
         if self.options.flat_rule == FlatRule::Require {
             s += &format!("; {} are flat", c.flat);
@@ -559,6 +569,7 @@ fn largest_fitting_radius(
         probes,
         reason: analysis.rule_that_removed_the_last_nodes(),
         accepted: false,
+        thickest_wall_mm: analysis.thickest_disc_wall_mm,
     };
     Ok((fit, points))
 }
@@ -721,10 +732,14 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         nodes: grid.len(),
         ..RuleCounts::default()
     };
+    let mut thickest_disc_wall_mm: Option<f64> = None;
     for v in &nodes {
         counts.centre_hits += v.centre_hit as usize;
         counts.circle_on_part += v.circle_on_part as usize;
         if v.circle_on_part {
+            if let Some(th) = v.disc_thickness {
+                thickest_disc_wall_mm = Some(thickest_disc_wall_mm.map_or(th, |t| t.max(th)));
+            }
             match v.disc_thickness {
                 Some(th) if th > r => counts.thicker_than_radius += 1,
                 Some(_) => {}
@@ -810,6 +825,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         grid,
         flat_tolerance_mm,
         counts,
+        thickest_disc_wall_mm,
         qualifying_points,
         qualifying_step_mm,
         grid_gate,
