@@ -72,6 +72,14 @@ pub enum Objective {
 }
 
 impl Objective {
+    /// Its name as the options spell it (`--objective`, `objective`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Objective::Length => "length",
+            Objective::Resistance => "resistance",
+        }
+    }
+
     /// How the searches' values of this objective read in a report: what they are and their
     /// unit (L_max in mm; the fill time in s, which is what the resistance objective's values
     /// are reported in).
@@ -1278,6 +1286,70 @@ fn seat_warnings(
 
 /// A layout's gate filling less than this share of the volume does nothing useful.
 pub const IDLE_GATE_SHARE: f64 = 0.01;
+
+/// A measure the balanced gate did not minimise counts as worse than the paper gate's when
+/// it is larger by more than this share.
+pub const OTHER_MEASURE_WORSE_SHARE: f64 = 0.01;
+
+/// The warning for a balanced gate that beats the paper gate by its objective but is worse
+/// by a measure it did not minimise (the search minimises one: a gate of shorter fill time
+/// may have a longer flow path or need more pressure), with the values of both gates.
+fn worse_by_other_measures(
+    objective: Objective,
+    paper: &GateFill,
+    balanced: &GateFill,
+) -> Option<String> {
+    let mut worse = Vec::new();
+    let mut compare = |a: f64, b: f64, text: String| {
+        if b > a * (1.0 + OTHER_MEASURE_WORSE_SHARE) {
+            worse.push(text);
+        }
+    };
+    let (p, b) = (paper, balanced);
+    if objective != Objective::Length {
+        compare(
+            p.l_max_mm,
+            b.l_max_mm,
+            format!(
+                "longest flow path L_max {:.1} -> {:.1} mm",
+                p.l_max_mm, b.l_max_mm
+            ),
+        );
+    }
+    if objective != Objective::Resistance {
+        compare(
+            p.fill_time_s,
+            b.fill_time_s,
+            format!(
+                "fill time {} -> {} s",
+                crate::report::seconds_text(p.fill_time_s),
+                crate::report::seconds_text(b.fill_time_s)
+            ),
+        );
+    }
+    // Eq. 1's pressure is neither objective.
+    compare(
+        p.pressure_mpa,
+        b.pressure_mpa,
+        format!(
+            "pressure {:.2} -> {:.2} MPa",
+            p.pressure_mpa, b.pressure_mpa
+        ),
+    );
+    let other = match objective {
+        Objective::Length => Objective::Resistance,
+        Objective::Resistance => Objective::Length,
+    };
+    (!worse.is_empty()).then(|| {
+        format!(
+            "the balanced gate minimises the {} only: against the paper gate it is worse by {} (paper -> balanced); --objective {} minimises the {} instead",
+            objective.value_words().0,
+            worse.join(", "),
+            other.name(),
+            other.value_words().0,
+        )
+    })
+}
 
 /// The warning for a layout's gates that fill less than [`IDLE_GATE_SHARE`] of the volume:
 /// under the fill-time objective the place reached last is often a small pocket of thin
@@ -2918,6 +2990,9 @@ pub fn analyse_prepared(
         snap_places(&domain, mesh, &mut b.fill);
     }
     warnings.extend(seat_warnings(analysis, balanced.as_ref(), several.as_ref()));
+    if let Some(b) = balanced.as_ref().filter(|b| !b.is_paper_gate) {
+        warnings.extend(worse_by_other_measures(options.objective, &paper, &b.fill));
+    }
     check()?;
     Ok(FillAnalysis {
         cell_mm: h,
@@ -3229,6 +3304,55 @@ mod tests {
     /// The candidates of a layout's gates, in order.
     fn layout_gates(m: &MultiGate) -> Vec<usize> {
         m.gates.iter().map(|g| g.candidate).collect()
+    }
+
+    /// A balanced gate worse than the paper gate by a measure it did not minimise is warned,
+    /// with both values; one better or equal by every other measure (or worse by less than
+    /// [`OTHER_MEASURE_WORSE_SHARE`]) is not.
+    #[test]
+    fn a_balanced_gate_worse_by_another_measure_is_warned() {
+        let fill = |l_max_mm: f64, fill_time_s: f64, pressure_mpa: f64| GateFill {
+            gate: [0.0; 3],
+            body: 0,
+            reached_share: 1.0,
+            wall_across_mm: 2.0,
+            l_max_mm,
+            l_mean_mm: 0.5 * l_max_mm,
+            farthest: [0.0; 3],
+            fill_time_s,
+            flow_ratio: l_max_mm / 2.0,
+            flow_ratio_limit: None,
+            exceeds_flow_ratio: false,
+            pressure_mpa,
+            last_to_fill: Vec::new(),
+            weld_lines: Vec::new(),
+        };
+        let paper = fill(37.8, 0.0358, 4.15);
+        // Watchy's bottom by fill time: shorter, but a longer path at a higher pressure.
+        let w = worse_by_other_measures(Objective::Resistance, &paper, &fill(61.7, 0.0277, 6.89))
+            .expect("worse by two measures");
+        assert_eq!(
+            w,
+            "the balanced gate minimises the fill time only: against the paper gate it is worse by longest flow path L_max 37.8 -> 61.7 mm, pressure 4.15 -> 6.89 MPa (paper -> balanced); --objective length minimises the longest flow path L_max instead"
+        );
+        // By length: the fill time counts, the L_max does not.
+        let w = worse_by_other_measures(Objective::Length, &paper, &fill(35.0, 0.0369, 4.0))
+            .expect("worse by the fill time");
+        assert!(
+            w.contains("worse by fill time 0.0358 -> 0.0369 s (paper"),
+            "{w}"
+        );
+        assert!(!w.contains("pressure") && !w.contains("L_max 37.8"), "{w}");
+        // Within 1 %, or better: nothing.
+        let close = fill(37.8 * 1.009, 0.0358 * 1.009, 4.15 * 1.009);
+        assert_eq!(
+            worse_by_other_measures(Objective::Length, &paper, &close),
+            None
+        );
+        assert_eq!(
+            worse_by_other_measures(Objective::Resistance, &paper, &close),
+            None
+        );
     }
 
     /// Idle gates of a layout are warned; a sound layout is not.
