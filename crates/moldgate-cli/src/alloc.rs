@@ -18,6 +18,11 @@
 //! kernel has huge pages disabled, the advice is ignored and the blocks are ordinary
 //! mappings.
 //!
+//! A mapped block that grows or shrinks to another mapped size is moved by the kernel
+//! (`mremap`), which moves its pages instead of copying them into fresh ones: the trees'
+//! node arrays grow by doubling, and each doubling would have copied and zeroed them anew
+//! (`--strategy balanced` on the 352k-triangle part: 2.3 % less wall time, paired).
+//!
 //! Blocks between 128 KiB and 2 MiB are mapped here too rather than left to the system
 //! allocator, which maps them as well but, once one is freed, raises its threshold for
 //! mapping to that size and serves later blocks of up to that size from its heaps, where
@@ -91,9 +96,17 @@ unsafe impl GlobalAlloc for Allocator {
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if !mapped(layout.size(), layout.align()) && !mapped(new_size, layout.align()) {
+        let (was, will) = (
+            mapped(layout.size(), layout.align()),
+            mapped(new_size, layout.align()),
+        );
+        if !was && !will {
             // SAFETY: both blocks belong to `System`; the caller's contract is passed on.
             return unsafe { System.realloc(ptr, layout, new_size) };
+        }
+        if was && will {
+            // SAFETY: `ptr` came from `map` with this size, so this is its whole mapping.
+            return unsafe { remap(ptr, layout.size(), new_size) };
         }
         // SAFETY: the caller guarantees that `new_size`, rounded up to the alignment, does
         // not overflow `isize`, which is all a layout needs.
@@ -111,6 +124,37 @@ unsafe impl GlobalAlloc for Allocator {
         }
         new
     }
+}
+
+/// Moves or resizes the mapping of a block of `old_size` bytes (from [`map`]) to hold
+/// `new_size` bytes, the kernel moving its pages rather than copying them (a growing vector
+/// of a large part would otherwise copy itself and have fresh pages zeroed at each
+/// doubling); null when the system has no memory to give, the old block then unchanged.
+/// A block that grows to [`HUGE_PAGE`] or more is advised for huge pages on the whole 2 MiB
+/// pages it holds (its start may no longer be on a boundary).
+///
+/// # Safety
+///
+/// `ptr` must be the start of the whole mapping that [`map`] made for `old_size` bytes.
+unsafe fn remap(ptr: *mut u8, old_size: usize, new_size: usize) -> *mut u8 {
+    let (old_len, new_len) = (mapped_len(old_size), mapped_len(new_size));
+    if old_len == new_len {
+        return ptr;
+    }
+    // SAFETY: `ptr..ptr + old_len` is one whole mapping of ours (the caller's contract).
+    let raw = unsafe { libc::mremap(ptr.cast(), old_len, new_len, libc::MREMAP_MAYMOVE) };
+    if raw == libc::MAP_FAILED {
+        return std::ptr::null_mut();
+    }
+    if new_len >= HUGE_PAGE {
+        let start = (raw as usize).div_ceil(HUGE_PAGE) * HUGE_PAGE;
+        let end = (raw as usize + new_len) / HUGE_PAGE * HUGE_PAGE;
+        if end > start {
+            // SAFETY: advice only, on whole pages inside the mapping just made.
+            unsafe { libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE) };
+        }
+    }
+    raw.cast()
 }
 
 /// Maps `size` bytes, from [`HALF_HUGE_PAGE`] bytes on at a 2 MiB boundary with huge pages
