@@ -1185,8 +1185,8 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
     let ids: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
     keys.par_iter_mut().for_each(|k| *k >>= 32);
     let codes = keys;
-    let mut nodes = Vec::with_capacity(ids.len() * 3 / 4 + 16);
-    morton_into(&ids, boxes, &codes, 0, &mut nodes);
+    let mut nodes = vec![UNWRITTEN; morton_count(&codes)];
+    morton_into(&ids, boxes, &codes, 0, &mut nodes, 0);
     (nodes, ids)
 }
 
@@ -1217,69 +1217,125 @@ fn sort_by_code(keys: &mut Vec<u64>) {
     }
 }
 
+/// Where the triangles of a node, whose codes are `codes`, split into its two children:
+/// the first child's count, at the highest bit in which the codes differ (half way when
+/// they are all equal); `None` for a leaf.
+fn morton_split(codes: &[u64]) -> Option<usize> {
+    if codes.len() <= MORTON_LEAF_SIZE {
+        return None;
+    }
+    let (lo, hi) = (codes[0], codes[codes.len() - 1]);
+    Some(if lo == hi {
+        codes.len() / 2
+    } else {
+        let bit = 63 - (lo ^ hi).leading_zeros();
+        codes.partition_point(|&c| c >> bit & 1 == 0)
+    })
+}
+
+/// How many nodes the subtree of the triangles whose codes are `codes` has.
+fn morton_count(codes: &[u64]) -> usize {
+    match morton_split(codes) {
+        None => 1,
+        Some(mid) => {
+            let (l, r) = codes.split_at(mid);
+            if codes.len() > PARALLEL_MIN {
+                let (a, b) = join(|| morton_count(l), || morton_count(r));
+                1 + a + b
+            } else {
+                1 + morton_count(l) + morton_count(r)
+            }
+        }
+    }
+}
+
+/// A node slot before the build writes it.
+const UNWRITTEN: Node = Node {
+    min: [0.0; 3],
+    link: 0,
+    max: [0.0; 3],
+    count: 0,
+};
+
 /// Builds the node of the triangles `ids` (whose codes are `codes`, boxes `boxes[id]`) and
-/// its subtree into `nodes`; triangle links relative to `first`. Returns the node's box.
+/// its subtree into `out`, which holds exactly its nodes ([`morton_count`]): the node, then
+/// its first child's subtree, then its second's; `at` is the index of `out[0]` in the whole
+/// tree, triangle links are relative to `first`. Returns the node's box. The two subtrees of
+/// a large node are built side by side, each into its own part of `out`, so nothing is
+/// copied or grown.
 fn morton_into(
     ids: &[u32],
     boxes: &[(Vec3, Vec3)],
     codes: &[u64],
     first: usize,
-    nodes: &mut Vec<Node>,
+    out: &mut [Node],
+    at: usize,
 ) -> Bounds {
-    let me = nodes.len();
-    if ids.len() <= MORTON_LEAF_SIZE {
+    if ids.len() <= PARALLEL_MIN {
+        let mut next = 0;
+        let b = morton_serial(ids, boxes, codes, first, out, at, &mut next);
+        debug_assert_eq!(next, out.len());
+        return b;
+    }
+    let mid = morton_split(codes).expect("a large node splits");
+    let (left, right) = ids.split_at(mid);
+    let (l_codes, r_codes) = codes.split_at(mid);
+    let (me, rest) = out.split_first_mut().expect("a node's slot");
+    let n_left = morton_count(l_codes);
+    let (l_out, r_out) = rest.split_at_mut(n_left);
+    let (mut b, r) = join(
+        || morton_into(left, boxes, l_codes, first, l_out, at + 1),
+        || morton_into(right, boxes, r_codes, first + mid, r_out, at + 1 + n_left),
+    );
+    b.grow(r.min, r.max);
+    *me = Node {
+        min: b.min.to_array(),
+        link: (at + 1 + n_left) as u32,
+        max: b.max.to_array(),
+        count: 0,
+    };
+    b
+}
+
+/// [`morton_into`] on one thread: the nodes in the same order, written from `out[*next]` on
+/// (`at` the index of `out[0]` in the whole tree).
+fn morton_serial(
+    ids: &[u32],
+    boxes: &[(Vec3, Vec3)],
+    codes: &[u64],
+    first: usize,
+    out: &mut [Node],
+    at: usize,
+    next: &mut usize,
+) -> Bounds {
+    let me = *next;
+    *next += 1;
+    let Some(mid) = morton_split(codes) else {
         let mut b = Bounds::EMPTY;
         for &id in ids {
             let (min, max) = boxes[id as usize];
             b.grow(Vec3A::from(min), Vec3A::from(max));
         }
-        nodes.push(Node {
+        out[me] = Node {
             min: b.min.to_array(),
             link: first as u32,
             max: b.max.to_array(),
             count: ids.len() as u32,
-        });
+        };
         return b;
-    }
-    let (lo, hi) = (codes[0], codes[codes.len() - 1]);
-    let mid = if lo == hi {
-        ids.len() / 2
-    } else {
-        let bit = 63 - (lo ^ hi).leading_zeros();
-        codes.partition_point(|&c| c >> bit & 1 == 0)
     };
-    nodes.push(Node {
-        min: [0.0; 3],
-        link: 0,
-        max: [0.0; 3],
-        count: 0,
-    });
     let (left, right) = ids.split_at(mid);
     let (l_codes, r_codes) = codes.split_at(mid);
-    let (mut b, r) = if ids.len() > PARALLEL_MIN {
-        // The left subtree goes on in `nodes` (it follows its parent); only the right one,
-        // built on the other thread, is copied after it.
-        let (l, (r, sub)) = join(
-            || morton_into(left, boxes, l_codes, first, nodes),
-            || {
-                let mut sub = Vec::with_capacity(right.len() * 3 / 4 + 16);
-                let r = morton_into(right, boxes, r_codes, first + mid, &mut sub);
-                (r, sub)
-            },
-        );
-        nodes[me].link = nodes.len() as u32;
-        let base = nodes.len();
-        append(nodes, sub, base);
-        (l, r)
-    } else {
-        let l = morton_into(left, boxes, l_codes, first, nodes);
-        nodes[me].link = nodes.len() as u32;
-        let r = morton_into(right, boxes, r_codes, first + mid, nodes);
-        (l, r)
-    };
+    let mut b = morton_serial(left, boxes, l_codes, first, out, at, next);
+    let link = (at + *next) as u32;
+    let r = morton_serial(right, boxes, r_codes, first + mid, out, at, next);
     b.grow(r.min, r.max);
-    nodes[me].min = b.min.to_array();
-    nodes[me].max = b.max.to_array();
+    out[me] = Node {
+        min: b.min.to_array(),
+        link,
+        max: b.max.to_array(),
+        count: 0,
+    };
     b
 }
 
