@@ -106,7 +106,12 @@ unsafe impl GlobalAlloc for Allocator {
         }
         if was && will {
             // SAFETY: `ptr` came from `map` with this size, so this is its whole mapping.
-            return unsafe { remap(ptr, layout.size(), new_size) };
+            let moved = unsafe { remap(ptr, layout.size(), new_size) };
+            if !moved.is_null() {
+                return moved;
+            }
+            // The kernel declined (a mapping whose huge-page advice split it in two parts
+            // cannot grow in one call): a new block and a copy, as for any other.
         }
         // SAFETY: the caller guarantees that `new_size`, rounded up to the alignment, does
         // not overflow `isize`, which is all a layout needs.
@@ -129,7 +134,9 @@ unsafe impl GlobalAlloc for Allocator {
 /// Moves or resizes the mapping of a block of `old_size` bytes (from [`map`]) to hold
 /// `new_size` bytes, the kernel moving its pages rather than copying them (a growing vector
 /// of a large part would otherwise copy itself and have fresh pages zeroed at each
-/// doubling); null when the system has no memory to give, the old block then unchanged.
+/// doubling); null when the kernel declines, the old block then unchanged: a block whose
+/// huge-page advice covers only part of it is two mappings to the kernel (advised and
+/// not), which one call cannot grow, and the caller then copies it.
 /// A block that grows to [`HUGE_PAGE`] or more is advised for huge pages on the whole 2 MiB
 /// pages it holds (its start may no longer be on a boundary).
 ///
@@ -251,6 +258,22 @@ mod tests {
         let zeros = vec![0u32; HALF_HUGE_PAGE / 4 + 100];
         assert_eq!(zeros.as_ptr() as usize % HUGE_PAGE, 0);
         assert!(zeros.iter().all(|&x| x == 0));
+    }
+
+    #[test]
+    fn a_block_advised_in_part_grows_and_keeps_its_bytes() {
+        // 2 MiB and a page: the first 2 MiB advised, the page not, two mappings to the
+        // kernel, which one remap cannot grow; the block is copied instead.
+        for n in [HUGE_PAGE + PAGE, 3 * HUGE_PAGE + 5 * PAGE + 17, HUGE_PAGE] {
+            let mut v: Vec<u8> = Vec::with_capacity(n);
+            v.extend((0..n).map(|i| (i % 251) as u8));
+            v.reserve_exact(n + 7);
+            v.extend((n..2 * n + 7).map(|i| (i % 251) as u8));
+            assert!(v.iter().enumerate().all(|(i, &b)| b == (i % 251) as u8));
+            v.truncate(HALF_HUGE_PAGE / 2 + 3);
+            v.shrink_to_fit();
+            assert!(v.iter().enumerate().all(|(i, &b)| b == (i % 251) as u8));
+        }
     }
 
     #[test]
