@@ -121,9 +121,10 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
                 v3(g.point),
                 r.options.gate_radius_mm,
                 g.distance_3d_mm,
-                match g.mode {
-                    crate::GateMode::Paper => "grid",
-                    crate::GateMode::Aesthetic => "parting-line",
+                match (g.strategy, g.mode) {
+                    (crate::flow::Strategy::Balanced, _) => "balanced",
+                    (_, crate::GateMode::Paper) => "grid",
+                    (_, crate::GateMode::Aesthetic) => "parting-line",
                 }
             );
         }

@@ -379,17 +379,7 @@ impl Report {
     /// Adds the directions tried by the automatic demolding choice; a chosen direction with
     /// undercuts adds a warning with its area.
     pub fn with_demold_auto(mut self, auto: AutoDemold) -> Report {
-        let c = auto.candidate();
-        if c.undercut.area_mm2 > 0.0 {
-            self.warnings.push(format!(
-                "--demold auto: no direction without undercuts; chose ({:.4}, {:.4}, {:.4}) with the least, {:.1} mm^2 ({:.2} % of the area)",
-                c.direction[0],
-                c.direction[1],
-                c.direction[2],
-                c.undercut.area_mm2,
-                100.0 * c.undercut.share
-            ));
-        }
+        self.warnings.extend(demold_auto_warning(&auto));
         self.demold_auto = Some(auto);
         self
     }
@@ -534,6 +524,43 @@ pub fn seconds_text(t: f64) -> String {
     three_figures(t)
 }
 
+/// The warning of an automatic direction with undercuts: its area, and when a tie chose it
+/// over a line of less, that line's (the choice's rules, [`crate::undercut`]).
+fn demold_auto_warning(auto: &AutoDemold) -> Option<String> {
+    let c = auto.candidate();
+    if c.undercut.area_mm2 > 0.0 {
+        let d = |d: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", d[0], d[1], d[2]);
+        // The least undercut drawn; the chosen line may be within the tie of it.
+        let least = auto
+            .tried
+            .iter()
+            .filter(|t| t.evaluated)
+            .min_by(|a, b| a.undercut.area_mm2.total_cmp(&b.undercut.area_mm2))
+            .unwrap_or(c);
+        let area = format!(
+            "{} mm^2 ({} % of the area)",
+            three_figures(c.undercut.area_mm2),
+            three_figures(100.0 * c.undercut.share)
+        );
+        Some(if least.undercut.area_mm2 < c.undercut.area_mm2 {
+            format!(
+                "--demold auto: no direction without undercuts; chose {}, whose undercut, {area}, is within the tie ({} mm^2, 1 % of the area) of the least, {} mm^2 along {}, by the tie's rules (the shallowest draw, then a line where a gate qualifies)",
+                d(c.direction),
+                three_figures(auto.tie_mm2),
+                three_figures(least.undercut.area_mm2),
+                d(least.direction)
+            )
+        } else {
+            format!(
+                "--demold auto: no direction without undercuts; chose {}, with the least undercut, {area}",
+                d(c.direction)
+            )
+        })
+    } else {
+        None
+    }
+}
+
 /// A positive value to three significant figures (`0.00612`, `0.0161`, `0.161`, `1.61`,
 /// `16.1`, `161`, and `1614` above 999): the fill's times and pressures, which span
 /// milliseconds to seconds and hundredths to hundreds of MPa. Zero, negative and
@@ -601,6 +628,58 @@ pub fn without_negative_zeros(text: &str, json: bool) -> String {
 #[cfg(test)]
 mod tests {
     use super::{seconds_text, without_negative_zeros};
+
+    /// An automatic direction with undercuts is warned with its area; one chosen by the tie
+    /// over a line of less names that line; one without undercuts is not warned.
+    #[test]
+    fn an_automatic_direction_with_undercuts_is_warned_with_the_least() {
+        use super::{demold_auto_warning, AutoDemold};
+        use crate::undercut::{Candidate, CandidateKind, Undercut};
+        let line = |direction: [f64; 3], area_mm2: f64, evaluated: bool| Candidate {
+            direction,
+            kind: CandidateKind::Axis,
+            undercut: Undercut {
+                area_mm2,
+                share: area_mm2 / 2000.0,
+            },
+            evaluated,
+            extent_mm: 10.0,
+            gate_qualifies: None,
+        };
+        let auto = |chosen: usize, tried: Vec<Candidate>| AutoDemold {
+            chosen,
+            tried,
+            tie_mm2: 20.0,
+        };
+        // The blank tile: -z chosen at 61.7 mm^2, x at 61.5 within the tie.
+        let tile = auto(
+            1,
+            vec![
+                line([1.0, 0.0, 0.0], 61.5, true),
+                line([0.0, 0.0, -1.0], 61.7, true),
+                line([0.0, 1.0, 0.0], 10.0, false),
+            ],
+        );
+        let w = demold_auto_warning(&tile).expect("undercuts");
+        assert!(
+            w.contains("chose (0.0000, 0.0000, -1.0000), whose undercut, 61.7 mm^2 (3.09 % of the area), is within the tie (20.0 mm^2, 1 % of the area) of the least, 61.5 mm^2 along (1.0000, 0.0000, 0.0000)"),
+            "{w}"
+        );
+        // A line left at a bound is not the least drawn; a tiny area keeps its figures.
+        let clip = auto(
+            0,
+            vec![
+                line([0.0, 0.0, 1.0], 0.00346, true),
+                line([1.0, 0.0, 0.0], 0.001, false),
+            ],
+        );
+        let w = demold_auto_warning(&clip).expect("undercuts");
+        assert!(w.ends_with("chose (0.0000, 0.0000, 1.0000), with the least undercut, 0.00346 mm^2 (0.000173 % of the area)"), "{w}");
+        assert_eq!(
+            demold_auto_warning(&auto(0, vec![line([0.0, 0.0, 1.0], 0.0, true)])),
+            None
+        );
+    }
 
     #[test]
     fn seconds_keep_three_significant_figures() {

@@ -529,6 +529,22 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
     ));
     let html = std::fs::read_to_string(dir.path().join("r.html")).unwrap();
     assert!(!html.contains("family values"));
+    assert!(html.contains("from the centre of mass (grid gate)"));
+    // The balanced strategy's gate is named so in the headline, not the grid's.
+    assert_ok(&moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--strategy",
+            "balanced",
+            "--report",
+            "b.html",
+        ],
+    ));
+    let html = std::fs::read_to_string(dir.path().join("b.html")).unwrap();
+    assert!(html.contains("from the centre of mass (balanced gate)"));
     // The paper's values are Table 1's, not a family's.
     let pp = summary("PP");
     assert!(

@@ -1332,8 +1332,9 @@ fn worse_by_other_measures(
         p.pressure_mpa,
         b.pressure_mpa,
         format!(
-            "pressure {:.2} -> {:.2} MPa",
-            p.pressure_mpa, b.pressure_mpa
+            "pressure {} -> {} MPa",
+            crate::report::three_figures(p.pressure_mpa),
+            crate::report::three_figures(b.pressure_mpa)
         ),
     );
     let other = match objective {
@@ -1342,7 +1343,7 @@ fn worse_by_other_measures(
     };
     (!worse.is_empty()).then(|| {
         format!(
-            "the balanced gate minimises the {} only: against the paper gate it is worse by {} (paper -> balanced); --objective {} minimises the {} instead",
+            "the balanced gate minimises the {} only: against the paper gate it is more than 1 % worse in {} (paper -> balanced); --objective {} minimises the {} instead",
             objective.value_words().0,
             worse.join(", "),
             other.name(),
@@ -3333,13 +3334,13 @@ mod tests {
             .expect("worse by two measures");
         assert_eq!(
             w,
-            "the balanced gate minimises the fill time only: against the paper gate it is worse by longest flow path L_max 37.8 -> 61.7 mm, pressure 4.15 -> 6.89 MPa (paper -> balanced); --objective length minimises the longest flow path L_max instead"
+            "the balanced gate minimises the fill time only: against the paper gate it is more than 1 % worse in longest flow path L_max 37.8 -> 61.7 mm, pressure 4.15 -> 6.89 MPa (paper -> balanced); --objective length minimises the longest flow path L_max instead"
         );
         // By length: the fill time counts, the L_max does not.
         let w = worse_by_other_measures(Objective::Length, &paper, &fill(35.0, 0.0369, 4.0))
             .expect("worse by the fill time");
         assert!(
-            w.contains("worse by fill time 0.0358 -> 0.0369 s (paper"),
+            w.contains("worse in fill time 0.0358 -> 0.0369 s (paper"),
             "{w}"
         );
         assert!(!w.contains("pressure") && !w.contains("L_max 37.8"), "{w}");
