@@ -63,7 +63,7 @@ function gateSection(r) {
   }
   rows.push([
     "Gate radius R",
-    `${r.options.gate_radius_mm.toFixed(3)} mm (${r.options.gate_radius_source === "forced" ? "given" : `Eq. 8, ${r.material.name}`})`,
+    `${r.options.gate_radius_mm.toFixed(3)} mm (${{ forced: "given", fitted: "the largest that fits" }[r.options.gate_radius_source] ?? `Eq. 8, ${r.material.name}`})`,
     { id: "gate-radius", "data-value": r.options.gate_radius_mm },
   ]);
   if (r.wall_thickness) {

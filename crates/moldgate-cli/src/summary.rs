@@ -260,6 +260,8 @@ pub fn render(r: &Report) -> String {
         match o.gate_radius_source {
             moldgate::report::RadiusSource::Material => " (from the material)",
             moldgate::report::RadiusSource::Forced => " (forced)",
+            moldgate::report::RadiusSource::Fitted =>
+                " (the largest that fits, taken with --fit-radius: see below)",
         },
         // Family values are a starting point, not a grade's data: say so where they are used.
         moldgate::material::typical_note(&r.material.material)

@@ -237,6 +237,8 @@ fn summary_table(h: &mut String, r: &Report) {
             match o.gate_radius_source {
                 RadiusSource::Material => "Eq. 8 from the material",
                 RadiusSource::Forced => "forced with --gate-radius",
+                RadiusSource::Fitted =>
+                    "the largest that fits below the refused one (--fit-radius)",
             }
         ),
     );

@@ -38,6 +38,9 @@ pub enum RadiusSource {
     Material,
     /// Forced by the user.
     Forced,
+    /// The largest radius that fits below the refused one, taken with `--fit-radius`
+    /// (the refused radius is `radius_fit.refused_mm`).
+    Fitted,
 }
 
 /// The options in force.
@@ -405,7 +408,11 @@ impl Report {
             options: OptionsReport {
                 demold: analysis.frame.d.to_array(),
                 gate_radius_mm: o.gate_radius_mm,
-                gate_radius_source: radius_source,
+                // The radius in force: the fitted one when the fit was taken.
+                gate_radius_source: match &analysis.radius_fit {
+                    Some(f) if f.accepted => RadiusSource::Fitted,
+                    _ => radius_source,
+                },
                 spacing_mm: analysis.grid.spacing,
                 spacing_rule: match o.spacing {
                     Spacing::Auto => "auto",

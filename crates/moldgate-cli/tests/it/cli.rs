@@ -1206,4 +1206,22 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
         .unwrap()
         .iter()
         .any(|w| w.as_str().unwrap().contains("R_gate = 2.500 mm")));
+    // The radius in force is the fitted one, so named: the report's and the picture's.
+    assert_eq!(r["options"]["gate_radius_mm"], fit["radius_mm"]);
+    assert_eq!(r["options"]["gate_radius_source"], "fitted");
+    let taken = assert_ok(&moldgate(
+        dir.path(),
+        &[&args[..], &["--fit-radius", "--report", "fit.html"]].concat(),
+    ));
+    assert!(
+        taken.contains(&format!(
+            "gate radius {radius:.4} mm (the largest that fits, taken with --fit-radius"
+        )),
+        "{taken}"
+    );
+    let html = std::fs::read_to_string(dir.path().join("fit.html")).unwrap();
+    assert!(
+        html.contains(&format!("radius R = {radius:.3} mm")),
+        "the headline's radius"
+    );
 }

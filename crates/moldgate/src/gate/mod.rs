@@ -590,6 +590,9 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
                     fit.refused_mm, fit.reason
                 ));
                 analysis.grid_gate = Some(gate);
+                // The radius in force is the fitted one: the picture's disc, the report and
+                // the fill's gates (their spacing, their seats) read it.
+                analysis.options.gate_radius_mm = r_fit;
                 // The nodes that qualify at that radius: the fill's candidates (the
                 // balanced gate, several gates, the suitability map).
                 (analysis.qualifying_points, analysis.qualifying_step_mm) = points;
