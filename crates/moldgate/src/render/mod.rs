@@ -614,9 +614,18 @@ fn draw_overlays(
         if d.hidden {
             label += " (hidden)";
         }
-        let (tx, ty, align) = gate_label_place([x, y], r, &label, &gate_style, &taken, inside, k);
+        let others: Vec<[f32; 2]> = (0..discs.len())
+            .filter(|&j| j != i)
+            .map(|j| discs[j].at)
+            .collect();
+        let (tx, ty, align, own) =
+            gate_label_place([x, y], r, &label, &gate_style, &taken, inside, k, &others);
+        let b = text_box(tx, ty, &label, &gate_style, align);
+        if !own {
+            draw_leader(canvas, &b, [x, y], r, k);
+        }
         canvas.text(tx, ty, &label, &gate_style, align);
-        taken.push(text_box(tx, ty, &label, &gate_style, align));
+        taken.push(b);
     }
 
     placed::draw_placed(canvas, scene, view, k);
@@ -905,9 +914,13 @@ fn text_box(x: f32, y: f32, text: &str, style: &TextStyle, align: Align) -> Labe
 
 /// Where a gate's label goes: beside its disc (centre `p`, radius `r` pixels), the first of
 /// upper right (the usual place), lower right, upper left, lower left, then the same a
-/// label's height farther out, whose box overlaps nothing `taken` and lies inside the
-/// panel (`inside`); the usual place when none does. Returns the text's anchor and
-/// alignment.
+/// label's height farther out, whose box overlaps nothing `taken`, lies inside the panel
+/// (`inside`) and is nearer the disc's centre than the centre of any other gate (`others`:
+/// the label of a gate of a layout must not read as its neighbour's); failing the last,
+/// the first of the others; the usual place when none does. Returns the text's anchor and
+/// alignment, and whether the label is nearer its own gate than any other (else the caller
+/// draws a leader to it).
+#[allow(clippy::too_many_arguments)]
 fn gate_label_place(
     p: [f32; 2],
     r: f32,
@@ -916,7 +929,8 @@ fn gate_label_place(
     taken: &[LabelBox],
     inside: LabelBox,
     k: f32,
-) -> (f32, f32, Align) {
+    others: &[[f32; 2]],
+) -> (f32, f32, Align, bool) {
     let around = Around {
         side: r + 12.0 * k,
         above: r + 8.0 * k,
@@ -929,7 +943,47 @@ fn gate_label_place(
         Corner::UpperLeft,
         Corner::LowerLeft,
     ];
-    first_free(&around.places(p, order), label, style, taken, inside)
+    let places = around.places(p, order);
+    let own = |&(tx, ty, align): &(f32, f32, Align)| {
+        let b = text_box(tx, ty, label, style, align);
+        let mine = box_distance(&b, p);
+        others.iter().all(|&o| mine < box_distance(&b, o))
+    };
+    let nearest: Vec<(f32, f32, Align)> = places.iter().copied().filter(own).collect();
+    if !nearest.is_empty() {
+        let placed = first_free(&nearest, label, style, taken, inside);
+        let b = text_box(placed.0, placed.1, label, style, placed.2);
+        if b[0] >= inside[0]
+            && b[1] >= inside[1]
+            && b[2] <= inside[2]
+            && b[3] <= inside[3]
+            && taken.iter().all(|t| !overlaps(&b, t))
+        {
+            return (placed.0, placed.1, placed.2, true);
+        }
+    }
+    let (x, y, align) = first_free(&places, label, style, taken, inside);
+    (x, y, align, own(&(x, y, align)))
+}
+
+/// The distance in pixels from point `p` to the box `b` (0 inside it).
+fn box_distance(b: &LabelBox, p: [f32; 2]) -> f32 {
+    let dx = (b[0] - p[0]).max(p[0] - b[2]).max(0.0);
+    let dy = (b[1] - p[1]).max(p[1] - b[3]).max(0.0);
+    dx.hypot(dy)
+}
+
+/// A thin line from a label's box to its gate's disc (centre `p`, radius `r`), for a label
+/// that had to go nearer another gate than its own.
+fn draw_leader(canvas: &mut Canvas, b: &LabelBox, p: [f32; 2], r: f32, k: f32) {
+    let q = [p[0].clamp(b[0], b[2]), p[1].clamp(b[1], b[3])];
+    let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+    let d = dx.hypot(dy);
+    if d <= r + 2.0 * k {
+        return;
+    }
+    let edge = [p[0] + dx / d * r, p[1] + dy / d * r];
+    canvas.stroke_polyline(&[edge, q], false, GATE_COLOUR, 1.5 * k, None);
 }
 
 /// Where the centre of mass's label goes: lower left of its cross (centre `c`, arms of
@@ -1539,7 +1593,7 @@ mod tests {
         let other = [usual[0], usual[3] + 10.0, usual[2], usual[3] + 60.0];
         let taken = [cross, other];
         let inside = [0.0, 0.0, 1000.0, 1000.0];
-        let (x, y, align) = gate_label_place(gate, r, "gate", &style, &taken, inside, k);
+        let (x, y, align, _) = gate_label_place(gate, r, "gate", &style, &taken, inside, k, &[]);
         let placed = text_box(x, y, "gate", &style, align);
         for t in &taken {
             assert!(!overlaps(&placed, t), "{placed:?} overlaps {t:?}");
@@ -1547,8 +1601,39 @@ mod tests {
         let disc = [gate[0] - r, gate[1] - r, gate[0] + r, gate[1] + r];
         assert!(!overlaps(&placed, &disc));
         // With nothing in the way the label keeps its usual place.
-        let (x, y, _) = gate_label_place(gate, r, "gate", &style, &[], inside, k);
+        let (x, y, _, _) = gate_label_place(gate, r, "gate", &style, &[], inside, k, &[]);
         assert_eq!((x, y), (gate[0] + r + 12.0, gate[1] - r - 8.0));
+    }
+
+    #[test]
+    fn a_gate_label_goes_nearer_its_own_gate_than_a_neighbour() {
+        // The heatbed clip's layout seen along D: gate 4's disc sits up and right of gate
+        // 1's, where gate 1's label usually goes.
+        let k = 1.0;
+        let style = TextStyle::new(15.0, GATE_COLOUR).bold();
+        let (gate, r) = ([300.0f32, 300.0f32], 24.0f32);
+        let neighbour = [gate[0] + 2.0 * r + 20.0, gate[1] - 2.0 * r - 10.0];
+        let inside = [0.0, 0.0, 1000.0, 1000.0];
+        let disc = |c: [f32; 2]| [c[0] - r, c[1] - r, c[0] + r, c[1] + r];
+        let taken = [disc(gate), disc(neighbour)];
+        // Alone, the usual place (upper right) is nearer the neighbour.
+        let usual = text_box(
+            gate[0] + r + 12.0,
+            gate[1] - r - 8.0,
+            "gate 1",
+            &style,
+            Align::Left,
+        );
+        assert!(box_distance(&usual, neighbour) < box_distance(&usual, gate));
+        let (x, y, align, own) =
+            gate_label_place(gate, r, "gate 1", &style, &taken, inside, k, &[neighbour]);
+        let placed = text_box(x, y, "gate 1", &style, align);
+        assert!(own);
+        assert!(
+            box_distance(&placed, gate) < box_distance(&placed, neighbour),
+            "{placed:?}"
+        );
+        assert!(taken.iter().all(|t| !overlaps(&placed, t)));
     }
 
     #[test]
