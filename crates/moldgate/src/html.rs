@@ -256,6 +256,23 @@ fn summary_table(h: &mut String, r: &Report) {
         ),
     );
     match &r.gate {
+        // A layout of several gates: every gate, as the headline gives them.
+        Some(g) if g.gates.as_ref().is_some_and(|gates| gates.len() > 1) => {
+            let gates = g.gates.as_deref().unwrap_or_default();
+            let points: Vec<String> = gates
+                .iter()
+                .map(|g| format!("{} mm", v3(g.point)))
+                .collect();
+            row(
+                h,
+                "Gates",
+                &format!(
+                    "{} gates: {} (their shares in the fill analysis)",
+                    gates.len(),
+                    points.join(", ")
+                ),
+            )
+        }
         Some(g) => row(
             h,
             "Gate",

@@ -545,6 +545,18 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
     ));
     let html = std::fs::read_to_string(dir.path().join("b.html")).unwrap();
     assert!(html.contains("from the centre of mass (balanced gate)"));
+    // A layout's summary row gives every gate, not its first alone.
+    assert_ok(&moldgate(
+        dir.path(),
+        &[
+            "locate", "--sample", "plate", "--gates", "2", "--report", "g.html",
+        ],
+    ));
+    let html = std::fs::read_to_string(dir.path().join("g.html")).unwrap();
+    assert!(
+        html.contains("<th>Gates</th><td>2 gates: ("),
+        "the layout's row"
+    );
     // The paper's values are Table 1's, not a family's.
     let pp = summary("PP");
     assert!(
