@@ -1196,7 +1196,7 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
     assert!(fit["reason"]
         .as_str()
         .unwrap()
-        .contains("(the thickest 1.600 mm)"));
+        .contains("(the thickest 1.600 mm; any thicker wall is too narrow for the disc)"));
     assert!(fit["reason"]
         .as_str()
         .unwrap()

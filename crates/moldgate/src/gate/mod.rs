@@ -490,7 +490,9 @@ impl Analysis {
                 c.thicker_than_radius + c.thickness_unknown
             );
             if let Some(th) = self.thickest_disc_wall_mm.filter(|&th| th <= r) {
-                s += &format!(" (the thickest {th:.3} mm)");
+                s += &format!(
+                    " (the thickest {th:.3} mm; any thicker wall is too narrow for the disc)"
+                );
             }
         }
         if self.options.flat_rule == FlatRule::Require {
