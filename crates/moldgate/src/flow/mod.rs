@@ -1352,6 +1352,36 @@ fn worse_by_other_measures(
     })
 }
 
+/// The warning for a layout's gates that add nothing to its objective
+/// ([`MultiGate::redundant`]), each alone: the objective is the slowest place's value, which
+/// the other gates reach as soon without it.
+fn redundant_warning(layout: &MultiGate, objective: Objective) -> String {
+    let (what, unit) = objective.value_words();
+    let n = layout.gates.len();
+    let list = |items: Vec<String>| match items.len() {
+        1 => items[0].clone(),
+        k => format!("{} and {}", items[..k - 1].join(", "), items[k - 1]),
+    };
+    let r = &layout.redundant;
+    let numbers = list(r.iter().map(|&g| (g + 1).to_string()).collect());
+    let shares = list(
+        r.iter()
+            .map(|&g| format!("{:.1}", 100.0 * layout.gates[g].volume_share))
+            .collect(),
+    );
+    let (gates, does, without) = match r.len() {
+        1 => ("gate", "does", "without it"),
+        2 => ("gates", "each do", "without either one"),
+        _ => ("gates", "each do", "without any one of them"),
+    };
+    format!(
+        "{gates} {numbers} of the layout of {n} ({shares} % of the volume) {does} not shorten its {what}: {without}, the other {} gates reach every place within one flow cell of the same {} {unit}, so {} gates do as well by this measure, which the slowest place alone sets (a gate may still even out the fill)",
+        n - 1,
+        objective.value_text(layout.value()),
+        n - 1,
+    )
+}
+
 /// The warning for a layout's gates that fill less than [`IDLE_GATE_SHARE`] of the volume:
 /// under the fill-time objective the place reached last is often a small pocket of thin
 /// wall, and the search may gate it, which shortens the fill time of the whole by that
@@ -1472,6 +1502,10 @@ pub struct MultiGate {
     /// marched from before is not run again; those of a gate examined ahead and dropped,
     /// when the gate before it moved, count).
     pub runs: usize,
+    /// The gates (indices into `gates`) without which, each alone, the others reach every
+    /// cell within one flow cell of the layout's value: by the objective they add nothing
+    /// (see [`redundant_gates`]).
+    pub redundant: Vec<usize>,
 }
 
 impl MultiGate {
@@ -1908,7 +1942,38 @@ fn several_gates_search(
         improvement_pct: 0.0,
         balance,
         runs: runs + from_centre.runs() + trial_runs.into_inner(),
+        redundant: Vec::new(),
     })
+}
+
+/// The gates of `layout` (found among `candidates`, its value in the field's units) that
+/// add nothing to its objective: without each alone, the march of the others reaches no
+/// cell beyond the layout's value by more than `tolerance` (a flow cell). One march per
+/// gate, each stopped at the first cell beyond, so a gate that is needed costs little.
+pub fn redundant_gates(
+    domain: &Domain,
+    candidates: &[Source],
+    objective: Objective,
+    layout: &MultiGate,
+    tolerance: f64,
+) -> Vec<usize> {
+    let n = layout.gates.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let limit = layout.value() + tolerance;
+    let cost = domain.cost(objective);
+    (0..n)
+        .into_par_iter()
+        .filter(|&g| {
+            let others: Vec<Source> = (0..n)
+                .filter(|&o| o != g)
+                .map(|o| candidates[layout.gates[o].candidate])
+                .collect();
+            let (_, reach) = march_until(&domain.voxels, &others, cost, |_, t| t > limit);
+            reach.is_infinite()
+        })
+        .collect()
 }
 
 /// The marches of a search from cell centres, kept by cell: such a march depends on its
@@ -2738,8 +2803,9 @@ pub fn analyse_prepared(
                 }
             };
             let k = options.gates as f64;
-            // Two searches, one from each start (see `several_gates`).
-            let work = domain.voxels.len() as f64 * 2.0 * (2.0 * k + 24.0 * k + 1.0);
+            // Two searches, one from each start (see `several_gates`), and a march per gate
+            // for the gates the layout does without.
+            let work = domain.voxels.len() as f64 * (2.0 * (2.0 * k + 24.0 * k + 1.0) + k);
             if work > options.flow.max_march_cells {
                 return Err(FillError::too_large(
                     "cell visits of the several-gate search",
@@ -2773,6 +2839,8 @@ pub fn analyse_prepared(
                 asked: options.gates,
                 available,
             })?;
+            // One flow cell is `h` in the fields' units for either objective.
+            layout.redundant = redundant_gates(&domain, &candidates, options.objective, &layout, h);
             if options.objective == Objective::Resistance {
                 // The search's values are of the fill-time field: seconds, under their name.
                 layout.fill_time_s = layout.l_max_mm.take().map(|x| x * per_mm);
@@ -2859,6 +2927,9 @@ pub fn analyse_prepared(
             ));
         }
         warnings.extend(idle_gates(layout));
+        if !layout.redundant.is_empty() {
+            warnings.push(redundant_warning(layout, options.objective));
+        }
         // The layout's gates are all on the body of its first (the search keeps to it):
         // on a part of several bodies, say so, and whose volume the shares are of.
         let body = layout
@@ -3373,6 +3444,7 @@ mod tests {
             improvement_pct: 1.0,
             balance: 0.0,
             runs: 1,
+            redundant: Vec::new(),
         };
         let sound = layout(vec![gate(0.0, 0.5), gate(10.0, 0.49), gate(20.0, 0.01)]);
         assert_eq!(idle_gates(&sound), None);

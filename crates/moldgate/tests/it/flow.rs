@@ -3,8 +3,8 @@
 //! brute-force best candidate, and several gates share the part.
 
 use moldgate::flow::{
-    self, balanced_gate, march, several_gates, several_gates_from, Domain, MultiGate, Objective,
-    Source,
+    self, balanced_gate, march, redundant_gates, several_gates, several_gates_from, Domain,
+    GateShare, MultiGate, Objective, Source,
 };
 use moldgate::math::DVec3;
 use moldgate::samples::BoxUnion;
@@ -133,6 +133,57 @@ fn candidates(mesh: &Mesh, domain: &Domain, demold: &str, spacing: f64) -> (Vec<
         .collect();
     let first = domain.source(analysis.gate().unwrap().point()).unwrap();
     (sources, first)
+}
+
+/// A gate the layout does without: on the 200 mm bar, gates at its quarter points and a
+/// third 5 mm from the first; without the third the worst place is as far (within a cell),
+/// without either of the others it is far beyond.
+#[test]
+fn a_gate_beside_another_adds_nothing_to_the_layout() {
+    let bar = bar();
+    let h = 0.75;
+    let domain = Domain::new(&bar, h, None, 3.0, &pp());
+    let (cands, _) = candidates(&bar, &domain, "+z", 2.0);
+    let nearest = |x: f64| {
+        (0..cands.len())
+            .min_by(|&a, &b| {
+                let d = |i: usize| (cands[i].point - DVec3::new(x, 0.0, 3.0)).length();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap()
+    };
+    let chosen = [nearest(-50.0), nearest(50.0), nearest(-45.0)];
+    let sources: Vec<Source> = chosen.iter().map(|&i| cands[i]).collect();
+    let field = march(&domain.voxels, &sources, None);
+    let worst = flow::argmax(&field.t).1;
+    let layout = MultiGate {
+        gates: chosen
+            .iter()
+            .map(|&i| GateShare {
+                candidate: i,
+                point: cands[i].point.to_array(),
+                volume_share: 1.0 / 3.0,
+                l_max_mm: Some(worst),
+                fill_time_s: None,
+            })
+            .collect(),
+        l_max_mm: Some(worst),
+        fill_time_s: None,
+        improvement_pct: 0.0,
+        balance: 1.0,
+        runs: 1,
+        redundant: Vec::new(),
+    };
+    assert_eq!(
+        redundant_gates(&domain, &cands, Objective::Length, &layout, h),
+        [2]
+    );
+    // With no tolerance at all, the third gate still adds nothing: the far ends are the
+    // first two gates'.
+    assert_eq!(
+        redundant_gates(&domain, &cands, Objective::Length, &layout, 0.0),
+        [2]
+    );
 }
 
 /// A bar 200 x 10 x 3 along x, made of two boxes so no face crosses x = 0.
@@ -1066,7 +1117,8 @@ fn a_layout_gives_the_value_it_minimised_under_its_own_name_and_its_gain_over_on
 #[test]
 fn the_several_gate_search_is_refused_before_the_work_when_its_two_starts_exceed_the_limit() {
     // Each start may run 2 marches per added gate and 3 per gate in each of 8 rounds, and
-    // one to begin with: the limit counts both starts' cell visits.
+    // one to begin with, and the layout one march per gate for the gates it does without:
+    // the limit counts all of these cell visits.
     let cover = moldgate::samples::sample("cover").unwrap();
     let part = moldgate::mesh::from_generated(cover.clone());
     let analysis = moldgate::locate(&part, &moldgate::LocateOptions::default()).unwrap();
@@ -1087,7 +1139,7 @@ fn the_several_gate_search_is_refused_before_the_work_when_its_two_starts_exceed
         )
     };
     let cells = run(f64::INFINITY).unwrap().cells as f64;
-    let work = cells * 2.0 * (2.0 * 2.0 + 24.0 * 2.0 + 1.0);
+    let work = cells * (2.0 * (2.0 * 2.0 + 24.0 * 2.0 + 1.0) + 2.0);
     let e = run(work * 0.999).unwrap_err();
     assert!(
         e.to_string()
