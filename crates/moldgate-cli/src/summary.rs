@@ -184,10 +184,11 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "    gate {}: {} fills {:.1} % of the volume, {}",
+                "    gate {}: {} fills {:.1} % of the volume (the share it reaches first by {}), {}",
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
+                f.objective.value_words().0,
                 worst(g.value())
             );
         }
@@ -624,7 +625,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
                 let _ = writeln!(
                     s,
-                    "    your gate {} fills {:.1} % of the volume first, longest flow {l:.1} mm in it",
+                    "    your gate {} fills {:.1} % of the volume (the share it reaches first by flow length), longest flow {l:.1} mm in it",
                     i + 1,
                     100.0 * share
                 );

@@ -492,7 +492,7 @@ fn placed_table(h: &mut String, r: &Report) {
             if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
                 let _ = writeln!(
                     h,
-                    "<li>your gate {} fills {:.1} % of the volume first, longest flow path L_max {l:.1} mm in it</li>",
+                    "<li>your gate {} fills {:.1} % of the volume (the share it reaches first by flow length), longest flow path L_max {l:.1} mm in it</li>",
                     i + 1,
                     100.0 * share
                 );
@@ -606,7 +606,7 @@ fn fill_table(h: &mut String, r: &Report) {
             "<p id=\"several\">{} gates together: {what} {} {unit} ({:.1} % shorter than \
              with the best single gate), balance {:.2} (smallest share over the largest).</p>\n\
              <table>\n<tr><th>gate</th><th>point</th>\
-             <th>share of the volume</th><th>{what} in its share</th></tr>",
+             <th>share of the volume (reached first by {what})</th><th>{what} in its share</th></tr>",
             m.gates.len(),
             f.objective.value_text(m.value()),
             m.improvement_pct,

@@ -1369,16 +1369,30 @@ fn redundant_warning(layout: &MultiGate, objective: Objective) -> String {
             .map(|&g| format!("{:.1}", 100.0 * layout.gates[g].volume_share))
             .collect(),
     );
-    let (gates, does, without) = match r.len() {
-        1 => ("gate", "does", "without it"),
-        2 => ("gates", "each do", "without either one"),
-        _ => ("gates", "each do", "without any one of them"),
+    let (gates, adds, without) = match r.len() {
+        1 => ("gate", "adds", "without it"),
+        2 => (
+            "gates",
+            "each add",
+            "without either one (one at a time, not both)",
+        ),
+        _ => (
+            "gates",
+            "each add",
+            "without any one of them (one at a time, not all)",
+        ),
+    };
+    let others = match n - 1 {
+        1 => "the other gate reaches".to_string(),
+        k => format!("the other {k} gates reach"),
+    };
+    let fewer = match n - 1 {
+        1 => "one gate does".to_string(),
+        k => format!("{k} gates do"),
     };
     format!(
-        "{gates} {numbers} of the layout of {n} ({shares} % of the volume) {does} not shorten its {what}: {without}, the other {} gates reach every place within one flow cell of the same {} {unit}, so {} gates do as well by this measure, which the slowest place alone sets (a gate may still even out the fill)",
-        n - 1,
+        "{gates} {numbers} of the layout of {n} ({shares} % of the volume) {adds} nothing to the layout's {what}: {without}, {others} no place later than its {} {unit} (as the search measures it, from the gates' flow cells), so by this measure, which the slowest place alone sets, {fewer} as well (a gate may still even out the fill)",
         objective.value_text(layout.value()),
-        n - 1,
     )
 }
 
@@ -1400,7 +1414,7 @@ fn idle_gates(layout: &MultiGate) -> Option<String> {
         .collect();
     (!idle.is_empty()).then(|| {
         format!(
-            "{} of the layout of {n} gates fill less than {:.0} % of the volume each ({}): such a gate serves only a small place the flow reaches late (often a thin wall or a pocket), not the part; a thicker wall there may serve better than a gate",
+            "{} of the layout of {n} gates fill less than {:.0} % of the volume each ({}): such a gate serves a small place the flow reaches late (often a thin wall or a pocket), not the part, yet it may set the layout's value: a thicker wall there may serve better than a gate",
             idle.len(),
             100.0 * IDLE_GATE_SHARE,
             idle.join(", "),
@@ -1502,9 +1516,9 @@ pub struct MultiGate {
     /// marched from before is not run again; those of a gate examined ahead and dropped,
     /// when the gate before it moved, count).
     pub runs: usize,
-    /// The gates (indices into `gates`) without which, each alone, the others reach every
-    /// cell within one flow cell of the layout's value: by the objective they add nothing
-    /// (see [`redundant_gates`]).
+    /// The gates (indices into `gates`) without which, each alone, the others reach no cell
+    /// later than the layout's value: by the objective they add nothing (see
+    /// [`redundant_gates`]); only one of them at a time can go.
     pub redundant: Vec<usize>,
 }
 
@@ -1948,7 +1962,7 @@ fn several_gates_search(
 
 /// The gates of `layout` (found among `candidates`, its value in the field's units) that
 /// add nothing to its objective: without each alone, the march of the others reaches no
-/// cell beyond the layout's value by more than `tolerance` (a flow cell). One march per
+/// cell beyond the layout's value by more than `tolerance`. One march per
 /// gate, each stopped at the first cell beyond, so a gate that is needed costs little.
 pub fn redundant_gates(
     domain: &Domain,
@@ -2839,8 +2853,10 @@ pub fn analyse_prepared(
                 asked: options.gates,
                 available,
             })?;
-            // One flow cell is `h` in the fields' units for either objective.
-            layout.redundant = redundant_gates(&domain, &candidates, options.objective, &layout, h);
+            // No place later than the layout's value (its f32 queue keys aside).
+            let tolerance = 1e-6 * layout.value().abs();
+            layout.redundant =
+                redundant_gates(&domain, &candidates, options.objective, &layout, tolerance);
             if options.objective == Objective::Resistance {
                 // The search's values are of the fill-time field: seconds, under their name.
                 layout.fill_time_s = layout.l_max_mm.take().map(|x| x * per_mm);

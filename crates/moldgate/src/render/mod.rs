@@ -622,7 +622,7 @@ fn draw_overlays(
             gate_label_place([x, y], r, &label, &gate_style, &taken, inside, k, &others);
         let b = text_box(tx, ty, &label, &gate_style, align);
         if !own {
-            draw_leader(canvas, &b, [x, y], r, k);
+            draw_leader(canvas, &b, [x, y], k);
         }
         canvas.text(tx, ty, &label, &gate_style, align);
         taken.push(b);
@@ -915,8 +915,9 @@ fn text_box(x: f32, y: f32, text: &str, style: &TextStyle, align: Align) -> Labe
 /// Where a gate's label goes: beside its disc (centre `p`, radius `r` pixels), the first of
 /// upper right (the usual place), lower right, upper left, lower left, then the same a
 /// label's height farther out, whose box overlaps nothing `taken`, lies inside the panel
-/// (`inside`) and is nearer the disc's centre than the centre of any other gate (`others`:
-/// the label of a gate of a layout must not read as its neighbour's); failing the last,
+/// (`inside`) and is clearly nearer the disc's centre than the centre of any other gate
+/// (`others`, by a quarter: the label of a gate of a layout must not read as its
+/// neighbour's); failing the last,
 /// the first of the others; the usual place when none does. Returns the text's anchor and
 /// alignment, and whether the label is nearer its own gate than any other (else the caller
 /// draws a leader to it).
@@ -946,8 +947,9 @@ fn gate_label_place(
     let places = around.places(p, order);
     let own = |&(tx, ty, align): &(f32, f32, Align)| {
         let b = text_box(tx, ty, label, style, align);
+        // Clearly nearer: by a quarter, so a label midway between two discs does not pass.
         let mine = box_distance(&b, p);
-        others.iter().all(|&o| mine < box_distance(&b, o))
+        others.iter().all(|&o| 1.25 * mine < box_distance(&b, o))
     };
     let nearest: Vec<(f32, f32, Align)> = places.iter().copied().filter(own).collect();
     if !nearest.is_empty() {
@@ -973,17 +975,13 @@ fn box_distance(b: &LabelBox, p: [f32; 2]) -> f32 {
     dx.hypot(dy)
 }
 
-/// A thin line from a label's box to its gate's disc (centre `p`, radius `r`), for a label
-/// that had to go nearer another gate than its own.
-fn draw_leader(canvas: &mut Canvas, b: &LabelBox, p: [f32; 2], r: f32, k: f32) {
+/// A thin dark line from a label's box to the centre of its gate's disc (centre `p`), with
+/// a dot there, for a label that could not go clearly nearer its own gate than another:
+/// drawn across the disc, it shows which of two touching discs it names.
+fn draw_leader(canvas: &mut Canvas, b: &LabelBox, p: [f32; 2], k: f32) {
     let q = [p[0].clamp(b[0], b[2]), p[1].clamp(b[1], b[3])];
-    let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
-    let d = dx.hypot(dy);
-    if d <= r + 2.0 * k {
-        return;
-    }
-    let edge = [p[0] + dx / d * r, p[1] + dy / d * r];
-    canvas.stroke_polyline(&[edge, q], false, GATE_COLOUR, 1.5 * k, None);
+    canvas.stroke_polyline(&[p, q], false, INK, 1.5 * k, None);
+    canvas.fill_circle(p[0], p[1], 2.5 * k, INK);
 }
 
 /// Where the centre of mass's label goes: lower left of its cross (centre `c`, arms of
