@@ -3443,6 +3443,53 @@ mod tests {
         );
     }
 
+    /// The warning for gates a layout does without reads right for one, two and more, and
+    /// for a layout of two.
+    #[test]
+    fn gates_a_layout_does_without_are_named_one_at_a_time() {
+        let layout = |shares: &[f64], redundant: Vec<usize>| MultiGate {
+            gates: shares
+                .iter()
+                .map(|&s| GateShare {
+                    candidate: 0,
+                    point: [0.0; 3],
+                    volume_share: s,
+                    l_max_mm: None,
+                    fill_time_s: Some(0.01),
+                })
+                .collect(),
+            l_max_mm: None,
+            fill_time_s: Some(0.00621),
+            improvement_pct: 5.5,
+            balance: 0.1,
+            runs: 1,
+            redundant,
+        };
+        let w = redundant_warning(&layout(&[0.5, 0.3, 0.2], vec![2]), Objective::Resistance);
+        assert!(w.starts_with("gate 3 of the layout of 3 (20.0 % of the volume) adds nothing to the layout's fill time: without it, the other 2 gates reach no place later than its 0.00621 s"), "{w}");
+        assert!(
+            w.contains(
+                "so by this measure, which the slowest place alone sets, 2 gates do as well"
+            ),
+            "{w}"
+        );
+        let w = redundant_warning(
+            &layout(&[0.4, 0.3, 0.2, 0.1], vec![0, 2, 3]),
+            Objective::Resistance,
+        );
+        assert!(w.starts_with("gates 1, 3 and 4 of the layout of 4 (40.0, 20.0 and 10.0 % of the volume) each add nothing"), "{w}");
+        assert!(
+            w.contains("without any one of them (one at a time, not all), the other 3 gates reach"),
+            "{w}"
+        );
+        let w = redundant_warning(&layout(&[0.6, 0.4], vec![0, 1]), Objective::Resistance);
+        assert!(
+            w.contains("without either one (one at a time, not both), the other gate reaches"),
+            "{w}"
+        );
+        assert!(w.contains("one gate does as well"), "{w}");
+    }
+
     /// Idle gates of a layout are warned; a sound layout is not.
     #[test]
     fn idle_layout_gates_are_warned() {
