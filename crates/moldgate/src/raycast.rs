@@ -1249,6 +1249,18 @@ fn morton_count(codes: &[u64]) -> usize {
     }
 }
 
+impl Node {
+    /// An interior node of box `b` whose second child is at `link`.
+    fn interior(b: &Bounds, link: u32) -> Node {
+        Node {
+            min: b.min.to_array(),
+            link,
+            max: b.max.to_array(),
+            count: 0,
+        }
+    }
+}
+
 /// A node slot before the build writes it.
 const UNWRITTEN: Node = Node {
     min: [0.0; 3],
@@ -1288,12 +1300,7 @@ fn morton_into(
         || morton_into(right, boxes, r_codes, first + mid, r_out, at + 1 + n_left),
     );
     b.grow(r.min, r.max);
-    *me = Node {
-        min: b.min.to_array(),
-        link: (at + 1 + n_left) as u32,
-        max: b.max.to_array(),
-        count: 0,
-    };
+    *me = Node::interior(&b, (at + 1 + n_left) as u32);
     b
 }
 
@@ -1330,12 +1337,7 @@ fn morton_serial(
     let link = (at + *next) as u32;
     let r = morton_serial(right, boxes, r_codes, first + mid, out, at, next);
     b.grow(r.min, r.max);
-    out[me] = Node {
-        min: b.min.to_array(),
-        link,
-        max: b.max.to_array(),
-        count: 0,
-    };
+    out[me] = Node::interior(&b, link);
     b
 }
 

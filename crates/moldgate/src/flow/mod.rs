@@ -90,6 +90,14 @@ impl Objective {
         }
     }
 
+    /// This objective's value of a gate's fill: its L_max, mm, or its fill time, s.
+    pub fn of_fill(self, fill: &GateFill) -> f64 {
+        match self {
+            Objective::Length => fill.l_max_mm,
+            Objective::Resistance => fill.fill_time_s,
+        }
+    }
+
     /// A value of this objective as a report writes it, without its unit: L_max to 0.1 mm,
     /// a fill time to three significant figures ([`crate::report::seconds_text`]).
     pub fn value_text(self, x: f64) -> String {
@@ -1299,44 +1307,25 @@ fn worse_by_other_measures(
     paper: &GateFill,
     balanced: &GateFill,
 ) -> Option<String> {
-    let mut worse = Vec::new();
-    let mut compare = |a: f64, b: f64, text: String| {
-        if b > a * (1.0 + OTHER_MEASURE_WORSE_SHARE) {
-            worse.push(text);
-        }
-    };
+    let worse_by = |x: f64, y: f64| y > x * (1.0 + OTHER_MEASURE_WORSE_SHARE);
     let (p, b) = (paper, balanced);
-    if objective != Objective::Length {
-        compare(
-            p.l_max_mm,
-            b.l_max_mm,
-            format!(
-                "longest flow path L_max {:.1} -> {:.1} mm",
-                p.l_max_mm, b.l_max_mm
-            ),
-        );
-    }
-    if objective != Objective::Resistance {
-        compare(
-            p.fill_time_s,
-            b.fill_time_s,
-            format!(
-                "fill time {} -> {} s",
-                crate::report::seconds_text(p.fill_time_s),
-                crate::report::seconds_text(b.fill_time_s)
-            ),
-        );
-    }
-    // Eq. 1's pressure is neither objective.
-    compare(
-        p.pressure_mpa,
-        b.pressure_mpa,
-        format!(
+    // The other objective in its own words, then Eq. 1's pressure, which neither minimises.
+    let mut worse: Vec<String> = [Objective::Length, Objective::Resistance]
+        .into_iter()
+        .filter(|&o| o != objective && worse_by(o.of_fill(p), o.of_fill(b)))
+        .map(|o| {
+            let (what, unit) = o.value_words();
+            let (x, y) = (o.value_text(o.of_fill(p)), o.value_text(o.of_fill(b)));
+            format!("{what} {x} -> {y} {unit}")
+        })
+        .collect();
+    if worse_by(p.pressure_mpa, b.pressure_mpa) {
+        worse.push(format!(
             "pressure {} -> {} MPa",
             crate::report::three_figures(p.pressure_mpa),
             crate::report::three_figures(b.pressure_mpa)
-        ),
-    );
+        ));
+    }
     let other = match objective {
         Objective::Length => Objective::Resistance,
         Objective::Resistance => Objective::Length,

@@ -952,17 +952,8 @@ fn gate_label_place(
         others.iter().all(|&o| 1.25 * mine < box_distance(&b, o))
     };
     let nearest: Vec<(f32, f32, Align)> = places.iter().copied().filter(own).collect();
-    if !nearest.is_empty() {
-        let placed = first_free(&nearest, label, style, taken, inside);
-        let b = text_box(placed.0, placed.1, label, style, placed.2);
-        if b[0] >= inside[0]
-            && b[1] >= inside[1]
-            && b[2] <= inside[2]
-            && b[3] <= inside[3]
-            && taken.iter().all(|t| !overlaps(&b, t))
-        {
-            return (placed.0, placed.1, placed.2, true);
-        }
+    if let Some((x, y, align)) = free_place(&nearest, label, style, taken, inside) {
+        return (x, y, align, true);
     }
     let (x, y, align) = first_free(&places, label, style, taken, inside);
     (x, y, align, own(&(x, y, align)))
@@ -1057,18 +1048,25 @@ fn first_free(
     taken: &[LabelBox],
     inside: LabelBox,
 ) -> (f32, f32, Align) {
-    places
-        .iter()
-        .copied()
-        .find(|&(tx, ty, align)| {
-            let b = text_box(tx, ty, label, style, align);
-            b[0] >= inside[0]
-                && b[1] >= inside[1]
-                && b[2] <= inside[2]
-                && b[3] <= inside[3]
-                && taken.iter().all(|t| !overlaps(&b, t))
-        })
-        .unwrap_or(places[0])
+    free_place(places, label, style, taken, inside).unwrap_or(places[0])
+}
+
+/// The first of `places` whose box overlaps nothing `taken` and lies `inside`, if any.
+fn free_place(
+    places: &[(f32, f32, Align)],
+    label: &str,
+    style: &TextStyle,
+    taken: &[LabelBox],
+    inside: LabelBox,
+) -> Option<(f32, f32, Align)> {
+    places.iter().copied().find(|&(tx, ty, align)| {
+        let b = text_box(tx, ty, label, style, align);
+        b[0] >= inside[0]
+            && b[1] >= inside[1]
+            && b[2] <= inside[2]
+            && b[3] <= inside[3]
+            && taken.iter().all(|t| !overlaps(&b, t))
+    })
 }
 
 /// The hatch of the qualifying region at pixel (x, y): a white stripe with a dark edge, so

@@ -733,7 +733,6 @@ fn balanced_gate_never_does_worse_than_the_paper_gate_on_the_shared_parts() {
         Ok(p) => p,
         Err(why) => return skip(TEST, &why),
     };
-    let pp = moldgate::Material::builtin("PP").unwrap();
     // One part at a time: the fill analysis is parallel inside.
     let per_part: Vec<(Vec<String>, Vec<String>)> = (0..PARTS.len())
         .map(|i| {
@@ -746,14 +745,7 @@ fn balanced_gate_never_does_worse_than_the_paper_gate_on_the_shared_parts() {
                 ..LocateOptions::default()
             };
             let analysis = locate(lm, &options).expect("valid options");
-            let bvh = moldgate::raycast::Bvh::new(&lm.mesh);
-            let fill = moldgate::flow::analyse(
-                &lm.mesh,
-                &analysis,
-                &pp,
-                moldgate::flow::Walls::Measure(&bvh),
-                &moldgate::flow::FillOptions::default(),
-            );
+            let fill = measured_fill(lm, &analysis, &moldgate::flow::FillOptions::default());
             match fill {
                 Ok(f) => {
                     let p = f.paper.as_ref().unwrap();
@@ -793,7 +785,6 @@ fn several_gates_on_the_shared_parts_are_a_gate_s_diameter_apart() {
         Ok(p) => p,
         Err(why) => return skip(TEST, &why),
     };
-    let pp = moldgate::Material::builtin("PP").unwrap();
     let once_overlapping = [
         "comma_ram_connector_cap",
         "framework_expansion_card_shell",
@@ -812,12 +803,9 @@ fn several_gates_on_the_shared_parts_are_a_gate_s_diameter_apart() {
             };
             let analysis = locate(lm, &options).expect("valid options");
             let diameter = 2.0 * analysis.options.gate_radius_mm;
-            let bvh = moldgate::raycast::Bvh::new(&lm.mesh);
-            let fill = moldgate::flow::analyse(
-                &lm.mesh,
+            let fill = measured_fill(
+                lm,
                 &analysis,
-                &pp,
-                moldgate::flow::Walls::Measure(&bvh),
                 &moldgate::flow::FillOptions {
                     objective: moldgate::flow::Objective::Resistance,
                     gates: 4,
@@ -831,8 +819,9 @@ fn several_gates_on_the_shared_parts_are_a_gate_s_diameter_apart() {
                     let mut nearest = f64::INFINITY;
                     for a in 0..g.len() {
                         for b in a + 1..g.len() {
+                            let (p, q) = (g[a].point, g[b].point);
                             nearest =
-                                nearest.min(vec3_of(g[a].point).distance(vec3_of(g[b].point)));
+                                nearest.min(DVec3::from_array(p).distance(DVec3::from_array(q)));
                         }
                     }
                     lines.push(format!(
@@ -854,8 +843,21 @@ fn several_gates_on_the_shared_parts_are_a_gate_s_diameter_apart() {
     report(TEST, &print_lines(per_part));
 }
 
-fn vec3_of(p: [f64; 3]) -> DVec3 {
-    DVec3::from_array(p)
+/// The fill analysis of a shared part in PP, its walls measured through a tree of its own.
+fn measured_fill(
+    lm: &LoadedMesh,
+    analysis: &moldgate::Analysis,
+    options: &moldgate::flow::FillOptions,
+) -> Result<moldgate::flow::FillAnalysis, moldgate::flow::FillError> {
+    let pp = moldgate::Material::builtin("PP").unwrap();
+    let bvh = moldgate::raycast::Bvh::new(&lm.mesh);
+    moldgate::flow::analyse(
+        &lm.mesh,
+        analysis,
+        &pp,
+        moldgate::flow::Walls::Measure(&bvh),
+        options,
+    )
 }
 
 /// What every fill analysis of a real part must keep: the bodies are the mesh's (stray
