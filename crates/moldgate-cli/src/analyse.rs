@@ -2,9 +2,8 @@
 //! read from its file (or made from a sample), [`moldgate::study_with`] run on it, and the
 //! library's errors mapped to exit codes.
 
-use std::io::BufReader;
 use std::path::Path;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use moldgate::flow::FillError;
 use moldgate::mesh::{self, LoadedMesh, Units};
@@ -14,7 +13,6 @@ use moldgate::study::{self, Hooks, Study, StudyError};
 use moldgate::OptionsError;
 
 use crate::args::LocateArgs;
-use crate::formats::MeshKind;
 use crate::Failure;
 
 /// The validated options of `locate`, the same for every part of a run.
@@ -24,7 +22,12 @@ pub struct Settings {
     pub study: study::Settings,
     /// The unit of the files.
     pub units: Units,
+    /// Time limit of each study (`--timeout`), or none.
+    pub timeout: Option<Duration>,
 }
+
+/// The longest `--timeout`, seconds (about 115 days: beyond it, none is meant).
+const MAX_TIMEOUT_S: f64 = 1e7;
 
 /// Validates the raw arguments of `locate` once into [`Settings`].
 pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
@@ -40,7 +43,22 @@ pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
         .units
         .parse()
         .map_err(|e: String| Failure::usage(format!("--units: {e}")))?;
-    Ok(Settings { study, units })
+    let timeout = match a.batch.timeout {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIMEOUT_S => {
+            Some(Duration::from_secs_f64(t))
+        }
+        Some(t) => {
+            return Err(Failure::usage(format!(
+                "--timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S:e}, got {t:?}"
+            )))
+        }
+    };
+    Ok(Settings {
+        study,
+        units,
+        timeout,
+    })
 }
 
 /// The command line's flag of a field of [`moldgate::StudyOptions`].
@@ -111,30 +129,8 @@ impl Source<'_> {
 
 /// Reads a mesh file and gives its size in bytes; every failure names the file.
 pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
-    let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", path.display()));
-    let file = crate::files::open_regular(path).map_err(|e| fail(&e))?;
-    let len = file
-        .metadata()
-        .map_err(|e| fail(&format_args!("cannot read: {e}")))?
-        .len();
-    drop(file);
-    // Opened once per reading thread for large binary files, each time checked again.
-    let open = || {
-        crate::files::open_regular(path)
-            .map(|f| BufReader::with_capacity(1 << 16, f))
-            .map_err(|e| std::io::Error::other(e.to_string()))
-    };
-    let part = match crate::formats::mesh_kind(path) {
-        MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
-        MeshKind::Obj => open()
-            .map_err(Into::into)
-            .and_then(|r| mesh::read_obj(r, units)),
-        MeshKind::Ply => open()
-            .map_err(Into::into)
-            .and_then(|r| mesh::read_ply(r, units)),
-    }
-    .map_err(|e| fail(&e))?;
-    Ok((part, len))
+    moldgate::files::read_mesh_file(path, units)
+        .map_err(|e| Failure::input(format!("{}: {e}", path.display())))
 }
 
 /// One studied part: the mesh, and its study.
@@ -176,7 +172,21 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
         .clone()
         .or(input.sample.clone())
         .unwrap_or_default();
-    let mut study = moldgate::study_with(&part, &s.study, hooks).map_err(|e| failure(&e, &name))?;
+    // With a time limit, the study reads the deadline's token (no caller gives one of its
+    // own: the command line cancels only at its --timeout).
+    let deadline = s.timeout.map(crate::deadline::Deadline::start);
+    let hooks = Hooks {
+        cancel: deadline.as_ref().map(|d| d.token()).or(hooks.cancel),
+        ..*hooks
+    };
+    let mut study = moldgate::study_with(&part, &s.study, &hooks).map_err(|e| match e {
+        StudyError::Cancelled { stage } if deadline.is_some() => Failure::usage(format!(
+            "{name}: stopped at --timeout {} s, in the {stage} stage (a coarser --cell, fewer --gates or no --suitability take less time)",
+            s.timeout.unwrap_or_default().as_secs_f64()
+        )),
+        e => failure(&e, &name),
+    })?;
+    drop(deadline);
     study.set_input(input, load_s);
     Ok(Analysed { part, study })
 }

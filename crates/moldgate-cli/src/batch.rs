@@ -304,7 +304,7 @@ fn expand(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Option<String>)>, Failure>
                     Ok(m) if m.is_file() => None,
                     Ok(m) => Some(format!(
                         "is {}, not a mesh file",
-                        crate::files::file_kind(&m)
+                        moldgate::files::file_kind(&m)
                     )),
                     Err(_) if p.is_symlink() => {
                         Some("is a symbolic link that points nowhere".into())

@@ -10,7 +10,7 @@ mod alloc;
 mod analyse;
 mod args;
 mod batch;
-mod files;
+mod deadline;
 mod formats;
 mod glb;
 mod locate;

@@ -2,7 +2,6 @@
 //! material wins over a built-in of the same name), and reading that file. The `--material`
 //! look-up itself is the library's (`StudyOptions::validate_with`).
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::Serialize;
@@ -12,21 +11,15 @@ use moldgate::Material;
 
 use crate::args::MaterialsArgs;
 use crate::output::print_stdout;
-use crate::toml_file::read_toml;
+use crate::toml_file::read_toml_text;
 use crate::Failure;
 
 /// Reads a TOML file of user materials, each named by its table, in the order of their
 /// names.
 pub fn read_materials(path: &Path) -> Result<Vec<Material>, Failure> {
-    let table: BTreeMap<String, Material> = read_toml(path)?;
-    let mut out = Vec::with_capacity(table.len());
-    for (name, mut m) in table {
-        m.name = name;
-        m.validate()
-            .map_err(|e| Failure::usage(format!("{}: {e}", path.display())))?;
-        out.push(m);
-    }
-    Ok(out)
+    let text = read_toml_text(path)?;
+    material::materials_from_toml(&text)
+        .map_err(|e| Failure::usage(format!("{}: {e}", path.display())))
 }
 
 /// A row of the listing: a library material, or a user one described by its file.

@@ -147,7 +147,7 @@ fn write_special(path: &Path, m: &std::fs::Metadata, bytes: &[u8]) -> Result<(),
     let fail = |e: &dyn std::fmt::Display| {
         Failure::output(format!("{}: cannot write: {e}", path.display()))
     };
-    let kind = crate::files::file_kind(m);
+    let kind = moldgate::files::file_kind(m);
     if !matches!(kind, "a FIFO" | "a character device") {
         return Err(fail(&format_args!("it is {kind}, not a file")));
     }

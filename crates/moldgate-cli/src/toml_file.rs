@@ -2,13 +2,28 @@
 
 use std::path::Path;
 
+use moldgate::files::{read_text, TextError, MAX_TOML_BYTES};
+
 use crate::Failure;
 
-/// Reads and parses a TOML file: an unreadable file is an input error (exit 3), a syntax
-/// error or a bad value an error of the command line (exit 2) naming the line.
+/// The text of a TOML file of at most [`MAX_TOML_BYTES`]. A file that cannot be read
+/// (missing, not a regular file, over the limit) is an input error (exit code 3); text that
+/// is not UTF-8 is an error of the command line's file (exit code 2), naming the line and
+/// byte. Every message names the file.
+pub fn read_toml_text(path: &Path) -> Result<String, Failure> {
+    read_text(path, "a TOML file", MAX_TOML_BYTES).map_err(|e| {
+        let message = format!("{}: {e}", path.display());
+        match e {
+            TextError::Unreadable(_) => Failure::input(message),
+            TextError::NotUtf8 { .. } => Failure::usage(message),
+        }
+    })
+}
+
+/// Reads and parses a TOML file ([`read_toml_text`]); a syntax error or a bad value is an
+/// error of the command line (exit code 2) naming the line.
 pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Failure::input(format!("{}: cannot read: {e}", path.display())))?;
+    let text = read_toml_text(path)?;
     toml::from_str(&text).map_err(|e| {
         let place = e
             .span()

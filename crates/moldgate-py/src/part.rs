@@ -1,7 +1,5 @@
 //! Parts: loaded from a mesh file, or built from vertex and face arrays (numpy, trimesh).
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -35,35 +33,10 @@ pub(crate) fn units(name: &str) -> PyResult<Units> {
         .map_err(|e: String| OptionsError::new_err(format!("units: {e}")))
 }
 
-/// The reader of a file by its extension (`.obj`, `.ply`, any case; STL otherwise), as the
-/// command line chooses it.
+/// Reads a mesh file by its extension (`.obj`, `.ply`, any case; STL otherwise), as the
+/// command line does: only a regular file (a FIFO would hang the call).
 pub(crate) fn read_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), String> {
-    let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    if path.is_dir() {
-        return Err(fail(&"is a folder, not a mesh file"));
-    }
-    let file = File::open(path).map_err(|e| fail(&format_args!("cannot open: {e}")))?;
-    let len = file
-        .metadata()
-        .map_err(|e| fail(&format_args!("cannot read: {e}")))?
-        .len();
-    drop(file);
-    let open = || File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    let part = match ext.as_str() {
-        "obj" => open()
-            .map_err(Into::into)
-            .and_then(|r| mesh::read_obj(r, units)),
-        "ply" => open()
-            .map_err(Into::into)
-            .and_then(|r| mesh::read_ply(r, units)),
-        _ => mesh::read_stl_reopen(open, len, units),
-    }
-    .map_err(|e| fail(&e))?;
-    Ok((part, len))
+    moldgate::files::read_mesh_file(path, units).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Reads a mesh file (STL, OBJ or PLY by its extension; STL for any other) in `units`.

@@ -1,7 +1,6 @@
 //! Studies: options from JSON (the library's `StudyOptions`), user materials, the study
 //! and what it gives (report, gates, pictures, per-vertex fields), batch rows.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -34,29 +33,12 @@ fn serde_message(e: &serde_json::Error) -> String {
 }
 
 /// Reads a TOML file of user materials, each named by its table (the command line's
-/// `--materials-file`).
+/// `--materials-file`): a regular file of at most `MAX_TOML_BYTES`.
 fn read_materials(path: &Path) -> Result<Vec<Material>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    let table: BTreeMap<String, Material> = toml::from_str(&text).map_err(|e| {
-        let place = e
-            .span()
-            .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
-            .unwrap_or_default();
-        format!(
-            "{}: {place}{}",
-            path.display(),
-            e.message().trim_end_matches('.')
-        )
-    })?;
-    let mut out = Vec::with_capacity(table.len());
-    for (name, mut m) in table {
-        m.name = name;
-        m.validate()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        out.push(m);
-    }
-    Ok(out)
+    let fail = |e: String| format!("{}: {e}", path.display());
+    let text = moldgate::files::read_text(path, "a TOML file", moldgate::files::MAX_TOML_BYTES)
+        .map_err(|e| fail(e.to_string()))?;
+    moldgate::material::materials_from_toml(&text).map_err(fail)
 }
 
 /// The options from their JSON form; a material given in full is read on its own so that a

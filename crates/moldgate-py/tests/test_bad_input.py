@@ -120,3 +120,32 @@ def test_a_bad_mesh_file_names_its_place(tmp_path):
     empty.write_bytes(b"")
     with pytest.raises(moldgate.LoadError, match="empty file"):
         moldgate.load(empty)
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="no FIFOs on this system")
+def test_a_fifo_or_a_device_is_refused_without_reading(tmp_path):
+    import os
+
+    fifo = tmp_path / "pipe.stl"
+    os.mkfifo(fifo)
+    # Opened for reading, a FIFO would wait for a writer forever.
+    with pytest.raises(moldgate.LoadError, match="pipe.stl: is a FIFO, not a mesh file"):
+        moldgate.load(fifo)
+    with pytest.raises(moldgate.OptionsError, match="pipe.stl: is a FIFO, not a TOML file"):
+        moldgate.study(moldgate.sample("plate"), materials_file=fifo)
+    if os.path.exists("/dev/zero"):
+        # Endless zeros: refused by what the file is, not read until memory runs out.
+        with pytest.raises(moldgate.OptionsError, match="is a character device, not a TOML file"):
+            moldgate.study(moldgate.sample("plate"), materials_file="/dev/zero")
+
+
+def test_a_materials_file_over_its_limit_or_not_utf8_is_refused(tmp_path):
+    big = tmp_path / "big.toml"
+    with open(big, "wb") as f:
+        f.truncate(3 << 30)  # sparse: refused by its size, not read
+    with pytest.raises(moldgate.OptionsError, match=r"big\.toml: is over the limit of 16 MiB for a TOML file \(3 GiB\)"):
+        moldgate.study(moldgate.sample("plate"), materials_file=big)
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes(b"[X]\n# caf\xe9\n")
+    with pytest.raises(moldgate.OptionsError, match=r"latin\.toml: line 2: not UTF-8 text \(byte 9 of the file\)"):
+        moldgate.study(moldgate.sample("plate"), materials_file=latin)

@@ -229,16 +229,30 @@ fn plain_format(query_format: Option<&str>, headers: &HeaderMap) -> Result<Forma
     })
 }
 
-fn multipart_boundary(headers: &HeaderMap) -> Option<String> {
-    let media = headers.get(header::CONTENT_TYPE)?.to_str().ok()?;
+/// The boundary of a `multipart/form-data` body; `None` for any other body. A multipart
+/// body without a boundary cannot be read: 400.
+fn multipart_boundary(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
+    let Some(media) = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|m| m.to_str().ok())
+    else {
+        return Ok(None);
+    };
     if !media
         .trim_start()
         .to_ascii_lowercase()
         .starts_with("multipart/form-data")
     {
-        return None;
+        return Ok(None);
     }
-    multer::parse_boundary(media).ok()
+    multer::parse_boundary(media).map(Some).map_err(|_| {
+        ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "body",
+            "a multipart/form-data body needs a boundary parameter in its Content-Type (multipart/form-data; boundary=...)",
+        )
+        .at("Content-Type")
+    })
 }
 
 /// Reads the `options` (JSON object) and `mesh` parts of a multipart body.
@@ -486,7 +500,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         .get::<BytesIn>()
         .cloned()
         .unwrap_or_default();
-    let boundary = multipart_boundary(req.headers());
+    let boundary = multipart_boundary(req.headers())?;
     // A plain body's format and options are checked before a byte of it is read.
     let early = match &boundary {
         None => Some((

@@ -169,7 +169,7 @@ pub enum OptionsError {
     #[error("cannot read demolding direction '{0}': expected +x, -y, ... or three numbers x,y,z")]
     BadDirection(String),
     /// A material parameter that must be positive is not.
-    #[error("material '{material}': {parameter} must be a positive finite number, got {value}")]
+    #[error("material '{material}': {parameter} must be a positive finite number, got {value:?}")]
     NonPositiveMaterial {
         /// The material's name.
         material: String,
@@ -180,7 +180,7 @@ pub enum OptionsError {
     },
     /// The melt is not hotter than the mould wall.
     #[error(
-        "material '{material}': the melt temperature ({t_melt} C) must be above the wall temperature ({t_wall} C)"
+        "material '{material}': the melt temperature ({t_melt:?} C) must be above the wall temperature ({t_wall:?} C)"
     )]
     MeltNotAboveWall {
         /// The material's name.
@@ -190,11 +190,22 @@ pub enum OptionsError {
         /// Mould wall temperature in degrees Celsius.
         t_wall: f64,
     },
+    /// Parameters each in range whose gate radius (Eq. 7-8) is not a positive finite length
+    /// (extreme values that overflow or vanish together).
+    #[error(
+        "material '{material}': its parameters give a gate radius of {radius_mm:?} mm by Eq. 7-8, not a positive finite length (check n, k, mu_opt, gamma_opt and the temperatures)"
+    )]
+    MaterialRadius {
+        /// The material's name.
+        material: String,
+        /// The radius Eq. 7-8 gives, mm.
+        radius_mm: f64,
+    },
     /// A keep-out region that cannot be read.
     #[error("cannot read keep-out region '{0}': expected box:x0,y0,z0,x1,y1,z1 or sphere:x,y,z,r (mm, r > 0)")]
     BadRegion(String),
     /// A length or count option that must be positive is not.
-    #[error("{option} must be a positive finite number, got {value}")]
+    #[error("{option} must be a positive finite number, got {value:?}")]
     NonPositive {
         /// The option's name.
         option: &'static str,

@@ -39,6 +39,7 @@ pub mod clock;
 pub mod colormap;
 pub mod display;
 pub mod error;
+pub mod files;
 pub mod flow;
 pub mod frame;
 pub mod gate;

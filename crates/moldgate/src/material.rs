@@ -91,6 +91,13 @@ impl Material {
                 t_wall: self.t_wall,
             });
         }
+        let radius_mm = self.gate_radius_mm();
+        if !(radius_mm.is_finite() && radius_mm > 0.0) {
+            return Err(OptionsError::MaterialRadius {
+                material: self.name.clone(),
+                radius_mm,
+            });
+        }
         Ok(())
     }
 
@@ -107,9 +114,51 @@ impl Material {
     }
 }
 
+/// The materials of a TOML text (a user's materials file): each table a material named by
+/// its key, in the order of their names, each checked as [`Material::validate`] does. A
+/// syntax error names its line.
+pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
+    let table: std::collections::BTreeMap<String, Material> =
+        toml::from_str(text).map_err(|e| {
+            let place = e
+                .span()
+                .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
+                .unwrap_or_default();
+            format!("{place}{}", e.message().trim_end_matches('.'))
+        })?;
+    let mut out = Vec::with_capacity(table.len());
+    for (name, mut m) in table {
+        m.name = name;
+        m.validate().map_err(|e| e.to_string())?;
+        out.push(m);
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_materials_file_s_faults_are_named_with_their_line_or_material() {
+        let good = "[MyPA]\nn = 0.4\nt_melt = 280.0\nt_wall = 80.0\ngamma_opt = 1000.0\nmu_opt = 200.0\nk = 0.25\n";
+        let m = materials_from_toml(good).unwrap();
+        assert_eq!(m[0].name, "MyPA");
+        let e = materials_from_toml("[MyPA]\nn = \n").unwrap_err();
+        assert!(e.starts_with("line 2: "), "{e}");
+        // Each parameter in range, but Eq. 7-8 overflow together.
+        let huge = good
+            .replace("k = 0.25", "k = 1e308")
+            .replace("mu_opt = 200.0", "mu_opt = 1e-308");
+        let e = materials_from_toml(&huge).unwrap_err();
+        assert!(
+            e.starts_with("material 'MyPA': its parameters give a gate radius of inf mm"),
+            "{e}"
+        );
+        // A huge value is written short, not in 309 digits.
+        let e = materials_from_toml(&good.replace("t_wall = 80.0", "t_wall = 1e308")).unwrap_err();
+        assert!(e.contains("(1e308 C)") && e.len() < 200, "{e}");
+    }
 
     #[test]
     fn table_1_gate_radii() {

@@ -177,6 +177,16 @@ fn multipart_options_and_formats_give_the_same_report() {
         &body,
     );
     assert_eq!(assert_error(&s, &both, 400, "options")["where"], "material");
+    // A multipart body without its boundary cannot be read: 400, not a format's 415.
+    let unbounded = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", "multipart/form-data")],
+        &body,
+    );
+    let e = assert_error(&s, &unbounded, 400, "body");
+    assert_eq!(e["where"], "Content-Type", "{e}");
     // Two mesh parts, or two options parts: refused, not the last one studied. The body
     // above less its closing line, one more part, and the closing line.
     let closing = format!("\r\n--{b}--\r\n");

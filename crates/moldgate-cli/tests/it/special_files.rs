@@ -73,6 +73,71 @@ fn fifo_input_is_refused_without_waiting() {
 }
 
 #[test]
+fn a_fifo_or_device_as_a_materials_file_or_manifest_is_refused_without_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("pipe.toml"));
+    for (args, said) in [
+        (
+            &[
+                "locate",
+                "--sample",
+                "plate",
+                "--materials-file",
+                "pipe.toml",
+            ][..],
+            "pipe.toml: is a FIFO, not a TOML file",
+        ),
+        (
+            &["locate", "--manifest", "pipe.toml"],
+            "pipe.toml: is a FIFO, not a TOML file",
+        ),
+        // Endless zeros: refused by what the file is, not read until memory runs out.
+        (
+            &[
+                "locate",
+                "--sample",
+                "plate",
+                "--materials-file",
+                "/dev/zero",
+            ],
+            "/dev/zero: is a character device, not a TOML file",
+        ),
+        (
+            &["materials", "--materials-file", "/dev/zero"],
+            "/dev/zero: is a character device, not a TOML file",
+        ),
+    ] {
+        let child = spawn(dir.path(), args);
+        let out = finish_within(child, Duration::from_secs(60), said);
+        assert_eq!(out.status.code(), Some(INPUT), "{args:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains(said), "{args:?}: {}", stderr(&out));
+    }
+}
+
+#[test]
+fn a_materials_file_over_its_size_limit_is_refused_before_it_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    // A sparse file of 3 GiB: its size, not its bytes, refuses it.
+    let big = std::fs::File::create(dir.path().join("big.toml")).unwrap();
+    big.set_len(3 << 30).unwrap();
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "--sample",
+            "plate",
+            "--materials-file",
+            "big.toml",
+        ],
+    );
+    assert_fails(
+        &out,
+        INPUT,
+        &["big.toml: is over the limit of 16 MiB for a TOML file (3 GiB)"],
+    );
+}
+
+#[test]
 fn fifo_input_in_a_batch_fails_its_row_and_the_summary_is_written() {
     let dir = tempfile::tempdir().unwrap();
     sample(dir.path(), "plate", "good.stl");

@@ -2525,6 +2525,22 @@ pub fn analyse_prepared(
         seconds: cells_s,
     } = cells()?;
     voxels.cancel = cancel.cloned();
+    // The several-gate search's work depends only on the cells and the gates: refused
+    // before the walls, the paper gate and the balanced search are made.
+    if options.gates > 1 {
+        let k = options.gates as f64;
+        // Two searches, one from each start (see `several_gates`), and a march per gate
+        // for the gates the layout does without.
+        let work = voxels.len() as f64 * (2.0 * (2.0 * k + 24.0 * k + 1.0) + k);
+        if work > options.flow.max_march_cells {
+            return Err(FillError::too_large(
+                "cell visits of the several-gate search",
+                work,
+                options.flow.max_march_cells,
+                voxels.h,
+            ));
+        }
+    }
     let check = || match crate::cancel::is_set(cancel) {
         true => Err(FillError::Cancelled),
         false => Ok(()),
@@ -2805,18 +2821,6 @@ pub fn analyse_prepared(
                     })?
                 }
             };
-            let k = options.gates as f64;
-            // Two searches, one from each start (see `several_gates`), and a march per gate
-            // for the gates the layout does without.
-            let work = domain.voxels.len() as f64 * (2.0 * (2.0 * k + 24.0 * k + 1.0) + k);
-            if work > options.flow.max_march_cells {
-                return Err(FillError::too_large(
-                    "cell visits of the several-gate search",
-                    work,
-                    options.flow.max_march_cells,
-                    h,
-                ));
-            }
             let available = in_body(
                 &domain,
                 &candidates,

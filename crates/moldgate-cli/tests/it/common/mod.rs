@@ -66,3 +66,26 @@ pub fn box_facets(min: [f32; 3], max: [f32; 3]) -> Vec<Facet> {
         .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
         .collect()
 }
+
+/// Asserts a failure with exit code `code` whose stderr is exactly one line
+/// `moldgate: error: ...` containing every one of `needles`; returns that line.
+#[track_caller]
+pub fn assert_fails(out: &Output, code: i32, needles: &[&str]) -> String {
+    let err = stderr(out);
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "exit code; stderr: {err}; stdout: {}",
+        stdout(out)
+    );
+    assert!(err.ends_with('\n'), "stderr ends with a newline: {err:?}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "stderr is one line: {err}");
+    let line = lines[0];
+    assert!(line.starts_with("moldgate: error: "), "{line}");
+    for needle in needles {
+        assert!(line.contains(needle), "'{needle}' is not in: {line}");
+    }
+    line.to_string()
+}

@@ -1,0 +1,262 @@
+//! Reading the files a user names, for every front end that reads them (the command line,
+//! the Python package): only regular files, a FIFO or a device named as a mesh or a TOML
+//! file would block the run or read forever; and text files only up to a size checked
+//! before they are read.
+//!
+//! The analysis itself reads nothing (every reader of [`crate::mesh`] takes a reader):
+//! these are the front ends' shared first step.
+
+use std::fs::{File, OpenOptions};
+use std::io::{BufReader, Read};
+use std::path::Path;
+
+use crate::mesh::{self, LoadedMesh, Units};
+
+/// The largest text file read by [`read_text`] for a TOML file (a materials library or a
+/// batch manifest of many thousand parts is a small fraction of it).
+pub const MAX_TOML_BYTES: u64 = 16 << 20;
+
+/// What a file is, for messages: "a regular file", "a folder", "a FIFO", ...
+pub fn file_kind(m: &std::fs::Metadata) -> &'static str {
+    let t = m.file_type();
+    if t.is_file() {
+        return "a regular file";
+    }
+    if t.is_dir() {
+        return "a folder";
+    }
+    if t.is_symlink() {
+        return "a symbolic link";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    "not a regular file"
+}
+
+/// Opens `path` for reading when it is a regular file (following links); the error says what
+/// it is otherwise, with `noun` ("is a FIFO, not a mesh file"). The kind is checked before
+/// opening, and the file is opened without blocking (`O_NONBLOCK`) and checked again, so a
+/// FIFO put in its place between the two cannot hang the run.
+pub fn open_regular(path: &Path, noun: &str) -> Result<File, String> {
+    let not_one = |m: &std::fs::Metadata| format!("is {}, not {noun}", file_kind(m));
+    let m = std::fs::metadata(path).map_err(|e| format!("cannot open: {e}"))?;
+    if !m.is_file() {
+        return Err(not_one(&m));
+    }
+    let mut options = OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options
+        .open(path)
+        .map_err(|e| format!("cannot open: {e}"))?;
+    let m = file.metadata().map_err(|e| format!("cannot read: {e}"))?;
+    if !m.is_file() {
+        return Err(not_one(&m));
+    }
+    Ok(file)
+}
+
+/// A size in bytes for messages: `16 MiB`, `3.0 GiB`, `512 bytes`.
+fn size_text(bytes: u64) -> String {
+    const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes as f64;
+    let mut unit = "bytes";
+    for u in UNITS {
+        if value < 1024.0 {
+            break;
+        }
+        value /= 1024.0;
+        unit = u;
+    }
+    match unit {
+        "bytes" => format!("{bytes} bytes"),
+        _ if value.fract() == 0.0 => format!("{value} {unit}"),
+        _ => format!("{value:.1} {unit}"),
+    }
+}
+
+/// Why [`read_text`] gave no text.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum TextError {
+    /// The file cannot be read: missing, not a regular file, over the limit, a read error.
+    Unreadable(String),
+    /// It was read, but is not UTF-8 text from this byte on (on this line, from 1).
+    NotUtf8 {
+        /// The line of the first byte that is not UTF-8.
+        line: usize,
+        /// Its offset in the file.
+        byte: usize,
+    },
+}
+
+impl std::fmt::Display for TextError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TextError::Unreadable(why) => f.write_str(why),
+            TextError::NotUtf8 { line, byte } => {
+                write!(f, "line {line}: not UTF-8 text (byte {byte} of the file)")
+            }
+        }
+    }
+}
+
+/// The text of the regular file `path` (`noun` names what it should be, for messages), at
+/// most `limit` bytes: a larger file is refused by its size before it is read, and one that
+/// grows past the limit while it is read (or reports no size, as the files of `/proc` do)
+/// when it passes it. Text that is not UTF-8 is refused with the byte and line where it
+/// stops being so.
+pub fn read_text(path: &Path, noun: &str, limit: u64) -> Result<String, TextError> {
+    let file = open_regular(path, noun).map_err(TextError::Unreadable)?;
+    let len = file
+        .metadata()
+        .map_err(|e| TextError::Unreadable(format!("cannot read: {e}")))?
+        .len();
+    let over = || format!("is over the limit of {} for {noun}", size_text(limit));
+    if len > limit {
+        return Err(TextError::Unreadable(format!(
+            "{} ({})",
+            over(),
+            size_text(len)
+        )));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| TextError::Unreadable(format!("cannot read: {e}")))?;
+    if bytes.len() as u64 > limit {
+        return Err(TextError::Unreadable(over()));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let byte = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..byte].iter().filter(|&&b| b == b'\n').count();
+        TextError::NotUtf8 { line, byte }
+    })
+}
+
+/// A mesh reader, by the file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeshKind {
+    /// Binary or ASCII STL (also the choice for an unknown extension).
+    Stl,
+    /// Wavefront OBJ.
+    Obj,
+    /// PLY, ASCII or binary.
+    Ply,
+}
+
+/// The reader for `path`: `.obj` and `.ply` (any case) by name, STL otherwise.
+pub fn mesh_kind(path: &Path) -> MeshKind {
+    let ext = path.extension().unwrap_or_default();
+    if ext.eq_ignore_ascii_case("obj") {
+        MeshKind::Obj
+    } else if ext.eq_ignore_ascii_case("ply") {
+        MeshKind::Ply
+    } else {
+        MeshKind::Stl
+    }
+}
+
+/// Reads the mesh file `path` (STL, OBJ or PLY by its extension; STL for any other) in
+/// `units`, and gives its size in bytes. A path that is not a regular file is refused before
+/// it is opened for reading ("is a FIFO, not a mesh file"); the messages do not name the
+/// file (the caller does).
+pub fn read_mesh_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), String> {
+    let file = open_regular(path, "a mesh file")?;
+    let len = file
+        .metadata()
+        .map_err(|e| format!("cannot read: {e}"))?
+        .len();
+    if len == 0 && file.take(1).read(&mut [0u8]).is_ok_and(|n| n > 0) {
+        // The files of /proc and /sys report no size but hold text.
+        return Err(
+            "reports a size of 0 but holds data (a file of /proc or /sys?): not a mesh file".into(),
+        );
+    }
+    // Opened once per reading thread for large binary files, each time checked again.
+    let open = || {
+        open_regular(path, "a mesh file")
+            .map(|f| BufReader::with_capacity(1 << 16, f))
+            .map_err(std::io::Error::other)
+    };
+    let part = match mesh_kind(path) {
+        MeshKind::Stl => mesh::read_stl_reopen(open, len, units),
+        MeshKind::Obj => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_obj(r, units)),
+        MeshKind::Ply => open()
+            .map_err(Into::into)
+            .and_then(|r| mesh::read_ply(r, units)),
+    }
+    .map_err(|e| e.to_string())?;
+    Ok((part, len))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_read_as_a_person_writes_them() {
+        assert_eq!(size_text(512), "512 bytes");
+        assert_eq!(size_text(16 << 20), "16 MiB");
+        assert_eq!(size_text(3 << 30), "3 GiB");
+        assert_eq!(size_text(1536), "1.5 KiB");
+    }
+
+    #[test]
+    fn text_over_its_limit_or_not_utf8_is_refused_with_where() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        std::fs::write(&path, b"a = 1\nb = \"\xff\"\n").unwrap();
+        let e = read_text(&path, "a TOML file", 1 << 10).unwrap_err();
+        assert_eq!(e, TextError::NotUtf8 { line: 2, byte: 11 });
+        assert_eq!(
+            e.to_string(),
+            "line 2: not UTF-8 text (byte 11 of the file)"
+        );
+        std::fs::write(&path, vec![b'#'; 2048]).unwrap();
+        let e = read_text(&path, "a TOML file", 1 << 10).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "is over the limit of 1 KiB for a TOML file (2 KiB)"
+        );
+        std::fs::write(&path, b"a = 1\n").unwrap();
+        assert_eq!(read_text(&path, "a TOML file", 1 << 10).unwrap(), "a = 1\n");
+        let e = read_text(dir.path(), "a TOML file", 1 << 10).unwrap_err();
+        assert_eq!(e.to_string(), "is a folder, not a TOML file");
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn special_files_are_refused_before_they_are_read() {
+        // A character device of endless zeros, and a file of /proc that reports no size.
+        let e = read_text(Path::new("/dev/zero"), "a TOML file", 1 << 10).unwrap_err();
+        assert_eq!(e.to_string(), "is a character device, not a TOML file");
+        let e = read_mesh_file(Path::new("/proc/self/status"), Units::Mm).unwrap_err();
+        assert!(e.starts_with("reports a size of 0 but holds data"), "{e}");
+        // /proc's text is read up to the limit, then refused by it.
+        let e = read_text(Path::new("/proc/self/status"), "a TOML file", 16).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "is over the limit of 16 bytes for a TOML file"
+        );
+    }
+}
