@@ -82,9 +82,15 @@ fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
-            // --help and --version.
-            let _ = e.print();
-            return ExitCode::SUCCESS;
+            // --help and --version, on stdout: a stdout that cannot take them (a full disk,
+            // /dev/full) is an output error, as for every other command.
+            return match output::print_stdout(&e.render().to_string()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(f) => {
+                    let _ = writeln!(std::io::stderr(), "moldgate: error: {}", f.message);
+                    ExitCode::from(f.code)
+                }
+            };
         }
         Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             let _ = e.print();

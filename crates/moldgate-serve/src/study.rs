@@ -255,6 +255,45 @@ fn multipart_boundary(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
     })
 }
 
+/// The start of the error of an options part that is JSON but not an object.
+const NOT_AN_OBJECT: &str = "invalid type: ";
+
+/// What the error of a key given twice in the options part says.
+const TWICE: &str = "is given more than once";
+
+/// The options part: a JSON object whose keys are each given once (a key given twice would
+/// silently take its last value, as a repeated query parameter is refused).
+struct OptionsObject(Map<String, Value>);
+
+impl<'de> serde::Deserialize<'de> for OptionsObject {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Keys;
+        impl<'de> serde::de::Visitor<'de> for Keys {
+            type Value = OptionsObject;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a JSON object of options")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut a: A,
+            ) -> Result<Self::Value, A::Error> {
+                let mut map = Map::new();
+                while let Some(key) = a.next_key::<String>()? {
+                    if map.contains_key(&key) {
+                        return Err(serde::de::Error::custom(format!(
+                            "the option '{key}' {TWICE}"
+                        )));
+                    }
+                    let value: Value = a.next_value()?;
+                    map.insert(key, value);
+                }
+                Ok(OptionsObject(map))
+            }
+        }
+        d.deserialize_map(Keys)
+    }
+}
+
 /// Reads the `options` (JSON object) and `mesh` parts of a multipart body.
 async fn multipart(
     bytes: Bytes,
@@ -289,14 +328,17 @@ async fn multipart(
                     .bytes()
                     .await
                     .map_err(|e| bad(format!("the options part cannot be read: {e}")))?;
-                let v: Value = serde_json::from_slice(&text).map_err(|e| {
-                    ApiError::options(format!("the options part is not JSON: {e}")).at("options")
+                let OptionsObject(map) = serde_json::from_slice(&text).map_err(|e| {
+                    let why = e.to_string();
+                    let message = if why.starts_with(NOT_AN_OBJECT) {
+                        "the options part must be a JSON object".to_string()
+                    } else if why.contains(TWICE) {
+                        format!("the options part: {why}")
+                    } else {
+                        format!("the options part is not JSON: {why}")
+                    };
+                    ApiError::options(message).at("options")
                 })?;
-                let Value::Object(map) = v else {
-                    return Err(
-                        ApiError::options("the options part must be a JSON object").at("options")
-                    );
-                };
                 options = Some(map);
             }
             "mesh" => {

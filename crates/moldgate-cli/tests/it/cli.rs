@@ -1307,3 +1307,22 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
         "the headline's radius"
     );
 }
+
+#[cfg(target_os = "linux")]
+#[test]
+fn help_that_cannot_be_written_is_an_output_error() {
+    // /dev/full takes no byte: --help, like every command's output, fails with code 5.
+    for args in [&["--help"][..], &["locate", "--help"], &["--version"]] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_moldgate"))
+            .args(args)
+            .stdout(full)
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        assert_fails(&out, 5, &["stdout: No space left on device"]);
+    }
+}

@@ -177,6 +177,25 @@ fn multipart_options_and_formats_give_the_same_report() {
         &body,
     );
     assert_eq!(assert_error(&s, &both, 400, "options")["where"], "material");
+    // An option given twice in the options part: refused, not the last one taken.
+    let mut twice_body = body.clone();
+    let at = body.windows(6).position(|w| w == b"{\"mate").unwrap();
+    twice_body.splice(at..at + 1, b"{\"material\": \"ABS\", ".iter().copied());
+    let r = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", &ct)],
+        &twice_body,
+    );
+    let e = assert_error(&s, &r, 400, "options");
+    assert!(
+        e["message"]
+            .as_str()
+            .unwrap()
+            .contains("the option 'material' is given more than once"),
+        "{e}"
+    );
     // A multipart body without its boundary cannot be read: 400, not a format's 415.
     let unbounded = request(
         s.addr,
