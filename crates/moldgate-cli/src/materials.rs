@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use moldgate::material::{self, name, MaterialInfo, ParameterSources};
+use moldgate::material::{self, MaterialInfo, ParameterSources};
 use moldgate::Material;
 
 use crate::args::MaterialsArgs;
@@ -46,7 +46,7 @@ struct Listing {
 
 /// The library, with each user material in place of a built-in of the same name or after
 /// them.
-fn listing(mut user: Vec<Material>, file: Option<&Path>) -> Vec<Listed> {
+fn listing(user: Vec<Material>, file: Option<&Path>) -> Vec<Listed> {
     let listed = |info: MaterialInfo, origin: String| Listed {
         melt_velocity_m_s: info.material.melt_velocity_m_s(),
         gate_radius_mm: info.material.gate_radius_mm(),
@@ -76,19 +76,13 @@ fn listing(mut user: Vec<Material>, file: Option<&Path>) -> Vec<Listed> {
         };
         listed(info, path)
     };
-    let mut out = Vec::new();
-    for info in material::library() {
-        let names = || std::iter::once(&info.material.name).chain(&info.aliases);
-        match user
-            .iter()
-            .position(|m| names().any(|n| name::same(n, &m.name)))
-        {
-            Some(i) => out.push(from_user(user.remove(i))),
-            None => out.push(listed(info.clone(), "built-in".into())),
-        }
-    }
-    out.extend(user.into_iter().map(from_user));
-    out
+    material::library_with(user)
+        .into_iter()
+        .map(|m| match m {
+            material::Listed::BuiltIn(info) => listed(info.clone(), "built-in".into()),
+            material::Listed::User(m) => from_user(m),
+        })
+        .collect()
 }
 
 /// The listing as a table: name, Eq. 8's radius, L/t, what the values rest on, family and

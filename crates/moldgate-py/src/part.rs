@@ -155,8 +155,12 @@ fn face_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArray2<'py, i6
     if kind == "u" && shape[0] > 0 {
         let max: u64 = a.call_method0("max")?.call_method0("item")?.extract()?;
         if max > i64::MAX as u64 {
+            // Named like every other index out of range, by its triangle (the first holding
+            // it: numpy's argmax over the flat array).
+            let flat: usize = a.call_method0("argmax")?.extract()?;
             return Err(LoadError::new_err(format!(
-                "faces: vertex index {max} is out of range"
+                "triangle {} uses vertex {max}, beyond any vertex of an array",
+                flat / 3
             )));
         }
     }

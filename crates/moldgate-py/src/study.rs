@@ -41,25 +41,21 @@ fn read_materials(path: &Path) -> Result<Vec<Material>, String> {
     moldgate::material::materials_from_toml(&text).map_err(fail)
 }
 
-/// The options from their JSON form; a material given in full is read on its own so that a
-/// missing parameter is named.
+/// The options from their JSON form: an error names the option at fault (a parameter of a
+/// material given as a table as `material.n`).
 fn options(json: &str) -> Result<StudyOptions, String> {
-    let mut value: serde_json::Value = serde_json::from_str(json).map_err(|e| serde_message(&e))?;
-    let material = match value.get_mut("material") {
-        Some(m) if m.is_object() => {
-            let m: Material = serde_json::from_value(m.take())
-                .map_err(|e| format!("material: {}", serde_message(&e)))?;
-            value["material"] = serde_json::Value::String(String::new());
-            Some(m)
-        }
-        _ => None,
+    let value: serde_json::Value = serde_json::from_str(json).map_err(|e| serde_message(&e))?;
+    let serde_json::Value::Object(object) = value else {
+        return Err("the options must be a table of names and values".into());
     };
-    let mut o: StudyOptions = serde_json::from_value(value).map_err(|e| serde_message(&e))?;
-    if let Some(mut m) = material {
+    let mut o = StudyOptions::from_json_object(object).map_err(|e| match e.field {
+        Some(field) => format!("{field}: {}", e.message),
+        None => e.message,
+    })?;
+    if let MaterialChoice::Parameters(m) = &mut o.material {
         if m.name.is_empty() {
             m.name = "user material".into();
         }
-        o.material = MaterialChoice::Parameters(m);
     }
     Ok(o)
 }
@@ -211,15 +207,16 @@ pub fn materials<'py>(
     py: Python<'py>,
     materials_file: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyList>> {
-    let mut all: Vec<Material> = moldgate::material::BUILTIN
-        .iter()
-        .filter_map(|n| Material::builtin(n))
-        .collect();
-    if let Some(p) = &materials_file {
-        all.extend(read_materials(p).map_err(OptionsError::new_err)?);
-    }
+    let user = match &materials_file {
+        Some(p) => read_materials(p).map_err(OptionsError::new_err)?,
+        None => Vec::new(),
+    };
     let list = PyList::empty(py);
-    for m in all {
+    for listed in moldgate::material::library_with(user) {
+        let m = match listed {
+            moldgate::material::Listed::BuiltIn(info) => info.material.clone(),
+            moldgate::material::Listed::User(m) => m,
+        };
         let d = json_to_py(py, &serde_json::to_string(&m).unwrap_or_default())?;
         let d = d.cast_into::<PyDict>()?;
         d.set_item("melt_velocity_m_s", m.melt_velocity_m_s())?;

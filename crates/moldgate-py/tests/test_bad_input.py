@@ -53,8 +53,8 @@ def test_face_indices_out_of_range_name_the_triangle(bad):
 
 def test_unsigned_indices_beyond_int64():
     f = F.astype(np.uint64)
-    f[0, 0] = np.iinfo(np.uint64).max
-    with pytest.raises(moldgate.LoadError, match="out of range"):
+    f[2, 1] = np.iinfo(np.uint64).max
+    with pytest.raises(moldgate.LoadError, match=f"triangle 2 uses vertex {np.iinfo(np.uint64).max}, beyond any vertex"):
         moldgate.Part(V, f)
 
 
@@ -76,7 +76,12 @@ def test_an_object_without_arrays():
         ({"gate_raduis": 2.0}, "unknown field `gate_raduis`, expected one of `demold`"),
         ({"gates": 0}, "gates must be at least 1"),
         ({"gates": 65}, r"gates must be at most \d+, got 65"),
-        ({"gates": 1.5}, "invalid type: floating point `1.5`, expected usize"),
+        ({"gates": 1.5}, "gates: invalid type: floating point `1.5`, expected a whole number of 0 or more"),
+        ({"gates": "3"}, 'gates: invalid type: string "3", expected a whole number of 0 or more'),
+        ({"spacing": "1"}, 'spacing: invalid type: string "1", expected a number'),
+        ({"fill": None}, "fill: invalid type: null, expected a boolean"),
+        ({"material": 3}, "material: .*expected a material name or a table of its parameters"),
+        ({"material": {"n": "x"}}, 'material.n: invalid type: string "x", expected a number'),
         ({"demold": "sideways"}, "demold: cannot read demolding direction 'sideways'"),
         ({"demold": "0,0,0"}, "demolding direction must be a non-zero"),
         ({"material": "WOOD"}, r"unknown material 'WOOD'"),
@@ -149,3 +154,26 @@ def test_a_materials_file_over_its_limit_or_not_utf8_is_refused(tmp_path):
     latin.write_bytes(b"[X]\n# caf\xe9\n")
     with pytest.raises(moldgate.OptionsError, match=r"latin\.toml: line 2: not UTF-8 text \(byte 9 of the file\)"):
         moldgate.study(moldgate.sample("plate"), materials_file=latin)
+
+
+def test_numpy_numbers_and_none_read_as_python_ones():
+    part = moldgate.sample("plate")
+    # A point of whole millimetres near the paper's gate, as Python floats, then as numpy
+    # numbers of several dtypes and as a 1-D array: one point each time.
+    x, y, z = (float(round(c)) for c in moldgate.study(part).gate.point)
+    want = moldgate.study(part, gate_at=[(x, y, z)]).report["placed_gates"]
+    for point in (np.array([x, y, z]).astype(np.int64), np.array([x, y, z], np.float32),
+                  [np.int64(x), np.float32(y), z]):
+        assert moldgate.study(part, gate_at=point).report["placed_gates"] == want
+    # No keep-out regions, said as None.
+    assert moldgate.study(part, keep_out=None).report["gate"] == moldgate.study(part).report["gate"]
+    moldgate.check_options(keep_out=None)
+
+
+def test_materials_lists_the_whole_built_in_library():
+    names = [m["name"] for m in moldgate.materials()]
+    assert names[:3] == ["PP", "ABS", "PC"]
+    assert len(names) > 3 and len(set(names)) == len(names)
+    # Every listed material is one a study takes.
+    for name in names:
+        moldgate.check_options(material=name)

@@ -116,3 +116,26 @@ def test_without_gmsh_the_error_names_the_extra(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_gmsh)
     with pytest.raises(moldgate.LoadError, match=r'pip install "moldgate\[step\]"'):
         moldgate.load(path)
+
+
+def test_step_files_load_from_worker_threads_as_from_the_main_one(tmp_path):
+    from concurrent.futures import ThreadPoolExecutor
+
+    path = write_cad(tmp_path / "box.step", box)
+    serial = moldgate.study(path).report["gate"]
+    # gmsh's SIGINT handler can be set from the main thread only: the worker threads'
+    # sessions run without one, and leave no session behind.
+    with ThreadPoolExecutor(3) as pool:
+        gates = list(pool.map(lambda _: moldgate.study(path).report["gate"], range(3)))
+    assert gates == [serial] * 3
+    assert not gmsh.isInitialized()
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="no FIFOs on this system")
+def test_a_fifo_named_like_a_step_file_is_refused_without_reading(tmp_path):
+    import os
+
+    fifo = tmp_path / "pipe.step"
+    os.mkfifo(fifo)
+    with pytest.raises(moldgate.LoadError, match="pipe.step: is a FIFO, not a mesh file"):
+        moldgate.load(fifo)

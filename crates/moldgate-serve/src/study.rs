@@ -171,22 +171,13 @@ fn scalar(v: &str) -> Value {
 /// The study options of a JSON object: serde's message on failure, and the option it is
 /// about when it can be found.
 pub fn study_options(object: Map<String, Value>) -> Result<StudyOptions, ApiError> {
-    match serde_json::from_value::<StudyOptions>(Value::Object(object.clone())) {
-        Ok(o) => Ok(o),
-        Err(e) => {
-            let mut err = ApiError::options(e.to_string());
-            // The first option that fails on its own is the one at fault.
-            let culprit = object.iter().find(|(k, v)| {
-                let mut one = Map::new();
-                one.insert((*k).clone(), (*v).clone());
-                serde_json::from_value::<StudyOptions>(Value::Object(one)).is_err()
-            });
-            if let Some((k, _)) = culprit {
-                err = err.at(k.clone());
-            }
-            Err(err)
+    StudyOptions::from_json_object(object).map_err(|e| {
+        let err = ApiError::options(e.message);
+        match e.field {
+            Some(field) => err.at(field),
+            None => err,
         }
-    }
+    })
 }
 
 /// The mesh bytes, their format and a title, from a plain or a multipart body.

@@ -114,6 +114,34 @@ impl Material {
     }
 }
 
+/// A material of [`library_with`]: the built-in library's, or a user's.
+#[derive(Debug, Clone)]
+pub enum Listed {
+    /// A built-in material, with its sources.
+    BuiltIn(&'static MaterialInfo),
+    /// A user's material (from a materials file).
+    User(Material),
+}
+
+/// The built-in library in its order, each material replaced by a user's of the same name
+/// or alias (ignoring case and separators, as `--material` looks them up), then the user's
+/// other materials in their order: what `moldgate materials` lists.
+pub fn library_with(mut user: Vec<Material>) -> Vec<Listed> {
+    let mut out = Vec::new();
+    for info in library() {
+        let names = || std::iter::once(&info.material.name).chain(&info.aliases);
+        match user
+            .iter()
+            .position(|m| names().any(|n| name::same(n, &m.name)))
+        {
+            Some(i) => out.push(Listed::User(user.remove(i))),
+            None => out.push(Listed::BuiltIn(info)),
+        }
+    }
+    out.extend(user.into_iter().map(Listed::User));
+    out
+}
+
 /// The materials of a TOML text (a user's materials file): each table a material named by
 /// its key, in the order of their names, each checked as [`Material::validate`] does. A
 /// syntax error names its line.

@@ -343,10 +343,14 @@ fn bad_options_are_400_with_the_librarys_message() {
         (
             "gates=abc",
             "gates",
-            "invalid type: string \"abc\", expected usize",
+            "invalid type: string \"abc\", expected a whole number of 0 or more",
         ),
         ("fill=maybe", "fill", "expected a boolean"),
-        ("circle_points=2.5", "circle_points", "expected usize"),
+        (
+            "circle_points=2.5",
+            "circle_points",
+            "expected a whole number of 0 or more",
+        ),
         ("demold=0,0,0", "demold", "non-zero finite vector"),
         ("gates=0", "gates", "must be at least 1"),
         (

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json as _json
 import math as _math
+import numbers as _numbers
 import os as _os
 import time as _time
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
@@ -117,6 +118,11 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not an option value")
 
 
+def _is_number(v: Any) -> bool:
+    """A real number, Python's or numpy's (``np.int64``, ``np.float32``), not a bool."""
+    return isinstance(v, _numbers.Real) and not isinstance(v, bool)
+
+
 def _point_text(point: Any) -> Any:
     """A gate point as the library reads it: ``"x,y,z"`` text, or a sequence of numbers
     written exactly (``repr``), so that a bad value meets the library's own message."""
@@ -126,7 +132,7 @@ def _point_text(point: Any) -> Any:
         values = list(point.tolist() if hasattr(point, "tolist") else point)
     except TypeError:
         return str(point)
-    return ",".join(repr(float(v)) if isinstance(v, (int, float)) else str(v) for v in values)
+    return ",".join(repr(float(v)) if _is_number(v) else str(v) for v in values)
 
 
 def _options_json(options: Mapping[str, Any]) -> str:
@@ -135,10 +141,12 @@ def _options_json(options: Mapping[str, Any]) -> str:
     if gate_at is not None:
         if isinstance(gate_at, str) or (
             hasattr(gate_at, "__len__") and len(gate_at) == 3
-            and all(isinstance(v, (int, float)) for v in gate_at)
+            and all(_is_number(v) for v in gate_at)
         ):
             gate_at = [gate_at]
         options["gate_at"] = [_point_text(p) for p in gate_at]
+    if "keep_out" in options and options["keep_out"] is None:
+        options["keep_out"] = []
     if isinstance(options.get("keep_out"), str):
         options["keep_out"] = [options["keep_out"]]
     elif options.get("keep_out") is not None and not isinstance(options["keep_out"], list):
@@ -283,6 +291,8 @@ def study(
     """
     given = locals()
     options = {name: given[name] for name in _OPTION_NAMES}
+    if keep_out is None:
+        keep_out = ()
     options["keep_out"] = list(keep_out) if not isinstance(keep_out, str) else [keep_out]
     options.update(unknown)
     options_json = _options_json(options)
@@ -309,7 +319,9 @@ def batch_row(
 
     A part that fails (a file that cannot be read, no gate) is a row with its status and
     reason, never an exception; refused options raise :class:`OptionsError`, since they
-    would fail every part. ``options`` are those of :func:`study`.
+    would fail every part. ``options`` are those of :func:`study`. It reads the files the
+    command line reads (STL, OBJ, PLY): a STEP or IGES file is a failed row, as in the
+    command line's batch, with what to do; :func:`study` and :func:`load` tessellate them.
     """
     mf = _os.fspath(materials_file) if materials_file is not None else None
     return _json.loads(
@@ -327,8 +339,10 @@ def check_options(
 
 
 def materials(materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None) -> list:
-    """The built-in materials (the paper's Table 1), then those of ``materials_file``
-    (TOML, one table per material), each a dict of its parameters with the melt velocity
-    (Eq. 7, ``melt_velocity_m_s``) and the gate radius (Eq. 8, ``gate_radius_mm``)."""
+    """The built-in materials (the paper's Table 1 first, then the typical grades, as
+    ``moldgate materials`` lists them), each replaced by a material of ``materials_file``
+    (TOML, one table per material) of the same name or alias, then that file's other
+    materials; each a dict of its parameters with the melt velocity (Eq. 7,
+    ``melt_velocity_m_s``) and the gate radius (Eq. 8, ``gate_radius_mm``)."""
     mf = _os.fspath(materials_file) if materials_file is not None else None
     return _moldgate.materials(mf)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import stat
 import threading
 
 import numpy as np
@@ -21,6 +22,20 @@ TRIANGLES_PER_TURN = 24
 
 #: Default largest triangle edge as a fraction of the part's diagonal.
 DEFAULT_SIZE_FRACTION = 1.0 / 50.0
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular file is, as the library's messages say it."""
+    for test, kind in (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return "not a regular file"
 
 
 def _gmsh(path: str):
@@ -41,8 +56,13 @@ def tessellate(path: str, tolerance_mm: float | None = None):
         isinstance(tolerance_mm, (int, float)) and math.isfinite(tolerance_mm) and tolerance_mm > 0
     ):
         raise OptionsError(f"step_tolerance_mm must be a positive number, got {tolerance_mm!r}")
-    if os.path.isdir(path):
-        raise LoadError(f"{path}: is a folder, not a mesh file")
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as e:
+        raise LoadError(f"{path}: cannot open: {e.strerror or e}") from None
+    if not stat.S_ISREG(mode):
+        # A FIFO or a device would block the read or never end it.
+        raise LoadError(f"{path}: is {_kind(mode)}, not a mesh file")
     try:
         with open(path, "rb"):
             pass
@@ -50,8 +70,13 @@ def tessellate(path: str, tolerance_mm: float | None = None):
         raise LoadError(f"{path}: cannot open: {e.strerror or e}") from None
     gmsh = _gmsh(path)
     with _LOCK:
-        gmsh.initialize(readConfigFiles=False)
         try:
+            # gmsh sets a SIGINT handler when interruptible, which Python allows in the main
+            # thread only: from any other thread the session runs without one.
+            gmsh.initialize(
+                readConfigFiles=False,
+                interruptible=threading.current_thread() is threading.main_thread(),
+            )
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.option.setString("Geometry.OCCTargetUnit", "MM")
             # IGES (and some STEP) files hold loose faces: sew them into shells and solids
@@ -90,7 +115,8 @@ def tessellate(path: str, tolerance_mm: float | None = None):
                     # (outward), so they are taken as they are.
                     blocks.append(index[np.asarray(n, dtype=np.int64).reshape(-1, 3)])
         finally:
-            gmsh.finalize()
+            if gmsh.isInitialized():
+                gmsh.finalize()
     faces = np.concatenate(blocks) if blocks else np.zeros((0, 3), dtype=np.int64)
     return coords, np.ascontiguousarray(faces)
 

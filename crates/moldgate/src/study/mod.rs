@@ -25,8 +25,9 @@ mod options;
 mod run;
 
 pub use options::{
-    CentreChoice, ColorByChoice, Demold, MaterialChoice, NearestChoice, ObjectiveChoice, Settings,
-    StrategyChoice, StudyOptions, ThicknessChoice, MAX_GATE_AT, MAX_NODES_LIMIT,
+    CentreChoice, ColorByChoice, Demold, JsonOptionsError, MaterialChoice, NearestChoice,
+    ObjectiveChoice, Settings, StrategyChoice, StudyOptions, ThicknessChoice, MAX_GATE_AT,
+    MAX_NODES_LIMIT,
 };
 pub use run::{GateMarker, Study};
 

@@ -374,7 +374,92 @@ fn positive(field: &'static str, v: f64) -> Result<f64, StudyError> {
     }
 }
 
+/// Study options given as JSON that do not read as [`StudyOptions`] (the service's and the
+/// Python package's options).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct JsonOptionsError {
+    /// The first option that fails on its own, when one does (a parameter of a material
+    /// given as a table is `material.n`, ...).
+    pub field: Option<String>,
+    /// What is wrong, in plain words (`expected a number`, not `expected f64`).
+    pub message: String,
+}
+
+/// serde's words for a value's type as a person says them.
+fn plain_words(message: &str) -> String {
+    let mut m = message.to_string();
+    for (rust, plain) in [
+        ("expected usize", "expected a whole number of 0 or more"),
+        ("expected u64", "expected a whole number of 0 or more"),
+        ("expected u32", "expected a whole number of 0 or more"),
+        ("expected u16", "expected a whole number of 0 or more"),
+        ("expected f64", "expected a number"),
+        ("expected f32", "expected a number"),
+        ("expected i64", "expected a whole number"),
+        (
+            "data did not match any variant of untagged enum MaterialChoice",
+            "expected a material name or a table of its parameters (n, t_melt, t_wall, gamma_opt, mu_opt, k)",
+        ),
+    ] {
+        m = m.replace(rust, plain);
+    }
+    m
+}
+
+/// The first key of `object` whose value, put alone (or over `base`) into a `T`, fails.
+fn culprit<T: serde::de::DeserializeOwned>(
+    object: &serde_json::Map<String, serde_json::Value>,
+    base: &serde_json::Map<String, serde_json::Value>,
+) -> Option<String> {
+    object
+        .iter()
+        .find(|(k, v)| {
+            let mut one = base.clone();
+            one.insert((*k).clone(), (*v).clone());
+            serde_json::from_value::<T>(serde_json::Value::Object(one)).is_err()
+        })
+        .map(|(k, _)| k.clone())
+}
+
 impl StudyOptions {
+    /// The options of a JSON object (every field optional, as [`StudyOptions::default`]).
+    /// An error names the first option that fails on its own; for a material given as a
+    /// table of parameters, the parameter (`material.k`).
+    pub fn from_json_object(
+        object: serde_json::Map<String, serde_json::Value>,
+    ) -> Result<StudyOptions, JsonOptionsError> {
+        let error =
+            match serde_json::from_value::<StudyOptions>(serde_json::Value::Object(object.clone()))
+            {
+                Ok(o) => return Ok(o),
+                Err(e) => e,
+            };
+        let mut field = culprit::<StudyOptions>(&object, &serde_json::Map::new());
+        let mut message = error.to_string();
+        // In a material's table, the parameter at fault (each alone over the paper's PP)
+        // and the table's own error (the choice of a name or a table hides it).
+        if let (Some("material"), Some(serde_json::Value::Object(table))) =
+            (field.as_deref(), object.get("material"))
+        {
+            if let Err(e) =
+                serde_json::from_value::<Material>(serde_json::Value::Object(table.clone()))
+            {
+                message = e.to_string();
+            }
+            let pp = serde_json::to_value(Material::builtin("PP").expect("PP is built in"))
+                .ok()
+                .and_then(|v| v.as_object().cloned())
+                .unwrap_or_default();
+            if let Some(p) = culprit::<Material>(table, &pp) {
+                field = Some(format!("material.{p}"));
+            }
+        }
+        Err(JsonOptionsError {
+            field,
+            message: plain_words(&message),
+        })
+    }
+
     /// Whether `demold` asks for the automatic direction.
     pub fn auto_demold(&self) -> bool {
         self.demold.trim().eq_ignore_ascii_case("auto")
