@@ -6,7 +6,6 @@
 //! > option (2) > no gate (4); 0 when every part has a gate.
 
 use std::path::Path;
-use std::process::Output;
 
 use serde_json::Value;
 use tempfile::TempDir;
@@ -18,20 +17,6 @@ const SAMPLES: [&str; 5] = ["plate", "cover", "cap", "tray", "bracket"];
 // ---------------------------------------------------------------------------------------------
 // Running the binary
 
-#[track_caller]
-fn assert_code(out: &Output, code: i32) {
-    let err = stderr(out);
-    assert!(!err.contains("panicked"), "panic: {err}");
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "exit code; stderr: {err}; stdout: {}",
-        stdout(out)
-    );
-}
-
-/// A failure before any work: exactly one line `moldgate: error: ...` holding each needle.
-#[track_caller]
 fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }

@@ -71,14 +71,8 @@ pub fn box_facets(min: [f32; 3], max: [f32; 3]) -> Vec<Facet> {
 /// `moldgate: error: ...` containing every one of `needles`; returns that line.
 #[track_caller]
 pub fn assert_fails(out: &Output, code: i32, needles: &[&str]) -> String {
+    assert_code(out, code);
     let err = stderr(out);
-    assert!(!err.contains("panicked"), "panic: {err}");
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "exit code; stderr: {err}; stdout: {}",
-        stdout(out)
-    );
     assert!(err.ends_with('\n'), "stderr ends with a newline: {err:?}");
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 1, "stderr is one line: {err}");
@@ -88,4 +82,17 @@ pub fn assert_fails(out: &Output, code: i32, needles: &[&str]) -> String {
         assert!(line.contains(needle), "'{needle}' is not in: {line}");
     }
     line.to_string()
+}
+
+/// Asserts exit code `code` and no panic, showing stderr and stdout when it fails.
+#[track_caller]
+pub fn assert_code(out: &Output, code: i32) {
+    let err = stderr(out);
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "exit code; stderr: {err}; stdout: {}",
+        stdout(out)
+    );
 }
