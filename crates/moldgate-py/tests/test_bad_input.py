@@ -177,3 +177,13 @@ def test_materials_lists_the_whole_built_in_library():
     # Every listed material is one a study takes.
     for name in names:
         moldgate.check_options(material=name)
+
+
+def test_units_and_flags_of_the_wrong_type_are_options_errors():
+    part = moldgate.sample("plate")
+    for call in (lambda: moldgate.load("x.stl", units=None), lambda: moldgate.load("x.step", units=5),
+                 lambda: moldgate.study(part, units=None), lambda: moldgate.batch_row("x.stl", units=None)):
+        with pytest.raises(moldgate.OptionsError, match="units must be one of mm, cm, m, in; got"):
+            call()
+    with pytest.raises(moldgate.OptionsError, match="allow_no_gate must be True or False, got 'x'"):
+        moldgate.study(part, allow_no_gate="x")

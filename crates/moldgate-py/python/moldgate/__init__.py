@@ -89,6 +89,7 @@ def load(
 
     Raises :class:`LoadError` (with the file and place) for a file that cannot be read.
     """
+    _check_units_type(units)
     if _is_step(path):
         from . import _step
 
@@ -102,6 +103,12 @@ def load(
     if step_tolerance_mm is not None:
         raise OptionsError("step_tolerance_mm applies to STEP and IGES files only")
     return _moldgate.load(_os.fspath(path), units)
+
+
+def _check_units_type(units: Any) -> None:
+    """A unit given as anything but text is an :class:`OptionsError`, as an unknown one is."""
+    if not isinstance(units, str):
+        raise OptionsError(f"units must be one of mm, cm, m, in; got {units!r}")
 
 
 def default_options() -> dict:
@@ -165,6 +172,7 @@ def _options_json(options: Mapping[str, Any]) -> str:
 
 
 def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
+    _check_units_type(units)
     _moldgate.check_units(units)
     if isinstance(part, Part):
         return part
@@ -290,6 +298,8 @@ def study(
     library's message.
     """
     given = locals()
+    if not isinstance(allow_no_gate, bool):
+        raise OptionsError(f"allow_no_gate must be True or False, got {allow_no_gate!r}")
     options = {name: given[name] for name in _OPTION_NAMES}
     if keep_out is None:
         keep_out = ()
@@ -323,6 +333,7 @@ def batch_row(
     command line reads (STL, OBJ, PLY): a STEP or IGES file is a failed row, as in the
     command line's batch, with what to do; :func:`study` and :func:`load` tessellate them.
     """
+    _check_units_type(units)
     mf = _os.fspath(materials_file) if materials_file is not None else None
     return _json.loads(
         _moldgate.batch_row(_os.fspath(path), _options_json(options), mf, units, None)
