@@ -150,7 +150,7 @@ describe("moldgate in the browser", () => {
       ["empty.stl", Buffer.alloc(0), /empty\.stl: empty file/],
       ["broken.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", /broken\.obj: line 4/],
       ["short.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\u0001", /short\.ply: byte 169: the file ends/],
-      ["part.step", "ISO-10303-21;", /part\.step: unsupported file type/],
+      ["part.step", "ISO-10303-21;", /part\.step: this is a STEP file/],
       ["noise.stl", "solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 zero\n", /noise\.stl: .*line 4/],
     ];
     for (const [name, content, message] of cases) {

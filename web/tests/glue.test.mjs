@@ -35,7 +35,7 @@ test("the library's errors come back as messages, the module stays usable", asyn
   const mg = await Moldgate.fromBytes(wasm);
   await assert.rejects(mg.study(enc.encode("v 1 2\n"), { file_name: "a.obj" }), /a\.obj: line 1/);
   await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", options: { demold: "up" } }), /demold/);
-  await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", colour: 1 }), /options: unknown field/);
+  await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", colour: 1 }), /request: unknown field `colour`/);
   assert.ok((await mg.study(new Uint8Array(0), { sample: "plate" })) > 0);
 });
 

@@ -163,9 +163,7 @@ pub unsafe extern "C" fn mg_study(
 ) -> u32 {
     // SAFETY: the caller gives readable ranges.
     let (file, request) = unsafe { (bytes(file_ptr, file_len), bytes(request_ptr, request_len)) };
-    let result = serde_json::from_slice::<Request>(request)
-        .map_err(|e| format!("options: {e}"))
-        .and_then(|r| Session::new(file, &r, &report_progress));
+    let result = request_of(request).and_then(|r| Session::new(file, &r, &report_progress));
     match result {
         Ok(session) => {
             let mut s = state();
@@ -175,6 +173,26 @@ pub unsafe extern "C" fn mg_study(
         }
         Err(message) => finish(Err(message), 0),
     }
+}
+
+/// The page's request; its options read as the service's and the Python package's are, so
+/// that an error names the option at fault in plain words (`material.n: ...`).
+fn request_of(bytes: &[u8]) -> Result<Request, String> {
+    let mut value: serde_json::Value =
+        serde_json::from_slice(bytes).map_err(|e| format!("the request is not JSON: {e}"))?;
+    let options = match value.as_object_mut().and_then(|o| o.remove("options")) {
+        None => moldgate::StudyOptions::default(),
+        Some(serde_json::Value::Object(object)) => moldgate::StudyOptions::from_json_object(object)
+            .map_err(|e| match e.field {
+                Some(field) => format!("options: {field}: {}", e.message),
+                None => format!("options: {}", e.message),
+            })?,
+        Some(other) => return Err(format!("options must be an object, got {other}")),
+    };
+    let mut request: Request =
+        serde_json::from_value(value).map_err(|e| format!("request: {e}"))?;
+    request.options = options;
+    Ok(request)
 }
 
 /// Runs `f` on the study under `handle`.
@@ -311,7 +329,18 @@ mod tests {
         assert_eq!(study(b"solid x\nfacet", r#"{ "file_name": "x.stl" }"#), 0);
         assert!(String::from_utf8(out()).unwrap().starts_with("x.stl: "));
         assert_eq!(study(b"", "{ not json"), 0);
-        assert!(String::from_utf8(out()).unwrap().starts_with("options: "));
+        assert!(String::from_utf8(out())
+            .unwrap()
+            .starts_with("the request is not JSON: "));
+        // A material of the page's own parameters with one left empty: the parameter is
+        // named in plain words, not by the Rust type that did not match.
+        let r = r#"{ "sample": "cap", "options": { "material": { "n": null, "t_melt": 230, "t_wall": 50, "gamma_opt": 1000, "mu_opt": 100, "k": 0.2 } } }"#;
+        assert_eq!(study(b"", r), 0);
+        let said = String::from_utf8(out()).unwrap();
+        assert_eq!(
+            said,
+            "options: material.n: invalid type: null, expected a number"
+        );
 
         mg_drop(h);
         assert_eq!(mg_report(h), 0);

@@ -99,7 +99,14 @@ pub fn load(bytes: &[u8], file_name: &str, units: Units) -> Result<LoadedMesh, S
         )));
     }
     let format = Format::of(file_name).ok_or_else(|| {
-        fail(&"unsupported file type: moldgate reads .stl (binary or ASCII), .obj and .ply")
+        // A kind of file moldgate knows (STEP, IGES, 3MF, ...) is named with what to do.
+        let head = &bytes[..bytes.len().min(1024)];
+        match mesh::sniff::not_a_mesh(head, false) {
+            Some(e) => fail(&e),
+            None => {
+                fail(&"unsupported file type: moldgate reads .stl (binary or ASCII), .obj and .ply")
+            }
+        }
     })?;
     match format {
         Format::Stl => mesh::read_stl(bytes, bytes.len() as u64, units),
@@ -318,10 +325,15 @@ mod tests {
             .err()
             .unwrap();
         assert!(e.starts_with("bad.obj: line 3"), "{e}");
-        let e = Session::new(b"solid", &r("part.step"), &quiet)
+        let e = Session::new(b"solid", &r("part.unknown"), &quiet)
             .err()
             .unwrap();
         assert!(e.contains("unsupported file type"), "{e}");
+        // A STEP file is named as one, with what to do, as the command line does.
+        let e = Session::new(b"ISO-10303-21;\nHEADER;\n", &r("part.step"), &quiet)
+            .err()
+            .unwrap();
+        assert!(e.starts_with("part.step: this is a STEP file"), "{e}");
     }
 
     #[test]
@@ -390,5 +402,18 @@ mod tests {
         );
         let d: StudyOptions = serde_json::from_str(&defaults_json()).unwrap();
         assert_eq!(d, StudyOptions::default());
+    }
+
+    #[test]
+    fn the_page_offers_the_library_s_limit_of_gates() {
+        // The number field's own maximum, so that the page never offers a count the
+        // library refuses.
+        let page = include_str!("../../../web/index.html");
+        let field = page
+            .lines()
+            .find(|l| l.contains("id=\"gates\""))
+            .expect("the gates field");
+        let max = moldgate::flow::FlowOptions::default().max_gates;
+        assert!(field.contains(&format!("max=\"{max}\"")), "{field}");
     }
 }
