@@ -348,7 +348,7 @@ function wire() {
   $("colouring").addEventListener("change", recolour);
   $("reset-view").addEventListener("click", () => viewer.reset());
   $("view-d").addEventListener("click", () => viewer.viewAlongD());
-  for (const layer of ["gates", "centre", "parting", "qualifying"]) {
+  for (const layer of ["gates", "placed", "centre", "parting", "qualifying"]) {
     $(`layer-${layer}`).addEventListener("change", (e) => viewer.setLayer(layer, e.target.checked));
   }
   viewer.onPick = placeGate;

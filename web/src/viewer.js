@@ -23,6 +23,7 @@ import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
 /** The layers of the file a user can hide, by node name (or name prefix for the gates). */
 export const LAYERS = {
   gates: (name) => name.startsWith("gate "),
+  placed: (name) => name.startsWith("your gate "),
   centre: (name) => name === "centre of mass",
   parting: (name) => name === "parting line",
   qualifying: (name) => name === "qualifying nodes",
@@ -67,7 +68,7 @@ export class Viewer {
     this.controls.addEventListener("change", () => this.render());
     this.ringTexture = gateRingTexture();
     this.root = null;
-    this.visible = { gates: true, centre: true, parting: true, qualifying: true };
+    this.visible = { gates: true, placed: true, centre: true, parting: true, qualifying: true };
 
     // Shift-click on the part places a gate of the designer's: `onPick` gets the point in
     // the part's own frame, mm (the file's root node turns D up and scales to metres).

@@ -11,7 +11,7 @@
 //! | `part` | triangles with POSITION, NORMAL and COLOR_0 | white PBR (metallic 0, roughness 0.7), double-sided, times the vertex colours |
 //! | `gate 1`, `gate 2`, … | a short cylinder of radius R (the gate radius, Eq. 8) and height R/2 standing on the surface along the gate normal | red |
 //! | `your gate 1`, `your gate 2`, … | the gates the designer placed (`gate_at`): the same cylinder along the surface normal; the node's `extras` give the point, the normal and whether it qualifies | pink |
-//! | `centre of mass` | an octahedron, half-diagonal max(R, 1 % of the part's diagonal) | magenta |
+//! | `centre of mass` | an octahedron, half-diagonal max(R, 1 % of the part's diagonal) | cyan |
 //! | `parting line` | LINES | white, unlit |
 //! | `qualifying nodes` | POINTS at the surface points of the nodes that qualify | orange, unlit |
 //! | `gate suitability` | with the suitability map only: a square of the grid spacing facing +D at each scored node, lifted 2 % of the spacing off the surface, COLOR_0 by its score | unlit, times the vertex colours |
@@ -100,7 +100,9 @@ impl Look {
             Look::Part => ("part (vertex colours)", [255, 255, 255], false),
             Look::Gate => ("gate", [220, 20, 40], false),
             Look::Placed => ("your gate", crate::render::PLACED_COLOUR, false),
-            Look::Centre => ("centre of mass", [230, 0, 230], false),
+            // Cyan: neither the answer's red, the designer's pink gates, the qualifying
+            // nodes' orange, the parting line's white nor a colour of the colour map.
+            Look::Centre => ("centre of mass", [0, 200, 255], false),
             Look::Parting => ("parting line", [255, 255, 255], true),
             Look::Qualifying => ("qualifying nodes", [255, 140, 0], true),
             Look::Suitability => ("gate suitability (vertex colours)", [255, 255, 255], true),
