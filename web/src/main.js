@@ -167,6 +167,7 @@ function showError(message) {
 
 function clearResults(status) {
   current = null;
+  $("stale").hidden = true;
   viewer?.clear();
   $("result-body").replaceChildren();
   $("downloads").hidden = true;
@@ -341,11 +342,21 @@ function wire() {
     e.preventDefault();
     analyse();
   });
-  $("defaults").addEventListener("click", setDefaults);
+  $("defaults").addEventListener("click", () => {
+    setDefaults();
+    if (current) $("stale").hidden = false;
+  });
   $("material").addEventListener("change", showMaterial);
   $("demold").addEventListener("change", () => ($("demold-vector").hidden = $("demold").value !== "vector"));
   $("cosmetic").addEventListener("change", () => ($("cosmetic-vector").hidden = $("cosmetic").value !== "vector"));
   $("colouring").addEventListener("change", recolour);
+  // An option changed after a study: its results stay, marked as those of the earlier
+  // options, until the next analysis (choosing a file or a sample starts one by itself).
+  const markStale = (e) => {
+    if (current && !["file", "sample"].includes(e.target.id)) $("stale").hidden = false;
+  };
+  $("options").addEventListener("input", markStale);
+  $("options").addEventListener("change", markStale);
   $("reset-view").addEventListener("click", () => viewer.reset());
   $("view-d").addEventListener("click", () => viewer.viewAlongD());
   for (const layer of ["gates", "placed", "centre", "parting", "qualifying"]) {

@@ -321,6 +321,19 @@ describe("moldgate in the browser", () => {
     assert.equal(shownMap.best, map.nodes[map.best].score);
     // The colour bar is the map's, spanning its scores.
     await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("gate suitability"));
+    // Another colouring shows that field alone, under its own name; the study's own
+    // colouring brings the map back.
+    await page.selectOption("#colouring", "1");
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("height"));
+    await page.selectOption("#colouring", "0");
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("gate suitability"));
+    // A changed option marks the results as those of the earlier options until the next
+    // analysis.
+    assert.equal(await page.isHidden("#stale"), true);
+    await page.selectOption("#material", "ABS");
+    assert.equal(await page.isVisible("#stale"), true);
+    assert.equal(await analyseAgain(page), "done");
+    assert.equal(await page.isHidden("#stale"), true);
     await page.uncheck("#suitability");
     await page.click("#defaults");
   });

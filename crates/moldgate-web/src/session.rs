@@ -57,7 +57,8 @@ impl Format {
 /// Which field colours the part in the GLB.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Colouring {
-    /// What the study shows: the fill order when the fill ran, the height otherwise.
+    /// What the study shows: the fill order when the fill ran, the height otherwise, and
+    /// the gate-suitability map when it was made (the other colourings leave it out).
     Study,
     /// Height along the demolding direction.
     Height,
@@ -225,7 +226,12 @@ impl Session {
                 .fill_field()
                 .ok_or("the fill was not analysed (turn on 'fill analysis')")?,
         };
-        Ok(scene.with_field(field))
+        // The part in the chosen field alone: the suitability map's squares, coloured by
+        // their own scale, belong to the study's own colouring, and one colour bar cannot
+        // describe both.
+        let mut scene = scene.with_field(field);
+        scene.node_field = None;
+        Ok(scene)
     }
 
     /// The 1600x900 PNG picture.
@@ -375,6 +381,25 @@ mod tests {
         }
         assert!(s.png().unwrap().starts_with(b"\x89PNG"));
         assert!(s.html().unwrap().contains("<html"));
+    }
+
+    #[test]
+    fn the_suitability_map_goes_with_the_study_s_own_colouring_only() {
+        // One colour bar per view: the map's squares and their scale with the study's
+        // colouring, the chosen field alone with any other.
+        let r =
+            request(r#"{ "sample": "cover", "options": { "demold": "-z", "suitability": true } }"#);
+        let s = Session::new(b"", &r, &quiet).unwrap();
+        let extras = |c: Colouring| {
+            let glb = s.glb(c).unwrap();
+            let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+            let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+            doc["asset"]["extras"].clone()
+        };
+        assert!(extras(Colouring::Study)["suitability"].is_object());
+        let height = extras(Colouring::Height);
+        assert!(height["suitability"].is_null(), "{height}");
+        assert_eq!(height["field"]["name"], "height along D");
     }
 
     #[test]
