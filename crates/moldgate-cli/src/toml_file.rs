@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use moldgate::files::{read_text, TextError, MAX_TOML_BYTES};
+use moldgate::files::{read_text, toml_message, TextError, MAX_TOML_BYTES};
 
 use crate::Failure;
 
@@ -24,15 +24,6 @@ pub fn read_toml_text(path: &Path) -> Result<String, Failure> {
 /// error of the command line (exit code 2) naming the line.
 pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Failure> {
     let text = read_toml_text(path)?;
-    toml::from_str(&text).map_err(|e| {
-        let place = e
-            .span()
-            .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
-            .unwrap_or_default();
-        Failure::usage(format!(
-            "{}: {place}{}",
-            path.display(),
-            e.message().trim_end_matches('.')
-        ))
-    })
+    toml::from_str(&text)
+        .map_err(|e| Failure::usage(format!("{}: {}", path.display(), toml_message(&text, &e))))
 }

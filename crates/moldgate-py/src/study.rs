@@ -48,10 +48,7 @@ fn options(json: &str) -> Result<StudyOptions, String> {
     let serde_json::Value::Object(object) = value else {
         return Err("the options must be a table of names and values".into());
     };
-    let mut o = StudyOptions::from_json_object(object).map_err(|e| match e.field {
-        Some(field) => format!("{field}: {}", e.message),
-        None => e.message,
-    })?;
+    let mut o = StudyOptions::from_json_object(object).map_err(|e| e.to_string())?;
     if let MaterialChoice::Parameters(m) = &mut o.material {
         if m.name.is_empty() {
             m.name = "user material".into();

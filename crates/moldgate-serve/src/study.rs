@@ -246,12 +246,6 @@ fn multipart_boundary(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
     })
 }
 
-/// The start of the error of an options part that is JSON but not an object.
-const NOT_AN_OBJECT: &str = "invalid type: ";
-
-/// What the error of a key given twice in the options part says.
-const TWICE: &str = "is given more than once";
-
 /// The options part: a JSON object whose keys are each given once (a key given twice would
 /// silently take its last value, as a repeated query parameter is refused).
 struct OptionsObject(Map<String, Value>);
@@ -272,7 +266,7 @@ impl<'de> serde::Deserialize<'de> for OptionsObject {
                 while let Some(key) = a.next_key::<String>()? {
                     if map.contains_key(&key) {
                         return Err(serde::de::Error::custom(format!(
-                            "the option '{key}' {TWICE}"
+                            "the option '{key}' is given more than once"
                         )));
                     }
                     let value: Value = a.next_value()?;
@@ -319,17 +313,15 @@ async fn multipart(
                     .bytes()
                     .await
                     .map_err(|e| bad(format!("the options part cannot be read: {e}")))?;
-                let OptionsObject(map) = serde_json::from_slice(&text).map_err(|e| {
-                    let why = e.to_string();
-                    let message = if why.starts_with(NOT_AN_OBJECT) {
-                        "the options part must be a JSON object".to_string()
-                    } else if why.contains(TWICE) {
-                        format!("the options part: {why}")
-                    } else {
-                        format!("the options part is not JSON: {why}")
-                    };
-                    ApiError::options(message).at("options")
-                })?;
+                let fail = |m: String| ApiError::options(m).at("options");
+                let v: Value = serde_json::from_slice(&text)
+                    .map_err(|e| fail(format!("the options part is not JSON: {e}")))?;
+                if !v.is_object() {
+                    return Err(fail("the options part must be a JSON object".into()));
+                }
+                // Read again for what a Value hides: a key given twice.
+                let OptionsObject(map) = serde_json::from_slice(&text)
+                    .map_err(|e| fail(format!("the options part: {e}")))?;
                 options = Some(map);
             }
             "mesh" => {

@@ -182,11 +182,9 @@ fn request_of(bytes: &[u8]) -> Result<Request, String> {
         serde_json::from_slice(bytes).map_err(|e| format!("the request is not JSON: {e}"))?;
     let options = match value.as_object_mut().and_then(|o| o.remove("options")) {
         None => moldgate::StudyOptions::default(),
-        Some(serde_json::Value::Object(object)) => moldgate::StudyOptions::from_json_object(object)
-            .map_err(|e| match e.field {
-                Some(field) => format!("options: {field}: {}", e.message),
-                None => format!("options: {}", e.message),
-            })?,
+        Some(serde_json::Value::Object(object)) => {
+            moldgate::StudyOptions::from_json_object(object).map_err(|e| format!("options: {e}"))?
+        }
         Some(other) => return Err(format!("options must be an object, got {other}")),
     };
     let mut request: Request =

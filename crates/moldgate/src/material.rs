@@ -147,13 +147,7 @@ pub fn library_with(mut user: Vec<Material>) -> Vec<Listed> {
 /// syntax error names its line.
 pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
     let table: std::collections::BTreeMap<String, Material> =
-        toml::from_str(text).map_err(|e| {
-            let place = e
-                .span()
-                .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
-                .unwrap_or_default();
-            format!("{place}{}", e.message().trim_end_matches('.'))
-        })?;
+        toml::from_str(text).map_err(|e| crate::files::toml_message(text, &e))?;
     let mut out = Vec::with_capacity(table.len());
     for (name, mut m) in table {
         m.name = name;

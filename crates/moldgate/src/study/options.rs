@@ -385,6 +385,16 @@ pub struct JsonOptionsError {
     pub message: String,
 }
 
+impl std::fmt::Display for JsonOptionsError {
+    /// `field: message`, or the message alone when no option is at fault by itself.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.field {
+            Some(field) => write!(f, "{field}: {}", self.message),
+            None => f.write_str(&self.message),
+        }
+    }
+}
+
 /// serde's words for a value's type as a person says them.
 fn plain_words(message: &str) -> String {
     let mut m = message.to_string();
