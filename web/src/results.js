@@ -67,7 +67,7 @@ function gateSection(r) {
     { id: "gate-radius", "data-value": r.options.gate_radius_mm },
   ]);
   if (r.wall_thickness) {
-    rows.push(["Wall of the gate's facet (across, every facet measured)", mm(r.wall_thickness.at_gate_mm), { "data-value": r.wall_thickness.at_gate_mm }]);
+    rows.push(["Wall of the paper gate's facet (across, every facet measured)", mm(r.wall_thickness.at_gate_mm), { "data-value": r.wall_thickness.at_gate_mm }]);
   }
   const content = [list("gate", rows)];
   if (several) {

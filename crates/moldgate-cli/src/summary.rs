@@ -188,7 +188,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
-                f.objective.value_words().0,
+                f.objective.field_words(),
                 worst(g.value())
             );
         }
@@ -413,7 +413,7 @@ pub fn render(r: &Report) -> String {
     if let Some(w) = &r.wall_thickness {
         let _ = writeln!(
             s,
-            "wall thickness of every facet (across, along its inverted normal): min {}, nominal {}, max {}, at the gate's facet {} ({:.1} % of the area unknown)",
+            "wall thickness of every facet (across, along its inverted normal): min {}, nominal {}, max {}, at the paper gate's facet {} ({:.1} % of the area unknown)",
             mm(w.min_mm, open),
             mm(w.nominal_mm, open),
             mm(w.max_mm, open),

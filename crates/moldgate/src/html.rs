@@ -324,7 +324,7 @@ fn summary_table(h: &mut String, r: &Report) {
             "Wall thickness of every facet",
             &format!(
                 "min {}, nominal {}, max {} (each facet across, along its inverted normal), \
-                 at the gate's facet {}{slivers}",
+                 at the paper gate's facet {}{slivers}",
                 mm(w.min_mm),
                 mm(w.nominal_mm),
                 mm(w.max_mm),
@@ -601,12 +601,13 @@ fn fill_table(h: &mut String, r: &Report) {
     if let Some(m) = &f.several {
         // With the resistance objective the several-gate values are fill times.
         let (what, unit) = f.objective.value_words();
+        let field = f.objective.field_words();
         let _ = writeln!(
             h,
             "<p id=\"several\">{} gates together: {what} {} {unit} ({:.1} % shorter than \
              with the best single gate), balance {:.2} (smallest share over the largest).</p>\n\
              <table>\n<tr><th>gate</th><th>point</th>\
-             <th>share of the volume (reached first by {what})</th><th>{what} in its share</th></tr>",
+             <th>share of the volume (reached first by {field})</th><th>{what} in its share</th></tr>",
             m.gates.len(),
             f.objective.value_text(m.value()),
             m.improvement_pct,
@@ -662,11 +663,12 @@ fn fill_table(h: &mut String, r: &Report) {
     };
     // With several gates the answer is a layout, whose last places are not made here: say
     // whose these are, and how to have the layout's.
-    let whose = match &f.several {
-        None => "the answer's gate".to_string(),
-        Some(_) => {
-            format!("the {gate} gate alone (for the layout's own, give its gates with --gate-at)")
-        }
+    let (whose, layout_note) = match &f.several {
+        None => ("the answer's gate".to_string(), ""),
+        Some(_) => (
+            format!("the {gate} gate alone"),
+            "; for the layout's own, give its gates with --gate-at",
+        ),
     };
     if let Some(g) = answer {
         let last: Vec<String> = g
@@ -684,7 +686,7 @@ fn fill_table(h: &mut String, r: &Report) {
         let _ = writeln!(
             h,
             "<p>Last to fill from {whose} (where the fill ends and air may be trapped: \
-             places reached in the last 20 % of the fill time): {}.</p>",
+             places reached in the last 20 % of the fill time{layout_note}): {}.</p>",
             if last.is_empty() {
                 "none".to_string()
             } else {
@@ -829,7 +831,8 @@ across one facet that passes through the cell (along its inverted normal), as th
 resistance sees it; the fill's min and max are over one such sample per surface cell. Near
 a rib or step that facet may be the rib's side rather than the gate's own facet.
 <b>Facet wall</b> (<code>--wall-thickness</code>): every facet measured across, along its
-inverted normal; \"at the gate's facet\" is the facet the gate lies on. The three agree on a
+inverted normal; \"at the paper gate's facet\" is the facet the paper gate lies on (a balanced
+or placed gate's own wall is its flow-cell wall). The three agree on a
 flat wall and differ where the gate sits on a rib, boss or step.</dd>
 <dt>Slivers</dt><dd>Facets thinner than 5 % of the nominal wall (films such as a 0.01 mm
 step): not mouldable walls, counted apart from the minimum.</dd>

@@ -155,7 +155,7 @@ fn unknown_thickness_on_a_closed_mesh_does_not_blame_holes() {
     let summary = String::from_utf8_lossy(&out.stdout);
     assert!(!summary.contains("open mesh"), "{summary}");
     assert!(
-        summary.contains("at the gate's facet none (no gate)"),
+        summary.contains("at the paper gate's facet none (no gate)"),
         "{summary}"
     );
 }

@@ -90,6 +90,15 @@ impl Objective {
         }
     }
 
+    /// The field whose arrival decides which gate of a layout reaches a place first: the
+    /// flow length, or the fill time (a layout's shares are read by it).
+    pub fn field_words(self) -> &'static str {
+        match self {
+            Objective::Length => "flow length",
+            Objective::Resistance => "fill time",
+        }
+    }
+
     /// This objective's value of a gate's fill: its L_max, mm, or its fill time, s.
     pub fn of_fill(self, fill: &GateFill) -> f64 {
         match self {
