@@ -10,8 +10,8 @@ const EXPORT: &str =
 
 /// The kind of file `head` (the first bytes of a file, up to a kilobyte) starts, when it is
 /// a known kind that is not a mesh moldgate reads; `text` says whether to name plain text
-/// (for the STL reader, text of at least a binary STL's 84-byte header that does not start
-/// with `solid`; shorter text is a truncated binary header as far as anyone can tell).
+/// (for the STL reader, text that does not start with `solid`; text shorter than a binary
+/// STL's 84-byte header is named as such, since a binary header cut short could be text).
 pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
     let trimmed = head
         .strip_prefix(b"\xEF\xBB\xBF")
@@ -55,11 +55,16 @@ pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
             "a PLY file",
             "give it a .ply extension so that it is read as PLY",
         )
-    } else if text && head.len() >= 84 && is_text(head) {
+    } else if text && is_text(head) {
         if trimmed.starts_with(b"v ") || trimmed.starts_with(b"#") || contains(head, b"\nv ") {
             (
                 "a text file that looks like a Wavefront OBJ",
                 "give it an .obj extension so that it is read as OBJ",
+            )
+        } else if head.len() < 84 {
+            (
+                "a short text file (not an ASCII STL: it does not start with 'solid'; and shorter than a binary STL's 84-byte header)",
+                "give moldgate an STL, OBJ or PLY mesh",
             )
         } else {
             (
