@@ -33,6 +33,31 @@ pub(crate) fn units(name: &str) -> PyResult<Units> {
         .map_err(|e: String| OptionsError::new_err(format!("units: {e}")))
 }
 
+/// [`units`] of any Python object: anything but a string is refused with the same
+/// message as the Python layer's (`units must be one of mm, cm, m, in; got None`), not
+/// with a `TypeError` from the argument's conversion.
+pub(crate) fn units_of(obj: &Bound<'_, PyAny>) -> PyResult<Units> {
+    match obj.extract::<String>() {
+        Ok(name) => units(&name),
+        Err(_) => Err(OptionsError::new_err(format!(
+            "units must be one of mm, cm, m, in; got {}",
+            obj.repr()?
+        ))),
+    }
+}
+
+/// A `units` argument: a unit name, read by [`units_of`], so that `units=None` or a number
+/// is an `OptionsError` like an unknown name, not a `TypeError` from the conversion.
+pub(crate) struct UnitsArg(pub(crate) Units);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for UnitsArg {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<UnitsArg> {
+        units_of(&obj).map(UnitsArg)
+    }
+}
+
 /// Reads a mesh file by its extension (`.obj`, `.ply`, any case; STL otherwise), as the
 /// command line does: only a regular file (a FIFO would hang the call).
 pub(crate) fn read_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), String> {
@@ -240,9 +265,9 @@ impl Part {
     /// an (m, 3) array of triangles as vertex indices (any integer dtype), in `units`.
     /// Corners are welded by exact position like a file's facets.
     #[new]
-    #[pyo3(signature = (vertices, faces, units = "mm"))]
-    fn new(vertices: &Bound<'_, PyAny>, faces: &Bound<'_, PyAny>, units: &str) -> PyResult<Part> {
-        guarded(|| part_from_arrays(vertices, faces, self::units(units)?))
+    #[pyo3(signature = (vertices, faces, units = UnitsArg(Units::Mm)))]
+    fn new(vertices: &Bound<'_, PyAny>, faces: &Bound<'_, PyAny>, units: UnitsArg) -> PyResult<Part> {
+        guarded(|| part_from_arrays(vertices, faces, units.0))
     }
 
     /// Part.from_trimesh(mesh, units="mm")
@@ -251,9 +276,9 @@ impl Part {
     /// A part from any object with `.vertices` and `.faces` (a `trimesh.Trimesh`): its
     /// arrays are read in place, without a copy.
     #[staticmethod]
-    #[pyo3(signature = (mesh, units = "mm"))]
-    fn from_trimesh(mesh: &Bound<'_, PyAny>, units: &str) -> PyResult<Part> {
-        guarded(|| part_from_object(mesh, self::units(units)?))
+    #[pyo3(signature = (mesh, units = UnitsArg(Units::Mm)))]
+    fn from_trimesh(mesh: &Bound<'_, PyAny>, units: UnitsArg) -> PyResult<Part> {
+        guarded(|| part_from_object(mesh, units.0))
     }
 
     /// A part tessellated from a STEP or IGES file (`moldgate.load`): its report names the

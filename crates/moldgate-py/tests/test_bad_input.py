@@ -182,7 +182,10 @@ def test_materials_lists_the_whole_built_in_library():
 def test_units_and_flags_of_the_wrong_type_are_options_errors():
     part = moldgate.sample("plate")
     for call in (lambda: moldgate.load("x.stl", units=None), lambda: moldgate.load("x.step", units=5),
-                 lambda: moldgate.study(part, units=None), lambda: moldgate.batch_row("x.stl", units=None)):
+                 lambda: moldgate.study(part, units=None), lambda: moldgate.batch_row("x.stl", units=None),
+                 lambda: moldgate.Part(np.zeros((3, 3)), np.array([[0, 1, 2]]), units=None),
+                 lambda: moldgate.Part(np.zeros((3, 3)), np.array([[0, 1, 2]]), None),
+                 lambda: moldgate.Part.from_trimesh(part, units=1.0)):
         with pytest.raises(moldgate.OptionsError, match="units must be one of mm, cm, m, in; got"):
             call()
     with pytest.raises(moldgate.OptionsError, match="allow_no_gate must be True or False, got 'x'"):

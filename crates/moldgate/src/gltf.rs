@@ -162,7 +162,10 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
             scene.frame.d
         };
         let solid = cylinder(g.point, axis, g.radius_mm, 0.5 * g.radius_mm);
-        let name = format!("gate {}", i + 1);
+        let name = match g.body {
+            Some(b) => format!("gate of body {b}"),
+            None => format!("gate {}", i + 1),
+        };
         let m = doc.triangles(&name, &solid, Look::Gate);
         children.push(doc.node(&name, m));
     }

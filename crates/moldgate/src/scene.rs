@@ -58,6 +58,10 @@ pub struct Marker {
     pub normal: DVec3,
     /// Disc radius, mm (the gate radius R_gate).
     pub radius_mm: f64,
+    /// The body whose own gate this is, on a part of several bodies where the answer's
+    /// gates do not reach that body (see [`crate::flow::BodyGate`]); `None` for the answer's
+    /// gates.
+    pub body: Option<u32>,
 }
 
 /// A gate the designer placed (`gate_at`): its disc, and whether it passes the paper's
@@ -130,6 +134,7 @@ impl<'a> Scene<'a> {
                     ChosenGate::Aesthetic(_) => DVec3::ZERO,
                 },
                 radius_mm: r,
+                body: None,
             })
             .into_iter()
             .collect();

@@ -3028,10 +3028,38 @@ pub fn analyse_prepared(
             ));
         }
     }
-    let body_gates = if domain.bodies > 1 {
+    let (body_gates, body_fields) = if domain.bodies > 1 {
         gates_per_body(&domain, &bodies, analysis, material, answer_body)
     } else {
-        Vec::new()
+        (Vec::new(), Vec::new())
+    };
+    // A body the pictured gates do not reach is shown filled from its own gate (a gate per
+    // body, listed with the fill), not as a body without a value: each body of a file of
+    // several is moulded from its own gate. The designer's placed gates are shown as given.
+    let own_gates = |t: &[f64], pick: fn(&GateFields) -> &Field| -> Option<Vec<f64>> {
+        if placed.is_some() || body_fields.iter().all(Option::is_none) {
+            return None;
+        }
+        let mut reached = vec![false; domain.bodies];
+        for (c, x) in t.iter().enumerate() {
+            if x.is_finite() {
+                reached[domain.body[c] as usize] = true;
+            }
+        }
+        let mut merged: Option<Vec<f64>> = None;
+        for (b, f) in body_fields.iter().enumerate() {
+            let Some(f) = f.as_ref().filter(|_| !reached[b]) else {
+                continue;
+            };
+            let own = &pick(f).t;
+            let m = merged.get_or_insert_with(|| t.to_vec());
+            for (c, x) in m.iter_mut().enumerate() {
+                if domain.body[c] as usize == b {
+                    *x = own[c];
+                }
+            }
+        }
+        merged
     };
     // Only the field the pictures show (a pass over the vertices each).
     let mut per_vertex = VertexFields::default();
@@ -3059,12 +3087,16 @@ pub fn analyse_prepared(
         ColourBy::FlowLength => {
             let field = all_gates(None);
             let t = field.as_ref().map_or(&fields.length.t, |f| &f.t);
+            let merged = own_gates(t, |f| &f.length);
+            let t = merged.as_ref().unwrap_or(t);
             per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, t, 1.0);
             Some(on_cells(t, 1.0))
         }
         ColourBy::FillTime => {
             let field = all_gates(Some(&domain.fill_cost));
             let t = field.as_ref().map_or(&fields.fill.t, |f| &f.t);
+            let merged = own_gates(t, |f| &f.fill);
+            let t = merged.as_ref().unwrap_or(t);
             per_vertex.fill_time_s = per_vertex_of(&domain, mesh, t, per_mm);
             Some(on_cells(t, per_mm))
         }
@@ -3112,14 +3144,15 @@ pub fn analyse_prepared(
 }
 
 /// The gate of every body: the paper's rule on the body, its qualifying node nearest its
-/// centre of mass, with its flow length and fill time over the body.
+/// centre of mass, with its flow length and fill time over the body, and its fields (for
+/// the pictures of the bodies the answer's gates do not reach).
 fn gates_per_body(
     domain: &Domain,
     bodies: &Bodies,
     analysis: &crate::gate::Analysis,
     material: &Material,
     answer_body: Option<u32>,
-) -> Vec<BodyGate> {
+) -> (Vec<BodyGate>, Vec<Option<GateFields>>) {
     // Summed once for every body (`Domain::volume_share` sums per call).
     let total: f64 = domain.body_volume_mm3.iter().sum();
     (0..domain.bodies as u32)
@@ -3136,7 +3169,7 @@ fn gates_per_body(
                 .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
                 .copied();
             let fill = gate.and_then(|g| fill_from(domain, g, material));
-            BodyGate {
+            let gate_body = BodyGate {
                 body: b,
                 volume_share: domain.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE),
                 centre_of_mass: centre.to_array(),
@@ -3149,9 +3182,10 @@ fn gates_per_body(
                     .get(b as usize)
                     .copied()
                     .unwrap_or(domain.nominal_wall_mm),
-            }
+            };
+            (gate_body, fill.map(|f| f.1))
         })
-        .collect()
+        .unzip()
 }
 
 /// The point of the part's surface nearest cell `c`'s centre, on the cell's triangle (a

@@ -606,10 +606,11 @@ fn draw_overlays(
     for (i, d) in discs.iter().enumerate() {
         let ([x, y], r) = (d.at, d.r);
         draw_gate(canvas, &d.outline, [x, y, r], d.hidden, k);
-        let mut label = if scene.gates.len() > 1 {
-            format!("gate {}", i + 1)
-        } else {
-            "gate".to_string()
+        let answer_gates = scene.gates.iter().filter(|g| g.body.is_none()).count();
+        let mut label = match scene.gates[i].body {
+            Some(b) => format!("gate of body {b}"),
+            None if answer_gates > 1 => format!("gate {}", i + 1),
+            None => "gate".to_string(),
         };
         if d.hidden {
             label += " (hidden)";
@@ -1683,6 +1684,7 @@ mod tests {
                 point: DVec3::ZERO,
                 normal,
                 radius_mm: 1.5,
+                body: None,
             };
             let (outline, r) = gate_outline(&cam, &g);
             let d: Vec<f32> = outline

@@ -40,6 +40,9 @@ pub struct Study {
     /// What the fill's pictures are coloured by, when the fill ran.
     colour_by: Option<flow::ColourBy>,
     gates: Vec<GateMarker>,
+    /// On a part of several bodies, the own gate of each body the answer's gates do not
+    /// reach (by body), drawn with the fill those bodies are shown with.
+    body_gates: Vec<(u32, GateMarker)>,
     /// The designer's gates on the surface (`gate_at`).
     placed: Vec<GateMarker>,
     subtitle: String,
@@ -295,6 +298,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         bvh => bvh,
     };
     let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
+    let body_gates = own_body_gates(part, &report, placed.is_some(), bvh.as_ref());
     let placed_markers = placed.as_ref().map_or(Vec::new(), |p| {
         p.gates
             .iter()
@@ -319,6 +323,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         wall_per_vertex,
         colour_by,
         gates,
+        body_gates,
         placed: placed_markers,
         subtitle,
         material_name: s.material.name.clone(),
@@ -333,6 +338,33 @@ fn normal_at(part: &LoadedMesh, bvh: Option<&Bvh>, p: DVec3) -> DVec3 {
     let reach = part.mesh.bounds().size().length().max(1.0);
     bvh.and_then(|b| b.nearest_within(p, reach))
         .map_or(DVec3::ZERO, |hit| part.mesh.normal(hit.triangle as usize))
+}
+
+/// The own gates of the bodies the answer's gates do not reach, which the fill's pictures
+/// show filled from them (none when the designer placed gates, which are shown as given).
+fn own_body_gates(
+    part: &LoadedMesh,
+    report: &Report,
+    placed: bool,
+    bvh: Option<&Bvh>,
+) -> Vec<(u32, GateMarker)> {
+    let Some(fill) = report.fill.as_ref().filter(|_| !placed) else {
+        return Vec::new();
+    };
+    fill.body_gates
+        .iter()
+        .filter(|b| !b.is_answer_body)
+        .filter_map(|b| {
+            let p = DVec3::from_array(b.gate?);
+            Some((
+                b.body,
+                GateMarker {
+                    point: p,
+                    normal: normal_at(part, bvh, p),
+                },
+            ))
+        })
+        .collect()
 }
 
 /// The gates of the answer and the picture's second title line: the paper's (or the
@@ -568,7 +600,14 @@ impl Study {
                 point: g.point,
                 normal: g.normal,
                 radius_mm: r,
+                body: None,
             })
+            .chain(self.body_gates.iter().map(|&(b, g)| Marker {
+                point: g.point,
+                normal: g.normal,
+                radius_mm: r,
+                body: Some(b),
+            }))
             .collect();
         scene.placed = self
             .placed
@@ -579,6 +618,7 @@ impl Study {
                     point: g.point,
                     normal: g.normal,
                     radius_mm: r,
+                    body: None,
                 },
                 qualifies: judged.qualifies,
             })

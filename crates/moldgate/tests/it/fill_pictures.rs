@@ -9,12 +9,17 @@ use moldgate::study::{study, StudyOptions};
 
 /// A plate `x` by `y` by `z` mm in 12 triangles (two a face), wound outwards.
 fn coarse_plate(x: f64, y: f64, z: f64) -> LoadedMesh {
+    from_generated(block(DVec3::ZERO, DVec3::new(x, y, z)))
+}
+
+/// A box from `lo` to `hi` in 12 triangles (two a face), wound outwards.
+fn block(lo: DVec3, hi: DVec3) -> Mesh {
     let vertices = (0..8)
         .map(|i| {
             DVec3::new(
-                if i & 1 == 0 { 0.0 } else { x },
-                if i & 2 == 0 { 0.0 } else { y },
-                if i & 4 == 0 { 0.0 } else { z },
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
             )
         })
         .collect();
@@ -30,10 +35,10 @@ fn coarse_plate(x: f64, y: f64, z: f64) -> LoadedMesh {
         .iter()
         .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
         .collect();
-    from_generated(Mesh {
+    Mesh {
         vertices,
         triangles,
-    })
+    }
 }
 
 fn options(json: &str) -> StudyOptions {
@@ -182,4 +187,54 @@ fn the_suitability_map_is_drawn_on_the_parts_own_triangles() {
     assert!(s.fill_field().unwrap().cells.is_some());
     let scene = s.scene(&part, "plate").unwrap();
     assert!(scene.node_field.is_some() && scene.display.is_none());
+}
+
+#[test]
+fn a_body_the_gate_does_not_reach_is_drawn_filled_from_its_own_gate() {
+    // A box and a lid 5 mm beside it, in one file: the paper gate fills the box only.
+    let mut two = block(DVec3::ZERO, DVec3::new(40.0, 20.0, 10.0));
+    let lid = block(DVec3::new(45.0, 0.0, 0.0), DVec3::new(85.0, 20.0, 2.0));
+    let base = two.vertices.len() as u32;
+    two.vertices.extend(&lid.vertices);
+    two.triangles
+        .extend(lid.triangles.iter().map(|t| t.map(|v| v + base)));
+    let part = from_generated(two);
+    for colour in ["fill_time", "flow_length"] {
+        let s = study(
+            &part,
+            &options(&format!(
+                r#"{{ "fill": true, "color_by": "{colour}", "demold": "+z" }}"#
+            )),
+        )
+        .unwrap();
+        let fill = s.fill().unwrap();
+        let own = fill.body_gates.iter().find(|b| !b.is_answer_body).unwrap();
+        let lid_gate = DVec3::from_array(own.gate.unwrap());
+        assert!(lid_gate.x > 45.0, "{lid_gate}");
+        // The scene draws the lid's own gate beside the answer's, named by its body.
+        let scene = s.scene(&part, "two").unwrap();
+        let markers: Vec<_> = scene.gates.iter().map(|g| (g.point, g.body)).collect();
+        assert_eq!(markers.len(), 2, "{markers:?}");
+        assert_eq!(markers[0].1, None);
+        assert_eq!(markers[1], (lid_gate, Some(own.body)));
+        // Every vertex of both bodies has a value: the lid's from its own gate, up to the
+        // value its gate reports over it.
+        let (surface, values) = scene.surface();
+        assert!(values.iter().all(|v| v.is_finite()), "a vertex without a value");
+        let lid_max = surface
+            .vertices
+            .iter()
+            .zip(values)
+            .filter(|(p, _)| p.x > 42.0)
+            .map(|(_, &v)| v as f64)
+            .fold(0.0, f64::max);
+        let reported = match colour {
+            "fill_time" => own.fill_time_s.unwrap(),
+            _ => own.l_max_mm.unwrap(),
+        };
+        assert!(
+            lid_max <= reported * (1.0 + 1e-6) && lid_max > 0.5 * reported,
+            "{colour}: the lid's largest value {lid_max} against its gate's {reported}"
+        );
+    }
 }
