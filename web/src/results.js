@@ -101,6 +101,7 @@ function gateFill(id, title, f) {
     ? f.flow_ratio.toFixed(0)
     : `${f.flow_ratio.toFixed(0)} ${f.exceeds_flow_ratio ? "EXCEEDS" : "within"} the material's limit of ${limit.toFixed(0)}`;
   const rows = [
+    ["Gate at", `${v3(f.gate)} mm`, { class: "gate-at", ...xyz(f.gate) }],
     ["Longest flow path L_max", `${f.l_max_mm.toFixed(1)} mm (mean ${f.l_mean_mm.toFixed(1)})`, { class: "l-max", "data-value": f.l_max_mm }],
     ["Flow-cell wall at the gate (the fill model's sample)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
     ["Flow length / wall L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
@@ -125,9 +126,25 @@ function fillSection(f) {
   } else if (f.balanced) {
     parts.push(el("p", {}, "The balanced gate is the paper's gate: no candidate does better by more than a flow cell."));
   }
+  if (f.body_gates?.length) parts.push(bodyGates(f.body_gates));
   if (f.suitability) parts.push(suitabilityPart(f.suitability));
   for (const w of f.warnings || []) parts.push(el("p", { class: "warning" }, w));
   return section("fill-result", "Fill", ...parts);
+}
+
+/** A gate per body, on a file of several bodies: each body is moulded from its own gate (the
+ * 3D view shows the bodies the answer's gate does not reach filled from theirs). */
+function bodyGates(bodies) {
+  const items = el("ol", { id: "body-gates", start: 0 });
+  for (const b of bodies) {
+    const share = `${(100 * b.volume_share).toFixed(1)} % of the volume`;
+    const own = b.is_answer_body ? ", the answer's" : "";
+    const text = b.gate === null
+      ? `Body ${b.body} (${share}${own}): no qualifying node`
+      : `Body ${b.body} (${share}${own}): gate ${v3(b.gate)} mm, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
+    items.append(el("li", b.gate === null ? { "data-body": b.body } : { "data-body": b.body, ...xyz(b.gate) }, text));
+  }
+  return el("div", {}, el("p", {}, `A gate per body (the file holds ${bodies.length} separate bodies; a gate fills only its own):`), items);
 }
 
 /** The gate-suitability map in words: the best node, the range, how many scores are exact. */

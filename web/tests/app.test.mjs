@@ -131,6 +131,30 @@ describe("moldgate in the browser", () => {
     });
   }
 
+  test("a file of two bodies lists a gate per body, as the command line does", async (t) => {
+    const path = join(PARTS, "prusa_psu_cover_mk3_ascii.stl");
+    if (!existsSync(path)) {
+      t.skip(`${path} not found (set MOLDGATE_PARTS)`);
+      return;
+    }
+    await page.check("#fill");
+    assert.equal(await studyFile(page, path, { demold: "+z" }), "done");
+    const expected = cli(["locate", path, "--demold", "+z", "--fill"]);
+    const bodies = await page.$$eval("#body-gates li", (items) => items.map((e) => [Number(e.dataset.body), ["x", "y", "z"].map((a) => Number(e.dataset[a])), e.textContent]));
+    assert.equal(bodies.length, expected.fill.body_gates.length);
+    assert.equal(bodies.length, 2);
+    for (const [i, b] of expected.fill.body_gates.entries()) {
+      assert.equal(bodies[i][0], b.body);
+      assert.deepEqual(bodies[i][1], b.gate, `body ${b.body}'s gate`);
+      assert.ok(bodies[i][2].includes(`${(100 * b.volume_share).toFixed(1)} % of the volume`), bodies[i][2]);
+    }
+    // The balanced gate, elsewhere than the paper's on this part, is given with its place.
+    assert.ok(!expected.fill.balanced.is_paper_gate);
+    const balanced = await page.$eval("#fill-balanced .gate-at", (e) => ["x", "y", "z"].map((a) => Number(e.dataset[a])));
+    assert.deepEqual(balanced, expected.fill.balanced.fill.gate);
+    await page.uncheck("#fill");
+  });
+
   test("the 3D view shows the part's colours and the gate's red", async () => {
     await page.selectOption("#demold", "-z");
     assert.equal(await studySample(page, "cover"), "done");
@@ -217,6 +241,9 @@ describe("moldgate in the browser", () => {
     assert.equal(await studySample(page, "cover"), "done");
     const expected = cli(["locate", "--sample", "cover", "--demold", "-z", "--strategy", "balanced", "--wall-thickness", "--keep-out", "sphere:0,0,30,5", "--material", "ABS"]);
     await assertSameGate(page, expected, "cover, balanced");
+    // Each gate's place is given beside its fill.
+    const paperAt = await page.$eval("#fill-paper .gate-at", (e) => ["x", "y", "z"].map((a) => Number(e.dataset[a])));
+    assert.deepEqual(paperAt, expected.fill.paper.gate);
     const lmax = await page.$eval("#fill-result .l-max", (e) => Number(e.dataset.value));
     assert.equal(lmax, expected.fill.paper.l_max_mm);
     // The fill time and the places last to fill read as the command line writes them.
