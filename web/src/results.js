@@ -181,7 +181,9 @@ function partSection(r) {
     ["File", r.input.path ?? `sample '${r.input.sample}'`],
     ["Read as", `${format}, ${m.units}`],
     ["Triangles", m.triangles.toLocaleString("en"), { "data-value": m.triangles }],
-    ["Size", `${size.map((s) => s.toFixed(1)).join(" × ")} mm`],
+    // A part read in the wrong units (metres as mm) is a fraction of a millimetre: three
+    // figures, not "0.0".
+    ["Size", `${size.map((s) => (s >= 1 ? s.toFixed(1) : threeFigures(s))).join(" × ")} mm`],
     ["Mesh", m.open_edges === 0 && m.non_manifold_edges === 0 ? `closed, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}` : `${m.open_edges} open and ${m.non_manifold_edges} non-manifold edges, ${m.bodies} bodies`],
     ["Demolding direction D", v3(r.options.demold, 3), xyz(r.options.demold)],
     ["Centre of mass", `${v3(r.centre_of_mass.used)} mm`, { id: "centre-of-mass", ...xyz(r.centre_of_mass.used) }],

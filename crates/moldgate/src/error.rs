@@ -266,7 +266,7 @@ pub enum OptionsError {
     /// The automatic spacing gives too many nodes: the part is too large for its gate (most
     /// often a file in other units than the ones it was read in).
     #[error(
-        "the part spans {span_mm:.4e} mm, so the automatic spacing of {} mm (set from the gate radius) gives {} nodes, more than the limit of {limit}; check --units and the gate radius, or give a spacing of at least {} mm",
+        "the part spans {span_mm:.4e} mm, so the automatic spacing of {} mm (set from the gate radius) gives {} nodes, more than the limit of {limit}; check the file's units (--units) and the gate radius, or give a spacing of at least {} mm",
         length_text(*.spacing_mm),
         count_text(*.nodes),
         rounded_up(*.min_spacing_mm)

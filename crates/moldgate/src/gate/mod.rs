@@ -470,7 +470,7 @@ impl Analysis {
         let across = self.diagonal_mm;
         if crate::mesh::units::size_is_suspicious(across) {
             s += &format!(
-                "; the part is {across:.4} mm across as read: if the file is not in millimetres, pass --units (in, cm or m)"
+                "; the part is {across:.4} mm across as read: if the file is not in millimetres, set its units to in, cm or m (--units)"
             );
         }
         s

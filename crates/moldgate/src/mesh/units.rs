@@ -85,7 +85,7 @@ pub fn size_is_suspicious(diagonal_mm: f64) -> bool {
 pub fn size_warning(diagonal_mm: f64, units: Units) -> Option<String> {
     if diagonal_mm < SMALL_PART_MM {
         let hint = if units == Units::Mm {
-            "; if the file is in inches, centimetres or metres, pass --units in, cm or m"
+            "; if the file is in inches, centimetres or metres, set its units to in, cm or m (--units)"
         } else {
             ""
         };
@@ -94,7 +94,7 @@ pub fn size_warning(diagonal_mm: f64, units: Units) -> Option<String> {
         ))
     } else if diagonal_mm > LARGE_PART_MM {
         Some(format!(
-            "the part is {diagonal_mm:.0} mm across (read as {units}), large for a moulded part; check --units"
+            "the part is {diagonal_mm:.0} mm across (read as {units}), large for a moulded part; check the file's units (--units)"
         ))
     } else {
         None

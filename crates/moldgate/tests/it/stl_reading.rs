@@ -878,7 +878,7 @@ fn a_tiny_part_in_millimetres_suggests_other_units() {
     assert!(
         part.warnings
             .iter()
-            .any(|w| w.contains("only") && w.contains("--units in, cm or m")),
+            .any(|w| w.contains("only") && w.contains("set its units to in, cm or m (--units)")),
         "{:?}",
         part.warnings
     );
