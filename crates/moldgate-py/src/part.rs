@@ -266,7 +266,11 @@ impl Part {
     /// Corners are welded by exact position like a file's facets.
     #[new]
     #[pyo3(signature = (vertices, faces, units = UnitsArg(Units::Mm)))]
-    fn new(vertices: &Bound<'_, PyAny>, faces: &Bound<'_, PyAny>, units: UnitsArg) -> PyResult<Part> {
+    fn new(
+        vertices: &Bound<'_, PyAny>,
+        faces: &Bound<'_, PyAny>,
+        units: UnitsArg,
+    ) -> PyResult<Part> {
         guarded(|| part_from_arrays(vertices, faces, units.0))
     }
 

@@ -952,7 +952,10 @@ fn units_metres_scale_the_part_and_millimetres_warn() {
     let out = moldgate(dir.path(), &["locate", "metres.stl", "--json"]);
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     let warnings = report["warnings"].to_string();
-    assert!(warnings.contains("set its units to in, cm or m (--units)"), "{warnings}");
+    assert!(
+        warnings.contains("set its units to in, cm or m (--units)"),
+        "{warnings}"
+    );
 }
 
 #[test]

@@ -145,7 +145,9 @@ fn odd_unit_parts_are_warned_in_the_batch_table_and_summary() {
     assert_eq!(out.status.code(), Some(4), "{stdout}{stderr}");
     assert_eq!(stdout.matches("--units").count(), 2, "{stdout}");
     assert_eq!(
-        stderr.matches("not in millimetres, set its units to in, cm or m (--units)").count(),
+        stderr
+            .matches("not in millimetres, set its units to in, cm or m (--units)")
+            .count(),
         2,
         "{stderr}"
     );
@@ -153,7 +155,9 @@ fn odd_unit_parts_are_warned_in_the_batch_table_and_summary() {
     let header: Vec<&str> = summary.lines().next().unwrap().split(',').collect();
     assert!(header.contains(&"warnings"), "{summary}");
     assert_eq!(
-        summary.matches("set its units to in, cm or m (--units)\",").count(),
+        summary
+            .matches("set its units to in, cm or m (--units)\",")
+            .count(),
         2,
         "{summary}"
     );

@@ -208,7 +208,15 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         .map(|(kind, panel)| View {
             kind,
             panel,
-            camera: fit_camera(scene, kind, layout.plot_area(panel)),
+            camera: fit_camera(
+                scene,
+                kind,
+                layout.plot_area(panel),
+                axes_box(
+                    &axis_marks(scene, axes(scene, kind), panel, layout.k),
+                    layout.k,
+                ),
+            ),
         })
         .collect();
     let diagonal = bounds_diagonal(scene);
@@ -375,8 +383,12 @@ fn axes(scene: &Scene, kind: ViewKind) -> (DVec3, DVec3, DVec3) {
     }
 }
 
-/// The camera of a view, fitting the part and the gate discs into `area` (x, y, w, h).
-fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
+/// The camera of a view, fitting the part and the gate discs into `area` (x, y, w, h),
+/// clear of the orientation axes' box `avoid` (x0, y0, x1, y1) in the area's lower right
+/// corner: when the part's box would reach into it, the part moves up or left within the
+/// area if that clears it, and is drawn smaller beside it (above or to its left, whichever
+/// is larger) otherwise.
+fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4], avoid: [f64; 4]) -> Camera {
     let (right, up, toward) = axes(scene, kind);
     let (mut lo, mut hi) = projected_extent(&scene.mesh.vertices, right, up);
     let mut grow = |p: DVec3| {
@@ -395,14 +407,53 @@ fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4]) -> Camera {
         grow(g.point - up * g.radius_mm);
     }
     let span = (hi - lo).max(DVec2::splat(1e-9));
-    let scale = (area[2] / span.x).min(area[3] / span.y);
+    let (scale, origin) = clear_of(span, area, avoid);
     Camera {
         right,
         up,
         toward,
         centre: (lo + hi) * 0.5,
         scale,
-        origin: DVec2::new(area[0] + area[2] * 0.5, area[1] + area[3] * 0.5),
+        origin,
+    }
+}
+
+/// The scale and the centre on the canvas of a box of `span` (mm) fitted into `area` (x, y,
+/// w, h) and kept out of the box `avoid` (x0, y0, x1, y1) at the area's lower right: see
+/// [`fit_camera`].
+fn clear_of(span: DVec2, area: [f64; 4], avoid: [f64; 4]) -> (f64, DVec2) {
+    let [x, y, w, h] = area;
+    let fit = |w: f64, h: f64| (w / span.x).min(h / span.y);
+    let scale = fit(w, h);
+    let centre = DVec2::new(x + 0.5 * w, y + 0.5 * h);
+    let half = span * scale * 0.5;
+    let (right, bottom) = (centre.x + half.x, centre.y + half.y);
+    if right <= avoid[0] || bottom <= avoid[1] {
+        return (scale, centre);
+    }
+    // Moved left or up by the least that clears the box, if the area has room.
+    let left_by = right - avoid[0];
+    let up_by = bottom - avoid[1];
+    let room_x = centre.x - half.x - x;
+    let room_y = centre.y - half.y - y;
+    let moves = [
+        (left_by <= room_x + 1e-9).then_some((left_by, DVec2::new(-left_by, 0.0))),
+        (up_by <= room_y + 1e-9).then_some((up_by, DVec2::new(0.0, -up_by))),
+    ];
+    if let Some((_, shift)) = moves
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+    {
+        return (scale, centre + shift);
+    }
+    // Smaller: the area left of the box, or the area above it.
+    let (w_left, h_above) = ((avoid[0] - x).max(1.0), (avoid[1] - y).max(1.0));
+    let (left, above) = (fit(w_left, h), fit(w, h_above));
+    if left >= above {
+        (left, DVec2::new(x + 0.5 * w_left, y + 0.5 * h))
+    } else {
+        (above, DVec2::new(x + 0.5 * w, y + 0.5 * h_above))
     }
 }
 
@@ -1245,13 +1296,45 @@ fn draw_scale_bar(canvas: &mut Canvas, view: &View, k: f32) {
     );
 }
 
-/// World axes X, Y, Z and the demolding direction D, as seen by the view.
-fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
-    let cam = &view.camera;
-    let p = view.panel;
-    let length = 34.0 * k;
-    let ox = (p.x + p.w) as f32 - 62.0 * k;
-    let oy = (p.y + p.h) as f32 - 62.0 * k;
+/// One mark of the orientation axes in a panel's lower right corner.
+enum AxisMark {
+    /// An axis nearly along the line of sight: a circle with a dot (towards the viewer) or
+    /// a cross (away), its name to the right.
+    Symbol {
+        name: &'static str,
+        colour: Rgb,
+        width: f32,
+        at: [f32; 2],
+        toward: bool,
+    },
+    /// An arrow from the axes' origin, its name beyond the head.
+    Arrow {
+        name: &'static str,
+        colour: Rgb,
+        width: f32,
+        from: [f32; 2],
+        to: [f32; 2],
+        /// Unit direction on the canvas.
+        unit: [f32; 2],
+    },
+}
+
+/// The radius of an axis symbol, the length of an arrow and the size of its head, times k.
+const AXIS_SYMBOL_R: f32 = 6.0;
+const AXIS_LENGTH: f32 = 34.0;
+const AXIS_HEAD: f32 = 7.0;
+
+/// World axes X, Y, Z and the demolding direction D as seen along `toward` with `right`
+/// and `up` on the canvas, in the lower right corner of `panel`.
+fn axis_marks(
+    scene: &Scene,
+    (right, up, toward): (DVec3, DVec3, DVec3),
+    panel: PixelRect,
+    k: f32,
+) -> Vec<AxisMark> {
+    let length = AXIS_LENGTH * k;
+    let ox = (panel.x + panel.w) as f32 - 62.0 * k;
+    let oy = (panel.y + panel.h) as f32 - 62.0 * k;
     // Axes along the line of sight are drawn as symbols in a row left of the arrows.
     let mut symbol_x = ox - 58.0 * k;
     let axes = [
@@ -1260,68 +1343,142 @@ fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
         ("Z", DVec3::Z, GREY),
         ("D", scene.frame.d, INK),
     ];
-    let label = TextStyle::new(13.0 * k, INK).bold().halo(VIEW_BACKGROUND);
+    let mut marks = Vec::with_capacity(axes.len());
     for (name, a, colour) in axes {
-        let sx = a.dot(cam.right) as f32;
-        let sy = -a.dot(cam.up) as f32;
+        let sx = a.dot(right) as f32;
+        let sy = -a.dot(up) as f32;
         let along = (sx * sx + sy * sy).sqrt();
         let width = if name == "D" { 2.4 * k } else { 1.6 * k };
         if along < 0.2 {
-            // Nearly along the line of sight: a circle with a dot (towards the viewer) or
-            // a cross (away).
-            let (cx, cy) = (symbol_x, oy);
+            marks.push(AxisMark::Symbol {
+                name,
+                colour,
+                width,
+                at: [symbol_x, oy],
+                toward: a.dot(toward) > 0.0,
+            });
             symbol_x -= 40.0 * k;
-            let r = 6.0 * k;
-            canvas.stroke_circle(cx, cy, r, colour, width * 0.8);
-            if a.dot(cam.toward) > 0.0 {
-                canvas.fill_circle(cx, cy, 1.8 * k, colour);
-            } else {
-                let d = r * 0.7;
-                canvas.stroke_polyline(
-                    &[[cx - d, cy - d], [cx + d, cy + d]],
-                    false,
+        } else {
+            marks.push(AxisMark::Arrow {
+                name,
+                colour,
+                width,
+                from: [ox, oy],
+                to: [ox + sx * length, oy + sy * length],
+                unit: [sx / along, sy / along],
+            });
+        }
+    }
+    marks
+}
+
+/// The box [x0, y0, x1, y1] the axes of [`axis_marks`] and their names cover, with a margin
+/// of a few pixels: the part is kept out of it ([`fit_camera`]).
+fn axes_box(marks: &[AxisMark], k: f32) -> [f64; 4] {
+    let mut b = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    let mut grow = |x0: f32, y0: f32, x1: f32, y1: f32| {
+        b = [b[0].min(x0), b[1].min(y0), b[2].max(x1), b[3].max(y1)];
+    };
+    // A name is one capital of 13 px type: about 10 px wide and 13 px tall.
+    let (half_w, tall) = (6.0 * k, 14.0 * k);
+    for m in marks {
+        match *m {
+            AxisMark::Symbol { at: [x, y], .. } => {
+                let r = AXIS_SYMBOL_R * k;
+                grow(x - r, y - r, x + r + 3.0 * k + 2.0 * half_w, y + r);
+            }
+            AxisMark::Arrow {
+                from,
+                to,
+                unit: [ux, uy],
+                ..
+            } => {
+                let (lx, ly) = (to[0] + ux * 12.0 * k, to[1] + uy * 12.0 * k + 5.0 * k);
+                grow(from[0], from[1], from[0], from[1]);
+                grow(to[0], to[1], to[0], to[1]);
+                grow(lx - half_w, ly - tall, lx + half_w, ly + 4.0 * k);
+            }
+        }
+    }
+    let pad = 8.0 * k;
+    [b[0] - pad, b[1] - pad, b[2] + pad, b[3] + pad].map(f64::from)
+}
+
+/// World axes X, Y, Z and the demolding direction D, as seen by the view.
+fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
+    let cam = &view.camera;
+    let label = TextStyle::new(13.0 * k, INK).bold().halo(VIEW_BACKGROUND);
+    for mark in axis_marks(scene, (cam.right, cam.up, cam.toward), view.panel, k) {
+        match mark {
+            AxisMark::Symbol {
+                name,
+                colour,
+                width,
+                at: [cx, cy],
+                toward,
+            } => {
+                let r = AXIS_SYMBOL_R * k;
+                canvas.stroke_circle(cx, cy, r, colour, width * 0.8);
+                if toward {
+                    canvas.fill_circle(cx, cy, 1.8 * k, colour);
+                } else {
+                    let d = r * 0.7;
+                    canvas.stroke_polyline(
+                        &[[cx - d, cy - d], [cx + d, cy + d]],
+                        false,
+                        colour,
+                        width * 0.7,
+                        None,
+                    );
+                    canvas.stroke_polyline(
+                        &[[cx - d, cy + d], [cx + d, cy - d]],
+                        false,
+                        colour,
+                        width * 0.7,
+                        None,
+                    );
+                }
+                canvas.text(cx + r + 3.0 * k, cy + 5.0 * k, name, &label, Align::Left);
+            }
+            AxisMark::Arrow {
+                name,
+                colour,
+                width,
+                from: [ox, oy],
+                to: [ex, ey],
+                unit: [ux, uy],
+            } => {
+                canvas.stroke_polyline(&[[ox, oy], [ex, ey]], false, colour, width, None);
+                let head = AXIS_HEAD * k;
+                canvas.fill_polygon(
+                    &[
+                        [ex + ux * head * 0.6, ey + uy * head * 0.6],
+                        [
+                            ex - ux * head * 0.5 - uy * head * 0.45,
+                            ey - uy * head * 0.5 + ux * head * 0.45,
+                        ],
+                        [
+                            ex - ux * head * 0.5 + uy * head * 0.45,
+                            ey - uy * head * 0.5 - ux * head * 0.45,
+                        ],
+                    ],
                     colour,
-                    width * 0.7,
-                    None,
+                    255,
                 );
-                canvas.stroke_polyline(
-                    &[[cx - d, cy + d], [cx + d, cy - d]],
-                    false,
-                    colour,
-                    width * 0.7,
-                    None,
+                canvas.text(
+                    ex + ux * 12.0 * k,
+                    ey + uy * 12.0 * k + 5.0 * k,
+                    name,
+                    &label,
+                    Align::Centre,
                 );
             }
-            canvas.text(cx + r + 3.0 * k, cy + 5.0 * k, name, &label, Align::Left);
-            continue;
         }
-        let (ex, ey) = (ox + sx * length, oy + sy * length);
-        canvas.stroke_polyline(&[[ox, oy], [ex, ey]], false, colour, width, None);
-        // Arrow head.
-        let (ux, uy) = (sx / along, sy / along);
-        let head = 7.0 * k;
-        canvas.fill_polygon(
-            &[
-                [ex + ux * head * 0.6, ey + uy * head * 0.6],
-                [
-                    ex - ux * head * 0.5 - uy * head * 0.45,
-                    ey - uy * head * 0.5 + ux * head * 0.45,
-                ],
-                [
-                    ex - ux * head * 0.5 + uy * head * 0.45,
-                    ey - uy * head * 0.5 - ux * head * 0.45,
-                ],
-            ],
-            colour,
-            255,
-        );
-        canvas.text(
-            ex + ux * 12.0 * k,
-            ey + uy * 12.0 * k + 5.0 * k,
-            name,
-            &label,
-            Align::Centre,
-        );
     }
 }
 
@@ -1570,6 +1727,48 @@ fn capitalised(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_part_is_kept_out_of_the_axes_box() {
+        let area = [24.0, 64.0, 600.0, 700.0];
+        let avoid = [500.0, 700.0, 700.0, 900.0];
+        // The part's box in pixels for (scale, centre).
+        let drawn = |span: DVec2, (scale, c): (f64, DVec2)| {
+            let half = span * scale * 0.5;
+            [c.x - half.x, c.y - half.y, c.x + half.x, c.y + half.y]
+        };
+        let inside = |b: [f64; 4]| {
+            b[0] >= area[0] - 1e-9
+                && b[1] >= area[1] - 1e-9
+                && b[2] <= area[0] + area[2] + 1e-9
+                && b[3] <= area[1] + area[3] + 1e-9
+        };
+        let clear = |b: [f64; 4]| b[2] <= avoid[0] + 1e-9 || b[3] <= avoid[1] + 1e-9;
+        // Fits the width with 50 px to spare above and below, and reaches 14 px into the
+        // box: it moves up by those 14 px, at full size.
+        let wide = DVec2::new(100.0, 100.0);
+        let (scale, c) = clear_of(wide, area, avoid);
+        assert_eq!(scale, 6.0);
+        let b = drawn(wide, (scale, c));
+        assert!(inside(b) && clear(b), "{b:?}");
+        assert!(
+            (b[3] - avoid[1]).abs() < 1e-9,
+            "moved up by the least: {b:?}"
+        );
+        // Square, filling the area's width and most of its height: no room to move, so it
+        // is drawn smaller, beside the box.
+        let square = DVec2::new(100.0, 110.0);
+        let (scale, c) = clear_of(square, area, avoid);
+        assert!(scale < 6.0, "{scale}");
+        let b = drawn(square, (scale, c));
+        assert!(inside(b) && clear(b), "{b:?}");
+        // A small part in the middle stays where it is.
+        let small = DVec2::new(10.0, 10.0);
+        assert_eq!(
+            clear_of(small, area, [650.0, 760.0, 700.0, 900.0]),
+            (60.0, DVec2::new(324.0, 414.0))
+        );
+    }
 
     #[test]
     fn a_gate_label_moves_off_the_centre_of_mass_and_other_labels() {

@@ -220,7 +220,10 @@ fn a_body_the_gate_does_not_reach_is_drawn_filled_from_its_own_gate() {
         // Every vertex of both bodies has a value: the lid's from its own gate, up to the
         // value its gate reports over it.
         let (surface, values) = scene.surface();
-        assert!(values.iter().all(|v| v.is_finite()), "a vertex without a value");
+        assert!(
+            values.iter().all(|v| v.is_finite()),
+            "a vertex without a value"
+        );
         let lid_max = surface
             .vertices
             .iter()

@@ -480,7 +480,9 @@ fn inch_sized_part_read_as_mm_is_warned() {
     // A 5 x 2.5 x 1.4 "mm" block, the size of a part drawn in inches.
     let part = stl(&binary_stl(&tetrahedron([0.0; 3], 4.0))).unwrap();
     assert!(
-        part.warnings.iter().any(|w| w.contains("set its units to in")),
+        part.warnings
+            .iter()
+            .any(|w| w.contains("set its units to in")),
         "{:?}",
         part.warnings
     );

@@ -373,7 +373,11 @@ fn binary_shorter_than_its_header() {
 
 #[test]
 fn short_text_is_named_as_text_not_a_cut_binary_header() {
-    for text in [&b"hello this is some text\n"[..], b"mesh exported 2026-12-04", b" x"] {
+    for text in [
+        &b"hello this is some text\n"[..],
+        b"mesh exported 2026-12-04",
+        b" x",
+    ] {
         let e = read_err(text);
         assert!(matches!(e, LoadError::NotAMesh { .. }), "{e:?}");
         let message = e.to_string();
