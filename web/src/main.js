@@ -153,14 +153,19 @@ function onProgress({ id, stage, fraction }) {
   $("progress").value = fraction;
 }
 
-function showError(message) {
+/** Shows moldgate's message; `fileName`: the part's file, whose read errors begin with its
+ * name (no option can mend those, so the hint does not offer one). */
+function showError(message, fileName = null) {
   const box = $("error");
   box.replaceChildren();
   const p = document.createElement("p");
   p.id = "error-message";
   p.textContent = message;
   const hint = document.createElement("p");
-  hint.textContent = "Open or drop another part, or change the options and analyse again.";
+  hint.id = "error-hint";
+  hint.textContent = fileName !== null && message.startsWith(`${fileName}: `)
+    ? "This file cannot be studied as it is: open or drop another part."
+    : "Open or drop another part, or change the options and analyse again.";
   box.append(p, hint);
   box.hidden = false;
 }
@@ -231,7 +236,7 @@ async function analyse({ keepCamera = false } = {}) {
     if (e.cancelled) return;
     $("busy").hidden = true;
     clearResults(`${part.name} could not be analysed.`);
-    showError(e.message);
+    showError(e.message, part.name);
     setState("error");
   }
 }
@@ -299,7 +304,7 @@ async function openFile(file) {
     startRun();
     part = null;
     clearResults(`${file.name} is too large.`);
-    showError(`${file.name}: ${file.size} bytes, over the limit of ${info.maxFileBytes} bytes the browser can study`);
+    showError(`${file.name}: ${file.size} bytes, over the limit of ${info.maxFileBytes} bytes the browser can study`, file.name);
     setState("error");
     return;
   }

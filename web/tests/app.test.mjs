@@ -183,6 +183,8 @@ describe("moldgate in the browser", () => {
       assert.equal(await studyFile(page, path), "error", name);
       const s = await shown(page);
       assert.match(s.error ?? "", message, name);
+      // No option mends a file that cannot be read: the hint does not offer one.
+      assert.equal(await page.$eval("#error-hint", (e) => e.textContent), "This file cannot be studied as it is: open or drop another part.", name);
       assert.equal(s.gate, null);
       assert.equal(await page.$eval("#result-body", (e) => e.children.length), 0, "old results cleared");
     }
