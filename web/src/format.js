@@ -1,4 +1,4 @@
-// Numbers as the results write them, shared by the page and its tests.
+// Numbers and messages as the page writes them, shared by the page and its tests.
 
 /** A time in seconds without its unit: `threeFigures`, so that close times on a part that
  * fills in milliseconds still show their order. */
@@ -19,4 +19,19 @@ export function threeFigures(t) {
   const v = Number(text);
   const carried = v > 0 ? decimals(v) : d;
   return carried < d ? t.toFixed(carried) : text;
+}
+
+/** The page's names for the options the library's messages name (as the command line
+ * names its flags). */
+const OPTION_LABELS = {
+  strategy: "'Gate chosen by: balanced'",
+  gates: "'Number of gates' above 1",
+  aesthetic: "'Aesthetic: gate on the parting line'",
+};
+
+/** A message of two options that cannot be used together, with the page's names for them. */
+export function inPageWords(message) {
+  const m = /^(\w+) and (\w+) cannot be used together: /.exec(message);
+  if (!m || !(m[1] in OPTION_LABELS) || !(m[2] in OPTION_LABELS)) return message;
+  return `${OPTION_LABELS[m[1]]} and ${OPTION_LABELS[m[2]]} cannot be used together: ${message.slice(m[0].length)}`;
 }

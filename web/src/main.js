@@ -3,6 +3,7 @@
 
 import "./style.css";
 import { Viewer } from "./viewer.js";
+import { inPageWords } from "./format.js";
 import { showReport } from "./results.js";
 
 const $ = (id) => document.getElementById(id);
@@ -160,7 +161,7 @@ function showError(message, fileName = null) {
   box.replaceChildren();
   const p = document.createElement("p");
   p.id = "error-message";
-  p.textContent = message;
+  p.textContent = inPageWords(message);
   const hint = document.createElement("p");
   hint.id = "error-hint";
   hint.textContent = fileName !== null && message.startsWith(`${fileName}: `)

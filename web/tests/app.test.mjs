@@ -193,6 +193,16 @@ describe("moldgate in the browser", () => {
     await assertSameGate(page, cli(["locate", good]), "after bad files");
   });
 
+  test("options that cannot go together are named by the page's labels", async () => {
+    await page.selectOption("#strategy", "balanced");
+    await page.check("#aesthetic");
+    assert.equal(await studySample(page, "plate"), "error");
+    const s = await shown(page);
+    assert.match(s.error ?? "", /^'Gate chosen by: balanced' and 'Aesthetic: gate on the parting line' cannot be used together: the balanced gate/);
+    assert.equal(await page.$eval("#error-hint", (e) => e.textContent), "Open or drop another part, or change the options and analyse again.");
+    await page.click("#defaults");
+  });
+
   test("a part where no node qualifies says why and what to try", async () => {
     await page.$eval("details", (d) => (d.open = true));
     await page.fill("#gate_radius", "40");
