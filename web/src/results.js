@@ -74,8 +74,10 @@ function gateSection(r) {
     // The layout's values are of its objective: mm of L_max, or s of fill time.
     const worst = (x) => (x.fill_time_s != null ? `fill time ${seconds(x.fill_time_s)} s` : `L_max ${x.l_max_mm.toFixed(1)} mm`);
     const ol = el("ol", { id: "several-gates" });
+    // A layout lies on one body: with several, its shares are of that body's volume.
+    const of = r.fill.bodies > 1 ? "of its body's volume" : "of the volume";
     for (const s of several.gates) {
-      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % of the volume, ${worst(s)}`));
+      ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % ${of}, ${worst(s)}`));
     }
     content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
   }
@@ -83,7 +85,10 @@ function gateSection(r) {
 }
 
 function noGateSection(r) {
-  const tries = el("ul", { id: "no-gate-tries" },
+  const tries = el("ul", { id: "no-gate-tries" });
+  // A part whose size suggests other units fails for that reason more often than any.
+  if (r.mesh.size_suggests_other_units) tries.append(el("li", { id: "try-units" }, `'Units of the file': the part is read as ${r.mesh.units}, which makes it ${r.mesh.units === "mm" ? "very small or very large" : "an unlikely size"} for a moulded part`));
+  tries.append(
     el("li", {}, "a smaller gate radius (Advanced) or a finer grid spacing"),
     el("li", {}, "another demolding direction, or 'auto'"),
     el("li", {}, "'Wall thicker than the gate radius: not required' when the walls are thin"),
@@ -138,10 +143,10 @@ function bodyGates(bodies) {
   const items = el("ol", { id: "body-gates", start: 0 });
   for (const b of bodies) {
     const share = `${(100 * b.volume_share).toFixed(1)} % of the volume`;
-    const own = b.is_answer_body ? ", the answer's" : "";
+    const own = b.is_answer_body ? ", fed by the answer's gate; alone, the paper's rule on it gives" : "";
     const text = b.gate === null
       ? `Body ${b.body} (${share}${own}): no qualifying node`
-      : `Body ${b.body} (${share}${own}): gate ${v3(b.gate)} mm, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
+      : `Body ${b.body} (${share}${own}): gate ${v3(b.gate)} mm${b.pictured ? " (the dashed ring in the 3D view, which fills the body from it)" : ""}, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
     items.append(el("li", b.gate === null ? { "data-body": b.body } : { "data-body": b.body, ...xyz(b.gate) }, text));
   }
   return el("div", {}, el("p", {}, `A gate per body (the file holds ${bodies.length} separate bodies; a gate fills only its own):`), items);
@@ -184,7 +189,7 @@ function partSection(r) {
     // A part read in the wrong units (metres as mm) is a fraction of a millimetre: three
     // figures, not "0.0".
     ["Size", `${size.map((s) => (s >= 1 ? s.toFixed(1) : threeFigures(s))).join(" × ")} mm`],
-    ["Mesh", m.open_edges === 0 && m.non_manifold_edges === 0 ? `closed, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}` : `${m.open_edges} open and ${m.non_manifold_edges} non-manifold edges, ${m.bodies} bodies`],
+    ["Mesh", m.open_edges === 0 && m.non_manifold_edges === 0 ? `closed, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}` : `${m.open_edges} open and ${m.non_manifold_edges} non-manifold edges, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}`],
     ["Demolding direction D", v3(r.options.demold, 3), xyz(r.options.demold)],
     ["Centre of mass", `${v3(r.centre_of_mass.used)} mm`, { id: "centre-of-mass", ...xyz(r.centre_of_mass.used) }],
   ]));

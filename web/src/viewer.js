@@ -29,13 +29,15 @@ export const LAYERS = {
   qualifying: (name) => name === "qualifying nodes",
 };
 
-/** A red ring of constant size on screen around each gate, so a 1 mm gate shows on a 300 mm part. */
-function gateRingTexture() {
+/** A red ring of constant size on screen around each gate, so a 1 mm gate shows on a 300 mm
+ * part; dashed for the own gate of a body the answer's gates do not reach ("gate of body N"). */
+function gateRingTexture(dashed = false) {
   const c = document.createElement("canvas");
   c.width = c.height = 64;
   const g = c.getContext("2d");
   g.strokeStyle = "rgb(220, 20, 40)";
   g.lineWidth = 7;
+  if (dashed) g.setLineDash([9, 7]);
   g.beginPath();
   g.arc(32, 32, 26, 0, 2 * Math.PI);
   g.stroke();
@@ -67,6 +69,7 @@ export class Viewer {
     this.controls.listenToKeyEvents(this.canvas);
     this.controls.addEventListener("change", () => this.render());
     this.ringTexture = gateRingTexture();
+    this.bodyRingTexture = gateRingTexture(true);
     this.root = null;
     this.visible = { gates: true, placed: true, centre: true, parting: true, qualifying: true };
 
@@ -120,12 +123,16 @@ export class Viewer {
         o.material.opacity = 0.7;
       }
     });
-    for (const [name, o] of this.nodes) if (LAYERS.gates(name)) rings.push(o);
+    for (const [name, o] of this.nodes) if (LAYERS.gates(name)) rings.push([name, o]);
     this.scene.add(this.root);
     this.root.updateMatrixWorld(true);
-    for (const gate of rings) {
+    for (const [name, gate] of rings) {
       const ring = new Sprite(
-        new SpriteMaterial({ map: this.ringTexture, depthTest: false, sizeAttenuation: false })
+        new SpriteMaterial({
+          map: name.startsWith("gate of body ") ? this.bodyRingTexture : this.ringTexture,
+          depthTest: false,
+          sizeAttenuation: false,
+        })
       );
       ring.name = `${gate.name} marker`;
       ring.scale.set(0.06, 0.06, 1);

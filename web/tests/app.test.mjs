@@ -131,6 +131,24 @@ describe("moldgate in the browser", () => {
     });
   }
 
+  test("a part read in the wrong units says first to set the file's units", async (t) => {
+    const path = join(PARTS, "trimesh_ADIS16480_meters_ascii.STL");
+    if (!existsSync(path)) {
+      t.skip(`${path} not found (set MOLDGATE_PARTS)`);
+      return;
+    }
+    assert.equal(await studyFile(page, path, { demold: "+y", units: "mm" }), "done");
+    const expected = cli(["locate", path, "--demold", "+y"]);
+    assert.equal(expected.gate, null);
+    assert.ok(expected.mesh.size_suggests_other_units);
+    const first = await page.$eval("#no-gate-tries li", (e) => [e.id, e.textContent]);
+    assert.equal(first[0], "try-units", first[1]);
+    assert.ok(first[1].startsWith("'Units of the file'"), first[1]);
+    // Its size reads in three figures, not as 0.0.
+    const size = await page.$$eval("#part dt", (dts) => dts.find((d) => d.textContent === "Size").nextElementSibling.textContent);
+    assert.match(size, /^0\.0\d{3} × 0\.0\d{3} × 0\.0\d{3} mm$/);
+  });
+
   test("a file of two bodies lists a gate per body, as the command line does", async (t) => {
     const path = join(PARTS, "prusa_psu_cover_mk3_ascii.stl");
     if (!existsSync(path)) {

@@ -55,6 +55,7 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
             .glb(&part, source.title())
             .map_err(|e| failure(&e, &path.display().to_string()))?;
         write_atomic(path, &bytes)?;
+        eprintln!("wrote {}", path.display());
     }
     crate::pictures::write(&a, &study, &part, source.title())?;
     let report = study.report();

@@ -181,10 +181,16 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             m.improvement_pct,
             m.balance
         );
+        // A layout lies on one body: with several, its shares are of that body's volume.
+        let of = if f.bodies > 1 {
+            "of its body's volume"
+        } else {
+            "of the volume"
+        };
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "    gate {}: {} fills {:.1} % of the volume (the share it reaches first by {}), {}",
+                "    gate {}: {} fills {:.1} % {of} (the share it reaches first by {}), {}",
                 i + 1,
                 v3(g.point),
                 100.0 * g.volume_share,
@@ -196,7 +202,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("gate {} (qualifying node nearest its centre of mass), longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), seconds_text(t), b.nominal_wall_mm)
+                format!("gate {} (qualifying node nearest its centre of mass){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), if b.pictured { format!(", drawn as 'gate of body {}'", b.body) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
             }
             _ => "no qualifying node on it: no gate".into(),
         };
@@ -206,7 +212,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             b.body,
             100.0 * b.volume_share,
             if b.is_answer_body {
-                ", the answer's"
+                ", fed by the answer's gate; alone, the paper's rule on it gives"
             } else {
                 ""
             }

@@ -38,7 +38,8 @@ pub enum LoadError {
     },
     /// A binary STL whose data stops before the triangle count in its header says.
     #[error(
-        "truncated binary STL: the header declares {declared} triangles ({expected} bytes) but the file has {len} bytes; triangle {triangle} is cut at byte {offset}"
+        "truncated binary STL: the header declares {declared} triangles ({expected} bytes) but the file has {len} bytes; triangle {triangle} is cut at byte {offset}{}",
+        far_short(*.expected, *.len)
     )]
     Truncated {
         /// Triangle count in the header.
@@ -370,6 +371,16 @@ pub enum LocateError {
 
 /// A length as given, or in scientific notation when it is very small or very large (a
 /// spacing of 1e-300 mm is not written with 300 zeros).
+/// A file that holds less than a thousandth of what its binary STL header declares is
+/// more likely not an STL than a download cut short: said so after the truncation.
+fn far_short(expected: u64, len: u64) -> &'static str {
+    if len.saturating_mul(1000) < expected {
+        " (less than a thousandth of what the header declares: the file may not be an STL at all)"
+    } else {
+        ""
+    }
+}
+
 fn length_text(x: f64) -> String {
     if x != 0.0 && !(1e-4..1e9).contains(&x.abs()) {
         format!("{x:.4e}")

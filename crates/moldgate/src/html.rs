@@ -607,11 +607,13 @@ fn fill_table(h: &mut String, r: &Report) {
             "<p id=\"several\">{} gates together: {what} {} {unit} ({:.1} % shorter than \
              with the best single gate), balance {:.2} (smallest share over the largest).</p>\n\
              <table>\n<tr><th>gate</th><th>point</th>\
-             <th>share of the volume (reached first by {field})</th><th>{what} in its share</th></tr>",
+             <th>share of {} volume (reached first by {field})</th><th>{what} in its share</th></tr>",
             m.gates.len(),
             f.objective.value_text(m.value()),
             m.improvement_pct,
-            m.balance
+            m.balance,
+            // A layout lies on one body: with several, its shares are of that body's volume.
+            if f.bodies > 1 { "its body's" } else { "the" }
         );
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(
@@ -629,7 +631,10 @@ fn fill_table(h: &mut String, r: &Report) {
         let _ = writeln!(
             h,
             "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
-             centre of mass; each body's fill time is taken against its own nominal wall):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
+             centre of mass: the paper's rule on the body alone, which for the body fed by the \
+             answer's gate is not that gate; each body's fill time is taken against its own \
+             nominal wall; the pictures fill each body the gates they show do not reach from \
+             its gate here):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
              <th>nominal wall</th><th>gate</th><th>longest flow path<br>L_max</th><th>fill time (estimate)</th></tr>"
         );
         for b in &f.body_gates {
@@ -646,7 +651,9 @@ fn fill_table(h: &mut String, r: &Report) {
                 "<tr><th>{}{}</th><td class=\"n\">{:.1} %</td><td class=\"n\">{:.2} mm</td>{cells}</tr>",
                 b.body,
                 if b.is_answer_body {
-                    " (the answer's)"
+                    " (fed by the answer's gate)"
+                } else if b.pictured {
+                    " (pictured from this gate)"
                 } else {
                     ""
                 },

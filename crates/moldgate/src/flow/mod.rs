@@ -2322,6 +2322,9 @@ pub struct BodyGate {
     pub gate: Option<[f64; 3]>,
     /// True for the body of the answer's gate.
     pub is_answer_body: bool,
+    /// True when the pictures show the body filled from this gate, which they draw: the
+    /// gates they show (the designer's when placed, else the answer's) do not reach it.
+    pub pictured: bool,
     /// Largest flow length from that gate over its body, mm.
     pub l_max_mm: Option<f64>,
     /// Estimated fill time of the body from that gate, s, against the body's own nominal
@@ -3028,33 +3031,44 @@ pub fn analyse_prepared(
             ));
         }
     }
-    let (body_gates, body_fields) = if domain.bodies > 1 {
+    let (mut body_gates, body_fields) = if domain.bodies > 1 {
         gates_per_body(&domain, &bodies, analysis, material, answer_body)
     } else {
         (Vec::new(), Vec::new())
     };
-    // A body the pictured gates do not reach is shown filled from its own gate (a gate per
-    // body, listed with the fill), not as a body without a value: each body of a file of
-    // several is moulded from its own gate. The designer's placed gates are shown as given.
-    let own_gates = |t: &[f64], pick: fn(&GateFields) -> &Field| -> Option<Vec<f64>> {
-        if placed.is_some() || body_fields.iter().all(Option::is_none) {
-            return None;
-        }
+    // A body the pictured gates (the designer's when placed, else the answer's) do not
+    // reach is shown filled from its own gate (the gate per body), not as a body without a
+    // value: each body of a file of several is moulded from its own gate.
+    if !body_gates.is_empty() {
         let mut reached = vec![false; domain.bodies];
-        for (c, x) in t.iter().enumerate() {
-            if x.is_finite() {
-                reached[domain.body[c] as usize] = true;
+        match several_pictured {
+            Some(m) => {
+                for g in &m.gates {
+                    reached[domain.body[candidates[g.candidate].cell as usize] as usize] = true;
+                }
+            }
+            None => {
+                for (c, x) in fields.length.t.iter().enumerate() {
+                    if x.is_finite() {
+                        reached[domain.body[c] as usize] = true;
+                    }
+                }
             }
         }
+        for (b, own) in body_gates.iter_mut().zip(&body_fields) {
+            b.pictured = own.is_some() && !reached[b.body as usize];
+        }
+    }
+    let own_gates = |t: &[f64], pick: fn(&GateFields) -> &Field| -> Option<Vec<f64>> {
         let mut merged: Option<Vec<f64>> = None;
-        for (b, f) in body_fields.iter().enumerate() {
-            let Some(f) = f.as_ref().filter(|_| !reached[b]) else {
+        for (b, f) in body_gates.iter().zip(&body_fields) {
+            let Some(f) = f.as_ref().filter(|_| b.pictured) else {
                 continue;
             };
             let own = &pick(f).t;
             let m = merged.get_or_insert_with(|| t.to_vec());
             for (c, x) in m.iter_mut().enumerate() {
-                if domain.body[c] as usize == b {
+                if domain.body[c] == b.body {
                     *x = own[c];
                 }
             }
@@ -3175,6 +3189,7 @@ fn gates_per_body(
                 centre_of_mass: centre.to_array(),
                 gate: gate.map(|g| g.to_array()),
                 is_answer_body: answer_body == Some(b),
+                pictured: false,
                 l_max_mm: fill.as_ref().map(|f| f.0.l_max_mm),
                 fill_time_s: fill.as_ref().map(|f| f.0.fill_time_s),
                 nominal_wall_mm: domain

@@ -465,13 +465,15 @@ impl Analysis {
                 _ => format!("; no gate radius down to {:.3} mm fits", fit.floor_mm),
             };
         }
-        s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
-        // A part whose size suggests other units fails for that reason more often than any.
+        // A part whose size suggests other units fails for that reason more often than any,
+        // so that comes first.
         let across = self.diagonal_mm;
         if crate::mesh::units::size_is_suspicious(across) {
             s += &format!(
-                "; the part is {across:.4} mm across as read: if the file is not in millimetres, set its units to in, cm or m (--units)"
+                "; the part is {across:.4} mm across as read: if the file is not in millimetres, set its units to in, cm or m (--units); otherwise try a smaller gate radius or spacing, another demolding direction, or --aesthetic"
             );
+        } else {
+            s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
         }
         s
     }

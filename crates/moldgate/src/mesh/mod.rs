@@ -169,6 +169,9 @@ pub struct MeshStats {
     pub bounds_min: [f64; 3],
     /// Bounding box in mm.
     pub bounds_max: [f64; 3],
+    /// Whether the part's size in mm suggests the file is in other units than it was read
+    /// in (its box's diagonal outside [`units::SMALL_PART_MM`] to [`units::LARGE_PART_MM`]).
+    pub size_suggests_other_units: bool,
 }
 
 impl MeshStats {
@@ -350,6 +353,7 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         area_mm2: area,
         bounds_min: bounds.min.to_array(),
         bounds_max: bounds.max.to_array(),
+        size_suggests_other_units: units::size_is_suspicious(bounds.diagonal()),
     };
     Ok(LoadedMesh {
         mesh,

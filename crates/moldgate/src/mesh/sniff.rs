@@ -55,7 +55,7 @@ pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
             "a PLY file",
             "give it a .ply extension so that it is read as PLY",
         )
-    } else if text && is_text(head) {
+    } else if text && is_text(head) && (head.len() >= 84 || std::str::from_utf8(head).is_ok()) {
         if trimmed.starts_with(b"v ") || trimmed.starts_with(b"#") || contains(head, b"\nv ") {
             (
                 "a text file that looks like a Wavefront OBJ",

@@ -298,7 +298,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         bvh => bvh,
     };
     let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
-    let body_gates = own_body_gates(part, &report, placed.is_some(), bvh.as_ref());
+    let body_gates = own_body_gates(part, &report, bvh.as_ref());
     let placed_markers = placed.as_ref().map_or(Vec::new(), |p| {
         p.gates
             .iter()
@@ -340,20 +340,15 @@ fn normal_at(part: &LoadedMesh, bvh: Option<&Bvh>, p: DVec3) -> DVec3 {
         .map_or(DVec3::ZERO, |hit| part.mesh.normal(hit.triangle as usize))
 }
 
-/// The own gates of the bodies the answer's gates do not reach, which the fill's pictures
-/// show filled from them (none when the designer placed gates, which are shown as given).
-fn own_body_gates(
-    part: &LoadedMesh,
-    report: &Report,
-    placed: bool,
-    bvh: Option<&Bvh>,
-) -> Vec<(u32, GateMarker)> {
-    let Some(fill) = report.fill.as_ref().filter(|_| !placed) else {
+/// The own gates of the bodies the pictured gates do not reach, which the fill's pictures
+/// show filled from them ([`crate::flow::BodyGate::pictured`]).
+fn own_body_gates(part: &LoadedMesh, report: &Report, bvh: Option<&Bvh>) -> Vec<(u32, GateMarker)> {
+    let Some(fill) = report.fill.as_ref() else {
         return Vec::new();
     };
     fill.body_gates
         .iter()
-        .filter(|b| !b.is_answer_body)
+        .filter(|b| b.pictured)
         .filter_map(|b| {
             let p = DVec3::from_array(b.gate?);
             Some((

@@ -199,16 +199,24 @@ fn a_body_the_gate_does_not_reach_is_drawn_filled_from_its_own_gate() {
     two.triangles
         .extend(lid.triangles.iter().map(|t| t.map(|v| v + base)));
     let part = from_generated(two);
-    for colour in ["fill_time", "flow_length"] {
+    // The answer's gate, or a gate of the designer's on the box: the lid is shown from its
+    // own gate either way.
+    for (colour, placed) in [
+        ("fill_time", ""),
+        ("flow_length", ""),
+        ("fill_time", r#", "gate_at": ["20,10,10"]"#),
+    ] {
         let s = study(
             &part,
             &options(&format!(
-                r#"{{ "fill": true, "color_by": "{colour}", "demold": "+z" }}"#
+                r#"{{ "fill": true, "color_by": "{colour}", "demold": "+z"{placed} }}"#
             )),
         )
         .unwrap();
         let fill = s.fill().unwrap();
         let own = fill.body_gates.iter().find(|b| !b.is_answer_body).unwrap();
+        assert!(own.pictured);
+        assert!(fill.body_gates.iter().filter(|b| b.pictured).count() == 1);
         let lid_gate = DVec3::from_array(own.gate.unwrap());
         assert!(lid_gate.x > 45.0, "{lid_gate}");
         // The scene draws the lid's own gate beside the answer's, named by its body.

@@ -384,9 +384,12 @@ fn short_text_is_named_as_text_not_a_cut_binary_header() {
         assert!(message.contains("short text file"), "{message}");
         assert!(message.contains("84-byte header"), "{message}");
     }
-    // Bytes that are not text stay a binary header cut short.
+    // Bytes that are not text (a control character, or not UTF-8) stay a binary header
+    // cut short.
     let e = read_err(b"cube\0\0\0");
     assert!(matches!(e, LoadError::TruncatedHeader { len: 7 }), "{e:?}");
+    let e = read_err(b"\xc3\xa9\xff\xfe abcdefgh");
+    assert!(matches!(e, LoadError::TruncatedHeader { len: 13 }), "{e:?}");
 }
 
 #[test]
@@ -405,6 +408,24 @@ fn header_only_with_a_count_is_truncated_at_triangle_0() {
         ),
         "{e:?}"
     );
+}
+
+#[test]
+fn a_file_far_shorter_than_its_header_declares_may_not_be_an_stl() {
+    // Random bytes read as a binary STL: a count of some billions in a few kilobytes.
+    let mut bytes = vec![7u8; 5000];
+    bytes[80..84].copy_from_slice(&1_203_711_037u32.to_le_bytes());
+    let e = read_err(&bytes);
+    assert!(matches!(e, LoadError::Truncated { .. }), "{e:?}");
+    assert!(
+        e.to_string()
+            .ends_with("the file may not be an STL at all)"),
+        "{e}"
+    );
+    // A download cut at half its length is only truncated.
+    let full = binary(b"cube", &cube([0.0; 3], 10.0));
+    let e = read_err(&full[..full.len() / 2]);
+    assert!(!e.to_string().contains("may not be an STL"), "{e}");
 }
 
 #[test]
