@@ -29,9 +29,31 @@ const OPTION_LABELS = {
   aesthetic: "'Aesthetic: gate on the parting line'",
 };
 
-/** A message of two options that cannot be used together, with the page's names for them. */
+/** The page's names for the command line's flags that the library's messages name. */
+const FLAG_LABELS = {
+  "--units": "'Units of the file'",
+  "--demold": "'Demolding direction'",
+  "--strategy": "'Gate chosen by'",
+  "--objective": "'Balanced and several gates minimise'",
+  "--gates": "'Number of gates'",
+  "--aesthetic": "'Aesthetic: gate on the parting line'",
+  "--fill": "'Fill analysis'",
+  "--wall-thickness": "'Measure the wall thickness everywhere'",
+  "--gate-radius": "'Gate radius'",
+  "--spacing": "'Grid spacing'",
+  "--require-flat": "'Only flat gate discs'",
+  "--max-nodes": "'Largest grid (nodes)'",
+  "--cell": "'Fill cell size'",
+  "--gate-at": "shift-click (your gates)",
+};
+
+/** A message of the library in the page's words: two options that cannot be used together
+ * by the page's labels, and the command line's flags by the controls that set the same
+ * options (a flag the page has no control for is named as the command line's). */
 export function inPageWords(message) {
   const m = /^(\w+) and (\w+) cannot be used together: /.exec(message);
-  if (!m || !(m[1] in OPTION_LABELS) || !(m[2] in OPTION_LABELS)) return message;
-  return `${OPTION_LABELS[m[1]]} and ${OPTION_LABELS[m[2]]} cannot be used together: ${message.slice(m[0].length)}`;
+  if (m && m[1] in OPTION_LABELS && m[2] in OPTION_LABELS) {
+    message = `${OPTION_LABELS[m[1]]} and ${OPTION_LABELS[m[2]]} cannot be used together: ${message.slice(m[0].length)}`;
+  }
+  return message.replace(/--[a-z][a-z-]*[a-z]/g, (flag) => FLAG_LABELS[flag] ?? `the command line's ${flag}`);
 }

@@ -2,7 +2,7 @@
 // same as `moldgate locate --json`). Raw numbers sit in data- attributes so tests can compare
 // them with the command line's to the last bit; the text is rounded for people.
 
-import { seconds, threeFigures } from "./format.js";
+import { inPageWords, seconds, threeFigures } from "./format.js";
 
 const el = (tag, attrs = {}, ...children) => {
   const e = document.createElement(tag);
@@ -96,7 +96,7 @@ function noGateSection(r) {
   );
   if (r.counts.kept_out + r.counts.cosmetic > 0) tries.append(el("li", {}, "smaller keep-out regions, or no cosmetic side"));
   return section("no-gate", "No gate",
-    el("p", { id: "no-gate-reason", class: "warning" }, r.no_gate_reason ?? "no node qualifies"),
+    el("p", { id: "no-gate-reason", class: "warning", "data-reason": r.no_gate_reason }, inPageWords(r.no_gate_reason ?? "no node qualifies")),
     el("p", {}, "What to try:"), tries);
 }
 
@@ -133,7 +133,7 @@ function fillSection(f) {
   }
   if (f.body_gates?.length) parts.push(bodyGates(f.body_gates));
   if (f.suitability) parts.push(suitabilityPart(f.suitability));
-  for (const w of f.warnings || []) parts.push(el("p", { class: "warning" }, w));
+  for (const w of f.warnings || []) parts.push(el("p", { class: "warning", "data-warning": w }, inPageWords(w)));
   return section("fill-result", "Fill", ...parts);
 }
 
@@ -255,7 +255,7 @@ export function showReport(container, r, page) {
   if (r.fill) container.append(fillSection(r.fill));
   if (r.placed_gates) container.append(placedSection(r));
   const warnings = el("ul", { id: "warnings" });
-  for (const w of r.warnings) warnings.append(el("li", { class: "warning", "data-warning": w }, w));
+  for (const w of r.warnings) warnings.append(el("li", { class: "warning", "data-warning": w }, inPageWords(w)));
   if (r.warnings.length) container.append(section("warnings-result", "Warnings", warnings));
   container.append(partSection(r), countsSection(r.counts));
   if (r.wall_thickness) container.append(wallSection(r.wall_thickness));

@@ -229,6 +229,10 @@ describe("moldgate in the browser", () => {
     assert.equal(expected.gate, null);
     await assertSameGate(page, expected, "plate, R = 40 mm");
     assert.ok((await page.$$("#no-gate-tries li")).length >= 3);
+    // The reason names the page's controls, not the command line's flags.
+    assert.ok(expected.no_gate_reason.includes("--aesthetic"), expected.no_gate_reason);
+    const reason = await page.$eval("#no-gate-reason", (e) => e.textContent);
+    assert.ok(reason.includes("'Aesthetic: gate on the parting line'") && !/--[a-z]/.test(reason), reason);
     await page.fill("#gate_radius", "");
   });
 

@@ -5,7 +5,7 @@ import { readFileSync } from "node:fs";
 import { join } from "node:path";
 import { test } from "node:test";
 
-import { seconds } from "../src/format.js";
+import { inPageWords, seconds } from "../src/format.js";
 import { Moldgate, MoldgateError } from "../src/moldgate.js";
 import { WEB } from "./harness.mjs";
 
@@ -61,4 +61,18 @@ test("times keep three significant figures, as the command line writes them", ()
   ]) {
     assert.equal(seconds(t), want, String(t));
   }
+});
+
+test("the library's messages read in the page's words", () => {
+  assert.equal(
+    inPageWords("x (try a smaller gate radius or spacing, another demolding direction, or --aesthetic); set its units to in, cm or m (--units)"),
+    "x (try a smaller gate radius or spacing, another demolding direction, or 'Aesthetic: gate on the parting line'); set its units to in, cm or m ('Units of the file')"
+  );
+  assert.equal(inPageWords("the largest that fits (--fit-radius takes it)"), "the largest that fits (the command line's --fit-radius takes it)");
+  assert.equal(
+    inPageWords("gates and aesthetic cannot be used together: why"),
+    "'Number of gates' above 1 and 'Aesthetic: gate on the parting line' cannot be used together: why"
+  );
+  // Words with dashes that are not flags stay as they are.
+  assert.equal(inPageWords("a 2-core run, x - y"), "a 2-core run, x - y");
 });

@@ -112,7 +112,8 @@ export function shown(page) {
     return {
       gate: g ? ["x", "y", "z"].map((a) => Number(g.dataset[a])) : null,
       warnings: [...document.querySelectorAll("#warnings li")].map((li) => li.dataset.warning),
-      noGate: document.getElementById("no-gate-reason")?.textContent ?? null,
+      // The library's own words (the text shown names the page's controls for its flags).
+      noGate: document.getElementById("no-gate-reason")?.dataset.reason ?? null,
       error: document.getElementById("error").hidden ? null : document.getElementById("error-message")?.textContent,
     };
   });
