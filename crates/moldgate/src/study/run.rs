@@ -478,13 +478,18 @@ impl Study {
     }
 
     /// The field the fill's pictures are coloured by (`color_by`), with its name and unit:
-    /// per mesh vertex, NaN where the melt does not reach; `None` without the fill or when
-    /// the pictures show the height along D.
+    /// per mesh vertex, NaN where the melt does not reach (a body the pictured gates do not
+    /// reach takes its own gate's, see [`crate::flow::BodyGate::pictured`]); `None` without
+    /// the fill or when the pictures show the height along D.
     pub fn fill_field(&self) -> Option<Field> {
-        let mut field = self.fill()?.field(self.colour_by?)?;
+        let fill = self.fill()?;
+        let mut field = fill.field(self.colour_by?)?;
         // With the designer's gates placed, the field is theirs (see `FillOptions::placed`).
-        if self.fill()?.placed.is_some() && field.name != "wall thickness" {
-            field.name = format!("{} from your gates", field.name);
+        if fill.placed.is_some() && field.name != "wall thickness" {
+            field.name = match fill.body_gates.iter().any(|b| b.pictured) {
+                true => format!("{} from your gates, other bodies from their own", field.name),
+                false => format!("{} from your gates", field.name),
+            };
         }
         Some(field)
     }
