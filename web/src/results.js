@@ -191,7 +191,8 @@ function partSection(r) {
     ["Size", `${size.map((s) => (s >= 1 ? s.toFixed(1) : threeFigures(s))).join(" × ")} mm`],
     ["Mesh", m.open_edges === 0 && m.non_manifold_edges === 0 ? `closed, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}` : `${m.open_edges} open and ${m.non_manifold_edges} non-manifold edges, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}`],
     ["Demolding direction D", v3(r.options.demold, 3), xyz(r.options.demold)],
-    ["Centre of mass", `${v3(r.centre_of_mass.used)} mm`, { id: "centre-of-mass", ...xyz(r.centre_of_mass.used) }],
+    // A part of a few millimetres (often one read in the wrong units) gets four decimals.
+    ["Centre of mass", `${v3(r.centre_of_mass.used, Math.max(...size) < 10 ? 4 : 2)} mm`, { id: "centre-of-mass", ...xyz(r.centre_of_mass.used) }],
   ]));
 }
 
