@@ -44,16 +44,62 @@ const FLAG_LABELS = {
   "--require-flat": "'Only flat gate discs'",
   "--max-nodes": "'Largest grid (nodes)'",
   "--cell": "'Fill cell size'",
-  "--gate-at": "shift-click (your gates)",
+  "--gate-at": "shift-click on the part",
 };
 
-/** A message of the library in the page's words: two options that cannot be used together
- * by the page's labels, and the command line's flags by the controls that set the same
- * options (a flag the page has no control for is named as the command line's). */
+/** The page's names for the options (the library's field names) an option error starts with. */
+const FIELD_LABELS = {
+  units: "'Units of the file'",
+  material: "'Material'",
+  demold: "'Demolding direction'",
+  strategy: "'Gate chosen by'",
+  objective: "'Balanced and several gates minimise'",
+  gates: "'Number of gates'",
+  thickness_rule: "'Wall thicker than the gate radius'",
+  keep_out: "'Keep-out regions'",
+  cosmetic: "'Visible (cosmetic) side'",
+  gate_radius: "'Gate radius'",
+  spacing: "'Grid spacing'",
+  grid_offset: "'Grid offset'",
+  circle_points: "'Points on each circle'",
+  centre: "'Centre of mass'",
+  nearest: "'Nearest the centre'",
+  flat_tol: "'Flatness tolerance'",
+  max_nodes: "'Largest grid (nodes)'",
+  cell: "'Fill cell size'",
+};
+
+/** The material parameters' names in the page's custom material. */
+const MATERIAL_LABELS = {
+  n: "'Power-law index n'",
+  t_melt: "'Melt temperature'",
+  t_wall: "'Mould temperature'",
+  gamma_opt: "'Optimal shear rate'",
+  mu_opt: "'Viscosity at that rate'",
+  k: "'Thermal conductivity'",
+  max_flow_ratio: "'Flow-length ratio limit L/t'",
+};
+
+/** A message of the library in the page's words: an option error by the control at fault,
+ * two options that cannot be used together by the page's labels, the command line's flags
+ * (with the values they take) by the controls that set the same options (a flag the page
+ * has no control for is named as the command line's), and mm^2 as mm². */
 export function inPageWords(message) {
   const m = /^(\w+) and (\w+) cannot be used together: /.exec(message);
   if (m && m[1] in OPTION_LABELS && m[2] in OPTION_LABELS) {
     message = `${OPTION_LABELS[m[1]]} and ${OPTION_LABELS[m[2]]} cannot be used together: ${message.slice(m[0].length)}`;
   }
-  return message.replace(/--[a-z][a-z-]*[a-z]/g, (flag) => FLAG_LABELS[flag] ?? `the command line's ${flag}`);
+  // "options: material.n: ..." or "spacing must ...": the field at fault first.
+  const f = /^(?:options: )?([a-z_]+)(?:\.([a-z_]+))?(?=:| must | is )/.exec(message);
+  if (f && f[1] in FIELD_LABELS) {
+    const field = f[1] === "material" && f[2] in MATERIAL_LABELS ? `'Material': ${MATERIAL_LABELS[f[2]]}` : FIELD_LABELS[f[1]];
+    message = field + message.slice(f[0].length);
+  }
+  return message
+    .replace(/--objective (length|resistance)/g, (_, v) => `'Balanced and several gates minimise: ${v === "length" ? "the longest flow length" : "the largest flow resistance"}'`)
+    .replace(/--cell (\d+(?:\.\d+)?)/g, "'Fill cell size' of $1 mm")
+    .replace(/\(--fit-radius takes it\)/g, "(set 'Gate radius' to it)")
+    .replace(/mm\^2/g, "mm²")
+    .replace(/mm\^3/g, "mm³")
+    .replace(/--[a-z][a-z-]*[a-z]/g, (flag) => FLAG_LABELS[flag] ?? `the command line's ${flag}`);
 }

@@ -34,7 +34,7 @@ function startWorker() {
     const p = pending.get(data.id);
     if (!p) return;
     pending.delete(data.id);
-    if (data.type === "error") p.reject(Object.assign(new Error(data.message), { trapped: data.trapped }));
+    if (data.type === "error") p.reject(Object.assign(new Error(data.message), { trapped: data.trapped, fileError: data.fileError }));
     else p.resolve(data);
   };
   worker.onerror = (e) => {
@@ -154,9 +154,9 @@ function onProgress({ id, stage, fraction }) {
   $("progress").value = fraction;
 }
 
-/** Shows moldgate's message; `fileName`: the part's file, whose read errors begin with its
- * name (no option can mend those, so the hint does not offer one). */
-function showError(message, fileName = null) {
+/** Shows moldgate's message; `fileError` when the part's file cannot be read (no option can
+ * mend that, so the hint does not offer one). */
+function showError(message, fileError = false) {
   const box = $("error");
   box.replaceChildren();
   const p = document.createElement("p");
@@ -164,7 +164,7 @@ function showError(message, fileName = null) {
   p.textContent = inPageWords(message);
   const hint = document.createElement("p");
   hint.id = "error-hint";
-  hint.textContent = fileName !== null && message.startsWith(`${fileName}: `)
+  hint.textContent = fileError
     ? "This file cannot be studied as it is: open or drop another part."
     : "Open or drop another part, or change the options and analyse again.";
   box.append(p, hint);
@@ -237,7 +237,7 @@ async function analyse({ keepCamera = false } = {}) {
     if (e.cancelled) return;
     $("busy").hidden = true;
     clearResults(`${part.name} could not be analysed.`);
-    showError(e.message, part.name);
+    showError(e.message, !!e.fileError);
     setState("error");
   }
 }
@@ -305,7 +305,7 @@ async function openFile(file) {
     startRun();
     part = null;
     clearResults(`${file.name} is too large.`);
-    showError(`${file.name}: ${file.size} bytes, over the limit of ${info.maxFileBytes} bytes the browser can study`, file.name);
+    showError(`${file.name}: ${file.size} bytes, over the limit of ${info.maxFileBytes} bytes the browser can study`, true);
     setState("error");
     return;
   }

@@ -97,13 +97,19 @@ export class Moldgate {
     return result;
   }
 
-  /** Studies a file's bytes (or a sample) as `request` asks; returns the study's handle. */
-  study(bytes, request) {
+  /** Studies a file's bytes (or a sample) as `request` asks; returns the study's handle. A
+   * refusal's error has `fileError` when the file cannot be read (no option mends it). */
+  async study(bytes, request) {
     const req = encoder.encode(JSON.stringify(request));
     const x = () => this.x;
-    return this.call(() =>
-      this.withBytes(bytes, (fp, fl) => this.withBytes(req, (rp, rl) => x().mg_study(fp, fl, rp, rl)))
-    );
+    try {
+      return await this.call(() =>
+        this.withBytes(bytes, (fp, fl) => this.withBytes(req, (rp, rl) => x().mg_study(fp, fl, rp, rl)))
+      );
+    } catch (e) {
+      if (e instanceof MoldgateError && !e.trapped) e.fileError = this.x.mg_error_is_file() === 1;
+      throw e;
+    }
   }
 
   async bytes(f) {

@@ -122,9 +122,10 @@ function gateFill(id, title, f) {
   return el("div", { id }, el("h4", {}, title), list(null, rows), el("p", {}, "Last to fill:"), last, el("p", {}, "Weld lines (where fronts meet):"), welds);
 }
 
-function fillSection(f) {
+/** The fill section; `mode`: "paper" or "aesthetic", the rule of the gate `f.paper` fills from. */
+function fillSection(f, mode) {
   const parts = [el("p", {}, `${f.cells.toLocaleString("en")} cells of ${f.cell_mm.toFixed(3)} mm; nominal wall ${f.nominal_wall_mm.toFixed(2)} mm (${f.wall_source === "measured" ? "measured" : "2V/A estimate"})`)];
-  if (f.paper) parts.push(gateFill("fill-paper", "From the paper's gate", f.paper));
+  if (f.paper) parts.push(gateFill("fill-paper", mode === "aesthetic" ? "From the aesthetic gate" : "From the paper's gate", f.paper));
   if (f.balanced && !f.balanced.is_paper_gate) {
     parts.push(gateFill("fill-balanced", "From the balanced gate", f.balanced.fill));
     parts.push(el("p", {}, `The balanced gate shortens the worst flow by ${f.balanced.improvement_pct.toFixed(1)} %.`));
@@ -143,10 +144,10 @@ function bodyGates(bodies) {
   const items = el("ol", { id: "body-gates", start: 0 });
   for (const b of bodies) {
     const share = `${(100 * b.volume_share).toFixed(1)} % of the volume`;
-    const own = b.is_answer_body ? ", fed by the answer's gate; alone, the paper's rule on it gives" : "";
+    const own = b.is_answer_body ? ", holds the answer's gate" : "";
     const text = b.gate === null
       ? `Body ${b.body} (${share}${own}): no qualifying node`
-      : `Body ${b.body} (${share}${own}): gate ${v3(b.gate)} mm${b.pictured ? " (the dashed ring in the 3D view, which fills the body from it)" : ""}, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
+      : `Body ${b.body} (${share}${own}): own gate ${v3(b.gate)} mm (the paper's rule on this body alone)${b.pictured ? "; the 3D view fills the body from it, marked by a dashed ring" : ""}, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
     items.append(el("li", b.gate === null ? { "data-body": b.body } : { "data-body": b.body, ...xyz(b.gate) }, text));
   }
   return el("div", {}, el("p", {}, `A gate per body (the file holds ${bodies.length} separate bodies; a gate fills only its own):`), items);
@@ -234,15 +235,17 @@ function placedSection(r) {
   const f = p.fill;
   if (f) {
     const rows = [[p.gates.length === 1 ? "Your gate" : "Your gates together", f, "placed-fill"]];
-    if (r.fill?.paper) rows.push(["Paper gate", r.fill.paper, "placed-paper"]);
+    if (r.fill?.paper) rows.push([r.options.mode === "aesthetic" ? "Aesthetic gate" : "Paper gate", r.fill.paper, "placed-paper"]);
     if (r.fill?.balanced) rows.push(["Balanced gate", r.fill.balanced.fill, "placed-balanced"]);
     content.push(list("placed-fill-list", rows.map(([name, g, id]) => [
       name,
-      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${threeFigures(g.pressure_mpa)} MPa (Eq. 1), fill ${seconds(g.fill_time_s)} s, ${g.weld_lines.length} weld lines`,
+      // On a part of several bodies a gate fills its own body only: how much of the part it
+      // reaches says whether two rows compare like with like.
+      `L_max ${mm(g.l_max_mm, 1)}, L/t ${g.flow_ratio.toFixed(0)}${g.flow_ratio_limit ? ` (limit ${g.flow_ratio_limit.toFixed(0)})` : ""}, ${threeFigures(g.pressure_mpa)} MPa (Eq. 1), fill ${seconds(g.fill_time_s)} s, ${g.weld_lines.length} weld lines${g.reached_share < 0.9995 ? `; reaches ${(100 * g.reached_share).toFixed(1)} % of the part` : ""}`,
       { id, "data-value": g.l_max_mm },
     ])));
   } else if (p.no_fill_reason) {
-    content.push(el("p", {}, `No fill of your gates: ${p.no_fill_reason}.`));
+    content.push(el("p", {}, `No fill of your gates: ${inPageWords(p.no_fill_reason)}.`));
   }
   content.push(el("p", { class: "hint" }, "Shift-click the part to place another gate; gates placed together are one layout."));
   content.push(el("button", { id: "clear-placed", type: "button" }, "Clear your gates"));
@@ -253,7 +256,7 @@ function placedSection(r) {
 export function showReport(container, r, page) {
   container.replaceChildren();
   container.append(r.gate ? gateSection(r) : noGateSection(r));
-  if (r.fill) container.append(fillSection(r.fill));
+  if (r.fill) container.append(fillSection(r.fill, r.options.mode));
   if (r.placed_gates) container.append(placedSection(r));
   const warnings = el("ul", { id: "warnings" });
   for (const w of r.warnings) warnings.append(el("li", { class: "warning", "data-warning": w }, inPageWords(w)));

@@ -6,7 +6,7 @@
 //               | {type: "glb", id, colouring} | {type: "download", id, what}
 // Messages out: {type: "info", ...} | {type: "progress", id, stage, fraction}
 //               | {type: "result", id, report, glb, times} | {type: "glb", id, glb}
-//               | {type: "download", id, what, bytes} | {type: "error", id, message, trapped}
+//               | {type: "download", id, what, bytes} | {type: "error", id, message, trapped, fileError}
 
 import { Moldgate } from "./moldgate.js";
 
@@ -70,6 +70,6 @@ self.onmessage = async ({ data }) => {
   } catch (e) {
     // A trap replaced the instance: the study under the old handle is gone.
     if (e.trapped) handle = 0;
-    postMessage({ type: "error", id: data.id, message: e.message || String(e), trapped: !!e.trapped });
+    postMessage({ type: "error", id: data.id, message: e.message || String(e), trapped: !!e.trapped, fileError: !!e.fileError });
   }
 };

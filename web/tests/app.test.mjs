@@ -241,6 +241,8 @@ describe("moldgate in the browser", () => {
     await page.fill("#spacing", "0.0001");
     assert.equal(await analyseAgain(page), "error");
     assert.match((await shown(page)).error, /600001600001 nodes, more than the limit of 4000000/);
+    // An option mends it: the hint offers that, not another file.
+    assert.equal(await page.$eval("#error-hint", (e) => e.textContent), "Open or drop another part, or change the options and analyse again.");
     await page.click("#defaults");
     assert.equal(await analyseAgain(page), "done");
     await assertSameGate(page, cli(["locate", "--sample", "plate"]), "after a refused grid");

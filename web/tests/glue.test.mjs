@@ -33,8 +33,9 @@ test("a sample is studied, with progress, and its outputs are whole", async () =
 
 test("the library's errors come back as messages, the module stays usable", async () => {
   const mg = await Moldgate.fromBytes(wasm);
-  await assert.rejects(mg.study(enc.encode("v 1 2\n"), { file_name: "a.obj" }), /a\.obj: line 1/);
-  await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", options: { demold: "up" } }), /demold/);
+  // A file that cannot be read is the file's fault (no option mends it); a bad option is not.
+  await assert.rejects(mg.study(enc.encode("v 1 2\n"), { file_name: "a.obj" }), (e) => /a\.obj: line 1/.test(e.message) && e.fileError === true);
+  await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", options: { demold: "up" } }), (e) => /demold/.test(e.message) && e.fileError === false);
   await assert.rejects(mg.study(new Uint8Array(0), { sample: "plate", colour: 1 }), /request: unknown field `colour`/);
   assert.ok((await mg.study(new Uint8Array(0), { sample: "plate" })) > 0);
 });
@@ -68,7 +69,15 @@ test("the library's messages read in the page's words", () => {
     inPageWords("x (try a smaller gate radius or spacing, another demolding direction, or --aesthetic); set its units to in, cm or m (--units)"),
     "x (try a smaller gate radius or spacing, another demolding direction, or 'Aesthetic: gate on the parting line'); set its units to in, cm or m ('Units of the file')"
   );
-  assert.equal(inPageWords("the largest that fits (--fit-radius takes it)"), "the largest that fits (the command line's --fit-radius takes it)");
+  assert.equal(inPageWords("the largest that fits (--fit-radius takes it)"), "the largest that fits (set 'Gate radius' to it)");
+  assert.equal(inPageWords("x; --material-file y"), "x; the command line's --material-file y");
+  assert.equal(inPageWords("--objective length minimises the longest flow path L_max instead"), "'Balanced and several gates minimise: the longest flow length' minimises the longest flow path L_max instead");
+  assert.equal(inPageWords("flow lengths are rough; try --cell 1.000"), "flow lengths are rough; try 'Fill cell size' of 1.000 mm");
+  assert.equal(inPageWords("its undercut, 499 mm^2, is"), "its undercut, 499 mm², is");
+  // Option errors name the control at fault.
+  assert.equal(inPageWords("spacing must be a positive number, got 0"), "'Grid spacing' must be a positive number, got 0");
+  assert.equal(inPageWords("options: material.n: invalid type: null, expected a number"), "'Material': 'Power-law index n': invalid type: null, expected a number");
+  assert.equal(inPageWords("max_nodes must be between 1 and 20000000"), "'Largest grid (nodes)' must be between 1 and 20000000");
   assert.equal(
     inPageWords("gates and aesthetic cannot be used together: why"),
     "'Number of gates' above 1 and 'Aesthetic: gate on the parting line' cannot be used together: why"

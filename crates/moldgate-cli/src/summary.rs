@@ -202,7 +202,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("gate {} (qualifying node nearest its centre of mass){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), if b.pictured { format!(", drawn as 'gate of body {}'", b.body) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
+                format!("own gate {} (the paper's rule on this body alone: its qualifying node nearest its centre of mass){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), if b.pictured { format!("; the pictures fill the body from it, drawn as 'gate of body {}'", b.body) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
             }
             _ => "no qualifying node on it: no gate".into(),
         };
@@ -212,7 +212,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             b.body,
             100.0 * b.volume_share,
             if b.is_answer_body {
-                ", fed by the answer's gate; alone, the paper's rule on it gives"
+                ", holds the answer's gate"
             } else {
                 ""
             }
@@ -592,9 +592,16 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             .last_to_fill
             .first()
             .map_or("-".to_string(), |q| v3(q.point));
+        // On a part of several bodies a gate fills its own body only: how much of the part
+        // it reaches says whether two rows compare like with like.
+        let reach = if g.reached_share < 0.9995 {
+            format!("  (reaches {:.1} % of the part)", 100.0 * g.reached_share)
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "  {label:<30} {:>6.1} mm {:>6} MPa {ratio:>16} {:>8} s {:>6}  {last}",
+            "  {label:<30} {:>6.1} mm {:>6} MPa {ratio:>16} {:>8} s {:>6}  {last}{reach}",
             g.l_max_mm,
             three_figures(g.pressure_mpa),
             seconds_text(g.fill_time_s),
@@ -612,7 +619,11 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     if let Some(f) = &r.fill {
         if let Some(paper) = &f.paper {
-            row(s, "paper gate", paper);
+            let label = match r.options.mode {
+                moldgate::GateMode::Paper => "paper gate",
+                moldgate::GateMode::Aesthetic => "aesthetic gate",
+            };
+            row(s, label, paper);
         }
         match &f.balanced {
             Some(b) if b.is_paper_gate => {

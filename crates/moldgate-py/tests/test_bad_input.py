@@ -190,3 +190,12 @@ def test_units_and_flags_of_the_wrong_type_are_options_errors():
             call()
     with pytest.raises(moldgate.OptionsError, match="allow_no_gate must be True or False, got 'x'"):
         moldgate.study(part, allow_no_gate="x")
+
+
+def test_units_given_with_a_part_read_in_other_units_are_refused():
+    part = moldgate.sample("plate")  # in mm
+    with pytest.raises(moldgate.OptionsError, match="this Part was read in mm; units='m' applies to a path or arrays only"):
+        moldgate.study(part, units="m")
+    # The default, and the Part's own unit, are fine.
+    assert moldgate.study(part).gate is not None
+    assert moldgate.study(part, units="mm").gate is not None

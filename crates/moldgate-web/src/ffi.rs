@@ -35,11 +35,14 @@ mod page {
 struct State {
     sessions: Vec<Option<Session>>,
     out: Vec<u8>,
+    /// Whether the last study refused was refused for its file ([`session::Failure`]).
+    file_error: bool,
 }
 
 static STATE: Mutex<State> = Mutex::new(State {
     sessions: Vec::new(),
     out: Vec::new(),
+    file_error: false,
 });
 
 fn state() -> MutexGuard<'static, State> {
@@ -163,16 +166,29 @@ pub unsafe extern "C" fn mg_study(
 ) -> u32 {
     // SAFETY: the caller gives readable ranges.
     let (file, request) = unsafe { (bytes(file_ptr, file_len), bytes(request_ptr, request_len)) };
-    let result = request_of(request).and_then(|r| Session::new(file, &r, &report_progress));
+    let result = request_of(request)
+        .map_err(session::Failure::from)
+        .and_then(|r| Session::new(file, &r, &report_progress));
     match result {
         Ok(session) => {
             let mut s = state();
             s.sessions.push(Some(session));
             s.out.clear();
+            s.file_error = false;
             s.sessions.len() as u32
         }
-        Err(message) => finish(Err(message), 0),
+        Err(failure) => {
+            state().file_error = failure.file;
+            finish(Err(failure.message), 0)
+        }
     }
+}
+
+/// 1 when the last study refused ([`mg_study`] returned 0) was refused for its file, which
+/// cannot be read as a mesh (no option mends it), else 0.
+#[no_mangle]
+pub extern "C" fn mg_error_is_file() -> u32 {
+    u32::from(state().file_error)
 }
 
 /// The page's request; its options read as the service's and the Python package's are, so

@@ -83,6 +83,44 @@ impl Colouring {
     }
 }
 
+/// Why a study was refused: the message, and whether the file itself is at fault (it cannot
+/// be read as a mesh), which no option can mend.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// moldgate's message.
+    pub message: String,
+    /// True when the file could not be read.
+    pub file: bool,
+}
+
+impl From<String> for Failure {
+    fn from(message: String) -> Self {
+        Failure {
+            message,
+            file: false,
+        }
+    }
+}
+
+impl std::ops::Deref for Failure {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.message
+    }
+}
+
+impl PartialEq<&str> for Failure {
+    fn eq(&self, other: &&str) -> bool {
+        self.message == *other
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
 /// A part and its study.
 pub struct Session {
     part: LoadedMesh,
@@ -124,7 +162,7 @@ impl Session {
         bytes: &[u8],
         request: &Request,
         progress: &(dyn Fn(Progress) + Sync),
-    ) -> Result<Session, String> {
+    ) -> Result<Session, Failure> {
         let units: Units = match &request.units {
             Some(u) => u.parse().map_err(|e: String| format!("units: {e}"))?,
             None => Units::Mm,
@@ -151,7 +189,10 @@ impl Session {
                 )
             }
             None => {
-                let part = load(bytes, &request.file_name, units)?;
+                let part = load(bytes, &request.file_name, units).map_err(|message| Failure {
+                    message,
+                    file: true,
+                })?;
                 let input = Input {
                     path: Some(request.file_name.clone()),
                     sample: None,
@@ -327,6 +368,7 @@ mod tests {
         let r = |name: &str| request(&format!(r#"{{ "file_name": "{name}" }}"#));
         let e = Session::new(b"", &r("empty.stl"), &quiet).err().unwrap();
         assert_eq!(e, "empty.stl: empty file");
+        assert!(e.file, "a file that cannot be read is the file's fault");
         let e = Session::new(b"v 0 0 0\nv 1 0 0\nf 1 2 x\n", &r("bad.obj"), &quiet)
             .err()
             .unwrap();
@@ -360,6 +402,7 @@ mod tests {
         let r = request(r#"{ "sample": "plate", "options": { "spacing": 0.001 } }"#);
         let e = Session::new(b"", &r, &quiet).err().unwrap();
         assert!(e.contains("max_nodes") || e.contains("nodes"), "{e}");
+        assert!(!e.file, "an option can mend it");
     }
 
     #[test]

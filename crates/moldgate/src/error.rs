@@ -215,10 +215,10 @@ pub enum OptionsError {
     },
     /// The grid would have more nodes than the limit.
     #[error(
-        "a spacing of {} mm gives a grid of {n_u} x {n_w} = {} nodes, more than the limit of {limit}; use a spacing of at least {} mm",
+        "a spacing of {} mm gives a grid of {n_u} x {n_w} = {} nodes, more than the limit of {limit}; {}",
         length_text(*.spacing_mm),
         count_text(*.nodes),
-        rounded_up(*.min_spacing_mm)
+        spacing_advice("use", *.min_spacing_mm)
     )]
     GridTooLarge {
         /// Requested spacing.
@@ -267,10 +267,11 @@ pub enum OptionsError {
     /// The automatic spacing gives too many nodes: the part is too large for its gate (most
     /// often a file in other units than the ones it was read in).
     #[error(
-        "the part spans {span_mm:.4e} mm, so the automatic spacing of {} mm (set from the gate radius) gives {} nodes, more than the limit of {limit}; check the file's units (--units) and the gate radius, or give a spacing of at least {} mm",
-        length_text(*.spacing_mm),
+        "the part spans {} mm, so the automatic spacing of {} mm (the gate radius, or a hundredth of the part's longest side when smaller) gives {} nodes, more than the limit of {limit}; check the file's units (--units) and the gate radius, or {}",
+        figures(*.span_mm),
+        figures(*.spacing_mm),
         count_text(*.nodes),
-        rounded_up(*.min_spacing_mm)
+        spacing_advice("give", *.min_spacing_mm)
     )]
     PartTooLarge {
         /// The longest side of the projected box, in mm.
@@ -389,6 +390,34 @@ fn length_text(x: f64) -> String {
     }
 }
 
+/// `x` to four significant digits, without trailing zeros (a spacing computed from f32
+/// coordinates, 0.7979999923706055, reads 0.798).
+fn figures(x: f64) -> String {
+    if !(x.is_finite() && x != 0.0) {
+        return x.to_string();
+    }
+    let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let text = format!("{x:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    }
+}
+
+/// What to do about a grid over the node limit: a spacing of at least `min_spacing_mm`
+/// (`verb` it), or, when no spacing is wide enough (a limit of one node), a larger limit.
+fn spacing_advice(verb: &str, min_spacing_mm: f64) -> String {
+    if min_spacing_mm.is_finite() {
+        format!(
+            "{verb} a spacing of at least {} mm, or raise the node limit (--max-nodes)",
+            rounded_up(min_spacing_mm)
+        )
+    } else {
+        "raise the node limit (--max-nodes): no spacing gives so few nodes".to_string()
+    }
+}
+
 /// A count of nodes, saturated counts (past 64 bits) written as such.
 fn count_text(n: u64) -> String {
     if n == u64::MAX {
@@ -416,6 +445,26 @@ fn rounded_up(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn automatic_spacings_read_in_four_figures_and_a_limit_of_one_node_asks_for_more() {
+        assert_eq!(figures(0.7979999923706055), "0.798");
+        assert_eq!(figures(1.4254456510205669), "1.425");
+        assert_eq!(figures(120.0), "120");
+        let e = OptionsError::PartTooLarge {
+            span_mm: 79.80000305175781,
+            spacing_mm: 0.7979999923706055,
+            nodes: 9292,
+            limit: 1,
+            min_spacing_mm: f64::INFINITY,
+        }
+        .to_string();
+        assert!(e.contains("spacing of 0.798 mm"), "{e}");
+        assert!(
+            e.contains("no spacing gives so few nodes") && !e.contains("inf"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn grids_too_large_for_any_count_say_so_readably() {

@@ -650,12 +650,11 @@ fn fill_table(h: &mut String, r: &Report) {
                 h,
                 "<tr><th>{}{}</th><td class=\"n\">{:.1} %</td><td class=\"n\">{:.2} mm</td>{cells}</tr>",
                 b.body,
-                if b.is_answer_body {
-                    " (fed by the answer's gate)"
-                } else if b.pictured {
-                    " (pictured from this gate)"
-                } else {
-                    ""
+                match (b.is_answer_body, b.pictured) {
+                    (true, true) => " (holds the answer's gate; pictured from its own)",
+                    (true, false) => " (holds the answer's gate)",
+                    (false, true) => " (pictured from its own gate)",
+                    (false, false) => "",
                 },
                 100.0 * b.volume_share,
                 b.nominal_wall_mm

@@ -352,7 +352,8 @@ fn suggested_spacing(line: &str) -> f64 {
     let (_, tail) = line
         .split_once("use a spacing of at least ")
         .unwrap_or_else(|| panic!("no suggestion in: {line}"));
-    tail.trim_end_matches(" mm")
+    tail.split_once(" mm")
+        .map_or(tail, |(x, _)| x)
         .parse()
         .unwrap_or_else(|e| panic!("{e}: {line}"))
 }

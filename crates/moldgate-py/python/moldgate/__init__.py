@@ -175,6 +175,14 @@ def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
     _check_units_type(units)
     _moldgate.check_units(units)
     if isinstance(part, Part):
+        # A Part was read in its own units: another unit asked for here would be ignored
+        # (the default, mm, cannot be told from one given).
+        own = part.stats["units"]
+        if units.lower() not in ("mm", own):
+            raise OptionsError(
+                f"units: this Part was read in {own}; units={units!r} applies to a path or "
+                f"arrays only: read the file again with moldgate.load(path, units={units!r})"
+            )
         return part
     if isinstance(part, (str, _os.PathLike)):
         return load(part, units, step_tolerance_mm=step_tolerance_mm)
@@ -285,7 +293,7 @@ def study(
     And for this call:
 
     - ``units="mm"``: unit of a path or arrays given as ``part`` (a :class:`Part` keeps
-      the unit it was read in).
+      the unit it was read in; another unit than mm or its own is refused).
     - ``materials_file=None``: a TOML file of user materials (the command line's
       ``--materials-file``).
     - ``step_tolerance_mm=None``: see :func:`load`.

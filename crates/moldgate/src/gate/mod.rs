@@ -472,6 +472,9 @@ impl Analysis {
             s += &format!(
                 "; the part is {across:.4} mm across as read: if the file is not in millimetres, set its units to in, cm or m (--units); otherwise try a smaller gate radius or spacing, another demolding direction, or --aesthetic"
             );
+        } else if self.counts.kept_out + self.counts.cosmetic > 0 {
+            // The designer's own regions took nodes: they come first.
+            s += " (try smaller keep-out regions or no cosmetic side, a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
         } else {
             s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
         }

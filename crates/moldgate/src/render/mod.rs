@@ -1629,10 +1629,13 @@ fn draw_side_bar(
         }
         *y += row + (lines.len().max(1) - 1) as f32 * 17.0 * k;
     };
-    let gate_text = match scene.gates.first() {
+    let mut gate_text = match scene.gates.first() {
         Some(g) => format!("gate, disc of R = {:.2} mm", g.radius_mm),
         None => "no gate".to_string(),
     };
+    if scene.gates.iter().any(|g| g.body.is_some()) {
+        gate_text += "; a gate of body N: that body's own gate, from which the picture fills it";
+    }
     item(canvas, &mut y, &gate_text, &|c, cy| {
         let r = 8.0 * k;
         c.stroke_circle(sx, cy, r, BLACK, 4.5 * k);

@@ -487,7 +487,10 @@ impl Study {
         // With the designer's gates placed, the field is theirs (see `FillOptions::placed`).
         if fill.placed.is_some() && field.name != "wall thickness" {
             field.name = match fill.body_gates.iter().any(|b| b.pictured) {
-                true => format!("{} from your gates, other bodies from their own", field.name),
+                true => format!(
+                    "{} from your gates, other bodies from their own",
+                    field.name
+                ),
                 false => format!("{} from your gates", field.name),
             };
         }
