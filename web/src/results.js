@@ -134,7 +134,7 @@ function fillSection(f, mode) {
   }
   if (f.body_gates?.length) parts.push(bodyGates(f.body_gates));
   if (f.suitability) parts.push(suitabilityPart(f.suitability));
-  for (const w of f.warnings || []) parts.push(el("p", { class: "warning", "data-warning": w }, inPageWords(w)));
+  // The fill's warnings are among the report's, listed once under Warnings.
   return section("fill-result", "Fill", ...parts);
 }
 
