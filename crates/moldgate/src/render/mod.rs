@@ -1646,7 +1646,7 @@ fn draw_side_bar(
         item(
             canvas,
             &mut y,
-            "your gate (--gate-at): disc outline; diamond filled if it qualifies",
+            "your gate (placed): disc outline; diamond filled if it qualifies",
             &|c, cy| {
                 let r = 9.0 * k;
                 c.stroke_circle(sx, cy, r, BLACK, 5.0 * k);
