@@ -220,6 +220,15 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
     }
 }
 
+/// The name of the gate the fill starts from (its `paper` fill): the paper's or the
+/// aesthetic gate.
+fn gate_name(mode: moldgate::GateMode) -> &'static str {
+    match mode {
+        moldgate::GateMode::Paper => "paper gate",
+        moldgate::GateMode::Aesthetic => "aesthetic gate",
+    }
+}
+
 /// Renders the report as a few lines of text.
 pub fn render(r: &Report) -> String {
     let mut s = String::new();
@@ -327,11 +336,7 @@ pub fn render(r: &Report) -> String {
         );
     }
     if let Some(f) = &r.fill {
-        let label = match r.options.mode {
-            moldgate::GateMode::Paper => "paper gate   ",
-            moldgate::GateMode::Aesthetic => "aesthetic gate",
-        };
-        fill(&mut s, f, label);
+        fill(&mut s, f, &format!("{:<13}", gate_name(r.options.mode)));
     }
     if let Some(p) = &r.placed_gates {
         placed_gates(&mut s, r, p, open);
@@ -619,11 +624,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     if let Some(f) = &r.fill {
         if let Some(paper) = &f.paper {
-            let label = match r.options.mode {
-                moldgate::GateMode::Paper => "paper gate",
-                moldgate::GateMode::Aesthetic => "aesthetic gate",
-            };
-            row(s, label, paper);
+            row(s, gate_name(r.options.mode), paper);
         }
         match &f.balanced {
             Some(b) if b.is_paper_gate => {

@@ -3059,21 +3059,24 @@ pub fn analyse_prepared(
             b.pictured = own.is_some() && !reached[b.body as usize];
         }
     }
+    // The pictured field `t` with each such body's cells from its own gate's field (one pass
+    // over the cells; `body_gates[b]` is body b's); `None` when no body is.
     let own_gates = |t: &[f64], pick: fn(&GateFields) -> &Field| -> Option<Vec<f64>> {
-        let mut merged: Option<Vec<f64>> = None;
-        for (b, f) in body_gates.iter().zip(&body_fields) {
-            let Some(f) = f.as_ref().filter(|_| b.pictured) else {
-                continue;
-            };
-            let own = &pick(f).t;
-            let m = merged.get_or_insert_with(|| t.to_vec());
-            for (c, x) in m.iter_mut().enumerate() {
-                if domain.body[c] == b.body {
-                    *x = own[c];
-                }
-            }
+        let own: Vec<Option<&[f64]>> = body_gates
+            .iter()
+            .zip(&body_fields)
+            .map(|(b, f)| f.as_ref().filter(|_| b.pictured).map(|f| &pick(f).t[..]))
+            .collect();
+        if own.iter().all(Option::is_none) {
+            return None;
         }
-        merged
+        Some(
+            t.iter()
+                .zip(&domain.body)
+                .enumerate()
+                .map(|(c, (&x, &b))| own[b as usize].map_or(x, |o| o[c]))
+                .collect(),
+        )
     };
     // Only the field the pictures show (a pass over the vertices each).
     let mut per_vertex = VertexFields::default();
@@ -3159,7 +3162,7 @@ pub fn analyse_prepared(
 
 /// The gate of every body: the paper's rule on the body, its qualifying node nearest its
 /// centre of mass, with its flow length and fill time over the body, and its fields (for
-/// the pictures of the bodies the answer's gates do not reach).
+/// the pictures of the bodies the pictured gates do not reach).
 fn gates_per_body(
     domain: &Domain,
     bodies: &Bodies,
