@@ -449,8 +449,11 @@ fn drop_duplicates(triangles: &mut Vec<[u32; 3]>) -> u64 {
 
 /// Welds identical corner positions into shared vertices as facets arrive.
 ///
-/// Positions are compared by their exact bit patterns (with -0.0 read as 0.0): STL writers
-/// repeat a shared corner's coordinates exactly, and any tolerance would merge real detail.
+/// Positions are compared by their exact bit patterns (with -0.0 and every coordinate
+/// nearer zero than [`NOISE_OF_ZERO`] read as 0.0): STL writers repeat a shared corner's
+/// coordinates exactly, and any tolerance would merge real detail; only the rounding noise
+/// of a CAD exporter's rotations at zero (a corner written as 0 in one facet and -2.7e-16
+/// in the next) is not a position of its own.
 /// The index is an open-addressing table of vertex numbers (4 bytes a slot, at most half
 /// full) that compares against the vertex list itself, so it costs a fraction of a map that
 /// stores the keys. The bits of a slot above the vertex number (those the table's size
@@ -470,14 +473,38 @@ const RECENT: usize = 4096;
 
 const EMPTY: u32 = u32::MAX;
 
-/// Bit patterns of a position, with -0.0 made 0.0.
+/// Coordinates of a smaller magnitude than this (2^-40, about 9.1e-13, in the file's
+/// units) are read as 0 when corners are welded: a picometre in metres, far below any
+/// detail of a moulded part in any unit, and where the rounding of an exporter's rotations
+/// leaves corners that are at zero (cos 90 degrees is 6.1e-17 in doubles).
+pub const NOISE_OF_ZERO: f64 = 1.0 / (1u64 << 40) as f64;
+
+/// A coordinate as welding reads it: 0.0 for -0.0 and for a value nearer zero than
+/// [`NOISE_OF_ZERO`], else itself.
+#[inline(always)]
+fn weld_coordinate(x: f64) -> f64 {
+    if x.abs() < NOISE_OF_ZERO {
+        0.0
+    } else {
+        x
+    }
+}
+
+/// A position as welding reads it ([`weld_coordinate`] of each coordinate).
+#[inline(always)]
+fn weld_position(p: DVec3) -> DVec3 {
+    DVec3::new(
+        weld_coordinate(p.x),
+        weld_coordinate(p.y),
+        weld_coordinate(p.z),
+    )
+}
+
+/// Bit patterns of a position as welding reads it.
 #[inline]
 fn position_bits(p: DVec3) -> [u64; 3] {
-    [
-        (p.x + 0.0).to_bits(),
-        (p.y + 0.0).to_bits(),
-        (p.z + 0.0).to_bits(),
-    ]
+    let p = weld_position(p);
+    [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
 }
 
 #[inline]
@@ -543,7 +570,7 @@ impl Welder {
             Err((slot, tag)) => {
                 let next = self.mesh.vertices.len() as u32;
                 self.slots[slot] = tag | next;
-                self.mesh.vertices.push(p + DVec3::ZERO);
+                self.mesh.vertices.push(weld_position(p));
                 next
             }
         };
@@ -695,8 +722,9 @@ pub(super) fn join_numbers(first: u32, found: &[Vec<u64>]) -> Vec<Vec<u32>> {
 mod tests {
     use super::*;
 
-    /// Positions on a small lattice (many repeats), with -0.0 beside 0.0 and neighbours one
-    /// bit apart, from a seeded generator.
+    /// Positions on a small lattice (many repeats), with -0.0 beside 0.0, values in the
+    /// noise at zero and 2^-40 itself beside them, and neighbours one bit apart, from a
+    /// seeded generator.
     fn corners(n: usize, seed: u64) -> Vec<DVec3> {
         let mut state = seed;
         let mut next = move || {
@@ -714,6 +742,9 @@ mod tests {
                         0 => 0.0,
                         1 => -0.0,
                         2 => f64::from_bits(1.0f64.to_bits() + u64::from(r % 3)),
+                        3 => {
+                            [-2.731_848e-16, 6.1e-17, 1e-300, -NOISE_OF_ZERO][(r / 8 % 4) as usize]
+                        }
                         _ => f64::from(r % 11) * 0.5 - 2.0,
                     };
                 }
@@ -764,6 +795,29 @@ mod tests {
             assert_eq!(mesh.triangles, kept, "seed {seed}");
             assert_eq!(collapsed as usize, all.len() / 3 - kept.len());
         }
+    }
+
+    #[test]
+    fn a_corner_in_the_noise_at_zero_is_the_corner_at_zero() {
+        // The second facet repeats two corners of the first as an exporter's rotation
+        // writes them; its third corner is 2^-40 from a corner, a position of its own.
+        let noise = -2.731_848e-16;
+        let mut welder = Welder::with_capacity(2);
+        welder.push([DVec3::ZERO, DVec3::X, DVec3::Y]);
+        welder.push([
+            DVec3::new(noise, -0.0, 6.1e-17),
+            DVec3::new(noise, 1.0, 0.0),
+            DVec3::new(1.0, 0.0, NOISE_OF_ZERO),
+        ]);
+        let (mesh, collapsed) = welder.finish();
+        assert_eq!(collapsed, 0);
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(mesh.vertices[3], DVec3::new(1.0, 0.0, NOISE_OF_ZERO));
+        // Stored as zero, not as the noise of the corner that came first.
+        let mut welder = Welder::with_capacity(1);
+        welder.push([DVec3::new(noise, 0.0, 0.0), DVec3::X, DVec3::Y]);
+        let (mesh, _) = welder.finish();
+        assert_eq!(mesh.vertices[0].x.to_bits(), 0);
     }
 
     /// The centres summed at load, in the pass that measures the area, are those of

@@ -2,7 +2,7 @@
 //!
 //! A binary STL stores single-precision corners. Widening an `f32` to `f64` is exact and
 //! keeps distinct values distinct, so welding on the 12 bytes of the file's own bits (with
-//! -0.0 read as 0.0) gives the same vertices, in the same order, as [`super::Welder`]
+//! -0.0 and values nearer zero than [`super::NOISE_OF_ZERO`] read as 0.0) gives the same vertices, in the same order, as [`super::Welder`]
 //! welding the widened positions on their 24 bytes; the vertices are widened once, at the
 //! end. A corner's position is looked up far more often than a vertex is made (a vertex of
 //! a closed mesh has about six triangles, and the corners of a file come in no useful
@@ -20,14 +20,17 @@ use rayon::prelude::*;
 use super::{join_numbers, Mesh, NEW};
 use crate::math::DVec3;
 
-/// The bits of a corner's three coordinates, -0.0 made 0.0.
+/// The bits of a corner's three coordinates, as [`key_bits`] reads them.
 pub(super) type Key = [u32; 3];
 
 /// The welding key of a coordinate's bits (a finite value: NaN is refused before
-/// welding): -0.0 is made 0.0, as `x + 0.0` makes it, and every other value is its own.
+/// welding): 0.0 for -0.0 and for a magnitude below [`super::NOISE_OF_ZERO`] (2^-40, exact
+/// in `f32`), as the `f64` welder reads them, and every other value is its own.
 #[inline(always)]
 pub(super) fn key_bits(bits: u32) -> u32 {
-    if bits == 0x8000_0000 {
+    // Below the bits of 2^-40 (biased exponent 87) in magnitude.
+    const NOISE: u32 = 87 << 23;
+    if bits & 0x7fff_ffff < NOISE {
         0
     } else {
         bits
@@ -314,8 +317,9 @@ mod tests {
     use super::*;
     use crate::mesh::Welder;
 
-    /// Corners on a small lattice (many repeats), with -0.0 beside 0.0 and neighbours one
-    /// bit apart, from a seeded generator.
+    /// Corners on a small lattice (many repeats), with -0.0 beside 0.0, values in the noise
+    /// at zero and 2^-40 itself beside them, and neighbours one bit apart, from a seeded
+    /// generator.
     fn corners(n: usize, seed: u64) -> Vec<[f32; 3]> {
         let mut state = seed;
         let mut next = move || {
@@ -332,6 +336,8 @@ mod tests {
                         0 => 0.0,
                         1 => -0.0,
                         2 => f32::from_bits(1.0f32.to_bits() + r % 3),
+                        3 => [-2.731_848e-16, 6.1e-17, 1e-40, -(2.0f32.powi(-40))]
+                            [(r / 8 % 4) as usize],
                         _ => (r % 11) as f32 * 0.5 - 2.0,
                     }
                 })
@@ -384,6 +390,26 @@ mod tests {
                 .iter()
                 .all(|x| x.to_bits() != (-0.0f64).to_bits())));
         }
+    }
+
+    #[test]
+    fn coordinates_in_the_noise_at_zero_are_welded_as_zero_and_no_others() {
+        let edge = 2.0f32.powi(-40);
+        for zero in [
+            0.0f32,
+            -0.0,
+            -2.731_848e-16,
+            6.1e-17,
+            1e-40,
+            edge.next_down(),
+        ] {
+            assert_eq!(key_bits(zero.to_bits()), 0, "{zero:e}");
+            assert_eq!(key_bits((-zero).to_bits()), 0, "{:e}", -zero);
+        }
+        for kept in [edge, -edge, 1e-12, 1.0, -3.5e20] {
+            assert_eq!(key_bits(kept.to_bits()), kept.to_bits(), "{kept:e}");
+        }
+        assert_eq!(f64::from(edge), crate::mesh::NOISE_OF_ZERO);
     }
 
     #[test]
