@@ -29,6 +29,14 @@ export const LAYERS = {
   qualifying: (name) => name === "qualifying nodes",
 };
 
+/** A gate's ring while the part hides it: this opaque. */
+const HIDDEN_OPACITY = 0.3;
+/** The part hides a gate when the ray to it meets the part this share of the way short of
+ * it (the gate's own surface is met at the gate). */
+const HIDDEN_SHARE = 0.002;
+/** How long the view rests before the rings' sight is updated, ms. */
+const SIGHT_DELAY_MS = 150;
+
 /** A red ring of constant size on screen around each gate, so a 1 mm gate shows on a 300 mm
  * part; dashed for the own gate of a body the answer's gates do not reach ("gate of body N"). */
 function gateRingTexture(dashed = false) {
@@ -67,7 +75,13 @@ export class Viewer {
     this.controls = new OrbitControls(this.camera, this.canvas);
     this.controls.enableDamping = false;
     this.controls.listenToKeyEvents(this.canvas);
-    this.controls.addEventListener("change", () => this.render());
+    this.controls.addEventListener("change", () => {
+      this.render();
+      // Whether each gate is in sight, once the view rests (a ray through the whole part
+      // for each gate is too slow for every frame of a drag).
+      clearTimeout(this.sightTimer);
+      this.sightTimer = setTimeout(() => this.updateSight() && this.render(), SIGHT_DELAY_MS);
+    });
     this.ringTexture = gateRingTexture();
     this.bodyRingTexture = gateRingTexture(true);
     this.root = null;
@@ -126,11 +140,14 @@ export class Viewer {
     for (const [name, o] of this.nodes) if (LAYERS.gates(name)) rings.push([name, o]);
     this.scene.add(this.root);
     this.root.updateMatrixWorld(true);
+    // Each gate's ring is drawn over the part, so a gate on the far side is still found,
+    // but faint while the part hides it (see `updateSight`).
     for (const [name, gate] of rings) {
       const ring = new Sprite(
         new SpriteMaterial({
           map: name.startsWith("gate of body ") ? this.bodyRingTexture : this.ringTexture,
           depthTest: false,
+          transparent: true,
           sizeAttenuation: false,
         })
       );
@@ -145,6 +162,7 @@ export class Viewer {
     const part = this.nodes.get("part") || this.root;
     this.bounds = new Box3().setFromObject(part).getBoundingSphere(new Sphere());
     if (!keepCamera) this.reset();
+    this.updateSight();
     this.render();
     return gltf.asset.extras || {};
   }
@@ -180,6 +198,32 @@ export class Viewer {
       }
     }
     for (const r of this.rings) r.visible = this.visible.gates;
+  }
+
+  /** Makes each gate's ring whole when the gate is in sight and faint when the part hides
+   * it: the ray from the camera to the gate meets the part more than a sliver before it.
+   * True when a ring changed. */
+  updateSight() {
+    const part = this.nodes?.get("part");
+    if (!part || !this.rings.length) return false;
+    let changed = false;
+    const ray = new Raycaster();
+    for (const r of this.rings) {
+      const towards = r.position.clone().sub(this.camera.position);
+      const distance = towards.length();
+      ray.set(this.camera.position, towards.normalize());
+      ray.far = distance;
+      const hit = ray.intersectObject(part, true)[0];
+      const hidden = hit !== undefined && hit.distance < distance * (1 - HIDDEN_SHARE);
+      const opacity = hidden ? HIDDEN_OPACITY : 1;
+      if (r.material.opacity !== opacity) {
+        r.material.opacity = opacity;
+        changed = true;
+      }
+      r.userData.hidden = hidden;
+    }
+    this.container.dataset.gatesHidden = String(this.rings.filter((r) => r.userData.hidden).length);
+    return changed;
   }
 
   /** The point of the part under the pixel (client coordinates), in the part's frame in

@@ -187,6 +187,30 @@ describe("moldgate in the browser", () => {
     assert.deepEqual(bar, { hidden: false, field: "height along D" });
   });
 
+  test("a gate the part hides from the view's side is ringed faintly", async () => {
+    await page.selectOption("#demold", "+z");
+    assert.equal(await studySample(page, "cover"), "done");
+    const hidden = (n) =>
+      page.waitForFunction((n) => document.querySelector("#viewport").dataset.gatesHidden === n, n, { timeout: 20_000 });
+    // Along D, from the side the mould opens to, the paper's gate is the surface the node's
+    // ray meets first: in sight.
+    await page.click("#view-d");
+    await hidden("0");
+    const png = await page.locator("#viewport").screenshot();
+    const seen = (await pixelStats(page, png)).red;
+    // Turned over (a drag up by half the view's height turns the camera by half a turn),
+    // the cover's top hides it.
+    const box = await page.locator("#viewport").boundingBox();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height * 0.75);
+    await page.mouse.down();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height * 0.25, { steps: 10 });
+    await page.mouse.up();
+    await hidden("1");
+    const faint = (await pixelStats(page, await page.locator("#viewport").screenshot())).red;
+    assert.ok(faint < seen / 2, `${faint} red pixels behind the part, ${seen} in sight`);
+    await page.click("#reset-view");
+  });
+
   test("bad files show the library's message and the next file still works", async () => {
     const cases = [
       ["empty.stl", Buffer.alloc(0), /empty\.stl: empty file/],
