@@ -392,7 +392,7 @@ fn length_text(x: f64) -> String {
 
 /// `x` to four significant digits, without trailing zeros (a spacing computed from f32
 /// coordinates, 0.7979999923706055, reads 0.798).
-fn figures(x: f64) -> String {
+pub(crate) fn figures(x: f64) -> String {
     if !(x.is_finite() && x != 0.0) {
         return x.to_string();
     }

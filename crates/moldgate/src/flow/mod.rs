@@ -201,6 +201,7 @@ fn check_limits(
             dense,
             options.max_cells,
             h,
+            3.0,
         ));
     }
     let (v, a) = volume_area;
@@ -211,6 +212,7 @@ fn check_limits(
             solid,
             options.max_solid_cells,
             h,
+            3.0,
         ));
     }
     let keep: Vec<bool> = body_of.iter().map(|&b| b != u32::MAX).collect();
@@ -226,6 +228,7 @@ fn check_limits(
             samples,
             options.max_samples,
             h,
+            2.0,
         ));
     }
     Ok(())
@@ -267,8 +270,37 @@ fn choose_cell(
                 MAX_CELL_OF_DIAGONAL * diagonal
             )));
         }
-        check_limits(mesh, body_of, h, volume_area, options)?;
-        return Ok((h, None));
+        return match check_limits(mesh, body_of, h, volume_area, options) {
+            Ok(()) => Ok((h, None)),
+            // The least cell that keeps every limit, not only the one broken first: from
+            // that one's estimate, stepped as the cell chosen by itself is.
+            Err(FillError::TooLarge {
+                what,
+                count,
+                limit,
+                cell_mm,
+                least_cell_mm,
+            }) => {
+                let mut least = least_cell_mm.max(h);
+                let most = MAX_CELL_OF_DIAGONAL * diagonal;
+                for _ in 0..400 {
+                    if least > most
+                        || check_limits(mesh, body_of, least, volume_area, options).is_ok()
+                    {
+                        break;
+                    }
+                    least *= 1.05;
+                }
+                Err(FillError::TooLarge {
+                    what,
+                    count,
+                    limit,
+                    cell_mm,
+                    least_cell_mm: least,
+                })
+            }
+            Err(e) => Err(e),
+        };
     }
     let mut h = (nominal_wall_mm / 2.0).min(diagonal / 120.0);
     if !(h.is_finite() && h > 0.0) {
@@ -2291,7 +2323,7 @@ pub enum FillError {
     #[error("the fill analysis was cancelled")]
     Cancelled,
     /// The work would break a limit of [`FlowOptions`]; nothing was allocated.
-    #[error("{what}: {count:.3e} at a cell of {cell_mm:.4} mm, over the limit of {limit:.3e} (FlowOptions); choose a coarser cell")]
+    #[error("{what}: {count:.3e} at a cell of {cell} mm, over the limit of {limit:.3e}; choose a cell of at least {least} mm", cell = crate::error::figures(*.cell_mm), least = crate::error::figures(*.least_cell_mm))]
     TooLarge {
         /// What is counted.
         what: &'static str,
@@ -2301,16 +2333,29 @@ pub enum FillError {
         limit: f64,
         /// The cell side it was counted at, mm.
         cell_mm: f64,
+        /// About the least cell side that keeps the limit, mm.
+        least_cell_mm: f64,
     },
 }
 
 impl FillError {
-    pub(crate) fn too_large(what: &'static str, count: f64, limit: f64, cell_mm: f64) -> Self {
+    /// The refusal of `count` of `what` at cells of `cell_mm`, over `limit`; the count
+    /// grows as the cell's side to the power `-power` (3 for cells, 2 for surface samples),
+    /// which gives the least side that keeps the limit (with 5 % to spare, for the grid's
+    /// spare layers).
+    pub(crate) fn too_large(
+        what: &'static str,
+        count: f64,
+        limit: f64,
+        cell_mm: f64,
+        power: f64,
+    ) -> Self {
         FillError::TooLarge {
             what,
             count,
             limit,
             cell_mm,
+            least_cell_mm: cell_mm * (count / limit).powf(1.0 / power) * 1.05,
         }
     }
 }
@@ -2478,6 +2523,7 @@ pub fn prepare(
             voxels.len() as f64,
             options.flow.max_solid_cells,
             h,
+            3.0,
         ));
     }
     Ok(Cells {
@@ -2557,6 +2603,7 @@ pub fn analyse_prepared(
                 work,
                 options.flow.max_march_cells,
                 voxels.h,
+                3.0,
             ));
         }
     }

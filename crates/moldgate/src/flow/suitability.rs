@@ -146,6 +146,7 @@ pub fn suitability(
             work,
             max_march_cells,
             v.h,
+            3.0,
         ));
     }
     // Nodes by their cell; nodes sharing a cell share its bounds.

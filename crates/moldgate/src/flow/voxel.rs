@@ -325,6 +325,7 @@ impl Voxels {
                 dense,
                 limits.max_cells,
                 h,
+                3.0,
             ));
         }
         let samples = samples_for(mesh, h, Some(&keep));
@@ -334,6 +335,7 @@ impl Voxels {
                 samples,
                 limits.max_samples,
                 h,
+                2.0,
             ));
         }
         Ok(Self::build(mesh, h, body_of))

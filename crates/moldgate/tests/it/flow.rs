@@ -615,8 +615,34 @@ fn fill_refuses_a_fine_cell_over_the_solid_cell_limit_before_the_work() {
         },
     )
     .unwrap_err();
-    assert!(matches!(e, flow::FillError::TooLarge { .. }), "{e}");
     eprintln!("{e} ({:.0} ms)", t.elapsed().as_secs_f64() * 1e3);
+    let flow::FillError::TooLarge { least_cell_mm, .. } = e else {
+        panic!("not a refusal of the limits: {e}");
+    };
+    assert!(
+        e.to_string()
+            .contains(&format!("choose a cell of at least {} mm", {
+                let s = format!("{least_cell_mm:.4}");
+                s.trim_end_matches('0').to_string()
+            })),
+        "{e}"
+    );
+    // The cell it names keeps every limit (not only the one broken first), and one 5 %
+    // finer does not: the least, within the step of the cell chosen without one.
+    let with = |h: f64| {
+        analyse_with(
+            &cover,
+            flow::FlowOptions {
+                cell_mm: Some(h),
+                ..flow::FlowOptions::default()
+            },
+        )
+    };
+    assert!(with(least_cell_mm).is_ok(), "{least_cell_mm}");
+    assert!(
+        matches!(with(least_cell_mm / 1.05), Err(flow::FillError::TooLarge { .. })),
+        "{least_cell_mm}"
+    );
 }
 
 #[test]
