@@ -155,7 +155,7 @@ pub struct LocateArgs {
     /// Grid spacing in mm [default: min(R_gate, longest projected side / 100)].
     #[arg(long, value_name = "MM", allow_hyphen_values = true)]
     pub spacing: Option<f64>,
-    /// Shift the grid by this fraction of the spacing along both axes.
+    /// Shift the grid by this fraction of the spacing along both axes (above -1, below 1).
     #[arg(
         long,
         default_value_t = 0.0,

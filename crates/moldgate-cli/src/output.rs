@@ -101,7 +101,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
         )));
     }
     sweep_stale(dir);
-    let mut tmp = temporary_in(dir).map_err(|e| fail(&e))?;
+    // The file is written beside its target first: an error here is the folder's (a
+    // read-only folder, or a file system such as /proc that makes no new files).
+    let mut tmp = temporary_in(dir).map_err(|e| {
+        fail(&format_args!(
+            "no file can be created in its folder {} ({e})",
+            dir.display()
+        ))
+    })?;
     let registered = tmp.path().to_path_buf();
     let result = tmp
         .as_file_mut()

@@ -82,7 +82,7 @@ def test_an_object_without_arrays():
         ({"fill": None}, "fill: invalid type: null, expected a boolean"),
         ({"material": 3}, "material: .*expected a material name or a table of its parameters"),
         ({"material": {"n": "x"}}, 'material.n: invalid type: string "x", expected a number'),
-        ({"demold": "sideways"}, "demold: cannot read demolding direction 'sideways'"),
+        ({"demold": "sideways"}, "demold: cannot read direction 'sideways'"),
         ({"demold": "0,0,0"}, "demolding direction must be a non-zero"),
         ({"material": "WOOD"}, r"unknown material 'WOOD'"),
         ({"strategy": "best"}, "unknown variant `best`, expected `paper` or `balanced`"),

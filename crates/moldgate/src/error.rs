@@ -164,10 +164,10 @@ pub enum LoadError {
 #[derive(Debug, Error, PartialEq)]
 pub enum OptionsError {
     /// The demolding direction has zero length or is not finite.
-    #[error("the demolding direction must be a non-zero finite vector, got ({0}, {1}, {2})")]
+    #[error("a direction must be a non-zero finite vector, got ({0}, {1}, {2})")]
     ZeroDirection(f64, f64, f64),
     /// A demolding direction that cannot be parsed.
-    #[error("cannot read demolding direction '{0}': expected +x, -y, ... or three numbers x,y,z")]
+    #[error("cannot read direction '{0}': expected +x, -y, ... or three numbers x,y,z")]
     BadDirection(String),
     /// A material parameter that must be positive is not.
     #[error("material '{material}': {parameter} must be a positive finite number, got {value:?}")]
@@ -213,6 +213,10 @@ pub enum OptionsError {
         /// Its value.
         value: f64,
     },
+    /// A grid offset that is not a fraction of the spacing: a shift of a spacing or more
+    /// would move the grid off one side of the part.
+    #[error("grid offset must be a fraction of the spacing, above -1 and below 1, got {0}")]
+    GridOffset(f64),
     /// The grid would have more nodes than the limit.
     #[error(
         "a spacing of {} mm gives a grid of {n_u} x {n_w} = {} nodes, more than the limit of {limit}; {}",
@@ -320,6 +324,7 @@ impl OptionsError {
                 named(option)
             }
             OptionsError::GridTooLarge { .. } => Some("spacing"),
+            OptionsError::GridOffset(_) => Some("grid_offset"),
             OptionsError::RayMemory { .. } => Some("max_nodes"),
             OptionsError::BadRegion(_) => Some("keep_out"),
             OptionsError::ZeroDirection(..) | OptionsError::BadDirection(_) => Some("demold"),

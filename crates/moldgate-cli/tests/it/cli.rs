@@ -251,10 +251,7 @@ fn unreadable_demolding_direction() {
         assert_fails(
             &out,
             USAGE,
-            &[
-                "--demold",
-                &format!("cannot read demolding direction '{text}'"),
-            ],
+            &["--demold", &format!("cannot read direction '{text}'")],
         );
     }
 }
@@ -315,7 +312,14 @@ fn non_positive_lengths_and_counts() {
             &["--flat-tol", "-0.1"],
             "--flat-tol must be zero or positive",
         ),
-        (&["--grid-offset", "inf"], "--grid-offset must be a finite"),
+        (
+            &["--grid-offset", "inf"],
+            "--grid-offset must be a fraction of the spacing",
+        ),
+        (
+            &["--grid-offset", "1"],
+            "--grid-offset must be a fraction of the spacing, above -1 and below 1, got 1",
+        ),
         (&["--max-nodes", "0"], "--max-nodes must be between 1 and"),
         // Clap's own errors are one line too.
         (&["--n", "abc"], "invalid value 'abc' for '--n"),

@@ -226,11 +226,8 @@ impl LocateOptions {
                 });
             }
         }
-        if !self.grid_offset.is_finite() {
-            return Err(OptionsError::NonPositive {
-                option: "grid offset",
-                value: self.grid_offset,
-            });
+        if !(self.grid_offset.abs() < 1.0) {
+            return Err(OptionsError::GridOffset(self.grid_offset));
         }
         if let Some(t) = self.flat_tolerance_mm {
             if !(t.is_finite() && t >= 0.0) {

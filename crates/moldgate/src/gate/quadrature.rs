@@ -64,11 +64,8 @@ impl Grid {
                 value: spacing,
             });
         }
-        if !offset.is_finite() {
-            return Err(OptionsError::NonPositive {
-                option: "grid offset",
-                value: offset,
-            });
+        if !(offset.abs() < 1.0) {
+            return Err(OptionsError::GridOffset(offset));
         }
         let span = hi - lo;
         let count = |s: f64| (s / spacing + 1e-9).floor() + 1.0;

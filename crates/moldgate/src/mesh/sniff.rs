@@ -56,7 +56,9 @@ pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
             "give it a .ply extension so that it is read as PLY",
         )
     } else if text && is_text(head) && (head.len() >= 84 || std::str::from_utf8(head).is_ok()) {
-        if trimmed.starts_with(b"v ") || trimmed.starts_with(b"#") || contains(head, b"\nv ") {
+        // A vertex statement, at the start or on a later line (a comment line alone, as in
+        // any notes or Markdown file, is no sign of OBJ).
+        if trimmed.starts_with(b"v ") || contains(head, b"\nv ") {
             (
                 "a text file that looks like a Wavefront OBJ",
                 "give it an .obj extension so that it is read as OBJ",
@@ -129,6 +131,12 @@ mod tests {
             (b"ply\nformat ascii 1.0\n", "PLY"),
             (&b"# made by hand\nv 0 0 0\n".repeat(8), "OBJ"),
             (&b"hello, this is a note\n".repeat(8), "not an ASCII STL"),
+            // Comment lines alone are not OBJ: a Markdown file, a shell script.
+            (
+                &b"# moldgate\n\n```bash\ncargo run\n```\n".repeat(4),
+                "not an ASCII STL",
+            ),
+            (b"# notes\nsome text\n", "short text file"),
         ] {
             let w = what(head).unwrap_or_else(|| panic!("{name} not recognised"));
             assert!(w.contains(name), "{name}: {w}");

@@ -513,8 +513,14 @@ impl StudyOptions {
             Some(h) => Spacing::Mm(positive("spacing", h)?),
             None => Spacing::Auto,
         };
-        if !self.grid_offset.is_finite() {
-            return Err(invalid("grid_offset", "must be a finite number"));
+        if !(self.grid_offset.abs() < 1.0) {
+            return Err(invalid(
+                "grid_offset",
+                format!(
+                    "must be a fraction of the spacing, above -1 and below 1, got {}",
+                    self.grid_offset
+                ),
+            ));
         }
         if self.circle_points < 3 {
             return Err(invalid(
@@ -968,7 +974,7 @@ color_by = "flow_length"
             (r#"{ "cell": 0 }"#, "cell must be a positive number, got 0"),
             (
                 r#"{ "demold": "sideways" }"#,
-                "demold: cannot read demolding direction",
+                "demold: cannot read direction",
             ),
             (
                 r#"{ "keep_out": ["cube:1"] }"#,
@@ -976,7 +982,7 @@ color_by = "flow_length"
             ),
             (
                 r#"{ "cosmetic": "0,0,0" }"#,
-                "cosmetic: the demolding direction must be",
+                "cosmetic: a direction must be",
             ),
             (r#"{ "n": -1 }"#, "n must be a positive finite number"),
             (

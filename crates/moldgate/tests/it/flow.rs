@@ -640,7 +640,10 @@ fn fill_refuses_a_fine_cell_over_the_solid_cell_limit_before_the_work() {
     };
     assert!(with(least_cell_mm).is_ok(), "{least_cell_mm}");
     assert!(
-        matches!(with(least_cell_mm / 1.05), Err(flow::FillError::TooLarge { .. })),
+        matches!(
+            with(least_cell_mm / 1.05),
+            Err(flow::FillError::TooLarge { .. })
+        ),
         "{least_cell_mm}"
     );
 }
