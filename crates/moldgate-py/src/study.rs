@@ -64,13 +64,15 @@ fn settings(json: &str, materials_file: Option<&Path>) -> Result<Settings, Strin
         Some(p) => read_materials(p)?,
         None => Vec::new(),
     };
-    o.validate_with(&user).map_err(|e| e.to_string())
+    o.validate_with(&user)
+        .map_err(|e| moldgate::study::keyword_words(&e.to_string(), "True"))
 }
 
 /// The exception of a study that could not be made, and the batch status it stands for
 /// (the command line's exit codes for the same errors).
 fn study_error(e: &StudyError) -> (Status, PyErrBox) {
-    let m = e.to_string();
+    // The options named as this package's arguments, not the command line's flags.
+    let m = moldgate::study::keyword_words(&e.to_string(), "True");
     match e {
         StudyError::Invalid { .. }
         | StudyError::Parse { .. }

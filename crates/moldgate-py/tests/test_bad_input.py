@@ -83,7 +83,10 @@ def test_an_object_without_arrays():
         ({"material": 3}, "material: .*expected a material name or a table of its parameters"),
         ({"material": {"n": "x"}}, 'material.n: invalid type: string "x", expected a number'),
         ({"demold": "sideways"}, "demold: cannot read direction 'sideways'"),
-        ({"demold": "0,0,0"}, "demolding direction must be a non-zero"),
+        ({"demold": "0,0,0"}, "demold: a direction must be a non-zero"),
+        ({"grid_offset": 1.5}, "grid_offset must be a fraction of the spacing, above -1 and below 1, got 1.5"),
+        # Advice names this package's arguments, not the command line's flags.
+        ({"spacing": 1e-9}, r"or raise the node limit \(max_nodes\)$"),
         ({"material": "WOOD"}, r"unknown material 'WOOD'"),
         ({"strategy": "best"}, "unknown variant `best`, expected `paper` or `balanced`"),
         ({"keep_out": ["cube:1,2,3"]}, "keep_out: cannot read keep-out region 'cube:1,2,3'"),

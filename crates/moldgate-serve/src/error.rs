@@ -70,7 +70,8 @@ impl ApiError {
 
     /// The error of a study that could not be made.
     pub fn study(e: &StudyError) -> ApiError {
-        let message = e.to_string();
+        // The options named as this service's query parameters, not the command line's flags.
+        let message = moldgate::study::keyword_words(&e.to_string(), "true");
         match e {
             StudyError::Invalid { field, .. }
             | StudyError::Parse { field, .. }

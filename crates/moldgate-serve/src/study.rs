@@ -213,7 +213,7 @@ fn plain_format(query_format: Option<&str>, headers: &HeaderMap) -> Result<Forma
             format!("Content-Type '{media}'")
         };
         unknown_format(format!(
-            "{said} names no mesh format: send model/stl, model/obj or application/x-ply, or give format={{{}}}",
+            "{said}: the mesh's format is not named; send model/stl, model/obj or application/x-ply, or give format={{{}}}",
             FORMATS.replace(", ", ",")
         ))
         .at("Content-Type")
@@ -452,7 +452,10 @@ fn work(
         let mut e = ApiError::new(
             StatusCode::UNPROCESSABLE_ENTITY,
             "no_gate",
-            format!("no gate: {reason}"),
+            format!(
+                "no gate: {}",
+                moldgate::study::keyword_words(reason, "true")
+            ),
         );
         e.report = serde_json::to_value(report).ok();
         return Err(e);
@@ -488,7 +491,7 @@ fn settings(
     let options = study_options(object)?;
     if options.max_nodes > max_nodes {
         return Err(ApiError::options(format!(
-            "max_nodes must be at most {max_nodes} on this server (--max-nodes), got {}",
+            "max_nodes must be at most {max_nodes} on this server (its operator sets it: moldgate serve --max-nodes), got {}",
             options.max_nodes
         ))
         .at("max_nodes"));

@@ -377,6 +377,12 @@ fn bad_options_are_400_with_the_librarys_message() {
             "spacing",
             "a spacing of 0.0001 mm gives a grid",
         ),
+        // Advice names the query's parameters, not the command line's flags.
+        (
+            "spacing=0.0001",
+            "spacing",
+            "raise the node limit (max_nodes)",
+        ),
         ("flat_tol=-1", "flat_tol", "flat"),
     ];
     for (query, place, needle) in cases {
@@ -387,6 +393,12 @@ fn bad_options_are_400_with_the_librarys_message() {
             e["message"].as_str().unwrap().contains(needle),
             "{query}: {e}"
         );
+        // Only the server's own setting is named as its flag, for its operator.
+        let message = e["message"]
+            .as_str()
+            .unwrap()
+            .replace("moldgate serve --max-nodes", "");
+        assert!(!message.contains("--"), "{query}: {e}");
     }
 }
 

@@ -23,6 +23,7 @@
 pub mod judge;
 mod options;
 mod run;
+mod words;
 
 pub use options::{
     CentreChoice, ColorByChoice, Demold, JsonOptionsError, MaterialChoice, NearestChoice,
@@ -30,6 +31,7 @@ pub use options::{
     MAX_NODES_LIMIT,
 };
 pub use run::{GateMarker, Study};
+pub use words::keyword_words;
 
 pub use crate::cancel::Cancel;
 use crate::error::OptionsError;

@@ -1,0 +1,150 @@
+//! The library's messages in the words of a front end whose options are keywords (the
+//! Python package's arguments, the service's query parameters): a message advises the
+//! command line's flags (`--cell 0.375`, `or --aesthetic`), which those front ends name
+//! as options (`cell=0.375`, `aesthetic=true`).
+
+/// Options that are switches: `--aesthetic` is `aesthetic` set true.
+const SWITCHES: &[&str] = &[
+    "aesthetic",
+    "fill",
+    "fit_radius",
+    "require_flat",
+    "suitability",
+    "wall_thickness",
+];
+
+/// Options that take a value: `--cell 0.375` is `cell=0.375`, `(--max-nodes)` is
+/// `(max_nodes)`. `units` is the part's, not the study's, but a keyword of both front ends.
+const VALUES: &[&str] = &[
+    "cell",
+    "centre",
+    "circle_points",
+    "color_by",
+    "cosmetic",
+    "demold",
+    "flat_tol",
+    "gamma_opt",
+    "gate_at",
+    "gate_radius",
+    "gates",
+    "grid_offset",
+    "k",
+    "keep_out",
+    "material",
+    "max_nodes",
+    "mu_opt",
+    "n",
+    "nearest",
+    "objective",
+    "parting_line",
+    "spacing",
+    "strategy",
+    "t_melt",
+    "t_wall",
+    "thickness_rule",
+    "units",
+];
+
+/// `message` with every command-line flag of a study option named as its keyword: a switch
+/// as `key=truth` (`"true"` for the service's query, `"True"` for Python), a flag with a
+/// value after it as `key=value`, any other as `key`. Flags of no option (`--json`) stay.
+pub fn keyword_words(message: &str, truth: &str) -> String {
+    let mut out = String::with_capacity(message.len() + 16);
+    let mut rest = message;
+    while let Some(at) = rest.find("--") {
+        out.push_str(&rest[..at]);
+        let after = &rest[at + 2..];
+        let len = after
+            .find(|c: char| !(c.is_ascii_lowercase() || c == '-'))
+            .unwrap_or(after.len());
+        let flag = after[..len].trim_end_matches('-');
+        let key = flag.replace('-', "_");
+        let tail = &after[flag.len()..];
+        if SWITCHES.contains(&key.as_str()) {
+            out.push_str(&key);
+            out.push('=');
+            out.push_str(truth);
+            rest = tail;
+        } else if VALUES.contains(&key.as_str()) {
+            out.push_str(&key);
+            rest = tail;
+            // A value right after the flag: a number, or a word (`length`, `in`).
+            if let Some(value) = tail.strip_prefix(' ') {
+                let end = value
+                    .find(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | ')'))
+                    .unwrap_or(value.len());
+                let word = &value[..end];
+                let is_value = word.parse::<f64>().is_ok()
+                    || (!word.is_empty()
+                        && word.chars().all(|c| c.is_ascii_lowercase())
+                        && !matches!(word, "or" | "and" | "to" | "keeps" | "minimises"));
+                if is_value {
+                    out.push('=');
+                    out.push_str(word);
+                    rest = &value[end..];
+                }
+            }
+        } else {
+            out.push_str("--");
+            rest = after;
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_become_keywords_and_values_stay_with_them() {
+        for (cli, keywords) in [
+            (
+                "try another demolding direction, or --aesthetic",
+                "try another demolding direction, or aesthetic=true",
+            ),
+            (
+                "use a spacing of at least 0.049 mm, or raise the node limit (--max-nodes)",
+                "use a spacing of at least 0.049 mm, or raise the node limit (max_nodes)",
+            ),
+            (
+                "flow lengths are rough; try --cell 0.375",
+                "flow lengths are rough; try cell=0.375",
+            ),
+            (
+                "--objective length minimises the longest flow path instead",
+                "objective=length minimises the longest flow path instead",
+            ),
+            (
+                "a slope; --require-flat keeps only flat nodes)",
+                "a slope; require_flat=true keeps only flat nodes)",
+            ),
+            (
+                "set its units to in, cm or m (--units)",
+                "set its units to in, cm or m (units)",
+            ),
+            (
+                "print it with --json; -- alone",
+                "print it with --json; -- alone",
+            ),
+            ("no flag at all", "no flag at all"),
+        ] {
+            assert_eq!(keyword_words(cli, "true"), keywords);
+        }
+        assert_eq!(keyword_words("or --fill", "True"), "or fill=True");
+    }
+
+    #[test]
+    fn every_keyword_is_an_option_of_the_study() {
+        // Each key is accepted by the study's options (`units` is the part's).
+        for key in SWITCHES.iter().chain(VALUES).filter(|&&k| k != "units") {
+            let json = format!("{{\"{key}\": null}}");
+            let e = serde_json::from_str::<super::super::StudyOptions>(&json)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(!e.contains("unknown field"), "{key}: {e}");
+        }
+    }
+}
