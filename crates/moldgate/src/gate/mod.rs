@@ -226,7 +226,7 @@ impl LocateOptions {
                 });
             }
         }
-        if !(self.grid_offset.abs() < 1.0) {
+        if !(self.grid_offset.is_finite() && self.grid_offset.abs() < 1.0) {
             return Err(OptionsError::GridOffset(self.grid_offset));
         }
         if let Some(t) = self.flat_tolerance_mm {

@@ -64,7 +64,7 @@ impl Grid {
                 value: spacing,
             });
         }
-        if !(offset.abs() < 1.0) {
+        if !(offset.is_finite() && offset.abs() < 1.0) {
             return Err(OptionsError::GridOffset(offset));
         }
         let span = hi - lo;

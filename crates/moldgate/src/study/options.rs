@@ -513,7 +513,7 @@ impl StudyOptions {
             Some(h) => Spacing::Mm(positive("spacing", h)?),
             None => Spacing::Auto,
         };
-        if !(self.grid_offset.abs() < 1.0) {
+        if !(self.grid_offset.is_finite() && self.grid_offset.abs() < 1.0) {
             return Err(invalid(
                 "grid_offset",
                 format!(
