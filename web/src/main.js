@@ -226,6 +226,7 @@ async function analyse({ keepCamera = false } = {}) {
     $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(extras.field);
     showColourBar(extras.suitability ?? extras.field);
+    offerColourings(report);
     $("downloads").hidden = false;
     $("status").textContent = report.gate
       ? `Gate found for ${part.name} in ${(total / 1000).toFixed(2)} s.`
@@ -259,6 +260,22 @@ function showColourBar(field) {
   $("colour-bar-max").textContent = `${field.max.toFixed(digits)}${unit}`;
   bar.dataset.field = field.name;
   bar.hidden = false;
+}
+
+/** The colourings this study can show: the wall thickness once measured, the fill order
+ * once the fill is analysed; the others are offered disabled, saying what they need. */
+function offerColourings(report) {
+  const needs = {
+    2: [report.wall_thickness, "needs 'Measure the wall thickness everywhere'"],
+    3: [report.fill, "needs 'Fill analysis'"],
+  };
+  for (const option of $("colouring").options) {
+    const need = needs[option.value];
+    if (!need) continue;
+    option.dataset.name ??= option.textContent;
+    option.disabled = !need[0];
+    option.textContent = need[0] ? option.dataset.name : `${option.dataset.name} (${need[1]})`;
+  }
 }
 
 async function recolour() {

@@ -185,6 +185,15 @@ describe("moldgate in the browser", () => {
     assert.ok(s.red > 50, `only ${s.red} red pixels: no gate marker?`);
     const bar = await page.$eval("#colour-bar", (e) => ({ hidden: e.hidden, field: e.dataset.field }));
     assert.deepEqual(bar, { hidden: false, field: "height along D" });
+    // Without the walls measured or the fill analysed, their colourings are offered
+    // disabled, saying what they need (not chosen, then refused over the view).
+    const offered = await page.$$eval("#colouring option", (os) => os.map((o) => [o.value, o.disabled, o.textContent]));
+    assert.deepEqual(offered, [
+      ["0", false, "as studied"],
+      ["1", false, "height along D"],
+      ["2", true, "wall thickness (needs 'Measure the wall thickness everywhere')"],
+      ["3", true, "fill order (fill time) (needs 'Fill analysis')"],
+    ]);
   });
 
   test("a gate the part hides from the view's side is ringed faintly", async () => {
