@@ -905,18 +905,16 @@ fn draw_qualifying(
             continue;
         }
         let (x, y) = (q.x - rect.x as f64, q.y - rect.y as f64);
-        let x0 = (x - half).round().max(0.0) as usize;
-        let x1 = ((x + half).round() as usize).min(w);
-        let y0 = (y - half).round().max(0.0) as usize;
-        let y1 = ((y + half).round() as usize).min(h);
+        let (x0, x1) = square_span(x, half, w);
+        let (y0, y1) = square_span(y, half, h);
         for row in y0..y1 {
-            mask[row * w + x0.min(x1)..row * w + x1].fill(true);
+            mask[row * w + x0..row * w + x1].fill(true);
         }
         if let Some(f) = &scene.node_field {
             let v = f.per_node.get(i).copied().unwrap_or(f32::NAN);
             let c = lut.rgb(range.unit(v));
             for row in y0..y1 {
-                colour[row * w + x0.min(x1)..row * w + x1].fill(Some(c));
+                colour[row * w + x0..row * w + x1].fill(Some(c));
             }
         }
     }
@@ -943,6 +941,18 @@ fn draw_qualifying(
             }
         }
     }
+}
+
+/// The pixels, first and past the last, of a node's square `centre - half` to `centre +
+/// half` along one axis of a panel `len` pixels long: every pixel the square touches, so
+/// that neighbouring squares meet or overlap by a pixel. (Rounding each side instead, an
+/// edge at a pixel's half could round one way for one node and the other way for its
+/// neighbour, one ulp apart: a column of pixels between them, outlined as if the region
+/// were split there.)
+fn square_span(centre: f64, half: f64, len: usize) -> (usize, usize) {
+    let first = (centre - half).floor().max(0.0) as usize;
+    let end = ((centre + half).ceil().max(0.0) as usize).min(len);
+    (first.min(end), end)
 }
 
 /// A label's box in pixels: left, top, right, bottom.
@@ -1730,6 +1740,40 @@ fn capitalised(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn neighbouring_node_squares_leave_no_pixel_between_them() {
+        // Nodes a spacing apart whose squares' edges fall on pixels' halves (the grid
+        // centred on a symmetric part), and at other phases; the centres computed as a
+        // projection does, so an edge may be an ulp either side of the half.
+        for (spacing, phase) in [(3.0, 0.5), (2.5, 0.25), (4.14, 0.0), (1.0, 0.5), (7.0, 0.5)] {
+            let half = 0.5 * spacing;
+            for start in [10.0, 10.1, 333.3] {
+                let centres: Vec<f64> = (0..60)
+                    .map(|k| (start + phase + k as f64 * spacing) * 0.1 * 10.0)
+                    .collect();
+                for pair in centres.windows(2) {
+                    let (a, b) = (
+                        square_span(pair[0], half, 2000),
+                        square_span(pair[1], half, 2000),
+                    );
+                    assert!(b.0 <= a.1, "{pair:?}: {a:?} then {b:?}");
+                    assert!(
+                        a.1 - b.0 <= 1,
+                        "{pair:?}: {a:?} and {b:?} overlap by more than a pixel"
+                    );
+                }
+            }
+        }
+        // The split the rounding of each side made: one edge an ulp short of a pixel's
+        // half (11.5), the neighbour's on it; rounded, pixel 11 belonged to neither.
+        let (a, b) = (square_span(10.0 - 1e-12, 1.5, 100), square_span(13.0, 1.5, 100));
+        assert!(b.0 <= a.1, "{a:?} then {b:?}");
+        // Clamped to the panel, never reversed.
+        assert_eq!(square_span(-5.0, 1.5, 100), (0, 0));
+        assert_eq!(square_span(99.5, 1.5, 100), (98, 100));
+        assert_eq!(square_span(200.0, 1.5, 100), (100, 100));
+    }
 
     #[test]
     fn the_part_is_kept_out_of_the_axes_box() {
