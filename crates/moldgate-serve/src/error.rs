@@ -51,7 +51,20 @@ impl ApiError {
 
     /// 422: the mesh cannot be read.
     pub fn mesh(e: &LoadError) -> ApiError {
-        let e422 = ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", e.to_string());
+        let message = match e {
+            // A file read as STL that is an OBJ or a PLY: here its format is named by the
+            // request, not by a file name's extension.
+            LoadError::NotAMesh { what, advice } if advice.contains("extension") => {
+                let (media, format) = if what.contains("PLY") {
+                    ("application/x-ply", "ply")
+                } else {
+                    ("model/obj", "obj")
+                };
+                format!("this is {what}, not an STL: send it as {media}, or give format={format}")
+            }
+            _ => e.to_string(),
+        };
+        let e422 = ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message);
         match e {
             LoadError::Syntax { place, .. } | LoadError::NonFinite { place, .. } => {
                 e422.at(place.to_string())

@@ -449,6 +449,16 @@ fn malformed_meshes_are_422_with_their_place() {
     assert_eq!(assert_error(&s, &r, 422, "mesh")["where"], "line 4");
     let r = study_stl(s.addr, "", b"");
     assert_error(&s, &r, 422, "mesh");
+    // An OBJ sent as STL is named, with the request's way to say OBJ (no file name here).
+    let obj = b"# a part\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".repeat(6);
+    let e = assert_error(&s, &study_stl(s.addr, "", &obj), 422, "mesh");
+    assert!(
+        e["message"]
+            .as_str()
+            .unwrap()
+            .ends_with("not an STL: send it as model/obj, or give format=obj"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -1767,7 +1767,10 @@ mod tests {
         }
         // The split the rounding of each side made: one edge an ulp short of a pixel's
         // half (11.5), the neighbour's on it; rounded, pixel 11 belonged to neither.
-        let (a, b) = (square_span(10.0 - 1e-12, 1.5, 100), square_span(13.0, 1.5, 100));
+        let (a, b) = (
+            square_span(10.0 - 1e-12, 1.5, 100),
+            square_span(13.0, 1.5, 100),
+        );
         assert!(b.0 <= a.1, "{a:?} then {b:?}");
         // Clamped to the panel, never reversed.
         assert_eq!(square_span(-5.0, 1.5, 100), (0, 0));
