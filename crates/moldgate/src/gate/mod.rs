@@ -814,7 +814,15 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
     };
     let grid_gate = pick(options.nearest);
     if let Some(g) = grid_gate.filter(|g| !g.flat) {
-        warnings.push(not_flat_warning(nodes[g.node].step, flat_tolerance_mm));
+        // Where the gate would be on a flat seat: the node `--require-flat` takes.
+        let flat: Vec<usize> = pool.iter().copied().filter(|&i| nodes[i].flat).collect();
+        let seat = nearest_node(&flat, &grid, &frame, centre, centre_hits, options.nearest)
+            .map(|(i, _)| frame.point(grid.node(i), centre_hits[i].first));
+        warnings.push(not_flat_warning(
+            nodes[g.node].step,
+            flat_tolerance_mm,
+            seat.map(|p| (p, p.distance(g.point))),
+        ));
     }
     let other_rule_gate = pick(match options.nearest {
         Nearest::Surface3d => Nearest::Plane2d,
@@ -988,9 +996,16 @@ pub(crate) struct NodeVerdict {
 /// height along D. It is one of the analysis's warnings, so every front end (the summary,
 /// the JSON, the page, the batch rows) says it alike. `step` is the node's
 /// ([`NodeVerdict::step`]).
-fn not_flat_warning(step: f64, flat_tol: f64) -> String {
+fn not_flat_warning(step: f64, flat_tol: f64, seat: Option<(DVec3, f64)>) -> String {
+    let instead = match seat {
+        Some((p, d)) => format!(
+            "the nearest flat seat is at ({:.3}, {:.3}, {:.3}) mm, {d:.2} mm away (--require-flat keeps only flat nodes)",
+            p.x, p.y, p.z
+        ),
+        None => "no qualifying node is flat".into(),
+    };
     format!(
-        "the grid gate's disc is not flat: its circle reaches {step:.2} mm off the gate's height along D (a step, rib or slope; flatness tolerance {flat_tol:.3} mm; --require-flat keeps only flat nodes)"
+        "the grid gate's disc is not flat: its circle reaches {step:.2} mm off the gate's height along D (a step, rib or slope; flatness tolerance {flat_tol:.3} mm); {instead}"
     )
 }
 

@@ -295,6 +295,19 @@ fn a_grid_gate_on_a_rib_is_warned_not_flat_alike_in_the_report_and_the_page() {
         .find(|w| w.contains("not flat"))
         .unwrap_or_else(|| panic!("no flatness warning in {:?}", s.report().warnings));
     assert!(warning.contains("1.00 mm"), "{warning}");
+    // It names the seat the flat rule would take instead, and how far that is.
+    let flat = study(&part, &options(r#"{"demold": "+z", "require_flat": true}"#)).unwrap();
+    let seat = flat.report().gate.as_ref().unwrap().point;
+    let away = (0..3)
+        .map(|k| (seat[k] - gate.point[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let named = format!(
+        "the nearest flat seat is at ({:.3}, {:.3}, {:.3}) mm, {away:.2} mm away",
+        seat[0], seat[1], seat[2]
+    );
+    assert!(warning.contains(&named), "{warning} lacks {named}");
+    assert!(away > 0.5, "{away}");
     let page = s.html(None).unwrap();
     assert!(
         page.contains(&moldgate::html::escape(warning)),
