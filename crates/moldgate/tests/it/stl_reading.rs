@@ -731,10 +731,24 @@ fn negative_zero_welds_with_zero() {
 fn welding_is_exact_not_by_tolerance() {
     // A corner one float step away is another vertex: the cube opens along its edges.
     let mut facets = cube([0.0; 3], 10.0);
-    facets[0][0][0] = f32::from_bits(1); // the smallest positive subnormal instead of 0.0
+    let (f, c, k) = (0..facets.len())
+        .flat_map(|f| (0..3).flat_map(move |c| (0..3).map(move |k| (f, c, k))))
+        .find(|&(f, c, k)| facets[f][c][k] == 10.0)
+        .expect("a corner at 10");
+    facets[f][c][k] = 10.0f32.next_up();
     let part = read_mm(&binary(b"cube", &facets));
     assert_eq!(part.stats.vertices, 9);
     assert!(part.stats.open_edges > 0);
+    // Only at zero is there noise, 2^-40 wide (an exporter's rotations): the smallest
+    // subnormal, or -2.7e-16, instead of 0.0 is the corner at 0.
+    for noise in [f32::from_bits(1), -2.731_848e-16] {
+        let mut facets = cube([0.0; 3], 10.0);
+        facets[0][0][0] = noise;
+        assert_eq!(facets[0][0][0] == 0.0, noise == 0.0);
+        let part = read_mm(&binary(b"cube", &facets));
+        assert_eq!(part.stats.vertices, 8, "{noise:e}");
+        assert!(part.stats.is_closed(), "{noise:e}");
+    }
 }
 
 #[test]
