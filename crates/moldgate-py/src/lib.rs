@@ -17,25 +17,25 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 create_exception!(
-    _moldgate,
+    moldgate,
     LoadError,
     PyValueError,
     "A part that cannot be read or built: the message names the file and the place (line, byte, vertex or triangle)."
 );
 create_exception!(
-    _moldgate,
+    moldgate,
     OptionsError,
     PyValueError,
     "An option that is unknown or out of range, or a material that cannot be used."
 );
 create_exception!(
-    _moldgate,
+    moldgate,
     NoGateError,
     PyValueError,
     "The part was studied but no position qualifies for a gate (the message says which rule removed the last ones)."
 );
 create_exception!(
-    _moldgate,
+    moldgate,
     InternalError,
     PyRuntimeError,
     "A defect of moldgate (a panic caught at the boundary); please report it with the message."
@@ -95,6 +95,16 @@ impl PyErrBox {
     }
 }
 
+/// keyword_words(text)
+/// --
+///
+/// A message of the library with the command line's flags named as this package's
+/// keywords (`--max-nodes` as `max_nodes`, `--aesthetic` as `aesthetic=True`).
+#[pyfunction]
+fn keyword_words(text: &str) -> String {
+    moldgate::study::keyword_words(text, "True")
+}
+
 #[pymodule]
 fn _moldgate(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -116,5 +126,6 @@ fn _moldgate(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(study::default_options, m)?)?;
     m.add_function(wrap_pyfunction!(study::check_options, m)?)?;
     m.add_function(wrap_pyfunction!(study::panic_for_test, m)?)?;
+    m.add_function(wrap_pyfunction!(keyword_words, m)?)?;
     Ok(())
 }

@@ -338,10 +338,15 @@ impl Part {
     }
 
     /// Problems that do not stop the work (open edges, several bodies, a size that suggests
-    /// another unit), one sentence each.
+    /// another unit), one sentence each, naming this package's keywords.
     #[getter]
     fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        PyList::new(py, &self.mesh.warnings)
+        let words = self
+            .mesh
+            .warnings
+            .iter()
+            .map(|w| moldgate::study::keyword_words(w, "True"));
+        PyList::new(py, words)
     }
 
     /// The file it was read from, or None.

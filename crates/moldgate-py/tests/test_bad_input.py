@@ -202,3 +202,20 @@ def test_units_given_with_a_part_read_in_other_units_are_refused():
     # The default, and the Part's own unit, are fine.
     assert moldgate.study(part).gate is not None
     assert moldgate.study(part, units="mm").gate is not None
+
+
+def test_errors_belong_to_the_package_and_name_its_keywords():
+    # Tracebacks read moldgate.OptionsError, not the extension module's name.
+    for e in (moldgate.LoadError, moldgate.OptionsError, moldgate.NoGateError):
+        assert e.__module__ == "moldgate", e.__module__
+    # A part with no gate: the reason's advice names keywords (aesthetic=True), not flags.
+    everything = "box:-1000,-1000,-1000,1000,1000,1000"
+    with pytest.raises(moldgate.NoGateError) as e:
+        moldgate.study(moldgate.sample("plate"), keep_out=[everything])
+    assert "--" not in str(e.value), str(e.value)
+    # A part in metres read as millimetres: the warning names the units keyword.
+    v = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]], dtype=float)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    part = moldgate.Part(v, f)
+    said = [w for w in part.warnings if "units" in w]
+    assert said and all("--" not in w for w in said), part.warnings

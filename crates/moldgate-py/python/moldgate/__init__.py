@@ -319,7 +319,7 @@ def study(
     s = _moldgate.study(p, options_json, mf)
     if s.gate is None and not allow_no_gate:
         reason = s.report.get("no_gate_reason") or "no position qualifies for a gate"
-        raise NoGateError(f"{p.path or 'part'}: {reason}")
+        raise NoGateError(f"{p.path or 'part'}: {_moldgate.keyword_words(reason)}")
     return s
 
 
