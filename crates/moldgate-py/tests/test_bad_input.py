@@ -219,3 +219,8 @@ def test_errors_belong_to_the_package_and_name_its_keywords():
     part = moldgate.Part(v, f)
     said = [w for w in part.warnings if "units" in w]
     assert said and all("--" not in w for w in said), part.warnings
+
+
+def test_faces_without_vertices_say_there_are_none():
+    with pytest.raises(moldgate.LoadError, match=r"^triangle 0 uses vertex 0, but there are no vertices$"):
+        moldgate.Part(np.zeros((0, 3)), np.array([[0, 1, 2]]))

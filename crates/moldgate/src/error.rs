@@ -113,7 +113,7 @@ pub enum LoadError {
         limit_mm: f64,
     },
     /// A triangle of an array mesh with a vertex index outside the vertex array.
-    #[error("triangle {triangle} uses vertex {index}, outside the {vertices} vertices (0 to {})", vertices.saturating_sub(1))]
+    #[error("triangle {triangle} uses vertex {index}, {}", match vertices { 0 => "but there are no vertices".to_string(), n => format!("outside the {n} vertices (0 to {})", n - 1) })]
     IndexOutOfRange {
         /// 0-based triangle index.
         triangle: u64,
