@@ -42,7 +42,7 @@ create_exception!(
 );
 
 /// The message of a caught panic.
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     payload
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
@@ -85,7 +85,7 @@ pub(crate) enum PyErrBox {
 }
 
 impl PyErrBox {
-    fn into_py_err(self) -> PyErr {
+    pub(crate) fn into_py_err(self) -> PyErr {
         match self {
             PyErrBox::Load(m) => LoadError::new_err(m),
             PyErrBox::Options(m) => OptionsError::new_err(m),

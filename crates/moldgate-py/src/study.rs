@@ -101,28 +101,106 @@ fn study_error(e: &StudyError) -> (Status, PyErrBox) {
 ///
 /// Studies a part with options given as the JSON form of `StudyOptions`. Use
 /// `moldgate.study`, which takes the options as keyword arguments.
+///
+/// The study runs on a thread of its own while this one waits without the GIL, looking
+/// every 50 ms for a signal (Ctrl-C: `KeyboardInterrupt`) and for the time limit `timeout`
+/// (seconds: the built-in `TimeoutError`); either stops the study within a march or two of
+/// the fill (its cancellation token) before the exception is raised.
 #[pyfunction]
-#[pyo3(signature = (part, options_json, materials_file = None))]
+#[pyo3(signature = (part, options_json, materials_file = None, timeout = None))]
 pub fn study(
     py: Python<'_>,
     part: Py<Part>,
     options_json: &str,
     materials_file: Option<PathBuf>,
+    timeout: Option<f64>,
 ) -> PyResult<Study> {
     let settings = guarded(|| {
         settings(options_json, materials_file.as_deref()).map_err(OptionsError::new_err)
     })?;
+    let limit = match timeout {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIMEOUT_S => {
+            Some(std::time::Duration::from_secs_f64(t))
+        }
+        Some(t) => {
+            return Err(OptionsError::new_err(format!(
+                "timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S}, got {t}"
+            )))
+        }
+    };
     let p = part.get();
     let mesh = p.mesh.clone();
     let (input, load_s) = (p.input.clone(), p.load_s);
-    let study = detached(py, || {
-        let mut s = moldgate::study_with(&mesh, &settings, &Hooks::default())
-            .map_err(|e| study_error(&e).1)?;
+    let cancel = moldgate::study::Cancel::new();
+    let started = Instant::now();
+    let (done, result) = std::sync::mpsc::channel();
+    // Waited on without the GIL, which needs it shareable.
+    let result = std::sync::Mutex::new(result);
+    std::thread::scope(|scope| {
+        scope.spawn(|| {
+            let hooks = Hooks {
+                cancel: Some(&cancel),
+                ..Hooks::default()
+            };
+            let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                moldgate::study_with(&mesh, &settings, &hooks)
+            }));
+            // The receiver waits until this is sent (or has stopped waiting).
+            let _ = done.send(outcome);
+        });
+        // Why the study was stopped, if it was: a signal's exception, or the time limit.
+        let mut stopped: Option<PyErr> = None;
+        let outcome = loop {
+            let waited = py.detach(|| {
+                result
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .recv_timeout(std::time::Duration::from_millis(50))
+            });
+            match waited {
+                Ok(outcome) => break outcome,
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(crate::InternalError::new_err(
+                        "internal error in moldgate, please report it: the study's thread ended without an answer",
+                    ))
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            }
+            if stopped.is_some() {
+                continue;
+            }
+            if let Err(signal) = py.check_signals() {
+                stopped = Some(signal);
+                cancel.cancel();
+            } else if limit.is_some_and(|l| started.elapsed() >= l) {
+                stopped = Some(pyo3::exceptions::PyTimeoutError::new_err(format!(
+                    "the study took longer than its timeout of {} s and was stopped (a coarser cell, fewer gates or no suitability map take less time)",
+                    timeout.unwrap_or_default()
+                )));
+                cancel.cancel();
+            }
+        };
+        if let Some(e) = stopped {
+            return Err(e);
+        }
+        let mut s = match outcome {
+            Ok(Ok(s)) => s,
+            Ok(Err(e)) => return Err(study_error(&e).1.into_py_err()),
+            Err(panic) => {
+                return Err(crate::InternalError::new_err(format!(
+                    "internal error in moldgate, please report it: {}",
+                    crate::panic_message(&*panic)
+                )))
+            }
+        };
         s.set_input(input, load_s);
-        Ok(s)
-    })?;
-    Ok(Study { study, part })
+        Ok(Study { study: s, part })
+    })
 }
+
+/// The longest time limit `study` takes, seconds (a day).
+const MAX_TIMEOUT_S: f64 = 86_400.0;
 
 /// batch_row(path, options_json, materials_file=None, units="mm", demold=None)
 /// --

@@ -224,3 +224,36 @@ def test_errors_belong_to_the_package_and_name_its_keywords():
 def test_faces_without_vertices_say_there_are_none():
     with pytest.raises(moldgate.LoadError, match=r"^triangle 0 uses vertex 0, but there are no vertices$"):
         moldgate.Part(np.zeros((0, 3)), np.array([[0, 1, 2]]))
+
+
+def test_a_study_stops_at_its_timeout_or_on_ctrl_c():
+    import os
+    import signal
+    import threading
+    import time
+
+    # A study long enough to stop (the several-gate search on a fine grid of the cap).
+    heavy = dict(gates=4, cell=0.3, suitability=True, objective="resistance")
+    t = time.perf_counter()
+    with pytest.raises(TimeoutError, match="took longer than its timeout of 0.2 s"):
+        moldgate.study(moldgate.sample("cover"), timeout=0.2, **heavy)
+    stopped = time.perf_counter() - t
+    assert stopped < 5, f"stopped after {stopped:.1f} s"
+    # Ctrl-C: the signal's KeyboardInterrupt, once the study has stopped.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        timer = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))
+        timer.start()
+        t = time.perf_counter()
+        with pytest.raises(KeyboardInterrupt):
+            moldgate.study(moldgate.sample("cover"), **heavy)
+        assert time.perf_counter() - t < 5
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
+    # A study inside its limit is the study without one; a bad limit is an options error.
+    quick = moldgate.study(moldgate.sample("plate"), timeout=60)
+    assert np.array_equal(quick.gate.point, moldgate.study(moldgate.sample("plate")).gate.point)
+    for bad in (0, -1, float("nan"), "5", True, 1e9):
+        with pytest.raises(moldgate.OptionsError, match="timeout"):
+            moldgate.study(moldgate.sample("plate"), timeout=bad)

@@ -239,6 +239,7 @@ def study(
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
     allow_no_gate: bool = False,
+    timeout: Optional[float] = None,
     **unknown: Any,
 ) -> Study:
     """Studies a part: the gate of the paper's method, and what was asked for on top.
@@ -301,6 +302,9 @@ def study(
       is None and ``report["no_gate_reason"]`` says why) instead of raising
       :class:`NoGateError`. A layout of ``gates=K`` that finds too few positions has no
       study to return and raises :class:`NoGateError` either way.
+    - ``timeout=None``: a time limit in seconds; past it the study is stopped and the
+      built-in ``TimeoutError`` raised. Ctrl-C (``KeyboardInterrupt``) stops a study too,
+      within a few tens of milliseconds, whether or not it has a time limit.
 
     An unknown option name or a bad value raises :class:`OptionsError` with the
     library's message.
@@ -308,6 +312,8 @@ def study(
     given = locals()
     if not isinstance(allow_no_gate, bool):
         raise OptionsError(f"allow_no_gate must be True or False, got {allow_no_gate!r}")
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, _numbers.Real)):
+        raise OptionsError(f"timeout must be a number of seconds or None, got {timeout!r}")
     options = {name: given[name] for name in _OPTION_NAMES}
     if keep_out is None:
         keep_out = ()
@@ -316,7 +322,7 @@ def study(
     options_json = _options_json(options)
     p = _part(part, units, step_tolerance_mm)
     mf = _os.fspath(materials_file) if materials_file is not None else None
-    s = _moldgate.study(p, options_json, mf)
+    s = _moldgate.study(p, options_json, mf, None if timeout is None else float(timeout))
     if s.gate is None and not allow_no_gate:
         reason = s.report.get("no_gate_reason") or "no position qualifies for a gate"
         raise NoGateError(f"{p.path or 'part'}: {_moldgate.keyword_words(reason)}")

@@ -134,6 +134,7 @@ def study(
     materials_file: Optional[_Path] = None,
     step_tolerance_mm: Optional[float] = None,
     allow_no_gate: bool = False,
+    timeout: Optional[float] = None,
     **unknown: Any,
 ) -> Study: ...
 def batch_row(
