@@ -26,7 +26,7 @@ def test_study_options_match_the_library_defaults():
         value = sig.parameters[name].default
         value = list(value) if isinstance(value, tuple) else value
         assert value == default, (name, value, default)
-    extra = {"part", "units", "materials_file", "step_tolerance_mm", "allow_no_gate", "unknown"}
+    extra = {"part", "units", "materials_file", "step_tolerance_mm", "allow_no_gate", "timeout", "unknown"}
     assert set(sig.parameters) - set(library) == extra
     assert set(moldgate._OPTION_NAMES) == set(library)
 
