@@ -73,7 +73,7 @@ def test_an_object_without_arrays():
 @pytest.mark.parametrize(
     "options, message",
     [
-        ({"gate_raduis": 2.0}, "unknown field `gate_raduis`, expected one of `demold`"),
+        ({"gate_raduis": 2.0}, r"unknown field `gate_raduis` \(did you mean `gate_radius`\?\), expected one of `demold`"),
         ({"gates": 0}, "gates must be at least 1"),
         ({"gates": 65}, r"gates must be at most \d+, got 65"),
         ({"gates": 1.5}, "gates: invalid type: floating point `1.5`, expected a whole number of 0 or more"),

@@ -395,6 +395,49 @@ impl std::fmt::Display for JsonOptionsError {
     }
 }
 
+/// serde's refusal of an unknown name, ``unknown field `gate`, expected one of `demold`,
+/// ...``, with the option nearest it in spelling first when one is near (at most a third
+/// of its letters to change, insert or drop): ``unknown field `gate` (did you mean
+/// `gates`?), expected one of ...``. Any other message is returned as it is.
+fn with_nearest_name(message: &str) -> String {
+    let Some(rest) = message.strip_prefix("unknown field `") else {
+        return message.to_string();
+    };
+    let Some((name, list)) = rest.split_once("`, expected one of ") else {
+        return message.to_string();
+    };
+    let names = list.split(", ").map(|n| n.trim_matches('`'));
+    let limit = (name.chars().count() / 3).max(1);
+    let nearest = names
+        .map(|n| (edit_distance(name, n), n))
+        .filter(|&(d, _)| d <= limit)
+        .min_by_key(|&(d, _)| d);
+    match nearest {
+        Some((_, n)) => {
+            format!("unknown field `{name}` (did you mean `{n}`?), expected one of {list}")
+        }
+        None => message.to_string(),
+    }
+}
+
+/// Levenshtein distance of two names (changes, insertions and deletions of characters).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let above = row[j + 1];
+            row[j + 1] = (above + 1)
+                .min(row[j] + 1)
+                .min(diagonal + usize::from(ca != cb));
+            diagonal = above;
+        }
+    }
+    row[b.len()]
+}
+
 /// serde's words for a value's type as a person says them.
 fn plain_words(message: &str) -> String {
     let mut m = message.to_string();
@@ -466,7 +509,7 @@ impl StudyOptions {
         }
         Err(JsonOptionsError {
             field,
-            message: plain_words(&message),
+            message: with_nearest_name(&plain_words(&message)),
         })
     }
 
@@ -742,6 +785,29 @@ impl StudyOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unknown_name_is_answered_with_the_nearest_option() {
+        let said = |json: &str| {
+            let serde_json::Value::Object(o) = serde_json::from_str(json).unwrap() else {
+                panic!("not an object")
+            };
+            StudyOptions::from_json_object(o).unwrap_err().to_string()
+        };
+        assert!(said(r#"{"gate": 2}"#)
+            .contains("unknown field `gate` (did you mean `gates`?), expected one of `demold`"));
+        assert!(said(r#"{"gate_raduis": 2}"#).contains("(did you mean `gate_radius`?)"));
+        assert!(said(r#"{"spacng": 1}"#).contains("(did you mean `spacing`?)"));
+        // Nothing near: the list alone.
+        let far = said(r#"{"colour": "red"}"#);
+        assert!(
+            far.contains("unknown field `colour`, expected one of"),
+            "{far}"
+        );
+        assert_eq!(edit_distance("gate", "gates"), 1);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("", "abc"), 3);
+    }
 
     #[test]
     fn an_empty_object_is_the_defaults() {
