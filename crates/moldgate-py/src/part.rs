@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use numpy::ndarray::ArrayView2;
-use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -25,6 +25,9 @@ pub struct Part {
     pub(crate) input: Input,
     /// Seconds to read or build it.
     pub(crate) load_s: f64,
+    /// For a part built from arrays, the part's vertex of each given vertex (-1 when no
+    /// triangle uses it): [`moldgate::mesh::vertex_map`].
+    pub(crate) vertex_map: Option<Arc<Vec<i64>>>,
 }
 
 /// Parses a unit name, refusing an unknown one with the library's message.
@@ -76,6 +79,7 @@ fn load_part(py: Python<'_>, path: PathBuf, units: Units) -> PyResult<Part> {
             bytes,
         },
         load_s: t.elapsed().as_secs_f64(),
+        vertex_map: None,
     })
 }
 
@@ -124,6 +128,7 @@ pub fn sample(name: &str) -> PyResult<Part> {
             bytes: 0,
         },
         load_s: 0.0,
+        vertex_map: None,
     })
 }
 
@@ -215,8 +220,10 @@ pub(crate) fn part_from_arrays(
     let v = vertex_array(vertices)?;
     let f = face_array(faces)?;
     let (vr, fr) = (rows(&v)?, rows(&f)?);
-    let mesh = detached(py, || {
-        mesh::from_arrays(vr, fr, units).map_err(|e| PyErrBox::Load(e.to_string()))
+    let (mesh, map) = detached(py, || {
+        let mesh = mesh::from_arrays(vr, fr, units).map_err(|e| PyErrBox::Load(e.to_string()))?;
+        let map = mesh::vertex_map(vr, &mesh.mesh, units);
+        Ok((mesh, map))
     })?;
     Ok(Part {
         mesh: Arc::new(mesh),
@@ -226,6 +233,7 @@ pub(crate) fn part_from_arrays(
             bytes: 0,
         },
         load_s: t.elapsed().as_secs_f64(),
+        vertex_map: Some(Arc::new(map)),
     })
 }
 
@@ -297,6 +305,8 @@ impl Part {
     ) -> PyResult<Part> {
         guarded(|| {
             let mut p = part_from_arrays(vertices, faces, Units::Mm)?;
+            // The arrays are gmsh's, not the caller's.
+            p.vertex_map = None;
             p.input = Input {
                 path: Some(path),
                 sample: None,
@@ -305,6 +315,19 @@ impl Part {
             p.load_s += load_s;
             Ok(p)
         })
+    }
+
+    /// For a part built from arrays (`Part(vertices, faces)`, a trimesh), the number of the
+    /// part's vertex at each given vertex's position, an int64 array as long as the given
+    /// vertices; -1 where no triangle uses the vertex. Welding numbers the part's vertices
+    /// by first use and merges repeated positions, so a per-vertex field of a study reads
+    /// on the given mesh as `field[vertex_map]` (where `vertex_map >= 0`). None for a part
+    /// read from a file.
+    #[getter]
+    fn vertex_map<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<i64>>> {
+        self.vertex_map
+            .as_ref()
+            .map(|m| PyArray1::from_slice(py, m))
     }
 
     /// Welded vertex positions in mm, a read-only (n, 3) float64 view (no copy).

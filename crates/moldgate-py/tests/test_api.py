@@ -273,3 +273,24 @@ def test_batch_row_of_a_good_and_a_bad_file(cover_stl, tmp_path, cli):
         r.pop("time_s"), e.pop("time_s")
         assert r == e
     assert rows[1]["status"] == "input_error" and "line 4" in rows[1]["error"]
+
+
+def test_the_vertex_map_reads_a_field_on_the_callers_own_vertices():
+    import numpy as np
+
+    # A cube given with its vertices in reverse order, an unused vertex and a repeated one:
+    # the part's vertices are welded and renumbered by first use.
+    cube = moldgate.sample("plate")
+    v = np.vstack([cube.vertices[::-1], [[500.0, 500.0, 500.0]], cube.vertices[:1]])
+    n = len(cube.vertices)
+    f = (n - 1) - cube.faces.astype(np.int64)
+    part = moldgate.Part(v, f)
+    m = part.vertex_map
+    assert m.dtype == np.int64 and m.shape == (len(v),)
+    assert m[n] == -1  # used by no triangle
+    assert m[n + 1] == m[n - 1]  # the same position as the first vertex given reversed
+    used = m >= 0
+    # The same positions (but for the noise at zero, below 2^-40, welded as 0).
+    assert np.abs(part.vertices[m[used]] - v[used]).max() < 1e-12
+    assert sorted(set(m[used])) == list(range(len(part.vertices)))
+    assert moldgate.sample("plate").vertex_map is None

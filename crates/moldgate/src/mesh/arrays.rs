@@ -102,6 +102,30 @@ pub fn from_arrays(
     finish(raw, units)
 }
 
+/// For each of the `vertices` given to [`from_arrays`] (in `units`), the number of the
+/// vertex of `mesh` (the part it made) at its position, or -1 when no triangle of the part
+/// uses it: welding numbers the part's vertices by their first use and merges repeated
+/// positions, so a field per vertex of the part reads, for the caller's vertex `i`, at
+/// `map[i]`.
+pub fn vertex_map(vertices: &[[f64; 3]], mesh: &super::Mesh, units: Units) -> Vec<i64> {
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let at: std::collections::HashMap<[u64; 3], i64> = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| (key(p), i as i64))
+        .collect();
+    // The position as welding stored it, then scaled to mm as the part was.
+    let factor = units.mm_per_unit();
+    vertices
+        .iter()
+        .map(|&p| {
+            let welded = super::weld_position(DVec3::from_array(p)) * factor;
+            at.get(&key(welded)).copied().unwrap_or(-1)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,6 +142,41 @@ mod tests {
             t.push([base, base + 1, base + 2]);
         }
         (v, t)
+    }
+
+    #[test]
+    fn the_vertex_map_finds_each_given_vertex_in_the_part() {
+        // A tetrahedron given backwards, with a repeated position (3 and 5) and a vertex no
+        // triangle uses (4), in inches.
+        let v = vec![
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [7.0, 7.0, 7.0],
+            [0.0, 0.0, -0.0],
+        ];
+        let t = vec![[3, 1, 2], [3, 2, 0], [5, 0, 1], [1, 0, 2]];
+        let part = from_arrays(&v, &t, Units::In).unwrap();
+        let map = vertex_map(&v, &part.mesh, Units::In);
+        assert_eq!(map[4], -1);
+        assert_eq!(map[3], map[5]);
+        for (i, &m) in map.iter().enumerate().filter(|&(_, &m)| m >= 0) {
+            let expected = DVec3::from_array(v[i]) * 25.4;
+            assert_eq!(
+                part.mesh.vertices[m as usize],
+                expected + DVec3::ZERO,
+                "vertex {i}"
+            );
+        }
+        // Every vertex of the part is some given vertex's.
+        let mut seen: Vec<i64> = map.iter().copied().filter(|&m| m >= 0).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        assert_eq!(
+            seen,
+            (0..part.mesh.vertices.len() as i64).collect::<Vec<_>>()
+        );
     }
 
     #[test]

@@ -33,7 +33,7 @@ use serde::Serialize;
 use crate::centre::{self, Centres, Moments};
 use crate::error::LoadError;
 use crate::math::{Aabb, DVec3};
-pub use arrays::from_arrays;
+pub use arrays::{from_arrays, vertex_map};
 pub use topology::Topology;
 pub use units::Units;
 
@@ -492,7 +492,7 @@ fn weld_coordinate(x: f64) -> f64 {
 
 /// A position as welding reads it ([`weld_coordinate`] of each coordinate).
 #[inline(always)]
-fn weld_position(p: DVec3) -> DVec3 {
+pub(crate) fn weld_position(p: DVec3) -> DVec3 {
     DVec3::new(
         weld_coordinate(p.x),
         weld_coordinate(p.y),
