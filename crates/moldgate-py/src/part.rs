@@ -152,6 +152,7 @@ fn vertex_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArray2<'py, 
             "vertices must be numbers, got an array of {dtype}"
         )));
     }
+    fits_in_memory("vertices", &a, shape[0], 24, 32)?;
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", np.getattr("float64")?)?;
     let a = np
@@ -194,10 +195,58 @@ fn face_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArray2<'py, i6
             )));
         }
     }
+    fits_in_memory("faces", &a, shape[0], 24, 64)?;
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", np.getattr("int64")?)?;
-    let a = np.call_method("ascontiguousarray", (a,), Some(&kwargs))?;
+    // A copy that cannot be made (numpy's MemoryError) is named as the vertices' is.
+    let a = np
+        .call_method("ascontiguousarray", (a,), Some(&kwargs))
+        .map_err(|e| LoadError::new_err(format!("faces: cannot be made indices: {e}")))?;
     Ok(a.cast_into::<PyArray2<i64>>()?.readonly())
+}
+
+/// Refuses, before any copy, an array of `rows` rows whose copy (`copy_bytes` a row, when
+/// it is not already C-contiguous of 8-byte items) and the part's own memory for it
+/// (`part_bytes` a row, at least) would not fit in the memory the system has available:
+/// an array that numpy only pretends to hold (`broadcast_to`) would else be copied until
+/// the system kills the process.
+fn fits_in_memory(
+    what: &str,
+    a: &Bound<'_, PyAny>,
+    rows: usize,
+    copy_bytes: u64,
+    part_bytes: u64,
+) -> PyResult<()> {
+    let Some(available) = memory_available() else {
+        return Ok(());
+    };
+    let flags = a.getattr("flags")?;
+    let contiguous: bool = flags.getattr("c_contiguous")?.extract()?;
+    let itemsize: u64 = a.getattr("itemsize")?.extract()?;
+    let copy = if contiguous && itemsize == 8 {
+        0
+    } else {
+        copy_bytes
+    };
+    let need = rows as u64 * (copy + part_bytes);
+    if need > available {
+        let gb = |b: u64| b as f64 / 1e9;
+        return Err(LoadError::new_err(format!(
+            "{what}: {rows} rows need about {:.1} GB to build the part, more than the {:.1} GB of memory available",
+            gb(need),
+            gb(available)
+        )));
+    }
+    Ok(())
+}
+
+/// The memory the system can give without swapping, bytes (`MemAvailable` of
+/// /proc/meminfo); `None` where it cannot be read.
+fn memory_available() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Rows of three from a C-contiguous (n, 3) array.

@@ -257,3 +257,12 @@ def test_a_study_stops_at_its_timeout_or_on_ctrl_c():
     for bad in (0, -1, float("nan"), "5", True, 1e9):
         with pytest.raises(moldgate.OptionsError, match="timeout"):
             moldgate.study(moldgate.sample("plate"), timeout=bad)
+
+
+def test_arrays_too_large_for_memory_are_refused_before_any_copy():
+    # numpy only pretends to hold these (broadcast): copying them would take the machine.
+    huge = 10**12
+    with pytest.raises(moldgate.LoadError, match=r"^faces: 1000000000000 rows need about .* GB to build the part, more than the .* GB of memory available$"):
+        moldgate.Part(V, np.broadcast_to(F[:1].astype(np.int32), (huge, 3)))
+    with pytest.raises(moldgate.LoadError, match=r"^vertices: 1000000000000 rows need about"):
+        moldgate.Part(np.broadcast_to(V[:1], (huge, 3)), F)
