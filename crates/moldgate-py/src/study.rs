@@ -353,9 +353,14 @@ pub struct Gate {
 impl Gate {
     fn __repr__(&self, py: Python<'_>) -> String {
         let p: Vec<f64> = self.point.bind(py).to_vec().unwrap_or_default();
+        // Which gate it is: the paper's, the aesthetic one, or the balanced one.
+        let which = match (self.mode.as_str(), self.strategy.as_str()) {
+            (_, "balanced") => "balanced",
+            (mode, _) => mode,
+        };
         format!(
-            "<moldgate.Gate ({:.3}, {:.3}, {:.3}) mm, R = {:.3} mm, {}>",
-            p[0], p[1], p[2], self.radius_mm, self.strategy
+            "<moldgate.Gate ({:.3}, {:.3}, {:.3}) mm, R = {:.3} mm, {which}>",
+            p[0], p[1], p[2], self.radius_mm
         )
     }
 }

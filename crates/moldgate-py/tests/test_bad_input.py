@@ -266,3 +266,16 @@ def test_arrays_too_large_for_memory_are_refused_before_any_copy():
         moldgate.Part(V, np.broadcast_to(F[:1].astype(np.int32), (huge, 3)))
     with pytest.raises(moldgate.LoadError, match=r"^vertices: 1000000000000 rows need about"):
         moldgate.Part(np.broadcast_to(V[:1], (huge, 3)), F)
+
+
+def test_directions_as_numbers_and_other_pythonic_forms():
+    plate = moldgate.sample("plate")
+    along_z = moldgate.study(plate, demold="+z").gate.point
+    for d in ([0, 0, 1], (0.0, 0.0, 1.0), np.array([0, 0, 1.0])):
+        assert np.array_equal(moldgate.study(plate, demold=d).gate.point, along_z), d
+    assert "aesthetic>" in repr(moldgate.study(moldgate.sample("cover"), aesthetic=True).gate)
+    with pytest.raises(moldgate.OptionsError, match="got a flat list of 2 numbers"):
+        moldgate.study(plate, gate_at=[1, 2])
+    for bad in (-1, 0, float("nan"), "1"):
+        with pytest.raises(moldgate.OptionsError, match="step_tolerance_mm must be a positive number"):
+            moldgate.study(plate, step_tolerance_mm=bad)

@@ -144,6 +144,14 @@ def _point_text(point: Any) -> Any:
 
 def _options_json(options: Mapping[str, Any]) -> str:
     options = dict(options)
+    # A direction as three numbers (a list, a tuple, a numpy array) is the "x,y,z" text.
+    for name in ("demold", "cosmetic"):
+        d = options.get(name)
+        if (
+            d is not None and not isinstance(d, str) and hasattr(d, "__len__") and len(d) == 3
+            and all(_is_number(v) for v in d)
+        ):
+            options[name] = _point_text(d)
     gate_at = options.get("gate_at")
     if gate_at is not None:
         if isinstance(gate_at, str) or (
@@ -151,6 +159,10 @@ def _options_json(options: Mapping[str, Any]) -> str:
             and all(_is_number(v) for v in gate_at)
         ):
             gate_at = [gate_at]
+        elif hasattr(gate_at, "__len__") and len(gate_at) > 0 and all(_is_number(v) for v in gate_at):
+            raise OptionsError(
+                f"gate_at: give points (x, y, z) in mm, one or a list of them; got a flat list of {len(gate_at)} numbers"
+            )
         options["gate_at"] = [_point_text(p) for p in gate_at]
     if "keep_out" in options and options["keep_out"] is None:
         options["keep_out"] = []
@@ -174,6 +186,10 @@ def _options_json(options: Mapping[str, Any]) -> str:
 def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
     _check_units_type(units)
     _moldgate.check_units(units)
+    if step_tolerance_mm is not None and not (
+        _is_number(step_tolerance_mm) and _math.isfinite(step_tolerance_mm) and step_tolerance_mm > 0
+    ):
+        raise OptionsError(f"step_tolerance_mm must be a positive number of mm, got {step_tolerance_mm!r}")
     if isinstance(part, Part):
         # A Part was read in its own units: another unit asked for here would be ignored
         # (the default, mm, cannot be told from one given).
@@ -249,7 +265,8 @@ def study(
 
     Options (the command line's ``locate`` flags in snake case, same defaults):
 
-    - ``demold="+z"``: demolding direction, ``+x``, ``-y``, ... or ``"x,y,z"``; ``"auto"``
+    - ``demold="+z"``: demolding direction, ``+x``, ``-y``, ... or ``"x,y,z"`` (or three
+      numbers: a list, a tuple or a numpy array); ``"auto"``
       picks the axis or principal axis with the least undercut.
     - ``material="PP"``: a built-in (``PP``, ``ABS``, ``PC``, see :func:`materials`), a
       name from ``materials_file``, or a dict of every parameter (``n``, ``t_melt``,
