@@ -140,7 +140,7 @@ pub struct FlowOptions {
     pub max_gates: usize,
     /// Largest work of the several-gate search, in cell visits: solid cells times the
     /// marches it may run (2 per added gate and 3 per gate in each of its 8 rounds, for
-    /// each of its two starts).
+    /// each of its three starts).
     /// Default 2 billion (a minute or two on two cores).
     pub max_march_cells: f64,
 }
@@ -1577,9 +1577,15 @@ pub const SMALL_LAYOUT_GAIN_PCT: f64 = 10.0;
 /// candidate nearest to both ends of the share's longest path), kept while the overall
 /// worst value does not grow and the shares' worst values fall. The local improvement
 /// stops at a layout no single move betters, which depends on where it started (two gates on the `plate` sample from its
-/// middle: L_max 54.9 mm, from a corner: 41.4 mm), so the search runs twice, side by side:
-/// from `first`, and from the candidate nearest the place `first` reaches last; the layout
-/// of the lower worst value is kept (the first on a tie).
+/// middle: L_max 54.9 mm, from a corner: 41.4 mm), so the search runs three times, side by
+/// side: from `first`; from the candidate nearest the place `first` reaches last (seeded
+/// from there); and from the layout of the body's cells split into `k` clusters in space
+/// ([`clustered_layout`]), improved by the same moves. The layout of the lowest worst value
+/// is kept (the earlier on a tie). The third start finds what the two others miss on a
+/// long box: from a point and its far corner, the moves bring both gates to the middle (a
+/// corner's share is a triangle whose longest path is the diagonal), where the clusters
+/// split the box across its length (two gates on the `tray` sample: L_max 57.7 mm from
+/// the first two starts, 47.0 mm from the third).
 ///
 /// **No two gates overlap**: a candidate nearer than `min_distance_mm` (a gate's diameter, in
 /// the fill analysis) to a gate of the layout is neither a seed nor a move's place. (Without
@@ -1644,20 +1650,135 @@ pub fn several_gates_from(
             k,
             min_distance_mm,
         };
-        several_gates_search(domain, candidates, ask, from, given, true)
+        several_gates_search(domain, candidates, ask, from, given, true, None)
     };
-    let (a, b) = match second {
-        Some(second) => rayon::join(|| search(first, Some(start)), || search(second, None)),
-        None => (search(first, Some(start)), None),
+    let ask = Ask {
+        objective,
+        k,
+        min_distance_mm,
     };
+    // The third start: the layout of the body's cells split into k clusters.
+    let clustered = || {
+        let pool = in_body(domain, candidates, body);
+        let layout = clustered_layout(domain, candidates, &pool, body, k, min_distance_mm)?;
+        several_gates_search(
+            domain,
+            candidates,
+            ask,
+            layout[0],
+            None,
+            true,
+            Some(&layout),
+        )
+    };
+    let (a, (b, c)) = rayon::join(
+        || search(first, Some(start)),
+        || rayon::join(|| second.and_then(|second| search(second, None)), clustered),
+    );
     let mut a = a?;
     // A march run for the start counts once, whichever layout is kept.
-    let runs = a.runs + b.as_ref().map_or(0, |b| b.runs) + usize::from(marched);
-    if let Some(b) = b.filter(|b| b.value() < a.value()) {
-        a = b;
+    let runs = a.runs
+        + b.as_ref().map_or(0, |b| b.runs)
+        + c.as_ref().map_or(0, |c| c.runs)
+        + usize::from(marched);
+    for other in [b, c].into_iter().flatten() {
+        if other.value() < a.value() {
+            a = other;
+        }
     }
     a.runs = runs;
     Some(a)
+}
+
+/// A layout of `k` gates from the cells of `body` split into `k` clusters of nearby cells
+/// (Lloyd's k-means in space, from farthest-point seeds): for each cluster's mean, the
+/// nearest candidate of `pool` at least `min_distance_mm` from those already taken. On a
+/// long plate it splits the plate across its length, where the searches from a point and
+/// its farthest place start from opposite corners.
+fn clustered_layout(
+    domain: &Domain,
+    candidates: &[Source],
+    pool: &[usize],
+    body: u32,
+    k: usize,
+    min_distance_mm: f64,
+) -> Option<Vec<usize>> {
+    let v = &domain.voxels;
+    let cells: Vec<DVec3> = (0..v.len() as u32)
+        .filter(|&c| domain.body[c as usize] == body)
+        .map(|c| v.centre(c))
+        .collect();
+    if cells.len() < k || pool.len() < k {
+        return None;
+    }
+    let mean = cells.iter().copied().sum::<DVec3>() / cells.len() as f64;
+    let farthest_from = |centres: &[DVec3]| {
+        cells
+            .iter()
+            .copied()
+            .max_by(|a, b| {
+                let d = |p: &DVec3| {
+                    centres
+                        .iter()
+                        .map(|c| c.distance_squared(*p))
+                        .fold(f64::INFINITY, f64::min)
+                };
+                d(a).total_cmp(&d(b))
+            })
+            .expect("cells")
+    };
+    let mut centres = vec![farthest_from(&[mean])];
+    while centres.len() < k {
+        centres.push(farthest_from(&centres));
+    }
+    let mut label = vec![0usize; cells.len()];
+    for _ in 0..30 {
+        let mut changed = false;
+        for (i, p) in cells.iter().enumerate() {
+            let nearest = (0..k)
+                .min_by(|&a, &b| {
+                    centres[a]
+                        .distance_squared(*p)
+                        .total_cmp(&centres[b].distance_squared(*p))
+                })
+                .expect("k > 0");
+            changed |= nearest != label[i];
+            label[i] = nearest;
+        }
+        let mut sums = vec![(DVec3::ZERO, 0usize); k];
+        for (i, p) in cells.iter().enumerate() {
+            sums[label[i]].0 += *p;
+            sums[label[i]].1 += 1;
+        }
+        for (c, (sum, n)) in centres.iter_mut().zip(&sums) {
+            if *n > 0 {
+                *c = *sum / *n as f64;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    let mut layout: Vec<usize> = Vec::with_capacity(k);
+    for c in &centres {
+        let &best = pool
+            .iter()
+            .filter(|&&i| {
+                !layout.contains(&i)
+                    && layout.iter().all(|&j| {
+                        candidates[j].point.distance(candidates[i].point) >= min_distance_mm
+                    })
+            })
+            .min_by(|&&a, &&b| {
+                candidates[a]
+                    .point
+                    .distance(*c)
+                    .total_cmp(&candidates[b].point.distance(*c))
+                    .then(a.cmp(&b))
+            })?;
+        layout.push(best);
+    }
+    Some(layout)
 }
 
 /// What one several-gate search is asked for: the objective, how many gates, and how near
@@ -1678,6 +1799,7 @@ fn several_gates_search(
     first: usize,
     start: Option<&Field>,
     look_ahead: bool,
+    seeded: Option<&[usize]>,
 ) -> Option<MultiGate> {
     let Ask {
         objective,
@@ -1692,12 +1814,13 @@ fn several_gates_search(
         return None;
     }
     let mut runs = 0;
-    let mut chosen = vec![first];
-    let mut field = match start {
+    let mut chosen = seeded.map_or_else(|| vec![first], <[usize]>::to_vec);
+    let mut field = match start.filter(|_| chosen.len() == 1) {
         Some(f) => f.clone(),
         None => {
             runs += 1;
-            march(v, &[candidates[first]], cost)
+            let sources: Vec<Source> = chosen.iter().map(|&i| candidates[i]).collect();
+            march(v, &sources, cost)
         }
     };
     let from_centre = CentreMarches::new(v, cost);
@@ -2049,8 +2172,8 @@ struct Kept {
 }
 
 impl<'a> CentreMarches<'a> {
-    /// Bytes of fields kept at most (12 bytes a cell each): the two starts' searches run
-    /// side by side, 256 MiB in all.
+    /// Bytes of fields kept at most (12 bytes a cell each): the three starts' searches run
+    /// side by side, 384 MiB in all.
     const BYTES: usize = 128 << 20;
 
     fn new(voxels: &'a Voxels, cost: Option<&'a [f32]>) -> Self {
@@ -2594,9 +2717,9 @@ pub fn analyse_prepared(
     // before the walls, the paper gate and the balanced search are made.
     if options.gates > 1 {
         let k = options.gates as f64;
-        // Two searches, one from each start (see `several_gates`), and a march per gate
+        // Three searches, one from each start (see `several_gates`), and a march per gate
         // for the gates the layout does without.
-        let work = voxels.len() as f64 * (2.0 * (2.0 * k + 24.0 * k + 1.0) + k);
+        let work = voxels.len() as f64 * (3.0 * (2.0 * k + 24.0 * k + 1.0) + k);
         if work > options.flow.max_march_cells {
             return Err(FillError::too_large(
                 "cell visits of the several-gate search",
@@ -3772,13 +3895,14 @@ mod tests {
     }
 
     #[test]
-    fn the_layout_of_two_starts_is_the_better_of_the_two_and_never_worse_than_the_first() {
+    fn the_layout_of_the_starts_is_the_best_of_them_and_never_worse_than_the_first() {
         let better = count_cases([2, 3], |what, domain, candidates, objective, k| {
             let both = several_gates(domain, candidates, objective, 0, k, APART).expect("k");
-            let one = several_gates_search(domain, candidates, ask(objective, k), 0, None, true)
-                .expect("k");
+            let one =
+                several_gates_search(domain, candidates, ask(objective, k), 0, None, true, None)
+                    .expect("k");
             assert!(both.value() <= one.value(), "{what}");
-            assert!(both.runs > one.runs, "{what}: both starts' marches count");
+            assert!(both.runs > one.runs, "{what}: every start's marches count");
             let better = both.value() < one.value();
             if !better {
                 assert_eq!(
@@ -3797,7 +3921,7 @@ mod tests {
     fn several_gates_examined_ahead_are_those_examined_one_after_the_other() {
         let dropped = count_cases([3, 4], |what, domain, candidates, objective, k| {
             let run = |ahead| {
-                several_gates_search(domain, candidates, ask(objective, k), 0, None, ahead)
+                several_gates_search(domain, candidates, ask(objective, k), 0, None, ahead, None)
                     .expect("enough candidates")
             };
             let (new, old) = (run(true), run(false));

@@ -443,3 +443,22 @@ fn a_study_cancelled_in_its_wall_stage_stops_there() {
     let without = study(&part, &options(r#"{ "wall_thickness": true }"#)).unwrap();
     assert_eq!(timeless(with.report()), timeless(without.report()));
 }
+
+#[test]
+fn two_gates_on_a_long_tray_split_it_across_its_length() {
+    // The tray is 80 x 60 mm (a floor and walls). From the best single gate and from the
+    // place it reaches last, the search's moves brought both gates to the middle (L_max
+    // 57.7 mm, 2 % better than one gate); the start from the cells split into two clusters
+    // puts one gate in each half along x.
+    let tray = sample("tray");
+    let s = study(&tray, &options(r#"{"gates": 2}"#)).unwrap();
+    let layout = s.report().fill.as_ref().unwrap().several.as_ref().unwrap();
+    let x: Vec<f64> = layout.gates.iter().map(|g| g.point[0]).collect();
+    assert!(
+        x[0] * x[1] < 0.0 && x.iter().all(|x| x.abs() > 10.0),
+        "gates at x {x:?}"
+    );
+    let l_max = layout.l_max_mm.unwrap();
+    assert!(l_max < 50.0, "{l_max}");
+    assert!(layout.improvement_pct > 15.0, "{}", layout.improvement_pct);
+}
