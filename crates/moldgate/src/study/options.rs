@@ -409,7 +409,7 @@ fn with_nearest_name(message: &str) -> String {
     let names = list.split(", ").map(|n| n.trim_matches('`'));
     let limit = (name.chars().count() / 3).max(1);
     let nearest = names
-        .map(|n| (edit_distance(name, n), n))
+        .map(|n| (crate::material::name::edit_distance(name, n), n))
         .filter(|&(d, _)| d <= limit)
         .min_by_key(|&(d, _)| d);
     match nearest {
@@ -418,24 +418,6 @@ fn with_nearest_name(message: &str) -> String {
         }
         None => message.to_string(),
     }
-}
-
-/// Levenshtein distance of two names (changes, insertions and deletions of characters).
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diagonal = row[0];
-        row[0] = i + 1;
-        for (j, &cb) in b.iter().enumerate() {
-            let above = row[j + 1];
-            row[j + 1] = (above + 1)
-                .min(row[j] + 1)
-                .min(diagonal + usize::from(ca != cb));
-            diagonal = above;
-        }
-    }
-    row[b.len()]
 }
 
 /// serde's words for a value's type as a person says them.
@@ -804,9 +786,6 @@ mod tests {
             far.contains("unknown field `colour`, expected one of"),
             "{far}"
         );
-        assert_eq!(edit_distance("gate", "gates"), 1);
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
-        assert_eq!(edit_distance("", "abc"), 3);
     }
 
     #[test]
