@@ -118,17 +118,7 @@ pub fn study(
     let settings = guarded(|| {
         settings(options_json, materials_file.as_deref()).map_err(OptionsError::new_err)
     })?;
-    let limit = match timeout {
-        None => None,
-        Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIMEOUT_S => {
-            Some(std::time::Duration::from_secs_f64(t))
-        }
-        Some(t) => {
-            return Err(OptionsError::new_err(format!(
-                "timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S}, got {t}"
-            )))
-        }
-    };
+    let limit = time_limit(timeout)?;
     let p = part.get();
     let mesh = p.mesh.clone();
     let (input, load_s) = (p.input.clone(), p.load_s);
@@ -202,14 +192,29 @@ pub fn study(
 /// The longest time limit `study` takes, seconds (a day).
 const MAX_TIMEOUT_S: f64 = 86_400.0;
 
-/// batch_row(path, options_json, materials_file=None, units="mm", demold=None)
+/// A time limit in seconds as a duration: above 0 and at most [`MAX_TIMEOUT_S`].
+fn time_limit(timeout: Option<f64>) -> PyResult<Option<std::time::Duration>> {
+    match timeout {
+        None => Ok(None),
+        Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIMEOUT_S => {
+            Ok(Some(std::time::Duration::from_secs_f64(t)))
+        }
+        Some(t) => Err(OptionsError::new_err(format!(
+            "timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S}, got {t}"
+        ))),
+    }
+}
+
+/// batch_row(path, options_json, materials_file=None, units="mm", demold=None, timeout=None)
 /// --
 ///
 /// Loads and studies one file and gives its batch summary row as one line of JSON, the
 /// row of `moldgate locate DIR --summary x.jsonl`. A part that fails is a failed row;
-/// options that are refused raise `OptionsError` (they would fail every part).
+/// options that are refused raise `OptionsError` (they would fail every part). A study
+/// past `timeout` seconds is stopped, and its row says so (an option error, as the command
+/// line's batch gives for `--timeout`).
 #[pyfunction]
-#[pyo3(signature = (path, options_json, materials_file = None, units = "mm", demold = None))]
+#[pyo3(signature = (path, options_json, materials_file = None, units = "mm", demold = None, timeout = None))]
 pub fn batch_row(
     py: Python<'_>,
     path: PathBuf,
@@ -217,7 +222,10 @@ pub fn batch_row(
     materials_file: Option<PathBuf>,
     units: &str,
     demold: Option<String>,
+    timeout: Option<f64>,
 ) -> PyResult<String> {
+    let limit = time_limit(timeout)?;
+    let cancel = moldgate::study::Cancel::new();
     let u = self::units(units)?;
     let settings = guarded(|| {
         settings(options_json, materials_file.as_deref()).map_err(OptionsError::new_err)
@@ -244,10 +252,38 @@ pub fn batch_row(
                 Err(m) => return Err((Status::InputError, m)),
             };
             let load_s = t.elapsed().as_secs_f64();
+            // A timer that stops the study at the limit, woken early when the study ends.
+            let (finished, wait) = std::sync::mpsc::channel::<()>();
+            let hooks = Hooks {
+                cancel: Some(&cancel),
+                ..Hooks::default()
+            };
+            let studied = std::thread::scope(|scope| {
+                if let Some(limit) = limit {
+                    let cancel = &cancel;
+                    scope.spawn(move || {
+                        if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                            wait.recv_timeout(limit)
+                        {
+                            cancel.cancel();
+                        }
+                    });
+                }
+                let studied = moldgate::study_with(&mesh, &settings, &hooks);
+                drop(finished);
+                studied
+            });
             // The messages of the command line's batch for the same errors.
-            let mut s = moldgate::study_with(&mesh, &settings, &Hooks::default()).map_err(|e| {
+            let mut s = studied.map_err(|e| {
                 let (status, _) = study_error(&e);
                 match &e {
+                    StudyError::Cancelled { stage } => (
+                        Status::OptionError,
+                        format!(
+                            "{file}: stopped at its timeout of {} s, in the {stage} stage (a coarser cell, fewer gates or no suitability map take less time)",
+                            timeout.unwrap_or_default()
+                        ),
+                    ),
                     StudyError::Demold(d) => (status, format!("{file}: --demold auto: {d}")),
                     StudyError::Fill(f @ FillError::GateOffPart(..)) => {
                         (status, format!("{file}: {f}"))

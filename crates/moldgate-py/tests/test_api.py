@@ -294,3 +294,20 @@ def test_the_vertex_map_reads_a_field_on_the_callers_own_vertices():
     assert np.abs(part.vertices[m[used]] - v[used]).max() < 1e-12
     assert sorted(set(m[used])) == list(range(len(part.vertices)))
     assert moldgate.sample("plate").vertex_map is None
+
+
+def test_a_batch_row_past_its_timeout_says_so(cover_stl):
+    import time
+
+    heavy = dict(gates=4, cell=0.3, suitability=True, objective="resistance")
+    t = time.perf_counter()
+    row = moldgate.batch_row(cover_stl, timeout=0.2, **heavy)
+    assert time.perf_counter() - t < 5
+    assert row["status"] == "option_error", row
+    assert "stopped at its timeout of 0.2 s, in the" in row["error"], row
+    # Within its limit, the row of no limit.
+    quick = moldgate.batch_row(cover_stl, timeout=60)
+    gate = lambda r: [r["gate_x_mm"], r["gate_y_mm"], r["gate_z_mm"]]
+    assert quick["status"] == "ok" and gate(quick) == gate(moldgate.batch_row(cover_stl))
+    with pytest.raises(moldgate.OptionsError, match="timeout"):
+        moldgate.batch_row(cover_stl, timeout=-1)

@@ -351,6 +351,7 @@ def batch_row(
     *,
     units: str = "mm",
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
+    timeout: Optional[float] = None,
     **options: Any,
 ) -> dict:
     """Loads and studies one file and gives its row of a batch summary: the row that
@@ -363,11 +364,18 @@ def batch_row(
     would fail every part. ``options`` are those of :func:`study`. It reads the files the
     command line reads (STL, OBJ, PLY): a STEP or IGES file is a failed row, as in the
     command line's batch, with what to do; :func:`study` and :func:`load` tessellate them.
+    ``timeout=SECONDS`` stops a study past that time: its row is an option error that says
+    so, as the command line's batch gives for ``--timeout``.
     """
     _check_units_type(units)
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, _numbers.Real)):
+        raise OptionsError(f"timeout must be a number of seconds or None, got {timeout!r}")
     mf = _os.fspath(materials_file) if materials_file is not None else None
     return _json.loads(
-        _moldgate.batch_row(_os.fspath(path), _options_json(options), mf, units, None)
+        _moldgate.batch_row(
+            _os.fspath(path), _options_json(options), mf, units, None,
+            None if timeout is None else float(timeout),
+        )
     )
 
 

@@ -140,7 +140,12 @@ def study(
     **unknown: Any,
 ) -> Study: ...
 def batch_row(
-    path: _Path, *, units: str = "mm", materials_file: Optional[_Path] = None, **options: Any
+    path: _Path,
+    *,
+    units: str = "mm",
+    materials_file: Optional[_Path] = None,
+    timeout: Optional[float] = None,
+    **options: Any,
 ) -> dict[str, Any]: ...
 def check_options(*, materials_file: Optional[_Path] = None, **options: Any) -> None: ...
 def materials(materials_file: Optional[_Path] = None) -> list[dict[str, Any]]: ...
