@@ -64,15 +64,27 @@ fn settings(json: &str, materials_file: Option<&Path>) -> Result<Settings, Strin
         Some(p) => read_materials(p)?,
         None => Vec::new(),
     };
-    o.validate_with(&user)
-        .map_err(|e| moldgate::study::keyword_words(&e.to_string(), "True"))
+    o.validate_with(&user).map_err(|e| python_message(&e))
+}
+
+/// A study's error in this package's words: options named as its arguments, not the
+/// command line's flags, and an option over its limit led by its keyword
+/// (`circle_points: circle points must be at most 360, ...`).
+fn python_message(e: &StudyError) -> String {
+    let m = moldgate::study::keyword_words(&e.to_string(), "True");
+    match e {
+        StudyError::Locate(l) => match l.field() {
+            Some(field) if !m.starts_with(field) => format!("{field}: {m}"),
+            _ => m,
+        },
+        _ => m,
+    }
 }
 
 /// The exception of a study that could not be made, and the batch status it stands for
 /// (the command line's exit codes for the same errors).
 fn study_error(e: &StudyError) -> (Status, PyErrBox) {
-    // The options named as this package's arguments, not the command line's flags.
-    let m = moldgate::study::keyword_words(&e.to_string(), "True");
+    let m = python_message(e);
     match e {
         StudyError::Invalid { .. }
         | StudyError::Parse { .. }

@@ -87,6 +87,8 @@ def test_an_object_without_arrays():
         ({"grid_offset": 1.5}, "grid_offset must be a fraction of the spacing, above -1 and below 1, got 1.5"),
         # Advice names this package's arguments, not the command line's flags.
         ({"spacing": 1e-9}, r"or raise the node limit \(max_nodes\)$"),
+        # A library limit is led by the keyword it is about.
+        ({"circle_points": 10**7}, r"^circle_points: circle points must be at most 360, got 10000000$"),
         ({"material": "WOOD"}, r"unknown material 'WOOD'"),
         ({"strategy": "best"}, "unknown variant `best`, expected `paper` or `balanced`"),
         ({"keep_out": ["cube:1,2,3"]}, "keep_out: cannot read keep-out region 'cube:1,2,3'"),
