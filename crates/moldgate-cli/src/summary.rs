@@ -222,11 +222,8 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
 
 /// The name of the gate the fill starts from (its `paper` fill): the paper's or the
 /// aesthetic gate.
-fn gate_name(mode: moldgate::GateMode) -> &'static str {
-    match mode {
-        moldgate::GateMode::Paper => "paper gate",
-        moldgate::GateMode::Aesthetic => "aesthetic gate",
-    }
+fn gate_name(mode: moldgate::GateMode) -> String {
+    format!("{} gate", mode.name())
 }
 
 /// Renders the report as a few lines of text.
@@ -624,7 +621,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     if let Some(f) = &r.fill {
         if let Some(paper) = &f.paper {
-            row(s, gate_name(r.options.mode), paper);
+            row(s, &gate_name(r.options.mode), paper);
         }
         match &f.balanced {
             Some(b) if b.is_paper_gate => {

@@ -42,7 +42,7 @@ create_exception!(
 );
 
 /// The message of a caught panic.
-pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     payload
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
@@ -56,23 +56,21 @@ pub(crate) fn detached<T: Send>(
     f: impl FnOnce() -> Result<T, PyErrBox> + Send,
 ) -> PyResult<T> {
     py.detach(|| catch_unwind(AssertUnwindSafe(f)))
-        .map_err(|p| {
-            InternalError::new_err(format!(
-                "internal error in moldgate, please report it: {}",
-                panic_message(&*p)
-            ))
-        })?
+        .map_err(|p| panicked(&*p))?
         .map_err(PyErrBox::into_py_err)
+}
+
+/// The `InternalError` of a caught panic.
+pub(crate) fn panicked(payload: &(dyn std::any::Any + Send)) -> PyErr {
+    InternalError::new_err(format!(
+        "internal error in moldgate, please report it: {}",
+        panic_message(payload)
+    ))
 }
 
 /// Runs `f` with the GIL held, turning a panic into [`InternalError`].
 pub(crate) fn guarded<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
-    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
-        Err(InternalError::new_err(format!(
-            "internal error in moldgate, please report it: {}",
-            panic_message(&*p)
-        )))
-    })
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| Err(panicked(&*p)))
 }
 
 /// An error made without the GIL: which exception, and its message.

@@ -189,12 +189,7 @@ pub fn study(
         let mut s = match outcome {
             Ok(Ok(s)) => s,
             Ok(Err(e)) => return Err(study_error(&e).1.into_py_err()),
-            Err(panic) => {
-                return Err(crate::InternalError::new_err(format!(
-                    "internal error in moldgate, please report it: {}",
-                    crate::panic_message(&*panic)
-                )))
-            }
+            Err(panic) => return Err(crate::panicked(&*panic)),
         };
         s.set_input(input, load_s);
         Ok(Study { study: s, part })

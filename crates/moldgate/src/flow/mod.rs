@@ -281,16 +281,12 @@ fn choose_cell(
                 cell_mm,
                 least_cell_mm,
             }) => {
-                let mut least = least_cell_mm.max(h);
                 let most = MAX_CELL_OF_DIAGONAL * diagonal;
-                for _ in 0..400 {
-                    if least > most
-                        || check_limits(mesh, body_of, least, volume_area, options).is_ok()
-                    {
-                        break;
-                    }
-                    least *= 1.05;
-                }
+                let least = match coarsen(least_cell_mm.max(h), most, |h| {
+                    check_limits(mesh, body_of, h, volume_area, options)
+                }) {
+                    Ok((h, _)) | Err((h, _)) => h,
+                };
                 Err(FillError::TooLarge {
                     what,
                     count,
@@ -313,20 +309,40 @@ fn choose_cell(
     if n > options.max_cells {
         h *= (n / options.max_cells).cbrt();
     }
+    let most = MAX_CELL_OF_DIAGONAL * diagonal;
+    match coarsen(h, most, |h| {
+        check_limits(mesh, body_of, h, volume_area, options)
+    }) {
+        Ok(chosen) => Ok(chosen),
+        Err((_, first)) => Err(first),
+    }
+}
+
+/// The cell side from `h` up, by 5 % steps, at most 400 of them and not past `most`, at
+/// which `check` holds: `Ok` with it and the first refusal met on the way (the limit that
+/// made it coarser, if any), or `Err` with the last side tried and the first refusal.
+fn coarsen(
+    mut h: f64,
+    most: f64,
+    check: impl Fn(f64) -> Result<(), FillError>,
+) -> Result<(f64, Option<FillError>), (f64, FillError)> {
     let mut first = None;
     for _ in 0..400 {
-        match check_limits(mesh, body_of, h, volume_area, options) {
+        match check(h) {
             Ok(()) => return Ok((h, first)),
             Err(e) => {
                 first.get_or_insert(e);
-                h *= 1.05;
             }
         }
-        if h > MAX_CELL_OF_DIAGONAL * diagonal {
+        h *= 1.05;
+        if h > most {
             break;
         }
     }
-    Err(first.unwrap_or_else(|| FillError::Option("no cell size keeps the limits".into())))
+    Err((
+        h,
+        first.unwrap_or_else(|| FillError::Option("no cell size keeps the limits".into())),
+    ))
 }
 
 /// Bodies whose area is below this share of the part's area are stray (loose facets,
@@ -1374,10 +1390,7 @@ fn worse_by_other_measures(
     };
     // The answer's gate, which the balanced gate is compared with: the grid's, or on the
     // parting line in aesthetic mode.
-    let gate = match mode {
-        crate::GateMode::Paper => "paper",
-        crate::GateMode::Aesthetic => "aesthetic",
-    };
+    let gate = mode.name();
     (!worse.is_empty()).then(|| {
         format!(
             "the balanced gate minimises the {} only: against the {gate} gate it is more than 1 % worse in {} ({gate} -> balanced); --objective {} minimises the {} instead",
@@ -1644,18 +1657,13 @@ pub fn several_gates_from(
             d(x).total_cmp(&d(y)).then(x.cmp(&y))
         })
         .filter(|&i| i != first);
-    let search = |from: usize, given: Option<&Field>| {
-        let ask = Ask {
-            objective,
-            k,
-            min_distance_mm,
-        };
-        several_gates_search(domain, candidates, ask, from, given, true, None)
-    };
     let ask = Ask {
         objective,
         k,
         min_distance_mm,
+    };
+    let search = |from: usize, given: Option<&Field>| {
+        several_gates_search(domain, candidates, ask, from, given, true, None)
     };
     // The third start: the layout of the body's cells split into k clusters.
     let clustered = || {

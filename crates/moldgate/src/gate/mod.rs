@@ -117,6 +117,16 @@ pub enum GateMode {
     Aesthetic,
 }
 
+impl GateMode {
+    /// The gate's name in the report's words: `paper` or `aesthetic`.
+    pub fn name(self) -> &'static str {
+        match self {
+            GateMode::Paper => "paper",
+            GateMode::Aesthetic => "aesthetic",
+        }
+    }
+}
+
 /// Options of [`locate`]. Every field documents its default.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LocateOptions {

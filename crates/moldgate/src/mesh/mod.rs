@@ -493,11 +493,7 @@ fn weld_coordinate(x: f64) -> f64 {
 /// A position as welding reads it ([`weld_coordinate`] of each coordinate).
 #[inline(always)]
 pub(crate) fn weld_position(p: DVec3) -> DVec3 {
-    DVec3::new(
-        weld_coordinate(p.x),
-        weld_coordinate(p.y),
-        weld_coordinate(p.z),
-    )
+    p.map(weld_coordinate)
 }
 
 /// Bit patterns of a position as welding reads it.

@@ -1391,27 +1391,31 @@ fn axes_box(marks: &[AxisMark], k: f32) -> [f64; 4] {
         f32::NEG_INFINITY,
         f32::NEG_INFINITY,
     ];
-    let mut grow = |x0: f32, y0: f32, x1: f32, y1: f32| {
+    let mut grow = |[x0, y0, x1, y1]: [f32; 4]| {
         b = [b[0].min(x0), b[1].min(y0), b[2].max(x1), b[3].max(y1)];
     };
-    // A name is one capital of 13 px type: about 10 px wide and 13 px tall.
-    let (half_w, tall) = (6.0 * k, 14.0 * k);
+    let label = axis_label_style(k);
     for m in marks {
         match *m {
-            AxisMark::Symbol { at: [x, y], .. } => {
+            AxisMark::Symbol {
+                name, at: [x, y], ..
+            } => {
                 let r = AXIS_SYMBOL_R * k;
-                grow(x - r, y - r, x + r + 3.0 * k + 2.0 * half_w, y + r);
+                grow([x - r, y - r, x + r, y + r]);
+                let [tx, ty] = symbol_label_at([x, y], k);
+                grow(text_box(tx, ty, name, &label, Align::Left));
             }
             AxisMark::Arrow {
+                name,
                 from,
                 to,
-                unit: [ux, uy],
+                unit,
                 ..
             } => {
-                let (lx, ly) = (to[0] + ux * 12.0 * k, to[1] + uy * 12.0 * k + 5.0 * k);
-                grow(from[0], from[1], from[0], from[1]);
-                grow(to[0], to[1], to[0], to[1]);
-                grow(lx - half_w, ly - tall, lx + half_w, ly + 4.0 * k);
+                grow([from[0], from[1], from[0], from[1]]);
+                grow([to[0], to[1], to[0], to[1]]);
+                let [tx, ty] = arrow_label_at(to, unit, k);
+                grow(text_box(tx, ty, name, &label, Align::Centre));
             }
         }
     }
@@ -1419,10 +1423,25 @@ fn axes_box(marks: &[AxisMark], k: f32) -> [f64; 4] {
     [b[0] - pad, b[1] - pad, b[2] + pad, b[3] + pad].map(f64::from)
 }
 
+/// The style of the axes' names.
+fn axis_label_style(k: f32) -> TextStyle {
+    TextStyle::new(13.0 * k, INK).bold().halo(VIEW_BACKGROUND)
+}
+
+/// Where an axis symbol's name is written (left-aligned, its baseline), beside it.
+fn symbol_label_at([x, y]: [f32; 2], k: f32) -> [f32; 2] {
+    [x + AXIS_SYMBOL_R * k + 3.0 * k, y + 5.0 * k]
+}
+
+/// Where an arrow's name is written (centred, its baseline), beyond its head.
+fn arrow_label_at(to: [f32; 2], [ux, uy]: [f32; 2], k: f32) -> [f32; 2] {
+    [to[0] + ux * 12.0 * k, to[1] + uy * 12.0 * k + 5.0 * k]
+}
+
 /// World axes X, Y, Z and the demolding direction D, as seen by the view.
 fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
     let cam = &view.camera;
-    let label = TextStyle::new(13.0 * k, INK).bold().halo(VIEW_BACKGROUND);
+    let label = axis_label_style(k);
     for mark in axis_marks(scene, (cam.right, cam.up, cam.toward), view.panel, k) {
         match mark {
             AxisMark::Symbol {
@@ -1453,7 +1472,8 @@ fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
                         None,
                     );
                 }
-                canvas.text(cx + r + 3.0 * k, cy + 5.0 * k, name, &label, Align::Left);
+                let [tx, ty] = symbol_label_at([cx, cy], k);
+                canvas.text(tx, ty, name, &label, Align::Left);
             }
             AxisMark::Arrow {
                 name,
@@ -1480,13 +1500,8 @@ fn draw_axes(canvas: &mut Canvas, scene: &Scene, view: &View, k: f32) {
                     colour,
                     255,
                 );
-                canvas.text(
-                    ex + ux * 12.0 * k,
-                    ey + uy * 12.0 * k + 5.0 * k,
-                    name,
-                    &label,
-                    Align::Centre,
-                );
+                let [tx, ty] = arrow_label_at([ex, ey], [ux, uy], k);
+                canvas.text(tx, ty, name, &label, Align::Centre);
             }
         }
     }
