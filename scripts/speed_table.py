@@ -24,7 +24,11 @@ one); without them it prints why it is left out.
     cargo build --release -p moldgate --example parse_floor
     python3 scripts/speed_table.py [--runs 11] [--part PART.stl] [--demold +y]
         [--binary target/release/moldgate] [--floor target/release/examples/parse_floor]
-        [--reference-python PYTHON] [--only NAME,...] [--before BINARY]
+        [--reference-python PYTHON] [--only NAME,...] [--before BINARY] [--threads N]
+
+With --threads N, every moldgate command runs on N threads (RAYON_NUM_THREADS); with 1,
+the ratios are those of the work itself (CPU time), which scheduling on more cores cannot
+change.
 
 With --before, every moldgate row is also run with that binary (the same rows, named
 "... (before)", in the same shuffled rounds), its ratio taken to that binary's own plain
@@ -70,9 +74,10 @@ def loadavg():
     return f"{one:.2f} {five:.2f} {fifteen:.2f}"
 
 
-def timed(cmd):
+def timed(cmd, env=None):
     start = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env=env)
     return time.perf_counter() - start
 
 
@@ -107,7 +112,14 @@ def main():
     ap.add_argument("--reference-python", default=sys.executable)
     ap.add_argument("--only", help="comma-separated row names to run besides plain locate")
     ap.add_argument("--before", help="a second moldgate binary, run in the same rounds")
+    ap.add_argument("--threads", type=int,
+                    help="threads of every moldgate command (default: one per core)")
     args = ap.parse_args()
+    if args.threads is not None and args.threads < 1:
+        sys.exit(f"--threads must be at least 1, not {args.threads}")
+    env = None
+    if args.threads is not None:
+        env = dict(os.environ, RAYON_NUM_THREADS=str(args.threads))
 
     for path, build in ((args.binary, "cargo build --release -p moldgate-cli"),
                         (args.floor, "cargo build --release -p moldgate --example parse_floor")):
@@ -132,7 +144,7 @@ def main():
         ]
 
     def row(name, cmd):
-        return (name, None if cmd is None else lambda: timed(cmd))
+        return (name, None if cmd is None else lambda: timed(cmd, env))
 
     rows = [row(name, cmd) for name, cmd in commands(args.binary)]
     rows.append(("parse floor", lambda: timed([args.floor, args.part])))
@@ -151,8 +163,10 @@ def main():
         keep = {"plain locate", *args.only.split(",")}
         rows = [r for r in rows if r[0].removesuffix(" (before)") in keep]
 
+    threads = ("" if args.threads is None else
+               f", moldgate on {args.threads} thread{'' if args.threads == 1 else 's'}")
     print(f"part: {os.path.basename(args.part)}, demold {args.demold}; {args.runs} rounds, "
-          f"{os.cpu_count()} cores; binary {args.binary}"
+          f"{os.cpu_count()} cores{threads}; binary {args.binary}"
           + (f", before {args.before}" if args.before else ""))
     print(f"load average before: {loadavg()}")
     for _, run in rows:  # warm the page cache and the reference's imports
