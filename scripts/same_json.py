@@ -9,10 +9,11 @@ compares the exit codes and the reports, less their time keys (`timings`, `times
 path) and a count. `--ignore` leaves more keys out (such as `runs`, the marches a search took, after a change
 that makes the same answer with fewer). `--rel-tol` accepts floating-point noise (the undercut areas of
 `--demold auto` are summed in parallel in an order that varies from run to run, so even one
-binary differs from itself in their last bits).
+binary differs from itself in their last bits). `--glb` also writes each run's GLB and
+compares the two files byte for byte (for changes to the 3D scene's writer).
 
     python3 scripts/same_json.py BASE_BINARY NEW_BINARY [--parts DIR] [--sets NAME,...]
-        [--jobs N] [--skip-large] [--ignore KEY,...]
+        [--jobs N] [--skip-large] [--ignore KEY,...] [--glb]
 
 Standard library only. Exits 1 when any report differs, 0 when all are the same.
 """
@@ -22,6 +23,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 from concurrent.futures import ThreadPoolExecutor
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -61,13 +63,22 @@ def strip(v):
     return v
 
 
-def run(binary, args):
-    out = subprocess.run([binary, "locate", *args, "--json"], capture_output=True, text=True)
+def run(binary, args, glb=None):
+    """The exit code, the report less its times, the messages, and the GLB's bytes when
+    `glb` names a file to write it to (None when not asked for or not written)."""
+    extra = ["--glb", glb] if glb else []
+    out = subprocess.run([binary, "locate", *args, "--json", *extra], capture_output=True,
+                         text=True)
     try:
         report = strip(json.loads(out.stdout)) if out.stdout.strip() else None
     except json.JSONDecodeError:
         report = ("not JSON", out.stdout[:200])
-    return out.returncode, report, out.stderr.strip()
+    scene = None
+    if glb and os.path.exists(glb):
+        with open(glb, "rb") as f:
+            scene = f.read()
+        os.remove(glb)
+    return out.returncode, report, out.stderr.strip(), scene
 
 
 def first_difference(a, b, path="$"):
@@ -130,6 +141,8 @@ def main():
                     help="more keys to leave out of the comparison, comma-separated")
     ap.add_argument("--rel-tol", type=float, default=0.0,
                     help="accept numbers this close (relative); 0, the default, is exact")
+    ap.add_argument("--glb", action="store_true",
+                    help="also compare the GLB files the two binaries write, byte for byte")
     args = ap.parse_args()
     BASE = args.base
     TIME_KEYS.update(k for k in args.ignore.split(",") if k)
@@ -141,19 +154,29 @@ def main():
             sys.exit(f"unknown option set {s!r} (known: {', '.join(SETS)})")
     todo = list(cases(args.parts, sets, args.skip_large))
 
-    def compare(case):
-        label, a = case
-        ca, ra, ea = run(args.base, a)
-        cb, rb, eb = run(args.new, a)
+    scratch = tempfile.mkdtemp(prefix="same-json-")
+
+    def compare(numbered):
+        i, (label, a) = numbered
+        glb = (lambda side: os.path.join(scratch, f"{i}-{side}.glb")) if args.glb else None
+        ca, ra, ea, ga = run(args.base, a, glb and glb("base"))
+        cb, rb, eb, gb = run(args.new, a, glb and glb("new"))
         if ca != cb:
             return f"{label}: exit code {ca} != {cb} ({ea[:120]!r} / {eb[:120]!r})"
         d = first_difference(ra, rb)
         if d:
             return f"{label}: {d}"
+        if ga != gb:
+            if ga is None or gb is None:
+                return f"{label}: GLB written by {'new' if ga is None else 'base'} only"
+            at = next((k for k, (x, y) in enumerate(zip(ga, gb)) if x != y),
+                      min(len(ga), len(gb)))
+            return f"{label}: GLB differs from byte {at} ({len(ga)} / {len(gb)} bytes)"
         return None
 
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        results = list(pool.map(compare, todo))
+        results = list(pool.map(compare, enumerate(todo)))
+    os.rmdir(scratch)
     differences = [r for r in results if r]
     for d in differences:
         print(d)

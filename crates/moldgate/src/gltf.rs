@@ -141,7 +141,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         // The part refined to the field's cells when the field has them.
         let (surface, values) = scene.surface();
         let part = part_geometry(surface, values, scene.field.range(), scene.frame.d);
-        let m = doc.triangles("part", &part, Look::Part);
+        let m = doc.triangles("part", part, Look::Part);
         children.push(doc.node("part", m));
     }
 
@@ -166,7 +166,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
             Some(b) => format!("gate of body {b}"),
             None => format!("gate {}", i + 1),
         };
-        let m = doc.triangles(&name, &solid, Look::Gate);
+        let m = doc.triangles(&name, solid, Look::Gate);
         children.push(doc.node(&name, m));
     }
 
@@ -182,7 +182,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     if scene.centre.is_finite() && size > 0.0 {
         let m = doc.triangles(
             "centre of mass",
-            &octahedron(scene.centre, size),
+            octahedron(scene.centre, size),
             Look::Centre,
         );
         children.push(doc.node("centre of mass", m));
@@ -196,7 +196,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         .flat_map(|w| [f32s(w[0]), f32s(w[1])])
         .collect();
     if !segments.is_empty() {
-        let m = doc.lines_or_points("parting line", &segments, MODE_LINES, Look::Parting);
+        let m = doc.lines_or_points("parting line", segments, MODE_LINES, Look::Parting);
         children.push(doc.node("parting line", m));
     }
 
@@ -207,12 +207,12 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         .map(|&p| f32s(p))
         .collect();
     if !points.is_empty() {
-        let m = doc.lines_or_points("qualifying nodes", &points, MODE_POINTS, Look::Qualifying);
+        let m = doc.lines_or_points("qualifying nodes", points, MODE_POINTS, Look::Qualifying);
         children.push(doc.node("qualifying nodes", m));
     }
 
     if let Some(g) = suitability_squares(scene) {
-        let m = doc.triangles("gate suitability", &g, Look::Suitability);
+        let m = doc.triangles("gate suitability", g, Look::Suitability);
         children.push(doc.node("gate suitability", m));
     }
 
@@ -244,7 +244,7 @@ fn placed_gate_nodes(doc: &mut Document, scene: &Scene, children: &mut Vec<usize
         };
         let solid = cylinder(g.point, axis, g.radius_mm, 0.5 * g.radius_mm);
         let name = format!("your gate {}", i + 1);
-        let m = doc.triangles(&name, &solid, Look::Placed);
+        let m = doc.triangles(&name, solid, Look::Placed);
         let node = doc.node(&name, m);
         doc.nodes[node]["extras"] = json!({
             "point_mm": finite3(g.point),
@@ -264,12 +264,7 @@ fn suitability_squares(scene: &Scene) -> Option<Geometry> {
     let f = scene.frame;
     let half = 0.5 * scene.grid_spacing_mm;
     let lift = f.d * (0.02 * scene.grid_spacing_mm);
-    let mut g = Geometry {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        colours: Vec::new(),
-        indices: Vec::new(),
-    };
+    let mut g = Solid::default();
     for (&p, &v) in scene.qualifying.iter().zip(&field.per_node) {
         if !(v.is_finite() && p.is_finite()) {
             continue;
@@ -286,7 +281,7 @@ fn suitability_squares(scene: &Scene) -> Option<Geometry> {
         g.indices
             .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
     }
-    (!g.indices.is_empty()).then_some(g)
+    (!g.indices.is_empty()).then(|| g.geometry())
 }
 
 /// The root node's rotation as a quaternion `[x, y, z, w]`: the frame's (u, w, d) to glTF's
@@ -305,11 +300,36 @@ fn f32s(p: DVec3) -> [f32; 3] {
 
 /// Vertex and index arrays of a triangle mesh ready for glTF.
 struct Geometry {
-    positions: Vec<[f32; 3]>,
-    normals: Vec<[f32; 3]>,
+    positions: Pieces,
+    normals: Pieces,
     /// Linear-light colours; empty for a mesh coloured by its material alone.
-    colours: Vec<[f32; 3]>,
+    colours: Pieces,
     indices: Vec<u32>,
+}
+
+/// A vertex array in pieces, written to the file one after the other: the part's runs of
+/// vertices stay the vectors their threads made, not copied into one vector first.
+#[derive(Debug, Default, PartialEq)]
+struct Pieces(Vec<Vec<[f32; 3]>>);
+
+impl Pieces {
+    fn len(&self) -> usize {
+        self.0.iter().map(Vec::len).sum()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.0.iter().all(Vec::is_empty)
+    }
+
+    fn iter(&self) -> impl Iterator<Item = &[f32; 3]> {
+        self.0.iter().flatten()
+    }
+}
+
+impl From<Vec<[f32; 3]>> for Pieces {
+    fn from(one: Vec<[f32; 3]>) -> Pieces {
+        Pieces(vec![one])
+    }
 }
 
 /// The part with crease-split normals and field colours (see the module documentation).
@@ -368,11 +388,9 @@ fn part_geometry(
     let weighted = |c: u32| normals[c as usize / 3] * angles[c as usize / 3][c as usize % 3];
     // One run of vertices: its glTF vertices, and the run-local vertex of each corner.
     let run = |vertices: std::ops::Range<usize>| {
-        let mut g = Geometry {
-            positions: Vec::new(),
-            normals: Vec::new(),
+        let mut g = Solid {
             colours: Vec::new(),
-            indices: Vec::new(),
+            ..Solid::default()
         };
         let mut corners: Vec<(u32, u32)> = Vec::new();
         // The normals already given a glTF vertex of the current mesh vertex.
@@ -380,16 +398,27 @@ fn part_geometry(
         // The vertex given to each face normal met so far around the current mesh vertex.
         let mut by_face: Vec<(DVec3, u32)> = Vec::new();
         let mut faces: Vec<(DVec3, DVec3)> = Vec::new();
+        let mut last_colour: Option<(f32, [f32; 3])> = None;
         for v in vertices {
             let ring = &around[start[v] as usize..start[v + 1] as usize];
             if ring.is_empty() {
                 continue;
             }
-            let colour = match (field.get(v), range) {
-                (Some(&x), Some(r)) if x.is_finite() => colormap::colour(r.t(x)),
-                _ => colormap::NAN_GREY,
-            }
-            .map(colormap::srgb_to_linear);
+            // Neighbouring vertices often have the same value (a face square to the
+            // demolding direction has one height): the colour of the last value is kept.
+            let value = field.get(v).copied().unwrap_or(f32::NAN);
+            let colour = match last_colour {
+                Some((x, c)) if x.to_bits() == value.to_bits() => c,
+                _ => {
+                    let c = match range {
+                        Some(r) if value.is_finite() => colormap::colour(r.t(value)),
+                        _ => colormap::NAN_GREY,
+                    }
+                    .map(colormap::srgb_to_linear);
+                    last_colour = Some((value, c));
+                    c
+                }
+            };
             // The normal and the angle-weighted normal of each face around the vertex.
             faces.clear();
             faces.extend(ring.iter().map(|&c| (normals[c as usize / 3], weighted(c))));
@@ -440,29 +469,31 @@ fn part_geometry(
     drop((normals, angles, start, around));
 
     let mut out = Geometry {
-        positions: Vec::with_capacity(n_vertices),
-        normals: Vec::with_capacity(n_vertices),
-        colours: Vec::with_capacity(n_vertices),
+        positions: Pieces::default(),
+        normals: Pieces::default(),
+        colours: Pieces::default(),
         indices: vec![0; 3 * n_triangles],
     };
+    let mut offset = 0u32;
     for (g, corners) in runs {
-        let offset = out.positions.len() as u32;
         for (corner, local) in corners {
             out.indices[corner as usize] = offset + local;
         }
-        out.positions.extend(g.positions);
-        out.normals.extend(g.normals);
-        out.colours.extend(g.colours);
+        offset += g.positions.len() as u32;
+        out.positions.0.push(g.positions);
+        out.normals.0.push(g.normals);
+        out.colours.0.push(g.colours);
     }
     out
 }
 
-/// Flat-shaded triangles collected one by one, each wound counter-clockwise seen from the
-/// side its normal points to (glTF's front face).
+/// Triangles collected one by one (flat-shaded ones by [`Solid::triangle`], each wound
+/// counter-clockwise seen from the side its normal points to, glTF's front face).
 #[derive(Default)]
 struct Solid {
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
+    colours: Vec<[f32; 3]>,
     indices: Vec<u32>,
 }
 
@@ -484,9 +515,9 @@ impl Solid {
 
     fn geometry(self) -> Geometry {
         Geometry {
-            positions: self.positions,
-            normals: self.normals,
-            colours: Vec::new(),
+            positions: self.positions.into(),
+            normals: self.normals.into(),
+            colours: self.colours.into(),
             indices: self.indices,
         }
     }
@@ -538,10 +569,43 @@ fn octahedron(centre: DVec3, size: f64) -> Geometry {
     s.geometry()
 }
 
-/// The JSON arrays of the file under construction and its binary chunk.
+/// The data of one buffer view, kept until the file is written.
+enum Block {
+    Floats(Pieces),
+    Indices(Vec<u32>),
+}
+
+impl Block {
+    /// Its bytes, little-endian, after the end of `out`.
+    fn write(&self, out: &mut Vec<u8>) {
+        match self {
+            Block::Floats(pieces) => {
+                for piece in &pieces.0 {
+                    put_words(out, piece.as_flattened(), |x| x.to_le_bytes());
+                }
+            }
+            Block::Indices(indices) => put_words(out, indices, |x| x.to_le_bytes()),
+        }
+    }
+}
+
+/// Appends the 4-byte words of `data` to `out`, in order, a word at a time into space made
+/// for all of them at once.
+fn put_words<T: Copy>(out: &mut Vec<u8>, data: &[T], bytes: impl Fn(T) -> [u8; 4]) {
+    let start = out.len();
+    out.resize(start + 4 * data.len(), 0);
+    for (word, &x) in out[start..].chunks_exact_mut(4).zip(data) {
+        word.copy_from_slice(&bytes(x));
+    }
+}
+
+/// The JSON arrays of the file under construction, and the data of its binary chunk, which
+/// is copied once, into the file, when the file is written.
 #[derive(Default)]
 struct Document {
-    bin: Vec<u8>,
+    blocks: Vec<Block>,
+    /// The binary chunk's length so far, bytes.
+    bin_len: usize,
     views: Vec<Value>,
     accessors: Vec<Value>,
     meshes: Vec<Value>,
@@ -551,39 +615,33 @@ struct Document {
 }
 
 impl Document {
-    /// Appends 4-byte words (little-endian numbers) as a buffer view (4-byte aligned) and returns its index.
-    fn view(&mut self, words: impl ExactSizeIterator<Item = [u8; 4]>, target: u32) -> usize {
-        while self.bin.len() % 4 != 0 {
-            self.bin.push(0);
-        }
+    /// Adds `block` (4-byte words, so every view stays 4-byte aligned) as a buffer view of
+    /// `words` words and returns its index.
+    fn view(&mut self, block: Block, words: usize, target: u32) -> usize {
         self.views.push(json!({
             "buffer": 0,
-            "byteOffset": self.bin.len(),
-            "byteLength": 4 * words.len(),
+            "byteOffset": self.bin_len,
+            "byteLength": 4 * words,
             "target": target,
         }));
-        self.bin.reserve(4 * words.len());
-        for w in words {
-            self.bin.extend_from_slice(&w);
-        }
+        self.bin_len += 4 * words;
+        self.blocks.push(block);
         self.views.len() - 1
     }
 
     /// A VEC3 float accessor; `bounds` adds the min and max the spec requires of POSITION.
-    fn vec3(&mut self, data: &[[f32; 3]], bounds: bool) -> usize {
-        let words = data.as_flattened().iter().map(|x| x.to_le_bytes());
-        let view = self.view(words, ARRAY_BUFFER);
+    fn vec3(&mut self, data: Pieces, bounds: bool) -> usize {
+        let count = data.len();
         let mut a = json!({
-            "bufferView": view,
             "componentType": FLOAT,
-            "count": data.len(),
+            "count": count,
             "type": "VEC3",
         });
         if bounds {
             // Taken from the f32 values themselves: the validator compares them exactly.
             let mut min = [f32::INFINITY; 3];
             let mut max = [f32::NEG_INFINITY; 3];
-            for p in data {
+            for p in data.iter() {
                 for i in 0..3 {
                     min[i] = min[i].min(p[i]);
                     max[i] = max[i].max(p[i]);
@@ -592,34 +650,35 @@ impl Document {
             a["min"] = json!(min);
             a["max"] = json!(max);
         }
+        a["bufferView"] = json!(self.view(Block::Floats(data), 3 * count, ARRAY_BUFFER));
         self.accessors.push(a);
         self.accessors.len() - 1
     }
 
     /// A SCALAR unsigned-int index accessor.
-    fn indices(&mut self, data: &[u32]) -> usize {
-        let words = data.iter().map(|x| x.to_le_bytes());
-        let view = self.view(words, ELEMENT_ARRAY_BUFFER);
+    fn indices(&mut self, data: Vec<u32>) -> usize {
+        let count = data.len();
+        let view = self.view(Block::Indices(data), count, ELEMENT_ARRAY_BUFFER);
         self.accessors.push(json!({
             "bufferView": view,
             "componentType": UNSIGNED_INT,
-            "count": data.len(),
+            "count": count,
             "type": "SCALAR",
         }));
         self.accessors.len() - 1
     }
 
     /// A mesh of indexed triangles; returns the mesh index.
-    fn triangles(&mut self, name: &str, g: &Geometry, look: Look) -> usize {
+    fn triangles(&mut self, name: &str, g: Geometry, look: Look) -> usize {
         let material = self.material(look);
         let mut attributes = json!({
-            "POSITION": self.vec3(&g.positions, true),
-            "NORMAL": self.vec3(&g.normals, false),
+            "POSITION": self.vec3(g.positions, true),
+            "NORMAL": self.vec3(g.normals, false),
         });
         if !g.colours.is_empty() {
-            attributes["COLOR_0"] = json!(self.vec3(&g.colours, false));
+            attributes["COLOR_0"] = json!(self.vec3(g.colours, false));
         }
-        let indices = self.indices(&g.indices);
+        let indices = self.indices(g.indices);
         self.mesh(
             name,
             json!({
@@ -632,9 +691,9 @@ impl Document {
     }
 
     /// A mesh of unindexed lines (pairs of points) or points.
-    fn lines_or_points(&mut self, name: &str, p: &[[f32; 3]], mode: u32, look: Look) -> usize {
+    fn lines_or_points(&mut self, name: &str, p: Vec<[f32; 3]>, mode: u32, look: Look) -> usize {
         let material = self.material(look);
-        let position = self.vec3(p, true);
+        let position = self.vec3(p.into(), true);
         self.mesh(
             name,
             json!({
@@ -670,10 +729,7 @@ impl Document {
 
     /// The JSON document and the GLB framing around it and the binary chunk.
     fn finish(self, scene: &Scene, root: usize) -> Result<Vec<u8>, GlbError> {
-        let mut bin = self.bin;
-        while bin.len() % 4 != 0 {
-            bin.push(0);
-        }
+        let bin_len = self.bin_len;
         let range = scene.field.range().map(|[min, max]| Range { min, max });
         let bounds = scene.mesh.bounds();
         let gates: Vec<Value> = scene
@@ -742,8 +798,8 @@ impl Document {
         if self.looks.iter().any(|l| l.unlit()) {
             document["extensionsUsed"] = json!(["KHR_materials_unlit"]);
         }
-        if !bin.is_empty() {
-            document["buffers"] = json!([{ "byteLength": bin.len() }]);
+        if bin_len > 0 {
+            document["buffers"] = json!([{ "byteLength": bin_len }]);
         } else {
             let o = document.as_object_mut().expect("an object");
             o.remove("accessors");
@@ -753,14 +809,7 @@ impl Document {
         while text.len() % 4 != 0 {
             text.push(b' ');
         }
-        let total = 12
-            + 8
-            + text.len() as u64
-            + if bin.is_empty() {
-                0
-            } else {
-                8 + bin.len() as u64
-            };
+        let total = 12 + 8 + text.len() as u64 + if bin_len == 0 { 0 } else { 8 + bin_len as u64 };
         let length = u32::try_from(total).map_err(|_| GlbError::TooLarge { bytes: total })?;
         let mut out = Vec::with_capacity(total as usize);
         out.extend_from_slice(b"glTF");
@@ -769,11 +818,14 @@ impl Document {
         out.extend_from_slice(&(text.len() as u32).to_le_bytes());
         out.extend_from_slice(b"JSON");
         out.extend_from_slice(&text);
-        if !bin.is_empty() {
-            out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        if bin_len > 0 {
+            out.extend_from_slice(&(bin_len as u32).to_le_bytes());
             out.extend_from_slice(b"BIN\0");
-            out.extend_from_slice(&bin);
+            for block in &self.blocks {
+                block.write(&mut out);
+            }
         }
+        debug_assert_eq!(out.len() as u64, total);
         Ok(out)
     }
 }
@@ -853,8 +905,9 @@ mod tests {
         ];
         for (g, middle, triangles) in cases {
             assert_eq!(g.indices.len(), 3 * triangles);
+            let positions: Vec<[f32; 3]> = g.positions.iter().copied().collect();
             let p = |i: u32| {
-                let [x, y, z] = g.positions[i as usize];
+                let [x, y, z] = positions[i as usize];
                 DVec3::new(x as f64, y as f64, z as f64)
             };
             for t in g.indices.chunks(3) {
@@ -908,13 +961,37 @@ mod tests {
         assert_eq!(one.normals, three.normals);
         assert_eq!(one.colours, three.colours);
         assert_eq!(one.indices, three.indices);
-        // Smooth: one glTF vertex per mesh vertex, every corner on its own vertex.
+        // Smooth: one glTF vertex per mesh vertex, every corner on its own vertex, the
+        // runs' pieces in order.
+        assert!(one.positions.0.len() > 1, "several runs");
         assert_eq!(one.positions.len(), mesh.vertices.len());
+        let positions: Vec<[f32; 3]> = one.positions.iter().copied().collect();
         for (t, tri) in mesh.triangles.iter().enumerate() {
             for (k, &v) in tri.iter().enumerate() {
                 let i = one.indices[3 * t + k] as usize;
-                assert_eq!(one.positions[i], f32s(mesh.vertices[v as usize]));
+                assert_eq!(positions[i], f32s(mesh.vertices[v as usize]));
             }
         }
+    }
+
+    #[test]
+    fn blocks_write_their_pieces_in_order_as_little_endian_words() {
+        let pieces = Pieces(vec![
+            vec![[1.0, -2.5, 3.25]],
+            vec![],
+            vec![[f32::MIN_POSITIVE, 0.0, -0.0], [1e30, 7.0, 8.0]],
+        ]);
+        let want: Vec<u8> = pieces
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        let mut out = vec![9u8];
+        Block::Floats(pieces).write(&mut out);
+        assert_eq!(out[0], 9);
+        assert_eq!(&out[1..], &want[..]);
+        let mut out = Vec::new();
+        Block::Indices(vec![1, 0x0102_0304, u32::MAX]).write(&mut out);
+        assert_eq!(out, [1, 0, 0, 0, 4, 3, 2, 1, 255, 255, 255, 255]);
     }
 }

@@ -1,0 +1,61 @@
+//! Best-of-N time to write the GLB of one part, and a digest of its bytes so that two
+//! builds can be checked to write the same file.
+//!
+//! `cargo run --release -p moldgate --example glb_time -- PART.stl [+y] [runs]`
+//! (or a sample name instead of a file). Run with `RAYON_NUM_THREADS=1` for the work of
+//! one thread, which is what the browser app's single-threaded module does.
+
+use std::hash::{Hash, Hasher};
+use std::time::Instant;
+
+use moldgate::mesh::{self, Units};
+use moldgate::scene::Scene;
+use moldgate::{locate, Direction, LocateOptions};
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let part = args.next().unwrap_or_else(|| "cover".into());
+    let direction: Direction = args
+        .next()
+        .unwrap_or_else(|| "+z".into())
+        .parse()
+        .expect("a direction");
+    let runs: usize = args
+        .next()
+        .map(|s| s.parse().expect("a count"))
+        .unwrap_or(5);
+    let loaded = match moldgate::samples::sample(&part) {
+        Some(m) => mesh::from_generated(m),
+        None => {
+            let file = std::fs::File::open(&part).expect("the part opens");
+            let len = file.metadata().expect("the part has a size").len();
+            mesh::read_stl(std::io::BufReader::new(file), len, Units::Mm).expect("the part reads")
+        }
+    };
+    let options = LocateOptions {
+        direction,
+        ..LocateOptions::default()
+    };
+    let analysis = locate(&loaded, &options).expect("the analysis runs");
+    let scene = Scene::new(&loaded.mesh, &analysis, part.clone()).with_topology(&loaded.topology);
+    let (mut best, mut times) = (f64::MAX, Vec::new());
+    let mut bytes = Vec::new();
+    for _ in 0..runs {
+        let t = Instant::now();
+        bytes = moldgate::gltf::glb(&scene).expect("the GLB writes");
+        let s = t.elapsed().as_secs_f64();
+        best = best.min(s);
+        times.push(s);
+    }
+    times.sort_by(f64::total_cmp);
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    bytes.hash(&mut h);
+    println!(
+        "{part}: {} triangles, GLB {} bytes, best {:.1} ms, median {:.1} ms (of {runs}); digest {:016x}",
+        loaded.mesh.triangles.len(),
+        bytes.len(),
+        best * 1e3,
+        times[times.len() / 2] * 1e3,
+        h.finish()
+    );
+}
