@@ -516,16 +516,19 @@ impl Study {
         self.gate_objects(py)
     }
 
-    /// The report as a dict: the JSON of `moldgate locate --json` (docs/json-schema.md).
+    /// The report as a dict: the JSON of `moldgate locate --json` (docs/json-schema.md),
+    /// its sentences (warnings, reasons) naming this package's keywords
+    /// (`require_flat=True`, not `--require-flat`).
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         json_to_py(py, &self.to_json()?)
     }
 
-    /// The report as pretty JSON with a final newline, as `moldgate locate --json` prints it.
+    /// The report as pretty JSON with a final newline, as `moldgate locate --json` prints it
+    /// but for its sentences, which name this package's keywords.
     fn to_json(&self) -> PyResult<String> {
         self.study
-            .report_json()
+            .report_json_in_keywords("True")
             .map_err(|e| study_error(&e).1.into_py_err())
     }
 

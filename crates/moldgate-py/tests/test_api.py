@@ -63,6 +63,16 @@ def test_the_gate_and_its_fields():
     assert s.fill_order is None
 
 
+def test_the_report_advises_keywords_not_flags():
+    # The cover with the automatic direction and the fill: its warnings advise
+    # `--require-flat` on the command line, `require_flat=True` here.
+    s = moldgate.study(moldgate.sample("cover"), demold="auto", fill=True)
+    sentences = s.report["warnings"] + s.report["fill"]["warnings"]
+    assert any("require_flat=True" in w for w in sentences), sentences
+    assert not any("--" in w for w in sentences), sentences
+    assert json.loads(s.to_json())["warnings"] == s.report["warnings"]
+
+
 def test_fill_order_and_several_gates():
     s = moldgate.study(moldgate.sample("plate"), gates=2)
     assert len(s.gates) == 2

@@ -457,12 +457,12 @@ fn work(
                 moldgate::study::keyword_words(reason, "true")
             ),
         );
-        e.report = serde_json::to_value(report).ok();
+        e.report = serde_json::to_value(report.in_keyword_words("true")).ok();
         return Err(e);
     }
     let fail = |e: moldgate::StudyError| ApiError::study(&e);
     Ok(match output {
-        Output::Json => Answer::Json(study.report_json().map_err(fail)?),
+        Output::Json => Answer::Json(study.report_json_in_keywords("true").map_err(fail)?),
         Output::Png => Answer::Png(study.png(&part, upload.title).map_err(fail)?),
         Output::Glb => Answer::Glb(study.glb(&part, upload.title).map_err(fail)?),
         Output::Html => {

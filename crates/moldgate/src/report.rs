@@ -358,6 +358,31 @@ pub struct WallThicknessReport {
 }
 
 impl Report {
+    /// This report with its sentences (the warnings, the reasons for no gate, no fill or a
+    /// refused radius, why a placed gate does not qualify) in the words of a front end
+    /// whose options are keywords ([`crate::study::keyword_words`]): `--require-flat`
+    /// becomes `require_flat=True` for Python (`truth` "True"), `require_flat=true` for the
+    /// service. Every number and every other field stays as it is.
+    pub fn in_keyword_words(&self, truth: &str) -> Report {
+        let words = |s: &mut String| *s = crate::study::keyword_words(s, truth);
+        let mut r = self.clone();
+        r.warnings.iter_mut().for_each(words);
+        r.no_gate_reason.iter_mut().for_each(words);
+        if let Some(f) = &mut r.fill {
+            f.warnings.iter_mut().for_each(words);
+        }
+        if let Some(fit) = &mut r.radius_fit {
+            words(&mut fit.reason);
+        }
+        if let Some(placed) = &mut r.placed_gates {
+            placed.no_fill_reason.iter_mut().for_each(words);
+            for g in &mut placed.gates {
+                g.why.iter_mut().for_each(words);
+            }
+        }
+        r
+    }
+
     /// Adds the wall thickness, with its value at the paper gate's triangle.
     pub fn with_wall_thickness(mut self, w: &WallThickness, time_s: f64) -> Report {
         let at_gate_mm = self

@@ -111,7 +111,7 @@ fn report_is_the_command_lines_for_the_same_part_and_options() {
     let dir = tempfile::tempdir().unwrap();
     let stl = sample_stl("cover");
     std::fs::write(dir.path().join("cover.stl"), &stl).unwrap();
-    let cases: [(&str, &[&str]); 3] = [
+    let cases: [(&str, &[&str]); 4] = [
         ("", &[]),
         (
             "material=ABS&demold=%2Bz&keep_out=box:-70,-50,-5,0,50,40&keep_out=sphere:30,0,5,4",
@@ -130,7 +130,27 @@ fn report_is_the_command_lines_for_the_same_part_and_options() {
             "fill=true&gate_radius=1.2&wall_thickness=true",
             &["--fill", "--gate-radius", "1.2", "--wall-thickness"],
         ),
+        // Warnings that advise flags: the service names its query's keywords instead.
+        ("fill=true&demold=auto", &["--fill", "--demold", "auto"]),
     ];
+    // The command line's sentences in the service's words, the rest as it is.
+    let in_keywords = |mut v: Value| {
+        let words = |w: &mut Value| {
+            if let Some(text) = w.as_str() {
+                *w = Value::from(moldgate::study::keyword_words(text, "true"));
+            }
+        };
+        // (`get_mut`, not indexing, which would make a null `fill` an object.)
+        for path in ["/warnings", "/fill/warnings"] {
+            if let Some(list) = v.pointer_mut(path).and_then(Value::as_array_mut) {
+                list.iter_mut().for_each(words);
+            }
+        }
+        if let Some(reason) = v.get_mut("no_gate_reason") {
+            words(reason);
+        }
+        v
+    };
     for (query, flags) in cases {
         let r = study_stl(s.addr, query, &stl);
         assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
@@ -142,7 +162,17 @@ fn report_is_the_command_lines_for_the_same_part_and_options() {
         let out = moldgate(dir.path(), &args);
         assert!(out.status.success(), "{}", common::stderr(&out));
         let cli: Value = serde_json::from_slice(&out.stdout).unwrap();
-        assert_eq!(comparable(service), comparable(cli), "options {query:?}");
+        if query.contains("auto") {
+            let said = service["warnings"].to_string();
+            assert!(said.contains("require_flat=true"), "{said}");
+            assert!(!said.contains("--"), "{said}");
+            assert!(cli["warnings"].to_string().contains("--require-flat"));
+        }
+        assert_eq!(
+            comparable(service),
+            comparable(in_keywords(cli)),
+            "options {query:?}"
+        );
     }
 }
 

@@ -462,9 +462,14 @@ impl Study {
     /// The report as pretty JSON with a final newline (what `locate --json` prints); no
     /// number is written as a negative zero.
     pub fn report_json(&self) -> Result<String, StudyError> {
-        serde_json::to_string_pretty(&self.report)
-            .map(|s| crate::report::without_negative_zeros(&s, true) + "\n")
-            .map_err(|e| StudyError::Encode(e.to_string()))
+        json_text(&self.report)
+    }
+
+    /// [`Study::report_json`] with its sentences naming the options as keywords
+    /// ([`Report::in_keyword_words`]), for the Python package (`truth` "True") and the
+    /// service ("true"): the same keys and numbers.
+    pub fn report_json_in_keywords(&self, truth: &str) -> Result<String, StudyError> {
+        json_text(&self.report.in_keyword_words(truth))
     }
 
     /// The gate analysis of [`crate::locate`] (grid, counts, centres, parting line).
@@ -680,4 +685,11 @@ impl From<FillError> for StudyError {
 
 fn non_empty(values: &[f32]) -> Option<&[f32]> {
     (!values.is_empty()).then_some(values)
+}
+
+/// A report as pretty JSON with a final newline, without negative zeros.
+fn json_text(report: &Report) -> Result<String, StudyError> {
+    serde_json::to_string_pretty(report)
+        .map(|s| crate::report::without_negative_zeros(&s, true) + "\n")
+        .map_err(|e| StudyError::Encode(e.to_string()))
 }

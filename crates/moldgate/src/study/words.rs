@@ -71,7 +71,7 @@ pub fn keyword_words(message: &str, truth: &str) -> String {
             // A value right after the flag: a number, or a word (`length`, `in`).
             if let Some(value) = tail.strip_prefix(' ') {
                 let end = value
-                    .find(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | ')'))
+                    .find(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | ':' | ')'))
                     .unwrap_or(value.len());
                 let word = &value[..end];
                 let is_value = word.parse::<f64>().is_ok()
@@ -119,6 +119,10 @@ mod tests {
             (
                 "a slope; --require-flat keeps only flat nodes)",
                 "a slope; require_flat=true keeps only flat nodes)",
+            ),
+            (
+                "--demold auto: no direction without undercuts; chose (0.0000, 0.0000, 1.0000)",
+                "demold=auto: no direction without undercuts; chose (0.0000, 0.0000, 1.0000)",
             ),
             (
                 "set its units to in, cm or m (--units)",

@@ -462,3 +462,55 @@ fn two_gates_on_a_long_tray_split_it_across_its_length() {
     assert!(l_max < 50.0, "{l_max}");
     assert!(layout.improvement_pct > 15.0, "{}", layout.improvement_pct);
 }
+
+#[test]
+fn the_keyword_report_names_options_as_keywords_and_changes_nothing_else() {
+    // The cover with the automatic direction and the fill: warnings that advise
+    // `--require-flat` and name `--demold auto` (both the report's and the fill's own).
+    let part = sample("cover");
+    let s = study(&part, &options(r#"{ "fill": true, "demold": "auto" }"#)).unwrap();
+    let cli: serde_json::Value = serde_json::from_str(&s.report_json().unwrap()).unwrap();
+    let text = s.report_json_in_keywords("True").unwrap();
+    assert!(text.ends_with("}\n"));
+    let python: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let sentences = |r: &serde_json::Value| -> Vec<String> {
+        let mut all: Vec<String> = r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .chain(r["fill"]["warnings"].as_array().unwrap())
+            .map(|w| w.as_str().unwrap().to_owned())
+            .collect();
+        all.extend(r["no_gate_reason"].as_str().map(str::to_owned));
+        all
+    };
+    let (flags, keywords) = (sentences(&cli), sentences(&python));
+    assert!(
+        flags.iter().any(|w| w.contains("--require-flat")),
+        "{flags:?}"
+    );
+    assert!(
+        keywords.iter().any(|w| w.contains("require_flat=True")),
+        "{keywords:?}"
+    );
+    assert!(keywords.iter().all(|w| !w.contains("--")), "{keywords:?}");
+    for (f, k) in flags.iter().zip(&keywords) {
+        assert_eq!(moldgate::study::keyword_words(f, "True"), *k);
+    }
+    // Everything else is the command line's report, key for key.
+    let without = |mut r: serde_json::Value| {
+        r["warnings"] = serde_json::Value::Null;
+        r["fill"]["warnings"] = serde_json::Value::Null;
+        r["no_gate_reason"] = serde_json::Value::Null;
+        r
+    };
+    assert_eq!(without(cli), without(python));
+    // The same order of keys as the command line's, for a reader that keeps it.
+    let keys = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter_map(|l| l.trim_start().strip_prefix('"'))
+            .filter_map(|l| l.split_once("\":").map(|(k, _)| k.to_owned()))
+            .collect()
+    };
+    assert_eq!(keys(&s.report_json().unwrap()), keys(&text));
+}
