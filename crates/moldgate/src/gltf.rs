@@ -346,23 +346,24 @@ fn part_geometry(
 ) -> Geometry {
     let n_vertices = mesh.vertices.len();
     let n_triangles = mesh.triangles.len();
-    let normals: Vec<DVec3> = (0..n_triangles)
-        .into_par_iter()
-        .map(|t| mesh.normal(t))
-        .collect();
-    // The angle of every corner (corner 3t + k is corner k of triangle t), the weight of its
-    // face's normal in the vertex normal.
-    let angles: Vec<[f64; 3]> = (0..n_triangles)
+    // Each face's normal ([`Mesh::normal`]), and the angle of each of its corners (corner
+    // 3t + k is corner k of triangle t), the weight of the face's normal in the vertex
+    // normal, from one read of its corners. Each edge's unit vector is made once: corner
+    // k's edges run from it to the next corner (edge k) and to the previous one (edge
+    // k + 2 reversed, which is the same vector negated, bit for bit).
+    let (normals, angles): (Vec<DVec3>, Vec<[f64; 3]>) = (0..n_triangles)
         .into_par_iter()
         .map(|t| {
             let p = mesh.corners(t);
-            [0, 1, 2].map(|k| {
-                let a = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-                let b = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+            let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            let edge = [0, 1, 2].map(|k| (p[(k + 1) % 3] - p[k]).normalize_or_zero());
+            let angles = [0, 1, 2].map(|k| {
+                let (a, b) = (edge[k], -edge[(k + 2) % 3]);
                 a.dot(b).clamp(-1.0, 1.0).acos()
-            })
+            });
+            (normal, angles)
         })
-        .collect();
+        .unzip();
 
     // The corners around each vertex: offsets, then corner numbers.
     let mut start = vec![0u32; n_vertices + 1];
