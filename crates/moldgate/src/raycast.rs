@@ -1185,8 +1185,10 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
     let ids: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
     keys.par_iter_mut().for_each(|k| *k >>= 32);
     let codes = keys;
-    let mut nodes = vec![UNWRITTEN; morton_count(&codes)];
-    morton_into(&ids, boxes, &codes, 0, &mut nodes, 0);
+    let (count, mut lefts) = morton_count_noting(&codes, 0);
+    lefts.sort_unstable();
+    let mut nodes = vec![UNWRITTEN; count];
+    morton_into(&ids, boxes, &codes, 0, &mut nodes, 0, &lefts);
     (nodes, ids)
 }
 
@@ -1249,6 +1251,26 @@ fn morton_count(codes: &[u64]) -> usize {
     }
 }
 
+/// [`morton_count`] of the triangles whose codes are `codes` (the first of them triangle
+/// `first` in the sorted order), with, for every node of more than [`PARALLEL_MIN`]
+/// triangles, the node count of its first child's subtree, by the node's (first triangle,
+/// triangle count): what [`morton_into`] needs to place the two subtrees it builds side by
+/// side, counted once rather than again at each level.
+fn morton_count_noting(codes: &[u64], first: usize) -> (usize, Vec<((usize, usize), usize)>) {
+    if codes.len() <= PARALLEL_MIN {
+        return (morton_count(codes), Vec::new());
+    }
+    let mid = morton_split(codes).expect("a large node splits");
+    let (l, r) = codes.split_at(mid);
+    let ((left, mut noted), (right, more)) = join(
+        || morton_count_noting(l, first),
+        || morton_count_noting(r, first + mid),
+    );
+    noted.extend(more);
+    noted.push(((first, codes.len()), left));
+    (1 + left + right, noted)
+}
+
 impl Node {
     /// An interior node of box `b` whose second child is at `link`.
     fn interior(b: &Bounds, link: u32) -> Node {
@@ -1274,7 +1296,8 @@ const UNWRITTEN: Node = Node {
 /// its first child's subtree, then its second's; `at` is the index of `out[0]` in the whole
 /// tree, triangle links are relative to `first`. Returns the node's box. The two subtrees of
 /// a large node are built side by side, each into its own part of `out`, so nothing is
-/// copied or grown.
+/// copied or grown; `lefts` holds the size of each large node's first subtree
+/// ([`morton_count_noting`], sorted).
 fn morton_into(
     ids: &[u32],
     boxes: &[(Vec3, Vec3)],
@@ -1282,6 +1305,7 @@ fn morton_into(
     first: usize,
     out: &mut [Node],
     at: usize,
+    lefts: &[((usize, usize), usize)],
 ) -> Bounds {
     if ids.len() <= PARALLEL_MIN {
         let mut next = 0;
@@ -1293,11 +1317,25 @@ fn morton_into(
     let (left, right) = ids.split_at(mid);
     let (l_codes, r_codes) = codes.split_at(mid);
     let (me, rest) = out.split_first_mut().expect("a node's slot");
-    let n_left = morton_count(l_codes);
+    let n_left = lefts
+        .binary_search_by_key(&(first, ids.len()), |&(node, _)| node)
+        .map(|i| lefts[i].1)
+        .expect("every large node's first subtree is counted");
+    debug_assert_eq!(n_left, morton_count(l_codes));
     let (l_out, r_out) = rest.split_at_mut(n_left);
     let (mut b, r) = join(
-        || morton_into(left, boxes, l_codes, first, l_out, at + 1),
-        || morton_into(right, boxes, r_codes, first + mid, r_out, at + 1 + n_left),
+        || morton_into(left, boxes, l_codes, first, l_out, at + 1, lefts),
+        || {
+            morton_into(
+                right,
+                boxes,
+                r_codes,
+                first + mid,
+                r_out,
+                at + 1 + n_left,
+                lefts,
+            )
+        },
     );
     b.grow(r.min, r.max);
     *me = Node::interior(&b, (at + 1 + n_left) as u32);
@@ -2069,9 +2107,16 @@ mod tests {
         // The same hits to the bit (distances; the triangle named where no other triangle
         // is at that distance), first from the root and from a region, any-hit, and the
         // same nearest triangle within a radius (of equally near ones the least index), on rays and points all over and just off the
-        // surface (the wall thickness's queries).
-        for info in samples::SAMPLES {
-            let (name, mesh) = (info.name, samples::sample(info.name).unwrap());
+        // surface (the wall thickness's queries). The cover split twice has more than
+        // `PARALLEL_MIN` triangles: its Morton tree is built in parallel, its large nodes'
+        // subtrees placed by the counts noted once (checked against a recount in debug).
+        let split = samples::sample("cover").unwrap().subdivided().subdivided();
+        assert!(split.triangles.len() > PARALLEL_MIN);
+        let meshes = samples::SAMPLES
+            .iter()
+            .map(|info| (info.name, samples::sample(info.name).unwrap()))
+            .chain([("cover split twice", split)]);
+        for (name, mesh) in meshes {
             let (sah, morton) = (Bvh::new(&mesh), Bvh::new_morton(&mesh));
             assert_eq!(morton.len(), mesh.triangles.len());
             let mut order = morton.leaf_order().to_vec();
