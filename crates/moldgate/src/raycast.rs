@@ -1251,12 +1251,16 @@ fn morton_count(codes: &[u64]) -> usize {
     }
 }
 
+/// A large node, as (its first triangle, its triangle count), and the node count of its
+/// first child's subtree.
+type FirstSubtree = ((usize, usize), usize);
+
 /// [`morton_count`] of the triangles whose codes are `codes` (the first of them triangle
 /// `first` in the sorted order), with, for every node of more than [`PARALLEL_MIN`]
 /// triangles, the node count of its first child's subtree, by the node's (first triangle,
 /// triangle count): what [`morton_into`] needs to place the two subtrees it builds side by
 /// side, counted once rather than again at each level.
-fn morton_count_noting(codes: &[u64], first: usize) -> (usize, Vec<((usize, usize), usize)>) {
+fn morton_count_noting(codes: &[u64], first: usize) -> (usize, Vec<FirstSubtree>) {
     if codes.len() <= PARALLEL_MIN {
         return (morton_count(codes), Vec::new());
     }
@@ -1305,7 +1309,7 @@ fn morton_into(
     first: usize,
     out: &mut [Node],
     at: usize,
-    lefts: &[((usize, usize), usize)],
+    lefts: &[FirstSubtree],
 ) -> Bounds {
     if ids.len() <= PARALLEL_MIN {
         let mut next = 0;
