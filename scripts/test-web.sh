@@ -42,4 +42,4 @@ fi
 
 cd web
 MOLDGATE_BIN=$bin CHROMIUM=$chromium \
-    node --test --test-concurrency=1 tests/glue.test.mjs tests/app.test.mjs
+    node --test --test-concurrency=1 tests/glue.test.mjs tests/sight.test.mjs tests/app.test.mjs
