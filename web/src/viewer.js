@@ -172,8 +172,10 @@ export class Viewer {
 
   /** Shows a GLB (bytes); resolves with the file's `asset.extras` once drawn. */
   async show(glb, { keepCamera = false } = {}) {
+    // The worker's bytes are a buffer of their own (transferred, not copied): read in place.
+    const whole = glb.byteOffset === 0 && glb.byteLength === glb.buffer.byteLength;
     const gltf = await new GLTFLoader().parseAsync(
-      glb.buffer.slice(glb.byteOffset, glb.byteOffset + glb.byteLength),
+      whole ? glb.buffer : glb.buffer.slice(glb.byteOffset, glb.byteOffset + glb.byteLength),
       ""
     );
     this.clear();
