@@ -571,7 +571,7 @@ impl Study {
     /// --
     ///
     /// The self-contained HTML report (no scripts, no fetches), with the PNG picture in it
-    /// unless `picture=False`.
+    /// unless `picture=False`; its sentences name this package's keywords, as `report`'s do.
     #[pyo3(signature = (picture = true))]
     fn html(&self, py: Python<'_>, picture: bool) -> PyResult<String> {
         let title = self.title();
@@ -587,7 +587,7 @@ impl Study {
                 None
             };
             self.study
-                .html(png.as_deref())
+                .html_in_keywords(png.as_deref(), "True")
                 .map_err(|e| study_error(&e).1)
         })
     }

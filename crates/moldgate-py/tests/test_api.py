@@ -71,6 +71,8 @@ def test_the_report_advises_keywords_not_flags():
     assert any("require_flat=True" in w for w in sentences), sentences
     assert not any("--" in w for w in sentences), sentences
     assert json.loads(s.to_json())["warnings"] == s.report["warnings"]
+    page = s.html(picture=False)
+    assert "require_flat=True" in page and "--require-flat" not in page
 
 
 def test_fill_order_and_several_gates():

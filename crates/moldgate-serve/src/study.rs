@@ -467,7 +467,7 @@ fn work(
         Output::Glb => Answer::Glb(study.glb(&part, upload.title).map_err(fail)?),
         Output::Html => {
             let png = study.png(&part, upload.title).map_err(fail)?;
-            Answer::Html(study.html(Some(&png)).map_err(fail)?)
+            Answer::Html(study.html_in_keywords(Some(&png), "true").map_err(fail)?)
         }
     })
 }

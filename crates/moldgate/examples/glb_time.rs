@@ -3,7 +3,8 @@
 //!
 //! `cargo run --release -p moldgate --example glb_time -- PART.stl [+y] [runs]`
 //! (or a sample name instead of a file). Run with `RAYON_NUM_THREADS=1` for the work of
-//! one thread, which is what the browser app's single-threaded module does.
+//! one thread, which is what the browser app's single-threaded module does. The digest
+//! (the standard library's hasher) compares builds made with one Rust toolchain.
 
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
@@ -23,7 +24,8 @@ fn main() {
     let runs: usize = args
         .next()
         .map(|s| s.parse().expect("a count"))
-        .unwrap_or(5);
+        .unwrap_or(5)
+        .max(1);
     let loaded = match moldgate::samples::sample(&part) {
         Some(m) => mesh::from_generated(m),
         None => {

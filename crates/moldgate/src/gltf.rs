@@ -350,7 +350,8 @@ fn part_geometry(
     // 3t + k is corner k of triangle t), the weight of the face's normal in the vertex
     // normal, from one read of its corners. Each edge's unit vector is made once: corner
     // k's edges run from it to the next corner (edge k) and to the previous one (edge
-    // k + 2 reversed, which is the same vector negated, bit for bit).
+    // k + 2 reversed, which is the same vector negated, bit for bit but for the sign of an
+    // exact zero, which changes no angle: acos(-0) = acos(0)).
     let (normals, angles): (Vec<DVec3>, Vec<[f64; 3]>) = (0..n_triangles)
         .into_par_iter()
         .map(|t| {
@@ -389,10 +390,7 @@ fn part_geometry(
     let weighted = |c: u32| normals[c as usize / 3] * angles[c as usize / 3][c as usize % 3];
     // One run of vertices: its glTF vertices, and the run-local vertex of each corner.
     let run = |vertices: std::ops::Range<usize>| {
-        let mut g = Solid {
-            colours: Vec::new(),
-            ..Solid::default()
-        };
+        let mut g = Solid::default();
         let mut corners: Vec<(u32, u32)> = Vec::new();
         // The normals already given a glTF vertex of the current mesh vertex.
         let mut made: Vec<([f32; 3], u32)> = Vec::new();
@@ -488,8 +486,10 @@ fn part_geometry(
     out
 }
 
-/// Triangles collected one by one (flat-shaded ones by [`Solid::triangle`], each wound
-/// counter-clockwise seen from the side its normal points to, glTF's front face).
+/// Vertex and index arrays collected one by one: flat-shaded triangles by
+/// [`Solid::triangle`] (each wound counter-clockwise seen from the side its normal points to,
+/// glTF's front face, without colours), or coloured vertices pushed directly (the part's
+/// runs, the suitability squares), one colour with each vertex. One object uses one way.
 #[derive(Default)]
 struct Solid {
     positions: Vec<[f32; 3]>,

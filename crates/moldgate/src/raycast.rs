@@ -2107,6 +2107,43 @@ mod tests {
     }
 
     #[test]
+    fn the_noted_first_subtrees_are_those_a_recount_gives() {
+        // Sorted codes over several levels of large nodes (about 12 times `PARALLEL_MIN`),
+        // with runs of equal codes (split half way) and a sparse top.
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut codes: Vec<u64> = (0..200_000)
+            .map(|i| {
+                let c = (rng.next() * (1u64 << 30) as f64) as u64;
+                if i % 7 == 0 {
+                    c & !0xffff
+                } else {
+                    c
+                }
+            })
+            .collect();
+        codes.sort_unstable();
+        let (count, mut noted) = morton_count_noting(&codes, 0);
+        assert_eq!(count, morton_count(&codes));
+        noted.sort_unstable();
+        // Every large node, found by walking the splits, is noted with its first child's
+        // count, and nothing else is.
+        let mut want = Vec::new();
+        let mut stack = vec![(0usize, codes.len())];
+        while let Some((first, len)) = stack.pop() {
+            if len <= PARALLEL_MIN {
+                continue;
+            }
+            let mid = morton_split(&codes[first..first + len]).unwrap();
+            want.push(((first, len), morton_count(&codes[first..first + mid])));
+            stack.push((first, mid));
+            stack.push((first + mid, len - mid));
+        }
+        want.sort_unstable();
+        assert!(want.len() > 10, "{} large nodes", want.len());
+        assert_eq!(noted, want);
+    }
+
+    #[test]
     fn morton_tree_answers_as_the_surface_area_tree() {
         // The same hits to the bit (distances; the triangle named where no other triangle
         // is at that distance), first from the root and from a region, any-hit, and the

@@ -133,7 +133,9 @@ fn report_is_the_command_lines_for_the_same_part_and_options() {
         // Warnings that advise flags: the service names its query's keywords instead.
         ("fill=true&demold=auto", &["--fill", "--demold", "auto"]),
     ];
-    // The command line's sentences in the service's words, the rest as it is.
+    // The command line's sentences in the service's words, the rest as it is (the cases
+    // here have warnings and no gate reasons; `radius_fit` and placed gates, whose
+    // sentences the service converts too, do not occur in them).
     let in_keywords = |mut v: Value| {
         let words = |w: &mut Value| {
             if let Some(text) = w.as_str() {

@@ -672,6 +672,14 @@ impl Study {
     pub fn html(&self, png: Option<&[u8]>) -> Result<String, StudyError> {
         Ok(crate::html::page(&self.report, &self.report_json()?, png))
     }
+
+    /// [`Study::html`] with the report's sentences naming the options as keywords, as
+    /// [`Study::report_json_in_keywords`] gives them (the page's warnings and its embedded
+    /// JSON alike).
+    pub fn html_in_keywords(&self, png: Option<&[u8]>, truth: &str) -> Result<String, StudyError> {
+        let report = self.report.in_keyword_words(truth);
+        Ok(crate::html::page(&report, &json_text(&report)?, png))
+    }
 }
 
 impl From<FillError> for StudyError {

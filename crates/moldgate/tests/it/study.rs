@@ -494,6 +494,7 @@ fn the_keyword_report_names_options_as_keywords_and_changes_nothing_else() {
         "{keywords:?}"
     );
     assert!(keywords.iter().all(|w| !w.contains("--")), "{keywords:?}");
+    assert_eq!(flags.len(), keywords.len());
     for (f, k) in flags.iter().zip(&keywords) {
         assert_eq!(moldgate::study::keyword_words(f, "True"), *k);
     }
@@ -513,4 +514,8 @@ fn the_keyword_report_names_options_as_keywords_and_changes_nothing_else() {
             .collect()
     };
     assert_eq!(keys(&s.report_json().unwrap()), keys(&text));
+    // The HTML page alike: its warnings and its embedded JSON.
+    let page = s.html_in_keywords(None, "True").unwrap();
+    assert!(page.contains("require_flat=True") && !page.contains("--require-flat"));
+    assert!(s.html(None).unwrap().contains("--require-flat"));
 }
