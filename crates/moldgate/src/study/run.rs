@@ -673,12 +673,14 @@ impl Study {
         Ok(crate::html::page(&self.report, &self.report_json()?, png))
     }
 
-    /// [`Study::html`] with the report's sentences naming the options as keywords, as
+    /// [`Study::html`] naming the options as keywords: the report's sentences as
     /// [`Study::report_json_in_keywords`] gives them (the page's warnings and its embedded
-    /// JSON alike).
+    /// JSON alike), and the page's own words about the options (`with wall_thickness=True`,
+    /// not `with --wall-thickness`).
     pub fn html_in_keywords(&self, png: Option<&[u8]>, truth: &str) -> Result<String, StudyError> {
         let report = self.report.in_keyword_words(truth);
-        Ok(crate::html::page(&report, &json_text(&report)?, png))
+        let page = crate::html::page(&report, &json_text(&report)?, png);
+        Ok(super::keyword_words(&page, truth))
     }
 }
 
