@@ -43,17 +43,8 @@ export function blocks(object, from, to, share) {
   let found = false;
   object.traverse((o) => {
     if (found || !o.isMesh) return;
+    // The writer's attributes are plain arrays (no interleaving, no stride).
     const position = o.geometry.attributes.position;
-    if (!position || position.isInterleavedBufferAttribute) {
-      // Not the plain arrays the writer makes: three.js's own test.
-      const ray = new Raycaster();
-      const towards = to.clone().sub(from);
-      const length = towards.length();
-      ray.set(from, towards.normalize());
-      ray.far = length * share;
-      found = ray.intersectObject(o, false).length > 0;
-      return;
-    }
     // The segment in the mesh's own frame: a point at t of the way along it is at t of the
     // way in the world too (the frame is affine).
     const inverse = o.matrixWorld.clone().invert();

@@ -29,9 +29,9 @@ fn main() {
     let loaded = match moldgate::samples::sample(&part) {
         Some(m) => mesh::from_generated(m),
         None => {
-            let file = std::fs::File::open(&part).expect("the part opens");
-            let len = file.metadata().expect("the part has a size").len();
-            mesh::read_stl(std::io::BufReader::new(file), len, Units::Mm).expect("the part reads")
+            moldgate::files::read_mesh_file(std::path::Path::new(&part), Units::Mm)
+                .expect("the part reads")
+                .0
         }
     };
     let options = LocateOptions {
