@@ -189,30 +189,35 @@ fn every_triangle(
 }
 
 /// The thickness of the listed triangles only (NaN for the others), in the mesh's order:
-/// for analyses that sample the surface, such as one triangle per flow cell.
+/// for analyses that sample the surface, such as one triangle per flow cell. A triangle
+/// listed more than once is measured once.
 pub fn wall_thickness_of(
     mesh: &Mesh,
     bvh: &Bvh,
     options: &ThicknessOptions,
     triangles: &[u32],
 ) -> Vec<f32> {
-    // Cast in the tree's leaf order: neighbouring facets send their rays through the same
-    // boxes, which stay in the cache.
-    if bvh.len() != mesh.triangles.len() {
-        return thickness_in_order(mesh, bvh, options, triangles, None);
-    }
+    // Each listed triangle once, however often it is listed (a facet may own several
+    // cells), out-of-range indices ignored.
     let mut wanted = vec![false; mesh.triangles.len()];
     for &t in triangles {
         if let Some(w) = wanted.get_mut(t as usize) {
             *w = true;
         }
     }
-    let order: Vec<u32> = bvh
-        .leaf_order()
-        .iter()
-        .copied()
-        .filter(|&t| wanted[t as usize])
-        .collect();
+    // Cast in the tree's leaf order: neighbouring facets send their rays through the same
+    // boxes, which stay in the cache.
+    let order: Vec<u32> = if bvh.len() == mesh.triangles.len() {
+        bvh.leaf_order()
+            .iter()
+            .copied()
+            .filter(|&t| wanted[t as usize])
+            .collect()
+    } else {
+        (0..mesh.triangles.len() as u32)
+            .filter(|&t| wanted[t as usize])
+            .collect()
+    };
     thickness_in_order(mesh, bvh, options, &order, None)
 }
 

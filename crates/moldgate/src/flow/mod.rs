@@ -2756,15 +2756,14 @@ pub fn analyse_prepared(
     let t_wall = Instant::now();
     let measured = match walls {
         Walls::Measure(bvh) => {
-            let mut owners: Vec<u32> = voxels
+            // A facet that owns several cells is listed once per cell and measured once.
+            let owners: Vec<u32> = voxels
                 .triangle
                 .iter()
                 .zip(&voxels.surface)
                 .filter(|(_, &s)| s)
                 .map(|(&t, _)| t)
                 .collect();
-            owners.sort_unstable();
-            owners.dedup();
             Some(crate::thickness::wall_thickness_of(
                 mesh,
                 bvh,
@@ -2784,7 +2783,11 @@ pub fn analyse_prepared(
         Some(w) => {
             let summary = summarise_walls(&voxels, w, seconds(t_wall));
             let nominal = summary.nominal_mm.unwrap_or(estimate);
-            body_nominal = body_nominal_walls(&voxels, w);
+            body_nominal = match bodies.count {
+                // One body's median is the part's, by the same rule over the same cells.
+                1 => vec![summary.nominal_mm.unwrap_or(f64::NAN)],
+                _ => body_nominal_walls(&voxels, w),
+            };
             let source = if summary.nominal_mm.is_some() {
                 WallSource::Measured
             } else {

@@ -504,3 +504,35 @@ fn cut_cross_rays_give_the_same_walls() {
         println!("{name}: {same} facets as before, {now_known} known now");
     }
 }
+
+#[test]
+fn listed_facets_are_measured_once_each_whatever_the_list() {
+    // The fill lists the facet of each surface cell, so a facet that owns several cells
+    // comes several times, in the cells' order: the walls are those of the whole part at
+    // the listed facets (NaN elsewhere), and an index past the mesh is ignored.
+    use moldgate::thickness::wall_thickness_of;
+    let mesh = samples::sample("cover").unwrap();
+    let o = ThicknessOptions::default();
+    let bvh = Bvh::new_morton(&mesh);
+    let whole = moldgate::thickness::wall_thickness_with(&mesh, &bvh, &o).per_triangle;
+    let n = mesh.triangles.len() as u32;
+    let mut listed: Vec<u32> = (0..n).rev().step_by(3).collect();
+    listed.extend((0..n).step_by(7));
+    listed.extend([n, n + 5, u32::MAX]);
+    listed.extend((0..n).rev().step_by(3));
+    let got = wall_thickness_of(&mesh, &bvh, &o, &listed);
+    assert_eq!(got.len(), mesh.triangles.len());
+    for t in 0..n {
+        let wanted = t % 7 == 0 || (n - 1 - t) % 3 == 0;
+        let (g, w) = (got[t as usize], whole[t as usize]);
+        if wanted {
+            assert_eq!(
+                g.to_bits(),
+                w.to_bits(),
+                "facet {t}: {g} listed, {w} in the whole part"
+            );
+        } else {
+            assert!(g.is_nan(), "facet {t} was not listed but measures {g}");
+        }
+    }
+}
