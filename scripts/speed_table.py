@@ -15,6 +15,9 @@ time and the median of its per-round ratio to plain locate in the same round:
                             coordinates (crates/moldgate/examples/parse_floor.rs): the
                             least any command that reads the file can take
 
+Each command's CPU time (user and system, all its threads) is given beside its wall time,
+with its ratio to plain locate's in the same round: on a shared machine it moves less than
+the wall time, and a change that only keeps the cores busier shows in the wall time alone.
 The last line gives plain locate against the floor (the target is at most 6). The load
 average is printed before and after. The reference row needs ../shared/reference's Python
 dependencies (trimesh, embreex) in the Python given by --reference-python (default: this
@@ -40,6 +43,7 @@ Standard library only.
 import argparse
 import os
 import random
+import resource
 import statistics
 import subprocess
 import sys
@@ -75,10 +79,16 @@ def loadavg():
 
 
 def timed(cmd, env=None):
+    """The command's wall time and CPU time (user and system, of all its threads), s."""
+    # getrusage counts in microseconds; os.times in clock ticks (10 ms here).
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                    env=env)
-    return time.perf_counter() - start
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+    return wall, cpu
 
 
 def embree_call(python, part):
@@ -173,21 +183,33 @@ def main():
         run()
     times = {name: [] for name, _ in rows}
     rng = random.Random(1)
+    cpu = {name: [] for name, _ in rows}
     for _ in range(args.runs):
         order = list(rows)
         rng.shuffle(order)
         for name, run in order:
-            times[name].append(run())
+            got = run()
+            wall, used = got if isinstance(got, tuple) else (got, None)
+            times[name].append(wall)
+            cpu[name].append(used)
     print(f"load average after:  {loadavg()}")
     print()
-    print("| command | median ms (min-max) | ratio to plain locate (median of rounds) |")
-    print("|---|---:|---:|")
+    print("| command | median ms (min-max) | ratio to plain locate (median of rounds) "
+          "| CPU ms (median) | CPU ratio (median of rounds) |")
+    print("|---|---:|---:|---:|---:|")
     for name, _ in rows:
         t = times[name]
-        base = times["plain locate (before)" if name.endswith(" (before)") else "plain locate"]
+        base_name = "plain locate (before)" if name.endswith(" (before)") else "plain locate"
+        base = times[base_name]
         ratio = statistics.median(x / y for x, y in zip(t, base))
+        # The reference's call is timed inside its process: its CPU time is not known.
+        if None in cpu[name]:
+            cpu_cells = "- | -"
+        else:
+            cpu_ratio = statistics.median(x / y for x, y in zip(cpu[name], cpu[base_name]))
+            cpu_cells = f"{statistics.median(cpu[name]) * 1e3:.1f} | {cpu_ratio:.2f}"
         print(f"| {name} | {statistics.median(t) * 1e3:.1f} ({min(t) * 1e3:.1f}-"
-              f"{max(t) * 1e3:.1f}) | {ratio:.2f} |")
+              f"{max(t) * 1e3:.1f}) | {ratio:.2f} | {cpu_cells} |")
     base = times["plain locate"]
     if "parse floor" in times:
         floor = times["parse floor"]
