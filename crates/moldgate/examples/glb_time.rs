@@ -9,36 +9,17 @@
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
 
-use moldgate::mesh::{self, Units};
 use moldgate::scene::Scene;
-use moldgate::{locate, Direction, LocateOptions};
+
+mod common;
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let part = args.next().unwrap_or_else(|| "cover".into());
-    let direction: Direction = args
-        .next()
-        .unwrap_or_else(|| "+z".into())
-        .parse()
-        .expect("a direction");
-    let runs: usize = args
-        .next()
-        .map(|s| s.parse().expect("a count"))
-        .unwrap_or(5)
-        .max(1);
-    let loaded = match moldgate::samples::sample(&part) {
-        Some(m) => mesh::from_generated(m),
-        None => {
-            moldgate::files::read_mesh_file(std::path::Path::new(&part), Units::Mm)
-                .expect("the part reads")
-                .0
-        }
-    };
-    let options = LocateOptions {
-        direction,
-        ..LocateOptions::default()
-    };
-    let analysis = locate(&loaded, &options).expect("the analysis runs");
+    let common::Located {
+        name: part,
+        loaded,
+        analysis,
+        runs,
+    } = common::located_from_args();
     let scene = Scene::new(&loaded.mesh, &analysis, part.clone()).with_topology(&loaded.topology);
     let (mut best, mut times) = (f64::MAX, Vec::new());
     let mut bytes = Vec::new();

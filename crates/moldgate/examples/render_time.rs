@@ -1,40 +1,22 @@
 //! Best-of-N time to draw and encode the picture of one part.
 //!
 //! `cargo run --release -p moldgate --example render_time -- PART.stl [+y] [runs]`
-//! (or a sample name instead of a file).
+//! (or a sample name instead of a file; any format the command line reads).
 
 use std::time::Instant;
 
-use moldgate::mesh::{self, Units};
 use moldgate::render::{render, RenderOptions};
 use moldgate::scene::Scene;
-use moldgate::{locate, Direction, LocateOptions};
+
+mod common;
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let part = args.next().unwrap_or_else(|| "cover".into());
-    let direction: Direction = args
-        .next()
-        .unwrap_or_else(|| "+z".into())
-        .parse()
-        .expect("a direction");
-    let runs: usize = args
-        .next()
-        .map(|s| s.parse().expect("a count"))
-        .unwrap_or(5);
-    let loaded = match moldgate::samples::sample(&part) {
-        Some(m) => mesh::from_generated(m),
-        None => {
-            let file = std::fs::File::open(&part).expect("the part opens");
-            let len = file.metadata().expect("the part has a size").len();
-            mesh::read_stl(std::io::BufReader::new(file), len, Units::Mm).expect("the part reads")
-        }
-    };
-    let options = LocateOptions {
-        direction,
-        ..LocateOptions::default()
-    };
-    let analysis = locate(&loaded, &options).expect("the analysis runs");
+    let common::Located {
+        name: part,
+        loaded,
+        analysis,
+        runs,
+    } = common::located_from_args();
     let t = Instant::now();
     let scene = Scene::new(&loaded.mesh, &analysis, part.clone()).with_topology(&loaded.topology);
     let scene_s = t.elapsed().as_secs_f64();

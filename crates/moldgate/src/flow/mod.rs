@@ -2801,11 +2801,7 @@ pub fn analyse_prepared(
         Some(w) => {
             let summary = summarise_walls(&voxels, w, seconds(t_wall));
             let nominal = summary.nominal_mm.unwrap_or(estimate);
-            body_nominal = match bodies.count {
-                // One body's median is the part's, by the same rule over the same cells.
-                1 => vec![summary.nominal_mm.unwrap_or(f64::NAN)],
-                _ => body_nominal_walls(&voxels, w),
-            };
+            body_nominal = body_nominal_walls(&voxels, w);
             let source = if summary.nominal_mm.is_some() {
                 WallSource::Measured
             } else {
