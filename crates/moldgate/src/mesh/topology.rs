@@ -25,6 +25,13 @@ pub struct Topology {
     pub open_edges: u64,
     /// Edges with more than two triangles.
     pub non_manifold_edges: u64,
+    /// Edges whose sides do not pair up by direction: not as many of its triangles run it
+    /// one way as the other (an open edge; two facets across an edge, one of them turned
+    /// round; a side from a vertex to itself, of a facet without area, which runs neither
+    /// way). Counted as the sides are paired, at no extra pass; `None` on a mesh of more
+    /// than [`DIRECTED_TRIANGLES`] triangles, whose side numbers leave no bit for the
+    /// direction.
+    pub unpaired_edges: Option<u64>,
     /// Number of bodies: sets of triangles linked through shared vertices (see
     /// [`body_of_triangle`] for which triangle is in which).
     pub bodies: u64,
@@ -34,13 +41,13 @@ impl Topology {
     /// Builds the neighbour table (edges grouped under their smaller vertex, no global
     /// sort) and, in parallel with it, the bodies.
     pub fn new(mesh: &Mesh) -> Topology {
-        let ((across, edges, open_edges, non_manifold_edges), bodies) =
-            rayon::join(|| neighbours(mesh), || body_count(mesh));
+        let ((across, counts), bodies) = rayon::join(|| neighbours(mesh), || body_count(mesh));
         Topology {
             across,
-            edges,
-            open_edges,
-            non_manifold_edges,
+            edges: counts.edges,
+            open_edges: counts.open,
+            non_manifold_edges: counts.non_manifold,
+            unpaired_edges: counts.unpaired,
             bodies,
         }
     }
@@ -85,6 +92,14 @@ impl Topology {
 }
 
 impl Topology {
+    /// Whether every edge of the mesh is run as often one way as the other by its triangles
+    /// (closed and consistently oriented, but for edges of more than two sides that still
+    /// pair up): the inside of such a surface is left by every ray. `false` when not known
+    /// ([`Topology::unpaired_edges`]), or when a facet without area leaves an edge unpaired.
+    pub fn sides_pair_up(&self) -> bool {
+        self.unpaired_edges == Some(0)
+    }
+
     /// Whether the mesh is closed (no open edge), manifold (no edge with more than two
     /// triangles) and consistently oriented (the two triangles of every edge run it in
     /// opposite directions). Each body of such a mesh bounds a solid, and its facets all
@@ -93,6 +108,12 @@ impl Topology {
     pub fn closed_and_oriented(&self, mesh: &Mesh) -> bool {
         if self.open_edges > 0 || self.non_manifold_edges > 0 {
             return false;
+        }
+        // Closed and manifold, every edge has two sides: when every edge is paired, they run
+        // opposite ways. (An edge left unpaired by a facet without area, whose side from a
+        // vertex to itself runs neither way, is left to the check below.)
+        if self.unpaired_edges == Some(0) {
+            return true;
         }
         // Each edge is checked from the side of its lower triangle only. Its two sides are
         // linked to each other (closed and manifold: two sides an edge); if the lower one
@@ -117,9 +138,32 @@ impl Topology {
     }
 }
 
-type EdgeTable = (Vec<u32>, u64, u64, u64);
+/// The most triangles whose sides' numbers (3 t + k) leave a bit of a 32-bit number for
+/// the side's direction in [`link_sides`].
+pub const DIRECTED_TRIANGLES: usize = (1 << 31) / 3;
 
-fn neighbours(mesh: &Mesh) -> EdgeTable {
+/// The counts of the edges of a mesh, as [`Topology`] gives them.
+#[derive(Debug, Clone, Copy, Default)]
+struct EdgeCounts {
+    edges: u64,
+    open: u64,
+    non_manifold: u64,
+    /// `None` when the sides were filed without their direction.
+    unpaired: Option<u64>,
+}
+
+impl EdgeCounts {
+    fn add(self, other: EdgeCounts) -> EdgeCounts {
+        EdgeCounts {
+            edges: self.edges + other.edges,
+            open: self.open + other.open,
+            non_manifold: self.non_manifold + other.non_manifold,
+            unpaired: self.unpaired.zip(other.unpaired).map(|(a, b)| a + b),
+        }
+    }
+}
+
+fn neighbours(mesh: &Mesh) -> (Vec<u32>, EdgeCounts) {
     let tris = &mesh.triangles;
     let nv = mesh.vertices.len();
     // Each side is written once, by the thread that owns its near vertex; relaxed atomic
@@ -132,36 +176,51 @@ fn neighbours(mesh: &Mesh) -> EdgeTable {
     // half the mesh are held at a time (they are the peak of the memory profile). Both halves
     // use one buffer, grown to the larger half.
     let mut buffer = Vec::new();
-    let mut counts = (0, 0, 0);
+    let mut counts = EdgeCounts {
+        unpaired: Some(0),
+        ..EdgeCounts::default()
+    };
     for (lo, hi) in [(0, nv / 2), (nv / 2, nv)] {
         let c;
-        (c, buffer) = link_sides(tris, lo as u32..hi as u32, &across, buffer);
-        counts = (counts.0 + c.0, counts.1 + c.1, counts.2 + c.2);
+        let near = lo as u32..hi as u32;
+        (c, buffer) = match tris.len() <= DIRECTED_TRIANGLES {
+            true => link_sides::<true>(tris, near, &across, buffer),
+            false => link_sides::<false>(tris, near, &across, buffer),
+        };
+        counts = counts.add(c);
     }
-    let (edges, open, non_manifold) = counts;
     // Collected in place: the table becomes plain numbers without a copy.
     let across = across.into_iter().map(AtomicU32::into_inner).collect();
-    (across, edges, open, non_manifold)
+    (across, counts)
 }
 
 /// Links the sides whose smaller vertex lies in `near` to the next triangle around the same
-/// edge, in `across`; returns the (edges, open, non-manifold) counts of those edges, and
-/// `filed`, the buffer the sides were sorted in, for the next call.
-fn link_sides(
+/// edge, in `across`; returns the counts of those edges, and `filed`, the buffer the sides
+/// were sorted in, for the next call.
+fn link_sides<const DIRECTED: bool>(
     tris: &[[u32; 3]],
     near: std::ops::Range<u32>,
     across: &[AtomicU32],
     mut filed: Vec<AtomicU64>,
-) -> ((u64, u64, u64), Vec<AtomicU64>) {
-    // The three sides of a triangle as (smaller vertex, larger vertex).
-    let ends = |tri: &[u32; 3]| -> [(u32, u32); 3] {
+) -> (EdgeCounts, Vec<AtomicU64>) {
+    // The three sides of a triangle as (smaller vertex, larger vertex, whether the side runs
+    // from the smaller to the larger).
+    let ends = |tri: &[u32; 3]| -> [(u32, u32, bool); 3] {
         let [a, b, c] = *tri;
         [
-            (a.min(b), a.max(b)),
-            (b.min(c), b.max(c)),
-            (c.min(a), c.max(a)),
+            (a.min(b), a.max(b), a < b),
+            (b.min(c), b.max(c), b < c),
+            (c.min(a), c.max(a), c < a),
         ]
     };
+    // A side's key: its far vertex, then its number, then (when the numbers leave room) its
+    // direction in the lowest bit. Sorted, the keys of a vertex are grouped by far vertex,
+    // and by number within a group, either way.
+    let shift = u32::from(DIRECTED);
+    let key = |hi: u32, side: u64, forward: bool| {
+        (u64::from(hi) << 32) | side << shift | u64::from(forward & DIRECTED)
+    };
+    let side_of = |key: u64| key as u32 >> shift;
     let nv = (near.end - near.start) as usize;
     // Each side (3 t + k) is filed under its smaller vertex: count, prefix-sum, fill. The
     // triangles are split into one run per thread, each counted and filed on its own; a run's
@@ -173,7 +232,7 @@ fn link_sides(
         .map(|run| {
             let mut count = vec![0u32; nv];
             for tri in run {
-                for (lo, _) in ends(tri) {
+                for (lo, _, _) in ends(tri) {
                     if near.contains(&lo) {
                         count[(lo - near.start) as usize] += 1;
                     }
@@ -205,20 +264,17 @@ fn link_sides(
         .for_each(|(r, (run, slot))| {
             for (i, tri) in run.iter().enumerate() {
                 let t = (r * per_run + i) as u64;
-                for (k, (lo, hi)) in ends(tri).into_iter().enumerate() {
+                for (k, (lo, hi, forward)) in ends(tri).into_iter().enumerate() {
                     if near.contains(&lo) {
                         let at = &mut slot[(lo - near.start) as usize];
-                        filed[*at as usize].store(
-                            (u64::from(hi) << 32) | (3 * t + k as u64),
-                            Ordering::Relaxed,
-                        );
+                        filed[*at as usize]
+                            .store(key(hi, 3 * t + k as u64, forward), Ordering::Relaxed);
                         *at += 1;
                     }
                 }
             }
         });
     drop(slots);
-    let side_of = |key: u64| key as u32;
     // Vertices in blocks, the blocks in parallel; each block's sides are a disjoint slice.
     const BLOCK: usize = 16 * 1024;
     let mut blocks: Vec<(usize, &mut [AtomicU64])> = Vec::with_capacity(nv / BLOCK + 1);
@@ -235,7 +291,7 @@ fn link_sides(
         .into_par_iter()
         .map(|(v0, block)| {
             let base = start[v0] as usize;
-            let (mut edges, mut open, mut non_manifold) = (0u64, 0u64, 0u64);
+            let (mut edges, mut open, mut non_manifold, mut unpaired) = (0u64, 0u64, 0u64, 0u64);
             let v1 = (v0 + BLOCK).min(nv);
             let mut bucket = Vec::new();
             for v in v0..v1 {
@@ -252,10 +308,19 @@ fn link_sides(
                         j += 1;
                     }
                     edges += 1;
+                    // An edge is paired when as many of its sides run one way as the other
+                    // (a side from a vertex to itself runs neither way: it is never paired).
                     match j - i {
-                        1 => open += 1,
-                        2 => {}
-                        _ => non_manifold += 1,
+                        2 => unpaired += !(bucket[i] ^ bucket[i + 1]) & 1,
+                        1 => {
+                            open += 1;
+                            unpaired += 1;
+                        }
+                        n => {
+                            non_manifold += 1;
+                            let forward = bucket[i..j].iter().filter(|&&k| k & 1 == 1).count();
+                            unpaired += u64::from(2 * forward != n);
+                        }
                     }
                     if j - i > 1 {
                         for m in i..j {
@@ -267,9 +332,20 @@ fn link_sides(
                     i = j;
                 }
             }
-            (edges, open, non_manifold)
+            EdgeCounts {
+                edges,
+                open,
+                non_manifold,
+                unpaired: DIRECTED.then_some(unpaired),
+            }
         })
-        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        .reduce(
+            || EdgeCounts {
+                unpaired: DIRECTED.then_some(0),
+                ..EdgeCounts::default()
+            },
+            EdgeCounts::add,
+        );
     (counts, filed)
 }
 
@@ -406,6 +482,43 @@ mod tests {
         assert!(!Topology::new(&open).closed_and_oriented(&open));
     }
 
+    #[test]
+    fn edges_pair_up_when_as_many_sides_run_each_way() {
+        let mut mesh = tetrahedron();
+        let topology = Topology::new(&mesh);
+        assert_eq!(topology.unpaired_edges, Some(0));
+        assert!(topology.sides_pair_up());
+        // One facet turned round: its three edges are run the same way twice.
+        mesh.triangles[0].swap(1, 2);
+        assert_eq!(Topology::new(&mesh).unpaired_edges, Some(3));
+        // Every facet doubled, one copy turned round: four sides an edge (non-manifold),
+        // two each way, paired; not oriented.
+        let mut doubled = tetrahedron();
+        let turned: Vec<[u32; 3]> = doubled
+            .triangles
+            .iter()
+            .map(|t| [t[0], t[2], t[1]])
+            .collect();
+        doubled.triangles.extend(turned);
+        let topology = Topology::new(&doubled);
+        assert_eq!(topology.non_manifold_edges, 6);
+        assert!(topology.sides_pair_up());
+        assert!(!topology.closed_and_oriented(&doubled));
+        // A facet without area on an edge of the solid: its side from a vertex to itself runs
+        // neither way (unpaired), and its other two sides, on one edge, run it both ways.
+        let mut flat = tetrahedron();
+        let [a, b, _] = flat.triangles[0];
+        flat.triangles.push([a, a, b]);
+        let topology = Topology::new(&flat);
+        assert_eq!(topology.unpaired_edges, Some(1));
+        assert!(!topology.sides_pair_up());
+        // The orientation is then checked side by side, as before the count.
+        assert_eq!(
+            topology.closed_and_oriented(&flat),
+            oriented_from_both_sides(&topology, &flat)
+        );
+    }
+
     /// The check from both sides of every edge, which `closed_and_oriented` does from one.
     fn oriented_from_both_sides(topology: &Topology, mesh: &Mesh) -> bool {
         topology.open_edges == 0
@@ -459,7 +572,7 @@ mod tests {
     /// Asserts that the topology's neighbours and edge counts are the brute force's, and
     /// gives its open and non-manifold edge counts.
     fn matches_brute_force(mesh: &Mesh, label: &str) -> (u64, u64) {
-        let (neighbours, edges, open, non_manifold) = brute_force(mesh);
+        let (neighbours, edges, open, non_manifold, unpaired) = brute_force(mesh);
         let topology = Topology::new(mesh);
         let found: Vec<[u32; 3]> = (0..neighbours.len())
             .map(|t| topology.neighbours(t))
@@ -469,24 +582,31 @@ mod tests {
             (
                 topology.edges,
                 topology.open_edges,
-                topology.non_manifold_edges
+                topology.non_manifold_edges,
+                topology.unpaired_edges,
             ),
-            (edges, open, non_manifold),
+            (edges, open, non_manifold, Some(unpaired)),
             "{label}"
         );
         (open, non_manifold)
     }
 
     /// Every edge's triangles from a map keyed by the edge, the plain way.
-    fn brute_force(mesh: &Mesh) -> (Vec<[u32; 3]>, u64, u64, u64) {
+    fn brute_force(mesh: &Mesh) -> (Vec<[u32; 3]>, u64, u64, u64, u64) {
         let key = |a: u32, b: u32| (a.min(b), a.max(b));
         let mut on_edge: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
+        // Per edge, the sides run from its smaller vertex to its larger less the others.
+        let mut balance: std::collections::BTreeMap<(u32, u32), i64> = Default::default();
         for (t, tri) in mesh.triangles.iter().enumerate() {
             for k in 0..3 {
-                on_edge
-                    .entry(key(tri[k], tri[(k + 1) % 3]))
-                    .or_default()
-                    .push(t as u32);
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                on_edge.entry(key(a, b)).or_default().push(t as u32);
+                // A side from a vertex to itself runs neither way: never paired.
+                *balance.entry(key(a, b)).or_default() += match a.cmp(&b) {
+                    std::cmp::Ordering::Less => 1,
+                    std::cmp::Ordering::Greater => -1,
+                    std::cmp::Ordering::Equal => 1 << 20,
+                };
             }
         }
         let neighbours = mesh
@@ -510,6 +630,7 @@ mod tests {
             on_edge.len() as u64,
             sizes().filter(|&n| n == 1).count() as u64,
             sizes().filter(|&n| n > 2).count() as u64,
+            balance.values().filter(|&&b| b != 0).count() as u64,
         )
     }
 
