@@ -92,14 +92,6 @@ impl Topology {
 }
 
 impl Topology {
-    /// Whether every edge of the mesh is run as often one way as the other by its triangles
-    /// (closed and consistently oriented, but for edges of more than two sides that still
-    /// pair up): the inside of such a surface is left by every ray. `false` when not known
-    /// ([`Topology::unpaired_edges`]), or when a facet without area leaves an edge unpaired.
-    pub fn sides_pair_up(&self) -> bool {
-        self.unpaired_edges == Some(0)
-    }
-
     /// Whether the mesh is closed (no open edge), manifold (no edge with more than two
     /// triangles) and consistently oriented (the two triangles of every edge run it in
     /// opposite directions). Each body of such a mesh bounds a solid, and its facets all
@@ -487,7 +479,6 @@ mod tests {
         let mut mesh = tetrahedron();
         let topology = Topology::new(&mesh);
         assert_eq!(topology.unpaired_edges, Some(0));
-        assert!(topology.sides_pair_up());
         // One facet turned round: its three edges are run the same way twice.
         mesh.triangles[0].swap(1, 2);
         assert_eq!(Topology::new(&mesh).unpaired_edges, Some(3));
@@ -502,7 +493,7 @@ mod tests {
         doubled.triangles.extend(turned);
         let topology = Topology::new(&doubled);
         assert_eq!(topology.non_manifold_edges, 6);
-        assert!(topology.sides_pair_up());
+        assert_eq!(topology.unpaired_edges, Some(0));
         assert!(!topology.closed_and_oriented(&doubled));
         // A facet without area on an edge of the solid: its side from a vertex to itself runs
         // neither way (unpaired), and its other two sides, on one edge, run it both ways.
@@ -511,7 +502,6 @@ mod tests {
         flat.triangles.push([a, a, b]);
         let topology = Topology::new(&flat);
         assert_eq!(topology.unpaired_edges, Some(1));
-        assert!(!topology.sides_pair_up());
         // The orientation is then checked side by side, as before the count.
         assert_eq!(
             topology.closed_and_oriented(&flat),
