@@ -369,7 +369,20 @@ impl Bodies {
     /// The mesh's bodies (connected sets of triangles, [`body_of_triangle`]), the stray ones
     /// dropped.
     pub fn of(mesh: &Mesh) -> Bodies {
-        let label = body_of_triangle(mesh);
+        Bodies::of_counted(mesh, None)
+    }
+
+    /// [`Bodies::of`] with the number of bodies when it is known (the load's
+    /// [`crate::mesh::Topology::bodies`]): a mesh of one body needs no union of its
+    /// vertices to tell which triangle is in which. (A facet collapsed to one vertex that
+    /// no other facet uses is no body to that count but a body of its own here: such a
+    /// mesh takes the union.)
+    pub fn of_counted(mesh: &Mesh, bodies: Option<u64>) -> Bodies {
+        let collapsed = || mesh.triangles.iter().any(|t| t[0] == t[1] && t[1] == t[2]);
+        let label = match bodies {
+            Some(1) if !collapsed() => vec![0; mesh.triangles.len()],
+            _ => body_of_triangle(mesh),
+        };
         let n = label.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
         let mut area = vec![0.0f64; n];
         let mut volume = vec![0.0f64; n];
@@ -521,10 +534,12 @@ impl Domain {
                     .unwrap_or(nominal_wall_mm)
             })
             .collect();
+        // Per cell on all threads (each value its own, whatever the order).
         let wall_mm: Vec<f32> = voxels
             .triangle
-            .iter()
+            .par_iter()
             .zip(&body)
+            .with_min_len(4096)
             .map(|(&t, &b)| {
                 let reference = body_nominal[b as usize];
                 let w = triangle_wall_mm
@@ -540,15 +555,23 @@ impl Domain {
             .collect();
         let n = material.n;
         let exponent = (n + 1.0) / n;
-        let fill_cost = wall_mm
-            .iter()
-            .zip(&body)
-            .map(|(&w, &b)| (body_nominal[b as usize] / w as f64).powf(exponent) as f32)
-            .collect();
-        let pressure_cost = wall_mm
-            .iter()
-            .map(|&w| (nominal_wall_mm / w as f64).powf(2.0) as f32)
-            .collect();
+        let (fill_cost, pressure_cost) = rayon::join(
+            || {
+                wall_mm
+                    .par_iter()
+                    .zip(&body)
+                    .with_min_len(4096)
+                    .map(|(&w, &b)| (body_nominal[b as usize] / w as f64).powf(exponent) as f32)
+                    .collect()
+            },
+            || {
+                wall_mm
+                    .par_iter()
+                    .with_min_len(4096)
+                    .map(|&w| (nominal_wall_mm / w as f64).powf(2.0) as f32)
+                    .collect()
+            },
+        );
         Domain {
             fill_cost,
             pressure_cost,
@@ -2655,8 +2678,19 @@ pub fn prepare(
     centres: &crate::centre::Centres,
     options: &FillOptions,
 ) -> Result<Cells, FillError> {
+    prepare_counted(mesh, centres, None, options)
+}
+
+/// [`prepare`] with the number of the mesh's bodies when it is known (see
+/// [`Bodies::of_counted`]): the same cells.
+pub fn prepare_counted(
+    mesh: &Mesh,
+    centres: &crate::centre::Centres,
+    bodies: Option<u64>,
+    options: &FillOptions,
+) -> Result<Cells, FillError> {
     let t = Instant::now();
-    let bodies = Bodies::of(mesh);
+    let bodies = Bodies::of_counted(mesh, bodies);
     let c = centres;
     let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
         2.0 * c.volume_mm3 / c.area_mm2
@@ -3452,21 +3486,51 @@ fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSu
             }
         }
     }
-    values.sort_by(f32::total_cmp);
-    let q = |f: f64| -> Option<f64> {
-        (!values.is_empty())
-            .then(|| values[((values.len() - 1) as f64 * f).round() as usize] as f64)
-    };
-    let sliver = q(0.5).map_or(0.0, |n| crate::thickness::SLIVER_OF_NOMINAL * n);
-    let slivers = values.iter().take_while(|&&v| (v as f64) < sliver).count();
+    // The quantiles are the values of a sort at their ranks, found by selection (the
+    // median first, then the others in its halves).
+    let rank = |f: f64| ((values.len().max(1) - 1) as f64 * f).round() as usize;
+    let (p05, p50, p95) = (rank(0.05), rank(0.5), rank(0.95));
+    let mut q = [None; 4];
+    if !values.is_empty() {
+        let (below, &mut median, above) = values.select_nth_unstable_by(p50, f32::total_cmp);
+        q[1] = Some(median as f64);
+        if p05 < p50 {
+            q[0] = Some(*below.select_nth_unstable_by(p05, f32::total_cmp).1 as f64);
+        } else {
+            q[0] = q[1];
+        }
+        if p95 > p50 {
+            q[2] = Some(
+                *above
+                    .select_nth_unstable_by(p95 - p50 - 1, f32::total_cmp)
+                    .1 as f64,
+            );
+        } else {
+            q[2] = q[1];
+        }
+        q[3] = Some(
+            *above
+                .iter()
+                .max_by(|a, b| a.total_cmp(b))
+                .unwrap_or(&median) as f64,
+        );
+    }
+    let sliver = q[1].map_or(0.0, |n| crate::thickness::SLIVER_OF_NOMINAL * n);
+    // The least value that is not a sliver, as the sorted values' first past the slivers.
+    let slivers = values.iter().filter(|&&v| (v as f64) < sliver).count();
+    let min_mm = values
+        .iter()
+        .filter(|&&v| (v as f64) >= sliver)
+        .min_by(|a, b| a.total_cmp(b))
+        .map(|&v| v as f64);
     WallSummary {
         samples,
-        min_mm: values.get(slivers).map(|&v| v as f64),
+        min_mm,
         slivers,
-        p05_mm: q(0.05),
-        nominal_mm: q(0.5),
-        p95_mm: q(0.95),
-        max_mm: q(1.0),
+        p05_mm: q[0],
+        nominal_mm: q[1],
+        p95_mm: q[2],
+        max_mm: q[3],
         unknown_share: if samples == 0 {
             1.0
         } else {
@@ -3504,8 +3568,8 @@ fn body_nominal_walls(voxels: &Voxels, per_triangle: &[f32]) -> Vec<f64> {
             if v.is_empty() {
                 return f64::NAN;
             }
-            v.sort_by(f32::total_cmp);
-            v[((v.len() - 1) as f64 * 0.5).round() as usize] as f64
+            let middle = ((v.len() - 1) as f64 * 0.5).round() as usize;
+            *v.select_nth_unstable_by(middle, f32::total_cmp).1 as f64
         })
         .collect()
 }
@@ -3553,6 +3617,108 @@ fn per_vertex_of_cells(domain: &Domain, mesh: &Mesh, values: &[f32]) -> Vec<f32>
 mod tests {
     use super::*;
     use crate::GateMode;
+
+    /// The walls' summary by a whole sort: the oracle of [`summarise_walls`]'s selection.
+    fn sorted_summary(voxels: &Voxels, per_triangle: &[f32]) -> [Option<f64>; 6] {
+        let mut values: Vec<f32> = voxels
+            .triangle
+            .iter()
+            .zip(&voxels.surface)
+            .filter(|(_, &s)| s)
+            .map(|(&t, _)| per_triangle[t as usize])
+            .filter(|v| v.is_finite())
+            .collect();
+        values.sort_by(f32::total_cmp);
+        let q = |f: f64| {
+            (!values.is_empty())
+                .then(|| values[((values.len() - 1) as f64 * f).round() as usize] as f64)
+        };
+        let sliver = q(0.5).map_or(0.0, |n| crate::thickness::SLIVER_OF_NOMINAL * n);
+        let slivers = values.iter().take_while(|&&v| (v as f64) < sliver).count();
+        [
+            values.get(slivers).map(|&v| v as f64),
+            Some(slivers as f64),
+            q(0.05),
+            q(0.5),
+            q(0.95),
+            q(1.0),
+        ]
+    }
+
+    #[test]
+    fn the_walls_quantiles_by_selection_are_those_of_a_sort() {
+        let mesh = crate::samples::sample("cover").expect("sample");
+        let voxels = Voxels::new(&mesh, 1.0);
+        let n = mesh.triangles.len();
+        let mut x = 0.137f64;
+        let mut next = || {
+            x = (x * 7919.0 + 0.71).rem_euclid(1.0);
+            x
+        };
+        // Walls with ties, slivers, unknowns, and as few known values as 0 to 3.
+        for round in 0..60 {
+            let known = match round {
+                0..=3 => round as f64 / n as f64,
+                _ => next(),
+            };
+            let walls: Vec<f32> = (0..n)
+                .map(|i| match next() {
+                    _ if round <= 3 && i >= round => f32::NAN,
+                    r if r > known.max(0.05) && round > 3 => f32::NAN,
+                    r if r < 0.1 => 0.001,
+                    r if r < 0.3 => 2.0,
+                    _ => (next() * 4.0) as f32,
+                })
+                .collect();
+            let got = summarise_walls(&voxels, &walls, 0.0);
+            let want = sorted_summary(&voxels, &walls);
+            assert_eq!(
+                [
+                    got.min_mm,
+                    Some(got.slivers as f64),
+                    got.p05_mm,
+                    got.nominal_mm,
+                    got.p95_mm,
+                    got.max_mm
+                ],
+                want,
+                "round {round}"
+            );
+            let bodies = body_nominal_walls(&voxels, &walls);
+            assert_eq!(bodies[0].is_nan(), want[3].is_none(), "round {round}");
+            if let Some(median) = want[3] {
+                assert_eq!(bodies[0], median, "round {round}");
+            }
+        }
+    }
+
+    #[test]
+    fn bodies_known_to_be_one_are_the_union_s() {
+        let same = |a: &Bodies, b: &Bodies| {
+            assert_eq!(a.of_triangle, b.of_triangle);
+            assert_eq!((a.count, a.stray), (b.count, b.stray));
+            assert_eq!(a.volume_mm3, b.volume_mm3);
+            assert_eq!(a.centre, b.centre);
+        };
+        for info in crate::samples::SAMPLES {
+            let mesh = crate::samples::sample(info.name).expect("sample");
+            let counted = crate::mesh::Topology::new(&mesh).bodies;
+            same(
+                &Bodies::of_counted(&mesh, Some(counted)),
+                &Bodies::of(&mesh),
+            );
+        }
+        // A facet collapsed to a vertex of its own: a body to the union, none to the count.
+        let mut mesh = crate::samples::sample("plate").expect("sample");
+        let alone = mesh.vertices.len() as u32;
+        mesh.vertices.push(crate::math::DVec3::new(100.0, 0.0, 0.0));
+        mesh.triangles.push([alone; 3]);
+        let counted = crate::mesh::Topology::new(&mesh).bodies;
+        assert_eq!(counted, 1);
+        let union = Bodies::of(&mesh);
+        assert_eq!(union.stray, 1);
+        same(&Bodies::of_counted(&mesh, Some(counted)), &union);
+    }
 
     /// The balanced search as it was before its runs from far points stopped early (every
     /// run whole): the oracle of [`balanced_search`].
