@@ -31,6 +31,7 @@
 //! println!("gate at {:?}", gate.point());
 //! ```
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod batch_row;
 pub mod cancel;
