@@ -35,10 +35,18 @@ pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
         Some(p) => crate::materials::read_materials(p)?,
         None => Vec::new(),
     };
-    let study = a
+    let mut study = a
         .study_options()
         .validate_with(&user)
         .map_err(|e| failure(&e, ""))?;
+    // Nothing drawn (no picture, report page or 3D scene; a batch draws none): the fill's
+    // pictured field, its cells and its value at every vertex (and, for several gates, a
+    // march from all of them at once), is not made. The report does not hold it.
+    if a.png.is_none() && a.report.is_none() && a.glb.is_none() {
+        if let Some(fill) = study.fill.as_mut() {
+            fill.colour_by = moldgate::flow::ColourBy::Height;
+        }
+    }
     let units: Units = a
         .units
         .parse()

@@ -180,10 +180,17 @@ fn every_triangle(
 ) -> WallThickness {
     // Every triangle: the tree's leaf order is already the order to cast in.
     let per_triangle = if bvh.len() == mesh.triangles.len() {
-        thickness_in_order(mesh, bvh, options, bvh.leaf_order(), cancel)
+        thickness_in_order(
+            mesh,
+            bvh,
+            options,
+            bvh.leaf_order(),
+            cancel,
+            Known::default(),
+        )
     } else {
         let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-        thickness_in_order(mesh, bvh, options, &all, cancel)
+        thickness_in_order(mesh, bvh, options, &all, cancel, Known::default())
     };
     summarise(mesh, per_triangle)
 }
@@ -196,6 +203,38 @@ pub fn wall_thickness_of(
     bvh: &Bvh,
     options: &ThicknessOptions,
     triangles: &[u32],
+) -> Vec<f32> {
+    wall_thickness_of_known(mesh, bvh, options, triangles, Known::default())
+}
+
+/// What a caller that loaded the mesh knows of it, which the rays would otherwise find out
+/// for themselves: the same walls, less work.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Known {
+    /// Whether every edge of the mesh is met by its reverse (a closed, consistently
+    /// oriented surface; see `is_closed`), when known. `None`: a pass over the triangles
+    /// finds it the first time a cross ray ends without a wall.
+    pub closed: Option<bool>,
+}
+
+impl Known {
+    /// What the load's topology tells: a mesh whose every edge has as many sides running
+    /// each way is closed (the converse needs the pass: a facet without area leaves an
+    /// edge unpaired in the topology's count but not in the pass).
+    pub fn of(topology: &crate::mesh::Topology) -> Known {
+        Known {
+            closed: (topology.unpaired_edges == Some(0)).then_some(true),
+        }
+    }
+}
+
+/// [`wall_thickness_of`] with what the caller knows of the mesh (see [`Known`]).
+pub fn wall_thickness_of_known(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    options: &ThicknessOptions,
+    triangles: &[u32],
+    known: Known,
 ) -> Vec<f32> {
     // Each listed triangle once, however often it is listed (a facet may own several
     // cells), out-of-range indices ignored.
@@ -218,7 +257,7 @@ pub fn wall_thickness_of(
             .filter(|&t| wanted[t as usize])
             .collect()
     };
-    thickness_in_order(mesh, bvh, options, &order, None)
+    thickness_in_order(mesh, bvh, options, &order, None, known)
 }
 
 /// The thickness of the listed triangles (NaN for the others), in the mesh's order, cast in
@@ -229,6 +268,7 @@ fn thickness_in_order(
     options: &ThicknessOptions,
     triangles: &[u32],
     cancel: Option<&Cancel>,
+    known: Known,
 ) -> Vec<f32> {
     let diagonal = mesh.bounds().diagonal();
     let diagonal = if diagonal.is_finite() { diagonal } else { 0.0 };
@@ -237,7 +277,10 @@ fn thickness_in_order(
         mesh,
         min_hit: 1e-6 * diagonal,
         options: *options,
-        closed: OnceLock::new(),
+        closed: match known.closed {
+            Some(closed) => OnceLock::from(closed),
+            None => OnceLock::new(),
+        },
         band_slack: 1e-4 * diagonal,
     };
     let min_area = 1e-12 * diagonal * diagonal;
@@ -563,6 +606,33 @@ mod tests {
         assert!(!is_closed(&mesh));
         for name in ["cover", "cap", "plate", "bracket", "tray"] {
             assert!(is_closed(&crate::samples::sample(name).unwrap()), "{name}");
+        }
+    }
+
+    #[test]
+    fn what_the_topology_knows_gives_the_same_walls() {
+        let topology_says = |mesh: &Mesh| Known::of(&crate::mesh::Topology::new(mesh)).closed;
+        // Said closed only where the pass finds it so, and the same walls either way.
+        let mut meshes: Vec<Mesh> = ["cover", "cap", "plate", "bracket", "tray"]
+            .into_iter()
+            .map(|name| crate::samples::sample(name).unwrap())
+            .collect();
+        let mut open = meshes[0].clone();
+        open.triangles.truncate(open.triangles.len() - 3);
+        let mut turned = meshes[1].clone();
+        turned.triangles[5].swap(0, 1);
+        meshes.extend([open, turned]);
+        for (k, mesh) in meshes.iter().enumerate() {
+            let said = topology_says(mesh);
+            assert!(said.is_none() || said == Some(is_closed(mesh)), "mesh {k}");
+            assert_eq!(said.is_some(), k < 5, "mesh {k}");
+            let bvh = Bvh::new(mesh);
+            let every: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+            let o = ThicknessOptions::default();
+            let found = wall_thickness_of(mesh, &bvh, &o, &every);
+            let known = wall_thickness_of_known(mesh, &bvh, &o, &every, Known { closed: said });
+            let bits = |w: &[f32]| w.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&found), bits(&known), "mesh {k}");
         }
     }
 

@@ -2659,6 +2659,8 @@ pub struct Cells {
     /// The limit that coarsened the cells, if one did.
     coarsened: Option<FillError>,
     voxels: Voxels,
+    /// What the caller knew of the mesh, for the walls.
+    known: crate::thickness::Known,
     /// Seconds spent making them.
     seconds: f64,
 }
@@ -2678,19 +2680,22 @@ pub fn prepare(
     centres: &crate::centre::Centres,
     options: &FillOptions,
 ) -> Result<Cells, FillError> {
-    prepare_counted(mesh, centres, None, options)
+    prepare_with(mesh, centres, None, options)
 }
 
-/// [`prepare`] with the number of the mesh's bodies when it is known (see
-/// [`Bodies::of_counted`]): the same cells.
-pub fn prepare_counted(
+/// [`prepare`] with the mesh's topology when the caller loaded it: the number of bodies
+/// (see [`Bodies::of_counted`]) and whether the surface is closed (for the walls, see
+/// [`crate::thickness::Known`]) are then read from it, not found again. The same cells,
+/// and the same analysis.
+pub fn prepare_with(
     mesh: &Mesh,
     centres: &crate::centre::Centres,
-    bodies: Option<u64>,
+    topology: Option<&crate::mesh::Topology>,
     options: &FillOptions,
 ) -> Result<Cells, FillError> {
     let t = Instant::now();
-    let bodies = Bodies::of_counted(mesh, bodies);
+    let bodies = Bodies::of_counted(mesh, topology.map(|t| t.bodies));
+    let known = topology.map_or_else(Default::default, crate::thickness::Known::of);
     let c = centres;
     let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
         2.0 * c.volume_mm3 / c.area_mm2
@@ -2714,6 +2719,7 @@ pub fn prepare_counted(
         estimate,
         coarsened,
         voxels,
+        known,
         seconds: seconds(t),
     })
 }
@@ -2770,6 +2776,7 @@ pub fn analyse_prepared(
         estimate,
         coarsened,
         mut voxels,
+        known,
         seconds: cells_s,
     } = cells()?;
     voxels.cancel = cancel.cloned();
@@ -2816,11 +2823,12 @@ pub fn analyse_prepared(
                 .filter(|(_, &s)| s)
                 .map(|(&t, _)| t)
                 .collect();
-            Some(crate::thickness::wall_thickness_of(
+            Some(crate::thickness::wall_thickness_of_known(
                 mesh,
                 bvh,
                 &crate::thickness::ThicknessOptions::default(),
                 &owners,
+                known,
             ))
         }
         _ => None,

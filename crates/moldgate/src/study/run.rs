@@ -109,7 +109,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         let prepare = || {
             s.fill
                 .as_ref()
-                .map(|o| flow::prepare_counted(mesh, &part.centres, Some(part.topology.bodies), o))
+                .map(|o| flow::prepare_with(mesh, &part.centres, Some(&part.topology), o))
         };
         let (((bvh, tree_s), prepared), located) = rayon::join(
             || rayon::join(build_tree, prepare),
@@ -225,9 +225,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             };
             let prepared = || match cells.take() {
                 Some(made) => made,
-                None => {
-                    flow::prepare_counted(mesh, &analysis.centres, Some(part.topology.bodies), o)
-                }
+                None => flow::prepare_with(mesh, &analysis.centres, Some(&part.topology), o),
             };
             let cancel = hooks.cancel;
             let mut f =
