@@ -157,19 +157,21 @@ pub fn wall_thickness(mesh: &Mesh, options: &ThicknessOptions) -> WallThickness 
 
 /// [`wall_thickness`] with a tree already built over `mesh`.
 pub fn wall_thickness_with(mesh: &Mesh, bvh: &Bvh, options: &ThicknessOptions) -> WallThickness {
-    every_triangle(mesh, bvh, options, None)
+    every_triangle(mesh, bvh, options, None, Known::default())
 }
 
-/// [`wall_thickness_with`] that stops once `cancel` is set (each facet reads it before its
-/// rays): `None` when it was.
+/// [`wall_thickness_with`] with what the caller knows of the mesh (see [`Known`]), stopping
+/// once `cancel`, when given, is set (each facet reads it before its rays): `None` when it
+/// was.
 pub fn wall_thickness_until(
     mesh: &Mesh,
     bvh: &Bvh,
     options: &ThicknessOptions,
-    cancel: &Cancel,
+    known: Known,
+    cancel: Option<&Cancel>,
 ) -> Option<WallThickness> {
-    let w = every_triangle(mesh, bvh, options, Some(cancel));
-    (!cancel.is_cancelled()).then_some(w)
+    let w = every_triangle(mesh, bvh, options, cancel, known);
+    (!crate::cancel::is_set(cancel)).then_some(w)
 }
 
 fn every_triangle(
@@ -177,20 +179,14 @@ fn every_triangle(
     bvh: &Bvh,
     options: &ThicknessOptions,
     cancel: Option<&Cancel>,
+    known: Known,
 ) -> WallThickness {
     // Every triangle: the tree's leaf order is already the order to cast in.
     let per_triangle = if bvh.len() == mesh.triangles.len() {
-        thickness_in_order(
-            mesh,
-            bvh,
-            options,
-            bvh.leaf_order(),
-            cancel,
-            Known::default(),
-        )
+        thickness_in_order(mesh, bvh, options, bvh.leaf_order(), cancel, known)
     } else {
         let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-        thickness_in_order(mesh, bvh, options, &all, cancel, Known::default())
+        thickness_in_order(mesh, bvh, options, &all, cancel, known)
     };
     summarise(mesh, per_triangle)
 }

@@ -282,7 +282,7 @@ fn march_with(
         // asked from memory while this cell's are relaxed (a row is 104 bytes of a table
         // too large for the cache, and its first read was a quarter of the march's time).
         if let Some(next) = queue.peek_cell() {
-            prefetch(&table[next as usize]);
+            read_ahead(&table[next as usize]);
         }
         known[v as usize] = true;
         let tv = t[v as usize];
@@ -372,7 +372,7 @@ fn march_with(
 /// processor goes on with the work before it while they come (a plain read rather than a
 /// prefetch instruction, which needs `unsafe`).
 #[inline(always)]
-fn prefetch(row: &[u32; 26]) {
+fn read_ahead(row: &[u32; 26]) {
     // The first, middle and last entries: every cache line of the 104 bytes.
     std::hint::black_box((row[0], row[13], row[25]));
 }

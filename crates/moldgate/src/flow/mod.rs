@@ -3498,32 +3498,30 @@ fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSu
     // median first, then the others in its halves).
     let rank = |f: f64| ((values.len().max(1) - 1) as f64 * f).round() as usize;
     let (p05, p50, p95) = (rank(0.05), rank(0.5), rank(0.95));
-    let mut q = [None; 4];
+    let (mut p05_mm, mut nominal_mm, mut p95_mm, mut max_mm) = (None, None, None, None);
     if !values.is_empty() {
         let (below, &mut median, above) = values.select_nth_unstable_by(p50, f32::total_cmp);
-        q[1] = Some(median as f64);
-        if p05 < p50 {
-            q[0] = Some(*below.select_nth_unstable_by(p05, f32::total_cmp).1 as f64);
+        let nth =
+            |part: &mut [f32], k: usize| *part.select_nth_unstable_by(k, f32::total_cmp).1 as f64;
+        nominal_mm = Some(median as f64);
+        p05_mm = Some(if p05 < p50 {
+            nth(below, p05)
         } else {
-            q[0] = q[1];
-        }
-        if p95 > p50 {
-            q[2] = Some(
-                *above
-                    .select_nth_unstable_by(p95 - p50 - 1, f32::total_cmp)
-                    .1 as f64,
-            );
+            median as f64
+        });
+        p95_mm = Some(if p95 > p50 {
+            nth(above, p95 - p50 - 1)
         } else {
-            q[2] = q[1];
-        }
-        q[3] = Some(
+            median as f64
+        });
+        max_mm = Some(
             *above
                 .iter()
                 .max_by(|a, b| a.total_cmp(b))
                 .unwrap_or(&median) as f64,
         );
     }
-    let sliver = q[1].map_or(0.0, |n| crate::thickness::SLIVER_OF_NOMINAL * n);
+    let sliver = nominal_mm.map_or(0.0, |n| crate::thickness::SLIVER_OF_NOMINAL * n);
     // The least value that is not a sliver, as the sorted values' first past the slivers.
     let slivers = values.iter().filter(|&&v| (v as f64) < sliver).count();
     let min_mm = values
@@ -3535,10 +3533,10 @@ fn summarise_walls(voxels: &Voxels, per_triangle: &[f32], time_s: f64) -> WallSu
         samples,
         min_mm,
         slivers,
-        p05_mm: q[0],
-        nominal_mm: q[1],
-        p95_mm: q[2],
-        max_mm: q[3],
+        p05_mm,
+        nominal_mm,
+        p95_mm,
+        max_mm,
         unknown_share: if samples == 0 {
             1.0
         } else {

@@ -14,9 +14,7 @@ use crate::render::RenderOptions;
 use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
 use crate::study::{judge, Demold, Hooks, Settings, Stage, StudyError};
-use crate::thickness::{
-    wall_thickness_until, wall_thickness_with, ThicknessOptions, WallThickness,
-};
+use crate::thickness::{wall_thickness_until, Known, ThicknessOptions, WallThickness};
 use crate::undercut::auto_direction_beside_loaded;
 
 /// One gate of the answer, as pictures and 3D files show it.
@@ -193,14 +191,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             enter(Stage::WallThickness)?;
             let t = Instant::now();
             let options = ThicknessOptions::default();
-            let w = match hooks.cancel {
-                None => wall_thickness_with(mesh, bvh, &options),
-                Some(cancel) => wall_thickness_until(mesh, bvh, &options, cancel).ok_or(
-                    StudyError::Cancelled {
-                        stage: Stage::WallThickness,
-                    },
-                )?,
-            };
+            let known = Known::of(&part.topology);
+            let w = wall_thickness_until(mesh, bvh, &options, known, hooks.cancel).ok_or(
+                StudyError::Cancelled {
+                    stage: Stage::WallThickness,
+                },
+            )?;
             Some((w, t.elapsed().as_secs_f64()))
         }
         _ => None,
