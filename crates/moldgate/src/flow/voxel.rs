@@ -225,10 +225,16 @@ const CORNER_MARGIN: f64 = 1e-7;
 /// exactly those cells (dense numbers of the grid of [`Voxels::layout`]; the second the
 /// same as the first when there is one). `None` for other triangles, which are sampled.
 #[inline]
-fn few_cells(mesh: &Mesh, t: usize, origin: DVec3, h: f64, dims: [usize; 3]) -> Option<[usize; 2]> {
+fn few_cells(
+    mesh: &Mesh,
+    t: usize,
+    origin: DVec3,
+    per_h: f64,
+    dims: [usize; 3],
+) -> Option<[usize; 2]> {
     let [a, b, c] = mesh.corners(t);
-    let lo = (a.min(b).min(c) - origin) / h + 0.5;
-    let hi = (a.max(b).max(c) - origin) / h + 0.5;
+    let lo = (a.min(b).min(c) - origin) * per_h + 0.5;
+    let hi = (a.max(b).max(c) - origin) * per_h + 0.5;
     let (mut first, mut second) = ([0usize; 3], [0usize; 3]);
     let mut across = false;
     for k in 0..3 {
@@ -350,6 +356,9 @@ impl Voxels {
 
         // Surface cells: rows of samples at most h/2 apart over every triangle.
         let step = SAMPLE_STEP * h;
+        // The cells of a triangle's box by a product, not three quotients: within about
+        // 1e-13 of a cell of them, far inside the margin [`few_cells`] keeps.
+        let per_h = 1.0 / h;
         let mut owner = vec![EMPTY; n_cells];
         let marks: Vec<Vec<(u32, u32)>> = chunks(mesh.triangles.len())
             .map(|ts| {
@@ -361,7 +370,7 @@ impl Voxels {
                     }
                     // A triangle inside one cell or two (most triangles of a fine
                     // mesh) marks them from its box, without its samples.
-                    match few_cells(mesh, t, origin, h, dims) {
+                    match few_cells(mesh, t, origin, per_h, dims) {
                         Some([c0, c1]) => {
                             out.push((c0 as u32, t as u32));
                             if c1 != c0 {
@@ -818,7 +827,7 @@ mod tests {
                     });
                     let near_face = |x: f64| (x - x.round()).abs() <= CORNER_MARGIN;
                     let spans: Vec<f64> = (0..3).map(|k| hi[k].floor() - lo[k].floor()).collect();
-                    match few_cells(&mesh, t, origin, h, dims) {
+                    match few_cells(&mesh, t, origin, 1.0 / h, dims) {
                         Some([c0, c1]) if c0 == c1 => {
                             one += 1;
                             assert_eq!(sampled, [c0], "{name} {h} {t}");

@@ -142,6 +142,15 @@ pub struct Canvas {
     glyphs: HashMap<(Weight, u32, char), (fontdue::Metrics, Vec<u8>)>,
 }
 
+/// Blends `colour` with coverage `alpha` (0..=1) into the opaque RGBA `pixel`.
+pub(super) fn blend_pixel(pixel: &mut [u8], colour: Rgb, alpha: f32) {
+    for k in 0..3 {
+        let d = pixel[k] as f32;
+        pixel[k] = round_non_negative(d + (colour[k] as f32 - d) * alpha) as u8;
+    }
+    pixel[3] = 255;
+}
+
 fn paint(colour: Rgb, alpha: u8) -> Paint<'static> {
     let mut p = Paint::default();
     p.set_color_rgba8(colour[0], colour[1], colour[2], alpha);
@@ -180,12 +189,7 @@ impl Canvas {
             return;
         }
         let i = 4 * (y as usize * self.width() as usize + x as usize);
-        let data = self.pixmap.data_mut();
-        for k in 0..3 {
-            let d = data[i + k] as f32;
-            data[i + k] = round_non_negative(d + (colour[k] as f32 - d) * alpha) as u8;
-        }
-        data[i + 3] = 255;
+        blend_pixel(&mut self.pixmap.data_mut()[i..i + 4], colour, alpha);
     }
 
     /// The colour of pixel (x, y).

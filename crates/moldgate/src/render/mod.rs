@@ -899,6 +899,8 @@ fn draw_qualifying(
         colour = vec![None; w * h];
     }
     let half = (scene.grid_spacing_mm * cam.scale * 0.5).max(0.6);
+    // The panel's columns and rows the squares cover.
+    let (mut columns, mut rows) = (w..0, h..0);
     for (i, &p) in scene.qualifying.iter().enumerate() {
         let q = cam.to_pixel(p);
         if !depths.visible(q.x, q.y, cam.depth(p), tolerance) {
@@ -910,6 +912,10 @@ fn draw_qualifying(
         for row in y0..y1 {
             mask[row * w + x0..row * w + x1].fill(true);
         }
+        if x0 < x1 && y0 < y1 {
+            (columns.start, columns.end) = (columns.start.min(x0), columns.end.max(x1));
+            (rows.start, rows.end) = (rows.start.min(y0), rows.end.max(y1));
+        }
         if let Some(f) = &scene.node_field {
             let v = f.per_node.get(i).copied().unwrap_or(f32::NAN);
             let c = lut.rgb(range.unit(v));
@@ -918,29 +924,44 @@ fn draw_qualifying(
             }
         }
     }
-    for y in 0..h {
-        for x in 0..w {
-            if !mask[y * w + x] {
-                continue;
-            }
-            let edge = x == 0
-                || y == 0
-                || x + 1 == w
-                || y + 1 == h
-                || !mask[y * w + x - 1]
-                || !mask[y * w + x + 1]
-                || !mask[(y - 1) * w + x]
-                || !mask[(y + 1) * w + x];
-            let (cx, cy) = ((rect.x as usize + x) as i32, (rect.y as usize + y) as i32);
-            if edge {
-                canvas.blend(cx, cy, BLACK, 0.85);
-            } else if let Some(c) = colour.get(y * w + x).copied().flatten() {
-                canvas.blend(cx, cy, c, 1.0);
-            } else if let Some((c, a)) = hatch(x, y) {
-                canvas.blend(cx, cy, c, a);
-            }
-        }
+    // The covered rows of the canvas on all threads (each pixel's colour depends on the
+    // mask alone), within the canvas as [`Canvas::blend`] keeps them.
+    let (stride, height) = (canvas.width() as usize, canvas.height() as usize);
+    let (left, top) = (rect.x as usize, rect.y as usize);
+    let end = (top + rows.end).min(height);
+    if columns.is_empty() || top + rows.start >= end || left >= stride {
+        return;
     }
+    use rayon::prelude::*;
+    let columns = columns.start..columns.end.min(stride - left);
+    canvas.pixmap.data_mut()[4 * stride * (top + rows.start)..4 * stride * end]
+        .par_chunks_mut(4 * stride)
+        .enumerate()
+        .for_each(|(i, line)| {
+            let y = rows.start + i;
+            let here = &mask[y * w..(y + 1) * w];
+            for x in columns.clone() {
+                if !here[x] {
+                    continue;
+                }
+                let edge = x == 0
+                    || y == 0
+                    || x + 1 == w
+                    || y + 1 == h
+                    || !here[x - 1]
+                    || !here[x + 1]
+                    || !mask[(y - 1) * w + x]
+                    || !mask[(y + 1) * w + x];
+                let pixel = &mut line[4 * (left + x)..4 * (left + x + 1)];
+                if edge {
+                    canvas::blend_pixel(pixel, BLACK, 0.85);
+                } else if let Some(c) = colour.get(y * w + x).copied().flatten() {
+                    canvas::blend_pixel(pixel, c, 1.0);
+                } else if let Some((c, a)) = hatch(x, y) {
+                    canvas::blend_pixel(pixel, c, a);
+                }
+            }
+        });
 }
 
 /// The pixels, first and past the last, of a node's square `centre - half` to `centre +
