@@ -508,6 +508,36 @@ impl Setup {
             (least >= -EDGE_SLACK) & (wa + wb <= 1.0 + EDGE_SLACK)
         };
         let n = end - first;
+        // Draws a row's run of samples, the first block of set `bits` (a triangle's row is
+        // one run), from the buffer's sample `at` on, sample `k`'s weights `weights`: the
+        // depth test's writes chosen rather than branched to.
+        macro_rules! draw_run {
+            ($at:expr, $bits:expr, |$k:ident| $weights:expr) => {{
+                let bits: u64 = $bits;
+                let from = bits.trailing_zeros() as usize;
+                let len = (!(bits >> from)).trailing_zeros() as usize;
+                let at = $at + from;
+                let samples = &mut buffer.sample[at..at + len];
+                let luts = &mut buffer.lut[at..at + len];
+                let shades = &mut buffer.shade[at..at + len];
+                for i in 0..len {
+                    let [wa, wb]: [f32; 2] = {
+                        let $k = from + i;
+                        $weights
+                    };
+                    let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
+                    let sample = (z as u64) << 32 | facet;
+                    let old = samples[i];
+                    let nearer = sample > old;
+                    samples[i] = if nearer { sample } else { old };
+                    shades[i] = if nearer { shade } else { shades[i] };
+                    if has_value {
+                        let lut = lut_index(tc + wa * dt_a + wb * dt_b);
+                        luts[i] = if nearer { lut } else { luts[i] };
+                    }
+                }
+            }};
+        }
         if n <= GROUPED_ROW {
             let px = min_x + 0.5;
             // Each row's edge functions at its first sample, as a row alone computes them:
@@ -544,31 +574,19 @@ impl Setup {
                     wb += dwb4;
                 }
                 let nibbles = nibbles >> (4 * (GROUPED_ROW - n));
+                // A lane is a row: it picks the row's bits and its weights out of every
+                // step kept, not the items of one slice.
+                #[allow(clippy::needless_range_loop)]
                 for lane in 0..(rows.end - y).min(4) {
                     let bits = every_fourth(nibbles >> lane);
                     if bits == 0 {
                         continue;
                     }
-                    let from = bits.trailing_zeros() as usize;
-                    let len = (!(bits >> from)).trailing_zeros() as usize;
-                    let at = (y + lane - first_row) * w + first + from;
-                    let samples = &mut buffer.sample[at..at + len];
-                    let luts = &mut buffer.lut[at..at + len];
-                    let shades = &mut buffer.shade[at..at + len];
-                    let steps = &group[from..from + len];
-                    for k in 0..len {
-                        let (wa, wb) = (steps[k][0][lane], steps[k][1][lane]);
-                        let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
-                        let sample = (z as u64) << 32 | facet;
-                        let old = samples[k];
-                        let nearer = sample > old;
-                        samples[k] = if nearer { sample } else { old };
-                        shades[k] = if nearer { shade } else { shades[k] };
-                        if has_value {
-                            let lut = lut_index(tc + wa * dt_a + wb * dt_b);
-                            luts[k] = if nearer { lut } else { luts[k] };
-                        }
-                    }
+                    let row = (y + lane - first_row) * w;
+                    draw_run!(row + first, bits, |k| [
+                        group[k][0][lane],
+                        group[k][1][lane]
+                    ]);
                 }
             }
             return;
@@ -596,27 +614,7 @@ impl Setup {
                 if bits == 0 {
                     continue;
                 }
-                // A triangle's row is one run of samples: the first block of set bits.
-                let from = bits.trailing_zeros() as usize;
-                let len = (!(bits >> from)).trailing_zeros() as usize;
-                let at = row + first + from;
-                let samples = &mut buffer.sample[at..at + len];
-                let luts = &mut buffer.lut[at..at + len];
-                let shades = &mut buffer.shade[at..at + len];
-                let steps = &steps[from..from + len];
-                for k in 0..len {
-                    let [wa, wb] = steps[k];
-                    let z = depth_key(c[2] + wa * dz_a + wb * dz_b);
-                    let sample = (z as u64) << 32 | facet;
-                    let old = samples[k];
-                    let nearer = sample > old;
-                    samples[k] = if nearer { sample } else { old };
-                    shades[k] = if nearer { shade } else { shades[k] };
-                    if has_value {
-                        let lut = lut_index(tc + wa * dt_a + wb * dt_b);
-                        luts[k] = if nearer { lut } else { luts[k] };
-                    }
-                }
+                draw_run!(row + first, bits, |k| steps[k]);
                 continue;
             }
             let samples = &mut buffer.sample[row + first..row + end];
