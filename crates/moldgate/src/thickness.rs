@@ -219,7 +219,7 @@ impl Known {
     /// edge unpaired in the topology's count but not in the pass).
     pub fn of(topology: &crate::mesh::Topology) -> Known {
         Known {
-            closed: (topology.unpaired_edges == Some(0)).then_some(true),
+            closed: topology.sides_pair_up().then_some(true),
         }
     }
 }

@@ -92,6 +92,15 @@ impl Topology {
 }
 
 impl Topology {
+    /// Whether every edge is run as often one way as the other by its triangles, as counted
+    /// at load ([`Topology::unpaired_edges`]): then the surface is closed and consistently
+    /// oriented (but for edges of more than two sides that still pair up). `false` when
+    /// not counted, or when a facet without area leaves an edge unpaired, which the count
+    /// cannot tell from an open or turned one.
+    pub fn sides_pair_up(&self) -> bool {
+        self.unpaired_edges == Some(0)
+    }
+
     /// Whether the mesh is closed (no open edge), manifold (no edge with more than two
     /// triangles) and consistently oriented (the two triangles of every edge run it in
     /// opposite directions). Each body of such a mesh bounds a solid, and its facets all
@@ -104,7 +113,7 @@ impl Topology {
         // Closed and manifold, every edge has two sides: when every edge is paired, they run
         // opposite ways. (An edge left unpaired by a facet without area, whose side from a
         // vertex to itself runs neither way, is left to the check below.)
-        if self.unpaired_edges == Some(0) {
+        if self.sides_pair_up() {
             return true;
         }
         // Each edge is checked from the side of its lower triangle only. Its two sides are
