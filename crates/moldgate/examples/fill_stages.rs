@@ -21,6 +21,10 @@ fn best<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 {
+        eprintln!("usage: fill_stages PART.stl DEMOLD [REPEATS]");
+        std::process::exit(2);
+    }
     let file = std::fs::File::open(&args[1]).expect("open the part");
     let len = file.metadata().expect("metadata").len();
     let part = moldgate::mesh::read_stl(

@@ -6,6 +6,10 @@ use moldgate::{locate, LocateOptions, Material};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 {
+        eprintln!("usage: flow_time PART.stl DEMOLD [UNITS] [CELL_MM]");
+        std::process::exit(2);
+    }
     let units = args.get(3).map_or("mm", |s| s.as_str()).parse().unwrap();
     let file = std::fs::File::open(&args[1]).unwrap();
     let len = file.metadata().unwrap().len();

@@ -10,6 +10,10 @@ use moldgate::Material;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.len() < 2 {
+        eprintln!("usage: march_time PART.stl [MARCHES] [CELL_MM]");
+        std::process::exit(2);
+    }
     let file = std::fs::File::open(&args[1]).expect("open the part");
     let len = file.metadata().expect("metadata").len();
     let part = moldgate::mesh::read_stl(
