@@ -27,7 +27,10 @@ one); without them it prints why it is left out.
     cargo build --release -p moldgate --example parse_floor
     python3 scripts/speed_table.py [--runs 11] [--part PART.stl] [--demold +y]
         [--binary target/release/moldgate] [--floor target/release/examples/parse_floor]
-        [--reference-python PYTHON] [--only NAME,...] [--before BINARY] [--threads N]
+        [--reference-python PYTHON] [--only=NAME,...] [--before BINARY] [--threads N]
+
+(--only takes the rows' names, e.g. --only=--png or --only="--fill,--gates 3": with the
+equals sign, since the names start with dashes.)
 
 With --threads N, every moldgate command runs on N threads (RAYON_NUM_THREADS); with 1,
 the ratios are those of the work itself (CPU time), which scheduling on more cores cannot
@@ -36,6 +39,11 @@ change.
 With --before, every moldgate row is also run with that binary (the same rows, named
 "... (before)", in the same shuffled rounds), its ratio taken to that binary's own plain
 locate: a before / after table from one run.
+
+Bad arguments (--runs or --threads below 1, a binary, floor or part that is not there, a
+--before binary that is not there, an --only name that is no row) stop it before any run,
+with one line on standard error and exit status 1 (argparse's own errors: status 2). A
+--reference-python that does not run leaves the reference row out, saying why.
 
 Standard library only.
 """
@@ -101,9 +109,12 @@ def reference_reason(python):
     """Why the reference row cannot run, or None when it can."""
     if not os.path.isdir(os.path.join(SHARED, "reference")):
         return f"no reference folder at {os.path.join(SHARED, 'reference')}"
-    probe = subprocess.run(
-        [python, "-c", "import trimesh, embreex, numpy, scipy; "
-         "import trimesh.ray.ray_pyembree"], capture_output=True, text=True)
+    try:
+        probe = subprocess.run(
+            [python, "-c", "import trimesh, embreex, numpy, scipy; "
+             "import trimesh.ray.ray_pyembree"], capture_output=True, text=True)
+    except OSError as e:
+        return f"{python} does not run ({e.strerror})"
     if probe.returncode != 0:
         last = (probe.stderr.strip().splitlines() or ["?"])[-1]
         return f"{python} lacks the reference's dependencies ({last}); " \
@@ -127,6 +138,8 @@ def main():
     args = ap.parse_args()
     if args.threads is not None and args.threads < 1:
         sys.exit(f"--threads must be at least 1, not {args.threads}")
+    if args.runs < 1:
+        sys.exit(f"--runs must be at least 1, not {args.runs}")
     env = None
     if args.threads is not None:
         env = dict(os.environ, RAYON_NUM_THREADS=str(args.threads))
@@ -135,6 +148,8 @@ def main():
                         (args.floor, "cargo build --release -p moldgate --example parse_floor")):
         if not os.path.exists(path):
             sys.exit(f"{path} not found: {build} (or give its path)")
+    if args.before and not os.path.isfile(args.before):
+        sys.exit(f"--before {args.before}: not found (a moldgate binary)")
     if not os.path.exists(args.part):
         sys.exit(f"part not found: {args.part}")
 
@@ -171,6 +186,11 @@ def main():
         rows.pop(5)
     if args.only:
         keep = {"plain locate", *args.only.split(",")}
+        known = {r[0] for r in rows} | {"reference Embree rays"}
+        unknown = sorted(keep - known)
+        if unknown:
+            sys.exit(f"--only: no row named {', '.join(unknown)} "
+                     f"(rows: {', '.join(r[0] for r in rows if not r[0].endswith(' (before)'))})")
         rows = [r for r in rows if r[0].removesuffix(" (before)") in keep]
 
     threads = ("" if args.threads is None else

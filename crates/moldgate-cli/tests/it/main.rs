@@ -10,6 +10,7 @@ mod glb_cli;
 mod hostile_cli;
 mod obj_ply_cli;
 mod pictures;
+mod scripts;
 mod serve;
 mod special_files;
 mod study_cli;

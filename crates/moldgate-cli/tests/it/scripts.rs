@@ -1,0 +1,68 @@
+//! The repository's measuring scripts refuse bad arguments before any run: one line on
+//! standard error, a documented exit status, and no table.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+/// `python3 scripts/speed_table.py ARGS` from the repository's root, or `None` (with the
+/// reason printed) when there is no python3.
+fn speed_table(args: &[&str]) -> Option<Output> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    match Command::new("python3")
+        .arg("scripts/speed_table.py")
+        .args(args)
+        .current_dir(&root)
+        .stdin(Stdio::null())
+        .output()
+    {
+        Ok(out) => Some(out),
+        Err(e) => {
+            eprintln!("skipped: python3 does not run ({e})");
+            None
+        }
+    }
+}
+
+#[test]
+fn the_speed_table_refuses_bad_arguments_before_any_run() {
+    let dir = tempfile::tempdir().unwrap();
+    // Files that exist stand in for the binaries and the part: each check below comes
+    // before anything is run.
+    let part = dir.path().join("part.stl");
+    std::fs::write(&part, b"not read").unwrap();
+    let (part, binary) = (part.to_str().unwrap(), env!("CARGO_BIN_EXE_moldgate"));
+    let missing = dir.path().join("missing");
+    let missing = missing.to_str().unwrap();
+    let base = [
+        "--binary",
+        binary,
+        "--floor",
+        binary,
+        "--part",
+        part,
+        "--reference-python",
+        missing,
+    ];
+    let cases: [(&[&str], &str); 5] = [
+        (&["--runs", "0"], "--runs must be at least 1, not 0"),
+        (&["--threads", "0"], "--threads must be at least 1, not 0"),
+        (&["--before", missing], "--before"),
+        (&["--only=--fil"], "--only: no row named --fil"),
+        (&["--binary", missing], "not found"),
+    ];
+    for (extra, says) in cases {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let Some(out) = speed_table(&args) else {
+            return;
+        };
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{extra:?}: {err}");
+        assert!(err.contains(says), "{extra:?}: {err}");
+        assert!(!err.contains("Traceback"), "{extra:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{extra:?}: {err}");
+        assert!(
+            out.stdout.is_empty(),
+            "{extra:?}: no table before the checks"
+        );
+    }
+}
