@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""How plain `moldgate locate` grows with the part: time and peak memory against triangles.
+"""How `moldgate locate` grows with the part: time and peak memory against triangles.
 
 Writes COPIES copies of the shared 352k part side by side into one binary STL
 (crates/moldgate/examples/tiled_part.rs), for each count in --copies (default up to 23
@@ -13,6 +13,13 @@ average is printed before and after.
     cargo build --release -p moldgate --example tiled_part
     python3 scripts/scaling_table.py [--copies 1,2,4,8,16,23] [--runs 3] [--dir /tmp]
         [--binary target/release/moldgate] [--tiler target/release/examples/tiled_part]
+        [--demold auto] [--with="--fill"]
+
+Plain `locate` by default; `--with=...` adds options to the command (one string, split as a
+shell would, written with `=` as it starts with dashes), so that every analysis gets its
+table: `--with="--fill"`, `--with="--wall-thickness"`, `--with="--gates 3"`,
+`--with="--png {dir}/part.png"` (`{dir}` is the folder of the tiled files, emptied after
+each size), and `--demold auto` for the automatic direction.
 
 Standard library only.
 """
@@ -20,6 +27,7 @@ Standard library only.
 import argparse
 import json
 import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -36,13 +44,15 @@ TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
 def run(cmd):
     """Wall seconds, peak resident KiB and stdout of one run of `cmd`."""
     start = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    out = proc.stdout.read()
-    _, status, usage = os.wait4(proc.pid, 0)
-    seconds = time.perf_counter() - start
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        sys.exit(f"{' '.join(cmd)} exited with {proc.returncode}")
+    with tempfile.TemporaryFile(mode="w+") as err:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, text=True)
+        out = proc.stdout.read()
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            sys.exit(f"{' '.join(cmd)} exited with {proc.returncode}: {err.read().strip()}")
     return seconds, usage.ru_maxrss, out
 
 
@@ -55,7 +65,21 @@ def main():
     ap.add_argument("--dir", default=None, help="where the large files are written")
     ap.add_argument("--binary", default=os.path.join(TARGET, "release", "moldgate"))
     ap.add_argument("--tiler", default=os.path.join(TARGET, "release", "examples", "tiled_part"))
+    ap.add_argument("--with", dest="extra", default="",
+                    help="options added to the command, e.g. \"--fill\" ({dir}: the folder of the files)")
     args = ap.parse_args()
+    try:
+        extra = shlex.split(args.extra)
+    except ValueError as e:
+        sys.exit(f"--with {args.extra!r}: {e}")
+    if args.runs < 1:
+        sys.exit(f"--runs {args.runs}: at least 1")
+    try:
+        copies = [int(c) for c in args.copies.split(",")]
+    except ValueError:
+        copies = []
+    if not copies or min(copies) < 1:
+        sys.exit(f"--copies {args.copies!r}: a list of counts of at least 1, such as 1,2,4")
     for path, build in ((args.binary, "cargo build --release -p moldgate-cli"),
                         (args.tiler, "cargo build --release -p moldgate --example tiled_part")):
         if not os.path.exists(path):
@@ -64,20 +88,24 @@ def main():
         sys.exit(f"part not found: {args.part}")
 
     folder = tempfile.mkdtemp(prefix="moldgate-scaling-", dir=args.dir)
-    print(f"part: {os.path.basename(args.part)} tiled along x, demold {args.demold}, "
+    extra = [a.replace("{dir}", folder) for a in extra]
+    print(f"part: {os.path.basename(args.part)} tiled along x, demold {args.demold}"
+          f"{', with ' + args.extra if args.extra else ''}, "
           f"{args.runs} runs each, {os.cpu_count()} cores")
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     rows = []
     try:
-        for copies in [int(c) for c in args.copies.split(",")]:
+        for copies in copies:
             path = os.path.join(folder, f"tiled_{copies}.stl")
             subprocess.run([args.tiler, args.part, path, str(copies)], check=True)
             size = os.path.getsize(path)
-            cmd = [args.binary, "locate", path, "--demold", args.demold]
+            cmd = [args.binary, "locate", path, "--demold", args.demold] + extra
             # The counts from the report; this run also brings the file into the page cache.
             report = json.loads(run(cmd + ["--json"])[2])
             results = [run(cmd) for _ in range(args.runs)]
             os.remove(path)
+            for name in os.listdir(folder):
+                os.remove(os.path.join(folder, name))
             mesh = report["mesh"]
             rows.append((copies, mesh["triangles"], mesh.get("collapsed_facets", 0), size,
                          statistics.median(r[0] for r in results),

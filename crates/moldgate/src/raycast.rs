@@ -1119,24 +1119,38 @@ fn build(items: &mut [Item], first: usize, known: Option<Extent>) -> Vec<Node> {
     nodes
 }
 
-/// Bits of a Morton code per axis (30 in all: a code and a mesh index make one `u64`).
-const MORTON_BITS: u32 = 10;
+/// Bits of a Morton code per axis for a mesh of `n` triangles: a code and a mesh index make
+/// one `u64`, so 13 (the index in the 25 bits left) below 2^25 triangles, and 10 above (the
+/// index in 32 or more). The cells are cubes (see [`build_morton`]): on copies of the housing
+/// side by side, 2.3 m along x, a cell of 13 bits is 0.28 mm, still finer than the
+/// triangles, so that the codes sort them in space as on one copy.
+fn morton_bits(n: usize) -> u32 {
+    if n < 1 << 25 {
+        13
+    } else {
+        10
+    }
+}
 
-/// The `MORTON_BITS` low bits of `x` spread to every third bit.
+/// The 16 low bits of `x` spread to every third bit.
 #[inline]
 fn spread_bits(x: u32) -> u64 {
-    let mut x = (x & 0x3ff) as u64;
-    x = (x | x << 16) & 0x0300_00ff;
-    x = (x | x << 8) & 0x0300_f00f;
-    x = (x | x << 4) & 0x030c_30c3;
-    x = (x | x << 2) & 0x0924_9249;
+    let mut x = (x & 0xffff) as u64;
+    x = (x | x << 32) & 0x001f_0000_0000_ffff;
+    x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
     x
 }
 
 /// The binary tree of `items` (reordered in place into leaf order) by a Morton curve: each
-/// item's centre quantised to `MORTON_BITS` bits per axis in the box of the centres, the
-/// items sorted by code and then by mesh index (one key, so the order is one whatever the
-/// threads), and each node split where its codes' highest differing bit changes (in the
+/// item's centre quantised to [`morton_bits`] bits per axis in cubic cells over the box of
+/// the centres (the same step along every axis, so that a long part is cut across its
+/// length first, as its boxes are: steps scaled to each axis cut a part 40 times longer than
+/// wide into slabs as long as the part, and the walls' queries through that tree slowed as
+/// the part grew), the items sorted by code and then by mesh index (one key, so the order is
+/// one whatever the threads), and each node split where its codes' highest differing bit changes (in the
 /// middle when its codes are all one), down to leaves of at most [`MORTON_LEAF_SIZE`]. Each node's
 /// box is the union of its children's, found as the recursion comes back up.
 fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
@@ -1163,8 +1177,10 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
             },
         );
     let extent = (centres.max - centres.min).max(Vec3A::splat(f32::MIN_POSITIVE));
-    let top = ((1u32 << MORTON_BITS) - 1) as f32;
-    let scale = Vec3A::splat(top) / extent;
+    let bits = morton_bits(boxes.len());
+    let id_bits = 64 - 3 * bits;
+    let top = ((1u32 << bits) - 1) as f32;
+    let scale = Vec3A::splat(top / extent.max_element());
     let mut keys: Vec<u64> = boxes
         .par_iter()
         .with_min_len(4096)
@@ -1178,12 +1194,13 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
                     | spread_bits(q.y as u32) << 1
                     | spread_bits(q.z as u32) << 2
             });
-            code << 32 | id as u64
+            code << id_bits | id as u64
         })
         .collect();
-    sort_by_code(&mut keys);
-    let ids: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
-    keys.par_iter_mut().for_each(|k| *k >>= 32);
+    sort_by_code(&mut keys, bits);
+    let id_mask = (1u64 << id_bits) - 1;
+    let ids: Vec<u32> = keys.par_iter().map(|&k| (k & id_mask) as u32).collect();
+    keys.par_iter_mut().for_each(|k| *k >>= id_bits);
     let codes = keys;
     let (count, mut lefts) = morton_count_noting(&codes, 0);
     lefts.sort_unstable();
@@ -1192,17 +1209,18 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
     (nodes, ids)
 }
 
-/// Sorts keys `code << 32 | index` given in the order of their indices, with codes of
-/// `3 * MORTON_BITS` bits: three stable counting passes of `MORTON_BITS` bits over the
-/// codes, so that equal codes keep their indices' order (the order of sorting the whole
-/// keys, for a few passes over them instead of a comparison sort).
-fn sort_by_code(keys: &mut Vec<u64>) {
-    const BUCKETS: usize = 1 << MORTON_BITS;
+/// Sorts keys `code << (64 - 3 * bits) | index` given in the order of their indices, with
+/// codes of `3 * bits` bits: three stable counting passes of `bits` bits over the codes, so
+/// that equal codes keep their indices' order (the order of sorting the whole keys, for a
+/// few passes over them instead of a comparison sort).
+fn sort_by_code(keys: &mut Vec<u64>, bits: u32) {
+    let buckets = 1usize << bits;
     let mut other = vec![0u64; keys.len()];
+    let mut start = vec![0usize; buckets];
     for pass in 0..3 {
-        let shift = 32 + MORTON_BITS * pass;
-        let bucket = |k: u64| (k >> shift) as usize & (BUCKETS - 1);
-        let mut start = [0usize; BUCKETS];
+        let shift = 64 - 3 * bits + bits * pass;
+        let bucket = |k: u64| (k >> shift) as usize & (buckets - 1);
+        start.iter_mut().for_each(|s| *s = 0);
         for &k in keys.iter() {
             start[bucket(k)] += 1;
         }
@@ -2093,16 +2111,59 @@ mod tests {
     #[test]
     fn counting_sort_of_morton_keys_is_the_sort_of_the_keys() {
         let mut rng = Rng(0x1234_5678_9abc_def1);
-        for n in [0usize, 1, 5, 1000, 20_000] {
-            // Few distinct codes in the small cases (many ties), all of them in the last.
-            let spread = if n < 1000 { 7.0 } else { (1u64 << 30) as f64 };
-            let mut keys: Vec<u64> = (0..n as u64)
-                .map(|i| ((rng.next() * spread) as u64) << 32 | i)
-                .collect();
-            let mut want = keys.clone();
-            want.sort_unstable();
-            sort_by_code(&mut keys);
-            assert_eq!(keys, want, "{n} keys");
+        for bits in [10, 13] {
+            let id_bits = 64 - 3 * bits;
+            for n in [0usize, 1, 5, 1000, 20_000] {
+                // Few distinct codes in the small cases (many ties), all of them in the last.
+                let spread = if n < 1000 {
+                    7.0
+                } else {
+                    (1u64 << (3 * bits)) as f64
+                };
+                let mut keys: Vec<u64> = (0..n as u64)
+                    .map(|i| ((rng.next() * spread) as u64) << id_bits | i)
+                    .collect();
+                let mut want = keys.clone();
+                want.sort_unstable();
+                sort_by_code(&mut keys, bits);
+                assert_eq!(keys, want, "{n} keys of {bits} bits an axis");
+            }
+        }
+    }
+
+    #[test]
+    fn a_long_part_s_morton_tree_is_cut_across_its_length_first() {
+        // Points on a strip 40 long, 1 wide and 1 high (a part 40 times longer than wide):
+        // the cells are cubes, so the first cuts are across x, and each of the root's
+        // children holds about half the strip's length (with cells scaled to each axis, the
+        // first cut was along z, each child as long as the strip).
+        let mut rng = Rng(0x0bad_cafe_f00d_1234);
+        let boxes: Vec<(Vec3, Vec3)> = (0..4000)
+            .map(|_| {
+                let p = Vec3::new(
+                    40.0 * rng.next() as f32,
+                    rng.next() as f32,
+                    rng.next() as f32,
+                );
+                (p, p)
+            })
+            .collect();
+        let (nodes, ids) = build_morton(&boxes);
+        assert_eq!(ids.len(), boxes.len());
+        let root = &nodes[0];
+        assert_eq!(root.count, 0, "the root is split");
+        let length = root.max[0] - root.min[0];
+        for child in [&nodes[1], &nodes[root.link as usize]] {
+            let along = child.max[0] - child.min[0];
+            assert!(along < 0.6 * length, "a child {along} long of {length}");
+        }
+    }
+
+    #[test]
+    fn spread_bits_puts_each_bit_three_places_apart() {
+        for x in [0u32, 1, 2, 0x5555, 0xaaaa, 0x1fff, 0xffff, 0x1_ffff, 0x1234] {
+            let want = (0..16).fold(0u64, |acc, k| acc | ((x as u64 >> k) & 1) << (3 * k));
+            assert_eq!(spread_bits(x), want, "{x:#x}");
         }
     }
 

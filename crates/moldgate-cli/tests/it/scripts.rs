@@ -7,9 +7,15 @@ use std::process::{Command, Output, Stdio};
 /// `python3 scripts/speed_table.py ARGS` from the repository's root, or `None` (with the
 /// reason printed) when there is no python3.
 fn speed_table(args: &[&str]) -> Option<Output> {
+    script("speed_table.py", args)
+}
+
+/// `python3 scripts/NAME ARGS` from the repository's root, or `None` (with the reason
+/// printed) when there is no python3.
+fn script(name: &str, args: &[&str]) -> Option<Output> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     match Command::new("python3")
-        .arg("scripts/speed_table.py")
+        .arg(Path::new("scripts").join(name))
         .args(args)
         .current_dir(&root)
         .stdin(Stdio::null())
@@ -53,6 +59,42 @@ fn the_speed_table_refuses_bad_arguments_before_any_run() {
     for (extra, says) in cases {
         let args: Vec<&str> = base.iter().chain(extra).copied().collect();
         let Some(out) = speed_table(&args) else {
+            return;
+        };
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{extra:?}: {err}");
+        assert!(err.contains(says), "{extra:?}: {err}");
+        assert!(!err.contains("Traceback"), "{extra:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{extra:?}: {err}");
+        assert!(
+            out.stdout.is_empty(),
+            "{extra:?}: no table before the checks"
+        );
+    }
+}
+
+#[test]
+fn the_scaling_table_refuses_bad_arguments_before_any_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("part.stl");
+    std::fs::write(&part, b"not read").unwrap();
+    let (part, binary) = (part.to_str().unwrap(), env!("CARGO_BIN_EXE_moldgate"));
+    let missing = dir.path().join("missing");
+    let missing = missing.to_str().unwrap();
+    // The command line stands in for the tiler too: each check below comes before either
+    // is run.
+    let base = ["--binary", binary, "--tiler", binary, "--part", part];
+    let cases: [(&[&str], &str); 6] = [
+        (&["--runs", "0"], "--runs 0: at least 1"),
+        (&["--copies", "1,x"], "--copies '1,x'"),
+        (&["--copies", "0"], "--copies '0'"),
+        (&["--with=\"--fill"], "No closing quotation"),
+        (&["--binary", missing], "not found"),
+        (&["--part", missing], "part not found"),
+    ];
+    for (extra, says) in cases {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let Some(out) = script("scaling_table.py", &args) else {
             return;
         };
         let err = String::from_utf8_lossy(&out.stderr);
