@@ -75,10 +75,10 @@ def main():
     if args.runs < 1:
         sys.exit(f"--runs {args.runs}: at least 1")
     try:
-        copies = [int(c) for c in args.copies.split(",")]
+        counts = [int(c) for c in args.copies.split(",")]
     except ValueError:
-        copies = []
-    if not copies or min(copies) < 1:
+        counts = []
+    if not counts or min(counts) < 1:
         sys.exit(f"--copies {args.copies!r}: a list of counts of at least 1, such as 1,2,4")
     for path, build in ((args.binary, "cargo build --release -p moldgate-cli"),
                         (args.tiler, "cargo build --release -p moldgate --example tiled_part")):
@@ -95,7 +95,7 @@ def main():
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     rows = []
     try:
-        for copies in copies:
+        for copies in counts:
             path = os.path.join(folder, f"tiled_{copies}.stl")
             subprocess.run([args.tiler, args.part, path, str(copies)], check=True)
             size = os.path.getsize(path)
@@ -103,7 +103,7 @@ def main():
             # The counts from the report; this run also brings the file into the page cache.
             report = json.loads(run(cmd + ["--json"])[2])
             results = [run(cmd) for _ in range(args.runs)]
-            os.remove(path)
+            # The tiled file and whatever the command wrote there ({dir}).
             for name in os.listdir(folder):
                 os.remove(os.path.join(folder, name))
             mesh = report["mesh"]

@@ -1132,6 +1132,11 @@ fn morton_bits(n: usize) -> u32 {
     }
 }
 
+/// Bits of the mesh index below a code of `bits` bits an axis in one `u64` key.
+fn index_bits(bits: u32) -> u32 {
+    64 - 3 * bits
+}
+
 /// The 16 low bits of `x` spread to every third bit.
 #[inline]
 fn spread_bits(x: u32) -> u64 {
@@ -1150,9 +1155,10 @@ fn spread_bits(x: u32) -> u64 {
 /// length first, as its boxes are: steps scaled to each axis cut a part 40 times longer than
 /// wide into slabs as long as the part, and the walls' queries through that tree slowed as
 /// the part grew), the items sorted by code and then by mesh index (one key, so the order is
-/// one whatever the threads), and each node split where its codes' highest differing bit changes (in the
-/// middle when its codes are all one), down to leaves of at most [`MORTON_LEAF_SIZE`]. Each node's
-/// box is the union of its children's, found as the recursion comes back up.
+/// one whatever the threads), and each node split where its codes' highest differing bit
+/// changes (in the middle when its codes are all one), down to leaves of at most
+/// [`MORTON_LEAF_SIZE`]. Each node's box is the union of its children's, found as the
+/// recursion comes back up.
 fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
     // The empty box of a triangle without finite corners has no centre: it is left out of
     // the centres' bounds, and sorts first below.
@@ -1178,7 +1184,7 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
         );
     let extent = (centres.max - centres.min).max(Vec3A::splat(f32::MIN_POSITIVE));
     let bits = morton_bits(boxes.len());
-    let id_bits = 64 - 3 * bits;
+    let id_bits = index_bits(bits);
     let top = ((1u32 << bits) - 1) as f32;
     let scale = Vec3A::splat(top / extent.max_element());
     let mut keys: Vec<u64> = boxes
@@ -1209,7 +1215,7 @@ fn build_morton(boxes: &[(Vec3, Vec3)]) -> (Vec<Node>, Vec<u32>) {
     (nodes, ids)
 }
 
-/// Sorts keys `code << (64 - 3 * bits) | index` given in the order of their indices, with
+/// Sorts keys `code << index_bits(bits) | index` given in the order of their indices, with
 /// codes of `3 * bits` bits: three stable counting passes of `bits` bits over the codes, so
 /// that equal codes keep their indices' order (the order of sorting the whole keys, for a
 /// few passes over them instead of a comparison sort).
@@ -1218,7 +1224,7 @@ fn sort_by_code(keys: &mut Vec<u64>, bits: u32) {
     let mut other = vec![0u64; keys.len()];
     let mut start = vec![0usize; buckets];
     for pass in 0..3 {
-        let shift = 64 - 3 * bits + bits * pass;
+        let shift = index_bits(bits) + bits * pass;
         let bucket = |k: u64| (k >> shift) as usize & (buckets - 1);
         start.iter_mut().for_each(|s| *s = 0);
         for &k in keys.iter() {
@@ -2112,7 +2118,7 @@ mod tests {
     fn counting_sort_of_morton_keys_is_the_sort_of_the_keys() {
         let mut rng = Rng(0x1234_5678_9abc_def1);
         for bits in [10, 13] {
-            let id_bits = 64 - 3 * bits;
+            let id_bits = index_bits(bits);
             for n in [0usize, 1, 5, 1000, 20_000] {
                 // Few distinct codes in the small cases (many ties), all of them in the last.
                 let spread = if n < 1000 {

@@ -4,12 +4,6 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-/// `python3 scripts/speed_table.py ARGS` from the repository's root, or `None` (with the
-/// reason printed) when there is no python3.
-fn speed_table(args: &[&str]) -> Option<Output> {
-    script("speed_table.py", args)
-}
-
 /// `python3 scripts/NAME ARGS` from the repository's root, or `None` (with the reason
 /// printed) when there is no python3.
 fn script(name: &str, args: &[&str]) -> Option<Output> {
@@ -26,6 +20,27 @@ fn script(name: &str, args: &[&str]) -> Option<Output> {
             eprintln!("skipped: python3 does not run ({e})");
             None
         }
+    }
+}
+
+/// Runs script `name` with `base` and each case's arguments after them: each must stop
+/// with exit status 1 and one line on standard error that says the case's words, and print
+/// no table.
+fn refuses(name: &str, base: &[&str], cases: &[(&[&str], &str)]) {
+    for &(extra, says) in cases {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let Some(out) = script(name, &args) else {
+            return;
+        };
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{extra:?}: {err}");
+        assert!(err.contains(says), "{extra:?}: {err}");
+        assert!(!err.contains("Traceback"), "{extra:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{extra:?}: {err}");
+        assert!(
+            out.stdout.is_empty(),
+            "{extra:?}: no table before the checks"
+        );
     }
 }
 
@@ -56,21 +71,7 @@ fn the_speed_table_refuses_bad_arguments_before_any_run() {
         (&["--only=--fil"], "--only: no row named --fil"),
         (&["--binary", missing], "not found"),
     ];
-    for (extra, says) in cases {
-        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
-        let Some(out) = speed_table(&args) else {
-            return;
-        };
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{extra:?}: {err}");
-        assert!(err.contains(says), "{extra:?}: {err}");
-        assert!(!err.contains("Traceback"), "{extra:?}: {err}");
-        assert_eq!(err.trim().lines().count(), 1, "{extra:?}: {err}");
-        assert!(
-            out.stdout.is_empty(),
-            "{extra:?}: no table before the checks"
-        );
-    }
+    refuses("speed_table.py", &base, &cases);
 }
 
 #[test]
@@ -92,19 +93,5 @@ fn the_scaling_table_refuses_bad_arguments_before_any_run() {
         (&["--binary", missing], "not found"),
         (&["--part", missing], "part not found"),
     ];
-    for (extra, says) in cases {
-        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
-        let Some(out) = script("scaling_table.py", &args) else {
-            return;
-        };
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{extra:?}: {err}");
-        assert!(err.contains(says), "{extra:?}: {err}");
-        assert!(!err.contains("Traceback"), "{extra:?}: {err}");
-        assert_eq!(err.trim().lines().count(), 1, "{extra:?}: {err}");
-        assert!(
-            out.stdout.is_empty(),
-            "{extra:?}: no table before the checks"
-        );
-    }
+    refuses("scaling_table.py", &base, &cases);
 }
