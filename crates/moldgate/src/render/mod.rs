@@ -202,49 +202,55 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
     };
     let lut = Lut::viridis();
 
-    let views: Vec<View> = [ViewKind::AlongDemold, ViewKind::Isometric]
-        .into_iter()
-        .zip(layout.panels)
-        .map(|(kind, panel)| View {
-            kind,
-            panel,
-            camera: fit_camera(
-                scene,
-                kind,
-                layout.plot_area(panel),
-                axes_box(
-                    &axis_marks(scene, axes(scene, kind), panel, layout.k),
-                    layout.k,
-                ),
-            ),
-        })
-        .collect();
-    let diagonal = bounds_diagonal(scene);
-    // The facets to skip need only the mesh, the depths the overlays look up only the
-    // scene, the views' projections of the mesh and the field's colour-map coordinates only
-    // the mesh and the cameras: all found beside one another and the making of the canvas.
-    let (facing, ((canvas, asked), (t, projections))) = rayon::join(
-        || {
-            scene.topology.map(|topology| {
-                let facing = Facing::of(scene.mesh, topology);
-                match &scene.display {
-                    Some(d) => facing.of_pieces(&d.parent),
-                    None => facing,
-                }
-            })
-        },
+    // The facets to skip and the canvas need neither the views nor each other; the views
+    // (their cameras fitted to the part) need the part's extents, found in one pass over
+    // its vertices; the depths the overlays look up need the views, and so do the views'
+    // projections of the mesh (the field's colour-map coordinates beside them): all found
+    // beside one another.
+    let ((facing, canvas), (views, diagonal, asked, (t, projections))) = rayon::join(
         || {
             rayon::join(
                 || {
-                    rayon::join(
-                        || Canvas::new(width, height, WHITE),
-                        || {
-                            views
-                                .iter()
-                                .map(|v| ask_depths(scene, v))
-                                .collect::<Vec<_>>()
-                        },
-                    )
+                    scene.topology.map(|topology| {
+                        let facing = Facing::of(scene.mesh, topology);
+                        match &scene.display {
+                            Some(d) => facing.of_pieces(&d.parent),
+                            None => facing,
+                        }
+                    })
+                },
+                || Canvas::new(width, height, WHITE),
+            )
+        },
+        || {
+            let kinds = [ViewKind::AlongDemold, ViewKind::Isometric];
+            let (extents, bounds) =
+                extents(&scene.mesh.vertices, kinds.map(|kind| axes(scene, kind)));
+            let views: Vec<View> = kinds
+                .into_iter()
+                .zip(layout.panels)
+                .zip(extents)
+                .map(|((kind, panel), extent)| View {
+                    kind,
+                    panel,
+                    camera: fit_camera(
+                        scene,
+                        kind,
+                        extent,
+                        layout.plot_area(panel),
+                        axes_box(
+                            &axis_marks(scene, axes(scene, kind), panel, layout.k),
+                            layout.k,
+                        ),
+                    ),
+                })
+                .collect();
+            let (asked, drawn) = rayon::join(
+                || {
+                    views
+                        .iter()
+                        .map(|v| ask_depths(scene, v))
+                        .collect::<Vec<_>>()
                 },
                 || {
                     let t: Vec<f32> = values.iter().map(|&v| range.unit(v)).collect();
@@ -254,7 +260,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
                         .collect();
                     (t, projections)
                 },
-            )
+            );
+            (views, (bounds.max - bounds.min).length(), asked, drawn)
         },
     );
     let mut canvas = canvas.ok_or(RenderError::Size { width, height })?;
@@ -288,15 +295,26 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         canvas.pixmap.data_mut(),
         stride,
     );
+    // What each view's overlays look up in its depths (the qualifying region's squares,
+    // the parting line's runs) on all threads, the views side by side; then drawn in order.
+    let tolerance = |v: &View| (4.0 * sample_mm(v)).max(0.005 * diagonal);
+    let found: Vec<Found> = {
+        use rayon::prelude::*;
+        views
+            .par_iter()
+            .zip(&panels)
+            .map(|(view, panel)| Found::of(scene, view, &panel.depths, (tolerance(view), &range)))
+            .collect()
+    };
     let mut hidden_gates = Vec::new();
-    for (view, panel) in views.iter().zip(&panels) {
-        let tolerance = (4.0 * sample_mm(view)).max(0.005 * diagonal);
+    for ((view, panel), found) in views.iter().zip(&panels).zip(found) {
         let hidden = draw_overlays(
             &mut canvas,
             scene,
             view,
             &panel.depths,
-            (tolerance, &range),
+            found,
+            tolerance(view),
             k,
         );
         hidden_gates.push(hidden);
@@ -383,14 +401,20 @@ fn axes(scene: &Scene, kind: ViewKind) -> (DVec3, DVec3, DVec3) {
     }
 }
 
-/// The camera of a view, fitting the part and the gate discs into `area` (x, y, w, h),
+/// The camera of a view, fitting the part (whose least and greatest (x, y) on the view's
+/// axes are `lo` and `hi`, [`extents`]) and the gate discs into `area` (x, y, w, h),
 /// clear of the orientation axes' box `avoid` (x0, y0, x1, y1) in the area's lower right
 /// corner: when the part's box would reach into it, the part moves up or left within the
 /// area if that clears it, and is drawn smaller beside it (above or to its left, whichever
 /// is larger) otherwise.
-fn fit_camera(scene: &Scene, kind: ViewKind, area: [f64; 4], avoid: [f64; 4]) -> Camera {
+fn fit_camera(
+    scene: &Scene,
+    kind: ViewKind,
+    (mut lo, mut hi): (DVec2, DVec2),
+    area: [f64; 4],
+    avoid: [f64; 4],
+) -> Camera {
     let (right, up, toward) = axes(scene, kind);
-    let (mut lo, mut hi) = projected_extent(&scene.mesh.vertices, right, up);
     let mut grow = |p: DVec3| {
         let q = DVec2::new(p.dot(right), p.dot(up));
         lo = lo.min(q);
@@ -457,34 +481,38 @@ fn clear_of(span: DVec2, area: [f64; 4], avoid: [f64; 4]) -> (f64, DVec2) {
     }
 }
 
-fn bounds_diagonal(scene: &Scene) -> f64 {
+/// The least and greatest (x, y) of `points` projected on each view's right and up axes,
+/// and their box, in one pass in blocks on all threads (the least and greatest are the same
+/// in any order).
+fn extents<const N: usize>(
+    points: &[DVec3],
+    axes: [(DVec3, DVec3, DVec3); N],
+) -> ([(DVec2, DVec2); N], crate::math::Aabb) {
     use rayon::prelude::*;
-    let b = scene
-        .mesh
-        .vertices
-        .par_chunks(1 << 14)
-        .map(crate::math::Aabb::of_points)
-        .reduce(
-            || crate::math::Aabb::EMPTY,
-            |a, b| a.grown(b.min).grown(b.max),
-        );
-    (b.max - b.min).length()
-}
-
-/// The least and greatest (x, y) of `points` projected on `right` and `up`, in blocks on
-/// all threads (the least and greatest are the same in any order).
-fn projected_extent(points: &[DVec3], right: DVec3, up: DVec3) -> (DVec2, DVec2) {
-    use rayon::prelude::*;
-    let empty = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    let empty = || {
+        (
+            [(DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)); N],
+            crate::math::Aabb::EMPTY,
+        )
+    };
     points
         .par_chunks(1 << 14)
         .map(|block| {
-            block.iter().fold(empty, |(lo, hi), p| {
-                let q = DVec2::new(p.dot(right), p.dot(up));
-                (lo.min(q), hi.max(q))
-            })
+            let (mut extents, _) = empty();
+            for p in block {
+                for ((lo, hi), (right, up, _)) in extents.iter_mut().zip(&axes) {
+                    let q = DVec2::new(p.dot(*right), p.dot(*up));
+                    (*lo, *hi) = (lo.min(q), hi.max(q));
+                }
+            }
+            (extents, crate::math::Aabb::of_points(block))
         })
-        .reduce(|| empty, |(a, b), (c, d)| (a.min(c), b.max(d)))
+        .reduce(empty, |(mut a, box_a), (b, box_b)| {
+            for ((lo, hi), (c, d)) in a.iter_mut().zip(b) {
+                (*lo, *hi) = (lo.min(c), hi.max(d));
+            }
+            (a, box_a.grown(box_b.min).grown(box_b.max))
+        })
 }
 
 /// The finite values of the field: their range, and how values map to 0..=1.
@@ -565,24 +593,15 @@ fn draw_overlays(
     scene: &Scene,
     view: &View,
     depths: &Depths,
-    (tolerance, range): (f64, &FieldRange),
+    found: Found,
+    tolerance: f64,
     k: f32,
 ) -> Vec<bool> {
     let cam = &view.camera;
-    draw_qualifying(canvas, scene, view, depths, tolerance, range);
-
-    // Parting line: seen along D it is the outline of the part, so all of it is shown; in
-    // the other view the parts behind the part are dashed.
-    let (hidden, shown) = parting_runs(scene, view, &mut |m, depth| {
-        depths.visible(m.x, m.y, depth, tolerance)
-    });
-    let simplify = |lines: Vec<Vec<[f32; 2]>>| -> Vec<Vec<[f32; 2]>> {
-        chained(lines)
-            .iter()
-            .map(|l| simplified(l, PARTING_TOLERANCE_PX))
-            .collect()
-    };
-    let (hidden, shown) = (simplify(hidden), simplify(shown));
+    if let Some(squares) = &found.qualifying {
+        blend_qualifying(canvas, view, squares);
+    }
+    let (hidden, shown) = found.parting;
     canvas.stroke_polylines(&hidden, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
     canvas.stroke_polylines(&shown, false, BLACK, 4.5 * k, None);
     canvas.stroke_polylines(&shown, false, WHITE, 2.0 * k, None);
@@ -708,6 +727,38 @@ fn draw_overlays(
         Align::Left,
     );
     discs.iter().map(|d| d.hidden).collect()
+}
+
+/// What the overlays of a view find in its depths before they are drawn: the qualifying
+/// region's squares and the parting line's runs, (hidden, shown), chained and simplified.
+struct Found {
+    qualifying: Option<Squares>,
+    parting: (Polylines, Polylines),
+}
+
+impl Found {
+    fn of(
+        scene: &Scene,
+        view: &View,
+        depths: &Depths,
+        (tolerance, range): (f64, &FieldRange),
+    ) -> Found {
+        // Parting line: seen along D it is the outline of the part, so all of it is shown;
+        // in the other view the parts behind the part are dashed.
+        let (hidden, shown) = parting_runs(scene, view, &mut |m, depth| {
+            depths.visible(m.x, m.y, depth, tolerance)
+        });
+        let simplify = |lines: Polylines| -> Polylines {
+            chained(lines)
+                .iter()
+                .map(|l| simplified(l, PARTING_TOLERANCE_PX))
+                .collect()
+        };
+        Found {
+            qualifying: qualifying_squares(scene, view, depths, tolerance, range),
+            parting: (simplify(hidden), simplify(shown)),
+        }
+    }
 }
 
 /// A gate's disc in a view: its outline and radius, pixels, its centre, and whether the
@@ -878,16 +929,15 @@ fn chained(lines: Vec<Vec<[f32; 2]>>) -> Vec<Vec<[f32; 2]>> {
 /// the grid spacing around it, so the nodes join into the region they stand for. With a
 /// node field (the suitability map) each square is filled with its node's colour instead
 /// of the hatch.
-fn draw_qualifying(
-    canvas: &mut Canvas,
+fn qualifying_squares(
     scene: &Scene,
     view: &View,
     depths: &Depths,
     tolerance: f64,
     range: &FieldRange,
-) {
+) -> Option<Squares> {
     if scene.qualifying.is_empty() {
-        return;
+        return None;
     }
     let cam = &view.camera;
     let rect = view.panel;
@@ -924,6 +974,34 @@ fn draw_qualifying(
             }
         }
     }
+    Some(Squares {
+        mask,
+        colour,
+        columns,
+        rows,
+    })
+}
+
+/// The visible qualifying nodes' squares in a panel: which of its pixels they cover, the
+/// node field's colour there (empty without a node field), and the columns and rows
+/// covered.
+struct Squares {
+    mask: Vec<bool>,
+    colour: Vec<Option<Rgb>>,
+    columns: std::ops::Range<usize>,
+    rows: std::ops::Range<usize>,
+}
+
+/// Draws the qualifying region of [`qualifying_squares`].
+fn blend_qualifying(canvas: &mut Canvas, view: &View, squares: &Squares) {
+    let Squares {
+        mask,
+        colour,
+        columns,
+        rows,
+    } = squares;
+    let rect = view.panel;
+    let (w, h) = (rect.w as usize, rect.h as usize);
     // The covered rows of the canvas on all threads (each pixel's colour depends on the
     // mask alone), within the canvas as [`Canvas::blend`] keeps them.
     let (stride, height) = (canvas.width() as usize, canvas.height() as usize);
