@@ -86,6 +86,8 @@ def main():
             sys.exit(f"{path} not found: {build} (or give its path)")
     if not os.path.exists(args.part):
         sys.exit(f"part not found: {args.part}")
+    if args.dir is not None and not os.path.isdir(args.dir):
+        sys.exit(f"--dir {args.dir}: not a folder (make it first)")
 
     folder = tempfile.mkdtemp(prefix="moldgate-scaling-", dir=args.dir)
     extra = [a.replace("{dir}", folder) for a in extra]

@@ -85,13 +85,14 @@ fn the_scaling_table_refuses_bad_arguments_before_any_run() {
     // The command line stands in for the tiler too: each check below comes before either
     // is run.
     let base = ["--binary", binary, "--tiler", binary, "--part", part];
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["--runs", "0"], "--runs 0: at least 1"),
         (&["--copies", "1,x"], "--copies '1,x'"),
         (&["--copies", "0"], "--copies '0'"),
         (&["--with=\"--fill"], "No closing quotation"),
         (&["--binary", missing], "not found"),
         (&["--part", missing], "part not found"),
+        (&["--dir", missing], "not a folder"),
     ];
     refuses("scaling_table.py", &base, &cases);
 }
