@@ -805,8 +805,8 @@ where
 /// they are placed in their cells rather than kept from their first making (they are made
 /// three times: for their box, for the counts of their cells, and where they are placed),
 /// so that the rays are not held twice at once (32 bytes a ray; on 8.1 million triangles,
-/// the peak of the automatic direction 1.58 times the file's size rather than 1.93 to
-/// 2.03). The same rays either way, and the same answer.
+/// the peak of the automatic direction 1.57 to 1.63 times the file's size rather than 1.98
+/// to 2.08). The same rays either way, and the same answer.
 #[allow(clippy::too_many_arguments)] // The drawing's inputs, each used once.
 pub fn blocked_until<F>(
     vertices: &[DVec3],

@@ -438,6 +438,48 @@ pub fn body_of_triangle(mesh: &Mesh) -> Vec<u32> {
         .collect()
 }
 
+/// The body of each vertex, numbered as [`body_of_triangle`] numbers the bodies (a vertex
+/// of no triangle: 0), in one array of the vertices' size: the union-find's links are
+/// turned into the labels in place (each vertex linked straight to its set's root, each
+/// root given its body's number with the top bit set, then every vertex its root's), where
+/// the bodies of the triangles and of the vertices would take both arrays and the forest's
+/// two.
+pub fn body_of_vertex(mesh: &Mesh) -> Vec<u32> {
+    const ROOT: u32 = 1 << 31;
+    let mut label = joined_vertices(mesh);
+    debug_assert!(label.len() < ROOT as usize);
+    for v in 0..label.len() as u32 {
+        let r = root(&mut label, v);
+        label[v as usize] = r;
+    }
+    // Each root its body's number, in order of first appearance over the triangles.
+    let mut count = 0u32;
+    for tri in &mesh.triangles {
+        // A root numbered already holds its number, not its own index.
+        let r = match label[tri[0] as usize] {
+            l if l & ROOT != 0 => tri[0] as usize,
+            l => l as usize,
+        };
+        if label[r] & ROOT == 0 {
+            label[r] = ROOT | count;
+            count += 1;
+        }
+    }
+    // Every other vertex of a triangle takes its root's number (the roots' slots are read,
+    // not written, in this pass); a vertex of no triangle is its own root, unnumbered.
+    for v in 0..label.len() {
+        let r = label[v];
+        if r & ROOT == 0 {
+            let at_root = label[r as usize];
+            label[v] = if at_root & ROOT != 0 { at_root } else { 0 };
+        }
+    }
+    for l in &mut label {
+        *l &= !ROOT;
+    }
+    label
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -733,6 +775,15 @@ mod tests {
                 seen.insert(root(&mut parent, tri[0]));
             }
             assert_eq!(body_count(&mesh), seen.len() as u64, "{vertices} vertices");
+            // Each vertex's body is the body of the triangles it is a corner of (numbered as
+            // `body_of_triangle` numbers them), 0 for a vertex of none.
+            let mut expected = vec![0u32; vertices as usize];
+            for (tri, &b) in mesh.triangles.iter().zip(&body_of_triangle(&mesh)) {
+                for &v in tri {
+                    expected[v as usize] = b;
+                }
+            }
+            assert_eq!(body_of_vertex(&mesh), expected, "{vertices} vertices");
         }
     }
 

@@ -26,7 +26,7 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
-use std::sync::atomic::{AtomicU32, AtomicU8, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -35,7 +35,7 @@ use super::outside::{Outside, Segment};
 use super::{side_edges, PartingLine, Rim};
 use crate::frame::Frame;
 use crate::math::DVec2;
-use crate::mesh::topology::{body_of_triangle, NO_TRIANGLE};
+use crate::mesh::topology::{body_of_vertex, NO_TRIANGLE};
 use crate::mesh::{Mesh, Topology};
 
 /// Faces whose normal is within this (as n.D for the unit normal) of the plane are walls
@@ -67,26 +67,16 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         DVec2::new(p.dot(frame.u), p.dot(frame.w))
     };
     let height = |v: u32| mesh.vertices[v as usize].dot(frame.d);
-    let body_of_tri = (topology.bodies > 1).then(|| body_of_triangle(mesh));
-    let body_of_vertex = body_of_tri.as_ref().map(|body| {
-        let of: Vec<AtomicU32> = (0..mesh.vertices.len())
-            .map(|_| AtomicU32::new(0))
-            .collect();
-        mesh.triangles.par_iter().zip(body).for_each(|(tri, &b)| {
-            for &v in tri {
-                of[v as usize].store(b, Ordering::Relaxed);
-            }
-        });
-        of.into_iter()
-            .map(AtomicU32::into_inner)
-            .collect::<Vec<u32>>()
-    });
+    // Each vertex's body (one array of the vertices' size, see `body_of_vertex`), and each
+    // body's triangles (a counting sort by the body of their first corner), so that a
+    // body's band reads its own triangles only and a part of many bodies is read once, not
+    // once a body; with marks of the vertices near the outline, shared by the bodies (no
+    // two bodies share a vertex).
+    let body_of_vertex = (topology.bodies > 1).then(|| body_of_vertex(mesh));
     let body_of = |v: u32| body_of_vertex.as_ref().map_or(0, |b| b[v as usize]);
-    // Each body's triangles (a counting sort by body), so that a body's band reads its own
-    // triangles only and a part of many bodies is read once, not once a body; with marks of
-    // the vertices near the outline, shared by the bodies (no two bodies share a vertex).
-    let by_body = body_of_tri.as_deref().map(Groups::of);
-    drop(body_of_tri);
+    let by_body = body_of_vertex
+        .as_ref()
+        .map(|b| Groups::of(mesh.triangles.len(), |t| b[mesh.triangles[t][0] as usize]));
     let marks: Vec<AtomicU8> = match by_body {
         Some(_) => (0..mesh.vertices.len()).map(|_| AtomicU8::new(0)).collect(),
         None => Vec::new(),
@@ -369,21 +359,22 @@ struct Groups {
 }
 
 impl Groups {
-    /// The triangles grouped by `label` (body numbers from 0).
-    fn of(label: &[u32]) -> Groups {
-        let count = label.iter().max().map_or(0, |&m| m as usize + 1);
+    /// The `n` triangles grouped by `label(t)` (body numbers from 0).
+    fn of(n: usize, label: impl Fn(usize) -> u32) -> Groups {
+        let count = (0..n).map(&label).max().map_or(0, |m| m as usize + 1);
         let mut start = vec![0u32; count + 1];
-        for &l in label {
-            start[l as usize + 1] += 1;
+        for t in 0..n {
+            start[label(t) as usize + 1] += 1;
         }
         for k in 0..count {
             start[k + 1] += start[k];
         }
         let mut fill = start[..count].to_vec();
-        let mut items = vec![0u32; label.len()];
-        for (i, &l) in label.iter().enumerate() {
-            items[fill[l as usize] as usize] = i as u32;
-            fill[l as usize] += 1;
+        let mut items = vec![0u32; n];
+        for t in 0..n {
+            let l = label(t) as usize;
+            items[fill[l] as usize] = t as u32;
+            fill[l] += 1;
         }
         Groups { start, items }
     }
