@@ -628,16 +628,28 @@ fn fill_refuses_a_fine_cell_over_the_solid_cell_limit_before_the_work() {
         "{e}"
     );
     // The cell it names keeps every limit (not only the one broken first), and one 5 %
-    // finer does not: the least, within the step of the cell chosen without one.
+    // finer does not: the least, within the step of the cell chosen without one. The
+    // limits of a one-gate fill are all checked as its cells are made (`flow::prepare`:
+    // the grid, the samples, the solid cells, the bytes), so the cells alone are made here,
+    // not the fill's walls and marches over their millions.
+    let centres = moldgate::Centres::of(&cover);
     let with = |h: f64| {
-        analyse_with(
+        flow::prepare(
             &cover,
-            flow::FlowOptions {
-                cell_mm: Some(h),
-                ..flow::FlowOptions::default()
+            &centres,
+            &flow::FillOptions {
+                flow: flow::FlowOptions {
+                    cell_mm: Some(h),
+                    ..flow::FlowOptions::default()
+                },
+                ..flow::FillOptions::default()
             },
         )
     };
+    assert!(
+        with(0.05).is_err(),
+        "the cell refused above is refused by its cells"
+    );
     assert!(with(least_cell_mm).is_ok(), "{least_cell_mm}");
     assert!(
         matches!(
