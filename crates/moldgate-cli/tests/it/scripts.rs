@@ -44,16 +44,36 @@ fn refuses(name: &str, base: &[&str], cases: &[(&[&str], &str)]) {
     }
 }
 
+/// Stand-ins for a script's files, in a folder kept while the value lives: a part that
+/// exists but is never read, the command line (a binary that exists), and a path that does
+/// not exist.
+struct StandIns {
+    _dir: tempfile::TempDir,
+    part: String,
+    binary: &'static str,
+    missing: String,
+}
+
+impl StandIns {
+    fn new() -> StandIns {
+        let dir = tempfile::tempdir().unwrap();
+        let part = dir.path().join("part.stl");
+        std::fs::write(&part, b"not read").unwrap();
+        StandIns {
+            part: part.to_str().unwrap().to_string(),
+            binary: env!("CARGO_BIN_EXE_moldgate"),
+            missing: dir.path().join("missing").to_str().unwrap().to_string(),
+            _dir: dir,
+        }
+    }
+}
+
 #[test]
 fn the_speed_table_refuses_bad_arguments_before_any_run() {
-    let dir = tempfile::tempdir().unwrap();
     // Files that exist stand in for the binaries and the part: each check below comes
     // before anything is run.
-    let part = dir.path().join("part.stl");
-    std::fs::write(&part, b"not read").unwrap();
-    let (part, binary) = (part.to_str().unwrap(), env!("CARGO_BIN_EXE_moldgate"));
-    let missing = dir.path().join("missing");
-    let missing = missing.to_str().unwrap();
+    let s = StandIns::new();
+    let (part, binary, missing) = (s.part.as_str(), s.binary, s.missing.as_str());
     let base = [
         "--binary",
         binary,
@@ -76,12 +96,8 @@ fn the_speed_table_refuses_bad_arguments_before_any_run() {
 
 #[test]
 fn the_scaling_table_refuses_bad_arguments_before_any_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let part = dir.path().join("part.stl");
-    std::fs::write(&part, b"not read").unwrap();
-    let (part, binary) = (part.to_str().unwrap(), env!("CARGO_BIN_EXE_moldgate"));
-    let missing = dir.path().join("missing");
-    let missing = missing.to_str().unwrap();
+    let s = StandIns::new();
+    let (part, binary, missing) = (s.part.as_str(), s.binary, s.missing.as_str());
     // The command line stands in for the tiler too: each check below comes before either
     // is run.
     let base = ["--binary", binary, "--tiler", binary, "--part", part];

@@ -74,9 +74,14 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
     // two bodies share a vertex).
     let body_of_vertex = (topology.bodies > 1).then(|| body_of_vertex(mesh));
     let body_of = |v: u32| body_of_vertex.as_ref().map_or(0, |b| b[v as usize]);
-    let by_body = body_of_vertex
-        .as_ref()
-        .map(|b| Groups::of(mesh.triangles.len(), |t| b[mesh.triangles[t][0] as usize]));
+    let by_body = body_of_vertex.as_ref().map(|b| {
+        // The bodies' count from the vertices in order (a vertex of no triangle is body 0),
+        // not from a pass over the triangles' corners.
+        let bodies = b.iter().max().map_or(0, |&m| m as usize + 1);
+        Groups::of((mesh.triangles.len(), bodies), |t| {
+            b[mesh.triangles[t][0] as usize]
+        })
+    });
     let marks: Vec<AtomicU8> = match by_body {
         Some(_) => (0..mesh.vertices.len()).map(|_| AtomicU8::new(0)).collect(),
         None => Vec::new(),
@@ -359,9 +364,8 @@ struct Groups {
 }
 
 impl Groups {
-    /// The `n` triangles grouped by `label(t)` (body numbers from 0).
-    fn of(n: usize, label: impl Fn(usize) -> u32) -> Groups {
-        let count = (0..n).map(&label).max().map_or(0, |m| m as usize + 1);
+    /// The `n` triangles grouped by `label(t)`, body numbers below `count`.
+    fn of((n, count): (usize, usize), label: impl Fn(usize) -> u32) -> Groups {
         let mut start = vec![0u32; count + 1];
         for t in 0..n {
             start[label(t) as usize + 1] += 1;
