@@ -3,7 +3,7 @@
 
 Runs `A locate ... --png` and `B locate ... --png` on every built-in sample and every
 shared part (natural demolding direction from SOURCES.md, PP, default options otherwise)
-with the option sets asked for (default: plain and --fill), keeps both pictures in OUT
+with the option sets asked for (default: plain and --fill; also --fill coloured by flow length, two gates, and the suitability map), keeps both pictures in OUT
 (`NAME.SET.base.png`, `NAME.SET.new.png`), and compares their pixels: per picture the
 number of pixels that differ at all, the largest difference of one channel (0-255), and
 the number of pixels whose difference is above --tolerance. Exits 1 when any picture has
@@ -27,7 +27,13 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from png_same_pixels import pixels  # noqa: E402
 from same_json import PARTS, NATURAL  # noqa: E402
 
-SETS = {"default": [], "fill": ["--fill"], "suitability": ["--suitability"]}
+SETS = {
+    "default": [],
+    "fill": ["--fill"],
+    "fill-length": ["--fill", "--color-by", "flow-length"],
+    "gates2": ["--fill", "--gates", "2"],
+    "suitability": ["--suitability"],
+}
 
 
 def cases(base, parts, sets, only):

@@ -2,10 +2,13 @@
 //! live blocks of 256 KiB and more, and a copy of that list each time the heap reaches a new
 //! peak. Loads the part from its file as the command does (reopened handles), runs `locate`
 //! with the given parting rule, and prints the peak with the large blocks live at it; then
-//! the parting line alone, its own peak above what the loaded part holds.
+//! the parting line alone, its own peak above what the loaded part holds. With `auto` for
+//! the direction, the automatic choice with the gate located beside it, as the study runs
+//! `--demold auto`. With `fill` or `walls` after the direction, the whole study with the
+//! fill analysis or the wall thickness instead, and its peak.
 //!
 //! ```text
-//! cargo run --release -p moldgate --example locate_memory -- PART.stl [+z] [outline|longest]
+//! cargo run --release -p moldgate --example locate_memory -- PART.stl [+z|auto] [outline|longest|fill|walls]
 //! ```
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -15,6 +18,8 @@ use std::sync::Mutex;
 
 use moldgate::mesh::{self, Units};
 use moldgate::parting::{PartingLine, PartingRule};
+use moldgate::thickness::Sampling;
+use moldgate::undercut::auto_direction_beside_loaded;
 use moldgate::{locate, Frame, LocateOptions};
 
 /// Blocks at least this large are listed.
@@ -148,11 +153,13 @@ fn main() {
         eprintln!("usage: locate_memory PART.stl [DEMOLD] [outline|longest]");
         std::process::exit(2);
     };
-    let direction = args
-        .get(1)
-        .map_or("+z", String::as_str)
-        .parse()
-        .expect("demold");
+    let auto = args.get(1).is_some_and(|a| a == "auto");
+    let direction = match auto {
+        true => "+z",
+        false => args.get(1).map_or("+z", String::as_str),
+    }
+    .parse()
+    .expect("demold");
     let parting = match args.get(2).map(String::as_str) {
         Some("longest") => PartingRule::Longest,
         _ => PartingRule::Outline,
@@ -162,11 +169,40 @@ fn main() {
     let open = || std::fs::File::open(path).map(|f| BufReader::with_capacity(1 << 16, f));
     let part = mesh::read_stl_reopen(open, len, Units::Mm).expect("load");
     report("load", 0);
-    let options = LocateOptions {
+    if let Some(what @ ("fill" | "walls")) = args.get(2).map(String::as_str) {
+        let options = moldgate::StudyOptions {
+            demold: args.get(1).map_or("+z", String::as_str).into(),
+            fill: what == "fill",
+            wall_thickness: what == "walls",
+            ..Default::default()
+        };
+        let base = reset();
+        let study = moldgate::study(&part, &options).expect("study");
+        report(&format!("the study with {what}"), base);
+        drop(study);
+        return;
+    }
+    let mut options = LocateOptions {
         direction,
         parting,
         ..LocateOptions::default()
     };
+    if auto {
+        let base = reset();
+        let along = |d| {
+            let o = LocateOptions {
+                direction: d,
+                ..options.clone()
+            };
+            locate(&part, &o)
+        };
+        let (choice, _) =
+            auto_direction_beside_loaded(&part, Sampling::Centroid, along, |_, _| true)
+                .expect("auto");
+        report("the automatic direction, the gate located beside", base);
+        options.direction = choice.direction();
+    }
+    let direction = options.direction;
     let base = reset();
     let analysis = locate(&part, &options).expect("locate");
     report("locate", base);

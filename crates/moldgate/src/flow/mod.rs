@@ -2694,7 +2694,7 @@ pub fn prepare_with(
     options: &FillOptions,
 ) -> Result<Cells, FillError> {
     let t = Instant::now();
-    let bodies = Bodies::of_counted(mesh, topology.map(|t| t.bodies));
+    let mut bodies = Bodies::of_counted(mesh, topology.map(|t| t.bodies));
     let known = topology.map_or_else(Default::default, crate::thickness::Known::of);
     let c = centres;
     let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
@@ -2705,6 +2705,9 @@ pub fn prepare_with(
     let (h, coarsened) = choose_cell(mesh, &bodies.of_triangle, estimate, &options.flow)?;
     // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
     let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
+    // The triangles' bodies served the cells only (which hold each cell's body): let go
+    // before the walls and the marches (4 bytes a triangle of the mesh).
+    bodies.of_triangle = Vec::new();
     if voxels.len() as f64 > options.flow.max_solid_cells {
         return Err(FillError::too_large(
             "solid cells",
@@ -2865,6 +2868,9 @@ pub fn analyse_prepared(
     // part's): a thin lid beside a thick box fills as it would alone.
     let mut domain =
         Domain::with_body_walls(voxels, triangle_walls, nominal, &body_nominal, material);
+    // The cells hold their walls now: the walls measured per triangle (4 bytes a triangle of
+    // the mesh) are let go before the marches.
+    drop(measured);
     // The mesh's volume of each body when every body is closed (its cells' volume else).
     if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
         domain.body_volume_mm3 = bodies.volume_mm3.clone();
@@ -3275,15 +3281,40 @@ pub fn analyse_prepared(
             ));
         }
     }
-    let (mut body_gates, body_fields) = if domain.bodies > 1 {
-        gates_per_body(&domain, &bodies, analysis, material, answer_body)
-    } else {
-        (Vec::new(), Vec::new())
+    // Only the field the pictures show (a pass over the vertices each).
+    let mut per_vertex = VertexFields::default();
+    // With several gates the pictured flow length or fill time is that of all of them
+    // together: one more march from every gate at once.
+    let all_gates = |cost: Option<&[f32]>| {
+        several_pictured.map(|m| {
+            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+            march(&domain.voxels, &sources, cost)
+        })
     };
+    // The pictured field of the cells when it is a field of the fill: flow length or fill
+    // time, from every pictured gate at once when there are several.
+    let pictured_field = match options.colour_by {
+        ColourBy::FlowLength => Some((all_gates(None), Kind::Length)),
+        ColourBy::FillTime => Some((all_gates(Some(&domain.fill_cost)), Kind::Fill)),
+        ColourBy::Wall | ColourBy::Height => None,
+    };
+    let pictured_t = |field: &Option<Field>, kind: Kind| -> Vec<f64> {
+        let gate = match kind {
+            Kind::Length => &fields.length,
+            _ => &fields.fill,
+        };
+        field.as_ref().unwrap_or(gate).t.clone()
+    };
+    let mut pictured_t = pictured_field
+        .as_ref()
+        .map(|(f, kind)| (pictured_t(f, *kind), *kind));
+    drop(pictured_field);
     // A body the pictured gates (the designer's when placed, else the answer's) do not
     // reach is shown filled from its own gate (the gate per body), not as a body without a
-    // value: each body of a file of several is moulded from its own gate.
-    if !body_gates.is_empty() {
+    // value: each body of a file of several is moulded from its own gate. Its own field is
+    // written over its cells as soon as it is marched, and let go: a part of many bodies
+    // holds one pictured field, not one a body.
+    let body_gates = if domain.bodies > 1 {
         let mut reached = vec![false; domain.bodies];
         match several_pictured {
             Some(m) => {
@@ -3299,38 +3330,32 @@ pub fn analyse_prepared(
                 }
             }
         }
-        for (b, own) in body_gates.iter_mut().zip(&body_fields) {
-            b.pictured = own.is_some() && !reached[b.body as usize];
-        }
-    }
-    // The pictured field `t` with each such body's cells from its own gate's field (one pass
-    // over the cells; `body_gates[b]` is body b's); `None` when no body is.
-    let own_gates = |t: &[f64], pick: fn(&GateFields) -> &Field| -> Option<Vec<f64>> {
-        let own: Vec<Option<&[f64]>> = body_gates
-            .iter()
-            .zip(&body_fields)
-            .map(|(b, f)| f.as_ref().filter(|_| b.pictured).map(|f| &pick(f).t[..]))
-            .collect();
-        if own.iter().all(Option::is_none) {
-            return None;
-        }
-        Some(
-            t.iter()
-                .zip(&domain.body)
-                .enumerate()
-                .map(|(c, (&x, &b))| own[b as usize].map_or(x, |o| o[c]))
-                .collect(),
+        gates_per_body(
+            &domain,
+            &bodies,
+            analysis,
+            material,
+            answer_body,
+            |b, own| {
+                if reached[b as usize] {
+                    return false;
+                }
+                if let Some((t, kind)) = pictured_t.as_mut() {
+                    let own = match kind {
+                        Kind::Length => &own.length.t,
+                        _ => &own.fill.t,
+                    };
+                    for ((x, &body), &o) in t.iter_mut().zip(&domain.body).zip(own) {
+                        if body == b {
+                            *x = o;
+                        }
+                    }
+                }
+                true
+            },
         )
-    };
-    // Only the field the pictures show (a pass over the vertices each).
-    let mut per_vertex = VertexFields::default();
-    // With several gates the pictured flow length or fill time is that of all of them
-    // together: one more march from every gate at once.
-    let all_gates = |cost: Option<&[f32]>| {
-        several_pictured.map(|m| {
-            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
-            march(&domain.voxels, &sources, cost)
-        })
+    } else {
+        Vec::new()
     };
     // The pictured field on the cells, in real units, kept for the pictures.
     let on_cells = |t: &[f64], scale: f64| -> Vec<f32> {
@@ -3344,28 +3369,20 @@ pub fn analyse_prepared(
             })
             .collect()
     };
-    let cell_values = match options.colour_by {
-        ColourBy::FlowLength => {
-            let field = all_gates(None);
-            let t = field.as_ref().map_or(&fields.length.t, |f| &f.t);
-            let merged = own_gates(t, |f| &f.length);
-            let t = merged.as_ref().unwrap_or(t);
-            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, t, 1.0);
-            Some(on_cells(t, 1.0))
+    let cell_values = match (options.colour_by, pictured_t) {
+        (ColourBy::FlowLength, Some((t, _))) => {
+            per_vertex.flow_length_mm = per_vertex_of(&domain, mesh, &t, 1.0);
+            Some(on_cells(&t, 1.0))
         }
-        ColourBy::FillTime => {
-            let field = all_gates(Some(&domain.fill_cost));
-            let t = field.as_ref().map_or(&fields.fill.t, |f| &f.t);
-            let merged = own_gates(t, |f| &f.fill);
-            let t = merged.as_ref().unwrap_or(t);
-            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, t, per_mm);
-            Some(on_cells(t, per_mm))
+        (ColourBy::FillTime, Some((t, _))) => {
+            per_vertex.fill_time_s = per_vertex_of(&domain, mesh, &t, per_mm);
+            Some(on_cells(&t, per_mm))
         }
-        ColourBy::Wall => {
+        (ColourBy::Wall, _) => {
             per_vertex.wall_mm = per_vertex_of_cells(&domain, mesh, &domain.wall_mm);
             Some(domain.wall_mm.clone())
         }
-        ColourBy::Height => None,
+        _ => None,
     };
     snap_places(&domain, mesh, &mut paper);
     let mut balanced = balanced.map(|(b, _)| b);
@@ -3410,15 +3427,17 @@ pub fn analyse_prepared(
 }
 
 /// The gate of every body: the paper's rule on the body, its qualifying node nearest its
-/// centre of mass, with its flow length and fill time over the body, and its fields (for
-/// the pictures of the bodies the pictured gates do not reach).
+/// centre of mass, with its flow length and fill time over the body. Each body's fields are
+/// handed to `pictured` as soon as they are marched (to draw a body the pictured gates do
+/// not reach), which says whether the pictures show them, and are let go.
 fn gates_per_body(
     domain: &Domain,
     bodies: &Bodies,
     analysis: &crate::gate::Analysis,
     material: &Material,
     answer_body: Option<u32>,
-) -> (Vec<BodyGate>, Vec<Option<GateFields>>) {
+    mut pictured: impl FnMut(u32, &GateFields) -> bool,
+) -> Vec<BodyGate> {
     // Summed once for every body (`Domain::volume_share` sums per call).
     let total: f64 = domain.body_volume_mm3.iter().sum();
     (0..domain.bodies as u32)
@@ -3435,13 +3454,13 @@ fn gates_per_body(
                 .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
                 .copied();
             let fill = gate.and_then(|g| fill_from(domain, g, material));
-            let gate_body = BodyGate {
+            BodyGate {
                 body: b,
                 volume_share: domain.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE),
                 centre_of_mass: centre.to_array(),
                 gate: gate.map(|g| g.to_array()),
                 is_answer_body: answer_body == Some(b),
-                pictured: false,
+                pictured: fill.as_ref().is_some_and(|f| pictured(b, &f.1)),
                 l_max_mm: fill.as_ref().map(|f| f.0.l_max_mm),
                 fill_time_s: fill.as_ref().map(|f| f.0.fill_time_s),
                 nominal_wall_mm: domain
@@ -3449,10 +3468,9 @@ fn gates_per_body(
                     .get(b as usize)
                     .copied()
                     .unwrap_or(domain.nominal_wall_mm),
-            };
-            (gate_body, fill.map(|f| f.1))
+            }
         })
-        .unzip()
+        .collect()
 }
 
 /// The point of the part's surface nearest cell `c`'s centre, on the cell's triangle (a
