@@ -637,7 +637,7 @@ mod tests {
         // of areas), slivers among them, and unknown facets.
         for kinds in [1u32, 2, 3, 7, 50] {
             let values: Vec<f32> = (0..mesh.triangles.len() as u32)
-                .map(|t| match (t * 2654435761) % (kinds + 1) {
+                .map(|t| match t.wrapping_mul(2654435761) % (kinds + 1) {
                     0 if kinds > 1 => f32::NAN,
                     1 => 0.001,
                     k => 0.5 * k as f32,
