@@ -53,7 +53,23 @@ pub fn outline_perimeter(mesh: &Mesh, frame: &Frame, cells: usize) -> f64 {
                 continue;
             }
             let (from, to) = (first.max(i0 as f64) as usize, last.min(i1 as f64) as usize);
-            for i in from..=to {
+            // The samples two or more inside those ends are a whole sample inside the span,
+            // far beyond its rounding: covered without a test.
+            let row = &mut covered[j * fu..(j + 1) * fu];
+            let inner_from = (first as isize + 2).max(from as isize) as usize;
+            let inner_to = (last as isize - 2).min(to as isize);
+            let ends = match inner_to >= inner_from as isize {
+                true => {
+                    row[inner_from..=inner_to as usize].fill(true);
+                    (from..inner_from).chain(inner_to as usize + 1..to + 1)
+                }
+                false => (from..to + 1).chain(0..0),
+            };
+            for i in ends {
+                // A sample covered already (by a face above or below) needs no test.
+                if row[i] {
+                    continue;
+                }
                 let p = DVec2::new(lo.x + (i as f64 + 0.5) * fh, y);
                 let e = [
                     (b - a).perp_dot(p - a),
@@ -61,24 +77,29 @@ pub fn outline_perimeter(mesh: &Mesh, frame: &Frame, cells: usize) -> f64 {
                     (a - c).perp_dot(p - c),
                 ];
                 if e.iter().all(|&x| x * area >= 0.0) {
-                    covered[j * fu + i] = true;
+                    row[i] = true;
                 }
             }
         }
     }
-    // Coverage at the lattice nodes: the share of the S x S samples of the cell around each.
+    // Coverage at the lattice nodes: the share of the S x S samples of the cell around each,
+    // centred on the node (shifted by half a cell, round the raster's empty margins), summed
+    // row of samples by row of samples.
+    let wrap = |x: usize, n: usize| if x >= n { x - n } else { x };
     let mut f = vec![0.0f64; nu * nw];
+    let mut counts = vec![0usize; nu];
     for w in 0..nw {
-        for u in 0..nu {
-            let mut n = 0;
-            for j in 0..S {
+        counts.fill(0);
+        for j in 0..S {
+            let y = wrap(w * S + j + fw - S / 2, fw);
+            let row = &covered[y * fu..(y + 1) * fu];
+            for (u, n) in counts.iter_mut().enumerate() {
                 for i in 0..S {
-                    let (x, y) = (u * S + i, w * S + j);
-                    // Samples centred on the node: shift by half a cell.
-                    let (x, y) = ((x + fu - S / 2) % fu, (y + fw - S / 2) % fw);
-                    n += covered[y * fu + x] as usize;
+                    *n += row[wrap(u * S + i + fu - S / 2, fu)] as usize;
                 }
             }
+        }
+        for (u, &n) in counts.iter().enumerate() {
             f[w * nu + u] = n as f64 / (S * S) as f64;
         }
     }
@@ -126,17 +147,18 @@ pub fn outline_perimeter(mesh: &Mesh, frame: &Frame, cells: usize) -> f64 {
                 DVec2::new(h, h),
                 DVec2::new(0.0, h),
             ];
-            let mut crossings = Vec::with_capacity(4);
+            let (mut crossings, mut n) = ([DVec2::ZERO; 4], 0);
             for e in 0..4 {
                 let (a, b) = (v[e], v[(e + 1) % 4]);
                 if (a >= 0.5) != (b >= 0.5) {
                     let t = (0.5 - a) / (b - a);
-                    crossings.push(p[e].lerp(p[(e + 1) % 4], t));
+                    crossings[n] = p[e].lerp(p[(e + 1) % 4], t);
+                    n += 1;
                 }
             }
-            if crossings.len() == 2 {
+            if n == 2 {
                 length += crossings[0].distance(crossings[1]);
-            } else if crossings.len() == 4 {
+            } else if n == 4 {
                 length += crossings[0].distance(crossings[1]) + crossings[2].distance(crossings[3]);
             }
         }
