@@ -3440,6 +3440,7 @@ fn gates_per_body(
 ) -> Vec<BodyGate> {
     // Summed once for every body (`Domain::volume_share` sums per call).
     let total: f64 = domain.body_volume_mm3.iter().sum();
+    let per_mm = seconds_per_mm(material);
     (0..domain.bodies as u32)
         .map(|b| {
             let centre = bodies
@@ -3453,7 +3454,18 @@ fn gates_per_body(
                 .filter(|&&p| domain.body_at(p) == Some(b))
                 .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
                 .copied();
-            let fill = gate.and_then(|g| fill_from(domain, g, material));
+            // The body's flow length and fill order from its gate, marched side by side: the
+            // largest of each is what the body's gate reports (as a fill's summary finds
+            // them), and the fields are what the pictures may show. Neither the pressure nor
+            // the rest of a fill's summary is asked of a body's gate.
+            let fill = gate.and_then(|g| domain.source(g)).map(|source| {
+                let (length, fill) = rayon::join(
+                    || march(&domain.voxels, &[source], Kind::Length.cost(domain)),
+                    || march(&domain.voxels, &[source], Kind::Fill.cost(domain)),
+                );
+                let values = (argmax(&length.t).1, argmax(&fill.t).1 * per_mm);
+                (values, GateFields { length, fill })
+            });
             BodyGate {
                 body: b,
                 volume_share: domain.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE),
@@ -3461,8 +3473,8 @@ fn gates_per_body(
                 gate: gate.map(|g| g.to_array()),
                 is_answer_body: answer_body == Some(b),
                 pictured: fill.as_ref().is_some_and(|f| pictured(b, &f.1)),
-                l_max_mm: fill.as_ref().map(|f| f.0.l_max_mm),
-                fill_time_s: fill.as_ref().map(|f| f.0.fill_time_s),
+                l_max_mm: fill.as_ref().map(|f| f.0 .0),
+                fill_time_s: fill.as_ref().map(|f| f.0 .1),
                 nominal_wall_mm: domain
                     .body_nominal_wall_mm
                     .get(b as usize)

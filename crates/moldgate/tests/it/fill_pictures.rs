@@ -249,3 +249,49 @@ fn a_body_the_gate_does_not_reach_is_drawn_filled_from_its_own_gate() {
         );
     }
 }
+
+#[test]
+fn a_body_s_own_gate_reports_the_fill_of_a_gate_placed_there() {
+    // The box and the lid beside it: the lid's own gate reports its largest flow length and
+    // fill time (marched for the body's gate alone), as the whole fill of a gate the
+    // designer places at that point finds them.
+    let mut two = block(DVec3::ZERO, DVec3::new(40.0, 20.0, 10.0));
+    let lid = block(DVec3::new(45.0, 0.0, 0.0), DVec3::new(85.0, 20.0, 2.0));
+    let base = two.vertices.len() as u32;
+    two.vertices.extend(&lid.vertices);
+    two.triangles
+        .extend(lid.triangles.iter().map(|t| t.map(|v| v + base)));
+    let part = from_generated(two);
+    let s = study(&part, &options(r#"{ "fill": true, "demold": "+z" }"#)).unwrap();
+    let own = s
+        .fill()
+        .unwrap()
+        .body_gates
+        .iter()
+        .find(|b| !b.is_answer_body)
+        .unwrap()
+        .clone();
+    let [x, y, z] = own.gate.unwrap();
+    let placed = study(
+        &part,
+        &options(&format!(
+            r#"{{ "fill": true, "demold": "+z", "gate_at": ["{x:?},{y:?},{z:?}"] }}"#
+        )),
+    )
+    .unwrap();
+    let there = &placed.fill().unwrap().placed.as_ref().unwrap().fill;
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+    let (l_max, fill_time) = (own.l_max_mm.unwrap(), own.fill_time_s.unwrap());
+    assert!(
+        close(l_max, there.l_max_mm),
+        "{l_max} against {}",
+        there.l_max_mm
+    );
+    assert!(
+        close(fill_time, there.fill_time_s),
+        "{fill_time} against {}",
+        there.fill_time_s
+    );
+    // The lid is 40 by 20 mm: its far corners some 22 mm from its middle.
+    assert!(l_max > 20.0 && fill_time > 0.0, "{l_max} mm, {fill_time} s");
+}
