@@ -806,7 +806,9 @@ where
 /// three times: for their box, for the counts of their cells, and where they are placed),
 /// so that the rays are not held twice at once (32 bytes a ray; on 8.1 million triangles,
 /// the peak of the automatic direction 1.57 to 1.63 times the file's size rather than 1.98
-/// to 2.08). The same rays either way, and the same answer.
+/// to 2.08); drawn in one round, more than [`BAND_RAYS`] of them are placed and drawn in
+/// bands of rows of cells (on that file, 1.31 times the file's size). The same rays either
+/// way, and the same answer.
 #[allow(clippy::too_many_arguments)] // The drawing's inputs, each used once.
 pub fn blocked_until<F>(
     vertices: &[DVec3],
@@ -825,7 +827,7 @@ where
         vertices,
         frame,
         triangles,
-        (blocks, REMADE_ABOVE_BLOCKS),
+        (blocks, REMADE_ABOVE_BLOCKS, BAND_RAYS),
         rays,
         min_hit,
         enough,
@@ -843,14 +845,22 @@ pub const REMADE_ABOVE_BLOCKS: usize = 2048;
 /// Blocks of rays made again at once, on all threads, by [`blocked_until`].
 const REMADE_AT_ONCE: usize = 64;
 
+/// Most rays [`blocked_until`] places at once in a drawing whose rays it makes again and
+/// draws in one round: a larger one is drawn in bands of rows of cells of about as many
+/// rays each, every triangle in each band its rows reach (4.2 million rays, 134 MB: on
+/// 8.1 million triangles, the automatic direction's whole drawing of 6.3 million rays is
+/// drawn in two bands).
+const BAND_RAYS: usize = 4 << 20;
+
 /// [`blocked_until`] with the rays of more than `remade_above` blocks made again where they
-/// are placed.
+/// are placed, and a drawing of them in one round of more than `band_rays` rays drawn in
+/// bands of about `band_rays`.
 #[allow(clippy::too_many_arguments)] // The drawing's inputs, each used once.
 fn blocked_until_remade_above<F>(
     vertices: &[DVec3],
     frame: &Frame,
     (triangles, rounds): (&[[u32; 3]], usize),
-    (blocks, remade_above): (usize, usize),
+    (blocks, remade_above, band_rays): (usize, usize, usize),
     rays: F,
     min_hit: f64,
     mut enough: impl FnMut(&[BlockedRay]) -> bool,
@@ -945,174 +955,227 @@ where
     for c in 0..n_cells {
         start[c + 1] += start[c];
     }
-    let placed_len = start[n_cells] as usize;
-    let mut placed = vec![
-        PlacedRay {
-            at: DVec2::ZERO,
-            height: 0.0,
-            triangle: 0,
-            ray: 0,
+    // The rows of cells drawn at once: all of them, or, for a large drawing drawn whole (one
+    // round, its rays made again), bands of rows of about `band_rays` rays each, so that no
+    // more rays than a band's are placed at once; every triangle is drawn in each band its
+    // rows reach. The same tests of the same rays: the same answer.
+    let total = start[n_cells] as usize;
+    let mut bands = vec![(0, n_w)];
+    if remade && rounds == 1 && total > band_rays {
+        let share = total.div_ceil(total.div_ceil(band_rays));
+        bands.clear();
+        let mut first = 0;
+        for j in 0..n_w {
+            let rays = (start[(j + 1) * n_u] - start[first * n_u]) as usize;
+            if rays >= share || j + 1 == n_w {
+                bands.push((first, j + 1));
+                first = j + 1;
+            }
+        }
+    }
+    let mut all_found: Vec<BlockedRay> = Vec::new();
+    for &(ja, jb) in &bands {
+        let (a, b) = (ja * n_u, jb * n_u);
+        let base = start[a];
+        let placed_len = (start[b] - base) as usize;
+        let mut placed = vec![
+            PlacedRay {
+                at: DVec2::ZERO,
+                height: 0.0,
+                triangle: 0,
+                ray: 0,
+            };
+            placed_len
+        ];
+        // Each ray of the band into the next slot of its cell, in the order of the rays'
+        // numbers (`next` holds where each cell of the band begins, then where its rays
+        // placed so far end).
+        let mut next: Vec<u32> = start[a..b].to_vec();
+        let mut number = 0u32;
+        let mut place = |r: &PlacedRay, cell: u32| {
+            if cell != NO_CELL && (a..b).contains(&(cell as usize)) {
+                let slot = &mut next[cell as usize - a];
+                placed[(*slot - base) as usize] = PlacedRay { ray: number, ..*r };
+                *slot += 1;
+            }
+            number += 1;
         };
-        placed_len
-    ];
-    // Each ray into the next slot of its cell, in the order of the rays' numbers.
-    let mut number = 0u32;
-    let mut place = |r: &PlacedRay, cell: u32| {
-        if cell != NO_CELL {
-            let slot = &mut start[cell as usize];
-            placed[*slot as usize] = PlacedRay { ray: number, ..*r };
-            *slot += 1;
+        if remade {
+            for first in (0..blocks).step_by(REMADE_AT_ONCE) {
+                let last = (first + REMADE_AT_ONCE).min(blocks);
+                let again: Vec<Vec<PlacedRay>> = (first..last)
+                    .into_par_iter()
+                    .map(|b| make(b).rays)
+                    .collect();
+                for (b, rays) in (first..last).zip(again) {
+                    debug_assert_eq!(rays.len(), made[b].1, "the same rays made again");
+                    for r in &rays {
+                        place(r, cell_of(r.at));
+                    }
+                }
+            }
+        } else {
+            for r in made.iter().flat_map(|m| &m.0) {
+                place(r, r.ray);
+            }
+            made = Vec::new();
         }
-        number += 1;
-    };
-    if remade {
-        for first in (0..blocks).step_by(REMADE_AT_ONCE) {
-            let last = (first + REMADE_AT_ONCE).min(blocks);
-            let again: Vec<Vec<PlacedRay>> = (first..last)
+        drop(next);
+        // Each cell's rays going down first, then those going up, each part in the order a
+        // triangle reads it (see `Order`), cells taken in parallel in runs.
+        let from_of = |c: usize| start[c] - base;
+        let mut cells: Vec<Cell> = Vec::with_capacity(b - a + 1);
+        {
+            let mut rest: &mut [PlacedRay] = &mut placed;
+            let mut runs: Vec<(usize, &mut [PlacedRay])> = Vec::new();
+            for first in (a..b).step_by(CELL_RUN) {
+                let last = (first + CELL_RUN).min(b);
+                let len = (from_of(last) - from_of(first)) as usize;
+                let (run, tail) = rest.split_at_mut(len);
+                rest = tail;
+                runs.push((first, run));
+            }
+            let made: Vec<Vec<Cell>> = runs
                 .into_par_iter()
-                .map(|b| make(b).rays)
+                .map(|(first, run)| {
+                    let run_base = from_of(first);
+                    (first..(first + CELL_RUN).min(b))
+                        .map(|c| {
+                            let (from, to) = (from_of(c), from_of(c + 1));
+                            let rays =
+                                &mut run[(from - run_base) as usize..(to - run_base) as usize];
+                            order_cell(from, rays)
+                        })
+                        .collect()
+                })
                 .collect();
-            for (b, rays) in (first..last).zip(again) {
-                debug_assert_eq!(rays.len(), made[b].1, "the same rays made again");
-                for r in &rays {
-                    place(r, cell_of(r.at));
-                }
+            for run in made {
+                cells.extend(run);
             }
         }
-    } else {
-        for r in made.iter().flat_map(|m| &m.0) {
-            place(r, r.ray);
-        }
-    }
-    drop(made);
-    start.copy_within(0..n_cells, 1);
-    start[0] = 0;
-    // Each cell's rays going down first, then those going up, each part in the order a
-    // triangle reads it (see `Order`), cells taken in parallel in runs.
-    let mut cells: Vec<Cell> = Vec::with_capacity(n_cells + 1);
-    {
-        let mut rest: &mut [PlacedRay] = &mut placed;
-        let mut runs: Vec<(usize, &mut [PlacedRay])> = Vec::new();
-        for first in (0..n_cells).step_by(CELL_RUN) {
-            let last = (first + CELL_RUN).min(n_cells);
-            let len = (start[last] - start[first]) as usize;
-            let (run, tail) = rest.split_at_mut(len);
-            rest = tail;
-            runs.push((first, run));
-        }
-        let made: Vec<Vec<Cell>> = runs
-            .into_par_iter()
-            .map(|(first, run)| {
-                let base = start[first];
-                (first..(first + CELL_RUN).min(n_cells))
-                    .map(|c| {
-                        let (from, to) = (start[c], start[c + 1]);
-                        let rays = &mut run[(from - base) as usize..(to - base) as usize];
-                        order_cell(from, rays)
-                    })
-                    .collect()
-            })
-            .collect();
-        for run in made {
-            cells.extend(run);
-        }
-    }
-    // A last cell that only ends the one before.
-    cells.push(Cell {
-        up: f32::INFINITY,
-        down: f32::NEG_INFINITY,
-        from: placed_len as u32,
-        split: placed_len as u32,
-        orders: 0,
-    });
-    drop(start);
-    let hit: Vec<AtomicBool> = (0..placed_len).map(|_| AtomicBool::new(false)).collect();
-    // Draws the triangles `offset..offset + part.len()`.
-    let draw = |offset: usize, part: &[[u32; 3]]| {
-        // A run of a stopped bound is a few thousand triangles: in tasks of fewer, so that
-        // both threads draw it (which rays are blocked does not depend on the tasks).
-        let task = POINT_BLOCK.min(part.len().div_ceil(POINT_TASKS).max(POINT_BLOCK_LEAST));
-        part.par_chunks(task).enumerate().for_each(|(b, block)| {
-            if budget.exceeded() {
-                return;
-            }
-            // Tests counted here, charged to the budget in batches.
-            let mut owed = 0u64;
-            for (k, tri) in block.iter().enumerate() {
-                let t = (offset + b * task + k) as u32;
-                // Each corner written out: `tri.map` with a closure is not always
-                // inlined (a tenth more instructions in this loop when it is not).
-                let corner = |k: usize| uwh(frame, vertices[tri[k] as usize]);
-                let (a, bb, c) = (corner(0), corner(1), corner(2));
-                let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
-                    continue;
-                };
-                let Some((i0, i1)) = cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
-                else {
-                    continue;
-                };
-                let Some((j0, j1)) = cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
-                else {
-                    continue;
-                };
-                owed += ((i1 - i0 + 1) * (j1 - j0 + 1)) as u64 * RAYS_A_CELL as u64;
-                if owed >= CHARGE_BATCH {
-                    if !budget.charge(owed) {
-                        return;
-                    }
-                    owed = 0;
-                }
-                let mut drawn = PointTriangle::new(triangle, t, min_hit);
-                for j in j0..=j1 {
-                    let row = j * n_u;
-                    // Each cell with the next, which ends it.
-                    for pair in cells[row + i0..=row + i1 + 1].windows(2) {
-                        let cell = &pair[0];
-                        // The rays going up that start below the triangle's top, and those
-                        // going down that start above its bottom (the cell's bounds are
-                        // rounded outwards, so no ray the exact test keeps is left out).
-                        if drawn.top - f64::from(cell.up) > min_hit {
-                            let (from, to) = (cell.split as usize, pair[1].from as usize);
-                            drawn.test(&placed[from..to], &hit[from..to], cell.orders >> 2, true);
-                        }
-                        if f64::from(cell.down) - drawn.bottom > min_hit {
-                            let (from, to) = (cell.from as usize, cell.split as usize);
-                            drawn.test(&placed[from..to], &hit[from..to], cell.orders & 3, false);
-                        }
-                    }
-                }
-            }
-            budget.charge(owed);
+        // A last cell that only ends the one before.
+        cells.push(Cell {
+            up: f32::INFINITY,
+            down: f32::NEG_INFINITY,
+            from: placed_len as u32,
+            split: placed_len as u32,
+            orders: 0,
         });
-    };
-    // The rays blocked so far, in the order of their numbers.
-    let found = || {
-        let mut found: Vec<BlockedRay> = placed
-            .iter()
-            .zip(&hit)
-            .filter(|(_, h)| h.load(Ordering::Relaxed))
-            .map(|(r, _)| BlockedRay {
-                ray: r.ray,
-                triangle: r.triangle & !UP,
-            })
-            .collect();
-        found.sort_unstable_by_key(|b| b.ray);
-        found
-    };
-    let size = triangles.len().div_ceil(rounds.max(1)).max(1);
-    for (r, part) in triangles.chunks(size).enumerate() {
-        draw(r * size, part);
+        let hit: Vec<AtomicBool> = (0..placed_len).map(|_| AtomicBool::new(false)).collect();
+        // Draws the triangles `offset..offset + part.len()` against the band's rows.
+        let draw = |offset: usize, part: &[[u32; 3]]| {
+            // A run of a stopped bound is a few thousand triangles: in tasks of fewer, so
+            // that both threads draw it (which rays are blocked does not depend on the tasks).
+            let task = POINT_BLOCK.min(part.len().div_ceil(POINT_TASKS).max(POINT_BLOCK_LEAST));
+            part.par_chunks(task).enumerate().for_each(|(b, block)| {
+                if budget.exceeded() {
+                    return;
+                }
+                // Tests counted here, charged to the budget in batches.
+                let mut owed = 0u64;
+                for (k, tri) in block.iter().enumerate() {
+                    let t = (offset + b * task + k) as u32;
+                    // Each corner written out: `tri.map` with a closure is not always
+                    // inlined (a tenth more instructions in this loop when it is not).
+                    let corner = |k: usize| uwh(frame, vertices[tri[k] as usize]);
+                    let (a, bb, c) = (corner(0), corner(1), corner(2));
+                    let Some(triangle) = ProjectedTriangle::new(a, bb, c) else {
+                        continue;
+                    };
+                    let Some((j0, j1)) =
+                        cell_range(lo.y, hi.y, inv, n_w, triangle.lo.y, triangle.hi.y)
+                    else {
+                        continue;
+                    };
+                    // The rows of this band only.
+                    let (j0, j1) = (j0.max(ja), j1.min(jb - 1));
+                    if j0 > j1 {
+                        continue;
+                    }
+                    let Some((i0, i1)) =
+                        cell_range(lo.x, hi.x, inv, n_u, triangle.lo.x, triangle.hi.x)
+                    else {
+                        continue;
+                    };
+                    owed += ((i1 - i0 + 1) * (j1 - j0 + 1)) as u64 * RAYS_A_CELL as u64;
+                    if owed >= CHARGE_BATCH {
+                        if !budget.charge(owed) {
+                            return;
+                        }
+                        owed = 0;
+                    }
+                    let mut drawn = PointTriangle::new(triangle, t, min_hit);
+                    for j in j0..=j1 {
+                        let row = (j - ja) * n_u;
+                        // Each cell with the next, which ends it.
+                        for pair in cells[row + i0..=row + i1 + 1].windows(2) {
+                            let cell = &pair[0];
+                            // The rays going up that start below the triangle's top, and
+                            // those going down that start above its bottom (the cell's
+                            // bounds are rounded outwards, so no ray the exact test keeps is
+                            // left out).
+                            if drawn.top - f64::from(cell.up) > min_hit {
+                                let (from, to) = (cell.split as usize, pair[1].from as usize);
+                                drawn.test(
+                                    &placed[from..to],
+                                    &hit[from..to],
+                                    cell.orders >> 2,
+                                    true,
+                                );
+                            }
+                            if f64::from(cell.down) - drawn.bottom > min_hit {
+                                let (from, to) = (cell.from as usize, cell.split as usize);
+                                drawn.test(
+                                    &placed[from..to],
+                                    &hit[from..to],
+                                    cell.orders & 3,
+                                    false,
+                                );
+                            }
+                        }
+                    }
+                }
+                budget.charge(owed);
+            });
+        };
+        // The band's rays blocked so far, in the order of their numbers.
+        let found = || {
+            let mut found: Vec<BlockedRay> = placed
+                .iter()
+                .zip(&hit)
+                .filter(|(_, h)| h.load(Ordering::Relaxed))
+                .map(|(r, _)| BlockedRay {
+                    ray: r.ray,
+                    triangle: r.triangle & !UP,
+                })
+                .collect();
+            found.sort_unstable_by_key(|b| b.ray);
+            found
+        };
+        // Drawn in rounds only as one band (see above).
+        let size = triangles.len().div_ceil(rounds.max(1)).max(1);
+        for (r, part) in triangles.chunks(size).enumerate() {
+            draw(r * size, part);
+            if budget.exceeded() {
+                break;
+            }
+            if (r + 1) * size < triangles.len() {
+                let so_far = found();
+                if enough(&so_far) {
+                    return so_far;
+                }
+            }
+        }
+        if bands.len() == 1 {
+            return found();
+        }
+        all_found.extend(found());
         if budget.exceeded() {
             break;
         }
-        if (r + 1) * size < triangles.len() {
-            let so_far = found();
-            if enough(&so_far) {
-                return so_far;
-            }
-        }
     }
-    found()
+    all_found.sort_unstable_by_key(|b| b.ray);
+    all_found
 }
 
 /// The cells `from..=to` of a row of `n` cells of width `1 / inv` from `lo` (the last one
@@ -1812,23 +1875,26 @@ mod tests {
                         });
                     assert_eq!(found, expected, "{name} {d} {threads} threads");
                 }
-                // The rays made again where they are placed (as on a large mesh): the same
-                // rays blocked.
-                let remade = blocked_until_remade_above(
-                    &mesh.vertices,
-                    &frame,
-                    (&mesh.triangles, 1),
-                    (ends.len() - 1, 0),
-                    |b, sink| {
-                        rays[ends[b]..ends[b + 1]]
-                            .iter()
-                            .for_each(|&r| sink.push(r))
-                    },
-                    min_hit,
-                    |_| false,
-                    &TestBudget::unlimited(),
-                );
-                assert_eq!(remade, expected, "{name} {d}: rays made again");
+                // The rays made again where they are placed (as on a large mesh), placed all
+                // at once or in bands of rows of about 1, 7 or 200 rays: the same rays
+                // blocked.
+                for band_rays in [usize::MAX, 1, 7, 200] {
+                    let remade = blocked_until_remade_above(
+                        &mesh.vertices,
+                        &frame,
+                        (&mesh.triangles, 1),
+                        (ends.len() - 1, 0, band_rays),
+                        |b, sink| {
+                            rays[ends[b]..ends[b + 1]]
+                                .iter()
+                                .for_each(|&r| sink.push(r))
+                        },
+                        min_hit,
+                        |_| false,
+                        &TestBudget::unlimited(),
+                    );
+                    assert_eq!(remade, expected, "{name} {d}: rays made again, {band_rays}");
+                }
                 let flags = blocked(&mesh.vertices, &frame, &mesh.triangles, &rays, min_hit);
                 let from_flags: Vec<u32> = (0..rays.len() as u32)
                     .filter(|&k| flags[k as usize])
