@@ -3293,22 +3293,17 @@ pub fn analyse_prepared(
     };
     // The pictured field of the cells when it is a field of the fill: flow length or fill
     // time, from every pictured gate at once when there are several.
-    let pictured_field = match options.colour_by {
-        ColourBy::FlowLength => Some((all_gates(None), Kind::Length)),
-        ColourBy::FillTime => Some((all_gates(Some(&domain.fill_cost)), Kind::Fill)),
+    let mut pictured_t: Option<(Vec<f64>, Kind)> = match options.colour_by {
+        ColourBy::FlowLength => Some((
+            all_gates(None).map_or_else(|| fields.length.t.clone(), |f| f.t),
+            Kind::Length,
+        )),
+        ColourBy::FillTime => Some((
+            all_gates(Some(&domain.fill_cost)).map_or_else(|| fields.fill.t.clone(), |f| f.t),
+            Kind::Fill,
+        )),
         ColourBy::Wall | ColourBy::Height => None,
     };
-    let pictured_t = |field: &Option<Field>, kind: Kind| -> Vec<f64> {
-        let gate = match kind {
-            Kind::Length => &fields.length,
-            _ => &fields.fill,
-        };
-        field.as_ref().unwrap_or(gate).t.clone()
-    };
-    let mut pictured_t = pictured_field
-        .as_ref()
-        .map(|(f, kind)| (pictured_t(f, *kind), *kind));
-    drop(pictured_field);
     // A body the pictured gates (the designer's when placed, else the answer's) do not
     // reach is shown filled from its own gate (the gate per body), not as a body without a
     // value: each body of a file of several is moulded from its own gate. Its own field is
@@ -3466,6 +3461,7 @@ fn gates_per_body(
                 let values = (argmax(&length.t).1, argmax(&fill.t).1 * per_mm);
                 (values, GateFields { length, fill })
             });
+            let (l_max_mm, fill_time_s) = fill.as_ref().map(|f| f.0).unzip();
             BodyGate {
                 body: b,
                 volume_share: domain.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE),
@@ -3473,8 +3469,8 @@ fn gates_per_body(
                 gate: gate.map(|g| g.to_array()),
                 is_answer_body: answer_body == Some(b),
                 pictured: fill.as_ref().is_some_and(|f| pictured(b, &f.1)),
-                l_max_mm: fill.as_ref().map(|f| f.0 .0),
-                fill_time_s: fill.as_ref().map(|f| f.0 .1),
+                l_max_mm,
+                fill_time_s,
                 nominal_wall_mm: domain
                     .body_nominal_wall_mm
                     .get(b as usize)
