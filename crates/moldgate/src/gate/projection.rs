@@ -923,10 +923,10 @@ where
         j * n_u as u32 + i
     };
     // Counting sort of the rays by cell: `start[c]` is first the count of cell c - 1, then
-    // where cell c begins, then (as each ray is placed) where it ends, and again where it
-    // begins once shifted back by one. The cell of a kept ray is held in its `ray` until it
-    // is placed; rays made again are counted as they are made (each count a sum, the same
-    // in any order), and their cells found again when they are placed.
+    // where cell c begins (each band places its rays from there, see below). The cell of a
+    // kept ray is held in its `ray` until it is placed; rays made again are counted as they
+    // are made (each count a sum, the same in any order), and their cells found again when
+    // they are placed.
     let mut start = if remade {
         let counts: Vec<AtomicU32> = (0..n_cells + 1).map(|_| AtomicU32::new(0)).collect();
         (0..blocks).into_par_iter().for_each(|b| {

@@ -189,16 +189,21 @@ fn the_suitability_map_is_drawn_on_the_parts_own_triangles() {
     assert!(scene.node_field.is_some() && scene.display.is_none());
 }
 
-#[test]
-fn a_body_the_gate_does_not_reach_is_drawn_filled_from_its_own_gate() {
-    // A box and a lid 5 mm beside it, in one file: the paper gate fills the box only.
+/// A box 40 x 20 x 10 mm and a lid 40 x 20 x 2 mm 5 mm beside it, in one file.
+fn box_and_lid() -> LoadedMesh {
     let mut two = block(DVec3::ZERO, DVec3::new(40.0, 20.0, 10.0));
     let lid = block(DVec3::new(45.0, 0.0, 0.0), DVec3::new(85.0, 20.0, 2.0));
     let base = two.vertices.len() as u32;
     two.vertices.extend(&lid.vertices);
     two.triangles
         .extend(lid.triangles.iter().map(|t| t.map(|v| v + base)));
-    let part = from_generated(two);
+    from_generated(two)
+}
+
+#[test]
+fn a_body_the_gate_does_not_reach_is_drawn_filled_from_its_own_gate() {
+    // A box and a lid 5 mm beside it, in one file: the paper gate fills the box only.
+    let part = box_and_lid();
     // The answer's gate, or a gate of the designer's on the box: the lid is shown from its
     // own gate either way.
     for (colour, placed) in [
@@ -255,13 +260,7 @@ fn a_body_s_own_gate_reports_the_fill_of_a_gate_placed_there() {
     // The box and the lid beside it: the lid's own gate reports its largest flow length and
     // fill time (marched for the body's gate alone), as the whole fill of a gate the
     // designer places at that point finds them.
-    let mut two = block(DVec3::ZERO, DVec3::new(40.0, 20.0, 10.0));
-    let lid = block(DVec3::new(45.0, 0.0, 0.0), DVec3::new(85.0, 20.0, 2.0));
-    let base = two.vertices.len() as u32;
-    two.vertices.extend(&lid.vertices);
-    two.triangles
-        .extend(lid.triangles.iter().map(|t| t.map(|v| v + base)));
-    let part = from_generated(two);
+    let part = box_and_lid();
     let s = study(&part, &options(r#"{ "fill": true, "demold": "+z" }"#)).unwrap();
     let own = s
         .fill()
