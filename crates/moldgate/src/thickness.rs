@@ -536,42 +536,89 @@ pub const SLIVER_OF_NOMINAL: f64 = 0.05;
 
 /// Minimum, area-weighted median, maximum and unknown share of per-triangle values.
 fn summarise(mesh: &Mesh, per_triangle: Vec<f32>) -> WallThickness {
-    // Each known facet's value, index and area (16 bytes: the index fills what would be
-    // the value's padding), in the order of value and then of index: the order of a stable
-    // sort by value, made without one's buffer of half the facets.
-    let mut known: Vec<(f32, u32, f64)> = Vec::with_capacity(per_triangle.len());
+    // Each known facet as one key of 8 bytes, its value then its index (see `value_key`):
+    // sorted, they are in the order of a stable sort by value, made without one's buffer of
+    // half the facets. The areas are found again along that order, a run at a time on all
+    // threads, and summed in it, one after the other, as when they were held beside the keys.
+    let mut known: Vec<u64> = Vec::with_capacity(per_triangle.len());
     let (mut total, mut unknown) = (0.0, 0.0);
     for (t, &v) in per_triangle.iter().enumerate() {
         let a = area(mesh.corners(t));
         total += a;
         if v.is_finite() {
-            known.push((v, t as u32, a));
+            known.push(value_key(v, t as u32));
         } else {
             unknown += a;
         }
     }
-    known.par_sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-    let known_area: f64 = known.iter().map(|k| k.2).sum();
+    known.par_sort_unstable();
+    let value = |key: u64| key_value(key) as f64;
+    // Each area along the sorted keys, to `add` in that order, until it says to stop.
+    let along = |add: &mut dyn FnMut(f64) -> bool| {
+        let mut areas = Vec::new();
+        for run in known.chunks(AREA_RUN) {
+            run.par_iter()
+                .map(|&key| area(mesh.corners(key as u32 as usize)))
+                .collect_into_vec(&mut areas);
+            for &a in &areas {
+                if !add(a) {
+                    return;
+                }
+            }
+        }
+    };
+    let mut known_area = 0.0;
+    along(&mut |a| {
+        known_area += a;
+        true
+    });
     let mut nominal = None;
-    let mut acc = 0.0;
-    for &(v, _, a) in &known {
+    let (mut acc, mut k) = (0.0, 0);
+    along(&mut |a| {
         acc += a;
         if acc >= 0.5 * known_area {
-            nominal = Some(v as f64);
-            break;
+            nominal = Some(value(known[k]));
+            return false;
         }
-    }
+        k += 1;
+        true
+    });
     let sliver = nominal.map_or(0.0, |n| SLIVER_OF_NOMINAL * n);
-    let slivers = known.iter().take_while(|k| (k.0 as f64) < sliver).count();
+    let slivers = known.iter().take_while(|&&key| value(key) < sliver).count();
     WallThickness {
-        min_mm: known.get(slivers).map(|k| k.0 as f64),
+        min_mm: known.get(slivers).map(|&key| value(key)),
         slivers,
-        sliver_min_mm: (slivers > 0).then(|| known[0].0 as f64),
+        sliver_min_mm: (slivers > 0).then(|| value(known[0])),
         nominal_mm: nominal,
-        max_mm: known.last().map(|k| k.0 as f64),
+        max_mm: known.last().map(|&key| value(key)),
         unknown_area_share: if total > 0.0 { unknown / total } else { 1.0 },
         per_triangle,
     }
+}
+
+/// Keys whose areas [`summarise`] finds at once.
+const AREA_RUN: usize = 1 << 16;
+
+/// The sort key of facet `t` with the finite value `v`: `v`'s bits, made to compare as
+/// unsigned numbers in the order of [`f32::total_cmp`], above `t`.
+fn value_key(v: f32, t: u32) -> u64 {
+    let bits = v.to_bits();
+    let ordered = if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 1 << 31
+    };
+    u64::from(ordered) << 32 | u64::from(t)
+}
+
+/// The value of a [`value_key`].
+fn key_value(key: u64) -> f32 {
+    let ordered = (key >> 32) as u32;
+    f32::from_bits(if ordered >> 31 == 1 {
+        ordered & !(1 << 31)
+    } else {
+        !ordered
+    })
 }
 
 #[cfg(test)]
@@ -640,12 +687,43 @@ mod tests {
                 .map(|t| match t.wrapping_mul(2654435761) % (kinds + 1) {
                     0 if kinds > 1 => f32::NAN,
                     1 => 0.001,
+                    // Both zeros and a negative value, whose keys must sort as
+                    // `total_cmp` does.
+                    4 => -0.0,
+                    5 => 0.0,
+                    6 => -1.5,
                     k => 0.5 * k as f32,
                 })
                 .collect();
             let w = summarise(&mesh, values.clone());
             let found = [w.min_mm, w.sliver_min_mm, w.nominal_mm, w.max_mm];
             assert_eq!(found, by_stable_sort(&mesh, &values), "{kinds} kinds");
+        }
+    }
+
+    #[test]
+    fn value_keys_sort_as_total_cmp_and_give_their_value_back() {
+        let values = [
+            f32::MIN,
+            -1.5,
+            -f32::MIN_POSITIVE,
+            -f32::from_bits(1),
+            -0.0,
+            0.0,
+            f32::from_bits(1),
+            f32::MIN_POSITIVE,
+            0.001,
+            1.5,
+            f32::MAX,
+        ];
+        for (i, &x) in values.iter().enumerate() {
+            for (j, &y) in values.iter().enumerate() {
+                for (s, t) in [(0u32, 0u32), (0, 7), (7, 0), (u32::MAX, 0)] {
+                    let by_keys = value_key(x, s).cmp(&value_key(y, t));
+                    assert_eq!(by_keys, x.total_cmp(&y).then(s.cmp(&t)), "{i} {j} {s} {t}");
+                }
+            }
+            assert_eq!(key_value(value_key(x, 3)).to_bits(), x.to_bits(), "{x}");
         }
     }
 
