@@ -807,8 +807,8 @@ where
 /// so that the rays are not held twice at once (32 bytes a ray; on 8.1 million triangles,
 /// the peak of the automatic direction 1.57 to 1.63 times the file's size rather than 1.98
 /// to 2.08); drawn in one round, more than a quarter of [`BAND_RAYS`] of them are placed
-/// and drawn in bands of rows of cells (on that file, 1.31 times the file's size). The same rays either
-/// way, and the same answer.
+/// and drawn in bands of rows of cells (on that file, 1.31 times the file's size). The same
+/// rays either way, and the same answer.
 #[allow(clippy::too_many_arguments)] // The drawing's inputs, each used once.
 pub fn blocked_until<F>(
     vertices: &[DVec3],
@@ -847,11 +847,12 @@ const REMADE_AT_ONCE: usize = 64;
 
 /// Most rays [`blocked_until`] places at once in a drawing whose rays it makes again and
 /// draws in one round (4.2 million rays, 134 MB). One of more than a quarter as many is
-/// drawn in two or more bands of rows of cells of about as many rays each, every triangle in each
-/// band its rows reach: on the housing's 8 copies (2.8 million triangles) the automatic
-/// direction's whole drawing of 2.2 million rays is drawn in two bands, its peak 1.4 times
-/// the file's size rather than 1.7 for 4 % more CPU time; on 23 copies (8.1 million), 6.3
-/// million rays in two bands (four would save a tenth of the peak for 10 % more CPU).
+/// drawn in two or more bands of rows of cells of at most about as many rays each, every
+/// triangle in each band its rows reach: on the housing's 8 copies (2.8 million triangles)
+/// the automatic direction's whole drawing of 2.2 million rays is drawn in two bands, its
+/// peak 1.4 times the file's size rather than 1.7 for 2 % more time; on 23 copies (8.1
+/// million), 6.3 million rays in two bands (four would save a tenth of the peak for 10 %
+/// more CPU time).
 const BAND_RAYS: usize = 4 << 20;
 
 /// [`blocked_until`] with the rays of more than `remade_above` blocks made again where they
@@ -958,10 +959,10 @@ where
         start[c + 1] += start[c];
     }
     // The rows of cells drawn at once: all of them, or, for a large drawing drawn whole (one
-    // round, its rays made again, more than a quarter of `band_rays`), two or more bands of rows
-    // of at most about `band_rays` rays each, so that no more rays than a band's are placed
-    // at once; every triangle is drawn in each band its rows reach. The same tests of the
-    // same rays: the same answer.
+    // round, its rays made again, more than a quarter of `band_rays`), two or more bands of
+    // rows of at most about `band_rays` rays each, so that no more rays than a band's are
+    // placed at once; every triangle is drawn in each band its rows reach. The same tests of
+    // the same rays: the same answer.
     let total = start[n_cells] as usize;
     let mut bands = vec![(0, n_w)];
     if remade && rounds == 1 && total > band_rays / 4 {
