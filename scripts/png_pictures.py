@@ -3,7 +3,7 @@
 
 Runs `A locate ... --png` and `B locate ... --png` on every built-in sample and every
 shared part (natural demolding direction from SOURCES.md, PP, default options otherwise)
-with the option sets asked for (default: plain and --fill; also --fill coloured by flow length, two gates, and the suitability map), keeps both pictures in OUT
+with the option sets asked for (default: plain and --fill; also --fill coloured by flow length, two gates, the suitability map, and the wall of every facet), keeps both pictures in OUT
 (`NAME.SET.base.png`, `NAME.SET.new.png`), and compares their pixels: per picture the
 number of pixels that differ at all, the largest difference of one channel (0-255), and
 the number of pixels whose difference is above --tolerance. Exits 1 when any picture has
@@ -33,6 +33,8 @@ SETS = {
     "fill-length": ["--fill", "--color-by", "flow-length"],
     "gates2": ["--fill", "--gates", "2"],
     "suitability": ["--suitability"],
+    # The wall of every facet, pictured through the fill coloured by it.
+    "walls": ["--wall-thickness", "--fill", "--color-by", "wall"],
 }
 
 
