@@ -42,6 +42,8 @@ SETS = {
     "gates2": ["--fill", "--gates", "2"],
     "gates3": ["--fill", "--gates", "3"],
     "balanced": ["--strategy", "balanced"],
+    "resistance": ["--fill", "--objective", "resistance"],
+    "wallfill": ["--wall-thickness", "--fill"],
     "aesthetic": ["--aesthetic"],
     "auto": ["--demold", "auto"],
     "wall": ["--wall-thickness"],

@@ -518,6 +518,20 @@ impl Domain {
         body_nominal_wall_mm: &[f64],
         material: &Material,
     ) -> Domain {
+        let mut domain = Domain::without_walls(voxels);
+        let walls = domain.walls_of(
+            triangle_wall_mm,
+            nominal_wall_mm,
+            body_nominal_wall_mm,
+            material,
+        );
+        domain.set_walls(walls);
+        domain
+    }
+
+    /// The cells with their bodies and volumes, before their walls are known: no wall nor
+    /// cost yet ([`Domain::set_walls`] gives them), which the flow length does not read.
+    fn without_walls(voxels: Voxels) -> Domain {
         let h = voxels.h;
         let body = voxels.body.clone();
         let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
@@ -525,7 +539,30 @@ impl Domain {
         for &b in &body {
             body_volume_mm3[b as usize] += h * h * h;
         }
-        let body_nominal: Vec<f64> = (0..bodies)
+        Domain {
+            fill_cost: Vec::new(),
+            pressure_cost: Vec::new(),
+            voxels,
+            body,
+            bodies,
+            body_volume_mm3,
+            nominal_wall_mm: f64::NAN,
+            body_nominal_wall_mm: Vec::new(),
+            wall_mm: Vec::new(),
+            n: f64::NAN,
+        }
+    }
+
+    /// The walls and costs of the cells, as [`Domain::with_body_walls`] describes them.
+    fn walls_of(
+        &self,
+        triangle_wall_mm: Option<&[f32]>,
+        nominal_wall_mm: f64,
+        body_nominal_wall_mm: &[f64],
+        material: &Material,
+    ) -> CellWalls {
+        let body = &self.body;
+        let body_nominal: Vec<f64> = (0..self.bodies)
             .map(|b| {
                 body_nominal_wall_mm
                     .get(b)
@@ -535,10 +572,11 @@ impl Domain {
             })
             .collect();
         // Per cell on all threads (each value its own, whatever the order).
-        let wall_mm: Vec<f32> = voxels
+        let wall_mm: Vec<f32> = self
+            .voxels
             .triangle
             .par_iter()
-            .zip(&body)
+            .zip(body)
             .with_min_len(4096)
             .map(|(&t, &b)| {
                 let reference = body_nominal[b as usize];
@@ -559,7 +597,7 @@ impl Domain {
             || {
                 wall_mm
                     .par_iter()
-                    .zip(&body)
+                    .zip(body)
                     .with_min_len(4096)
                     .map(|(&w, &b)| (body_nominal[b as usize] / w as f64).powf(exponent) as f32)
                     .collect()
@@ -572,18 +610,32 @@ impl Domain {
                     .collect()
             },
         );
-        Domain {
-            fill_cost,
-            pressure_cost,
-            voxels,
-            body,
-            bodies,
-            body_volume_mm3,
+        CellWalls {
             nominal_wall_mm,
             body_nominal_wall_mm: body_nominal,
             wall_mm,
+            fill_cost,
+            pressure_cost,
             n,
         }
+    }
+
+    /// Gives the cells their walls and costs.
+    fn set_walls(&mut self, walls: CellWalls) {
+        let CellWalls {
+            nominal_wall_mm,
+            body_nominal_wall_mm,
+            wall_mm,
+            fill_cost,
+            pressure_cost,
+            n,
+        } = walls;
+        self.nominal_wall_mm = nominal_wall_mm;
+        self.body_nominal_wall_mm = body_nominal_wall_mm;
+        self.wall_mm = wall_mm;
+        self.fill_cost = fill_cost;
+        self.pressure_cost = pressure_cost;
+        self.n = n;
     }
 
     /// The source at a surface point, or `None` when no solid cell is near it.
@@ -608,6 +660,17 @@ impl Domain {
     pub fn cost(&self, objective: Objective) -> Option<&[f32]> {
         Kind::of(objective).cost(self)
     }
+}
+
+/// The walls of a [`Domain`]'s cells and what they cost the fields, made apart from the
+/// cells ([`Domain::walls_of`]) so that the flow length can be marched meanwhile.
+struct CellWalls {
+    nominal_wall_mm: f64,
+    body_nominal_wall_mm: Vec<f64>,
+    wall_mm: Vec<f32>,
+    fill_cost: Vec<f32>,
+    pressure_cost: Vec<f32>,
+    n: f64,
 }
 
 /// A point and the value of the fields there.
@@ -2314,7 +2377,11 @@ fn share_sum(field: &Field, k: usize) -> f64 {
 pub struct FlowTimes {
     /// Voxelising and the cost fields (without the wall measurement).
     pub voxels_s: f64,
-    /// Measuring the wall thickness (one ray per surface cell).
+    /// Measuring the wall thickness (one ray per surface cell). With the flow-length
+    /// objective the walls are measured beside the paper gate's flow length and the
+    /// balanced search, so this is their own time, shared with those; `paper_s` and
+    /// `balanced_s` count only what those took beyond it, and the three add up to the
+    /// stage's wall time.
     pub wall_s: f64,
     /// Building the ray-casting tree the wall is measured with (set by the caller, which
     /// may share the tree with other analyses; 0 when not measured).
@@ -2322,12 +2389,12 @@ pub struct FlowTimes {
     /// Of `voxels_s`, the time the bodies and cells took beside the search for the gate
     /// (when the caller made them there: [`prepare`]); 0 when made in the fill's own stage.
     pub cells_beside_s: f64,
-    /// Fields from the paper gate: its flow length and fill order (its pressure field is
-    /// marched beside the balanced search and counted there).
+    /// Fields from the paper gate: its flow length, fill order and pressure (made beside
+    /// the walls and the search, see `wall_s`).
     pub paper_s: f64,
-    /// Balanced-gate search and its fields, and the paper gate's pressure field. With
-    /// several gates or the suitability map, the balanced gate's fill is made beside them
-    /// and counts here only where it made that stage longer.
+    /// Balanced-gate search and its fields, and the paper gate's summary. With several
+    /// gates or the suitability map, the balanced gate's fill is made beside them and
+    /// counts here only where it made that stage longer.
     pub balanced_s: f64,
     /// Several gates.
     pub several_s: f64,
@@ -2812,50 +2879,128 @@ pub fn analyse_prepared(
             "flow cells coarsened to {h:.4} mm to keep a limit ({why})"
         ));
     }
-    // The walls per triangle: given, or measured here for the triangles of the surface
-    // cells only. Either way the cells read them alike, so the fill does not depend on
-    // whether every facet was measured beside it.
-    let t_wall = Instant::now();
-    let measured = match walls {
-        Walls::Measure(bvh) => {
-            // A facet that owns several cells is listed once per cell and measured once.
-            let owners: Vec<u32> = voxels
-                .triangle
-                .iter()
-                .zip(&voxels.surface)
-                .filter(|(_, &s)| s)
-                .map(|(&t, _)| t)
-                .collect();
-            Some(crate::thickness::wall_thickness_of_known(
-                mesh,
-                bvh,
-                &crate::thickness::ThicknessOptions::default(),
-                &owners,
-                known,
-            ))
-        }
-        _ => None,
+    // The cells first, their walls and costs once measured (below).
+    let mut domain = Domain::without_walls(voxels);
+    // The mesh's volume of each body when every body is closed (its cells' volume else).
+    if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
+        domain.body_volume_mm3 = bodies.volume_mm3.clone();
+    }
+    let first = domain
+        .source(gate)
+        .ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
+    // Candidates: the qualifying nodes' surface points on the voxelised part.
+    let candidates: Vec<Source> = analysis
+        .qualifying_points
+        .iter()
+        .filter_map(|&p| domain.source(p))
+        .collect();
+    let kind = Kind::of(options.objective);
+    let cells_here_s = seconds(t);
+
+    // Two sides at once. One measures the walls per triangle (given, or measured here for
+    // the triangles of the surface cells only: either way the cells read them alike, so
+    // the fill does not depend on whether every facet was measured beside it), makes the
+    // cells' costs from them and marches the paper gate's fill order and pressure. The
+    // other marches the paper gate's flow length, which needs no wall, and when the
+    // objective is the flow length (the default) runs the balanced search from it: the
+    // search's runs are chains of marches that leave a thread idle between them, which
+    // the walls' rays fill. Every value is the one of the stages made one after the
+    // other.
+    let t = Instant::now();
+    let walls_side = || {
+        let t_wall = Instant::now();
+        let measured = match walls {
+            Walls::Measure(bvh) => {
+                // A facet that owns several cells is listed once per cell and measured once.
+                let owners: Vec<u32> = domain
+                    .voxels
+                    .triangle
+                    .iter()
+                    .zip(&domain.voxels.surface)
+                    .filter(|(_, &s)| s)
+                    .map(|(&t, _)| t)
+                    .collect();
+                Some(crate::thickness::wall_thickness_of_known(
+                    mesh,
+                    bvh,
+                    &crate::thickness::ThicknessOptions::default(),
+                    &owners,
+                    known,
+                ))
+            }
+            _ => None,
+        };
+        let triangle_walls = match walls {
+            Walls::Given(w) => Some(w),
+            Walls::Measure(_) => measured.as_deref(),
+            Walls::Estimate => None,
+        };
+        let (nominal, wall_source, wall, body_nominal) = match triangle_walls {
+            Some(w) => {
+                let summary = summarise_walls(&domain.voxels, w, seconds(t_wall));
+                let nominal = summary.nominal_mm.unwrap_or(estimate);
+                let source = if summary.nominal_mm.is_some() {
+                    WallSource::Measured
+                } else {
+                    WallSource::VolumeOverArea
+                };
+                let body_nominal = body_nominal_walls(&domain.voxels, w);
+                (nominal, source, Some(summary), body_nominal)
+            }
+            None => (estimate, WallSource::VolumeOverArea, None, Vec::new()),
+        };
+        // Each body's own median wall is its reference (a body without samples takes the
+        // part's): a thin lid beside a thick box fills as it would alone. The walls
+        // measured per triangle (4 bytes a triangle of the mesh) are let go once the cells
+        // hold theirs, before the marches.
+        let t_costs = Instant::now();
+        let costs = domain.walls_of(triangle_walls, nominal, &body_nominal, material);
+        drop(measured);
+        let costs_s = seconds(t_costs);
+        let t_paper = Instant::now();
+        let v = &domain.voxels;
+        let (fill, pressure) = rayon::join(
+            || march(v, &[first], Some(&costs.fill_cost)),
+            || march(v, &[first], Some(&costs.pressure_cost)),
+        );
+        let paper_s = seconds(t_paper);
+        (
+            costs,
+            (nominal, wall_source, wall),
+            (fill, pressure),
+            (costs_s, paper_s),
+        )
     };
-    let triangle_walls = match walls {
-        Walls::Given(w) => Some(w),
-        Walls::Measure(_) => measured.as_deref(),
-        Walls::Estimate => None,
+    let length_side = || {
+        let t_length = Instant::now();
+        let v = &domain.voxels;
+        let length = march(v, &[first], None);
+        let length_s = seconds(t_length);
+        let search = (kind == Kind::Length).then(|| {
+            balanced_search(
+                &domain,
+                &candidates,
+                options.objective,
+                first,
+                &length,
+                h,
+                FAR_REACH,
+                |c| march(v, &[candidates[c]], None),
+            )
+            // The chosen candidate's field, when no idle thread made it beside the
+            // search's last run: made here rather than after both sides.
+            .map(|(found, aside)| {
+                let field = aside.unwrap_or_else(|| march(v, &[candidates[found.candidate]], None));
+                (found, Some(field))
+            })
+        });
+        (length, length_s, search)
     };
-    let mut body_nominal = Vec::new();
-    let (nominal, wall_source, wall) = match triangle_walls {
-        Some(w) => {
-            let summary = summarise_walls(&voxels, w, seconds(t_wall));
-            let nominal = summary.nominal_mm.unwrap_or(estimate);
-            body_nominal = body_nominal_walls(&voxels, w);
-            let source = if summary.nominal_mm.is_some() {
-                WallSource::Measured
-            } else {
-                WallSource::VolumeOverArea
-            };
-            (nominal, source, Some(summary))
-        }
-        None => (estimate, WallSource::VolumeOverArea, None),
-    };
+    let (walls_made, (length, length_s, search)) = rayon::join(walls_side, length_side);
+    let (costs, (nominal, wall_source, wall), (fill, pressure), (costs_s, paper_fill_s)) =
+        walls_made;
+    let joined_s = seconds(t);
+    domain.set_walls(costs);
     // The cell size is set from an estimate of the wall before it is measured; warn only
     // when the measured wall is less than 1.5 cells across.
     if h > nominal / 1.5 {
@@ -2864,20 +3009,16 @@ pub fn analyse_prepared(
             nominal / 2.0
         ));
     }
-    // Each body's own median wall is its reference (a body without samples takes the
-    // part's): a thin lid beside a thick box fills as it would alone.
-    let mut domain =
-        Domain::with_body_walls(voxels, triangle_walls, nominal, &body_nominal, material);
-    // The cells hold their walls now: the walls measured per triangle (4 bytes a triangle of
-    // the mesh) are let go before the marches.
-    drop(measured);
-    // The mesh's volume of each body when every body is closed (its cells' volume else).
-    if bodies.volume_mm3.len() == domain.bodies && bodies.volume_mm3.iter().all(|&v| v > 0.0) {
-        domain.body_volume_mm3 = bodies.volume_mm3.clone();
-    }
-    times.wall_s = wall.as_ref().map_or(0.0, |w| w.time_s);
-    // The cells' own time, wherever they were made, and what followed them here.
-    times.voxels_s = cells_s + seconds(t) - times.wall_s;
+    // The stages ran side by side: the walls and the cells' costs count their own time,
+    // the paper gate's fields the longer of their two sides, the search the rest of the
+    // joined time (see `FlowTimes::wall_s`).
+    times.wall_s = wall.as_ref().map_or(0.0, |w| w.time_s).min(joined_s);
+    let costs_s = costs_s.min(joined_s - times.wall_s);
+    times.voxels_s = cells_s + cells_here_s + costs_s;
+    times.paper_s = paper_fill_s
+        .max(length_s)
+        .min(joined_s - times.wall_s - costs_s);
+    let searched_s = joined_s - times.wall_s - costs_s - times.paper_s;
     if bodies.count > 1 {
         warnings.push(format!(
             "the part has {} separate bodies; a gate fills only its own body (see the gate per body)",
@@ -2891,56 +3032,37 @@ pub fn analyse_prepared(
             100.0 * STRAY_BODY_AREA_SHARE
         ));
     }
-
-    // The paper gate's fields, and the balanced search, which reads only the objective's
-    // field of them: the flow length and fill order are marched side by side, then the
-    // pressure beside the search. Beside the run of each candidate the search evaluates,
-    // the candidate's own field of the objective is marched for its fill (else one core
-    // would wait).
-    let t = Instant::now();
-    let first = domain
-        .source(gate)
-        .ok_or(FillError::GateOffPart(gate.x, gate.y, gate.z))?;
-    let v = &domain.voxels;
-    let kind = Kind::of(options.objective);
-    let (length, fill) = rayon::join(
-        || march(v, &[first], Kind::Length.cost(&domain)),
-        || march(v, &[first], Kind::Fill.cost(&domain)),
-    );
-    let paper_fields = GateFields { length, fill };
-    times.paper_s = seconds(t);
     check()?;
 
-    // Candidates: the qualifying nodes' surface points on the voxelised part.
+    let paper_fields = GateFields { length, fill };
     let t = Instant::now();
-    let candidates: Vec<Source> = analysis
-        .qualifying_points
-        .iter()
-        .filter_map(|&p| domain.source(p))
-        .collect();
+    let v = &domain.voxels;
     let start = paper_fields.of(options.objective);
-    // The paper gate's summary, beside the search too (it reads the fields the search
-    // does not change).
+    // The paper gate's summary, beside the search of the fill-order objective (which needs
+    // the walls, so it starts here) or beside nothing: it reads the fields the search does
+    // not change.
     let (mut paper, search) = rayon::join(
         || {
-            let pressure = march(v, &[first], Kind::Pressure.cost(&domain));
             let GateFields { length, fill } = &paper_fields;
             let fields = [length, fill, &pressure];
             summarise_layout(&domain, &[gate], &[first], material, fields).0
         },
         || {
-            balanced_search(
-                &domain,
-                &candidates,
-                options.objective,
-                first,
-                start,
-                h,
-                FAR_REACH,
-                |c| march(v, &[candidates[c]], kind.cost(&domain)),
-            )
+            search.unwrap_or_else(|| {
+                balanced_search(
+                    &domain,
+                    &candidates,
+                    options.objective,
+                    first,
+                    start,
+                    h,
+                    FAR_REACH,
+                    |c| march(v, &[candidates[c]], kind.cost(&domain)),
+                )
+            })
         },
     );
+    drop(pressure);
     if paper.reached_share < 0.999 {
         warnings.push(format!(
             "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
@@ -2978,7 +3100,7 @@ pub fn analyse_prepared(
     let best_single = head
         .as_ref()
         .map_or(paper_value, |(_, _, value)| value.min(paper_value));
-    times.balanced_s = seconds(t);
+    times.balanced_s = searched_s + seconds(t);
     // The balanced gate's objective field, when it is the balanced gate's own (it beat the
     // paper gate).
     let balanced_field = head
