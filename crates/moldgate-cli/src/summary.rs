@@ -478,8 +478,18 @@ pub fn render(r: &Report) -> String {
             ),
             false => String::new(),
         };
+        // The walls are measured beside the paper gate's flow length and, when it is the
+        // objective, the balanced search: those count what they took beyond the walls.
+        let alongside = match f.objective {
+            moldgate::flow::Objective::Length => {
+                " with the paper gate's flow length and the balanced search alongside"
+            }
+            moldgate::flow::Objective::Resistance => {
+                " with the paper gate's flow length alongside"
+            }
+        };
         stages.push(format!(
-            "fill {:.1}: wall samples {:.1}, cells {:.1}{beside}, paper gate {:.1}, balanced search {:.1}, several gates {:.1}",
+            "fill {:.1}: wall samples {:.1}{alongside}, cells {:.1}{beside}, paper gate {:.1}, balanced search {:.1}, several gates {:.1}",
             ms(x),
             ms(ft.wall_s),
             ms(ft.voxels_s),
