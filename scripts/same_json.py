@@ -44,6 +44,8 @@ SETS = {
     "balanced": ["--strategy", "balanced"],
     "resistance": ["--fill", "--objective", "resistance"],
     "wallfill": ["--wall-thickness", "--fill"],
+    "autofill": ["--demold", "auto", "--fill"],
+    "autowall": ["--demold", "auto", "--wall-thickness"],
     "aesthetic": ["--aesthetic"],
     "auto": ["--demold", "auto"],
     "wall": ["--wall-thickness"],

@@ -446,11 +446,12 @@ pub fn render(r: &Report) -> String {
     let ms = |x: f64| x * 1e3;
     let mut stages = vec![format!("load {:.1}", ms(t.load_s))];
     if let Some(x) = t.tree_s {
-        // With the direction given, the tree is built alongside the gate search.
+        // The tree is built alongside the gate search, or alongside the choice of the
+        // automatic direction (which holds the gate search).
         let alongside = if r.demold_auto.is_none() {
             " alongside the gate search"
         } else {
-            ""
+            " alongside the choice of direction"
         };
         stages.push(format!("ray tree {:.1}{alongside}", ms(x)));
     }
@@ -470,13 +471,18 @@ pub fn render(r: &Report) -> String {
     }
     if let (Some(x), Some(f)) = (t.fill_s, &r.fill) {
         let ft = &f.times;
-        // Cells made beside the gate search are in the tree's join, not in the fill's time.
-        let beside = match ft.cells_beside_s > 0.0 {
-            true => format!(
+        // Cells made beside the gate search (or the choice of direction) are in the tree's
+        // join, not in the fill's time.
+        let beside = match (ft.cells_beside_s > 0.0, r.demold_auto.is_none()) {
+            (true, true) => format!(
                 " ({:.1} of them beside the gate search)",
                 ms(ft.cells_beside_s)
             ),
-            false => String::new(),
+            (true, false) => format!(
+                " ({:.1} of them beside the choice of direction)",
+                ms(ft.cells_beside_s)
+            ),
+            (false, _) => String::new(),
         };
         // The walls are measured beside the paper gate's flow length and, when it is the
         // objective, the balanced search: those count what they took beyond the walls.
@@ -484,9 +490,7 @@ pub fn render(r: &Report) -> String {
             moldgate::flow::Objective::Length => {
                 " with the paper gate's flow length and the balanced search alongside"
             }
-            moldgate::flow::Objective::Resistance => {
-                " with the paper gate's flow length alongside"
-            }
+            moldgate::flow::Objective::Resistance => " with the paper gate's flow length alongside",
         };
         stages.push(format!(
             "fill {:.1}: wall samples {:.1}{alongside}, cells {:.1}{beside}, paper gate {:.1}, balanced search {:.1}, several gates {:.1}",

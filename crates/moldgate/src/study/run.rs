@@ -68,6 +68,16 @@ fn fraction(stage: Stage) -> f64 {
     }
 }
 
+/// What the ray tree (and the fill's cells) were made beside, and the wall time of that
+/// join: the tree counts only the time it ran past the other side.
+#[derive(Debug, Clone, Copy)]
+enum Joined {
+    /// The gate search along the given direction.
+    Locate(f64),
+    /// The choice of the automatic direction (with the gate search inside it).
+    Demold(f64),
+}
+
 pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Study, StudyError> {
     let mesh = &part.mesh;
     let enter = |stage: Stage| hooks.enter(stage, fraction(stage));
@@ -100,27 +110,24 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // of both threads (the bodies are one serial pass).
     let mut joined_s = None;
     let mut cells = None;
-    let (bvh, tree_s, located) = if wants_tree && !auto_demold {
+    let prepare = || {
+        s.fill
+            .as_ref()
+            .map(|o| flow::prepare_with(mesh, &part.centres, Some(&part.topology), o))
+    };
+    let (mut bvh, mut tree_s, located) = if wants_tree && !auto_demold {
         enter(Stage::Tree)?;
         enter(Stage::Locate)?;
         let t = Instant::now();
-        let prepare = || {
-            s.fill
-                .as_ref()
-                .map(|o| flow::prepare_with(mesh, &part.centres, Some(&part.topology), o))
-        };
         let (((bvh, tree_s), prepared), located) = rayon::join(
             || rayon::join(build_tree, prepare),
             || crate::locate(part, &options),
         );
         cells = prepared;
-        joined_s = Some(t.elapsed().as_secs_f64());
+        joined_s = Some(Joined::Locate(t.elapsed().as_secs_f64()));
         (Some(bvh), tree_s, Some(located))
-    } else if wants_tree {
-        enter(Stage::Tree)?;
-        let (bvh, tree_s) = build_tree();
-        (Some(bvh), tree_s, None)
     } else {
+        // With the automatic direction, the tree and the cells are made beside its choice.
         (None, 0.0, None)
     };
     let mut demold_s = None;
@@ -128,6 +135,9 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     let mut located_beside = false;
     let (auto, located) = match auto_demold {
         true => {
+            if wants_tree {
+                enter(Stage::Tree)?;
+            }
             enter(Stage::Demold)?;
             let t = Instant::now();
             let locate_along = |d| {
@@ -146,14 +156,33 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             // The gate along the first line drawn ray by ray (nearly always the one chosen)
             // is located while its rays are drawn: locate does not depend on them, and the
             // two together keep both threads busy. Along another line it is located again.
-            let (auto, early) = auto_direction_beside_loaded(
-                part,
-                Sampling::Centroid,
-                locate_along,
-                gate_qualifies,
-            )
-            .map_err(StudyError::Demold)?;
-            demold_s = Some(t.elapsed().as_secs_f64());
+            // The tree and the fill's cells need no direction: made beside the choice,
+            // they fill the gaps its steps leave on both threads.
+            let choose = || {
+                let t = Instant::now();
+                let chosen = auto_direction_beside_loaded(
+                    part,
+                    Sampling::Centroid,
+                    locate_along,
+                    gate_qualifies,
+                );
+                (chosen, t.elapsed().as_secs_f64())
+            };
+            let ((chosen, choice_s), made) = match wants_tree {
+                true => {
+                    let (chosen, made) = rayon::join(choose, || rayon::join(build_tree, prepare));
+                    (chosen, Some(made))
+                }
+                false => (choose(), None),
+            };
+            if let Some(((tree, built_s), prepared)) = made {
+                bvh = Some(tree);
+                tree_s = built_s;
+                cells = prepared;
+                joined_s = Some(Joined::Demold(t.elapsed().as_secs_f64()));
+            }
+            let (auto, early) = chosen.map_err(StudyError::Demold)?;
+            demold_s = Some(choice_s);
             options.direction = auto.direction();
             let located = match early {
                 Some((d, located)) if d == options.direction => {
@@ -273,7 +302,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         // Built alongside locate (with the fill's cells), the tree adds only the time it ran
         // past locate's own.
         report.timings.total_s += match joined_s {
-            Some(joined) => (joined - locate_total_s).clamp(0.0, tree_s + cells_beside_s),
+            Some(Joined::Locate(joined)) => {
+                (joined - locate_total_s).clamp(0.0, tree_s + cells_beside_s)
+            }
+            Some(Joined::Demold(joined)) => {
+                (joined - demold_s.unwrap_or(0.0)).clamp(0.0, tree_s + cells_beside_s)
+            }
             None => tree_s,
         };
     }
