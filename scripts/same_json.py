@@ -46,6 +46,7 @@ SETS = {
     "wallfill": ["--wall-thickness", "--fill"],
     "autofill": ["--demold", "auto", "--fill"],
     "autowall": ["--demold", "auto", "--wall-thickness"],
+    "autoaesthetic": ["--demold", "auto", "--aesthetic"],
     "aesthetic": ["--aesthetic"],
     "auto": ["--demold", "auto"],
     "wall": ["--wall-thickness"],

@@ -757,7 +757,10 @@ fn timings_table(h: &mut String, r: &Report) {
     let t = &r.timings;
     let _ = writeln!(h, "<h2>Timings</h2>\n<table>");
     let mut rows = vec![("Reading the mesh", Some(t.load_s))];
-    rows.push(("Ray-casting tree", t.tree_s));
+    rows.push((
+        "Ray-casting tree (beside the gate search or the choice of direction, only its time past them added)",
+        t.tree_s,
+    ));
     rows.push(("Automatic demolding direction", t.demold_s));
     rows.extend([
         (

@@ -6,7 +6,7 @@ use crate::clock::Instant;
 use crate::display::Display;
 
 use crate::flow::{self, FillAnalysis, FillError, FillOptions, Strategy};
-use crate::gate::{Analysis, ChosenGate};
+use crate::gate::{Analysis, ChosenGate, GateMode};
 use crate::math::DVec3;
 use crate::mesh::LoadedMesh;
 use crate::raycast::{Bvh, Sampling};
@@ -85,13 +85,16 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // before any other work.
     let snapped = judge::snap(mesh, &s.gate_at)?;
     // One ray-casting tree serves the wall thickness and the fill analysis (for its flow
-    // resistance); the automatic direction draws its rays without one.
+    // resistance); the automatic direction draws its rays without one. Under the automatic
+    // direction an aesthetic gate's normal is the nearest triangle's, found in the tree: made
+    // beside the choice too.
     let auto_demold = s.demold == Demold::Auto;
-    let wants_tree = s.wall_thickness || s.fill.is_some();
-    // The fill alone casts one ray per surface cell (a few per cent of the facets): a tree
-    // a fifth as dear to build, whose queries cost a fifth more, gives it the same rays and
-    // nearest triangles (`Bvh::new_morton`). The wall of every facet takes the tree of the
-    // fastest queries.
+    let aesthetic_normal = auto_demold && s.locate.mode == GateMode::Aesthetic;
+    let wants_tree = s.wall_thickness || s.fill.is_some() || aesthetic_normal;
+    // The fill alone casts one ray per surface cell (a few per cent of the facets), and an
+    // aesthetic gate's normal asks one nearest triangle: a tree a fifth as dear to build,
+    // whose queries cost a fifth more, gives them the same rays and nearest triangles
+    // (`Bvh::new_morton`). The wall of every facet takes the tree of the fastest queries.
     let morton = !s.wall_thickness;
     let build_tree = || {
         let t = Instant::now();
@@ -320,13 +323,6 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             false => d,
         };
     }
-    // An aesthetic gate's normal is the nearest triangle's, found in a tree: built here when
-    // the automatic direction (which used to build one) needed none.
-    let aesthetic = matches!(analysis.gate(), Ok(ChosenGate::Aesthetic(_)));
-    let bvh = match bvh {
-        None if auto_demold && aesthetic => Some(Bvh::new(mesh)),
-        bvh => bvh,
-    };
     let (gates, subtitle) = answer_gates(part, &analysis, &mut report, bvh.as_ref());
     let body_gates = own_body_gates(part, &report, bvh.as_ref());
     let placed_markers = placed.as_ref().map_or(Vec::new(), |p| {
