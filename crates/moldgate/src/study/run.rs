@@ -130,7 +130,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         joined_s = Some(Joined::Locate(t.elapsed().as_secs_f64()));
         (Some(bvh), tree_s, Some(located))
     } else {
-        // With the automatic direction, the tree and the cells are made beside its choice.
+        // No tree, or, with the automatic direction, one made beside its choice (below).
         (None, 0.0, None)
     };
     let mut demold_s = None;
@@ -302,8 +302,8 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     // The tree serves several stages: counted once, on its own.
     if bvh.is_some() {
         report.timings.tree_s = Some(tree_s);
-        // Built alongside locate (with the fill's cells), the tree adds only the time it ran
-        // past locate's own.
+        // Built alongside locate or the choice of the direction (with the fill's cells), the
+        // tree adds only the time it ran past theirs.
         report.timings.total_s += match joined_s {
             Some(Joined::Locate(joined)) => {
                 (joined - locate_total_s).clamp(0.0, tree_s + cells_beside_s)
