@@ -49,6 +49,28 @@ impl Aabb {
     }
 }
 
+/// The bits of `x` made to compare as unsigned numbers in the order of [`f32::total_cmp`]
+/// (for sort and depth keys); [`from_ordered_bits`] gives `x` back.
+#[inline]
+pub(crate) fn ordered_bits(x: f32) -> u32 {
+    let bits = x.to_bits();
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 1 << 31
+    }
+}
+
+/// The value of [`ordered_bits`].
+#[inline]
+pub(crate) fn from_ordered_bits(ordered: u32) -> f32 {
+    f32::from_bits(if ordered >> 31 == 1 {
+        ordered & !(1 << 31)
+    } else {
+        !ordered
+    })
+}
+
 /// Twice the signed area of the 2D triangle (a, b, c): positive when counter-clockwise.
 #[inline]
 pub fn orient2d(a: DVec2, b: DVec2, c: DVec2) -> f64 {

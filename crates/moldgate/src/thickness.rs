@@ -600,25 +600,15 @@ fn summarise(mesh: &Mesh, per_triangle: Vec<f32>) -> WallThickness {
 const AREA_RUN: usize = 1 << 16;
 
 /// The sort key of facet `t` with the finite value `v`: `v`'s bits, made to compare as
-/// unsigned numbers in the order of [`f32::total_cmp`], above `t`.
+/// unsigned numbers in the order of [`f32::total_cmp`] ([`crate::math::ordered_bits`]),
+/// above `t`.
 fn value_key(v: f32, t: u32) -> u64 {
-    let bits = v.to_bits();
-    let ordered = if bits >> 31 == 1 {
-        !bits
-    } else {
-        bits | 1 << 31
-    };
-    u64::from(ordered) << 32 | u64::from(t)
+    u64::from(crate::math::ordered_bits(v)) << 32 | u64::from(t)
 }
 
 /// The value of a [`value_key`].
 fn key_value(key: u64) -> f32 {
-    let ordered = (key >> 32) as u32;
-    f32::from_bits(if ordered >> 31 == 1 {
-        ordered & !(1 << 31)
-    } else {
-        !ordered
-    })
+    crate::math::from_ordered_bits((key >> 32) as u32)
 }
 
 #[cfg(test)]

@@ -183,22 +183,13 @@ fn ceil(x: f32) -> f32 {
 /// is never 0: the key of the empty sample. `-0.0` and `0.0` get one key.
 #[inline]
 fn depth_key(z: f32) -> u32 {
-    let bits = (z + 0.0).to_bits();
-    if bits >> 31 == 1 {
-        !bits
-    } else {
-        bits | 0x8000_0000
-    }
+    crate::math::ordered_bits(z + 0.0)
 }
 
 /// The depth of a key of [`depth_key`].
 #[inline]
 fn key_depth(key: u32) -> f32 {
-    f32::from_bits(if key >> 31 == 1 {
-        key & 0x7fff_ffff
-    } else {
-        !key
-    })
+    crate::math::from_ordered_bits(key)
 }
 
 /// `x.round()` for `0 <= x < 2^24`, without the library call it compiles to on the
