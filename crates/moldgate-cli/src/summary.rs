@@ -487,6 +487,8 @@ pub fn render(r: &Report) -> String {
         // The walls are measured beside the paper gate's flow length and, when it is the
         // objective, the balanced search: those count what they took beyond the walls.
         let alongside = match f.objective {
+            // Read from the wall of every facet, the samples took no time of their own.
+            _ if t.wall_s.is_some() => "",
             moldgate::flow::Objective::Length => {
                 " with the paper gate's flow length and the balanced search alongside"
             }
