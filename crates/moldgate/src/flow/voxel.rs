@@ -235,31 +235,31 @@ fn few_cells(
     let [a, b, c] = mesh.corners(t);
     let lo = (a.min(b).min(c) - origin) * per_h + 0.5;
     let hi = (a.max(b).max(c) - origin) * per_h + 0.5;
-    let (mut first, mut second) = ([0usize; 3], [0usize; 3]);
-    let mut across = false;
-    for k in 0..3 {
-        // Inside the grid and off its last layer, as every surface cell is (a spare cell
-        // on each side), so the samples' clamp to the grid does not apply.
-        if !(lo[k] - CORNER_MARGIN >= 0.0 && hi[k] + CORNER_MARGIN < (dims[k] - 1) as f64) {
-            return None;
-        }
-        let i = (lo[k] - CORNER_MARGIN) as usize;
-        let j = (hi[k] + CORNER_MARGIN) as usize;
-        if j != i {
-            // Two cells along this axis only, each corner clear of the face between.
-            if across
-                || j != i + 1
-                || (lo[k] + CORNER_MARGIN) as usize != i
-                || (hi[k] - CORNER_MARGIN) as usize != j
-            {
-                return None;
-            }
-            across = true;
-        }
-        first[k] = i;
-        second[k] = j;
+    // Inside the grid and off its last layer, as every surface cell is (a spare cell on
+    // each side), so the samples' clamp to the grid does not apply; the comparisons are
+    // false for NaN.
+    let last = DVec3::new(
+        (dims[0] - 1) as f64,
+        (dims[1] - 1) as f64,
+        (dims[2] - 1) as f64,
+    );
+    if !((lo - CORNER_MARGIN).cmpge(DVec3::ZERO) & (hi + CORNER_MARGIN).cmplt(last)).all() {
+        return None;
     }
-    let dense = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+    // Every coordinate is now from 0 to below the grid's size: its truncation is its floor.
+    let first = (lo - CORNER_MARGIN).as_i64vec3();
+    let second = (hi + CORNER_MARGIN).as_i64vec3();
+    // At most one axis across two cells, each corner clear of the faces between (the
+    // lowest and the highest corner, each off by the margin either way, in its own cell),
+    // which on the other axes holds by the cell being one.
+    let across = second - first;
+    if across.element_sum() > 1
+        || (lo + CORNER_MARGIN).as_i64vec3() != first
+        || (hi - CORNER_MARGIN).as_i64vec3() != second
+    {
+        return None;
+    }
+    let dense = |c: glam::I64Vec3| (c.z as usize * dims[1] + c.y as usize) * dims[0] + c.x as usize;
     Some([dense(first), dense(second)])
 }
 
@@ -556,22 +556,20 @@ impl Voxels {
     }
 
     /// Gives every interior cell the triangle of its nearest surface cell (breadth-first over
-    /// the 26 neighbours), so per-triangle data such as wall thickness reaches every cell.
+    /// the 26 neighbours, in [`neighbour_offsets`] order, read from the neighbour table), so
+    /// per-triangle data such as wall thickness reaches every cell.
     fn spread_triangles(&mut self) {
         let mut frontier: Vec<u32> = (0..self.cells.len() as u32)
             .filter(|&c| self.triangle[c as usize] != EMPTY)
             .collect();
-        let offsets = neighbour_offsets();
         while !frontier.is_empty() {
             let mut next = Vec::new();
             for &c in &frontier {
                 let t = self.triangle[c as usize];
-                for &(o, _) in &offsets {
-                    if let Some(n) = self.neighbour(c, o) {
-                        if self.triangle[n as usize] == EMPTY {
-                            self.triangle[n as usize] = t;
-                            next.push(n);
-                        }
+                for &n in &self.table[c as usize] {
+                    if n != EMPTY && self.triangle[n as usize] == EMPTY {
+                        self.triangle[n as usize] = t;
+                        next.push(n);
                     }
                 }
             }
