@@ -1060,12 +1060,17 @@ fn weld_lines(v: &Voxels, t: &[f64]) -> Vec<WeldLine> {
                 return angle;
             }
             let pc = v.centre(c);
-            for &(o, _) in &offsets {
-                if let Some(n) = v.neighbour(c, o) {
-                    let dn = dir[n as usize];
+            // The neighbours in the table's order, which is `offsets`'; where the fronts
+            // meet at less than the limit (almost every pair), nothing more is asked.
+            for &n in &v.table[c as usize] {
+                if n == u32::MAX {
+                    continue;
+                }
+                let dn = dir[n as usize];
+                let cos = dc.dot(dn);
+                if cos < cos_limit {
                     let towards = v.centre(n) - pc;
-                    let cos = dc.dot(dn);
-                    if cos < cos_limit && dc.dot(towards) > 0.0 && dn.dot(-towards) > 0.0 {
+                    if dc.dot(towards) > 0.0 && dn.dot(-towards) > 0.0 {
                         let a = cos.clamp(-1.0, 1.0).acos().to_degrees();
                         if angle.is_nan() || angle < a {
                             angle = a;
