@@ -162,28 +162,77 @@ impl Default for FlowOptions {
 /// the part's shape (its last place to fill could be anywhere in a cell larger than it).
 pub const MAX_CELL_OF_DIAGONAL: f64 = 0.1;
 
-/// Volume (absolute) and area of the kept triangles of `mesh`.
-fn volume_and_area(mesh: &Mesh, keep: &[u32]) -> (f64, f64) {
-    // Blocks of triangles summed in a plain loop each, then the blocks' sums in order: the
-    // same sums on any number of threads.
-    const BLOCK: usize = 4096;
-    let sums: Vec<(f64, f64)> = keep
-        .par_chunks(BLOCK)
-        .enumerate()
-        .map(|(i, block)| {
-            let (mut v, mut a) = (0.0, 0.0);
-            for (j, &b) in block.iter().enumerate() {
-                if b != u32::MAX {
-                    let [p, q, r] = mesh.corners(i * BLOCK + j);
-                    v += p.dot(q.cross(r)) / 6.0;
-                    a += 0.5 * (q - p).cross(r - p).length();
+/// What the limits of [`FlowOptions`] read of a set of triangles, summed once for every
+/// cell size tried (see [`check_limits`]): the bodies' pass over the triangles sums it beside
+/// their own sums, so that choosing the cell reads the triangles no more.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct LimitSums {
+    /// Signed volume, mm^3 (of the tetrahedra from the origin).
+    volume: f64,
+    /// Area, mm^2.
+    area: f64,
+    /// Number of triangles.
+    triangles: f64,
+    /// Sum over the triangles of their box's three sides, mm (see [`voxel::samples_bound`]).
+    side: f64,
+    /// Sum over the triangles of the square of that, mm^2.
+    side2: f64,
+}
+
+impl LimitSums {
+    /// Adds triangle `[p, q, r]`; returns its area and signed volume, as summed.
+    #[inline]
+    fn add(&mut self, [p, q, r]: [DVec3; 3]) -> (f64, f64) {
+        let a = 0.5 * (q - p).cross(r - p).length();
+        let v = p.dot(q.cross(r)) / 6.0;
+        let box_side = p.max(q).max(r) - p.min(q).min(r);
+        let s = box_side.x + box_side.y + box_side.z;
+        self.area += a;
+        self.volume += v;
+        self.triangles += 1.0;
+        self.side += s;
+        self.side2 += s * s;
+        (a, v)
+    }
+
+    fn join(&mut self, other: &LimitSums) {
+        self.volume += other.volume;
+        self.area += other.area;
+        self.triangles += other.triangles;
+        self.side += other.side;
+        self.side2 += other.side2;
+    }
+
+    /// The sums of the kept triangles of `mesh` (`keep[t] != u32::MAX`).
+    fn of(mesh: &Mesh, keep: &[u32]) -> LimitSums {
+        // Blocks of triangles summed in a plain loop each, then the blocks' sums in order:
+        // the same sums on any number of threads.
+        const BLOCK: usize = 4096;
+        let sums: Vec<LimitSums> = keep
+            .par_chunks(BLOCK)
+            .enumerate()
+            .map(|(i, block)| {
+                let mut sums = LimitSums::default();
+                for (j, &b) in block.iter().enumerate() {
+                    if b != u32::MAX {
+                        sums.add(mesh.corners(i * BLOCK + j));
+                    }
                 }
-            }
-            (v, a)
-        })
-        .collect();
-    let (v, a) = sums.iter().fold((0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
-    (v.abs(), a)
+                sums
+            })
+            .collect();
+        let mut all = LimitSums::default();
+        for s in &sums {
+            all.join(s);
+        }
+        all
+    }
+
+    /// [`voxel::samples_bound`] at cell side `h` from the sums: sum (s / step + 2)^2 is
+    /// sum s^2 / step^2 + 4 sum s / step + 4 n.
+    fn samples_bound(&self, h: f64) -> f64 {
+        voxel::samples_bound_of_sums(self.side, self.side2, self.triangles, h)
+    }
 }
 
 /// The first limit of `options` a voxelisation at `h` would break, as the error.
@@ -191,7 +240,7 @@ fn check_limits(
     mesh: &Mesh,
     body_of: &[u32],
     h: f64,
-    volume_area: (f64, f64),
+    sums: &LimitSums,
     options: &FlowOptions,
 ) -> Result<(), FillError> {
     let dense = Voxels::cells_for(&mesh.bounds(), h);
@@ -204,7 +253,7 @@ fn check_limits(
             3.0,
         ));
     }
-    let (v, a) = volume_area;
+    let (v, a) = (sums.volume.abs(), sums.area);
     let solid = v / (h * h * h) + 2.0 * a / (h * h);
     if solid > options.max_solid_cells {
         return Err(FillError::too_large(
@@ -215,12 +264,12 @@ fn check_limits(
             3.0,
         ));
     }
-    let keep: Vec<bool> = body_of.iter().map(|&b| b != u32::MAX).collect();
     // The exact count (a pass of square roots over the triangles) only when the bound
     // from the triangles' boxes does not already keep the limit.
-    if voxel::samples_bound(mesh, h, Some(&keep)) <= options.max_samples {
+    if sums.samples_bound(h) <= options.max_samples {
         return Ok(());
     }
+    let keep: Vec<bool> = body_of.iter().map(|&b| b != u32::MAX).collect();
     let samples = voxel::samples_for(mesh, h, Some(&keep));
     if samples > options.max_samples {
         return Err(FillError::too_large(
@@ -245,17 +294,20 @@ pub fn cell_size(
     options: &FlowOptions,
 ) -> Result<(f64, Option<FillError>), FillError> {
     let body_of = vec![0u32; mesh.triangles.len()];
-    choose_cell(mesh, &body_of, nominal_wall_mm, options)
+    let sums = LimitSums::of(mesh, &body_of);
+    choose_cell(mesh, &body_of, &sums, nominal_wall_mm, options)
 }
 
+/// [`cell_size`] for the kept triangles of `body_of` (`u32::MAX` for the others), whose
+/// [`LimitSums`] are `sums`.
 fn choose_cell(
     mesh: &Mesh,
     body_of: &[u32],
+    sums: &LimitSums,
     nominal_wall_mm: f64,
     options: &FlowOptions,
 ) -> Result<(f64, Option<FillError>), FillError> {
     let diagonal = mesh.bounds().diagonal();
-    let volume_area = volume_and_area(mesh, body_of);
     if let Some(h) = options.cell_mm {
         if !(h.is_finite() && h > 0.0) {
             return Err(FillError::Option(format!(
@@ -270,7 +322,7 @@ fn choose_cell(
                 MAX_CELL_OF_DIAGONAL * diagonal
             )));
         }
-        return match check_limits(mesh, body_of, h, volume_area, options) {
+        return match check_limits(mesh, body_of, h, sums, options) {
             Ok(()) => Ok((h, None)),
             // The least cell that keeps every limit, not only the one broken first: from
             // that one's estimate, stepped as the cell chosen by itself is.
@@ -283,7 +335,7 @@ fn choose_cell(
             }) => {
                 let most = MAX_CELL_OF_DIAGONAL * diagonal;
                 let least = match coarsen(least_cell_mm.max(h), most, |h| {
-                    check_limits(mesh, body_of, h, volume_area, options)
+                    check_limits(mesh, body_of, h, sums, options)
                 }) {
                     Ok((h, _)) | Err((h, _)) => h,
                 };
@@ -310,9 +362,7 @@ fn choose_cell(
         h *= (n / options.max_cells).cbrt();
     }
     let most = MAX_CELL_OF_DIAGONAL * diagonal;
-    match coarsen(h, most, |h| {
-        check_limits(mesh, body_of, h, volume_area, options)
-    }) {
+    match coarsen(h, most, |h| check_limits(mesh, body_of, h, sums, options)) {
         Ok(chosen) => Ok(chosen),
         Err((_, first)) => Err(first),
     }
@@ -363,6 +413,8 @@ pub struct Bodies {
     pub volume_mm3: Vec<f64>,
     /// Centre of mass of each body (of its volume; of its area when the volume is zero).
     pub centre: Vec<DVec3>,
+    /// The sums the fill's limits read, over the kept bodies' triangles.
+    pub(crate) kept: LimitSums,
 }
 
 impl Bodies {
@@ -388,10 +440,10 @@ impl Bodies {
         let mut volume = vec![0.0f64; n];
         let mut moment = vec![DVec3::ZERO; n];
         let mut area_moment = vec![DVec3::ZERO; n];
+        let mut limits = vec![LimitSums::default(); n];
         for (t, &b) in label.iter().enumerate() {
             let [p, q, r] = mesh.corners(t);
-            let a = 0.5 * (q - p).cross(r - p).length();
-            let v = p.dot(q.cross(r)) / 6.0;
+            let (a, v) = limits[b as usize].add([p, q, r]);
             area[b as usize] += a;
             volume[b as usize] += v;
             // The tetrahedron (0, p, q, r) has its centroid at (p + q + r) / 4.
@@ -402,10 +454,12 @@ impl Bodies {
         let mut renumber = vec![u32::MAX; n];
         let mut count = 0u32;
         let (mut volume_mm3, mut centre) = (Vec::new(), Vec::new());
+        let mut kept = LimitSums::default();
         for b in 0..n {
             if area[b] >= STRAY_BODY_AREA_SHARE * total && area[b] > 0.0 {
                 renumber[b] = count;
                 count += 1;
+                kept.join(&limits[b]);
                 volume_mm3.push(volume[b].abs());
                 centre.push(if volume[b].abs() > 1e-12 * total.powf(1.5) {
                     moment[b] / volume[b]
@@ -420,6 +474,7 @@ impl Bodies {
             stray: n - count as usize,
             volume_mm3,
             centre,
+            kept,
         }
     }
 }
@@ -2774,7 +2829,13 @@ pub fn prepare_with(
     } else {
         mesh.bounds().diagonal() / 100.0
     };
-    let (h, coarsened) = choose_cell(mesh, &bodies.of_triangle, estimate, &options.flow)?;
+    let (h, coarsened) = choose_cell(
+        mesh,
+        &bodies.of_triangle,
+        &bodies.kept,
+        estimate,
+        &options.flow,
+    )?;
     // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
     let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
     // The triangles' bodies served the cells only (which hold each cell's body): let go
@@ -3877,6 +3938,55 @@ mod tests {
         let union = Bodies::of(&mesh);
         assert_eq!(union.stray, 1);
         same(&Bodies::of_counted(&mesh, Some(counted)), &union);
+    }
+
+    #[test]
+    fn the_bodies_sums_give_the_limits_of_their_kept_triangles() {
+        let close = |a: f64, b: f64, what: &str| {
+            assert!(
+                (a - b).abs() <= 1e-12 * a.abs().max(b.abs()),
+                "{what}: {a} {b}"
+            );
+        };
+        // Every sample, and one with a stray facet far off (a body of its own, left out).
+        let mut parts: Vec<Mesh> = crate::samples::SAMPLES
+            .iter()
+            .map(|info| crate::samples::sample(info.name).expect("sample"))
+            .collect();
+        let mut stray = crate::samples::sample("plate").expect("sample");
+        let n = stray.vertices.len() as u32;
+        stray.vertices.extend([
+            DVec3::new(500.0, 0.0, 0.0),
+            DVec3::new(500.1, 0.0, 0.0),
+            DVec3::new(500.0, 0.1, 0.0),
+        ]);
+        stray.triangles.push([n, n + 1, n + 2]);
+        parts.push(stray);
+        for mesh in &parts {
+            let bodies = Bodies::of(mesh);
+            let keep: Vec<bool> = bodies.of_triangle.iter().map(|&b| b != u32::MAX).collect();
+            let kept = bodies.kept;
+            // Against a plain pass over the kept triangles.
+            let (mut volume, mut area) = (0.0, 0.0);
+            for t in (0..mesh.triangles.len()).filter(|&t| keep[t]) {
+                let [p, q, r] = mesh.corners(t);
+                volume += p.dot(q.cross(r)) / 6.0;
+                area += 0.5 * (q - p).cross(r - p).length();
+            }
+            close(kept.volume, volume, "volume");
+            close(kept.area, area, "area");
+            assert_eq!(kept.triangles, keep.iter().filter(|&&k| k).count() as f64);
+            // The same sums from the parallel pass that `cell_size` makes.
+            let of = LimitSums::of(mesh, &bodies.of_triangle);
+            close(of.volume, kept.volume, "volume of");
+            close(of.side2, kept.side2, "side2 of");
+            let diagonal = mesh.bounds().diagonal();
+            for h in [diagonal / 300.0, diagonal / 31.0, diagonal / 2.0] {
+                let bound = kept.samples_bound(h);
+                close(bound, voxel::samples_bound(mesh, h, Some(&keep)), "bound");
+                assert!(bound >= voxel::samples_for(mesh, h, Some(&keep)));
+            }
+        }
     }
 
     /// The balanced search as it was before its runs from far points stopped early (every

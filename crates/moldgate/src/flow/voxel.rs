@@ -306,6 +306,15 @@ pub fn samples_bound(mesh: &Mesh, h: f64, keep: Option<&[bool]>) -> f64 {
     sums.iter().sum::<f64>() * (1.0 + 1e-6)
 }
 
+/// [`samples_bound`] from sums over the triangles of their box's sides `s` (`side`), of
+/// `s^2` (`side2`) and their number: sum (s / step + 2)^2 expanded, so that the bound at any
+/// cell side costs no pass over the triangles. The sums' rounding differs from
+/// [`samples_bound`]'s by far less than the part in a million it adds.
+pub(crate) fn samples_bound_of_sums(side: f64, side2: f64, triangles: f64, h: f64) -> f64 {
+    let step = SAMPLE_STEP * h;
+    (side2 / (step * step) + 4.0 * side / step + 4.0 * triangles) * (1.0 + 1e-6)
+}
+
 impl Voxels {
     /// Voxelises `mesh` with cells of side `h` mm, each body of the mesh its own. The caller keeps
     /// the work sane: [`Voxels::bounded`] checks the limits before it allocates.
