@@ -436,35 +436,33 @@ impl Bodies {
             _ => body_of_triangle(mesh),
         };
         let n = label.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
-        let mut area = vec![0.0f64; n];
-        let mut volume = vec![0.0f64; n];
+        // Each body's area and signed volume are its `LimitSums`' own.
+        let mut sums = vec![LimitSums::default(); n];
         let mut moment = vec![DVec3::ZERO; n];
         let mut area_moment = vec![DVec3::ZERO; n];
-        let mut limits = vec![LimitSums::default(); n];
         for (t, &b) in label.iter().enumerate() {
             let [p, q, r] = mesh.corners(t);
-            let (a, v) = limits[b as usize].add([p, q, r]);
-            area[b as usize] += a;
-            volume[b as usize] += v;
+            let (a, v) = sums[b as usize].add([p, q, r]);
             // The tetrahedron (0, p, q, r) has its centroid at (p + q + r) / 4.
             moment[b as usize] += (p + q + r) * (v / 4.0);
             area_moment[b as usize] += (p + q + r) * (a / 3.0);
         }
-        let total: f64 = area.iter().sum();
+        let total: f64 = sums.iter().map(|s| s.area).sum();
         let mut renumber = vec![u32::MAX; n];
         let mut count = 0u32;
         let (mut volume_mm3, mut centre) = (Vec::new(), Vec::new());
         let mut kept = LimitSums::default();
-        for b in 0..n {
-            if area[b] >= STRAY_BODY_AREA_SHARE * total && area[b] > 0.0 {
+        for (b, body) in sums.iter().enumerate() {
+            let (area, volume) = (body.area, body.volume);
+            if area >= STRAY_BODY_AREA_SHARE * total && area > 0.0 {
                 renumber[b] = count;
                 count += 1;
-                kept.join(&limits[b]);
-                volume_mm3.push(volume[b].abs());
-                centre.push(if volume[b].abs() > 1e-12 * total.powf(1.5) {
-                    moment[b] / volume[b]
+                kept.join(body);
+                volume_mm3.push(volume.abs());
+                centre.push(if volume.abs() > 1e-12 * total.powf(1.5) {
+                    moment[b] / volume
                 } else {
-                    area_moment[b] / area[b]
+                    area_moment[b] / area
                 });
             }
         }
