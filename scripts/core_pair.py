@@ -36,9 +36,12 @@ import subprocess
 import sys
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-DEFAULT_PART = os.path.join(HERE, "..", "..", "shared", "data", "parts",
-                            "esp32s3box_bottom_housing_352k.stl")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The shared parts beside the clone (as scripts/speed_table.py finds them).
+SHARED = next((p for p in (os.path.join(ROOT, *[".."] * up, "shared") for up in (1, 2))
+               if os.path.isdir(p)), os.path.join(ROOT, "..", "shared"))
+DEFAULT_PART = os.path.join(SHARED, "data", "parts", "esp32s3box_bottom_housing_352k.stl")
+TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
 
 
 def start(binary, args, threads):
@@ -75,7 +78,7 @@ def main():
         argv, extra = argv[:split], argv[split + 1:]
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=11, help="rounds (default 11)")
-    ap.add_argument("--binary", default=os.path.join(HERE, "..", "target", "release", "moldgate"))
+    ap.add_argument("--binary", default=os.path.join(TARGET, "release", "moldgate"))
     ap.add_argument("--part", default=DEFAULT_PART)
     args = ap.parse_args(argv)
     if not hasattr(os, "wait4"):
