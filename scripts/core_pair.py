@@ -50,8 +50,8 @@ def start(binary, args, threads):
     env.pop("RAYON_NUM_THREADS", None)
     if threads is not None:
         env["RAYON_NUM_THREADS"] = str(threads)
-    null = open(os.devnull, "wb")
-    return subprocess.Popen([binary, *args], stdout=null, stderr=null, env=env)
+    return subprocess.Popen([binary, *args], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, env=env)
 
 
 def wait(child, what):
