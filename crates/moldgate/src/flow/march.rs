@@ -15,7 +15,7 @@
 
 use crate::math::DVec3;
 
-use super::voxel::{neighbour_offsets, Voxels};
+use super::voxel::{neighbour_offsets, Neighbours, Voxels};
 
 /// A source of the melt: a point, seeded into the cells around it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -249,7 +249,68 @@ fn march_with(
     voxels: &Voxels,
     sources: &[Source],
     c: impl Fn(u32) -> f64,
+    stop: impl FnMut(u32, f64) -> bool,
+) -> (Field, Option<(f64, Vec<bool>)>) {
+    match &voxels.table {
+        Neighbours::Near(rows) => march_rows(voxels, sources, c, stop, rows.as_slice()),
+        Neighbours::Far(rows) => march_rows(voxels, sources, c, stop, rows.as_slice()),
+    }
+}
+
+/// The rows of neighbours a march reads, either kind of [`Neighbours`]: each kind gets a
+/// march of its own, with the row's reading inlined.
+trait Table: Copy {
+    type Row: ?Sized;
+    fn row(&self, v: u32) -> &Self::Row;
+    /// The neighbour of `v` at offset `k` of its row (`v` itself where there is none).
+    fn at(row: &Self::Row, v: u32, k: usize) -> u32;
+    /// Reads the cache lines of `v`'s row ahead of its use.
+    fn read_ahead(&self, v: u32);
+}
+
+impl Table for &[[u32; 26]] {
+    type Row = [u32; 26];
+    #[inline(always)]
+    fn row(&self, v: u32) -> &[u32; 26] {
+        &self[v as usize]
+    }
+    #[inline(always)]
+    fn at(row: &[u32; 26], v: u32, k: usize) -> u32 {
+        match row[k] {
+            u32::MAX => v,
+            u => u,
+        }
+    }
+    #[inline(always)]
+    fn read_ahead(&self, v: u32) {
+        read_ahead(&self[v as usize]);
+    }
+}
+
+impl Table for &[[i16; 26]] {
+    type Row = [i16; 26];
+    #[inline(always)]
+    fn row(&self, v: u32) -> &[i16; 26] {
+        &self[v as usize]
+    }
+    #[inline(always)]
+    fn at(row: &[i16; 26], v: u32, k: usize) -> u32 {
+        (v as i32 + i32::from(row[k])) as u32
+    }
+    #[inline(always)]
+    fn read_ahead(&self, v: u32) {
+        let row = &self[v as usize];
+        std::hint::black_box((row[0], row[25]));
+    }
+}
+
+/// [`march_with`] on the rows of `table`.
+fn march_rows<T: Table>(
+    voxels: &Voxels,
+    sources: &[Source],
+    c: impl Fn(u32) -> f64,
     mut stop: impl FnMut(u32, f64) -> bool,
+    table: T,
 ) -> (Field, Option<(f64, Vec<bool>)>) {
     let n = voxels.len();
     let h = voxels.h;
@@ -273,16 +334,16 @@ fn march_with(
     // x; a test holds these to `neighbour_offsets`): each neighbour's tests get a branch of
     // their own.
     let half_step: [f64; 26] = std::array::from_fn(|k| offsets[k].1 * h * 0.5);
-    let table = &voxels.table;
     let cancel = voxels.cancel.as_ref();
     let mut accepted = 0u32;
     while let Some(entry) = queue.pop() {
         let v = entry as u32;
         // The next cell taken is most often the queue's top now: its row of neighbours is
-        // asked from memory while this cell's are relaxed (a row is 104 bytes of a table
-        // too large for the cache, and its first read was a quarter of the march's time).
+        // asked from memory while this cell's are relaxed (a row is 52 or 104 bytes of a
+        // table too large for the cache, and its first read was a quarter of the march's
+        // time).
         if let Some(next) = queue.peek_cell() {
-            read_ahead(&table[next as usize]);
+            table.read_ahead(next);
         }
         known[v as usize] = true;
         let tv = t[v as usize];
@@ -295,16 +356,13 @@ fn march_with(
         }
         let cv = c(v);
         let sv = source[v as usize];
-        let row = &table[v as usize];
+        let row = table.row(v);
         // A face neighbour: the straight step and the fast-marching update of u from its
         // accepted face neighbours, v now among them.
         macro_rules! relax_face {
             ($k:expr, $axis:expr) => {{
                 // No neighbour there: v itself, accepted.
-                let u = match row[$k] {
-                    u32::MAX => v,
-                    u => u,
-                };
+                let u = T::at(row, v, $k);
                 if !known[u as usize] {
                     let cu = c(u);
                     let least: &mut [f64; 3] = &mut axis_least[u as usize];
@@ -325,10 +383,7 @@ fn march_with(
         macro_rules! relax_step {
             ($k:expr) => {{
                 // No neighbour there: v itself, whose value the step does not lower either.
-                let u = match row[$k] {
-                    u32::MAX => v,
-                    u => u,
-                };
+                let u = T::at(row, v, $k);
                 let best = tv + half_step[$k] * (cv + c(u));
                 if best < t[u as usize] && !known[u as usize] {
                     t[u as usize] = best;
@@ -627,7 +682,6 @@ mod tests {
             };
             [find(-1), find(1)]
         });
-        let table = &voxels.table;
         while let Some(Reverse(entry)) = heap.pop() {
             let v = entry as u32;
             if known[v as usize] {
@@ -637,8 +691,7 @@ mod tests {
             let tv = t[v as usize];
             let cv = c(v);
             let sv = source[v as usize];
-            let row = &table[v as usize];
-            for (k, &u) in row.iter().enumerate() {
+            for (k, u) in voxels.table.of(v).into_iter().enumerate() {
                 if u == u32::MAX || known[u as usize] {
                     continue;
                 }
@@ -647,7 +700,7 @@ mod tests {
                 let mut best = tv + step[k] * 0.5 * (cv + cu);
                 // Fast-marching update of u from its known face neighbours.
                 if step[k] == h {
-                    let ru = &table[u as usize];
+                    let ru = voxels.table.of(u);
                     let mut a = [f64::INFINITY; 3];
                     for (axis, pair) in face_pair.iter().enumerate() {
                         for &slot in pair {
@@ -695,20 +748,60 @@ mod tests {
                 cell: c,
             };
             let n = v.len() as u32;
+            // The same cells with their neighbours as numbers rather than offsets (the kind
+            // a part with a layer of more than 32,767 cells gets) march to the same bits.
+            assert!(matches!(v.table, Neighbours::Near(_)), "{name}");
+            let mut far = v.clone();
+            far.table = Neighbours::Far(v.neighbour_table());
+            for c in 0..n {
+                assert_eq!(v.table.of(c), far.table.of(c), "{name} {c}");
+            }
             for sources in [vec![at(0)], vec![at(n / 3), at(n - 1)]] {
                 for c in [None, Some(&cost[..]), Some(&wide[..])] {
-                    let (new, old) = (march(&v, &sources, c), reference_march(&v, &sources, c));
-                    assert_eq!(new.source, old.source, "{name}");
-                    assert!(
-                        new.t
-                            .iter()
-                            .zip(&old.t)
-                            .all(|(a, b)| a.to_bits() == b.to_bits()),
-                        "{name}: the fields differ"
-                    );
+                    let old = reference_march(&v, &sources, c);
+                    for (kind, cells) in [("offsets", &v), ("numbers", &far)] {
+                        let new = march(cells, &sources, c);
+                        assert_eq!(new.source, old.source, "{name} {kind}");
+                        assert!(
+                            new.t
+                                .iter()
+                                .zip(&old.t)
+                                .all(|(a, b)| a.to_bits() == b.to_bits()),
+                            "{name} {kind}: the fields differ"
+                        );
+                    }
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_layer_of_more_than_32767_cells_keeps_the_neighbours_as_numbers() {
+        // A plate 200 x 200 cells across and 3 thick: a neighbour in the next layer is
+        // about 40,000 cells on, past a 16-bit offset.
+        let mut plate = crate::samples::BoxUnion::default();
+        plate.add([0.0, 0.0, 0.0], [200.0, 200.0, 2.5]);
+        let mesh = plate.mesh();
+        let v = Voxels::new(&mesh, 1.0);
+        assert!(v.len() > 2 * 32_768, "{}", v.len());
+        let Neighbours::Far(rows) = &v.table else {
+            panic!("offsets past 16 bits kept");
+        };
+        assert_eq!(rows, &v.neighbour_table());
+        let sources = [Source {
+            point: v.centre(0),
+            cell: 0,
+        }];
+        let (new, old) = (
+            march(&v, &sources, None),
+            reference_march(&v, &sources, None),
+        );
+        assert_eq!(new.source, old.source);
+        assert!(new
+            .t
+            .iter()
+            .zip(&old.t)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 
     #[test]

@@ -1115,7 +1115,7 @@ fn weld_lines(v: &Voxels, t: &[f64]) -> Vec<WeldLine> {
             let pc = v.centre(c);
             // The neighbours in the table's order, which is `offsets`'; where the fronts
             // meet at less than the limit (almost every pair), nothing more is asked.
-            for &n in &v.table[c as usize] {
+            for n in v.table.of(c) {
                 if n == u32::MAX {
                     continue;
                 }

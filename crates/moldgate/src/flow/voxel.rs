@@ -40,6 +40,32 @@ fn chunks(n: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize
         .map(move |b| b * BLOCK..((b + 1) * BLOCK).min(n))
 }
 
+/// The 26 neighbours of each solid cell, in [`neighbour_offsets`] order.
+#[derive(Debug, Clone)]
+pub(crate) enum Neighbours {
+    /// As offsets from the cell's own number, 0 where there is none: 52 bytes a cell
+    /// against [`Neighbours::Far`]'s 104, taken whenever every offset fits in 16 bits (the
+    /// solid cells of a layer of the grid number fewer than 32,768), so that a march reads
+    /// half the memory.
+    Near(Vec<[i16; 26]>),
+    /// As cell numbers, [`EMPTY`] where there is none.
+    Far(Vec<[u32; 26]>),
+}
+
+impl Neighbours {
+    /// The neighbours of cell `c`, [`EMPTY`] where there is none.
+    #[inline]
+    pub(crate) fn of(&self, c: u32) -> [u32; 26] {
+        match self {
+            Neighbours::Near(rows) => rows[c as usize].map(|o| match o {
+                0 => EMPTY,
+                o => (c as i32 + i32::from(o)) as u32,
+            }),
+            Neighbours::Far(rows) => rows[c as usize],
+        }
+    }
+}
+
 /// Solid cells of a part.
 #[derive(Debug, Clone)]
 pub struct Voxels {
@@ -56,7 +82,7 @@ pub struct Voxels {
     /// Dense index of each solid cell.
     dense: Vec<u32>,
     /// The 26 neighbours of each solid cell (see [`Voxels::neighbour_table`]).
-    pub(crate) table: Vec<[u32; 26]>,
+    pub(crate) table: Neighbours,
     /// For each solid cell, a triangle that passes through it or, for interior cells, the
     /// triangle of the nearest surface cell (by breadth-first steps).
     pub triangle: Vec<u32>,
@@ -435,7 +461,7 @@ impl Voxels {
             index,
             cells,
             dense,
-            table: Vec::new(),
+            table: Neighbours::Far(Vec::new()),
             triangle,
             surface: surface_flags,
             body,
@@ -443,7 +469,7 @@ impl Voxels {
             open_columns,
             cancel: None,
         };
-        voxels.table = voxels.neighbour_table();
+        voxels.table = voxels.neighbours();
         voxels.spread_triangles();
         voxels
     }
@@ -575,7 +601,7 @@ impl Voxels {
             let mut next = Vec::new();
             for &c in &frontier {
                 let t = self.triangle[c as usize];
-                for &n in &self.table[c as usize] {
+                for n in self.table.of(c) {
                     if n != EMPTY && self.triangle[n as usize] == EMPTY {
                         self.triangle[n as usize] = t;
                         next.push(n);
@@ -583,6 +609,35 @@ impl Voxels {
                 }
             }
             frontier = next;
+        }
+    }
+
+    /// The neighbours of every solid cell, as offsets when they all fit in 16 bits (see
+    /// [`Neighbours`]), else as [`Voxels::neighbour_table`].
+    fn neighbours(&self) -> Neighbours {
+        let strides: Vec<isize> = neighbour_offsets()
+            .iter()
+            .map(|&(o, _)| self.stride(o))
+            .collect();
+        let near: Option<Vec<[i16; 26]>> = self
+            .dense
+            .par_iter()
+            .zip(&self.body)
+            .enumerate()
+            .map(|(c, (&d, &b))| {
+                let mut row = [0i16; 26];
+                for (o, stride) in row.iter_mut().zip(&strides) {
+                    let n = self.index[(d as isize + stride) as usize];
+                    if n != EMPTY && self.body[n as usize] == b {
+                        *o = i16::try_from(i64::from(n) - c as i64).ok()?;
+                    }
+                }
+                Some(row)
+            })
+            .collect();
+        match near {
+            Some(rows) => Neighbours::Near(rows),
+            None => Neighbours::Far(self.neighbour_table()),
         }
     }
 
