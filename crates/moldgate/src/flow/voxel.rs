@@ -44,9 +44,9 @@ fn chunks(n: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize
 #[derive(Debug, Clone)]
 pub(crate) enum Neighbours {
     /// As offsets from the cell's own number, 0 where there is none: 52 bytes a cell
-    /// against [`Neighbours::Far`]'s 104, taken whenever every offset fits in 16 bits (the
-    /// solid cells of a layer of the grid number fewer than 32,768), so that a march reads
-    /// half the memory.
+    /// against [`Neighbours::Far`]'s 104, taken whenever every offset fits in 16 bits
+    /// (cells are numbered layer by layer, so about when a layer of the grid holds fewer
+    /// than 32,000 solid cells), so that a march reads half the memory.
     Near(Vec<[i16; 26]>),
     /// As cell numbers, [`EMPTY`] where there is none.
     Far(Vec<[u32; 26]>),
