@@ -257,60 +257,37 @@ fn march_with(
     }
 }
 
-/// The rows of neighbours a march reads, either kind of [`Neighbours`]: each kind gets a
-/// march of its own, with the row's reading inlined.
-trait Table: Copy {
-    type Row: ?Sized;
-    fn row(&self, v: u32) -> &Self::Row;
-    /// The neighbour of `v` at offset `k` of its row (`v` itself where there is none).
-    fn at(row: &Self::Row, v: u32, k: usize) -> u32;
-    /// Reads the cache lines of `v`'s row ahead of its use.
-    fn read_ahead(&self, v: u32);
+/// An entry of a row of [`Neighbours`], as a march reads it: each kind of table gets a
+/// march of its own, with the entry's reading inlined.
+trait Entry: Copy {
+    /// The neighbour this entry of cell `v`'s row names (`v` itself where there is none).
+    fn neighbour(self, v: u32) -> u32;
 }
 
-impl Table for &[[u32; 26]] {
-    type Row = [u32; 26];
+impl Entry for u32 {
     #[inline(always)]
-    fn row(&self, v: u32) -> &[u32; 26] {
-        &self[v as usize]
-    }
-    #[inline(always)]
-    fn at(row: &[u32; 26], v: u32, k: usize) -> u32 {
-        match row[k] {
+    fn neighbour(self, v: u32) -> u32 {
+        match self {
             u32::MAX => v,
             u => u,
         }
     }
-    #[inline(always)]
-    fn read_ahead(&self, v: u32) {
-        read_ahead(&self[v as usize]);
-    }
 }
 
-impl Table for &[[i16; 26]] {
-    type Row = [i16; 26];
+impl Entry for i16 {
     #[inline(always)]
-    fn row(&self, v: u32) -> &[i16; 26] {
-        &self[v as usize]
-    }
-    #[inline(always)]
-    fn at(row: &[i16; 26], v: u32, k: usize) -> u32 {
-        (v as i32 + i32::from(row[k])) as u32
-    }
-    #[inline(always)]
-    fn read_ahead(&self, v: u32) {
-        let row = &self[v as usize];
-        std::hint::black_box((row[0], row[25]));
+    fn neighbour(self, v: u32) -> u32 {
+        (v as i32 + i32::from(self)) as u32
     }
 }
 
 /// [`march_with`] on the rows of `table`.
-fn march_rows<T: Table>(
+fn march_rows<E: Entry>(
     voxels: &Voxels,
     sources: &[Source],
     c: impl Fn(u32) -> f64,
     mut stop: impl FnMut(u32, f64) -> bool,
-    table: T,
+    table: &[[E; 26]],
 ) -> (Field, Option<(f64, Vec<bool>)>) {
     let n = voxels.len();
     let h = voxels.h;
@@ -343,7 +320,7 @@ fn march_rows<T: Table>(
         // table too large for the cache, and its first read was a quarter of the march's
         // time).
         if let Some(next) = queue.peek_cell() {
-            table.read_ahead(next);
+            read_ahead(&table[next as usize]);
         }
         known[v as usize] = true;
         let tv = t[v as usize];
@@ -356,13 +333,13 @@ fn march_rows<T: Table>(
         }
         let cv = c(v);
         let sv = source[v as usize];
-        let row = table.row(v);
+        let row = &table[v as usize];
         // A face neighbour: the straight step and the fast-marching update of u from its
         // accepted face neighbours, v now among them.
         macro_rules! relax_face {
             ($k:expr, $axis:expr) => {{
                 // No neighbour there: v itself, accepted.
-                let u = T::at(row, v, $k);
+                let u = row[$k].neighbour(v);
                 if !known[u as usize] {
                     let cu = c(u);
                     let least: &mut [f64; 3] = &mut axis_least[u as usize];
@@ -383,7 +360,7 @@ fn march_rows<T: Table>(
         macro_rules! relax_step {
             ($k:expr) => {{
                 // No neighbour there: v itself, whose value the step does not lower either.
-                let u = T::at(row, v, $k);
+                let u = row[$k].neighbour(v);
                 let best = tv + half_step[$k] * (cv + c(u));
                 if best < t[u as usize] && !known[u as usize] {
                     t[u as usize] = best;
@@ -427,8 +404,8 @@ fn march_rows<T: Table>(
 /// processor goes on with the work before it while they come (a plain read rather than a
 /// prefetch instruction, which needs `unsafe`).
 #[inline(always)]
-fn read_ahead(row: &[u32; 26]) {
-    // The first, middle and last entries: every cache line of the 104 bytes.
+fn read_ahead<E: Entry>(row: &[E; 26]) {
+    // The first, middle and last entries: every cache line of the 52 or 104 bytes.
     std::hint::black_box((row[0], row[13], row[25]));
 }
 

@@ -615,21 +615,14 @@ impl Voxels {
     /// The neighbours of every solid cell, as offsets when they all fit in 16 bits (see
     /// [`Neighbours`]), else as [`Voxels::neighbour_table`].
     fn neighbours(&self) -> Neighbours {
-        let strides: Vec<isize> = neighbour_offsets()
-            .iter()
-            .map(|&(o, _)| self.stride(o))
-            .collect();
-        let near: Option<Vec<[i16; 26]>> = self
-            .dense
-            .par_iter()
-            .zip(&self.body)
-            .enumerate()
-            .map(|(c, (&d, &b))| {
+        let strides = self.neighbour_strides();
+        let near: Option<Vec<[i16; 26]>> = (0..self.len() as u32)
+            .into_par_iter()
+            .map(|c| {
                 let mut row = [0i16; 26];
-                for (o, stride) in row.iter_mut().zip(&strides) {
-                    let n = self.index[(d as isize + stride) as usize];
-                    if n != EMPTY && self.body[n as usize] == b {
-                        *o = i16::try_from(i64::from(n) - c as i64).ok()?;
+                for (o, n) in row.iter_mut().zip(self.neighbour_row(c, &strides)) {
+                    if n != EMPTY {
+                        *o = i16::try_from(i64::from(n) - i64::from(c)).ok()?;
                     }
                 }
                 Some(row)
@@ -644,24 +637,32 @@ impl Voxels {
     /// The 26 neighbours of every solid cell, in [`neighbour_offsets`] order (`u32::MAX`
     /// where the neighbour is not solid).
     pub fn neighbour_table(&self) -> Vec<[u32; 26]> {
-        let strides: Vec<isize> = neighbour_offsets()
-            .iter()
-            .map(|&(o, _)| self.stride(o))
-            .collect();
-        self.dense
-            .par_iter()
-            .zip(&self.body)
-            .map(|(&d, &b)| {
-                std::array::from_fn(|k| {
-                    let n = self.index[(d as isize + strides[k]) as usize];
-                    if n != EMPTY && self.body[n as usize] == b {
-                        n
-                    } else {
-                        EMPTY
-                    }
-                })
-            })
+        let strides = self.neighbour_strides();
+        (0..self.len() as u32)
+            .into_par_iter()
+            .map(|c| self.neighbour_row(c, &strides))
             .collect()
+    }
+
+    /// The offsets in the dense grid of the 26 neighbours, in [`neighbour_offsets`] order.
+    fn neighbour_strides(&self) -> [isize; 26] {
+        let offsets = neighbour_offsets();
+        std::array::from_fn(|k| self.stride(offsets[k].0))
+    }
+
+    /// The 26 neighbours of cell `c` in its body (`u32::MAX` where the neighbour is not
+    /// solid or is of another body), `strides` from [`Voxels::neighbour_strides`].
+    #[inline]
+    fn neighbour_row(&self, c: u32, strides: &[isize; 26]) -> [u32; 26] {
+        let (d, b) = (self.dense[c as usize], self.body[c as usize]);
+        strides.map(|stride| {
+            let n = self.index[(d as isize + stride) as usize];
+            if n != EMPTY && self.body[n as usize] == b {
+                n
+            } else {
+                EMPTY
+            }
+        })
     }
 
     /// Number of solid cells.
