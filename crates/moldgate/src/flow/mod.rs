@@ -1240,26 +1240,20 @@ pub fn balanced_gate_from(
 ) -> Option<Balanced> {
     let _arrays = march::KeepArrays::new();
     balanced_search(
-        domain,
-        candidates,
-        objective,
-        first,
-        start,
-        tolerance,
-        FAR_REACH,
-        |_| (),
+        domain, candidates, objective, first, start, tolerance, FAR_REACH,
     )
-    .map(|(b, _)| b)
 }
 
 /// [`balanced_gate_from`], its runs from far points stopped past `far_reach` times the
 /// least worst value known (any positive reach gives the same answer; the tests try
-/// several). Beside the run of each candidate it evaluates, `beside(candidate)` runs on
-/// another thread when one is idle (that run alone would leave it so), and not at all
-/// otherwise; what it gave for the chosen candidate comes back with the choice, when that
-/// candidate was the last evaluated and a thread was free to make it.
-#[allow(clippy::too_many_arguments)]
-fn balanced_search<T: Send>(
+/// several).
+///
+/// Each candidate's run is a march on one thread, with nothing beside it: the candidate's
+/// field for its fill, marched on the idle thread beside each run and kept after the last,
+/// cost the small shared parts a fifth to a quarter more CPU time and a few per cent more
+/// wall time (the two marches compete for memory), and saved nothing on the housing
+/// (docs/performance.md).
+fn balanced_search(
     domain: &Domain,
     candidates: &[Source],
     objective: Objective,
@@ -1267,8 +1261,7 @@ fn balanced_search<T: Send>(
     start: &Field,
     tolerance: f64,
     far_reach: f64,
-    beside: impl Fn(usize) -> T + Sync,
-) -> Option<(Balanced, Option<T>)> {
+) -> Option<Balanced> {
     let cost = domain.cost(objective);
     let v = &domain.voxels;
     let body = domain.body[first.cell as usize];
@@ -1350,13 +1343,7 @@ fn balanced_search<T: Send>(
             point: v.centre(candidates[best].cell),
             cell: candidates[best].cell,
         };
-        // `beside` runs only on a thread that would otherwise wait (one that took it from
-        // this one): its work is kept only after the last run, so on a busy or single
-        // thread it is left to the caller, who makes it for the chosen candidate alone.
-        let (field, aside) = rayon::join_context(
-            |_| march(v, &[centred], cost),
-            |ctx| ctx.migrated().then(|| beside(best)),
-        );
+        let field = march(v, &[centred], cost);
         runs += 1;
         let value = argmax(&field.t).1;
         if seen.is_none_or(|(v, _)| value < v) {
@@ -1371,15 +1358,13 @@ fn balanced_search<T: Send>(
             } else {
                 seen.expect("one run")
             };
-            let aside = aside.filter(|_| candidate == best);
-            let balanced = Balanced {
+            return Some(Balanced {
                 candidate,
                 value,
                 lower_bound: bound[best],
                 runs,
                 proven,
-            };
-            return Some((balanced, aside));
+            });
         }
         far = far_points(v, &field.t, FAR_POINTS);
     }
@@ -3049,12 +3034,10 @@ pub fn analyse_prepared(
                 &length,
                 h,
                 FAR_REACH,
-                |c| march(v, &[candidates[c]], None),
             )
-            // The chosen candidate's field, when no idle thread made it beside the
-            // search's last run: made here rather than after both sides.
-            .map(|(found, aside)| {
-                let field = aside.unwrap_or_else(|| march(v, &[candidates[found.candidate]], None));
+            // The chosen candidate's field, made here rather than after both sides.
+            .map(|found| {
+                let field = march(v, &[candidates[found.candidate]], None);
                 (found, Some(field))
             })
         });
@@ -3121,8 +3104,8 @@ pub fn analyse_prepared(
                     start,
                     h,
                     FAR_REACH,
-                    |c| march(v, &[candidates[c]], kind.cost(&domain)),
                 )
+                .map(|found| (found, None))
             })
         },
     );
@@ -3140,8 +3123,8 @@ pub fn analyse_prepared(
         Objective::Length => (|f| f.l_max_mm, 1.0),
         Objective::Resistance => (|f| f.fill_time_s, per_mm),
     };
-    // The balanced gate: its objective's field was marched beside the search's last run,
-    // and decides whether it beats the paper gate (the same value its fill reports). Its
+    // The balanced gate: its objective's field (marched beside the walls for the flow
+    // length, here for the fill order) decides whether it beats the paper gate (the same value its fill reports). Its
     // other two fields and its summary, needed only for the report, are made beside the
     // suitability map and the several-gate search, which read the objective's field only.
     let head = search.map(|(search, aside)| {
@@ -4432,14 +4415,9 @@ mod tests {
                         &start,
                         0.5 * h,
                         far_reach,
-                        |c| c,
                     )
                     .expect("a pool");
                     let what = format!("{name} h {h} {objective:?} reach {far_reach}");
-                    // What ran beside the chosen candidate's run is its own; it ran only
-                    // where a thread was idle, so it may be missing.
-                    let (new, aside) = new;
-                    assert!(aside.is_none_or(|c| c == new.candidate), "{what}");
                     assert_eq!(new.candidate, old.candidate, "{what}");
                     assert_eq!(new.value.to_bits(), old.value.to_bits(), "{what}");
                     assert_eq!(
@@ -4454,10 +4432,10 @@ mod tests {
     }
 
     #[test]
-    fn the_balanced_search_works_beside_its_runs_only_on_an_idle_thread() {
-        // On one thread nothing is idle: the work beside each run is never made (it would
-        // be dropped for every candidate but the last), and the choice is the same as on
-        // two threads, where an idle thread makes it for the runs it reaches in time.
+    fn the_balanced_search_gives_one_answer_on_any_number_of_threads() {
+        // The far points' runs are marched side by side and each candidate's run alone:
+        // the choice, its value, its bound and the count of runs are the same on one
+        // thread as on two.
         let pp = Material::builtin("PP").expect("PP");
         let mesh = crate::samples::sample("tray").expect("sample");
         let domain = Domain::new(&mesh, 1.5, None, 2.0, &pp);
@@ -4471,14 +4449,12 @@ mod tests {
             .collect();
         let first = candidates[0];
         let start = march(&domain.voxels, &[first], None);
-        let asked = std::sync::atomic::AtomicUsize::new(0);
         let on = |threads: usize| {
-            asked.store(0, std::sync::atomic::Ordering::Relaxed);
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .expect("pool");
-            let found = pool.install(|| {
+            pool.install(|| {
                 balanced_search(
                     &domain,
                     &candidates,
@@ -4487,26 +4463,30 @@ mod tests {
                     &start,
                     0.75,
                     FAR_REACH,
-                    |c| {
-                        asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        c
-                    },
                 )
                 .expect("a pool")
-            });
-            (found, asked.load(std::sync::atomic::Ordering::Relaxed))
+            })
         };
-        let ((one, aside), beside) = on(1);
-        assert_eq!(
-            (aside, beside),
-            (None, 0),
-            "one thread: nothing beside the runs"
-        );
+        let one = on(1);
         assert!(one.runs > 1, "the search ran no candidate");
-        let ((two, aside), _) = on(2);
-        assert!(aside.is_none_or(|c| c == two.candidate));
-        assert_eq!(two.candidate, one.candidate);
-        assert_eq!(two.value.to_bits(), one.value.to_bits());
-        assert_eq!((two.runs, two.proven), (one.runs, one.proven));
+        for threads in [2, 3] {
+            let other = on(threads);
+            assert_eq!(other.candidate, one.candidate, "{threads} threads");
+            assert_eq!(
+                other.value.to_bits(),
+                one.value.to_bits(),
+                "{threads} threads"
+            );
+            assert_eq!(
+                other.lower_bound.to_bits(),
+                one.lower_bound.to_bits(),
+                "{threads} threads"
+            );
+            assert_eq!(
+                (other.runs, other.proven),
+                (one.runs, one.proven),
+                "{threads} threads"
+            );
+        }
     }
 }
