@@ -356,11 +356,12 @@ fn summary_table(h: &mut String, r: &Report) {
         h,
         "Parting line",
         &format!(
-            "{:.1} mm, {} edges, {} ({} loops found)",
+            "{:.1} mm, {} edges, {} ({} loop{} found)",
             p.length_mm,
             p.edges,
             if p.closed { "closed" } else { "open" },
-            p.loops
+            p.loops,
+            if p.loops == 1 { "" } else { "s" }
         ),
     );
     let _ = writeln!(h, "</table>");

@@ -276,6 +276,23 @@ fn the_html_report_gives_each_body_its_own_nominal_wall() {
     }
 }
 
+/// The page counts the parting line's loops in words that agree with their number: one
+/// plate has one loop, two plates side by side two.
+#[test]
+fn the_html_report_counts_the_parting_line_s_loops_in_the_singular_and_the_plural() {
+    let mut one = moldgate::samples::BoxUnion::default();
+    one.add([0.0, 0.0, 0.0], [40.0, 20.0, 2.0]);
+    let mut two = moldgate::samples::BoxUnion::default();
+    two.add([0.0, 0.0, 0.0], [40.0, 20.0, 2.0]);
+    two.add([50.0, 0.0, 0.0], [90.0, 20.0, 2.0]);
+    for (boxes, words) in [(one, "(1 loop found)"), (two, "(2 loops found)")] {
+        let part = moldgate::mesh::from_generated(boxes.mesh());
+        let s = study(&part, &options(r#"{ "demold": "+z" }"#)).unwrap();
+        let page = s.html(None).unwrap();
+        assert!(page.contains(words), "{words} not on the page");
+    }
+}
+
 #[test]
 fn a_grid_gate_on_a_rib_is_warned_not_flat_alike_in_the_report_and_the_page() {
     // A plate 40 x 40 x 2 with a rib 2 mm wide and 1 mm high across its middle: the centre
