@@ -1655,8 +1655,8 @@ fn in_body(domain: &Domain, candidates: &[Source], body: u32) -> Vec<usize> {
 const FAR_POINTS: usize = 6;
 
 /// Rounds of the balanced search whose candidate's run has the candidate's own field
-/// marched beside it on an idle thread (kept when that candidate is the one chosen at the
-/// end of that round). On the shared parts every search that proves its gate does so
+/// marched beside it on an idle thread (kept when that round is the search's last and its
+/// candidate the one chosen). On the shared parts every search that proves its gate does so
 /// within 4 rounds (1 round on 7 parts, 2 on 3, 3 on 1, 4 on 2), and the others run to
 /// the limit of runs (11 to 18 rounds) and choose the best seen, most often not the last:
 /// a side march past the first rounds is dropped, and it competes with the run for memory.
