@@ -122,15 +122,28 @@ function gateFill(id, title, f) {
   return el("div", { id }, el("h4", {}, title), list(null, rows), el("p", {}, "Last to fill:"), last, el("p", {}, "Weld lines (where fronts meet):"), welds);
 }
 
+/** What a balanced search that stopped unproven leaves open, in the words of the
+ * command line's summary: no candidate is below the search's lower bound. */
+function unproven(search) {
+  const gap = search.value > 0 && Number.isFinite(search.lower_bound)
+    ? Math.max(0, 100 * (search.value - Math.max(0, search.lower_bound)) / search.value)
+    : null;
+  return gap === null
+    ? `not proven optimal after ${search.runs} flow fields`
+    : `not proven optimal after ${search.runs} flow fields: a candidate could be up to ${gap.toFixed(1)} % lower`;
+}
+
 /** The fill section; `mode`: "paper" or "aesthetic", the rule of the gate `f.paper` fills from. */
 function fillSection(f, mode) {
   const parts = [el("p", {}, `${f.cells.toLocaleString("en")} cells of ${f.cell_mm.toFixed(3)} mm; nominal wall ${f.nominal_wall_mm.toFixed(2)} mm (${f.wall_source === "measured" ? "measured" : "2V/A estimate"})`)];
   if (f.paper) parts.push(gateFill("fill-paper", mode === "aesthetic" ? "From the aesthetic gate" : "From the paper's gate", f.paper));
   if (f.balanced && !f.balanced.is_paper_gate) {
     parts.push(gateFill("fill-balanced", "From the balanced gate", f.balanced.fill));
-    parts.push(el("p", {}, `The balanced gate shortens the worst flow by ${f.balanced.improvement_pct.toFixed(1)} %.`));
+    parts.push(el("p", { id: "balanced-verdict" }, `The balanced gate shortens ${f.objective === "resistance" ? "the fill time" : "the worst flow"} by ${f.balanced.improvement_pct.toFixed(1)} %${f.balanced.search.proven ? "." : `; ${unproven(f.balanced.search)}.`}`));
   } else if (f.balanced) {
-    parts.push(el("p", {}, "The balanced gate is the paper's gate: no candidate does better by more than a flow cell."));
+    parts.push(el("p", { id: "balanced-verdict" }, f.balanced.search.proven
+      ? "The balanced gate is the paper's gate: no candidate does better by more than a flow cell."
+      : `The balanced gate is the paper's gate: no candidate tried did better by more than a flow cell; ${unproven(f.balanced.search)}.`));
   }
   if (f.body_gates?.length) parts.push(bodyGates(f.body_gates));
   if (f.suitability) parts.push(suitabilityPart(f.suitability));

@@ -170,6 +170,13 @@ describe("moldgate in the browser", () => {
     assert.ok(!expected.fill.balanced.is_paper_gate);
     const balanced = await page.$eval("#fill-balanced .gate-at", (e) => ["x", "y", "z"].map((a) => Number(e.dataset[a])));
     assert.deepEqual(balanced, expected.fill.balanced.fill.gate);
+    // Its search stops unproven on this part: the page says so, with the most a candidate
+    // could still gain below it (no candidate is below the search's lower bound).
+    const search = expected.fill.balanced.search;
+    assert.equal(search.proven, false);
+    const gap = (100 * (search.value - search.lower_bound)) / search.value;
+    const verdict = await page.$eval("#balanced-verdict", (e) => e.textContent);
+    assert.ok(verdict.includes(`not proven optimal after ${search.runs} flow fields: a candidate could be up to ${gap.toFixed(1)} % lower`), verdict);
     await page.uncheck("#fill");
   });
 

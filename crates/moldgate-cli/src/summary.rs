@@ -101,12 +101,17 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         Some(b) if b.is_paper_gate => {
             let _ = writeln!(
                 s,
-                "  balanced gate: the paper gate (no candidate does better by more than a flow cell, {} flow fields{})",
-                b.search.runs,
+                "  balanced gate: the paper gate ({})",
                 if b.search.proven {
-                    ""
+                    format!(
+                        "no candidate does better by more than a flow cell, {} flow fields",
+                        b.search.runs
+                    )
                 } else {
-                    "; the search stopped unproven"
+                    format!(
+                        "no candidate tried did better by more than a flow cell; {}",
+                        b.search.unproven_words()
+                    )
                 }
             );
         }
@@ -114,17 +119,16 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             fill_line(s, "balanced gate", &b.fill);
             let _ = writeln!(
                 s,
-                "    shortens {} by {:.1} % ({} flow fields{})",
+                "    shortens {} by {:.1} % ({})",
                 match f.objective {
                     moldgate::flow::Objective::Length => "the longest flow",
                     moldgate::flow::Objective::Resistance => "the fill time",
                 },
                 b.improvement_pct,
-                b.search.runs,
                 if b.search.proven {
-                    ", optimal"
+                    format!("{} flow fields, optimal", b.search.runs)
                 } else {
-                    ", not proven optimal"
+                    b.search.unproven_words()
                 }
             );
         }
@@ -643,8 +647,9 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             Some(b) if b.is_paper_gate => {
                 let _ = writeln!(
                     s,
-                    "  {:<30} the paper gate (no candidate better by more than a cell)",
-                    "balanced gate"
+                    "  {:<30} the paper gate (no candidate {} better by more than a cell)",
+                    "balanced gate",
+                    if b.search.proven { "is" } else { "tried was" }
                 );
             }
             Some(b) => row(s, "balanced gate", &b.fill),

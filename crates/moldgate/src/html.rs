@@ -584,11 +584,21 @@ fn fill_table(h: &mut String, r: &Report) {
         let _ = writeln!(h, "<tr><th>{label}</th>{}</tr>", fill_cells(p));
     }
     if let Some(b) = &f.balanced {
-        let label = if b.is_paper_gate {
-            "balanced gate (the paper gate: no candidate better by more than a flow cell)"
-                .to_string()
-        } else {
-            format!("balanced gate ({:.1} % lower)", b.improvement_pct)
+        let label = match (b.is_paper_gate, b.search.proven) {
+            (true, true) => {
+                "balanced gate (the paper gate: no candidate better by more than a flow cell)"
+                    .to_string()
+            }
+            (true, false) => format!(
+                "balanced gate (the paper gate: no candidate tried better by more than a flow cell; {})",
+                b.search.unproven_words()
+            ),
+            (false, true) => format!("balanced gate ({:.1} % lower)", b.improvement_pct),
+            (false, false) => format!(
+                "balanced gate ({:.1} % lower; {})",
+                b.improvement_pct,
+                b.search.unproven_words()
+            ),
         };
         let _ = writeln!(
             h,
