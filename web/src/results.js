@@ -220,11 +220,25 @@ function wallSection(w) {
 function timingsSection(r, page) {
   const t = r.timings;
   const ms = (s) => `${(1000 * s).toFixed(1)} ms`;
+  // The stages as the command line's time line gives them: the gate's location is the grid,
+  // the rays (the centre of mass and the parting line alongside) and the selection; the ray
+  // tree and the fill's cells run beside it (or beside the automatic direction's choice,
+  // which holds the gate's location), and the whole is every stage once.
   const rows = [
-    [r.input.sample ? "Make the sample" : "Read the file", ms(t.load_s)], ["Gate location", ms(t.total_s - t.load_s)],
-    ["Grid / rays / selection", `${ms(t.grid_s)} / ${ms(t.projection_s)} / ${ms(t.select_s)}`],
+    [r.input.sample ? "Make the sample" : "Read the file", ms(t.load_s), { id: "time-load", "data-value": t.load_s }],
   ];
-  if (r.fill) rows.push(["Fill analysis", ms(Object.values(r.fill.times).reduce((a, b) => a + b, 0))]);
+  if (t.demold_s != null) rows.push(["Automatic direction", ms(t.demold_s), { id: "time-demold", "data-value": t.demold_s }]);
+  const located = t.grid_s + t.projection_s + t.select_s;
+  rows.push(["Gate location", ms(located), { id: "time-locate", "data-value": located }]);
+  rows.push(["Grid / rays / selection", `${ms(t.grid_s)} / ${ms(t.projection_s)} / ${ms(t.select_s)}`]);
+  if (t.tree_s != null) rows.push(["Ray tree", `${ms(t.tree_s)} (beside the ${t.demold_s != null ? "choice of direction" : "gate's location"})`]);
+  if (t.wall_s != null) rows.push(["Wall thickness", ms(t.wall_s), { id: "time-wall", "data-value": t.wall_s }]);
+  // The fill's cells are made with the ray tree, beside the gate's location where threads
+  // allow; the fill's own time is the rest of it.
+  const cells = r.fill?.times.cells_beside_s ?? 0;
+  if (cells > 0) rows.push(["Fill's cells", `${ms(cells)} (with the ray tree)`]);
+  if (t.fill_s != null) rows.push(["Fill analysis", ms(t.fill_s), { id: "time-fill", "data-value": t.fill_s }]);
+  rows.push(["Whole analysis", ms(t.total_s), { id: "time-total", "data-value": t.total_s }]);
   if (page) {
     rows.push(["Whole study in the browser", `${page.study_ms.toFixed(0)} ms`, { id: "time-study", "data-value": page.study_ms }]);
     rows.push(["3D file", `${page.glb_ms.toFixed(0)} ms`, { id: "time-glb", "data-value": page.glb_ms }]);

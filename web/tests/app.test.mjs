@@ -177,6 +177,12 @@ describe("moldgate in the browser", () => {
     const gap = (100 * (search.value - search.lower_bound)) / search.value;
     const verdict = await page.$eval("#balanced-verdict", (e) => e.textContent);
     assert.ok(verdict.includes(`not proven optimal after ${search.runs} flow fields: a candidate could be up to ${gap.toFixed(1)} % lower`), verdict);
+    // The time rows are the stages', each once: the gate's location is not the whole
+    // analysis less the reading (here the fill is most of it).
+    const time = (id) => page.$eval(`#${id}`, (e) => Number(e.dataset.value));
+    const [load, located, fill, total] = [await time("time-load"), await time("time-locate"), await time("time-fill"), await time("time-total")];
+    assert.ok(located > 0 && located < fill, `gate location ${located} s, fill ${fill} s`);
+    assert.ok(load + located + fill <= total * 1.001 + 1e-6, `${load} + ${located} + ${fill} s over the whole ${total} s`);
     await page.uncheck("#fill");
   });
 
