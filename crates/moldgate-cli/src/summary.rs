@@ -87,6 +87,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
                 seconds_text(q.fill_time_s)
             );
         }
+        more(s, p.last_to_fill.len(), "last places to fill");
         for w in p.weld_lines.iter().take(3) {
             let _ = writeln!(
                 s,
@@ -96,6 +97,7 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
                 w.flow_length_mm
             );
         }
+        more(s, p.weld_lines.len(), "places where fronts meet");
     }
     match &f.balanced {
         Some(b) if b.is_paper_gate => {
@@ -667,5 +669,17 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
                 );
             }
         }
+    }
+}
+
+/// The summary lists the first three of a gate's last places to fill and of its weld
+/// lines: when there are more, a line says how many and where they all are.
+fn more(s: &mut String, count: usize, what: &str) {
+    if count > 3 {
+        let _ = writeln!(
+            s,
+            "    ... {} more {what} in the JSON and the report page ({count} in all)",
+            count - 3
+        );
     }
 }

@@ -383,8 +383,9 @@ pub struct Gate {
     radius_mm: f64,
     /// 3D distance to the centre of mass, mm (None for the extra gates of a layout).
     distance_mm: Option<f64>,
-    /// Wall thickness along the demolding direction at the gate, mm (the paper gate's;
-    /// None where unknown).
+    /// Wall thickness along the demolding direction at the gate, mm: known at the paper's
+    /// grid gate, None at any other gate (a layout's, the parting line's, a balanced gate
+    /// that moved) and where unknown.
     wall_mm: Option<f64>,
     /// `paper` or `aesthetic`.
     mode: String,
@@ -477,7 +478,9 @@ impl Study {
                 .unwrap_or_default()
         };
         let (mode, strategy) = (name(mode), name(strategy));
-        let wall = r.paper_gate.as_ref().and_then(|g| g.thickness_mm);
+        // The wall along D is known at the paper's grid gate only: a gate elsewhere (the
+        // parting line's, a balanced one that moved, a layout's) has none of its own.
+        let paper = r.paper_gate.as_ref().map(|g| (g.point, g.thickness_mm));
         self.study
             .gates()
             .iter()
@@ -488,11 +491,9 @@ impl Study {
                     normal: PyArray1::from_slice(py, &g.normal.to_array()).unbind(),
                     radius_mm: radius,
                     distance_mm: if i == 0 { distance } else { None },
-                    wall_mm: if i == 0 && strategy == "paper" {
-                        wall
-                    } else {
-                        None
-                    },
+                    wall_mm: paper
+                        .filter(|(at, _)| *at == g.point.to_array())
+                        .and_then(|(_, wall)| wall),
                     mode: mode.clone(),
                     strategy: strategy.clone(),
                 })

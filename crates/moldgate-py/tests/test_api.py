@@ -75,6 +75,22 @@ def test_the_report_advises_keywords_not_flags():
     assert "require_flat=True" in page and "--require-flat" not in page
 
 
+def test_only_the_grid_gate_has_the_paper_s_wall():
+    # A layout's gates and the parting line's gate lie elsewhere than the grid gate: the
+    # wall measured at the grid gate is not theirs.
+    paper = moldgate.study(moldgate.sample("plate"))
+    wall = paper.report["paper_gate"]["thickness_mm"]
+    assert wall is not None and paper.gate.wall_mm == wall
+    layout = moldgate.study(moldgate.sample("plate"), gates=2)
+    for g in layout.gates:
+        same = g.point.tolist() == layout.report["paper_gate"]["point"]
+        assert g.wall_mm == (wall if same else None), (g.point, g.wall_mm)
+    assert any(g.wall_mm is None for g in layout.gates)
+    aesthetic = moldgate.study(moldgate.sample("plate"), aesthetic=True)
+    assert aesthetic.gate.point.tolist() != aesthetic.report["paper_gate"]["point"]
+    assert aesthetic.gate.wall_mm is None
+
+
 def test_fill_order_and_several_gates():
     s = moldgate.study(moldgate.sample("plate"), gates=2)
     assert len(s.gates) == 2

@@ -152,13 +152,16 @@ pub fn read_text(path: &Path, noun: &str, limit: u64) -> Result<String, TextErro
 }
 
 /// A TOML parser's error as the front ends say it: `line N: what` (the line of the error's
-/// first byte, from 1), without the parser's own excerpt of the text.
+/// first byte, from 1), without the parser's own excerpt of the text, and with a value's
+/// type in plain words (`expected a number`, not `expected f64`).
 pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
     let place = e
         .span()
         .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
         .unwrap_or_default();
-    format!("{place}{}", e.message().trim_end_matches('.'))
+    // serde's names of types ("expected f64") in a person's words ("expected a number").
+    let what = crate::study::options::plain_words(e.message().trim_end_matches('.'));
+    format!("{place}{what}")
 }
 
 /// A mesh reader, by the file's extension.

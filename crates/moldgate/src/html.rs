@@ -644,8 +644,8 @@ fn fill_table(h: &mut String, r: &Report) {
             "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
              centre of mass: the paper's rule on the body alone, which for the body fed by the \
              answer's gate is not that gate; each body's fill time is taken against its own \
-             nominal wall; the pictures fill each body the gates they show do not reach from \
-             its gate here):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
+             nominal wall; where the gates a picture shows do not reach a body, the picture fills \
+             that body from its own gate, listed here):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
              <th>nominal wall</th><th>gate</th><th>longest flow path<br>L_max</th><th>fill time (estimate)</th></tr>"
         );
         for b in &f.body_gates {

@@ -136,6 +136,9 @@ pub struct Picture {
     /// Per view, per gate of the scene: whether the part hides the gate's point there
     /// (drawn faint and dashed, labelled "hidden").
     pub hidden_gates: Vec<Vec<bool>>,
+    /// Per view, per gate the designer placed: whether it is hidden there (the part hides
+    /// its point, or its face is turned away from the view), drawn dashed and labelled so.
+    pub hidden_placed: Vec<Vec<bool>>,
 }
 
 impl Picture {
@@ -306,9 +309,9 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             .map(|(view, panel)| Found::of(scene, view, &panel.depths, (tolerance(view), &range)))
             .collect()
     };
-    let mut hidden_gates = Vec::new();
+    let (mut hidden_gates, mut hidden_placed) = (Vec::new(), Vec::new());
     for ((view, panel), found) in views.iter().zip(&panels).zip(found) {
-        let hidden = draw_overlays(
+        let (hidden, placed) = draw_overlays(
             &mut canvas,
             scene,
             view,
@@ -318,6 +321,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             k,
         );
         hidden_gates.push(hidden);
+        hidden_placed.push(placed);
         canvas.stroke_rect(
             view.panel.x as f32 + 0.5,
             view.panel.y as f32 + 0.5,
@@ -333,6 +337,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         canvas,
         views,
         hidden_gates,
+        hidden_placed,
     })
 }
 
@@ -596,7 +601,7 @@ fn draw_overlays(
     found: Found,
     tolerance: f64,
     k: f32,
-) -> Vec<bool> {
+) -> (Vec<bool>, Vec<bool>) {
     let cam = &view.camera;
     if let Some(squares) = &found.qualifying {
         blend_qualifying(canvas, view, squares);
@@ -647,7 +652,27 @@ fn draw_overlays(
             }
         })
         .collect();
-    taken.extend(discs.iter().map(|d| {
+    // The designer's gates: their discs, and whether the part hides them. A gate the
+    // designer placed may lie anywhere on the part, on a face turned away from the view
+    // (whose point the depths can still show through a hole or past an edge beside it):
+    // such a face is hidden too.
+    let placed_discs: Vec<Disc> = scene
+        .placed
+        .iter()
+        .map(|g| {
+            let (outline, r) = gate_outline(cam, &g.marker);
+            let p = cam.to_pixel(g.marker.point);
+            let turned_away = g.marker.normal.dot(cam.toward) < 0.0;
+            Disc {
+                outline,
+                r,
+                at: [p.x as f32, p.y as f32],
+                hidden: turned_away
+                    || !depths.visible(p.x, p.y, cam.depth(g.marker.point), tolerance),
+            }
+        })
+        .collect();
+    taken.extend(discs.iter().chain(&placed_discs).map(|d| {
         let ([x, y], r) = (d.at, d.r);
         [x - r, y - r, x + r, y + r]
     }));
@@ -685,9 +710,11 @@ fn draw_overlays(
         if d.hidden {
             label += " (hidden)";
         }
+        // A label reads as the gate it is nearest: the designer's gates count too.
         let others: Vec<[f32; 2]> = (0..discs.len())
             .filter(|&j| j != i)
             .map(|j| discs[j].at)
+            .chain(placed_discs.iter().map(|d| d.at))
             .collect();
         let (tx, ty, align, own) =
             gate_label_place([x, y], r, &label, &gate_style, &taken, inside, k, &others);
@@ -699,7 +726,14 @@ fn draw_overlays(
         taken.push(b);
     }
 
-    placed::draw_placed(canvas, scene, view, k);
+    let answer: Vec<[f32; 2]> = discs.iter().map(|d| d.at).collect();
+    placed::draw_placed(
+        canvas,
+        scene,
+        &placed_discs,
+        (&mut taken, inside, &answer),
+        k,
+    );
 
     draw_scale_bar(canvas, view, k);
     draw_axes(canvas, scene, view, k);
@@ -726,7 +760,8 @@ fn draw_overlays(
         &TextStyle::new(14.0 * k, GREY),
         Align::Left,
     );
-    discs.iter().map(|d| d.hidden).collect()
+    let hidden = |discs: &[Disc]| discs.iter().map(|d| d.hidden).collect();
+    (hidden(&discs), hidden(&placed_discs))
 }
 
 /// What the overlays of a view find in its depths before they are drawn: the qualifying
@@ -771,8 +806,8 @@ struct Disc {
 }
 
 /// The places whose depth the overlays of `view` look up (qualifying points, the parting
-/// line's pieces in the view that tells hidden from visible, the centre of mass), asked
-/// for before the panel is drawn.
+/// line's pieces in the view that tells hidden from visible, the centre of mass, the
+/// answer's gates and the designer's), asked for before the panel is drawn.
 fn ask_depths(scene: &Scene, view: &View) -> Depths {
     let cam = &view.camera;
     let mut depths = Depths::new(view.panel, SAMPLES);
@@ -788,8 +823,12 @@ fn ask_depths(scene: &Scene, view: &View) -> Depths {
     }
     let c = cam.to_pixel(scene.centre);
     depths.ask(c.x, c.y);
-    for g in &scene.gates {
-        let q = cam.to_pixel(g.point);
+    for p in scene
+        .gates
+        .iter()
+        .chain(scene.placed.iter().map(|g| &g.marker))
+    {
+        let q = cam.to_pixel(p.point);
         depths.ask(q.x, q.y);
     }
     depths
@@ -1641,8 +1680,11 @@ fn draw_side_bar(
     let x = layout.side_x;
     let mut y = layout.title_h + 24.0 * k;
     let head = TextStyle::new(16.0 * k, INK).bold();
+    // "Height along D (mm)", but "Fill time (estimate), in s": not two brackets running on.
     let name = if scene.field.unit.is_empty() {
         scene.field.name.clone()
+    } else if scene.field.name.contains('(') {
+        format!("{}, in {}", scene.field.name, scene.field.unit)
     } else {
         format!("{} ({})", scene.field.name, scene.field.unit)
     };

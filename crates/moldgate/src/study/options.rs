@@ -421,7 +421,7 @@ fn with_nearest_name(message: &str) -> String {
 }
 
 /// serde's words for a value's type as a person says them.
-fn plain_words(message: &str) -> String {
+pub(crate) fn plain_words(message: &str) -> String {
     let mut m = message.to_string();
     for (rust, plain) in [
         ("expected usize", "expected a whole number of 0 or more"),
@@ -642,6 +642,12 @@ impl StudyOptions {
         if fill.is_none() && self.objective != ObjectiveChoice::Length {
             warnings.push(
                 "objective resistance changes nothing without the fill analysis: it is what the balanced gate, several gates and the suitability map minimise (ask for one, or for fill)"
+                    .to_string(),
+            );
+        }
+        if fill.is_none() && self.cell.is_some() {
+            warnings.push(
+                "cell changes nothing without the fill analysis: it is the side of the fill's flow cells (ask for fill, a balanced gate, several gates or the suitability map)"
                     .to_string(),
             );
         }
@@ -908,7 +914,7 @@ color_by = "flow_length"
     }
 
     #[test]
-    fn an_objective_without_the_fill_is_warned_about() {
+    fn an_objective_or_a_cell_without_the_fill_is_warned_about() {
         let warned = |json: &str| {
             let o: StudyOptions = serde_json::from_str(json).unwrap();
             o.validate().unwrap().warnings
@@ -919,7 +925,12 @@ color_by = "flow_length"
             w[0].starts_with("objective resistance changes nothing"),
             "{w:?}"
         );
+        let w = warned(r#"{ "cell": 0.5 }"#);
+        assert_eq!(w.len(), 1);
+        assert!(w[0].starts_with("cell changes nothing"), "{w:?}");
         for json in [
+            r#"{ "cell": 0.5, "fill": true }"#,
+            r#"{ "cell": 0.5, "strategy": "balanced" }"#,
             r#"{ "objective": "resistance", "fill": true }"#,
             r#"{ "objective": "resistance", "gates": 2 }"#,
             r#"{ "objective": "length" }"#,

@@ -569,6 +569,40 @@ fn demold_auto_works_beside_the_rays_of_the_line_it_chooses() {
     );
 }
 
+/// A gate the designer places on the plate's bottom (its face turned away from both views,
+/// as D points up from the top) is drawn hidden in both; one on the top shows in both, and
+/// each label lies nearer its own gate than the answer's.
+#[test]
+fn a_placed_gate_on_a_face_turned_away_is_drawn_hidden() {
+    let plate = mesh::from_generated(moldgate::samples::sample("plate").unwrap());
+    let b = plate.mesh.bounds();
+    let (lo, hi) = (b.min, b.max);
+    let (x, y) = (0.75 * lo.x + 0.25 * hi.x, 0.5 * (lo.y + hi.y));
+    let options: moldgate::StudyOptions = serde_json::from_str(&format!(
+        r#"{{ "demold": "+z", "gate_at": ["{x},{y},{}", "{x},{y},{}"] }}"#,
+        hi.z, lo.z
+    ))
+    .unwrap();
+    let s = moldgate::study(&plate, &options).unwrap();
+    let scene = s.scene(&plate, "part").unwrap();
+    let picture = moldgate::render::render(&scene, &Default::default()).unwrap();
+    assert_eq!(picture.hidden_placed, [[false, true], [false, true]]);
+    assert_eq!(picture.hidden_gates, [[false], [false]]);
+    // On the RAM connector cap seen from its open side, a gate on the outer top at the edge
+    // of its window: the depths at its point look through the window, but its face is
+    // turned away from both views.
+    if parts_dir().is_none() {
+        return skip("a_placed_gate_on_a_face_turned_away_is_drawn_hidden");
+    }
+    let cap = load("comma_ram_connector_cap.stl");
+    let options: moldgate::StudyOptions =
+        serde_json::from_str(r#"{ "demold": "-z", "gate_at": ["0,0,15.29"] }"#).unwrap();
+    let s = moldgate::study(&cap, &options).unwrap();
+    let scene = s.scene(&cap, "part").unwrap();
+    let picture = moldgate::render::render(&scene, &Default::default()).unwrap();
+    assert_eq!(picture.hidden_placed, [[true], [true]]);
+}
+
 /// The PSU cover's paper gate sits on the floor inside its box: seen along D it shows, and
 /// in the isometric view the box's wall hides it, which the picture says ("hidden"). The
 /// plate's gate, on its top, shows in both views.
