@@ -167,8 +167,10 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             );
             let _ = writeln!(
                 s,
-                "    {} exact, the others lower bounds within {} of their upper bounds ({} marches)",
+                "    {} exact (to {} {}, the cells' resolution: the balanced gate's own value may differ by as much), the others lower bounds within {} of their upper bounds ({} marches)",
                 m.exact,
+                value(m.tolerance),
+                m.unit,
                 m.max_gap_pct
                     .map_or("unbounded".to_string(), |g| format!("{g:.1} %")),
                 m.runs

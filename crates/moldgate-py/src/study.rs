@@ -346,13 +346,19 @@ pub fn materials<'py>(
     Ok(list)
 }
 
-/// check_options(options_json, materials_file=None)
+/// check_options(options_json, materials_file=None, timeout=None)
 /// --
 ///
-/// Validates options as a study would, raising `OptionsError`; no part is needed.
+/// Validates options (and a time limit) as a study would, raising `OptionsError`; no part
+/// is needed.
 #[pyfunction]
-#[pyo3(signature = (options_json, materials_file = None))]
-pub fn check_options(options_json: &str, materials_file: Option<PathBuf>) -> PyResult<()> {
+#[pyo3(signature = (options_json, materials_file = None, timeout = None))]
+pub fn check_options(
+    options_json: &str,
+    materials_file: Option<PathBuf>,
+    timeout: Option<f64>,
+) -> PyResult<()> {
+    time_limit(timeout)?;
     guarded(|| {
         settings(options_json, materials_file.as_deref())
             .map(|_| ())

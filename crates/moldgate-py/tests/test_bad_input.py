@@ -175,6 +175,19 @@ def test_numpy_numbers_and_none_read_as_python_ones():
     moldgate.check_options(keep_out=None)
 
 
+def test_check_options_takes_every_keyword_of_study_and_checks_it_alike():
+    # The keywords of how a part is read and how a study runs are study's too.
+    moldgate.check_options(units="in", step_tolerance_mm=0.01, allow_no_gate=True, timeout=5)
+    for bad in (dict(units="furlong"), dict(units=3), dict(step_tolerance_mm=-1),
+                dict(allow_no_gate="yes"), dict(timeout="soon"), dict(timeout=0),
+                dict(timeout=float("nan"))):
+        with pytest.raises(moldgate.OptionsError) as checked:
+            moldgate.check_options(**bad)
+        with pytest.raises(moldgate.OptionsError) as studied:
+            moldgate.study(moldgate.sample("plate"), **bad)
+        assert str(checked.value) == str(studied.value), bad
+
+
 def test_materials_lists_the_whole_built_in_library():
     names = [m["name"] for m in moldgate.materials()]
     assert names[:3] == ["PP", "ABS", "PC"]

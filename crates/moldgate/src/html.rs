@@ -501,6 +501,12 @@ fn placed_table(h: &mut String, r: &Report) {
         }
         let _ = writeln!(h, "</ul>");
     }
+    let whose = if p.gates.len() == 1 {
+        "your gate"
+    } else {
+        "your gates together"
+    };
+    weld_list(h, whose, fill);
 }
 
 /// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure,
@@ -529,7 +535,8 @@ fn fill_table(h: &mut String, r: &Report) {
     let _ = writeln!(
         h,
         "<h2 id=\"fill\">Fill analysis</h2>\n<p>{} cells of {:.3} mm, nominal wall {:.2} mm \
-         ({}), {} {}{}; Eq. 1 pressure {:.4} MPa per mm of path.</p>",
+         ({}), {} {}{}; Eq. 1 pressure {:.4} MPa per mm of path through the nominal wall (each \
+         cell's own wall sets its share: a gate's pressure below sums them along its path).</p>",
         f.cells,
         f.cell_mm,
         f.nominal_wall_mm,
@@ -710,23 +717,28 @@ fn fill_table(h: &mut String, r: &Report) {
                 last.join(", ")
             }
         );
-        if g.weld_lines.is_empty() {
-            let _ = writeln!(h, "<p>Weld lines: none found.</p>");
-        } else {
-            let _ = writeln!(h, "<p>Weld lines:</p>\n<ul>");
-            for w in &g.weld_lines {
-                let _ = writeln!(
-                    h,
-                    "<li>at {} mm, {:.1} mm long, {:.1} mm from the gate, fronts meeting at {:.0}°</li>",
-                    v3(w.point),
-                    w.extent_mm,
-                    w.flow_length_mm,
-                    w.meeting_angle_deg
-                );
-            }
-            let _ = writeln!(h, "</ul>");
-        }
+        weld_list(h, &whose, g);
     }
+}
+
+/// The weld lines of the fill from `whose` ("the answer's gate", "your gates", ...).
+fn weld_list(h: &mut String, whose: &str, g: &crate::flow::GateFill) {
+    if g.weld_lines.is_empty() {
+        let _ = writeln!(h, "<p>Weld lines from {whose}: none found.</p>");
+        return;
+    }
+    let _ = writeln!(h, "<p>Weld lines from {whose}:</p>\n<ul>");
+    for w in &g.weld_lines {
+        let _ = writeln!(
+            h,
+            "<li>at {} mm, {:.1} mm long, {:.1} mm from the gate, fronts meeting at {:.0}°</li>",
+            v3(w.point),
+            w.extent_mm,
+            w.flow_length_mm,
+            w.meeting_angle_deg
+        );
+    }
+    let _ = writeln!(h, "</ul>");
 }
 
 /// The gate-suitability map in words: what is scored, its range, how many scores are exact

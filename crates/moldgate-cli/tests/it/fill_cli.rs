@@ -402,6 +402,20 @@ fn gates_placed_with_gate_at_are_judged_in_every_output() {
     let html = std::fs::read_to_string(&html).unwrap();
     assert!(html.contains("<h2 id=\"placed-gates\">Your gates</h2>"));
     assert_eq!(html.matches("<tr class=\"placed\"").count(), 3);
+    // The weld lines of the designer's gates are listed under their own name, apart from
+    // the answer's.
+    let placed: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let welds = placed["placed_gates"]["fill"]["weld_lines"]
+        .as_array()
+        .unwrap()
+        .len();
+    let heading = match welds {
+        0 => "Weld lines from your gates together: none found.",
+        _ => "Weld lines from your gates together:",
+    };
+    assert!(html.contains(heading), "{heading}");
+    assert!(html.contains("Weld lines from the answer's gate"));
     assert!(std::fs::metadata(&png).unwrap().len() > 1000);
 }
 

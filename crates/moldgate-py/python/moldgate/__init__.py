@@ -183,13 +183,26 @@ def _options_json(options: Mapping[str, Any]) -> str:
         raise OptionsError(f"cannot read the options: {e}") from None
 
 
-def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
+def _check_part_keywords(units: Any, step_tolerance_mm: Any) -> None:
+    """The keywords that say how the part is read, checked as :func:`study` reads them."""
     _check_units_type(units)
     _moldgate.check_units(units)
     if step_tolerance_mm is not None and not (
         _is_number(step_tolerance_mm) and _math.isfinite(step_tolerance_mm) and step_tolerance_mm > 0
     ):
         raise OptionsError(f"step_tolerance_mm must be a positive number of mm, got {step_tolerance_mm!r}")
+
+
+def _check_run_keywords(allow_no_gate: Any, timeout: Any) -> None:
+    """The keywords that say how a study runs, checked before it starts."""
+    if not isinstance(allow_no_gate, bool):
+        raise OptionsError(f"allow_no_gate must be True or False, got {allow_no_gate!r}")
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, _numbers.Real)):
+        raise OptionsError(f"timeout must be a number of seconds or None, got {timeout!r}")
+
+
+def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
+    _check_part_keywords(units, step_tolerance_mm)
     if isinstance(part, Part):
         # A Part was read in its own units: another unit asked for here would be ignored
         # (the default, mm, cannot be told from one given).
@@ -327,10 +340,7 @@ def study(
     library's message.
     """
     given = locals()
-    if not isinstance(allow_no_gate, bool):
-        raise OptionsError(f"allow_no_gate must be True or False, got {allow_no_gate!r}")
-    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, _numbers.Real)):
-        raise OptionsError(f"timeout must be a number of seconds or None, got {timeout!r}")
+    _check_run_keywords(allow_no_gate, timeout)
     options = {name: given[name] for name in _OPTION_NAMES}
     if keep_out is None:
         keep_out = ()
@@ -380,12 +390,21 @@ def batch_row(
 
 
 def check_options(
-    *, materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None, **options: Any
+    *,
+    materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
+    units: str = "mm",
+    step_tolerance_mm: Optional[float] = None,
+    allow_no_gate: bool = False,
+    timeout: Optional[float] = None,
+    **options: Any,
 ) -> None:
-    """Checks study options (those of :func:`study`) without a part: raises
+    """Checks study options (those of :func:`study`, ``units``, ``step_tolerance_mm``,
+    ``allow_no_gate`` and ``timeout`` included) without a part: raises
     :class:`OptionsError` with the library's message for an unknown name or a bad value."""
+    _check_part_keywords(units, step_tolerance_mm)
+    _check_run_keywords(allow_no_gate, timeout)
     mf = _os.fspath(materials_file) if materials_file is not None else None
-    _moldgate.check_options(_options_json(options), mf)
+    _moldgate.check_options(_options_json(options), mf, None if timeout is None else float(timeout))
 
 
 def materials(materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None) -> list:

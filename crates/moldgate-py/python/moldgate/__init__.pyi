@@ -147,5 +147,13 @@ def batch_row(
     timeout: Optional[float] = None,
     **options: Any,
 ) -> dict[str, Any]: ...
-def check_options(*, materials_file: Optional[_Path] = None, **options: Any) -> None: ...
+def check_options(
+    *,
+    materials_file: Optional[_Path] = None,
+    units: str = "mm",
+    step_tolerance_mm: Optional[float] = None,
+    allow_no_gate: bool = False,
+    timeout: Optional[float] = None,
+    **options: Any,
+) -> None: ...
 def materials(materials_file: Optional[_Path] = None) -> list[dict[str, Any]]: ...
