@@ -322,6 +322,16 @@ async fn multipart(
                 // Read again for what a Value hides: a key given twice.
                 let OptionsObject(map) = serde_json::from_slice(&text)
                     .map_err(|e| fail(format!("the options part: {e}")))?;
+                // The request's own parameters are not study options: say where they go.
+                if let Some(k) = ["units", "format", "output"]
+                    .into_iter()
+                    .find(|k| map.contains_key(*k))
+                {
+                    return Err(ApiError::options(format!(
+                        "{k} is a parameter of the request's query (POST /v1/study?{k}=...), not a study option of the options part"
+                    ))
+                    .at(k));
+                }
                 options = Some(map);
             }
             "mesh" => {

@@ -228,6 +228,25 @@ fn multipart_options_and_formats_give_the_same_report() {
             .contains("the option 'material' is given more than once"),
         "{e}"
     );
+    // The request's own parameters in the options part: refused, saying where they go.
+    let at = body.windows(6).position(|w| w == b"{\"mate").unwrap();
+    let units_body = [&body[..at], b"{\"units\": \"in\", ", &body[at + 1..]].concat();
+    let r = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", &ct)],
+        &units_body,
+    );
+    let e = assert_error(&s, &r, 400, "options");
+    assert_eq!(e["where"], "units", "{e}");
+    assert!(
+        e["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("units is a parameter of the request's query (POST /v1/study?units=...)"),
+        "{e}"
+    );
     // A multipart body without its boundary cannot be read: 400, not a format's 415.
     let unbounded = request(
         s.addr,
