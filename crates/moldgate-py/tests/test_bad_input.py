@@ -217,6 +217,12 @@ def test_units_given_with_a_part_read_in_other_units_are_refused():
     # The default, and the Part's own unit, are fine.
     assert moldgate.study(part).gate is not None
     assert moldgate.study(part, units="mm").gate is not None
+    # mm given with a Part read in inches is refused too (it is not the default).
+    inches = moldgate.Part(part.vertices / 25.4, part.faces, units="in")
+    assert moldgate.study(inches).gate is not None
+    assert moldgate.study(inches, units="in").gate is not None
+    with pytest.raises(moldgate.OptionsError, match="this Part was read in in; units='mm' applies to a path or arrays only"):
+        moldgate.study(inches, units="mm")
 
 
 def test_errors_belong_to_the_package_and_name_its_keywords():

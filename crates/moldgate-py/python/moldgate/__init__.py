@@ -201,13 +201,20 @@ def _check_run_keywords(allow_no_gate: Any, timeout: Any) -> None:
         raise OptionsError(f"timeout must be a number of seconds or None, got {timeout!r}")
 
 
+class _DefaultUnits(str):
+    """The default of ``units`` (mm), told apart from ``units="mm"`` given by the caller."""
+
+
+_MM = _DefaultUnits("mm")
+
+
 def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
     _check_part_keywords(units, step_tolerance_mm)
     if isinstance(part, Part):
-        # A Part was read in its own units: another unit asked for here would be ignored
-        # (the default, mm, cannot be told from one given).
+        # A Part was read in its own units: another unit asked for here would be ignored,
+        # so a unit given (not the default) must be the Part's own.
         own = part.stats["units"]
-        if units.lower() not in ("mm", own):
+        if units is not _MM and units.lower() != own:
             raise OptionsError(
                 f"units: this Part was read in {own}; units={units!r} applies to a path or "
                 f"arrays only: read the file again with moldgate.load(path, units={units!r})"
@@ -264,7 +271,7 @@ def study(
     parting_line: str = "outline",
     gate_at: Sequence[Union[str, Sequence[float]]] = (),
     suitability: bool = False,
-    units: str = "mm",
+    units: str = _MM,
     materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None,
     step_tolerance_mm: Optional[float] = None,
     allow_no_gate: bool = False,
@@ -324,7 +331,7 @@ def study(
     And for this call:
 
     - ``units="mm"``: unit of a path or arrays given as ``part`` (a :class:`Part` keeps
-      the unit it was read in; another unit than mm or its own is refused).
+      the unit it was read in; a unit given with it other than its own is refused).
     - ``materials_file=None``: a TOML file of user materials (the command line's
       ``--materials-file``).
     - ``step_tolerance_mm=None``: see :func:`load`.
