@@ -394,7 +394,7 @@ fn bad_options_are_400_with_the_librarys_message() {
         (
             "gates=abc",
             "gates",
-            "invalid type: string \"abc\", expected a whole number of 0 or more",
+            "invalid type: string \"abc\", expected a whole number of 1 or more",
         ),
         ("fill=maybe", "fill", "expected a boolean"),
         (

@@ -489,10 +489,13 @@ impl StudyOptions {
                 field = Some(format!("material.{p}"));
             }
         }
-        Err(JsonOptionsError {
-            field,
-            message: with_nearest_name(&plain_words(&message)),
-        })
+        let mut message = with_nearest_name(&plain_words(&message));
+        // The count of gates is read as any count, 0 included, then refused below 1
+        // (`fill_options`): its type error names the range it really takes.
+        if field.as_deref() == Some("gates") {
+            message = message.replace("a whole number of 0 or more", "a whole number of 1 or more");
+        }
+        Err(JsonOptionsError { field, message })
     }
 
     /// Whether `demold` asks for the automatic direction.
