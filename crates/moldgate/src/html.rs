@@ -644,6 +644,21 @@ fn fill_table(h: &mut String, r: &Report) {
             );
         }
         let _ = writeln!(h, "</table>");
+        // The pictures colour the layout's fill time (unless the designer's gates take
+        // them over): say that it is not what the layout was chosen for, so that a colour
+        // bar ending above a single gate's fill time does not read as a fault.
+        let pictured = r.placed_gates.as_ref().is_none_or(|p| p.fill.is_none());
+        if pictured
+            && f.objective == crate::flow::Objective::Length
+            && !f.per_vertex.fill_time_s.is_empty()
+        {
+            let _ = writeln!(
+                h,
+                "<p>The pictures colour the fill time from these gates together, which the \
+                 layout does not minimise (it minimises the longest flow path): it may end \
+                 later than a single gate's fill.</p>"
+            );
+        }
     }
     if !f.body_gates.is_empty() {
         let _ = writeln!(

@@ -371,6 +371,11 @@ fn a_layout_of_gates_is_titled_in_its_objective_s_unit() {
             "{subtitle}"
         );
         assert!(subtitle.contains(&format!(" {unit}, R = ")), "{subtitle}");
+        // The pictures colour the layout's fill time: the page says that a layout of the
+        // longest flow path was not chosen for it.
+        let page = s.html(None).unwrap();
+        let note = "The pictures colour the fill time from these gates together, which the layout does not minimise";
+        assert_eq!(page.contains(note), objective == "length", "{objective}");
     }
 }
 
