@@ -159,9 +159,30 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
         .span()
         .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
         .unwrap_or_default();
-    // serde's names of types ("expected f64") in a person's words ("expected a number").
-    let what = crate::study::options::plain_words(e.message().trim_end_matches('.'));
+    let what = plain_words(e.message().trim_end_matches('.'));
     format!("{place}{what}")
+}
+
+/// serde's words for a value's type as a person says them (the study options' JSON and
+/// the TOML files alike).
+pub(crate) fn plain_words(message: &str) -> String {
+    let mut m = message.to_string();
+    for (rust, plain) in [
+        ("expected usize", "expected a whole number of 0 or more"),
+        ("expected u64", "expected a whole number of 0 or more"),
+        ("expected u32", "expected a whole number of 0 or more"),
+        ("expected u16", "expected a whole number of 0 or more"),
+        ("expected f64", "expected a number"),
+        ("expected f32", "expected a number"),
+        ("expected i64", "expected a whole number"),
+        (
+            "data did not match any variant of untagged enum MaterialChoice",
+            "expected a material name or a table of its parameters (n, t_melt, t_wall, gamma_opt, mu_opt, k)",
+        ),
+    ] {
+        m = m.replace(rust, plain);
+    }
+    m
 }
 
 /// A mesh reader, by the file's extension.

@@ -209,18 +209,15 @@ fn multipart_options_and_formats_give_the_same_report() {
         &body,
     );
     assert_eq!(assert_error(&s, &both, 400, "options")["where"], "material");
-    // An option given twice in the options part: refused, not the last one taken.
-    let mut twice_body = body.clone();
+    // The body with `first` put at the start of its options object, and its error.
     let at = body.windows(6).position(|w| w == b"{\"mate").unwrap();
-    twice_body.splice(at..at + 1, b"{\"material\": \"ABS\", ".iter().copied());
-    let r = request(
-        s.addr,
-        "POST",
-        "/v1/study",
-        &[("content-type", &ct)],
-        &twice_body,
-    );
-    let e = assert_error(&s, &r, 400, "options");
+    let refused = |first: &[u8]| {
+        let sent = [&body[..at], b"{", first, &body[at + 1..]].concat();
+        let r = request(s.addr, "POST", "/v1/study", &[("content-type", &ct)], &sent);
+        assert_error(&s, &r, 400, "options")
+    };
+    // An option given twice in the options part: refused, not the last one taken.
+    let e = refused(b"\"material\": \"ABS\", ");
     assert!(
         e["message"]
             .as_str()
@@ -229,16 +226,7 @@ fn multipart_options_and_formats_give_the_same_report() {
         "{e}"
     );
     // The request's own parameters in the options part: refused, saying where they go.
-    let at = body.windows(6).position(|w| w == b"{\"mate").unwrap();
-    let units_body = [&body[..at], b"{\"units\": \"in\", ", &body[at + 1..]].concat();
-    let r = request(
-        s.addr,
-        "POST",
-        "/v1/study",
-        &[("content-type", &ct)],
-        &units_body,
-    );
-    let e = assert_error(&s, &r, 400, "options");
+    let e = refused(b"\"units\": \"in\", ");
     assert_eq!(e["where"], "units", "{e}");
     assert!(
         e["message"]

@@ -641,35 +641,18 @@ fn draw_overlays(
     let discs: Vec<Disc> = scene
         .gates
         .iter()
-        .map(|g| {
-            let (outline, r) = gate_outline(cam, g);
-            let p = cam.to_pixel(g.point);
-            Disc {
-                outline,
-                r,
-                at: [p.x as f32, p.y as f32],
-                hidden: !depths.visible(p.x, p.y, cam.depth(g.point), tolerance),
-            }
-        })
+        .map(|g| Disc::of(cam, g, depths, tolerance))
         .collect();
-    // The designer's gates: their discs, and whether the part hides them. A gate the
-    // designer placed may lie anywhere on the part, on a face turned away from the view
-    // (whose point the depths can still show through a hole or past an edge beside it):
-    // such a face is hidden too.
+    // The designer's gates alike. A gate the designer placed may lie anywhere on the
+    // part, on a face turned away from the view (whose point the depths can still show
+    // through a hole or past an edge beside it): such a face is hidden too.
     let placed_discs: Vec<Disc> = scene
         .placed
         .iter()
         .map(|g| {
-            let (outline, r) = gate_outline(cam, &g.marker);
-            let p = cam.to_pixel(g.marker.point);
-            let turned_away = g.marker.normal.dot(cam.toward) < 0.0;
-            Disc {
-                outline,
-                r,
-                at: [p.x as f32, p.y as f32],
-                hidden: turned_away
-                    || !depths.visible(p.x, p.y, cam.depth(g.marker.point), tolerance),
-            }
+            let mut d = Disc::of(cam, &g.marker, depths, tolerance);
+            d.hidden |= g.marker.normal.dot(cam.toward) < 0.0;
+            d
         })
         .collect();
     taken.extend(discs.iter().chain(&placed_discs).map(|d| {
@@ -803,6 +786,21 @@ struct Disc {
     r: f32,
     at: [f32; 2],
     hidden: bool,
+}
+
+impl Disc {
+    /// The disc of gate `g` in the view of `cam`, hidden when the depths drawn there lie
+    /// in front of its point (beyond `tolerance`, mm).
+    fn of(cam: &Camera, g: &crate::scene::Marker, depths: &Depths, tolerance: f64) -> Disc {
+        let (outline, r) = gate_outline(cam, g);
+        let p = cam.to_pixel(g.point);
+        Disc {
+            outline,
+            r,
+            at: [p.x as f32, p.y as f32],
+            hidden: !depths.visible(p.x, p.y, cam.depth(g.point), tolerance),
+        }
+    }
 }
 
 /// The places whose depth the overlays of `view` look up (qualifying points, the parting

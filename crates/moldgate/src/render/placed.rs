@@ -25,10 +25,10 @@ pub(super) fn draw_diamond(canvas: &mut Canvas, x: f32, y: f32, size: f32, fille
 
 /// Draws every placed gate of `scene`, their discs in the view `discs` (in the order of
 /// `scene.placed`). A gate the view cannot see (the part hides its point, or its face is
-/// turned away) is drawn dashed and labelled "(hidden)", as the answer's gates are. Each label goes where [`gate_label_place`] puts
-/// the answer's: clear of what is `taken` (the discs, the labels so far, which it joins)
-/// and nearer its own gate than the answer's gates (`answer`) and the other placed ones,
-/// with a leader when it cannot be.
+/// turned away) is drawn dashed and labelled "(hidden)", as the answer's gates are. Each
+/// label goes where [`gate_label_place`] puts the answer's: clear of what is `taken` (the
+/// discs, the labels so far, which it joins) and nearer its own gate than the answer's
+/// gates (`answer`) and the other placed ones, with a leader when it cannot be.
 pub(super) fn draw_placed(
     canvas: &mut Canvas,
     scene: &Scene,

@@ -21,7 +21,7 @@
 //! observer and a cancellation token, checked between stages and inside the fill's marches.
 
 pub mod judge;
-pub(crate) mod options;
+mod options;
 mod run;
 mod words;
 

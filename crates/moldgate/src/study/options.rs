@@ -420,27 +420,6 @@ fn with_nearest_name(message: &str) -> String {
     }
 }
 
-/// serde's words for a value's type as a person says them.
-pub(crate) fn plain_words(message: &str) -> String {
-    let mut m = message.to_string();
-    for (rust, plain) in [
-        ("expected usize", "expected a whole number of 0 or more"),
-        ("expected u64", "expected a whole number of 0 or more"),
-        ("expected u32", "expected a whole number of 0 or more"),
-        ("expected u16", "expected a whole number of 0 or more"),
-        ("expected f64", "expected a number"),
-        ("expected f32", "expected a number"),
-        ("expected i64", "expected a whole number"),
-        (
-            "data did not match any variant of untagged enum MaterialChoice",
-            "expected a material name or a table of its parameters (n, t_melt, t_wall, gamma_opt, mu_opt, k)",
-        ),
-    ] {
-        m = m.replace(rust, plain);
-    }
-    m
-}
-
 /// The first key of `object` whose value, put alone (or over `base`) into a `T`, fails.
 fn culprit<T: serde::de::DeserializeOwned>(
     object: &serde_json::Map<String, serde_json::Value>,
@@ -489,7 +468,7 @@ impl StudyOptions {
                 field = Some(format!("material.{p}"));
             }
         }
-        let mut message = with_nearest_name(&plain_words(&message));
+        let mut message = with_nearest_name(&crate::files::plain_words(&message));
         // The count of gates is read as any count, 0 included, then refused below 1
         // (`fill_options`): its type error names the range it really takes.
         if field.as_deref() == Some("gates") {

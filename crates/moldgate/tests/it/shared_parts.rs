@@ -1192,18 +1192,18 @@ fn balanced_gate_and_suitability_map_hold_against_brute_force_on_small_shared_pa
 #[test]
 fn the_page_says_when_the_balanced_search_stopped_unproven() {
     const TEST: &str = "the_page_says_when_the_balanced_search_stopped_unproven";
-    let dir = match data_dir("MOLDGATE_PARTS", "../shared/data/parts") {
-        Ok(d) => d,
+    let parts = match shared_parts() {
+        Ok(p) => p,
         Err(why) => return skip(TEST, &why),
     };
-    let part = PARTS
+    let i = PARTS
         .iter()
-        .find(|p| p.file == "prusa_psu_cover_mk3_ascii.stl")
+        .position(|p| p.file == "prusa_psu_cover_mk3_ascii.stl")
         .unwrap();
-    let loaded = load(&dir, part).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = loaded(parts, i);
     let options: moldgate::study::StudyOptions =
         serde_json::from_str(r#"{ "demold": "+z", "fill": true }"#).unwrap();
-    let s = moldgate::study::study(&loaded, &options).unwrap_or_else(|e| panic!("{e}"));
+    let s = moldgate::study::study(loaded, &options).unwrap_or_else(|e| panic!("{e}"));
     let b = s.report().fill.as_ref().unwrap().balanced.as_ref().unwrap();
     assert!(!b.search.proven, "{:?}", b.search);
     let gap = b.search.unproven_gap_pct().unwrap();
