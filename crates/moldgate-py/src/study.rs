@@ -319,8 +319,11 @@ pub fn batch_row(
 /// materials(materials_file=None)
 /// --
 ///
-/// The built-in materials (the paper's Table 1), then those of `materials_file`, each a
-/// dict of its parameters with the melt velocity of Eq. 7 and the gate radius of Eq. 8.
+/// The built-in library (the paper's Table 1, then typical grades), each replaced by a
+/// material of `materials_file` of the same name or alias, then the file's others: each a
+/// dict of its parameters, aliases, description, family, the source of every value, its
+/// origin, and the melt velocity of Eq. 7 and the gate radius of Eq. 8 (the entries of
+/// `moldgate materials --json`).
 #[pyfunction]
 #[pyo3(signature = (materials_file = None))]
 pub fn materials<'py>(
@@ -331,17 +334,15 @@ pub fn materials<'py>(
         Some(p) => read_materials(p).map_err(OptionsError::new_err)?,
         None => Vec::new(),
     };
+    let origin = materials_file
+        .as_deref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let listing = moldgate::material::Listing::new(user, &origin);
     let list = PyList::empty(py);
-    for listed in moldgate::material::library_with(user) {
-        let m = match listed {
-            moldgate::material::Listed::BuiltIn(info) => info.material.clone(),
-            moldgate::material::Listed::User(m) => m,
-        };
-        let d = json_to_py(py, &serde_json::to_string(&m).unwrap_or_default())?;
-        let d = d.cast_into::<PyDict>()?;
-        d.set_item("melt_velocity_m_s", m.melt_velocity_m_s())?;
-        d.set_item("gate_radius_mm", m.gate_radius_mm())?;
-        list.append(d)?;
+    for m in &listing.materials {
+        let d = json_to_py(py, &serde_json::to_string(m).unwrap_or_default())?;
+        list.append(d.cast_into::<PyDict>()?)?;
     }
     Ok(list)
 }

@@ -221,8 +221,16 @@ def test_materials_built_in_given_and_from_a_file(tmp_path):
     assert s.report["gate"] == moldgate.study(part, material="ABS").report["gate"]
     f = tmp_path / "mine.toml"
     f.write_text("[Soft]\n" + "".join(f"{k} = {v}\n" for k, v in given.items()))
-    names = [m["name"] for m in moldgate.materials(f)]
+    listed = moldgate.materials(f)
+    names = [m["name"] for m in listed]
     assert names == list(table) + ["Soft"]
+    # Each entry is that of `moldgate materials --json`: aliases, description, sources.
+    assert "HDPE" in table["PE-HD"]["aliases"] and table["PE-HD"]["typical"] is True
+    assert table["PP"]["sources"]["n"] == "the paper, Table 1"
+    assert table["PP"]["origin"] == "built-in" and table["PP"]["family"] == "polyolefin"
+    soft = listed[-1]
+    assert soft["origin"] == str(f) and soft["family"] == "user"
+    assert soft["sources"]["k"] == f"the user file {f}"
     s = moldgate.study(part, material="soft", materials_file=f)
     assert s.report["material"]["name"] == "Soft"
     with pytest.raises(moldgate.OptionsError, match="material: missing field `t_melt`"):

@@ -9,7 +9,6 @@ use axum::http::{header, HeaderName, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post, MethodRouter};
 use axum::Router;
-use moldgate::Material;
 use serde_json::json;
 use tower_http::services::ServeDir;
 use tower_http::set_header::SetResponseHeaderLayer;
@@ -188,27 +187,10 @@ fn json_response(v: serde_json::Value) -> Response {
         .into_response()
 }
 
-/// `GET /v1/materials`: the built-in materials with Eq. 7-8.
+/// `GET /v1/materials`: the built-in library with Eq. 7-8, every value's source and each
+/// material's aliases and description (`moldgate materials --json`).
 async fn materials() -> Response {
-    let list: Vec<_> = moldgate::material::BUILTIN
-        .iter()
-        .filter_map(|n| Material::builtin(n))
-        .map(|m| {
-            json!({
-                "name": m.name,
-                "n": m.n,
-                "t_melt": m.t_melt,
-                "t_wall": m.t_wall,
-                "gamma_opt": m.gamma_opt,
-                "mu_opt": m.mu_opt,
-                "k": m.k,
-                "max_flow_ratio": m.max_flow_ratio,
-                "melt_velocity_m_s": m.melt_velocity_m_s(),
-                "gate_radius_mm": m.gate_radius_mm(),
-            })
-        })
-        .collect();
-    json_response(json!({ "materials": list }))
+    json_response(serde_json::to_value(moldgate::material::Listing::builtin()).unwrap_or_default())
 }
 
 /// `GET /v1/samples`: the built-in sample parts.

@@ -298,20 +298,12 @@ pub fn samples_json() -> String {
     serde_json::Value::Array(list).to_string()
 }
 
-/// The materials of the built-in library as JSON, each with its parameters, its Eq. 8 gate
-/// radius and its description (the paper's Table 1 first).
+/// The materials of the built-in library as JSON, each as `moldgate materials --json` lists
+/// it (its parameters, Eq. 7-8, aliases, description and sources; the paper's Table 1
+/// first).
 pub fn materials_json() -> String {
-    let list: Vec<serde_json::Value> = moldgate::material::library()
-        .iter()
-        .map(|info| {
-            let m = &info.material;
-            let mut v = serde_json::to_value(m).unwrap_or_default();
-            v["gate_radius_mm"] = serde_json::json!(m.gate_radius_mm());
-            v["description"] = serde_json::json!(info.description);
-            v
-        })
-        .collect();
-    serde_json::Value::Array(list).to_string()
+    let listing = moldgate::material::Listing::builtin();
+    serde_json::to_string(&listing.materials).unwrap_or_default()
 }
 
 /// The study's default options (the command line's) as JSON.

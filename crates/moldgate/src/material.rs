@@ -142,6 +142,88 @@ pub fn library_with(mut user: Vec<Material>) -> Vec<Listed> {
     out
 }
 
+/// A material as `moldgate materials --json`, the Python package's `materials()`, the
+/// service's `GET /v1/materials` and the browser app list it: its parameters, what it is
+/// and what each value rests on, where it comes from, and Eq. 7-8's melt velocity and gate
+/// radius.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ListedMaterial {
+    /// The material and its sources.
+    #[serde(flatten)]
+    pub info: MaterialInfo,
+    /// `built-in`, or where a user's material comes from (its file).
+    pub origin: String,
+    /// Eq. 7, m/s.
+    pub melt_velocity_m_s: f64,
+    /// Eq. 8, mm.
+    pub gate_radius_mm: f64,
+}
+
+/// The listing of every front end: [`library_with`] the user's materials, each described
+/// by its `origin` (the file it was read from).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Listing {
+    /// Bumped when a field changes meaning or goes away.
+    pub schema_version: u32,
+    /// The materials in [`library_with`]'s order.
+    pub materials: Vec<ListedMaterial>,
+}
+
+/// The version of [`Listing`]'s fields.
+pub const LISTING_SCHEMA_VERSION: u32 = 1;
+
+impl Listing {
+    /// The built-in library, each material replaced by a user's of the same name or alias,
+    /// then the user's others ([`library_with`]); a user's material is described as coming
+    /// from `origin` (a file's path).
+    pub fn new(user: Vec<Material>, origin: &str) -> Listing {
+        let listed = |info: MaterialInfo, origin: String| ListedMaterial {
+            melt_velocity_m_s: info.material.melt_velocity_m_s(),
+            gate_radius_mm: info.material.gate_radius_mm(),
+            info,
+            origin,
+        };
+        let from_user = |m: Material| {
+            let said = format!("the user file {origin}");
+            let info = MaterialInfo {
+                aliases: Vec::new(),
+                description: format!("from {origin}"),
+                family: "user".into(),
+                typical: false,
+                max_shear_rate: None,
+                mu_1000: None,
+                sources: ParameterSources {
+                    n: said.clone(),
+                    t_melt: said.clone(),
+                    t_wall: said.clone(),
+                    gamma_opt: said.clone(),
+                    mu_opt: said.clone(),
+                    k: said.clone(),
+                    max_flow_ratio: said,
+                },
+                material: m,
+            };
+            listed(info, origin.to_string())
+        };
+        let materials = library_with(user)
+            .into_iter()
+            .map(|m| match m {
+                Listed::BuiltIn(info) => listed(info.clone(), "built-in".into()),
+                Listed::User(m) => from_user(m),
+            })
+            .collect();
+        Listing {
+            schema_version: LISTING_SCHEMA_VERSION,
+            materials,
+        }
+    }
+
+    /// The built-in library alone.
+    pub fn builtin() -> Listing {
+        Listing::new(Vec::new(), "")
+    }
+}
+
 /// The materials of a TOML text (a user's materials file): each table a material named by
 /// its key, in the order of their names, each checked as [`Material::validate`] does. A
 /// syntax error names its line.

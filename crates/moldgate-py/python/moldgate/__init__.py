@@ -418,7 +418,10 @@ def materials(materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None) 
     """The built-in materials (the paper's Table 1 first, then the typical grades, as
     ``moldgate materials`` lists them), each replaced by a material of ``materials_file``
     (TOML, one table per material) of the same name or alias, then that file's other
-    materials; each a dict of its parameters with the melt velocity (Eq. 7,
-    ``melt_velocity_m_s``) and the gate radius (Eq. 8, ``gate_radius_mm``)."""
+    materials; each a dict as ``moldgate materials --json`` gives it: its parameters, the
+    melt velocity (Eq. 7, ``melt_velocity_m_s``) and the gate radius (Eq. 8,
+    ``gate_radius_mm``), its ``aliases``, ``description``, ``family``, whether its values
+    are ``typical`` of the family, the ``sources`` of each value, and its ``origin``
+    (``"built-in"`` or the file's path)."""
     mf = _os.fspath(materials_file) if materials_file is not None else None
     return _moldgate.materials(mf)

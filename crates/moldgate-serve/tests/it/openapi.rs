@@ -221,3 +221,27 @@ fn every_study_option_is_a_documented_parameter() {
     fields.extend(["format", "output", "units"].map(String::from));
     assert_eq!(params, fields);
 }
+
+/// `GET /v1/materials` lists the whole library a study takes (not only the paper's Table 1),
+/// each entry as `moldgate materials --json` gives it.
+#[tokio::test]
+async fn the_materials_are_the_whole_library_with_their_sources() {
+    let (status, body) = call("GET", "/v1/materials", "", Vec::new()).await;
+    assert_eq!(status, StatusCode::OK);
+    // Through text, as the answer came (serde_json's parse of a float may differ from the
+    // float by its last bit).
+    let listing = serde_json::to_string(&moldgate::material::Listing::builtin()).unwrap();
+    assert_eq!(body, serde_json::from_str::<Value>(&listing).unwrap());
+    let names: Vec<&str> = body["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names.len(), moldgate::material::library().len());
+    assert_eq!(names[..3], ["PP", "ABS", "PC"]);
+    assert!(names.contains(&"PA66-GF30"), "{names:?}");
+    let pe = &body["materials"][names.iter().position(|&n| n == "PE-HD").unwrap()];
+    assert!(pe["aliases"].as_array().unwrap().contains(&"HDPE".into()));
+    assert_eq!(body["materials"][0]["sources"]["n"], "the paper, Table 1");
+}
