@@ -80,6 +80,10 @@ function gateSection(r) {
       ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % ${of}, ${worst(s)}`));
     }
     content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
+    // Chosen by its flow length, the layout's fill time is given too, said not minimised.
+    if (several.fill_time_s == null && several.layout_fill_time_s != null) {
+      content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill the part in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
+    }
   }
   return section("gate-result", "Gate", ...content);
 }

@@ -382,6 +382,21 @@ describe("moldgate in the browser", () => {
     await page.click("#defaults");
   });
 
+  test("several gates minimising the flow length give their fill time too, said not minimised", async () => {
+    await page.selectOption("#demold", "+z");
+    await page.fill("#gates", "2");
+    assert.equal(await studySample(page, "tray"), "done");
+    const expected = cli(["locate", "--sample", "tray", "--demold", "+z", "--gates", "2"]).fill.several;
+    assert.equal(expected.fill_time_s, null);
+    assert.ok(expected.layout_fill_time_s > 0);
+    assert.equal(await page.getAttribute("#layout-fill-time", "data-value"), String(expected.layout_fill_time_s));
+    assert.equal(
+      await page.textContent("#layout-fill-time"),
+      `These gates together fill the part in ${seconds(expected.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`,
+    );
+    await page.click("#defaults");
+  });
+
   test("shift-click places a gate of the designer's, judged and filled as the command line does", async () => {
     await page.selectOption("#demold", "+z");
     await page.check("#fill");

@@ -189,6 +189,14 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
             m.improvement_pct,
             m.balance
         );
+        // Chosen by its flow length, the layout's fill time is given too, said not minimised.
+        if let (moldgate::flow::Objective::Length, Some(t)) = (f.objective, m.layout_fill_time_s) {
+            let _ = writeln!(
+                s,
+                "  their fill time (estimate): {} s, which the layout does not minimise (it minimises L_max)",
+                moldgate::report::seconds_text(t)
+            );
+        }
         // A layout lies on one body: with several, its shares are of that body's volume.
         let of = if f.bodies > 1 {
             "of its body's volume"

@@ -298,7 +298,7 @@ fn summary_table(h: &mut String, r: &Report) {
         };
         row(
             h,
-            "Grid gate",
+            "Paper gate",
             &format!(
                 "{} mm, normal {}, wall along D {} (the paper's rule: the node's ray; thinnest under the disc {}), {}",
                 v3(g.point),
@@ -644,19 +644,24 @@ fn fill_table(h: &mut String, r: &Report) {
             );
         }
         let _ = writeln!(h, "</table>");
-        // The pictures colour the layout's fill time (unless the designer's gates take
-        // them over): say that it is not what the layout was chosen for, so that a colour
+        // Chosen by its longest flow path, the layout's fill time is still what a designer
+        // asks of it (and what the pictures colour, unless the designer's gates take them
+        // over): given, and said not to be what the layout was chosen for, so that a colour
         // bar ending above a single gate's fill time does not read as a fault.
-        let pictured = r.placed_gates.as_ref().is_none_or(|p| p.fill.is_none());
-        if pictured
-            && f.objective == crate::flow::Objective::Length
-            && !f.per_vertex.fill_time_s.is_empty()
-        {
+        if let (crate::flow::Objective::Length, Some(t)) = (f.objective, m.layout_fill_time_s) {
+            let pictured = r.placed_gates.as_ref().is_none_or(|p| p.fill.is_none())
+                && !f.per_vertex.fill_time_s.is_empty();
             let _ = writeln!(
                 h,
-                "<p>The pictures colour the fill time from these gates together, which the \
-                 layout does not minimise (it minimises the longest flow path): it may end \
-                 later than a single gate's fill.</p>"
+                "<p id=\"layout-fill-time\">These gates together fill the part in {} s \
+                 (estimate), a time the layout does not minimise (it minimises the longest flow \
+                 path): it may end later than a single gate's fill.{}</p>",
+                crate::report::seconds_text(t),
+                if pictured {
+                    " The pictures colour this fill time."
+                } else {
+                    ""
+                }
             );
         }
     }

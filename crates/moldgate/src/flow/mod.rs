@@ -1772,6 +1772,12 @@ pub struct MultiGate {
     pub l_max_mm: Option<f64>,
     /// Fill time with all gates open, s; `None` when the layout minimised the flow length.
     pub fill_time_s: Option<f64>,
+    /// The estimated fill time with all gates open, s, whichever objective chose the layout
+    /// (the latest arrival of one march from every gate at once under the fill's cost, the
+    /// time the pictures colour): with the resistance objective it is `fill_time_s`; with
+    /// the flow-length objective it is the time of the layout found, which the search did
+    /// not minimise. `None` until the fill analysis has marched it.
+    pub layout_fill_time_s: Option<f64>,
     /// How much shorter the objective is than with the best single gate (the balanced
     /// gate, or the paper gate when no candidate beats it), %.
     pub improvement_pct: f64,
@@ -2347,6 +2353,7 @@ fn several_gates_search(
         gates,
         l_max_mm: Some(worst),
         fill_time_s: None,
+        layout_fill_time_s: None,
         improvement_pct: 0.0,
         balance,
         runs: runs + from_centre.runs() + trial_runs.into_inner(),
@@ -3544,6 +3551,27 @@ pub fn analyse_prepared(
             march(&domain.voxels, &sources, cost)
         })
     };
+    // The layout's fill time whichever objective chose it: the march the pictures colour
+    // when they colour the fill time, else one of its own.
+    let mut layout_fill = several_pictured.map(|_| all_gates(Some(&domain.fill_cost)));
+    if layout_fill.is_none() {
+        if let Some(m) = &several {
+            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+            layout_fill = Some(Some(march(
+                &domain.voxels,
+                &sources,
+                Some(&domain.fill_cost),
+            )));
+        }
+    }
+    let layout_fill_time_s = layout_fill.as_ref().and_then(|f| f.as_ref()).map(|f| {
+        let latest =
+            f.t.iter()
+                .copied()
+                .filter(|t| t.is_finite())
+                .fold(0.0, f64::max);
+        latest * per_mm
+    });
     // The pictured field of the cells when it is a field of the fill: flow length or fill
     // time, from every pictured gate at once when there are several.
     let mut pictured_t: Option<(Vec<f64>, Kind)> = match options.colour_by {
@@ -3552,7 +3580,10 @@ pub fn analyse_prepared(
             Kind::Length,
         )),
         ColourBy::FillTime => Some((
-            all_gates(Some(&domain.fill_cost)).map_or_else(|| fields.fill.t.clone(), |f| f.t),
+            match several_pictured.and(layout_fill.take().flatten()) {
+                Some(f) => f.t,
+                None => fields.fill.t.clone(),
+            },
             Kind::Fill,
         )),
         ColourBy::Wall | ColourBy::Height => None,
@@ -3645,6 +3676,9 @@ pub fn analyse_prepared(
             &paper,
             &b.fill,
         ));
+    }
+    if let Some(m) = &mut several {
+        m.layout_fill_time_s = layout_fill_time_s;
     }
     check()?;
     Ok(FillAnalysis {
@@ -4261,6 +4295,7 @@ mod tests {
                 .collect(),
             l_max_mm: None,
             fill_time_s: Some(0.00621),
+            layout_fill_time_s: Some(0.00621),
             improvement_pct: 5.5,
             balance: 0.1,
             runs: 1,
@@ -4305,6 +4340,7 @@ mod tests {
             gates,
             l_max_mm: Some(10.0),
             fill_time_s: None,
+            layout_fill_time_s: None,
             improvement_pct: 1.0,
             balance: 0.0,
             runs: 1,
