@@ -82,7 +82,7 @@ function gateSection(r) {
     content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
     // Chosen by its flow length, the layout's fill time is given too, said not minimised.
     if (several.fill_time_s == null && several.layout_fill_time_s != null) {
-      content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill the part in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
+      content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill ${r.fill.bodies > 1 ? "their body" : "the part"} in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
     }
   }
   return section("gate-result", "Gate", ...content);
@@ -185,13 +185,15 @@ function suitabilityPart(m) {
     el("p", {}, best ? `Best node ${v3(best.point)} mm: ${value(best.score)} ${m.unit}. ${m.exact} scores exact, the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
 }
 
-function countsSection(c) {
+function countsSection(c, fit) {
   const rows = [
     ["grid nodes", c.nodes], ["hit the part", c.centre_hits], ["whole circle on the part", c.circle_on_part],
     ["wall thicker than R", c.thicker_than_radius], ["wall unknown", c.thickness_unknown], ["flat", c.flat],
     ["kept out", c.kept_out], ["on cosmetic faces", c.cosmetic], ["qualify", c.qualifying],
   ];
-  const table = el("table", { id: "counts" }, el("caption", {}, "Grid nodes through each rule"));
+  // With the fitted radius taken, the counts are the grid's at the refused one.
+  const at = fit?.accepted ? ` (at R = ${fit.refused_mm.toFixed(3)} mm, before the fit)` : "";
+  const table = el("table", { id: "counts" }, el("caption", {}, `Grid nodes through each rule${at}`));
   for (const [name, n] of rows) table.append(el("tr", { "data-count": name }, el("th", { scope: "row" }, name), el("td", { "data-value": n }, n.toLocaleString("en"))));
   return section("counts-result", "Nodes per rule", table);
 }
@@ -292,7 +294,7 @@ export function showReport(container, r, page) {
   const warnings = el("ul", { id: "warnings" });
   for (const w of r.warnings) warnings.append(el("li", { class: "warning", "data-warning": w }, inPageWords(w)));
   if (r.warnings.length) container.append(section("warnings-result", "Warnings", warnings));
-  container.append(partSection(r), countsSection(r.counts));
+  container.append(partSection(r), countsSection(r.counts, r.radius_fit));
   if (r.wall_thickness) container.append(wallSection(r.wall_thickness));
   if (r.demold_auto) {
     const ul = el("ul", {});

@@ -193,7 +193,9 @@ fn fill(s: &mut String, f: &moldgate::flow::FillAnalysis, label: &str) {
         if let (moldgate::flow::Objective::Length, Some(t)) = (f.objective, m.layout_fill_time_s) {
             let _ = writeln!(
                 s,
-                "  their fill time (estimate): {} s, which the layout does not minimise (it minimises L_max)",
+                "  their fill time (estimate){}: {} s, which the layout does not minimise (it minimises L_max)",
+                // A layout lies on one body: on a part of several, the time is that body's.
+                if f.bodies > 1 { " over their body" } else { "" },
                 moldgate::report::seconds_text(t)
             );
         }
@@ -316,9 +318,15 @@ pub fn render(r: &Report) -> String {
         v3(r.centre_of_mass.used)
     );
     let c = &r.counts;
+    // The counts are the grid's at the material's radius: with the fitted radius taken,
+    // the gate below comes from another radius, which the line must not hide.
+    let at_radius = match &r.radius_fit {
+        Some(f) if f.accepted => format!(" (at R_gate = {:.3} mm, before the fit)", f.refused_mm),
+        _ => String::new(),
+    };
     let _ = writeln!(
         s,
-        "nodes: {} on the grid -> {} on the part -> {} with the whole gate disc on the part -> {} with a wall thicker than the radius ({} unknown); {} flat; {} qualify",
+        "nodes{at_radius}: {} on the grid -> {} on the part -> {} with the whole gate disc on the part -> {} with a wall thicker than the radius ({} unknown); {} flat; {} qualify",
         c.nodes, c.centre_hits, c.circle_on_part, c.thicker_than_radius, c.thickness_unknown, c.flat, c.qualifying
     );
     if c.kept_out + c.cosmetic > 0 {

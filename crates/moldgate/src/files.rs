@@ -176,6 +176,10 @@ pub(crate) fn plain_words(message: &str) -> String {
         ("expected f32", "expected a number"),
         ("expected i64", "expected a whole number"),
         (
+            "expected struct Material",
+            "expected a table of a material's parameters ([NAME], then n, t_melt, t_wall, gamma_opt, mu_opt, k)",
+        ),
+        (
             "data did not match any variant of untagged enum MaterialChoice",
             "expected a material name or a table of its parameters (n, t_melt, t_wall, gamma_opt, mu_opt, k)",
         ),

@@ -369,9 +369,14 @@ fn summary_table(h: &mut String, r: &Report) {
 
 fn counts_table(h: &mut String, r: &Report) {
     let c = &r.counts;
+    // With the fitted radius taken, the counts are the grid's at the refused one.
+    let at_radius = match &r.radius_fit {
+        Some(f) if f.accepted => format!(" (at R = {:.3} mm, before the fit)", f.refused_mm),
+        _ => String::new(),
+    };
     let _ = writeln!(
         h,
-        "<h2>Grid nodes through the rules</h2>\n<table>\n<tr><th>Rule</th><th>Nodes</th></tr>"
+        "<h2>Grid nodes through the rules{at_radius}</h2>\n<table>\n<tr><th>Rule</th><th>Nodes</th></tr>"
     );
     let rows = [
         ("Nodes of the grid", c.nodes),
@@ -653,14 +658,23 @@ fn fill_table(h: &mut String, r: &Report) {
                 && !f.per_vertex.fill_time_s.is_empty();
             let _ = writeln!(
                 h,
-                "<p id=\"layout-fill-time\">These gates together fill the part in {} s \
+                "<p id=\"layout-fill-time\">These gates together fill {} in {} s \
                  (estimate), a time the layout does not minimise (it minimises the longest flow \
                  path): it may end later than a single gate's fill.{}</p>",
-                crate::report::seconds_text(t),
-                if pictured {
-                    " The pictures colour this fill time."
+                // A layout lies on one body: on a part of several, the time is that body's.
+                if f.bodies > 1 {
+                    "their body"
                 } else {
-                    ""
+                    "the part"
+                },
+                crate::report::seconds_text(t),
+                match (pictured, f.bodies > 1) {
+                    (false, _) => "",
+                    (true, false) => " The pictures colour this fill time.",
+                    (true, true) => {
+                        " The pictures colour this fill time on their body, and each other \
+                         body by the fill from its own gate (listed below), which may end later."
+                    }
                 }
             );
         }
@@ -902,7 +916,8 @@ rest of the part grey. A score is exact (a march from the node, to one flow cell
 bound from the marches of far points, with an upper bound beside it in the JSON; the best
 node is exact when the balanced search proved its gate.</dd>
 <dt>Several gates</dt><dd>With <code>--gates K</code>, K gates that together make the longest
-flow as short as possible; each fills its share of the volume.</dd>
+flow as short as possible (or the fill time with <code>--objective resistance</code>); each
+fills its share of the volume.</dd>
 <dt>Last to fill</dt><dd>Places the melt reaches last, with their flow length and fill time:
 where air is trapped and vents go.</dd>
 <dt>Weld lines</dt><dd>Where two melt fronts meet after flowing around an obstacle: a weaker,

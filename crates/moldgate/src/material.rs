@@ -230,9 +230,24 @@ impl Listing {
 pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
     let table: std::collections::BTreeMap<String, Material> =
         toml::from_str(text).map_err(|e| crate::files::toml_message(text, &e))?;
-    let mut out = Vec::with_capacity(table.len());
-    for (name, mut m) in table {
-        m.name = name;
+    let mut out: Vec<Material> = Vec::with_capacity(table.len());
+    for (key, mut m) in table {
+        // A material is named by its table; a `name` inside it that says otherwise would be
+        // ignored, and two tables whose names differ only in case or separators would be
+        // one material to `--material`.
+        if !m.name.is_empty() && m.name != key {
+            return Err(format!(
+                "material [{key}]: a material is named by its table, and its name = \"{}\" says otherwise; leave name out",
+                m.name
+            ));
+        }
+        if let Some(other) = out.iter().find(|o| name::same(&o.name, &key)) {
+            return Err(format!(
+                "materials [{}] and [{key}] are one name (case and separators are ignored): keep one",
+                other.name
+            ));
+        }
+        m.name = key;
         m.validate().map_err(|e| e.to_string())?;
         out.push(m);
     }
@@ -266,6 +281,27 @@ mod tests {
         // A huge value is written short, not in 309 digits.
         let e = materials_from_toml(&good.replace("t_wall = 80.0", "t_wall = 1e308")).unwrap_err();
         assert!(e.contains("(1e308 C)") && e.len() < 200, "{e}");
+        // Two tables that `--material` cannot tell apart, and a name that is not the table's.
+        let twice = format!("{good}{}", good.replace("[MyPA]", "[my-pa]"));
+        let e = materials_from_toml(&twice).unwrap_err();
+        assert_eq!(
+            e,
+            "materials [MyPA] and [my-pa] are one name (case and separators are ignored): keep one"
+        );
+        let named = good.replace("n = 0.4", "name = \"Other\"\nn = 0.4");
+        let e = materials_from_toml(&named).unwrap_err();
+        assert!(
+            e.starts_with("material [MyPA]: a material is named by its table"),
+            "{e}"
+        );
+        let same = good.replace("n = 0.4", "name = \"MyPA\"\nn = 0.4");
+        assert_eq!(materials_from_toml(&same).unwrap()[0].name, "MyPA");
+        // Parameters outside a table, in a person's words.
+        let e = materials_from_toml("n = 0.3\n").unwrap_err();
+        assert!(
+            e.contains("expected a table of a material's parameters"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -1309,11 +1309,18 @@ fn cap_too_thin_for_the_gate_gets_the_largest_radius_that_fits() {
         )),
         "{taken}"
     );
+    // The node counts are the grid's at the refused radius, and say so (they end in "0
+    // qualify" above a gate).
+    assert!(
+        taken.contains("nodes (at R_gate = 2.500 mm, before the fit): "),
+        "{taken}"
+    );
     let html = std::fs::read_to_string(dir.path().join("fit.html")).unwrap();
     assert!(
         html.contains(&format!("radius R = {radius:.3} mm")),
         "the headline's radius"
     );
+    assert!(html.contains("Grid nodes through the rules (at R = 2.500 mm, before the fit)"));
 }
 
 #[cfg(target_os = "linux")]

@@ -186,6 +186,10 @@ fn multipart_options_and_formats_give_the_same_report() {
     let stl = sample_stl("plate");
     let by_query = study_stl(s.addr, "material=PC&circle_points=12", &stl);
     assert_eq!(by_query.status, 200);
+    // A material parameter at fault is named as its query parameter, not as `material`.
+    let bad = study_stl(s.addr, "material=PC&n=0", &stl);
+    let e = assert_error(&s, &bad, 400, "options");
+    assert_eq!(e["where"], "n", "{e}");
     let b = "moldgateboundary";
     let mut body = format!(
         "--{b}\r\ncontent-disposition: form-data; name=\"options\"\r\ncontent-type: application/json\r\n\r\n{{\"material\": \"PC\", \"circle_points\": 12}}\r\n--{b}\r\ncontent-disposition: form-data; name=\"mesh\"; filename=\"plate.stl\"\r\ncontent-type: application/octet-stream\r\n\r\n"

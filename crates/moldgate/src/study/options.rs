@@ -276,6 +276,9 @@ pub struct Settings {
     pub fill: Option<FillOptions>,
     /// The designer's gates as given (`gate_at`), before they are moved onto the surface.
     pub gate_at: Vec<DVec3>,
+    /// What the pictures are coloured by: the fill's field (its own `colour_by`), or
+    /// without the fill the wall map when it is measured and this asks for it.
+    pub color_by: ColorByChoice,
     /// Warnings about the options themselves (an option that changes nothing as given),
     /// added to every part's report.
     pub warnings: Vec<String>,
@@ -285,23 +288,36 @@ pub struct Settings {
 /// may have ([`FlowOptions::max_gates`]'s default).
 pub const MAX_GATE_AT: usize = 32;
 
+/// Gate radii of injection moulding, mm: Eq. 8's radius of a material outside them is
+/// warned about (the built-in library's span 0.78 to 1.92 mm).
+const PLAUSIBLE_RADIUS_MM: (f64, f64) = (0.2, 10.0);
+
 /// How many names an unknown material is answered with.
 const SUGGESTIONS: usize = 3;
 
 /// The material called `query`, case and separators ignored: the user's first, then the
-/// built-in library's (names and aliases); an unknown name fails with the
-/// [`SUGGESTIONS`] closest known names.
+/// built-in library's (names and aliases), where a built-in that a user material replaces
+/// (one named like its name or an alias, as `material::library_with` lists them) is that
+/// user material under any of its names; an unknown name fails with the [`SUGGESTIONS`]
+/// closest known names.
 fn lookup(query: &str, user: &[Material]) -> Result<Material, StudyError> {
     if let Some(m) = user.iter().find(|m| name::same(&m.name, query)) {
         return Ok(m.clone());
     }
+    // The user material that replaces a built-in, if one does.
+    let replacing = |i: &material::MaterialInfo| {
+        user.iter().find(|m| {
+            std::iter::once(&i.material.name)
+                .chain(&i.aliases)
+                .any(|n| name::same(n, &m.name))
+        })
+    };
     if let Some(info) = material::find(query) {
-        return Ok(info.material.clone());
+        return Ok(replacing(info).unwrap_or(&info.material).clone());
     }
     // Aliases count for closeness, but the answer is the material's own name; a built-in
-    // that a user material of its name replaces is not offered.
-    let shadowed =
-        |i: &&material::MaterialInfo| user.iter().any(|m| name::same(&m.name, &i.material.name));
+    // that a user material replaces is not offered.
+    let shadowed = |i: &&material::MaterialInfo| replacing(i).is_some();
     let known = user
         .iter()
         .map(|m| (m.name.as_str(), m.name.as_str()))
@@ -633,6 +649,48 @@ impl StudyOptions {
                     .to_string(),
             );
         }
+        // The same point twice is one gate: the second reaches first no place of the part.
+        for (j, q) in gate_at.iter().enumerate() {
+            if let Some(i) = gate_at[..j].iter().position(|p| p == q) {
+                warnings.push(format!(
+                    "--gate-at gives gate {} at the point of gate {} ({}, {}, {}): one gate there, and the second fills nothing of the part",
+                    j + 1,
+                    i + 1,
+                    q.x,
+                    q.y,
+                    q.z
+                ));
+            }
+        }
+        // Eq. 8's radius far outside moulding practice is most often a parameter in the
+        // wrong unit (a shear rate of 1 for 10,000 1/s): said, not refused.
+        if radius_source == RadiusSource::Material
+            && !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm)
+        {
+            warnings.push(format!(
+                "{}: Eq. 8 gives a gate radius of {} mm, far outside the {}-{} mm of injection moulding; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C)), or give the radius with --gate-radius",
+                match material.name.as_str() {
+                    "" => "the material given".to_string(),
+                    name => format!("material {name}"),
+                },
+                crate::report::three_figures(gate_radius_mm),
+                PLAUSIBLE_RADIUS_MM.0,
+                PLAUSIBLE_RADIUS_MM.1,
+            ));
+        }
+        // Without the fill the pictures are coloured by height, or by the wall map when it
+        // is measured and asked for.
+        match (fill.is_none(), self.color_by, self.wall_thickness) {
+            (true, ColorByChoice::FlowLength, _) => warnings.push(
+                "--color-by flow-length changes nothing without the fill analysis: the pictures are coloured by the height along D (ask for --fill)"
+                    .to_string(),
+            ),
+            (true, ColorByChoice::Wall, false) => warnings.push(
+                "--color-by wall changes nothing without the fill analysis or the wall thickness: the pictures are coloured by the height along D (ask for --fill or --wall-thickness)"
+                    .to_string(),
+            ),
+            _ => {}
+        }
         Ok(Settings {
             material,
             locate,
@@ -641,6 +699,7 @@ impl StudyOptions {
             wall_thickness: self.wall_thickness,
             fill,
             gate_at,
+            color_by: self.color_by,
             warnings,
         })
     }
@@ -896,7 +955,7 @@ color_by = "flow_length"
     }
 
     #[test]
-    fn an_objective_or_a_cell_without_the_fill_is_warned_about() {
+    fn options_that_change_nothing_or_look_mistaken_are_warned_about() {
         let warned = |json: &str| {
             let o: StudyOptions = serde_json::from_str(json).unwrap();
             o.validate().unwrap().warnings
@@ -910,7 +969,45 @@ color_by = "flow_length"
         let w = warned(r#"{ "cell": 0.5 }"#);
         assert_eq!(w.len(), 1);
         assert!(w[0].starts_with("cell changes nothing"), "{w:?}");
+        // A colouring the pictures cannot have without the fill (the wall map colours them
+        // when it is measured).
+        let w = warned(r#"{ "color_by": "flow_length", "wall_thickness": true }"#);
+        assert_eq!(w.len(), 1);
+        assert!(
+            w[0].starts_with("--color-by flow-length changes nothing"),
+            "{w:?}"
+        );
+        let w = warned(r#"{ "color_by": "wall" }"#);
+        assert_eq!(w.len(), 1);
+        assert!(w[0].starts_with("--color-by wall changes nothing"), "{w:?}");
+        // A material whose Eq. 8 radius no mould has (a shear rate of 1 1/s): 13,435 mm.
+        let odd = r#"{ "material": { "n": 0.3, "t_melt": 230, "t_wall": 50, "gamma_opt": 1,
+                       "mu_opt": 10, "k": 0.15 } }"#;
+        let w = warned(odd);
+        assert_eq!(w.len(), 1);
+        assert!(
+            w[0].starts_with(
+                "the material given: Eq. 8 gives a gate radius of 13435 mm, far outside the 0.2-10 mm"
+            ),
+            "{w:?}"
+        );
+        let w = warned(r#"{ "gate_at": ["1,2,3", "4,5,6", "1.0,2,3e0"] }"#);
+        assert_eq!(
+            w,
+            ["--gate-at gives gate 3 at the point of gate 1 (1, 2, 3): one gate there, and the second fills nothing of the part"]
+        );
+        let forced = r#"{ "gate_radius": 1.5, "material": { "n": 0.3, "t_melt": 230,
+                          "t_wall": 50, "gamma_opt": 1, "mu_opt": 10, "k": 0.15 } }"#;
+        assert!(warned(forced).is_empty());
+        for m in material::library() {
+            let json = format!(r#"{{ "material": "{}" }}"#, m.material.name);
+            assert!(warned(&json).is_empty(), "{json}");
+        }
         for json in [
+            r#"{ "color_by": "wall", "wall_thickness": true }"#,
+            r#"{ "color_by": "wall", "fill": true }"#,
+            r#"{ "color_by": "flow_length", "gates": 2 }"#,
+            r#"{ "color_by": "height" }"#,
             r#"{ "cell": 0.5, "fill": true }"#,
             r#"{ "cell": 0.5, "strategy": "balanced" }"#,
             r#"{ "objective": "resistance", "fill": true }"#,
@@ -961,6 +1058,29 @@ color_by = "flow_length"
         // The replaced built-in is not offered beside the user's material.
         let e = material_named("PA67", &user).unwrap_err().to_string();
         assert_eq!(e, "unknown material 'PA67'; closest: PA6, pa-66, PA66-GF30");
+    }
+
+    #[test]
+    fn a_user_material_named_like_an_alias_replaces_that_built_in_under_every_name() {
+        // The user's "HDPE" is named like the built-in PE-HD's alias: the listing shows it in
+        // PE-HD's place, and the study takes it by either name (it took the built-in PE-HD).
+        let mine = Material {
+            name: "HDPE".into(),
+            ..Material::builtin("PC").unwrap()
+        };
+        let user = [mine.clone()];
+        let listed: Vec<String> = material::library_with(user.to_vec())
+            .iter()
+            .map(|l| match l {
+                material::Listed::BuiltIn(i) => i.material.name.clone(),
+                material::Listed::User(m) => m.name.clone(),
+            })
+            .collect();
+        assert!(listed.contains(&"HDPE".to_string()) && !listed.contains(&"PE-HD".to_string()));
+        for name in ["PE-HD", "pe hd", "HDPE"] {
+            assert_eq!(material_named(name, &user).unwrap(), mine, "{name}");
+        }
+        assert_eq!(material_named("PE-LD", &user).unwrap().name, "PE-LD");
     }
 
     #[test]

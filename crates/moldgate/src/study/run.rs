@@ -13,7 +13,7 @@ use crate::raycast::{Bvh, Sampling};
 use crate::render::RenderOptions;
 use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
-use crate::study::{judge, Demold, Hooks, Settings, Stage, StudyError};
+use crate::study::{judge, ColorByChoice, Demold, Hooks, Settings, Stage, StudyError};
 use crate::thickness::{wall_thickness_until, Known, ThicknessOptions, WallThickness};
 use crate::undercut::auto_direction_beside_loaded;
 
@@ -37,6 +37,8 @@ pub struct Study {
     wall_per_vertex: Option<Vec<f32>>,
     /// What the fill's pictures are coloured by, when the fill ran.
     colour_by: Option<flow::ColourBy>,
+    /// What the pictures are coloured by, as asked (`Settings::color_by`).
+    color_by: ColorByChoice,
     gates: Vec<GateMarker>,
     /// On a part of several bodies, the own gate of each body the answer's gates do not
     /// reach (by body), drawn with the fill those bodies are shown with.
@@ -348,6 +350,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         wall: wall.map(|(w, _)| w),
         wall_per_vertex,
         colour_by,
+        color_by: s.color_by,
         gates,
         body_gates,
         placed: placed_markers,
@@ -625,6 +628,18 @@ impl Study {
         } else if let Some(f) = self.fill_field() {
             let display = self.display(part, &f);
             scene = scene.with_refined_field(f, display);
+        } else if let (None, Some(w), true) = (
+            self.fill(),
+            &self.wall_per_vertex,
+            self.color_by == ColorByChoice::Wall,
+        ) {
+            // Without the fill, the wall map when it was measured and asked for.
+            scene = scene.with_field(Field {
+                name: "wall thickness".into(),
+                unit: "mm".into(),
+                per_vertex: w.clone(),
+                cells: None,
+            });
         }
         let r = self.analysis.options.gate_radius_mm;
         scene.gates = self

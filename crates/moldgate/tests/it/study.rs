@@ -491,6 +491,44 @@ fn two_gates_on_a_long_tray_split_it_across_its_length() {
     assert!(layout.improvement_pct > 15.0, "{}", layout.improvement_pct);
 }
 
+/// Without the fill, the pictures are coloured by the wall map when it was measured and
+/// asked for (they were coloured by height, without a word).
+#[test]
+fn the_wall_map_colours_the_pictures_without_the_fill_when_asked_for() {
+    let part = sample("cover");
+    let s = study(
+        &part,
+        &options(r#"{ "wall_thickness": true, "color_by": "wall" }"#),
+    )
+    .unwrap();
+    let scene = s.scene(&part, "cover").unwrap();
+    assert_eq!(scene.field.name, "wall thickness");
+    let walls = s.wall_thickness_per_vertex().unwrap();
+    assert_eq!(scene.field.per_vertex.len(), walls.len());
+    assert!(scene
+        .field
+        .per_vertex
+        .iter()
+        .zip(walls)
+        .all(|(a, b)| a == b || (a.is_nan() && b.is_nan())));
+    assert!(s
+        .report()
+        .warnings
+        .iter()
+        .all(|w| !w.contains("--color-by")));
+    // Not measured: height, and a warning saying so.
+    let s = study(&part, &options(r#"{ "color_by": "wall" }"#)).unwrap();
+    assert_eq!(
+        s.scene(&part, "cover").unwrap().field.name,
+        "height along D"
+    );
+    assert!(s
+        .report()
+        .warnings
+        .iter()
+        .any(|w| w.starts_with("--color-by wall changes nothing")));
+}
+
 /// A layout chosen by its flow length gives its fill time too: the time the pictures colour
 /// (the largest of the pictured cells'), the same with the designer's gates taking the
 /// pictures over (marched on its own then), and under the resistance objective the value
@@ -542,6 +580,23 @@ fn a_layout_gives_its_fill_time_whichever_objective_chose_it() {
         "{t} against {minimised}"
     );
     assert!(!s.html(None).unwrap().contains("layout-fill-time"));
+    // On a part of two bodies the layout lies on one: the time is that body's, and the
+    // pictures colour the other from its own gate (its time may be later).
+    let mut two = moldgate::samples::BoxUnion::default();
+    two.add([0.0, 0.0, 0.0], [60.0, 30.0, 2.0]);
+    two.add([80.0, 0.0, 0.0], [120.0, 30.0, 2.0]);
+    let two = moldgate::mesh::from_generated(two.mesh());
+    let s = study(&two, &options(r#"{"gates": 2, "demold": "+z"}"#)).unwrap();
+    let fill = s.report().fill.as_ref().unwrap();
+    assert_eq!(fill.bodies, 2);
+    let t = fill.several.as_ref().unwrap().layout_fill_time_s.unwrap();
+    let page = s.html(None).unwrap();
+    let said = format!(
+        "These gates together fill their body in {} s",
+        moldgate::report::seconds_text(t)
+    );
+    assert!(page.contains(&said), "the page lacks {said}");
+    assert!(page.contains("The pictures colour this fill time on their body, and each other body by the fill from its own gate"));
 }
 
 #[test]
