@@ -44,7 +44,9 @@ const FLAG_LABELS = {
   "--require-flat": "'Only flat gate discs'",
   "--max-nodes": "'Largest grid (nodes)'",
   "--cell": "'Fill cell size'",
-  "--gate-at": "shift-click on the part",
+  "--gate-at": "'Your own gates' (or shift-click on the part)",
+  "--fit-radius": "'When no node passes the wall rule, take the largest gate radius that fits'",
+  "--parting-line": "'Parting line'",
 };
 
 /** The page's names for the options (the library's field names) an option error starts with. */
@@ -67,6 +69,8 @@ const FIELD_LABELS = {
   flat_tol: "'Flatness tolerance'",
   max_nodes: "'Largest grid (nodes)'",
   cell: "'Fill cell size'",
+  gate_at: "'Your own gates'",
+  parting_line: "'Parting line'",
 };
 
 /** The material parameters' names in the page's custom material. */

@@ -63,7 +63,7 @@ function cancelStudy() {
 
 // ---------------------------------------------------------------- the options
 
-const optionIds = ["units", "demold", "strategy", "objective", "gates", "thickness_rule", "fill", "wall_thickness", "suitability", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
+const optionIds = ["units", "demold", "strategy", "objective", "gates", "thickness_rule", "fit_radius", "parting_line", "fill", "wall_thickness", "suitability", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
 const materialFields = ["n", "t_melt", "t_wall", "gamma_opt", "mu_opt", "k", "max_flow_ratio"];
 
 function setDefaults() {
@@ -77,6 +77,7 @@ function setDefaults() {
     else if (id === "keep_out") e.value = (v || []).join("\n");
     else e.value = v === null || v === undefined ? "" : String(v);
   }
+  $("gate_at_text").value = "";
   $("material").value = typeof d.material === "string" ? d.material : "PP";
   $("cosmetic").value = d.cosmetic ?? "";
   showMaterial();
@@ -106,8 +107,8 @@ function vectorOf(prefix) {
 /** The study's options (StudyOptions JSON: the command line's flags in snake case). */
 function studyOptions() {
   const o = {};
-  for (const id of ["strategy", "objective", "thickness_rule", "centre", "nearest"]) o[id] = $(id).value;
-  for (const id of ["fill", "wall_thickness", "suitability", "aesthetic", "require_flat"]) o[id] = $(id).checked;
+  for (const id of ["strategy", "objective", "thickness_rule", "centre", "nearest", "parting_line"]) o[id] = $(id).value;
+  for (const id of ["fill", "wall_thickness", "suitability", "aesthetic", "require_flat", "fit_radius"]) o[id] = $(id).checked;
   for (const id of ["gate_radius", "spacing", "flat_tol", "cell"]) o[id] = number(id);
   o.grid_offset = number("grid_offset") ?? 0;
   for (const id of ["gates", "circle_points", "max_nodes"]) o[id] = number(id) ?? info.defaults[id];
@@ -115,7 +116,9 @@ function studyOptions() {
   o.cosmetic = $("cosmetic").value === "vector" ? vectorOf("cosmetic") : $("cosmetic").value || null;
   o.keep_out = $("keep_out").value.split("\n").map((s) => s.trim()).filter(Boolean);
   // JavaScript writes a number so that it reads back to the same double.
-  o.gate_at = placed.map((p) => p.map(String).join(","));
+  // The gates typed in (as given: the library reads and checks them), then those clicked.
+  const typed = $("gate_at_text").value.split("\n").map((s) => s.trim()).filter(Boolean);
+  o.gate_at = [...typed, ...placed.map((p) => p.map(String).join(","))];
   if ($("material").value === "custom") {
     const m = { name: "custom" };
     for (const f of materialFields) m[f] = number(`m-${f}`);
@@ -125,6 +128,16 @@ function studyOptions() {
     o.material = $("material").value;
   }
   return o;
+}
+
+/** The form as a study would read it (units and options), to tell whether the results
+ * shown are those of the form's options. */
+function formState() {
+  try {
+    return JSON.stringify({ units: $("units").value, options: studyOptions() });
+  } catch {
+    return null;
+  }
 }
 
 // ---------------------------------------------------------------- the study
@@ -211,6 +224,7 @@ async function analyse({ keepCamera = false } = {}) {
   $("busy-text").textContent = STAGES.start;
   $("progress").value = 0;
   clearResults(`Analysing ${part.name}…`);
+  const asked = formState();
   const request = { file_name: part.name, units: $("units").value, options: studyOptions() };
   if (part.sample) request.sample = part.sample;
   const bytes = part.bytes ? part.bytes.slice(0) : new ArrayBuffer(0);
@@ -221,7 +235,7 @@ async function analyse({ keepCamera = false } = {}) {
     const extras = await viewer.show(r.glb, { keepCamera });
     await new Promise(requestAnimationFrame);
     const total = performance.now() - started;
-    current = { report, name: part.sample ?? part.name };
+    current = { report, name: part.sample ?? part.name, asked };
     showReport($("result-body"), report, r.times);
     $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(extras.field);
@@ -365,9 +379,16 @@ function wire() {
     e.preventDefault();
     analyse();
   });
+  // The results are marked as those of earlier options only when the options differ from
+  // the ones they were studied with (an edit undone, or a value typed before the study
+  // that ran with it, leaves them current).
+  const markStale = (e) => {
+    if (!current || ["file", "sample"].includes(e?.target?.id)) return;
+    $("stale").hidden = formState() === current.asked;
+  };
   $("defaults").addEventListener("click", () => {
     setDefaults();
-    if (current) $("stale").hidden = false;
+    markStale();
   });
   $("material").addEventListener("change", showMaterial);
   $("demold").addEventListener("change", () => ($("demold-vector").hidden = $("demold").value !== "vector"));
@@ -375,9 +396,6 @@ function wire() {
   $("colouring").addEventListener("change", recolour);
   // An option changed after a study: its results stay, marked as those of the earlier
   // options, until the next analysis (choosing a file or a sample starts one by itself).
-  const markStale = (e) => {
-    if (current && !["file", "sample"].includes(e.target.id)) $("stale").hidden = false;
-  };
   $("options").addEventListener("input", markStale);
   $("options").addEventListener("change", markStale);
   $("reset-view").addEventListener("click", () => viewer.reset());

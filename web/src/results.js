@@ -50,6 +50,7 @@ function gateSection(r) {
     if (paper) {
       rows.push(["Paper gate (nearest the centre of mass)", `${v3(paper.point)} mm`, xyz(paper.point)]);
       rows.push(["Wall under the paper gate (along D)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+      rows.push(["Thinnest wall under its disc (along D)", mm(paper.disc_thickness_mm), { id: "gate-disc-wall", "data-value": paper.disc_thickness_mm }]);
       rows.push(["Paper gate from the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
     }
   } else {
@@ -58,6 +59,8 @@ function gateSection(r) {
     if (paper && mode === "paper") {
       rows.push(["Surface normal", v3(paper.normal, 3), { id: "gate-normal", ...xyz(paper.normal) }]);
       rows.push(["Wall under the gate (along D, the paper's rule)", mm(paper.thickness_mm), { id: "gate-wall", "data-value": paper.thickness_mm }]);
+      // The node's ray alone can cross a boss or a rib: the disc's thinnest wall beside it.
+      rows.push(["Thinnest wall under the gate's disc (along D)", mm(paper.disc_thickness_mm), { id: "gate-disc-wall", "data-value": paper.disc_thickness_mm }]);
       rows.push(["From the centre of mass", mm(paper.distance_3d_mm, 1), { "data-value": paper.distance_3d_mm }]);
     }
   }
@@ -182,7 +185,7 @@ function suitabilityPart(m) {
   const gap = m.max_gap_pct === null ? "unbounded" : `${m.max_gap_pct.toFixed(1)} %`;
   return el("div", { id: "suitability-result", "data-nodes": m.nodes.length, "data-exact": m.exact, "data-best": best ? best.score : "" },
     el("p", {}, `Gate suitability: ${m.nodes.length.toLocaleString("en")} qualifying nodes scored by the ${what} of a gate at each, ${value(lo)} to ${value(hi)} ${m.unit} (lower is better; the 3D view colours them, dark blue best).`),
-    el("p", {}, best ? `Best node ${v3(best.point)} mm: ${value(best.score)} ${m.unit}. ${m.exact} scores exact, the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
+    el("p", {}, best ? `Best node ${v3(best.point)} mm: ${value(best.score)} ${m.unit}. ${m.exact} scores exact (to ${value(m.tolerance)} ${m.unit}, the cells' resolution: the balanced gate's own value may differ by as much), the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
 }
 
 function countsSection(c, fit) {

@@ -354,6 +354,12 @@ describe("moldgate in the browser", () => {
       }),
     );
     assert.deepEqual(narrow, []);
+    // The gate's wall along D beside the thinnest under its disc, as the command line
+    // gives both (on the cover the node's ray crosses a boss: 12 mm against 2).
+    const expected = cli(["locate", "--sample", "cover", "--demold", "-z"]).paper_gate;
+    assert.equal(Number(await page.getAttribute("#gate-wall", "data-value")), expected.thickness_mm);
+    assert.equal(Number(await page.getAttribute("#gate-disc-wall", "data-value")), expected.disc_thickness_mm);
+    assert.ok(expected.disc_thickness_mm < expected.thickness_mm);
     await page.click("#defaults");
   });
 
@@ -394,6 +400,32 @@ describe("moldgate in the browser", () => {
       await page.textContent("#layout-fill-time"),
       `These gates together fill the part in ${seconds(expected.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`,
     );
+    await page.click("#defaults");
+  });
+
+  test("typed gates and the fitted radius are the command line's", async () => {
+    // A gate typed in: judged and filled as the command line's --gate-at.
+    await page.selectOption("#demold", "+z");
+    await page.check("#fill");
+    await page.fill("#gate_at_text", "-30,0,5");
+    assert.equal(await studySample(page, "plate"), "done");
+    const placed = await page.$$eval("#placed-list li", (ls) => ls.map((l) => ({ ...l.dataset })));
+    const expected = cli(["locate", "--sample", "plate", "--demold", "+z", "--fill", "--gate-at", "-30,0,5"]);
+    assert.equal(placed.length, 1);
+    assert.equal(placed[0].qualifies, String(expected.placed_gates.gates[0].qualifies));
+    assert.equal(await page.$eval("#placed-fill", (e) => Number(e.dataset.value)), expected.placed_gates.fill.l_max_mm);
+    await page.click("#defaults");
+    // The plate's 3 mm wall refuses a 4 mm gate; with the fit, the largest radius that fits.
+    await page.selectOption("#demold", "+z");
+    await page.$eval("details", (d) => (d.open = true));
+    await page.fill("#gate_radius", "4");
+    await page.check("#fit_radius");
+    assert.equal(await studySample(page, "plate"), "done");
+    const fitted = cli(["locate", "--sample", "plate", "--demold", "+z", "--gate-radius", "4", "--fit-radius"]);
+    assert.equal(fitted.radius_fit.accepted, true);
+    const point = await page.$eval("#gate-point", (e) => [e.dataset.x, e.dataset.y, e.dataset.z].map(Number));
+    for (const i of [0, 1, 2]) assert.ok(Math.abs(point[i] - fitted.gate.point[i]) <= TOLERANCE_MM, `${point} against ${fitted.gate.point}`);
+    assert.match(await page.textContent("#counts"), /at R = 4\.000 mm, before the fit/);
     await page.click("#defaults");
   });
 
@@ -453,6 +485,12 @@ describe("moldgate in the browser", () => {
     await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("gate suitability"));
     // A changed option marks the results as those of the earlier options until the next
     // analysis.
+    assert.equal(await page.isHidden("#stale"), true);
+    const studied = await page.inputValue("#material");
+    await page.selectOption("#material", "ABS");
+    assert.equal(await page.isVisible("#stale"), true);
+    // Undone, the options are those studied again: the results are current.
+    await page.selectOption("#material", studied);
     assert.equal(await page.isHidden("#stale"), true);
     await page.selectOption("#material", "ABS");
     assert.equal(await page.isVisible("#stale"), true);

@@ -459,13 +459,17 @@ pub struct Study {
 }
 
 impl Study {
+    /// The part's name in titles: its file's name, a sample's name as the command line
+    /// gives it (`sample 'cover'`), or `part` for one built from arrays.
     fn title(&self) -> String {
-        match &self.part.get().input.path {
-            Some(p) => Path::new(p)
+        let input = &self.part.get().input;
+        match (&input.path, &input.sample) {
+            (Some(p), _) => Path::new(p)
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_else(|| p.clone()),
-            None => "part".into(),
+            (None, Some(name)) => format!("sample '{name}'"),
+            (None, None) => "part".into(),
         }
     }
 
@@ -624,6 +628,16 @@ impl Study {
     fn fill_time<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
         self.study
             .fill_time_per_vertex()
+            .map(|f| PyArray1::from_slice(py, f))
+    }
+
+    /// Flow length from the gate per vertex of `part.vertices`, mm (NaN where the melt does
+    /// not reach; with several gates, from all of them), float32; None unless the fill ran
+    /// with `color_by="flow_length"` (the fill makes the per-vertex field it pictures).
+    #[getter]
+    fn flow_length<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
+        self.study
+            .flow_length_per_vertex()
             .map(|f| PyArray1::from_slice(py, f))
     }
 

@@ -97,6 +97,15 @@ def test_fill_order_and_several_gates():
     f = s.fill_order
     assert f.dtype == np.float32 and f.shape == (len(s.part.vertices),)
     assert 0.0 <= np.nanmin(f) < 0.5 and np.nanmax(f) == pytest.approx(1.0)
+    assert s.flow_length is None
+    # The pictured field is the one made per vertex: the flow length when asked for, its
+    # largest value the layout's L_max (to the interpolation between cells and vertices).
+    s = moldgate.study(moldgate.sample("plate"), gates=2, color_by="flow_length")
+    length = s.flow_length
+    assert length.dtype == np.float32 and length.shape == (len(s.part.vertices),)
+    assert s.fill_time is None and s.fill_order is None
+    l_max = s.report["fill"]["several"]["l_max_mm"]
+    assert 0.0 <= np.nanmin(length) and np.nanmax(length) <= l_max * 1.001
 
 
 def test_gates_placed_by_the_designer_are_judged_and_filled(cli):

@@ -96,6 +96,11 @@ def test_an_object_without_arrays():
         ({"spacing": -1.0}, "spacing must be a positive number, got -1"),
         ({"spacing": float("nan")}, "spacing must be a finite number, got nan"),
         ({"gate_radius": float("inf")}, "gate_radius must be a finite number, got inf"),
+        ({"gate_radius": 1e300}, "gate_radius must be at most 1000 mm, got 1.000e300"),
+        (
+            {"material": {"n": float("nan"), "t_melt": 230, "t_wall": 50, "gamma_opt": 1e4, "mu_opt": 10, "k": 0.15}},
+            "material.n must be a finite number, got nan",
+        ),
         ({"max_nodes": 2**70}, "max_nodes is out of range, got 1180591620717411303424"),
         ({"max_nodes": 0}, "max_nodes must be between 1 and"),
         ({"n": -0.3}, "n must be a positive finite number, got -0.3"),
@@ -296,6 +301,8 @@ def test_directions_as_numbers_and_other_pythonic_forms():
     for d in ([0, 0, 1], (0.0, 0.0, 1.0), np.array([0, 0, 1.0])):
         assert np.array_equal(moldgate.study(plate, demold=d).gate.point, along_z), d
     assert "aesthetic>" in repr(moldgate.study(moldgate.sample("cover"), aesthetic=True).gate)
+    # A sample keeps its name in titles, as the command line's picture gives it.
+    assert repr(moldgate.study(plate, demold="+z")).startswith("<moldgate.Study of sample 'plate': ")
     with pytest.raises(moldgate.OptionsError, match="got a flat list of 2 numbers"):
         moldgate.study(plate, gate_at=[1, 2])
     for bad in (-1, 0, float("nan"), "1"):

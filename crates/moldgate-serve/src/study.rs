@@ -147,7 +147,18 @@ pub fn options_object(pairs: Vec<(String, String)>) -> Result<Map<String, Value>
         }
         let value = match default {
             Some(Value::String(_)) => Value::String(v),
-            _ => scalar(&v),
+            _ => {
+                // A number beyond a double (`1e400`), or NaN or infinity, would be refused
+                // as text ("expected a number"): said as what it is.
+                if v.trim().parse::<f64>().is_ok_and(|x| !x.is_finite()) {
+                    return Err(ApiError::options(format!(
+                        "{k} must be a finite number, got {}",
+                        moldgate::error::excerpt(v.trim().as_bytes())
+                    ))
+                    .at(k));
+                }
+                scalar(&v)
+            }
         };
         out.insert(k, value);
     }
@@ -674,5 +685,14 @@ mod tests {
         assert_eq!(o.demold, "1");
         let e = study_options(options_object(pairs(&[("spacing", "wide")])).unwrap()).unwrap_err();
         assert_eq!(e.place.as_deref(), Some("spacing"));
+        // Numbers no double holds are said to be so, not refused as text.
+        for (k, v) in [("n", "1e400"), ("gate_radius", "NaN"), ("spacing", "-inf")] {
+            let e = options_object(pairs(&[(k, v)])).unwrap_err();
+            assert_eq!(e.place.as_deref(), Some(k));
+            assert_eq!(e.message, format!("{k} must be a finite number, got {v}"));
+        }
+        // A text option keeps such text as text (a material may be named anything).
+        let o = options_object(pairs(&[("material", "inf")])).unwrap();
+        assert_eq!(o["material"], "inf");
     }
 }

@@ -219,9 +219,9 @@ pub enum OptionsError {
     GridOffset(f64),
     /// The grid would have more nodes than the limit.
     #[error(
-        "a spacing of {} mm gives a grid of {n_u} x {n_w} = {} nodes, more than the limit of {limit}; {}",
+        "a spacing of {} mm gives a grid of {} nodes, more than the limit of {limit}; {}",
         length_text(*.spacing_mm),
-        count_text(*.nodes),
+        grid_text(*.n_u, *.n_w, *.nodes),
         spacing_advice("use", *.min_spacing_mm)
     )]
     GridTooLarge {
@@ -424,6 +424,16 @@ fn spacing_advice(verb: &str, min_spacing_mm: f64) -> String {
 }
 
 /// A count of nodes, saturated counts (past 64 bits) written as such.
+/// A grid's size, `n_u x n_w = nodes`, or only that it has more than `u64::MAX` nodes when
+/// a side is too many to count (a side of 2^64 - 1 would read as a count).
+fn grid_text(n_u: u64, n_w: u64, nodes: u64) -> String {
+    if n_u == u64::MAX || n_w == u64::MAX {
+        count_text(u64::MAX)
+    } else {
+        format!("{n_u} x {n_w} = {}", count_text(nodes))
+    }
+}
+
 fn count_text(n: u64) -> String {
     if n == u64::MAX {
         "more than 1.8e19".to_string()
@@ -483,10 +493,12 @@ mod tests {
         }
         .to_string();
         assert!(
-            e.starts_with("a spacing of 1.0000e-300 mm gives a grid of"),
+            e.starts_with(
+                "a spacing of 1.0000e-300 mm gives a grid of more than 1.8e19 nodes, more than"
+            ),
             "{e}"
         );
-        assert!(e.contains("= more than 1.8e19 nodes"), "{e}");
+        assert!(!e.contains("18446744073709551615"), "{e}");
         let e = OptionsError::GridTooLarge {
             spacing_mm: 0.01,
             n_u: 12001,

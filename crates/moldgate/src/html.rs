@@ -53,7 +53,8 @@ pub fn part_name(r: &Report) -> String {
         .path
         .clone()
         .or(r.input.sample.as_ref().map(|n| format!("sample '{n}'")))
-        .unwrap_or_default()
+        // A part given as bytes or arrays (the service's upload, Python's own mesh).
+        .unwrap_or_else(|| "an unnamed part".to_string())
 }
 
 const STYLE: &str = "

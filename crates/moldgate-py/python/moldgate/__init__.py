@@ -170,9 +170,13 @@ def _options_json(options: Mapping[str, Any]) -> str:
         options["keep_out"] = [options["keep_out"]]
     elif options.get("keep_out") is not None and not isinstance(options["keep_out"], list):
         options["keep_out"] = list(options["keep_out"])
-    for name, value in options.items():
-        # JSON has no NaN or infinity, and the options' integers fit 64 bits: said here by
-        # name, not as a JSON parser's complaint about the text it was given.
+    # JSON has no NaN or infinity, and the options' integers fit 64 bits: said here by name
+    # (a material's parameter as material.n), not as a JSON parser's complaint about the
+    # text it was given.
+    values = list(options.items())
+    if isinstance(options.get("material"), Mapping):
+        values += [(f"material.{k}", v) for k, v in options["material"].items()]
+    for name, value in values:
         if isinstance(value, float) and not _math.isfinite(value):
             raise OptionsError(f"{name} must be a finite number, got {value}")
         if isinstance(value, int) and not isinstance(value, bool) and not -(2**63) <= value < 2**64:

@@ -288,6 +288,9 @@ pub struct Settings {
 /// may have ([`FlowOptions::max_gates`]'s default).
 pub const MAX_GATE_AT: usize = 32;
 
+/// The largest gate radius taken, mm, given or from Eq. 8: a metre, far beyond any gate.
+pub const MAX_GATE_RADIUS_MM: f64 = 1000.0;
+
 /// Gate radii of injection moulding, mm: Eq. 8's radius of a material outside them is
 /// warned about (the built-in library's span 0.78 to 1.92 mm).
 const PLAUSIBLE_RADIUS_MM: (f64, f64) = (0.2, 10.0);
@@ -532,6 +535,31 @@ impl StudyOptions {
             Some(r) => (positive("gate_radius", r)?, RadiusSource::Forced),
             None => (material.gate_radius_mm(), RadiusSource::Material),
         };
+        // A radius no part could hold is refused before any work (and before a message
+        // writes it out in hundreds of digits).
+        let material_words = match material.name.as_str() {
+            "" => "the material given".to_string(),
+            name => format!("material {name}"),
+        };
+        if gate_radius_mm > MAX_GATE_RADIUS_MM {
+            let said = format!("{gate_radius_mm:.3e}");
+            return Err(match radius_source {
+                RadiusSource::Material => invalid(
+                    "material",
+                    format!(
+                        "{}: Eq. 8 gives a gate radius of {said} mm, more than {MAX_GATE_RADIUS_MM} mm; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C))",
+                        match material.name.as_str() {
+                            "" => "(given)",
+                            name => name,
+                        }
+                    ),
+                ),
+                _ => invalid(
+                    "gate_radius",
+                    format!("must be at most {MAX_GATE_RADIUS_MM} mm, got {said}"),
+                ),
+            });
+        }
         let spacing = match self.spacing {
             Some(h) => Spacing::Mm(positive("spacing", h)?),
             None => Spacing::Auto,
@@ -668,11 +696,7 @@ impl StudyOptions {
             && !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm)
         {
             warnings.push(format!(
-                "{}: Eq. 8 gives a gate radius of {} mm, far outside the {}-{} mm of injection moulding; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C)), or give the radius with --gate-radius",
-                match material.name.as_str() {
-                    "" => "the material given".to_string(),
-                    name => format!("material {name}"),
-                },
+                "{material_words}: Eq. 8 gives a gate radius of {} mm, far outside the {}-{} mm of injection moulding; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C)), or give the radius with --gate-radius",
                 crate::report::three_figures(gate_radius_mm),
                 PLAUSIBLE_RADIUS_MM.0,
                 PLAUSIBLE_RADIUS_MM.1,
@@ -980,14 +1004,14 @@ color_by = "flow_length"
         let w = warned(r#"{ "color_by": "wall" }"#);
         assert_eq!(w.len(), 1);
         assert!(w[0].starts_with("--color-by wall changes nothing"), "{w:?}");
-        // A material whose Eq. 8 radius no mould has (a shear rate of 1 1/s): 13,435 mm.
-        let odd = r#"{ "material": { "n": 0.3, "t_melt": 230, "t_wall": 50, "gamma_opt": 1,
+        // A material whose Eq. 8 radius no mould has (a shear rate of 100 1/s): 134 mm.
+        let odd = r#"{ "material": { "n": 0.3, "t_melt": 230, "t_wall": 50, "gamma_opt": 100,
                        "mu_opt": 10, "k": 0.15 } }"#;
         let w = warned(odd);
         assert_eq!(w.len(), 1);
         assert!(
             w[0].starts_with(
-                "the material given: Eq. 8 gives a gate radius of 13435 mm, far outside the 0.2-10 mm"
+                "the material given: Eq. 8 gives a gate radius of 134 mm, far outside the 0.2-10 mm"
             ),
             "{w:?}"
         );
@@ -995,6 +1019,25 @@ color_by = "flow_length"
         assert_eq!(
             w,
             ["--gate-at gives gate 3 at the point of gate 1 (1, 2, 3): one gate there, and the second fills nothing of the part"]
+        );
+        // Radii no part holds are refused, in a few digits.
+        let refused = |json: &str| {
+            let o: StudyOptions = serde_json::from_str(json).unwrap();
+            o.validate().unwrap_err().to_string()
+        };
+        assert_eq!(
+            refused(r#"{ "gate_radius": 1e300 }"#),
+            "gate_radius must be at most 1000 mm, got 1.000e300"
+        );
+        let e = refused(
+            r#"{ "material": { "name": "Odd", "n": 0.3, "t_melt": 230, "t_wall": 50,
+                 "gamma_opt": 1e-300, "mu_opt": 10, "k": 0.15 } }"#,
+        );
+        assert!(
+            e.starts_with(
+                "material Odd: Eq. 8 gives a gate radius of 1.344e304 mm, more than 1000 mm"
+            ),
+            "{e}"
         );
         let forced = r#"{ "gate_radius": 1.5, "material": { "n": 0.3, "t_melt": 230,
                           "t_wall": 50, "gamma_opt": 1, "mu_opt": 10, "k": 0.15 } }"#;

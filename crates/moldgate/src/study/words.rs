@@ -68,15 +68,25 @@ pub fn keyword_words(message: &str, truth: &str) -> String {
         } else if VALUES.contains(&key.as_str()) {
             out.push_str(&key);
             rest = tail;
-            // A value right after the flag: a number, or a word (`length`, `in`).
+            // A value right after the flag: a number, a word (`length`, `in`, `2d`), or a
+            // placeholder of one capital (`--gates K`); a page's markup ends it too.
             if let Some(value) = tail.strip_prefix(' ') {
                 let end = value
-                    .find(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | ':' | ')'))
+                    .find(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | ':' | ')' | '<'))
                     .unwrap_or(value.len());
+                // A sentence's full stop after a word is not the word's.
+                let end = match value[..end].parse::<f64>() {
+                    Ok(_) => end,
+                    Err(_) => value[..end].trim_end_matches('.').len(),
+                };
                 let word = &value[..end];
                 let is_value = word.parse::<f64>().is_ok()
+                    || (word.len() == 1 && word.chars().all(|c| c.is_ascii_uppercase()))
                     || (!word.is_empty()
-                        && word.chars().all(|c| c.is_ascii_lowercase())
+                        && word.starts_with(|c: char| c.is_ascii_alphanumeric())
+                        && word
+                            .chars()
+                            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
                         && !matches!(word, "or" | "and" | "to" | "keeps" | "minimises"));
                 if is_value {
                     out.push('=');
@@ -133,6 +143,24 @@ mod tests {
                 "print it with --json; -- alone",
             ),
             ("no flag at all", "no flag at all"),
+            // The report page's glossary: values inside markup, words with digits,
+            // placeholders, a full stop.
+            (
+                "<code>--centre volume</code> or <code>--nearest 2d</code>",
+                "<code>centre=volume</code> or <code>nearest=2d</code>",
+            ),
+            (
+                "(<code>--objective resistance</code>); with <code>--gates K</code>, K gates",
+                "(<code>objective=resistance</code>); with <code>gates=K</code>, K gates",
+            ),
+            (
+                "the centre of the volume with --centre volume.",
+                "the centre of the volume with centre=volume.",
+            ),
+            (
+                "with --parting-line longest-loop",
+                "with parting_line=longest-loop",
+            ),
         ] {
             assert_eq!(keyword_words(cli, "true"), keywords);
         }

@@ -290,6 +290,9 @@ fn the_html_report_counts_the_parting_line_s_loops_in_the_singular_and_the_plura
         let s = study(&part, &options(r#"{ "demold": "+z" }"#)).unwrap();
         let page = s.html(None).unwrap();
         assert!(page.contains(words), "{words} not on the page");
+        // A part with neither a file nor a sample's name is not named by nothing.
+        assert!(page.contains("<h1>Injection gate of an unnamed part</h1>"));
+        assert!(page.contains("<title>moldgate: an unnamed part</title>"));
     }
 }
 
