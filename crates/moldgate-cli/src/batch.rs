@@ -376,12 +376,20 @@ fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>
                 .parse::<Units>()
                 .map_err(|e| fail(format!("units: {e}")))?;
         }
-        if let Some(d) = &entry.demold {
-            let d = d
-                .parse::<Direction>()
-                .map_err(|e| fail(format!("demold: {e}")))?;
-            settings.study.locate.direction = d;
-            settings.study.demold = Demold::Given(d);
+        // `auto` as on the command line: the part's own direction is chosen for it.
+        match &entry.demold {
+            Some(d) if d.trim().eq_ignore_ascii_case("auto") => {
+                settings.study.locate.direction = Direction::default();
+                settings.study.demold = Demold::Auto;
+            }
+            Some(d) => {
+                let d = d
+                    .parse::<Direction>()
+                    .map_err(|e| fail(format!("demold: {e}")))?;
+                settings.study.locate.direction = d;
+                settings.study.demold = Demold::Given(d);
+            }
+            None => {}
         }
         parts.push(Part {
             path: folder.join(&entry.file),
@@ -533,7 +541,8 @@ fn json_lines(rows: &[BatchRow]) -> String {
 
 /// The CSV header, in the order of [`BatchRow`]'s fields.
 const CSV_HEADER: &str = "file,status,exit_code,units,demold,triangles,gate_x_mm,gate_y_mm,\
-gate_z_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,warnings,time_s,error";
+gate_z_mm,gates,other_gates_mm,distance_mm,gate_radius_mm,nodes,circle_on_part,qualifying,\
+warnings,time_s,error";
 
 /// The rows as CSV (RFC 4180: fields with a comma, quote or line break are quoted, quotes
 /// doubled); a missing value is an empty field.
@@ -563,6 +572,8 @@ fn csv(rows: &[BatchRow]) -> String {
             opt(r.gate_x_mm),
             opt(r.gate_y_mm),
             opt(r.gate_z_mm),
+            opt(r.gates),
+            r.other_gates_mm.clone().unwrap_or_default(),
             opt(r.distance_mm),
             opt(r.gate_radius_mm),
             opt(r.nodes),
@@ -623,8 +634,17 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
     );
     let dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
     for (r, name) in rows.iter().zip(&names) {
+        // A layout's first gate, and how many more (the JSON and CSV rows list them).
+        let more = match r.gates {
+            Some(k) if k > 1 => format!(" +{}", k - 1),
+            _ => String::new(),
+        };
         let gate = match (r.gate_x_mm, r.gate_y_mm, r.gate_z_mm) {
-            (Some(x), Some(y), Some(z)) => Some(format!("{x:.3}, {y:.3}, {z:.3}")),
+            // A coordinate that rounds to zero reads 0.000, not -0.000.
+            (Some(x), Some(y), Some(z)) => Some(moldgate::report::without_negative_zeros(
+                &format!("{x:.3}, {y:.3}, {z:.3}{more}"),
+                false,
+            )),
             _ => None,
         };
         let _ = writeln!(
@@ -695,6 +715,8 @@ mod tests {
             gate_x_mm: None,
             gate_y_mm: None,
             gate_z_mm: None,
+            gates: None,
+            other_gates_mm: None,
             distance_mm: None,
             gate_radius_mm: None,
             nodes: None,
@@ -709,8 +731,37 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,,0.5,\"line 3: bad\nthing\""
+            "\"a, \"\"b\"\".stl\",input_error,3,mm,\"0,0,1\",,,,,,,,,,,,,0.5,\"line 3: bad\nthing\""
         );
+    }
+
+    #[test]
+    fn the_table_shows_a_layout_s_first_gate_and_how_many_more_without_negative_zeros() {
+        let row = BatchRow {
+            file: "a.stl".into(),
+            status: Status::Ok,
+            exit_code: 0,
+            units: "mm".into(),
+            demold: "+z".into(),
+            triangles: Some(12),
+            gate_x_mm: Some(-0.0001),
+            gate_y_mm: Some(1.5),
+            gate_z_mm: Some(2.0),
+            gates: Some(3),
+            other_gates_mm: Some("1,2,3; 4,5,6".into()),
+            distance_mm: Some(1.0),
+            gate_radius_mm: Some(1.4),
+            nodes: Some(10),
+            circle_on_part: Some(5),
+            qualifying: Some(2),
+            warnings: None,
+            time_s: 0.1,
+            error: None,
+        };
+        let text = table(std::slice::from_ref(&row), true);
+        assert!(text.contains("0.000, 1.500, 2.000 +2"), "{text}");
+        assert!(!text.contains("-0.000"), "{text}");
+        assert!(csv(&[row]).contains(",3,\"1,2,3; 4,5,6\","));
     }
 
     #[test]
@@ -726,6 +777,8 @@ mod tests {
             gate_x_mm: None,
             gate_y_mm: None,
             gate_z_mm: None,
+            gates: None,
+            other_gates_mm: None,
             distance_mm: None,
             gate_radius_mm: None,
             nodes: None,

@@ -88,6 +88,12 @@ pub struct BatchRow {
     pub gate_y_mm: Option<f64>,
     /// The gate, mm.
     pub gate_z_mm: Option<f64>,
+    /// The answer's gates: 1, or K of a layout of several (`gates` K); the first is
+    /// `gate_x_mm` ...
+    pub gates: Option<usize>,
+    /// A layout's gates after the first, each `x,y,z` in mm, joined by `; `; null with one
+    /// gate.
+    pub other_gates_mm: Option<String>,
     /// 3D distance from the gate to the centre of mass, mm.
     pub distance_mm: Option<f64>,
     /// R_gate, mm.
@@ -131,6 +137,17 @@ impl BatchRow {
             gate_x_mm: gate.map(|g| g.point[0]),
             gate_y_mm: gate.map(|g| g.point[1]),
             gate_z_mm: gate.map(|g| g.point[2]),
+            gates: gate.map(|g| g.gates.as_ref().map_or(1, Vec::len)),
+            other_gates_mm: gate
+                .and_then(|g| g.gates.as_ref())
+                .filter(|all| all.len() > 1)
+                .map(|all| {
+                    all[1..]
+                        .iter()
+                        .map(|g| format!("{},{},{}", g.point[0], g.point[1], g.point[2]))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                }),
             distance_mm: gate.map(|g| g.distance_3d_mm),
             gate_radius_mm: report.map(|r| r.options.gate_radius_mm),
             nodes: report.map(|r| r.counts.nodes),

@@ -152,6 +152,7 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
     fill_table(&mut h, r);
     placed_table(&mut h, r);
     counts_table(&mut h, r);
+    demold_table(&mut h, r);
 
     let _ = writeln!(h, "<h2>Warnings</h2>");
     if r.warnings.is_empty() {
@@ -215,7 +216,19 @@ fn summary_table(h: &mut String, r: &Report) {
             m.units
         ),
     );
-    row(h, "Demolding direction D", &v3(o.demold));
+    match &r.demold_auto {
+        Some(auto) => row(
+            h,
+            "Demolding direction D",
+            &format!(
+                "{} (chosen automatically: the {} of least undercut, {:.1} mm<sup>2</sup>; every line tried is listed below)",
+                v3(o.demold),
+                escape(&auto.candidate().label()),
+                auto.candidate().undercut.area_mm2
+            ),
+        ),
+        None => row(h, "Demolding direction D", &v3(o.demold)),
+    }
     row(
         h,
         "Material",
@@ -393,6 +406,45 @@ fn counts_table(h: &mut String, r: &Report) {
             h,
             "<tr><td>{}</td><td class=\"n\">{n}</td></tr>",
             escape(name)
+        );
+    }
+    let _ = writeln!(h, "</table>");
+}
+
+/// With the automatic direction, every line tried: its undercut (or the bound that ruled
+/// it out), the part's extent along it and whether a gate qualifies on it when a tie asked,
+/// so a designer can check the choice.
+fn demold_table(h: &mut String, r: &Report) {
+    let Some(auto) = &r.demold_auto else {
+        return;
+    };
+    let _ = writeln!(
+        h,
+        "<h2>The demolding direction, chosen automatically</h2>\n<p>Each line is tried both \
+         ways; the least undercut area wins, areas within {:.1} mm<sup>2</sup> (1 % of the \
+         surface) being a tie broken by the shallower draw, then by a line on which a gate \
+         qualifies. \"At least\": a line ruled out by a bound, not drawn ray by ray.</p>\n\
+         <table id=\"demold-auto\">\n<tr><th>line</th><th>direction</th><th>undercut</th>\
+         <th>share of the surface</th><th>extent along it</th><th>gate qualifies</th></tr>",
+        auto.tie_mm2
+    );
+    for (i, c) in auto.tried.iter().enumerate() {
+        let chosen = if i == auto.chosen { " (chosen)" } else { "" };
+        let at_least = if c.evaluated { "" } else { "at least " };
+        let _ = writeln!(
+            h,
+            "<tr><th>{}{chosen}</th><td>{}</td><td class=\"n\">{at_least}{:.1} mm<sup>2</sup></td>\
+             <td class=\"n\">{at_least}{:.2} %</td><td class=\"n\">{:.1} mm</td><td>{}</td></tr>",
+            escape(&c.label()),
+            v3(c.direction),
+            c.undercut.area_mm2,
+            100.0 * c.undercut.share,
+            c.extent_mm,
+            match c.gate_qualifies {
+                Some(true) => "yes",
+                Some(false) => "no",
+                None => "not asked",
+            }
         );
     }
     let _ = writeln!(h, "</table>");

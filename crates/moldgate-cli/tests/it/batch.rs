@@ -538,6 +538,56 @@ fn manifest_gives_each_part_its_unit_and_direction() {
     let rows = json_lines(&stdout(&out));
     assert_eq!(rows[0]["demold"], "-z");
     assert!(rows[1]["gate_z_mm"].as_f64().unwrap().abs() < 1e-4);
+    // A part of the manifest may have its direction chosen (it was refused as no
+    // direction), and a layout's every gate is in its row.
+    std::fs::write(
+        root.join("m/auto.toml"),
+        "[[part]]\nfile = \"block_mm.stl\"\ndemold = \"auto\"\n",
+    )
+    .unwrap();
+    let out = moldgate(
+        root,
+        &[
+            "locate",
+            "--manifest",
+            "m/auto.toml",
+            "--json",
+            "--gates",
+            "2",
+        ],
+    );
+    assert_code(&out, OK);
+    let rows = json_lines(&stdout(&out));
+    let alone = moldgate(
+        root,
+        &[
+            "locate",
+            "m/block_mm.stl",
+            "--demold",
+            "auto",
+            "--gates",
+            "2",
+            "--json",
+        ],
+    );
+    let alone: Value = serde_json::from_str(&stdout(&alone)).unwrap();
+    let chosen = rows[0]["demold"].as_str().unwrap();
+    assert!(chosen.ends_with(" (auto)"), "{chosen}");
+    assert_eq!(rows[0]["gate_x_mm"], alone["gate"]["point"][0]);
+    assert_eq!(rows[0]["gates"], 2);
+    let second: Vec<f64> = alone["gate"]["gates"][1]["point"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let said: Vec<f64> = rows[0]["other_gates_mm"]
+        .as_str()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(said, second);
 }
 
 #[test]

@@ -695,8 +695,17 @@ impl Study {
         // A direction such as -z reads (0.000, 0.000, -1.000), not with negative zeros.
         scene.subtitle = crate::report::without_negative_zeros(
             &format!(
-                "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3})",
-                self.material_name, scene.subtitle, d[0], d[1], d[2]
+                "{}   ·   {}   ·   D = ({:.3}, {:.3}, {:.3}){}",
+                self.material_name,
+                scene.subtitle,
+                d[0],
+                d[1],
+                d[2],
+                if self.report.demold_auto.is_some() {
+                    " (auto)"
+                } else {
+                    ""
+                }
             ),
             false,
         );

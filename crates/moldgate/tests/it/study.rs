@@ -94,6 +94,15 @@ fn per_vertex_fields_and_outputs_of_a_full_study() {
     assert_eq!(&glb[..4], b"glTF");
     let page = s.html(Some(&png)).unwrap();
     assert!(page.contains("2 gates at"));
+    // The automatic direction says so and lists every line tried, as the summary does.
+    let auto = s.report().demold_auto.as_ref().unwrap();
+    assert!(page.contains("(chosen automatically: the "));
+    assert!(page.contains("<table id=\"demold-auto\">"));
+    for c in &auto.tried {
+        let cell = format!("<th>{}", moldgate::html::escape(&c.label()));
+        assert!(page.contains(&cell), "{cell} not in the table");
+    }
+    assert_eq!(page.matches(" (chosen)</th>").count(), 1);
     // Another part is refused.
     let other = sample("cover");
     assert!(matches!(
