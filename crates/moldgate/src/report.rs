@@ -558,6 +558,10 @@ pub fn seconds_text(t: f64) -> String {
 
 /// The warning of an automatic direction with undercuts: its area, and when a tie chose it
 /// over a line of less, that line's (the choice's rules, [`crate::undercut`]).
+/// An undercut under this share of the surface is said to be a trace (the heatbed clip's
+/// 0.00346 mm^2, 0.0002 %, from rays grazing edges).
+const TRACE_SHARE: f64 = 1e-4;
+
 fn demold_auto_warning(auto: &AutoDemold) -> Option<String> {
     let c = auto.candidate();
     if c.undercut.area_mm2 > 0.0 {
@@ -584,8 +588,18 @@ fn demold_auto_warning(auto: &AutoDemold) -> Option<String> {
             )
         } else {
             format!(
-                "--demold auto: no direction without undercuts; chose {}, with the least undercut, {area}",
-                d(c.direction)
+                "--demold auto: no direction without undercuts; chose {}, with the least undercut, {area}{}",
+                d(c.direction),
+                // A few rays' worth of a large surface: what rays grazing an edge or a
+                // vertex give, said as such rather than as an undercut to design for.
+                if c.undercut.share < TRACE_SHARE {
+                    format!(
+                        ", a trace (under {} % of the area), more likely rays grazing edges than an undercut to design for",
+                        100.0 * TRACE_SHARE
+                    )
+                } else {
+                    String::new()
+                }
             )
         })
     } else {
@@ -706,7 +720,14 @@ mod tests {
             ],
         );
         let w = demold_auto_warning(&clip).expect("undercuts");
-        assert!(w.ends_with("chose (0.0000, 0.0000, 1.0000), with the least undercut, 0.00346 mm^2 (0.000173 % of the area)"), "{w}");
+        assert!(w.ends_with("chose (0.0000, 0.0000, 1.0000), with the least undercut, 0.00346 mm^2 (0.000173 % of the area), a trace (under 0.01 % of the area), more likely rays grazing edges than an undercut to design for"), "{w}");
+        // An undercut above the trace is not called one.
+        let hook = auto(0, vec![line([0.0, 0.0, 1.0], 5.0, true)]);
+        let w = demold_auto_warning(&hook).expect("undercuts");
+        assert!(
+            w.ends_with("with the least undercut, 5.00 mm^2 (0.250 % of the area)"),
+            "{w}"
+        );
         assert_eq!(
             demold_auto_warning(&auto(0, vec![line([0.0, 0.0, 1.0], 0.0, true)])),
             None

@@ -142,7 +142,7 @@ impl<'a> Scene<'a> {
             Ok(g) => {
                 let p = g.point();
                 format!(
-                    "gate ({:.2}, {:.2}, {:.2}) mm, R = {:.2} mm",
+                    "gate ({:.3}, {:.3}, {:.3}) mm, R = {:.3} mm",
                     p.x, p.y, p.z, r
                 )
             }

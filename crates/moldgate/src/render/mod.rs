@@ -1794,7 +1794,7 @@ fn draw_side_bar(
         *y += row + (lines.len().max(1) - 1) as f32 * 17.0 * k;
     };
     let mut gate_text = match scene.gates.first() {
-        Some(g) => format!("gate, disc of R = {:.2} mm", g.radius_mm),
+        Some(g) => format!("gate, disc of R = {:.3} mm", g.radius_mm),
         None => "no gate".to_string(),
     };
     if scene.gates.iter().any(|g| g.body.is_some()) {

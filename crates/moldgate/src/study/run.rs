@@ -413,7 +413,7 @@ fn answer_gates(
         },
     }];
     let mut subtitle = format!(
-        "gate ({:.2}, {:.2}, {:.2}) mm, R = {:.2} mm",
+        "gate ({:.3}, {:.3}, {:.3}) mm, R = {:.3} mm",
         p.x, p.y, p.z, r
     );
     let several = report
@@ -430,7 +430,7 @@ fn answer_gates(
             normal: normal_at(part, bvh, p),
         };
         subtitle = format!(
-            "balanced gate ({:.2}, {:.2}, {:.2}) mm, R = {r:.2} mm",
+            "balanced gate ({:.3}, {:.3}, {:.3}) mm, R = {r:.3} mm",
             g.point[0], g.point[1], g.point[2]
         );
     }
@@ -460,7 +460,7 @@ fn answer_gates(
         // The layout's worst value is in its objective's unit (mm of L_max, s of fill time).
         let (what, unit) = objective.value_words();
         subtitle = format!(
-            "{} gates, {what} {} {unit}, R = {r:.2} mm",
+            "{} gates, {what} {} {unit}, R = {r:.3} mm",
             answer.len(),
             objective.value_text(several.value())
         );

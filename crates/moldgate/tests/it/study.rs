@@ -389,6 +389,9 @@ fn a_layout_of_gates_is_titled_in_its_objective_s_unit() {
             "{subtitle}"
         );
         assert!(subtitle.contains(&format!(" {unit}, R = ")), "{subtitle}");
+        // R to the thousandth, as the summary and the page give it (it read 1.43 by 1.425).
+        let r = s.report().options.gate_radius_mm;
+        assert!(subtitle.ends_with(&format!("R = {r:.3} mm")), "{subtitle}");
         // The pictures colour the layout's fill time: the page gives it and says that a
         // layout of the longest flow path was not chosen for it.
         let page = s.html(None).unwrap();
