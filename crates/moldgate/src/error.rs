@@ -423,7 +423,6 @@ fn spacing_advice(verb: &str, min_spacing_mm: f64) -> String {
     }
 }
 
-/// A count of nodes, saturated counts (past 64 bits) written as such.
 /// A grid's size, `n_u x n_w = nodes`, or only that it has more than `u64::MAX` nodes when
 /// a side is too many to count (a side of 2^64 - 1 would read as a count).
 fn grid_text(n_u: u64, n_w: u64, nodes: u64) -> String {
@@ -434,6 +433,7 @@ fn grid_text(n_u: u64, n_w: u64, nodes: u64) -> String {
     }
 }
 
+/// A count of nodes, saturated counts (past 64 bits) written as such.
 fn count_text(n: u64) -> String {
     if n == u64::MAX {
         "more than 1.8e19".to_string()

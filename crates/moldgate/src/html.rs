@@ -421,12 +421,13 @@ fn demold_table(h: &mut String, r: &Report) {
     let _ = writeln!(
         h,
         "<h2>The demolding direction, chosen automatically</h2>\n<p>Each line is tried both \
-         ways; the least undercut area wins, areas within {:.1} mm<sup>2</sup> (1 % of the \
+         ways; the least undercut area wins, areas within {:.1} mm<sup>2</sup> ({} % of the \
          surface) being a tie broken by the shallower draw, then by a line on which a gate \
          qualifies. \"At least\": a line ruled out by a bound, not drawn ray by ray.</p>\n\
          <table id=\"demold-auto\">\n<tr><th>line</th><th>direction</th><th>undercut</th>\
          <th>share of the surface</th><th>extent along it</th><th>gate qualifies</th></tr>",
-        auto.tie_mm2
+        auto.tie_mm2,
+        100.0 * crate::undercut::TIE_SHARE
     );
     for (i, c) in auto.tried.iter().enumerate() {
         let chosen = if i == auto.chosen { " (chosen)" } else { "" };

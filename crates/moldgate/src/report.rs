@@ -556,12 +556,12 @@ pub fn seconds_text(t: f64) -> String {
     three_figures(t)
 }
 
-/// The warning of an automatic direction with undercuts: its area, and when a tie chose it
-/// over a line of less, that line's (the choice's rules, [`crate::undercut`]).
 /// An undercut under this share of the surface is said to be a trace (the heatbed clip's
 /// 0.00346 mm^2, 0.0002 %, from rays grazing edges).
 const TRACE_SHARE: f64 = 1e-4;
 
+/// The warning of an automatic direction with undercuts: its area, and when a tie chose it
+/// over a line of less, that line's (the choice's rules, [`crate::undercut`]).
 fn demold_auto_warning(auto: &AutoDemold) -> Option<String> {
     let c = auto.candidate();
     if c.undercut.area_mm2 > 0.0 {

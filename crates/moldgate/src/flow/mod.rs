@@ -3545,33 +3545,19 @@ pub fn analyse_prepared(
     let mut per_vertex = VertexFields::default();
     // With several gates the pictured flow length or fill time is that of all of them
     // together: one more march from every gate at once.
-    let all_gates = |cost: Option<&[f32]>| {
-        several_pictured.map(|m| {
-            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
-            march(&domain.voxels, &sources, cost)
-        })
+    let from_layout = |m: &MultiGate, cost: Option<&[f32]>| {
+        let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+        march(&domain.voxels, &sources, cost)
     };
-    // The layout's fill time whichever objective chose it: the march the pictures colour
-    // when they colour the fill time, else one of its own.
-    let mut layout_fill = several_pictured.map(|_| all_gates(Some(&domain.fill_cost)));
-    if layout_fill.is_none() {
-        if let Some(m) = &several {
-            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
-            layout_fill = Some(Some(march(
-                &domain.voxels,
-                &sources,
-                Some(&domain.fill_cost),
-            )));
-        }
-    }
-    let layout_fill_time_s = layout_fill.as_ref().and_then(|f| f.as_ref()).map(|f| {
-        let latest =
-            f.t.iter()
-                .copied()
-                .filter(|t| t.is_finite())
-                .fold(0.0, f64::max);
-        latest * per_mm
-    });
+    let all_gates = |cost: Option<&[f32]>| several_pictured.map(|m| from_layout(m, cost));
+    // The layout's fill time whichever objective chose it: one march from its gates under
+    // the fill's cost, which is also the field the pictures colour by the fill time.
+    let mut layout_fill = several
+        .as_ref()
+        .map(|m| from_layout(m, Some(&domain.fill_cost)));
+    let layout_fill_time_s = layout_fill
+        .as_ref()
+        .map(|f| argmax(&f.t).1.max(0.0) * per_mm);
     // The pictured field of the cells when it is a field of the fill: flow length or fill
     // time, from every pictured gate at once when there are several.
     let mut pictured_t: Option<(Vec<f64>, Kind)> = match options.colour_by {
@@ -3580,7 +3566,7 @@ pub fn analyse_prepared(
             Kind::Length,
         )),
         ColourBy::FillTime => Some((
-            match several_pictured.and(layout_fill.take().flatten()) {
+            match several_pictured.and(layout_fill.take()) {
                 Some(f) => f.t,
                 None => fields.fill.t.clone(),
             },

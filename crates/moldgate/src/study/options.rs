@@ -537,10 +537,6 @@ impl StudyOptions {
         };
         // A radius no part could hold is refused before any work (and before a message
         // writes it out in hundreds of digits).
-        let material_words = match material.name.as_str() {
-            "" => "the material given".to_string(),
-            name => format!("material {name}"),
-        };
         if gate_radius_mm > MAX_GATE_RADIUS_MM {
             let said = format!("{gate_radius_mm:.3e}");
             return Err(match radius_source {
@@ -695,6 +691,10 @@ impl StudyOptions {
         if radius_source == RadiusSource::Material
             && !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm)
         {
+            let material_words = match material.name.as_str() {
+                "" => "the material given".to_string(),
+                name => format!("material {name}"),
+            };
             warnings.push(format!(
                 "{material_words}: Eq. 8 gives a gate radius of {} mm, far outside the {}-{} mm of injection moulding; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C)), or give the radius with --gate-radius",
                 crate::report::three_figures(gate_radius_mm),

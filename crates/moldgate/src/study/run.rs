@@ -37,8 +37,9 @@ pub struct Study {
     wall_per_vertex: Option<Vec<f32>>,
     /// What the fill's pictures are coloured by, when the fill ran.
     colour_by: Option<flow::ColourBy>,
-    /// What the pictures are coloured by, as asked (`Settings::color_by`).
-    color_by: ColorByChoice,
+    /// Whether the pictures show the wall of every facet when it was measured: asked for
+    /// (`color_by = "wall"`) without the fill, which pictures its own fields.
+    pictures_wall: bool,
     gates: Vec<GateMarker>,
     /// On a part of several bodies, the own gate of each body the answer's gates do not
     /// reach (by body), drawn with the fill those bodies are shown with.
@@ -350,7 +351,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         wall: wall.map(|(w, _)| w),
         wall_per_vertex,
         colour_by,
-        color_by: s.color_by,
+        pictures_wall: s.fill.is_none() && s.color_by == ColorByChoice::Wall,
         gates,
         body_gates,
         placed: placed_markers,
@@ -628,12 +629,7 @@ impl Study {
         } else if let Some(f) = self.fill_field() {
             let display = self.display(part, &f);
             scene = scene.with_refined_field(f, display);
-        } else if let (None, Some(w), true) = (
-            self.fill(),
-            &self.wall_per_vertex,
-            self.color_by == ColorByChoice::Wall,
-        ) {
-            // Without the fill, the wall map when it was measured and asked for.
+        } else if let (true, Some(w)) = (self.pictures_wall, &self.wall_per_vertex) {
             scene = scene.with_field(Field {
                 name: "wall thickness".into(),
                 unit: "mm".into(),
