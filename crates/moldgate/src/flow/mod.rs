@@ -3030,6 +3030,19 @@ pub fn analyse_prepared(
         .filter_map(|&p| domain.source(p))
         .collect();
     let kind = Kind::of(options.objective);
+    // With the aesthetic gate chosen, the balanced search starts from the paper's grid gate
+    // on the same body, and that gate stays the balanced gate unless a candidate beats it
+    // by more than one cell, as when it is the chosen gate: both modes give one balanced
+    // gate (a search ends within a cell of the optimum, and where depends on its start). A
+    // grid gate on another body, or none, leaves the search to the chosen gate.
+    let search_first = analysis
+        .grid_gate
+        .as_ref()
+        .and_then(|g| domain.source(g.point))
+        .filter(|s| {
+            s.point != first.point
+                && domain.body[s.cell as usize] == domain.body[first.cell as usize]
+        });
     let cells_here_s = seconds(t);
 
     // Two sides at once. One measures the walls per triangle (given, or measured here for
@@ -3112,12 +3125,14 @@ pub fn analyse_prepared(
         let length = march(v, &[first], None);
         let length_s = seconds(t_length);
         let search = (kind == Kind::Length).then(|| {
-            balanced_search(
+            let grid = search_first.map(|s| (s, march(v, &[s], None)));
+            let (from, start) = grid.as_ref().map_or((first, &length), |(s, f)| (*s, f));
+            let found = balanced_search(
                 &domain,
                 &candidates,
                 options.objective,
-                first,
-                &length,
+                from,
+                start,
                 h,
                 FAR_REACH,
                 (SIDE_MARCH_ROUNDS, |c| march(v, &[candidates[c]], None)),
@@ -3127,7 +3142,8 @@ pub fn analyse_prepared(
             .map(|Searched { found, aside, .. }| {
                 let field = aside.unwrap_or_else(|| march(v, &[candidates[found.candidate]], None));
                 (found, Some(field))
-            })
+            });
+            (found, grid)
         });
         (length, length_s, search)
     };
@@ -3184,11 +3200,13 @@ pub fn analyse_prepared(
         },
         || {
             search.unwrap_or_else(|| {
-                balanced_search(
+                let grid = search_first.map(|s| (s, march(v, &[s], kind.cost(&domain))));
+                let (from, start) = grid.as_ref().map_or((first, start), |(s, f)| (*s, f));
+                let found = balanced_search(
                     &domain,
                     &candidates,
                     options.objective,
-                    first,
+                    from,
                     start,
                     h,
                     FAR_REACH,
@@ -3196,7 +3214,8 @@ pub fn analyse_prepared(
                         march(v, &[candidates[c]], kind.cost(&domain))
                     }),
                 )
-                .map(|Searched { found, aside, .. }| (found, aside))
+                .map(|Searched { found, aside, .. }| (found, aside));
+                (found, grid)
             })
         },
     );
@@ -3218,12 +3237,31 @@ pub fn analyse_prepared(
     // and decides whether it beats the paper gate (the same value its fill reports). Its
     // other two fields and its summary, needed only for the report, are made beside the
     // suitability map and the several-gate search, which read the objective's field only.
+    let (search, grid) = search;
     let head = search.map(|(search, aside)| {
         let sources = [candidates[search.candidate]];
         let field = aside.unwrap_or_else(|| march(v, &sources, kind.cost(&domain)));
         let value = argmax(&field.t).1 * scale;
         (search, field, value)
     });
+    // The grid gate (a candidate itself) beside the aesthetic gate: it stays the balanced
+    // gate unless the search's candidate beats it by more than one cell.
+    let head = match (head, grid) {
+        (Some((search, field, value)), Some((g, grid_field))) => {
+            let grid_value = argmax(&grid_field.t).1 * scale;
+            match candidates.iter().position(|c| c.point == g.point) {
+                Some(i) if value >= grid_value - h * scale => {
+                    let search = Balanced {
+                        candidate: i,
+                        ..search
+                    };
+                    Some((search, grid_field, grid_value))
+                }
+                _ => Some((search, field, value)),
+            }
+        }
+        (head, _) => head,
+    };
     // Whether the balanced gate's value beats the paper gate's by more than one cell (the
     // fields' resolution, in the objective's units): a smaller gain is the discretisation's,
     // not the gate's, and does not move the gate.
