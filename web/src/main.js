@@ -26,6 +26,8 @@ let worker = null;
 let seq = 0;
 const pending = new Map();
 let info = null;
+let listed = []; // the materials listed: the built-in ones, with a materials file's
+let materialsFile = null; // the designer's materials file, {name, text}, or null
 
 function startWorker() {
   worker = new Worker(new URL("./worker.js", import.meta.url), { type: "module" });
@@ -63,7 +65,7 @@ function cancelStudy() {
 
 // ---------------------------------------------------------------- the options
 
-const optionIds = ["units", "demold", "strategy", "objective", "gates", "thickness_rule", "fit_radius", "parting_line", "fill", "wall_thickness", "suitability", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
+const optionIds = ["units", "demold", "strategy", "objective", "color_by", "gates", "thickness_rule", "fit_radius", "parting_line", "fill", "wall_thickness", "suitability", "aesthetic", "keep_out", "cosmetic", "gate_radius", "spacing", "grid_offset", "circle_points", "centre", "nearest", "require_flat", "flat_tol", "max_nodes", "cell"];
 const materialFields = ["n", "t_melt", "t_wall", "gamma_opt", "mu_opt", "k", "max_flow_ratio"];
 
 function setDefaults() {
@@ -85,12 +87,69 @@ function setDefaults() {
   $("cosmetic-vector").hidden = true;
 }
 
+/** Fills the material list (then "custom parameters…"), keeping the material chosen when
+ * it is still listed. */
+function listMaterials(materials) {
+  const select = $("material");
+  const chosen = select.value;
+  listed = materials;
+  select.replaceChildren();
+  for (const m of materials) {
+    const o = document.createElement("option");
+    o.value = m.name;
+    o.textContent = `${m.name} (R = ${m.gate_radius_mm.toFixed(2)} mm)${m.origin === "built-in" ? "" : `, from ${m.origin}`}`;
+    o.title = m.description;
+    select.append(o);
+  }
+  const custom = document.createElement("option");
+  custom.value = "custom";
+  custom.textContent = "custom parameters…";
+  select.append(custom);
+  if ([...select.options].some((o) => o.value === chosen)) select.value = chosen;
+  showMaterial();
+}
+
+// The largest materials file read, bytes: the library's limit for a TOML file.
+const MAX_TOML_BYTES = 16 << 20;
+
+/** Reads the materials file the designer chose: its materials join the list (each
+ * replacing a built-in of its name), and the studies take it, as the command line's
+ * `--materials-file` does. A file that cannot be read is said beside the control, and the
+ * built-in list comes back. */
+async function loadMaterialsFile() {
+  const f = $("materials_file").files[0];
+  const status = $("materials-file-status");
+  status.classList.remove("error");
+  try {
+    if (!f) {
+      materialsFile = null;
+      listMaterials(info.materials);
+      status.hidden = true;
+      return;
+    }
+    if (f.size > MAX_TOML_BYTES) throw new Error(`${f.name}: ${f.size} bytes, over the limit of ${MAX_TOML_BYTES} bytes for a TOML file`);
+    const file = { name: f.name, text: await f.text() };
+    const r = await ask({ type: "materials", file });
+    materialsFile = file;
+    listMaterials(r.materials);
+    const own = r.materials.filter((m) => m.origin === f.name).map((m) => m.name);
+    status.textContent = `${own.length} material${own.length === 1 ? "" : "s"} from ${f.name}: ${own.join(", ")}`;
+  } catch (e) {
+    materialsFile = null;
+    $("materials_file").value = "";
+    listMaterials(info.materials);
+    status.textContent = `Not read: ${e.message}`;
+    status.classList.add("error");
+  }
+  status.hidden = false;
+}
+
 function showMaterial() {
   const name = $("material").value;
   const custom = name === "custom";
   $("material-parameters").hidden = !custom;
   if (!custom) {
-    const m = info.materials.find((x) => x.name === name);
+    const m = listed.find((x) => x.name === name);
     for (const f of materialFields) $(`m-${f}`).value = m?.[f] ?? "";
   }
 }
@@ -107,7 +166,7 @@ function vectorOf(prefix) {
 /** The study's options (StudyOptions JSON: the command line's flags in snake case). */
 function studyOptions() {
   const o = {};
-  for (const id of ["strategy", "objective", "thickness_rule", "centre", "nearest", "parting_line"]) o[id] = $(id).value;
+  for (const id of ["strategy", "objective", "color_by", "thickness_rule", "centre", "nearest", "parting_line"]) o[id] = $(id).value;
   for (const id of ["fill", "wall_thickness", "suitability", "aesthetic", "require_flat", "fit_radius"]) o[id] = $(id).checked;
   for (const id of ["gate_radius", "spacing", "flat_tol", "cell"]) o[id] = number(id);
   o.grid_offset = number("grid_offset") ?? 0;
@@ -134,7 +193,7 @@ function studyOptions() {
  * shown are those of the form's options. */
 function formState() {
   try {
-    return JSON.stringify({ units: $("units").value, options: studyOptions() });
+    return JSON.stringify({ units: $("units").value, options: studyOptions(), materials: materialsFile });
   } catch {
     return null;
   }
@@ -227,6 +286,7 @@ async function analyse({ keepCamera = false } = {}) {
   const asked = formState();
   const request = { file_name: part.name, units: $("units").value, options: studyOptions() };
   if (part.sample) request.sample = part.sample;
+  if (materialsFile) request.materials_file = materialsFile;
   const bytes = part.bytes ? part.bytes.slice(0) : new ArrayBuffer(0);
   const colouring = Number($("colouring").value);
   try {
@@ -240,7 +300,7 @@ async function analyse({ keepCamera = false } = {}) {
     $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(extras.field);
     showColourBar(extras.suitability ?? extras.field);
-    offerColourings(report);
+    offerColourings(report, request.options);
     $("downloads").hidden = false;
     $("status").textContent = report.gate
       ? `Gate found for ${part.name} in ${(total / 1000).toFixed(2)} s.`
@@ -278,11 +338,13 @@ function showColourBar(field) {
 
 /** The colourings this study can show: the wall thickness once measured, the fill order
  * once the fill is analysed; the others are offered disabled, saying what they need. */
-function offerColourings(report) {
+function offerColourings(report, options) {
   const needs = {
     2: [report.wall_thickness, "needs 'Measure the wall thickness everywhere'"],
     3: [report.fill, "needs 'Fill analysis'"],
   };
+  // The fill's colouring is the field the study was asked to colour by.
+  $("colouring").options[3].dataset.name = options.color_by === "flow_length" ? "flow length" : "fill order (fill time)";
   for (const option of $("colouring").options) {
     const need = needs[option.value];
     if (!need) continue;
@@ -408,6 +470,7 @@ function wire() {
     if (e.key === "r" || e.key === "R") viewer.reset();
     if (e.key === "d" || e.key === "D") viewer.viewAlongD();
   });
+  $("materials_file").addEventListener("change", loadMaterialsFile);
   for (const b of document.querySelectorAll("[data-download]")) {
     b.addEventListener("click", () => download(b.dataset.download));
   }
@@ -432,17 +495,7 @@ async function main() {
     o.title = s.description;
     $("sample").append(o);
   }
-  for (const m of info.materials) {
-    const o = document.createElement("option");
-    o.value = m.name;
-    o.textContent = `${m.name} (R = ${m.gate_radius_mm.toFixed(2)} mm)`;
-    o.title = m.description;
-    $("material").append(o);
-  }
-  const custom = document.createElement("option");
-  custom.value = "custom";
-  custom.textContent = "custom parameters…";
-  $("material").append(custom);
+  listMaterials(info.materials);
   setDefaults();
   setState("ready");
 }

@@ -128,6 +128,12 @@ export class Moldgate {
   drop(h) { this.x.mg_drop(h); }
   samples() { return this.json(() => this.x.mg_samples()); }
   materials() { return this.json(() => this.x.mg_materials()); }
+  /** The materials with a user's materials file `{name, text}` (TOML): its materials replace
+   * the built-ins of their names, the others follow. */
+  materialsWith(file) {
+    const req = encoder.encode(JSON.stringify(file));
+    return this.json(() => this.withBytes(req, (p, l) => this.x.mg_materials_with(p, l)));
+  }
   defaults() { return this.json(() => this.x.mg_defaults()); }
   version() { return this.bytes(() => this.x.mg_version()).then((b) => decoder.decode(b)); }
   maxFileBytes() { return this.x.mg_max_file_bytes(); }

@@ -2,9 +2,9 @@
 // WebAssembly build (rayon falls back to the calling thread). The page terminates this worker
 // to cancel a study and starts a new one.
 //
-// Messages in:  {type: "info"} | {type: "study", id, bytes, request, colouring}
+// Messages in:  {type: "info"} | {type: "materials", file} | {type: "study", id, bytes, request, colouring}
 //               | {type: "glb", id, colouring} | {type: "download", id, what}
-// Messages out: {type: "info", ...} | {type: "progress", id, stage, fraction}
+// Messages out: {type: "info", ...} | {type: "materials", materials} | {type: "progress", id, stage, fraction}
 //               | {type: "result", id, report, glb, times} | {type: "glb", id, glb}
 //               | {type: "download", id, what, bytes} | {type: "error", id, message, trapped, fileError}
 
@@ -28,6 +28,8 @@ async function handleMessage(mg, m) {
         defaults: await mg.defaults(),
         maxFileBytes: mg.maxFileBytes(),
       };
+    case "materials":
+      return { type: "materials", materials: await mg.materialsWith(m.file) };
     case "study": {
       current = m.id;
       if (handle) mg.drop(handle);

@@ -342,6 +342,64 @@ describe("moldgate in the browser", () => {
     await page.click("#defaults");
   });
 
+  test("the fill can colour the part by its flow length, as the command line's --color-by does", async () => {
+    await page.selectOption("#demold", "-z");
+    await page.check("#fill");
+    await page.selectOption("#color_by", "flow_length");
+    assert.equal(await studySample(page, "cover"), "done");
+    const expected = cli(["locate", "--sample", "cover", "--demold", "-z", "--fill", "--color-by", "flow-length"]);
+    await assertSameGate(page, expected, "cover, coloured by flow length");
+    // The study's own colouring is the flow length, in mm, up to about the worst flow length.
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("flow length"));
+    const most = await page.$eval("#colour-bar-max", (e) => parseFloat(e.textContent));
+    const lmax = expected.fill.paper.l_max_mm;
+    assert.ok(most > 0.8 * lmax && most < 1.05 * lmax, `the bar ends at ${most}, L_max ${lmax}`);
+    assert.ok((await page.textContent("#colour-bar-max")).endsWith(" mm"));
+    // The fill's entry of the view's colourings says which field it is.
+    const fill = await page.$eval("#colouring option[value='3']", (o) => o.textContent);
+    assert.equal(fill, "flow length");
+    await page.selectOption("#colouring", "1");
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("height"));
+    await page.selectOption("#colouring", "3");
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("flow length"));
+    await page.selectOption("#colouring", "0");
+    await page.click("#defaults");
+    assert.equal(await page.inputValue("#color_by"), "fill_order");
+  });
+
+  test("a materials file gives its materials to the list and the study, as --materials-file does", async () => {
+    const toml = join(TMP, "mine.toml");
+    writeFileSync(toml, "[MyPP]\nn = 0.3\nt_melt = 230\nt_wall = 50\ngamma_opt = 10000\nmu_opt = 9.88\nk = 0.15\n\n[HDPE]\nn = 0.4\nt_melt = 220\nt_wall = 40\ngamma_opt = 1000\nmu_opt = 300\nk = 0.4\n");
+    await page.setInputFiles("#materials_file", toml);
+    await page.waitForFunction(() => document.getElementById("materials-file-status").textContent.startsWith("2 materials from mine.toml"));
+    // The list is the command line's with the same file: PE-HD replaced by the file's HDPE.
+    const listedNames = await page.$$eval("#material option", (os) => os.map((o) => o.value));
+    const expected = JSON.parse(execFileSync(CLI, ["materials", "--materials-file", toml, "--json"]).toString());
+    assert.deepEqual(listedNames, [...expected.materials.map((m) => m.name), "custom"]);
+    await page.selectOption("#material", "MyPP");
+    await page.selectOption("#demold", "-z");
+    assert.equal(await studySample(page, "cover"), "done");
+    const mine = cli(["locate", "--sample", "cover", "--demold", "-z", "--materials-file", toml, "--material", "MyPP"]);
+    await assertSameGate(page, mine, "cover, the file's material");
+    const radius = await page.$eval("#gate-radius", (e) => Number(e.dataset.value));
+    assert.equal(radius, mine.options.gate_radius_mm);
+    assert.notEqual(radius, expected.materials[0].gate_radius_mm, "MyPP's radius is not PP's");
+    // A file that cannot be read is said beside the control, with its line; the built-in
+    // list comes back and the studies go without it.
+    const bad = join(TMP, "bad.toml");
+    writeFileSync(bad, "[X]\nn = 0.3\nk = hot\n");
+    await page.setInputFiles("#materials_file", bad);
+    await page.waitForFunction(() => document.getElementById("materials-file-status").classList.contains("error"));
+    const said = await page.textContent("#materials-file-status");
+    assert.ok(said.startsWith("Not read: bad.toml: line 3: "), said);
+    const builtIn = await page.$$eval("#material option", (os) => os.map((o) => o.value));
+    assert.ok(!builtIn.includes("MyPP") && builtIn.includes("PE-HD"), builtIn.join(", "));
+    assert.equal(await studySample(page, "cover"), "done");
+    await assertSameGate(page, cli(["locate", "--sample", "cover", "--demold", "-z"]), "cover, after the bad file");
+    await page.setInputFiles("#materials_file", []);
+    await page.click("#defaults");
+  });
+
   test("the results' values keep a readable column beside long labels", async () => {
     await page.selectOption("#demold", "-z");
     assert.equal(await studySample(page, "cover"), "done");

@@ -76,7 +76,7 @@ test("the library's messages read in the page's words", () => {
   assert.equal(inPageWords("its undercut, 499 mm^2, is"), "its undercut, 499 mm², is");
   // Option errors name the control at fault.
   assert.equal(inPageWords("spacing must be a positive number, got 0"), "'Grid spacing' must be a positive number, got 0");
-  assert.equal(inPageWords("options: material.n: invalid type: null, expected a number"), "'Material': 'Power-law index n': invalid type: null, expected a number");
+  assert.equal(inPageWords("options: material.n: got no value (null), expected a number"), "'Material': 'Power-law index n': got no value (null), expected a number");
   assert.equal(inPageWords("max_nodes must be between 1 and 20000000"), "'Largest grid (nodes)' must be between 1 and 20000000");
   assert.equal(
     inPageWords("gates and aesthetic cannot be used together: why"),

@@ -276,6 +276,22 @@ pub extern "C" fn mg_materials() -> u32 {
     finish(Ok(session::materials_json().into_bytes()), 1)
 }
 
+/// The materials with a user's materials file, `{"name": ..., "text": ...}` as JSON at
+/// `(ptr, len)`, as JSON (see [`session::materials_with_json`]); 0 with the message in the
+/// output when the file is refused.
+///
+/// # Safety
+/// The range must be readable.
+#[no_mangle]
+pub unsafe extern "C" fn mg_materials_with(ptr: *const u8, len: usize) -> u32 {
+    // SAFETY: the caller gives a readable range.
+    let file = unsafe { bytes(ptr, len) };
+    let result = std::str::from_utf8(file)
+        .map_err(|e| format!("the materials file's request is not UTF-8: {e}"))
+        .and_then(session::materials_with_json);
+    finish(result.map(String::into_bytes), 1)
+}
+
 /// The default options (the command line's) as JSON.
 #[no_mangle]
 pub extern "C" fn mg_defaults() -> u32 {
@@ -353,7 +369,7 @@ mod tests {
         let said = String::from_utf8(out()).unwrap();
         assert_eq!(
             said,
-            "options: material.n: invalid type: null, expected a number"
+            "options: material.n: got no value (null), expected a number"
         );
 
         mg_drop(h);

@@ -26,6 +26,36 @@ pub struct Request {
     pub units: Option<String>,
     /// The study's options.
     pub options: StudyOptions,
+    /// A user's materials file (the command line's `--materials-file`): a material of it
+    /// is chosen by name in the options, and wins over a built-in of the same name.
+    pub materials_file: Option<MaterialsFile>,
+}
+
+/// A user's materials file as the page read it: its name (for messages and the listing's
+/// origin) and its TOML text.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialsFile {
+    /// The file's name (`materials.toml`).
+    pub name: String,
+    /// Its text, at most [`moldgate::files::MAX_TOML_BYTES`].
+    pub text: String,
+}
+
+impl MaterialsFile {
+    /// The file's materials, each named by its table; an error names the file and the line.
+    pub fn materials(&self) -> Result<Vec<moldgate::Material>, String> {
+        let limit = moldgate::files::MAX_TOML_BYTES;
+        if self.text.len() as u64 > limit {
+            return Err(format!(
+                "{}: {} bytes, over the limit of {limit} bytes for a TOML file",
+                self.name,
+                self.text.len()
+            ));
+        }
+        moldgate::material::materials_from_toml(&self.text)
+            .map_err(|e| format!("{}: {e}", self.name))
+    }
 }
 
 /// The mesh readers, chosen by the file's extension.
@@ -168,7 +198,14 @@ impl Session {
             None => Units::Mm,
         };
         // Options first: a bad option is refused before the file is read.
-        let settings = request.options.validate().map_err(|e| e.to_string())?;
+        let user = match &request.materials_file {
+            Some(file) => file.materials()?,
+            None => Vec::new(),
+        };
+        let settings = request
+            .options
+            .validate_with(&user)
+            .map_err(|e| e.to_string())?;
         let start = Instant::now();
         let (part, input, title) = match &request.sample {
             Some(name) => {
@@ -306,6 +343,16 @@ pub fn materials_json() -> String {
     serde_json::to_string(&listing.materials).unwrap_or_default()
 }
 
+/// [`materials_json`] with a user's materials file (`{"name": ..., "text": ...}`): each of
+/// its materials replaces a built-in of the same name or alias, the others follow, as
+/// `moldgate materials --materials-file FILE --json` lists them.
+pub fn materials_with_json(file: &str) -> Result<String, String> {
+    let file: MaterialsFile =
+        serde_json::from_str(file).map_err(|e| format!("the materials file's request: {e}"))?;
+    let listing = moldgate::material::Listing::new(file.materials()?, &file.name);
+    serde_json::to_string(&listing.materials).map_err(|e| e.to_string())
+}
+
 /// The study's default options (the command line's) as JSON.
 pub fn defaults_json() -> String {
     serde_json::to_string(&StudyOptions::default()).unwrap_or_default()
@@ -435,6 +482,57 @@ mod tests {
         let height = extras(Colouring::Height);
         assert!(height["suitability"].is_null(), "{height}");
         assert_eq!(height["field"]["name"], "height along D");
+    }
+
+    #[test]
+    fn a_materials_file_gives_its_materials_to_the_study_and_the_listing() {
+        // A material of the file's own, and one that replaces a built-in by its alias.
+        let text = "[MyPP]\nn = 0.3\nt_melt = 230\nt_wall = 50\ngamma_opt = 10000\nmu_opt = 9.88\nk = 0.15\n\n[HDPE]\nn = 0.4\nt_melt = 220\nt_wall = 40\ngamma_opt = 1000\nmu_opt = 300\nk = 0.4\n";
+        let file = serde_json::json!({ "name": "mine.toml", "text": text });
+        let r = serde_json::json!({ "sample": "plate", "options": { "material": "MyPP" }, "materials_file": file });
+        let s = Session::new(b"", &serde_json::from_value(r).unwrap(), &quiet).unwrap();
+        let mine = MaterialsFile {
+            name: "mine.toml".into(),
+            text: text.into(),
+        }
+        .materials()
+        .unwrap();
+        let radius_of = |name: &str| {
+            let m = mine.iter().find(|m| m.name == name).unwrap();
+            m.gate_radius_mm()
+        };
+        let radius = s.study().analysis().options.gate_radius_mm;
+        assert_eq!(radius, radius_of("MyPP"));
+        // The built-in name of the replaced material takes the file's.
+        let r = serde_json::json!({ "sample": "plate", "options": { "material": "PE-HD" }, "materials_file": file });
+        let s = Session::new(b"", &serde_json::from_value(r).unwrap(), &quiet).unwrap();
+        assert_eq!(
+            s.study().analysis().options.gate_radius_mm,
+            radius_of("HDPE")
+        );
+        // Without the file, the name is unknown.
+        let r = request(r#"{ "sample": "plate", "options": { "material": "MyPP" } }"#);
+        let e = Session::new(b"", &r, &quiet).err().unwrap();
+        assert!(e.message.contains("MyPP"), "{e}");
+        // The listing: the built-in library with PE-HD replaced, then the file's own.
+        let listed: serde_json::Value =
+            serde_json::from_str(&materials_with_json(&file.to_string()).unwrap()).unwrap();
+        let listed = listed.as_array().unwrap();
+        assert_eq!(listed.len(), moldgate::material::library().len() + 1);
+        let hdpe = listed.iter().find(|m| m["name"] == "HDPE").unwrap();
+        assert_eq!(hdpe["origin"], "mine.toml");
+        assert!(listed.iter().all(|m| m["name"] != "PE-HD"));
+        assert_eq!(listed.last().unwrap()["name"], "MyPP");
+        // A bad file is refused with its name and line, for the study and the listing alike.
+        let bad = serde_json::json!({ "name": "bad.toml", "text": "[X]\nn = 0.3\nk = hot\n" });
+        let e = materials_with_json(&bad.to_string()).unwrap_err();
+        assert!(e.starts_with("bad.toml: line 3: "), "{e}");
+        let r = serde_json::json!({ "sample": "plate", "materials_file": bad });
+        let e = Session::new(b"", &serde_json::from_value(r).unwrap(), &quiet)
+            .err()
+            .unwrap();
+        assert!(e.message.starts_with("bad.toml: line 3: "), "{e}");
+        assert!(!e.file);
     }
 
     #[test]
