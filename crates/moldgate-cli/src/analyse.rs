@@ -107,6 +107,7 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         | StudyError::OtherPart { .. }
         | StudyError::Encode(_) => Failure {
             code: 1,
+            timed_out: false,
             message: e.to_string(),
         },
     }
@@ -188,7 +189,7 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
         ..*hooks
     };
     let mut study = moldgate::study_with(&part, &s.study, &hooks).map_err(|e| match e {
-        StudyError::Cancelled { stage } if deadline.is_some() => Failure::usage(format!(
+        StudyError::Cancelled { stage } if deadline.is_some() => Failure::timeout(format!(
             "{name}: stopped at --timeout {} s, in the {stage} stage (a coarser --cell, fewer --gates or no --suitability take less time)",
             s.timeout.unwrap_or_default().as_secs_f64()
         )),

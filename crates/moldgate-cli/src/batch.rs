@@ -53,6 +53,7 @@ pub fn with_jobs<T: Send>(
             .build()
             .map_err(|e| Failure {
                 code: 1,
+                timed_out: false,
                 message: format!("cannot start {n} threads: {e}"),
             })?
             .install(f),
@@ -194,6 +195,7 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
         // The lines are printed; main prints nothing for an empty message.
         code => Err(Failure {
             code,
+            timed_out: false,
             message: String::new(),
         }),
     }
@@ -228,6 +230,7 @@ fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
     .unwrap_or_else(|_| {
         Err(Failure {
             code: 1,
+            timed_out: false,
             message: "internal error, please report it (see the panic message above)".into(),
         })
     });
@@ -251,6 +254,7 @@ fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
         let written = serde_json::to_string_pretty(&report)
             .map_err(|e| Failure {
                 code: 1,
+                timed_out: false,
                 message: format!("cannot encode the report: {e}"),
             })
             .and_then(|json| write_atomic(out, (json + "\n").as_bytes()));
@@ -512,6 +516,7 @@ fn row(part: &Part, o: &Outcome) -> BatchRow {
     let report = o.report.as_ref();
     let failure = match (&part.skipped, &o.failure) {
         (Some(reason), _) => Some((Status::Skipped, reason.as_str())),
+        (None, Some(f)) if f.timed_out => Some((Status::Timeout, f.message.as_str())),
         (None, Some(f)) => Some((Status::from_exit_code(f.code), f.message.as_str())),
         (None, None) => None,
     };

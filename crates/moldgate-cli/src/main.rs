@@ -42,6 +42,9 @@ pub struct Failure {
     pub code: u8,
     /// One line for stderr.
     pub message: String,
+    /// Whether the study was stopped at `--timeout` (exit code 2, as for an option; a
+    /// batch's row says `timeout`).
+    pub timed_out: bool,
 }
 
 impl Failure {
@@ -49,7 +52,16 @@ impl Failure {
     pub fn usage(message: impl Into<String>) -> Failure {
         Failure {
             code: 2,
+            timed_out: false,
             message: message.into(),
+        }
+    }
+
+    /// A study stopped at `--timeout`: exit code 2, as for the option that set the limit.
+    pub fn timeout(message: impl Into<String>) -> Failure {
+        Failure {
+            timed_out: true,
+            ..Failure::usage(message)
         }
     }
 
@@ -57,6 +69,7 @@ impl Failure {
     pub fn input(message: impl Into<String>) -> Failure {
         Failure {
             code: 3,
+            timed_out: false,
             message: message.into(),
         }
     }
@@ -65,6 +78,7 @@ impl Failure {
     pub fn no_gate(message: impl Into<String>) -> Failure {
         Failure {
             code: 4,
+            timed_out: false,
             message: message.into(),
         }
     }
@@ -73,6 +87,7 @@ impl Failure {
     pub fn output(message: impl Into<String>) -> Failure {
         Failure {
             code: 5,
+            timed_out: false,
             message: message.into(),
         }
     }

@@ -82,6 +82,7 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
         }
         moldgate_serve::ServeError::Io(_) => Failure {
             code: 1,
+            timed_out: false,
             message: format!("serve on {}: {e}", a.bind),
         },
     })

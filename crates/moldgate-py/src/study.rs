@@ -218,8 +218,8 @@ fn time_limit(timeout: Option<f64>) -> PyResult<Option<std::time::Duration>> {
 /// Loads and studies one file and gives its batch summary row as one line of JSON, the
 /// row of `moldgate locate DIR --summary x.jsonl`. A part that fails is a failed row;
 /// options that are refused raise `OptionsError` (they would fail every part). A study
-/// past `timeout` seconds is stopped, and its row says so (an option error, as the command
-/// line's batch gives for `--timeout`).
+/// past `timeout` seconds is stopped, and its row says so (status `timeout`, exit code 2,
+/// as the command line's batch gives for `--timeout`).
 #[pyfunction]
 #[pyo3(signature = (path, options_json, materials_file = None, units = "mm", demold = None, timeout = None))]
 pub fn batch_row(
@@ -285,7 +285,7 @@ pub fn batch_row(
                 let (status, _) = study_error(&e);
                 match &e {
                     StudyError::Cancelled { stage } => (
-                        Status::OptionError,
+                        Status::Timeout,
                         format!(
                             "{file}: stopped at its timeout of {} s, in the {stage} stage (a coarser cell, fewer gates or no suitability map take less time)",
                             timeout.unwrap_or_default()

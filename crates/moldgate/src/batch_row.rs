@@ -19,6 +19,9 @@ pub enum Status {
     InputError,
     /// An option was refused (2).
     OptionError,
+    /// The study was stopped at its time limit (2, as for the option that set it). The
+    /// row has no numbers: the stages before the stop are not kept.
+    Timeout,
     /// An output could not be written (5).
     OutputError,
     /// A defect of moldgate (1).
@@ -46,7 +49,7 @@ impl Status {
         match self {
             Status::Ok | Status::Skipped => 0,
             Status::InternalError => 1,
-            Status::OptionError => 2,
+            Status::OptionError | Status::Timeout => 2,
             Status::InputError => 3,
             Status::NoGate => 4,
             Status::OutputError => 5,
@@ -60,6 +63,7 @@ impl Status {
             Status::NoGate => "no_gate",
             Status::InputError => "input_error",
             Status::OptionError => "option_error",
+            Status::Timeout => "timeout",
             Status::OutputError => "output_error",
             Status::InternalError => "internal_error",
             Status::Skipped => "skipped",

@@ -186,7 +186,42 @@ pub(crate) fn plain_words(message: &str) -> String {
     ] {
         m = m.replace(rust, plain);
     }
-    m
+    got_words(&m)
+}
+
+/// serde's "invalid type: floating point `1e23`, expected ..." as "got 1e23 (not a whole
+/// number as written), expected ...": what was given, in the words a person uses for it.
+fn got_words(message: &str) -> String {
+    // serde's words for what it got, each before ", expected": (its prefix, ours, and
+    // whether the value follows between backticks or quotes).
+    const GOT: [(&str, &str); 8] = [
+        ("invalid type: floating point `", "got the decimal number "),
+        ("invalid value: integer `", "got "),
+        ("invalid type: integer `", "got the number "),
+        ("invalid type: boolean `", "got "),
+        ("invalid type: string \"", "got the text \""),
+        ("invalid type: null", "got no value (null)"),
+        ("invalid type: map", "got a table"),
+        ("invalid type: sequence", "got a list"),
+    ];
+    let Some((prefix, ours)) = GOT.iter().find(|(p, _)| message.contains(p)) else {
+        return message.to_string();
+    };
+    let start = message.find(prefix).expect("found above");
+    let after = &message[start + prefix.len()..];
+    let (value, rest) = match prefix.chars().last() {
+        // The value runs to its closing backtick (a string's quote is kept in ours).
+        Some('`') => match after.find('`') {
+            Some(end) => (&after[..end], &after[end + 1..]),
+            None => return message.to_string(),
+        },
+        Some('"') => match after.find("\", expected") {
+            Some(end) => (&after[..=end], &after[end + 1..]),
+            None => return message.to_string(),
+        },
+        _ => ("", after),
+    };
+    format!("{}{ours}{value}{rest}", &message[..start])
 }
 
 /// A mesh reader, by the file's extension.
@@ -257,6 +292,44 @@ mod tests {
         assert_eq!(size_text(16 << 20), "16 MiB");
         assert_eq!(size_text(3 << 30), "3 GiB");
         assert_eq!(size_text(1536), "1.5 KiB");
+    }
+
+    #[test]
+    fn what_serde_got_is_said_in_plain_words() {
+        for (serde, plain) in [
+            (
+                "invalid type: floating point `1e23`, expected usize",
+                "got the decimal number 1e23, expected a whole number of 0 or more",
+            ),
+            (
+                "invalid value: integer `-1`, expected u32",
+                "got -1, expected a whole number of 0 or more",
+            ),
+            (
+                "invalid type: string \"3, expected\", expected f64",
+                "got the text \"3, expected\", expected a number",
+            ),
+            (
+                "invalid type: null, expected a boolean",
+                "got no value (null), expected a boolean",
+            ),
+            (
+                "invalid type: boolean `true`, expected f64",
+                "got true, expected a number",
+            ),
+            (
+                "invalid type: map, expected f64",
+                "got a table, expected a number",
+            ),
+            // Anything else, and a message cut short, as it was.
+            ("unknown field `x`", "unknown field `x`"),
+            (
+                "invalid type: floating point `1.5",
+                "invalid type: floating point `1.5",
+            ),
+        ] {
+            assert_eq!(plain_words(serde), plain, "{serde}");
+        }
     }
 
     #[test]

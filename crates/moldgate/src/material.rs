@@ -268,7 +268,7 @@ mod tests {
         // A value of the wrong type in a person's words, not serde's name of the type.
         let e =
             materials_from_toml(&good.replace("t_melt = 280.0", "t_melt = \"hot\"")).unwrap_err();
-        assert_eq!(e, "line 3: invalid type: string \"hot\", expected a number");
+        assert_eq!(e, "line 3: got the text \"hot\", expected a number");
         // Each parameter in range, but Eq. 7-8 overflow together.
         let huge = good
             .replace("k = 0.25", "k = 1e308")

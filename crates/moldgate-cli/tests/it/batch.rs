@@ -591,6 +591,33 @@ fn manifest_gives_each_part_its_unit_and_direction() {
 }
 
 #[test]
+fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    std::fs::create_dir(root.join("m")).unwrap();
+    let out = moldgate(root, &["sample", "cover", "-o", "m/cover.stl"]);
+    assert_code(&out, OK);
+    let heavy = ["--gates", "8", "--cell", "0.3", "--suitability"];
+    let args = [&["locate", "m", "--json", "--timeout", "0.2"][..], &heavy].concat();
+    let out = moldgate(root, &args);
+    assert_code(&out, USAGE);
+    let rows = json_lines(&stdout(&out));
+    assert_eq!(rows.len(), 1);
+    let row = &rows[0];
+    assert_eq!(row["status"], "timeout", "{row}");
+    assert_eq!(row["exit_code"], 2, "{row}");
+    let error = row["error"].as_str().unwrap();
+    assert!(
+        error.contains("stopped at --timeout 0.2 s, in the fill stage"),
+        "{error}"
+    );
+    assert!(row["gate_x_mm"].is_null(), "{row}");
+    // An option refused for every part is still an option error.
+    let out = moldgate(root, &["locate", "m", "--json", "--gates", "0"]);
+    assert_code(&out, USAGE);
+}
+
+#[test]
 fn summary_says_the_direction_demold_auto_chose() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path();

@@ -388,7 +388,13 @@ fn bad_options_are_400_with_the_librarys_message() {
         (
             "gates=abc",
             "gates",
-            "invalid type: string \"abc\", expected a whole number of 1 or more",
+            "got the text \"abc\", expected a whole number of 1 or more",
+        ),
+        // A count in a double's notation, or beyond one.
+        (
+            "gates=1e23",
+            "gates",
+            "got the decimal number 1e+23, expected a whole number of 1 or more",
         ),
         ("fill=maybe", "fill", "expected a boolean"),
         (
