@@ -92,6 +92,14 @@ function setDefaults() {
 function listMaterials(materials) {
   const select = $("material");
   const chosen = select.value;
+  // A material the new list replaces (a built-in named by a file's material, or by an
+  // alias of it) stays chosen under its new entry, as the command line's --material PE-HD
+  // takes a file's [HDPE].
+  const key = (n) => n.toLowerCase().replace(/[^a-z0-9]/g, "");
+  const names = [chosen, ...(info.materials.find((m) => m.name === chosen)?.aliases ?? [])].map(key);
+  const kept =
+    materials.find((m) => m.name === chosen) ??
+    materials.find((m) => [m.name, ...(m.aliases ?? [])].some((n) => names.includes(key(n))));
   listed = materials;
   select.replaceChildren();
   for (const m of materials) {
@@ -105,8 +113,10 @@ function listMaterials(materials) {
   custom.value = "custom";
   custom.textContent = "custom parameters…";
   select.append(custom);
-  if ([...select.options].some((o) => o.value === chosen)) select.value = chosen;
+  if (chosen === "custom") select.value = "custom";
+  else if (kept) select.value = kept.name;
   showMaterial();
+  return chosen === "custom" || kept ? null : chosen;
 }
 
 // The largest materials file read, bytes: the library's limit for a TOML file.
@@ -120,28 +130,52 @@ async function loadMaterialsFile() {
   const f = $("materials_file").files[0];
   const status = $("materials-file-status");
   status.classList.remove("error");
+  $("materials-builtin").hidden = true;
+  // A material the new list no longer has gives way to the first, and says so.
+  const gone = (lost) => (lost ? ` ${lost} is not listed any more: ${$("material").value} is chosen.` : "");
   try {
     if (!f) {
       materialsFile = null;
-      listMaterials(info.materials);
-      status.hidden = true;
+      const lost = listMaterials(info.materials);
+      status.textContent = `The built-in materials.${gone(lost)}`;
+      status.hidden = !lost;
       return;
     }
+    status.textContent = `Reading ${f.name}…`;
+    status.hidden = false;
     if (f.size > MAX_TOML_BYTES) throw new Error(`${f.name}: ${f.size} bytes, over the limit of ${MAX_TOML_BYTES} bytes for a TOML file`);
     const file = { name: f.name, text: await f.text() };
     const r = await ask({ type: "materials", file });
     materialsFile = file;
-    listMaterials(r.materials);
+    const lost = listMaterials(r.materials);
     const own = r.materials.filter((m) => m.origin === f.name).map((m) => m.name);
-    status.textContent = `${own.length} material${own.length === 1 ? "" : "s"} from ${f.name}: ${own.join(", ")}`;
+    const names = own.length <= 8 ? `: ${own.join(", ")}` : `: ${own.slice(0, 8).join(", ")} and ${own.length - 8} more`;
+    status.textContent = `${own.length} material${own.length === 1 ? "" : "s"} from ${f.name}${names}.${gone(lost)}`;
+    $("materials-builtin").hidden = false;
   } catch (e) {
     materialsFile = null;
     $("materials_file").value = "";
-    listMaterials(info.materials);
-    status.textContent = `Not read: ${e.message}`;
+    const lost = listMaterials(info.materials);
+    status.textContent = `Not read: ${e.message}.${gone(lost)}`;
     status.classList.add("error");
+  } finally {
+    markStale();
   }
   status.hidden = false;
+}
+
+/** Marks the results as those of earlier options when the form differs from the options
+ * they were studied with (an edit undone, or a value typed before the study that ran with
+ * it, leaves them current). */
+function markStale(e) {
+  if (!current || ["file", "sample"].includes(e?.target?.id)) return;
+  $("stale").hidden = formState() === current.asked;
+}
+
+/** Back to the built-in materials alone. */
+function builtinMaterials() {
+  $("materials_file").value = "";
+  loadMaterialsFile();
 }
 
 function showMaterial() {
@@ -329,9 +363,11 @@ function showColourBar(field) {
   const unit = field.unit ? ` ${field.unit}` : "";
   $("colour-bar-name").textContent = field.name;
   bar.querySelector(".bar").style.background = `linear-gradient(to right, ${VIRIDIS.join(", ")})`;
-  const digits = Math.abs(field.max - field.min) < 10 ? 2 : 1;
-  $("colour-bar-min").textContent = `${field.min.toFixed(digits)}${unit}`;
-  $("colour-bar-max").textContent = `${field.max.toFixed(digits)}${unit}`;
+  // Three significant figures (a fill time of 0.0160 s is not "0.02 s"), whole numbers
+  // from 100 up.
+  const text = (x) => (Math.abs(x) >= 100 ? x.toFixed(0) : String(Number(x.toPrecision(3))));
+  $("colour-bar-min").textContent = `${text(field.min)}${unit}`;
+  $("colour-bar-max").textContent = `${text(field.max)}${unit}`;
   bar.dataset.field = field.name;
   bar.hidden = false;
 }
@@ -441,13 +477,6 @@ function wire() {
     e.preventDefault();
     analyse();
   });
-  // The results are marked as those of earlier options only when the options differ from
-  // the ones they were studied with (an edit undone, or a value typed before the study
-  // that ran with it, leaves them current).
-  const markStale = (e) => {
-    if (!current || ["file", "sample"].includes(e?.target?.id)) return;
-    $("stale").hidden = formState() === current.asked;
-  };
   $("defaults").addEventListener("click", () => {
     setDefaults();
     markStale();
@@ -471,6 +500,7 @@ function wire() {
     if (e.key === "d" || e.key === "D") viewer.viewAlongD();
   });
   $("materials_file").addEventListener("change", loadMaterialsFile);
+  $("materials-builtin").addEventListener("click", builtinMaterials);
   for (const b of document.querySelectorAll("[data-download]")) {
     b.addEventListener("click", () => download(b.dataset.download));
   }

@@ -392,11 +392,23 @@ describe("moldgate in the browser", () => {
     await page.waitForFunction(() => document.getElementById("materials-file-status").classList.contains("error"));
     const said = await page.textContent("#materials-file-status");
     assert.ok(said.startsWith("Not read: bad.toml: line 3: "), said);
+    // The material studied is gone: the first is chosen, said so, and the results are marked
+    // as those of other options.
+    assert.ok(said.endsWith("MyPP is not listed any more: PP is chosen."), said);
+    assert.equal(await page.$eval("#stale", (e) => e.hidden), false);
     const builtIn = await page.$$eval("#material option", (os) => os.map((o) => o.value));
     assert.ok(!builtIn.includes("MyPP") && builtIn.includes("PE-HD"), builtIn.join(", "));
     assert.equal(await studySample(page, "cover"), "done");
     await assertSameGate(page, cli(["locate", "--sample", "cover", "--demold", "-z"]), "cover, after the bad file");
-    await page.setInputFiles("#materials_file", []);
+    // A built-in chosen stays chosen under the file's material that replaces it, and back.
+    await page.selectOption("#material", "PE-HD");
+    await page.setInputFiles("#materials_file", toml);
+    await page.waitForFunction(() => document.getElementById("materials-file-status").textContent.startsWith("2 materials"));
+    assert.equal(await page.inputValue("#material"), "HDPE");
+    await page.click("#materials-builtin");
+    await page.waitForFunction(() => document.getElementById("materials-builtin").hidden);
+    assert.equal(await page.inputValue("#material"), "PE-HD");
+    assert.equal(await page.$eval("#materials-file-status", (e) => e.hidden), true);
     await page.click("#defaults");
   });
 

@@ -189,10 +189,18 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
         ..*hooks
     };
     let mut study = moldgate::study_with(&part, &s.study, &hooks).map_err(|e| match e {
-        StudyError::Cancelled { stage } if deadline.is_some() => Failure::timeout(format!(
-            "{name}: stopped at --timeout {} s, in the {stage} stage (a coarser --cell, fewer --gates or no --suitability take less time)",
-            s.timeout.unwrap_or_default().as_secs_f64()
-        )),
+        StudyError::Cancelled { stage } if deadline.is_some() => {
+            let hint = s.study.less_time_words(stage);
+            Failure::timeout(format!(
+                "{name}: stopped at --timeout {} s, in the {stage} stage{}",
+                s.timeout.unwrap_or_default().as_secs_f64(),
+                if hint.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({hint})")
+                }
+            ))
+        }
         e => failure(&e, &name),
     })?;
     drop(deadline);

@@ -670,11 +670,15 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
         let ok = rows.iter().filter(|r| r.status == Status::Ok).count();
         let no_gate = rows.iter().filter(|r| r.exit_code == 4).count();
         let failed = rows.len() - skipped - ok - no_gate;
+        let timed_out = rows.iter().filter(|r| r.status == Status::Timeout).count();
         let _ = write!(
             out,
             "{} parts: {ok} with a gate, {no_gate} without, {failed} failed",
             rows.len() - skipped
         );
+        if timed_out > 0 {
+            let _ = write!(out, " ({timed_out} stopped at --timeout)");
+        }
         if skipped > 0 {
             let _ = write!(out, ", {skipped} skipped (not regular files)");
         }

@@ -281,23 +281,33 @@ pub fn batch_row(
                 studied
             });
             // The messages of the command line's batch for the same errors.
-            let mut s = studied.map_err(|e| {
-                let (status, _) = study_error(&e);
-                match &e {
-                    StudyError::Cancelled { stage } => (
-                        Status::Timeout,
-                        format!(
-                            "{file}: stopped at its timeout of {} s, in the {stage} stage (a coarser cell, fewer gates or no suitability map take less time)",
-                            timeout.unwrap_or_default()
-                        ),
-                    ),
-                    StudyError::Demold(d) => (status, format!("{file}: --demold auto: {d}")),
-                    StudyError::Fill(f @ FillError::GateOffPart(..)) => {
-                        (status, format!("{file}: {f}"))
+            let mut s =
+                studied.map_err(|e| {
+                    let (status, _) = study_error(&e);
+                    match &e {
+                        StudyError::Cancelled { stage } => {
+                            // The command line's words, in the package's keywords.
+                            let hint = settings
+                                .less_time_words(*stage)
+                                .replace("no --suitability", "no suitability map")
+                                .replace("no --wall-thickness", "no wall_thickness");
+                            let hint = moldgate::study::keyword_words(&hint, "True");
+                            (
+                                Status::Timeout,
+                                format!(
+                                "{file}: stopped at its timeout of {} s, in the {stage} stage{}",
+                                timeout.unwrap_or_default(),
+                                if hint.is_empty() { String::new() } else { format!(" ({hint})") }
+                            ),
+                            )
+                        }
+                        StudyError::Demold(d) => (status, format!("{file}: --demold auto: {d}")),
+                        StudyError::Fill(f @ FillError::GateOffPart(..)) => {
+                            (status, format!("{file}: {f}"))
+                        }
+                        _ => (status, e.to_string()),
                     }
-                    _ => (status, e.to_string()),
-                }
-            })?;
+                })?;
             s.set_input(input, load_s);
             Ok(s.into_report())
         }))

@@ -224,13 +224,28 @@ impl Listing {
     }
 }
 
+/// The most materials one materials file may hold (the file's own limit, 16 MiB, would
+/// allow some 200,000); a study looks a name up among them, and every front end lists them.
+pub const MAX_USER_MATERIALS: usize = 1000;
+
 /// The materials of a TOML text (a user's materials file): each table a material named by
 /// its key, in the order of their names, each checked as [`Material::validate`] does. A
 /// syntax error names its line.
 pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
     let table: std::collections::BTreeMap<String, Material> =
         toml::from_str(text).map_err(|e| crate::files::toml_message(text, &e))?;
+    if table.is_empty() {
+        return Err("no materials in the file: each is a table [NAME] of n, t_melt, t_wall, gamma_opt, mu_opt and k".into());
+    }
+    if table.len() > MAX_USER_MATERIALS {
+        return Err(format!(
+            "{} materials, over the limit of {MAX_USER_MATERIALS} in one file",
+            table.len()
+        ));
+    }
     let mut out: Vec<Material> = Vec::with_capacity(table.len());
+    // Each name once case and separators are ignored, with the table that gave it.
+    let mut seen: std::collections::HashMap<String, usize> = Default::default();
     for (key, mut m) in table {
         // A material is named by its table; a `name` inside it that says otherwise would be
         // ignored, and two tables whose names differ only in case or separators would be
@@ -241,12 +256,13 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
                 m.name
             ));
         }
-        if let Some(other) = out.iter().find(|o| name::same(&o.name, &key)) {
+        if let Some(&other) = seen.get(&name::normalized(&key)) {
             return Err(format!(
                 "materials [{}] and [{key}] are one name (case and separators are ignored): keep one",
-                other.name
+                out[other].name
             ));
         }
+        seen.insert(name::normalized(&key), out.len());
         m.name = key;
         m.validate().map_err(|e| e.to_string())?;
         out.push(m);
@@ -269,6 +285,21 @@ mod tests {
         let e =
             materials_from_toml(&good.replace("t_melt = 280.0", "t_melt = \"hot\"")).unwrap_err();
         assert_eq!(e, "line 3: got the text \"hot\", expected a number");
+        // An empty file, and one of more materials than the limit, before any is checked.
+        let e = materials_from_toml("# nothing yet\n").unwrap_err();
+        assert!(e.starts_with("no materials in the file"), "{e}");
+        let many: String = (0..=MAX_USER_MATERIALS)
+            .map(|i| good.replace("[MyPA]", &format!("[M{i}]")))
+            .collect();
+        let e = materials_from_toml(&many).unwrap_err();
+        assert_eq!(e, "1001 materials, over the limit of 1000 in one file");
+        let at_limit: String = (0..MAX_USER_MATERIALS)
+            .map(|i| good.replace("[MyPA]", &format!("[M{i}]")))
+            .collect();
+        assert_eq!(
+            materials_from_toml(&at_limit).unwrap().len(),
+            MAX_USER_MATERIALS
+        );
         // Each parameter in range, but Eq. 7-8 overflow together.
         let huge = good
             .replace("k = 0.25", "k = 1e308")

@@ -612,6 +612,21 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
         "{error}"
     );
     assert!(row["gate_x_mm"].is_null(), "{row}");
+    // The hint names only what was asked for; the table's last line counts the stops.
+    let args = [&["locate", "m", "--timeout", "0.2"][..], &heavy[..4]].concat();
+    let out = moldgate(root, &args);
+    assert_code(&out, USAGE);
+    let err = stderr(&out);
+    assert!(
+        err.contains("(a coarser --cell or fewer --gates take less time)"),
+        "{err}"
+    );
+    assert!(
+        stdout(&out)
+            .contains("1 parts: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout)"),
+        "{}",
+        stdout(&out)
+    );
     // An option refused for every part is still an option error.
     let out = moldgate(root, &["locate", "m", "--json", "--gates", "0"]);
     assert_code(&out, USAGE);

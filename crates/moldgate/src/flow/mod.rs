@@ -1569,6 +1569,8 @@ fn worse_by_other_measures(
     balanced: &GateFill,
 ) -> Option<String> {
     let worse_by = |x: f64, y: f64| y > x * (1.0 + OTHER_MEASURE_WORSE_SHARE);
+    // How much worse, in per cent of the answer's gate's value.
+    let share = |x: f64, y: f64| format!("{:.0} %", 100.0 * (y / x - 1.0));
     let (p, b) = (paper, balanced);
     // The other objective in its own words, then Eq. 1's pressure, which neither minimises.
     let mut worse: Vec<String> = [Objective::Length, Objective::Resistance]
@@ -1576,15 +1578,17 @@ fn worse_by_other_measures(
         .filter(|&o| o != objective && worse_by(o.of_fill(p), o.of_fill(b)))
         .map(|o| {
             let (what, unit) = o.value_words();
+            let by = share(o.of_fill(p), o.of_fill(b));
             let (x, y) = (o.value_text(o.of_fill(p)), o.value_text(o.of_fill(b)));
-            format!("{what} {x} -> {y} {unit}")
+            format!("{what} {x} -> {y} {unit} (+{by})")
         })
         .collect();
     if worse_by(p.pressure_mpa, b.pressure_mpa) {
         worse.push(format!(
-            "pressure {} -> {} MPa",
+            "pressure {} -> {} MPa (+{})",
             crate::report::three_figures(p.pressure_mpa),
-            crate::report::three_figures(b.pressure_mpa)
+            crate::report::three_figures(b.pressure_mpa),
+            share(p.pressure_mpa, b.pressure_mpa)
         ));
     }
     let other = match objective {
@@ -1596,7 +1600,7 @@ fn worse_by_other_measures(
     let gate = mode.name();
     (!worse.is_empty()).then(|| {
         format!(
-            "the balanced gate minimises the {} only: against the {gate} gate it is more than 1 % worse in {} ({gate} -> balanced); --objective {} minimises the {} instead",
+            "the balanced gate minimises the {} only: against the {gate} gate it is worse in {} ({gate} -> balanced); --objective {} minimises the {} instead",
             objective.value_words().0,
             worse.join(", "),
             other.name(),
@@ -4274,7 +4278,7 @@ mod tests {
         .expect("worse by two measures");
         assert_eq!(
             w,
-            "the balanced gate minimises the fill time only: against the paper gate it is more than 1 % worse in longest flow path L_max 37.8 -> 61.7 mm, pressure 4.15 -> 6.89 MPa (paper -> balanced); --objective length minimises the longest flow path L_max instead"
+            "the balanced gate minimises the fill time only: against the paper gate it is worse in longest flow path L_max 37.8 -> 61.7 mm (+63 %), pressure 4.15 -> 6.89 MPa (+66 %) (paper -> balanced); --objective length minimises the longest flow path L_max instead"
         );
         // By length: the fill time counts, the L_max does not.
         let w = worse_by_other_measures(
@@ -4286,7 +4290,7 @@ mod tests {
         .expect("worse by the fill time");
         // Compared with the answer's gate, here the aesthetic one.
         assert!(
-            w.contains("against the aesthetic gate it is more than 1 % worse in fill time 0.0358 -> 0.0369 s (aesthetic -> balanced)"),
+            w.contains("against the aesthetic gate it is worse in fill time 0.0358 -> 0.0369 s (+3 %) (aesthetic -> balanced)"),
             "{w}"
         );
         assert!(!w.contains("pressure") && !w.contains("L_max 37.8"), "{w}");

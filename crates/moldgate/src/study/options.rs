@@ -284,6 +284,31 @@ pub struct Settings {
     pub warnings: Vec<String>,
 }
 
+impl Settings {
+    /// What would make a study stopped at its time limit quicker, in the command line's
+    /// flags and among what was asked: "a coarser --cell, fewer --gates or no
+    /// --suitability", or "no --wall-thickness" for the wall stage.
+    pub fn less_time_words(&self, stage: crate::study::Stage) -> String {
+        let mut ways = Vec::new();
+        if stage == crate::study::Stage::WallThickness {
+            ways.push("no --wall-thickness");
+        } else if let Some(f) = &self.fill {
+            ways.push("a coarser --cell");
+            if f.gates > 1 {
+                ways.push("fewer --gates");
+            }
+            if f.suitability {
+                ways.push("no --suitability");
+            }
+        }
+        match ways.as_slice() {
+            [] => String::new(),
+            [one] => format!("{one} takes less time"),
+            [rest @ .., last] => format!("{} or {last} take less time", rest.join(", ")),
+        }
+    }
+}
+
 /// The most gates a designer may place (`gate_at`): as many as a several-gate layout
 /// may have ([`FlowOptions::max_gates`]'s default).
 pub const MAX_GATE_AT: usize = 32;
