@@ -93,6 +93,41 @@ impl Failure {
     }
 }
 
+/// Rust's words for a number that does not parse, in clap's message of an option's value,
+/// as a person says them: "invalid digit found in string" is "expected a whole number".
+fn plain_parse_words(message: &str) -> String {
+    let mut m = message.to_string();
+    for (rust, plain) in [
+        ("invalid digit found in string", "expected a whole number"),
+        (
+            "cannot parse integer from empty string",
+            "expected a whole number",
+        ),
+        (
+            "number too large to fit in target type",
+            "a whole number too large",
+        ),
+        (
+            "number too small to fit in target type",
+            "a whole number too small",
+        ),
+        ("invalid float literal", "expected a number"),
+        ("cannot parse float from empty string", "expected a number"),
+    ] {
+        m = m.replace(rust, plain);
+    }
+    // clap's range of a count: "0 is not in 1..=65535".
+    if let Some(at) = m.find(" is not in ") {
+        let range = &m[at + " is not in ".len()..];
+        if let Some((low, high)) = range.split_once("..=") {
+            let value = m[..at].rsplit(": ").next().unwrap_or_default().to_string();
+            let head = &m[..at - value.len()];
+            m = format!("{head}expected a whole number from {low} to {high}, got {value}");
+        }
+    }
+    m
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -120,6 +155,7 @@ fn main() -> ExitCode {
                 .unwrap_or("invalid command line")
                 .trim_start_matches("error: ")
                 .to_string();
+            first = plain_parse_words(&first);
             // A list after the colon (the missing arguments) goes on the same line.
             if first.ends_with(':') {
                 let items: Vec<&str> = text

@@ -323,6 +323,23 @@ fn non_positive_lengths_and_counts() {
         (&["--max-nodes", "0"], "--max-nodes must be between 1 and"),
         // Clap's own errors are one line too.
         (&["--n", "abc"], "invalid value 'abc' for '--n"),
+        // ... in plain words for a number that does not parse.
+        (
+            &["--n", "abc"],
+            "invalid value 'abc' for '--n <N>': expected a number",
+        ),
+        (
+            &["--gates", "1.5"],
+            "invalid value '1.5' for '--gates <K>': expected a whole number",
+        ),
+        (
+            &["--max-nodes", "99999999999999999999999"],
+            "a whole number too large",
+        ),
+        (
+            &["--jobs", "0"],
+            "invalid value '0' for '--jobs <N>': expected a whole number from 1 to 65535, got 0",
+        ),
         (
             &["--no-such-option"],
             "unexpected argument '--no-such-option'",
