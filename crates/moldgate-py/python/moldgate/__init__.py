@@ -169,7 +169,13 @@ def _options_json(options: Mapping[str, Any]) -> str:
     if isinstance(options.get("keep_out"), str):
         options["keep_out"] = [options["keep_out"]]
     elif options.get("keep_out") is not None and not isinstance(options["keep_out"], list):
-        options["keep_out"] = list(options["keep_out"])
+        try:
+            options["keep_out"] = list(options["keep_out"])
+        except TypeError:
+            raise OptionsError(
+                "keep_out: expected a region (\"box:...\" or \"sphere:...\") or a list of them, "
+                f"got {options['keep_out']!r}"
+            ) from None
     # JSON has no NaN or infinity, and the options' integers fit 64 bits: said here by name
     # (a material's parameter as material.n), not as a JSON parser's complaint about the
     # text it was given.
@@ -353,9 +359,8 @@ def study(
     given = locals()
     _check_run_keywords(allow_no_gate, timeout)
     options = {name: given[name] for name in _OPTION_NAMES}
-    if keep_out is None:
-        keep_out = ()
-    options["keep_out"] = list(keep_out) if not isinstance(keep_out, str) else [keep_out]
+    # A region, a sequence of them or None: read by `_options_json`.
+    options["keep_out"] = keep_out
     options.update(unknown)
     options_json = _options_json(options)
     p = _part(part, units, step_tolerance_mm)
