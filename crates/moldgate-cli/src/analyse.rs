@@ -105,11 +105,7 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         StudyError::Cancelled { .. }
         | StudyError::Render(_)
         | StudyError::OtherPart { .. }
-        | StudyError::Encode(_) => Failure {
-            code: 1,
-            timed_out: false,
-            message: e.to_string(),
-        },
+        | StudyError::Encode(_) => Failure::new(1, e.to_string()),
     }
 }
 

@@ -51,11 +51,7 @@ pub fn with_jobs<T: Send>(
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(usize::from(n))
             .build()
-            .map_err(|e| Failure {
-                code: 1,
-                timed_out: false,
-                message: format!("cannot start {n} threads: {e}"),
-            })?
+            .map_err(|e| Failure::new(1, format!("cannot start {n} threads: {e}")))?
             .install(f),
     }
 }
@@ -193,11 +189,7 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     match exit_code(codes) {
         0 => Ok(()),
         // The lines are printed; main prints nothing for an empty message.
-        code => Err(Failure {
-            code,
-            timed_out: false,
-            message: String::new(),
-        }),
+        code => Err(Failure::new(code, String::new())),
     }
 }
 
@@ -228,11 +220,10 @@ fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
             .map(|a| a.study.into_report())
     }))
     .unwrap_or_else(|_| {
-        Err(Failure {
-            code: 1,
-            timed_out: false,
-            message: "internal error, please report it (see the panic message above)".into(),
-        })
+        Err(Failure::new(
+            1,
+            "internal error, please report it (see the panic message above)",
+        ))
     });
     let time_s = t.elapsed().as_secs_f64();
     let report = match result {
@@ -252,11 +243,7 @@ fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
         .map(|reason| Failure::no_gate(reason.clone()));
     if let Some(out) = out {
         let written = serde_json::to_string_pretty(&report)
-            .map_err(|e| Failure {
-                code: 1,
-                timed_out: false,
-                message: format!("cannot encode the report: {e}"),
-            })
+            .map_err(|e| Failure::new(1, format!("cannot encode the report: {e}")))
             .and_then(|json| write_atomic(out, (json + "\n").as_bytes()));
         if let Err(f) = written {
             failure = Some(f);

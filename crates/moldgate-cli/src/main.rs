@@ -48,13 +48,19 @@ pub struct Failure {
 }
 
 impl Failure {
+    /// A failure with exit code `code` (1 internal error, 2 option, 3 input, 4 no gate,
+    /// 5 output).
+    pub fn new(code: u8, message: impl Into<String>) -> Failure {
+        Failure {
+            code,
+            message: message.into(),
+            timed_out: false,
+        }
+    }
+
     /// Invalid command line or option value.
     pub fn usage(message: impl Into<String>) -> Failure {
-        Failure {
-            code: 2,
-            timed_out: false,
-            message: message.into(),
-        }
+        Failure::new(2, message)
     }
 
     /// A study stopped at `--timeout`: exit code 2, as for the option that set the limit.
@@ -67,29 +73,17 @@ impl Failure {
 
     /// Unreadable or malformed input.
     pub fn input(message: impl Into<String>) -> Failure {
-        Failure {
-            code: 3,
-            timed_out: false,
-            message: message.into(),
-        }
+        Failure::new(3, message)
     }
 
     /// No gate could be placed.
     pub fn no_gate(message: impl Into<String>) -> Failure {
-        Failure {
-            code: 4,
-            timed_out: false,
-            message: message.into(),
-        }
+        Failure::new(4, message)
     }
 
     /// Output cannot be written.
     pub fn output(message: impl Into<String>) -> Failure {
-        Failure {
-            code: 5,
-            timed_out: false,
-            message: message.into(),
-        }
+        Failure::new(5, message)
     }
 }
 

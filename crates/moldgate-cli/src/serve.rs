@@ -80,10 +80,6 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
         moldgate_serve::ServeError::Bind(_) | moldgate_serve::ServeError::Limit(_) => {
             Failure::usage(format!("serve on {}: {e}", a.bind))
         }
-        moldgate_serve::ServeError::Io(_) => Failure {
-            code: 1,
-            timed_out: false,
-            message: format!("serve on {}: {e}", a.bind),
-        },
+        moldgate_serve::ServeError::Io(_) => Failure::new(1, format!("serve on {}: {e}", a.bind)),
     })
 }

@@ -256,13 +256,17 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
                 m.name
             ));
         }
-        if let Some(&other) = seen.get(&name::normalized(&key)) {
-            return Err(format!(
-                "materials [{}] and [{key}] are one name (case and separators are ignored): keep one",
-                out[other].name
-            ));
+        match seen.entry(name::normalized(&key)) {
+            std::collections::hash_map::Entry::Occupied(other) => {
+                return Err(format!(
+                    "materials [{}] and [{key}] are one name (case and separators are ignored): keep one",
+                    out[*other.get()].name
+                ));
+            }
+            std::collections::hash_map::Entry::Vacant(slot) => {
+                slot.insert(out.len());
+            }
         }
-        seen.insert(name::normalized(&key), out.len());
         m.name = key;
         m.validate().map_err(|e| e.to_string())?;
         out.push(m);

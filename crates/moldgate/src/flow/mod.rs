@@ -3248,13 +3248,15 @@ pub fn analyse_prepared(
         let value = argmax(&field.t).1 * scale;
         (search, field, value)
     });
+    // One cell (the fields' resolution) in the objective's units.
+    let cell_value = h * scale;
     // The grid gate (a candidate itself) beside the aesthetic gate: it stays the balanced
     // gate unless the search's candidate beats it by more than one cell.
     let head = match (head, grid) {
         (Some((search, field, value)), Some((g, grid_field))) => {
             let grid_value = argmax(&grid_field.t).1 * scale;
             match candidates.iter().position(|c| c.point == g.point) {
-                Some(i) if value >= grid_value - h * scale => {
+                Some(i) if value >= grid_value - cell_value => {
                     let search = Balanced {
                         candidate: i,
                         ..search
@@ -3270,7 +3272,6 @@ pub fn analyse_prepared(
     // fields' resolution, in the objective's units): a smaller gain is the discretisation's,
     // not the gate's, and does not move the gate.
     let paper_value = objective_value(&paper);
-    let cell_value = h * scale;
     let beats = |value: f64| value < paper_value - cell_value;
     if head.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
