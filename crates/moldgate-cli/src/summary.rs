@@ -38,13 +38,13 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     );
 }
 
-/// The fill analysis in a few lines; `paper_gate` is the paper's grid gate, which the
-/// balanced gate may be when the answer is another (the aesthetic gate).
+/// The fill analysis in a few lines; `balanced_is_paper_gate` when the balanced gate is the
+/// paper's grid gate beside another answer ([`Report::balanced_is_paper_gate_beside_another`]).
 fn fill(
     s: &mut String,
     f: &moldgate::flow::FillAnalysis,
     label: &str,
-    paper_gate: Option<[f64; 3]>,
+    balanced_is_paper_gate: bool,
 ) {
     let _ = writeln!(
         s,
@@ -124,9 +124,7 @@ fn fill(
             );
         }
         Some(b) => {
-            // Beside the aesthetic gate, the paper's grid gate stays the balanced gate when
-            // no candidate beats it by more than a flow cell.
-            let is_grid_gate = paper_gate == Some(b.fill.gate);
+            let is_grid_gate = balanced_is_paper_gate;
             let name = if is_grid_gate {
                 "balanced gate (the paper gate)"
             } else {
@@ -379,7 +377,7 @@ pub fn render(r: &Report) -> String {
             &mut s,
             f,
             &format!("{:<13}", gate_name(r.options.mode)),
-            r.paper_gate.as_ref().map(|g| g.point),
+            r.balanced_is_paper_gate_beside_another(),
         );
     }
     if let Some(p) = &r.placed_gates {

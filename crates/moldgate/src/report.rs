@@ -358,6 +358,17 @@ pub struct WallThicknessReport {
 }
 
 impl Report {
+    /// Whether the balanced gate is the paper's grid gate while the answer is another (the
+    /// aesthetic gate): the grid gate stays the balanced gate when no candidate beats it
+    /// by more than a flow cell.
+    pub fn balanced_is_paper_gate_beside_another(&self) -> bool {
+        let balanced = self.fill.as_ref().and_then(|f| f.balanced.as_ref());
+        match (balanced, &self.paper_gate) {
+            (Some(b), Some(g)) => !b.is_paper_gate && b.fill.gate == g.point,
+            _ => false,
+        }
+    }
+
     /// This report with its sentences (the warnings, the reasons for no gate, no fill or a
     /// refused radius, why a placed gate does not qualify) in the words of a front end
     /// whose options are keywords ([`crate::study::keyword_words`]): `--require-flat`

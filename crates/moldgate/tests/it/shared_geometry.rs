@@ -648,10 +648,31 @@ fn the_balanced_gate_is_the_same_beside_the_aesthetic_gate() {
             .unwrap();
             let study = moldgate::study(&part, &options).unwrap();
             let fill = study.report().fill.clone().unwrap();
-            (fill.paper.unwrap().gate, fill.balanced.unwrap().fill)
+            let said = study.report().balanced_is_paper_gate_beside_another();
+            (fill.paper.unwrap().gate, fill.balanced.unwrap().fill, said)
         };
-        let (paper_gate, paper) = balanced(false);
-        let (aesthetic_gate, aesthetic) = balanced(true);
+        let (paper_gate, paper, said_in_paper_mode) = balanced(false);
+        let (aesthetic_gate, aesthetic, said) = balanced(true);
+        // Said "the paper gate" beside the aesthetic gate exactly when it is the grid gate;
+        // in paper mode the balanced gate is never "another's".
+        assert!(!said_in_paper_mode, "{file}");
+        let grid = locate(
+            &part,
+            &LocateOptions {
+                direction: demold.parse().unwrap(),
+                ..LocateOptions::default()
+            },
+        )
+        .unwrap()
+        .grid_gate
+        .unwrap()
+        .point;
+        assert_eq!(
+            said,
+            aesthetic.gate == grid.to_array(),
+            "{file}: the balanced gate at {:?}, the grid gate at {grid}",
+            aesthetic.gate
+        );
         assert_ne!(
             paper_gate, aesthetic_gate,
             "{file}: the two modes chose one gate"
