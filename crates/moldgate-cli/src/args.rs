@@ -164,7 +164,7 @@ pub struct LocateArgs {
     )]
     pub grid_offset: f64,
     /// Points on each node's circle.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     pub circle_points: usize,
     /// Which centre of mass the gate is placed by.
     #[arg(long, value_enum, default_value = "surface")]
@@ -192,7 +192,7 @@ pub struct LocateArgs {
     #[arg(long, value_enum, default_value = "outline")]
     pub parting_line: PartingLineArg,
     /// Largest grid accepted, in nodes.
-    #[arg(long, default_value_t = 4_000_000)]
+    #[arg(long, default_value_t = 4_000_000, allow_negative_numbers = true)]
     pub max_nodes: usize,
     /// A region no gate may reach into: box:x0,y0,z0,x1,y1,z1 or sphere:x,y,z,r (mm);
     /// repeat for several.
@@ -216,7 +216,12 @@ pub struct LocateArgs {
     #[arg(long = "color-by", value_enum, default_value = "fill-order")]
     pub color_by: ColorByArg,
     /// Number of gates that together minimise the worst flow (implies --fill).
-    #[arg(long, default_value_t = 1, value_name = "K")]
+    #[arg(
+        long,
+        default_value_t = 1,
+        value_name = "K",
+        allow_negative_numbers = true
+    )]
     pub gates: usize,
     /// Side of the flow-analysis cells, mm [default: half the nominal wall, at most 1/120
     /// of the part's diagonal].
@@ -291,30 +296,65 @@ pub struct ServeArgs {
     #[arg(long, default_value = "127.0.0.1:8080", value_name = "ADDR")]
     pub bind: std::net::SocketAddr,
     /// Largest request body, in MiB.
-    #[arg(long, default_value_t = 100, value_name = "MIB")]
+    #[arg(
+        long,
+        default_value_t = 100,
+        value_name = "MIB",
+        allow_negative_numbers = true
+    )]
     pub max_upload: u64,
     /// Studies that run at once (default: the number of cores).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub analyses: Option<usize>,
     /// Studies admitted beyond those, waiting; more are refused with 503.
-    #[arg(long, default_value_t = 16, value_name = "N")]
+    #[arg(
+        long,
+        default_value_t = 16,
+        value_name = "N",
+        allow_negative_numbers = true
+    )]
     pub queue: usize,
     /// Time limit of a study, seconds (504 past it).
-    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    #[arg(
+        long,
+        default_value_t = 60.0,
+        value_name = "S",
+        allow_negative_numbers = true
+    )]
     pub timeout: f64,
     /// Time limit for receiving a request body, seconds (408 past it).
-    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    #[arg(
+        long,
+        default_value_t = 60.0,
+        value_name = "S",
+        allow_negative_numbers = true
+    )]
     pub read_timeout: f64,
     /// Largest grid a request may ask for, in nodes.
-    #[arg(long, default_value_t = 4_000_000, value_name = "N")]
+    #[arg(
+        long,
+        default_value_t = 4_000_000,
+        value_name = "N",
+        allow_negative_numbers = true
+    )]
     pub max_nodes: usize,
     /// Time limit for receiving a request's line and headers, seconds, from the accept (or
     /// the previous answer on a kept-alive connection); past it the connection is closed
     /// without an answer.
-    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    #[arg(
+        long,
+        default_value_t = 30.0,
+        value_name = "S",
+        allow_negative_numbers = true
+    )]
     pub header_timeout: f64,
     /// Connections open at once; more wait in the listen queue until one closes.
-    #[arg(long, default_value_t = 512, value_name = "N")]
+    #[arg(
+        long,
+        default_value_t = 512,
+        value_name = "N",
+        allow_negative_numbers = true
+    )]
     pub connections: usize,
     /// The browser app's built folder, served at / (default web/dist when it exists).
     #[arg(long, value_name = "DIR")]
@@ -337,12 +377,12 @@ pub struct BatchArgs {
     #[arg(long, value_name = "FILE.toml", conflicts_with = "sample")]
     pub manifest: Option<PathBuf>,
     /// Threads for the whole run, parts and their inner stages together [default: all cores].
-    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..), allow_negative_numbers = true)]
     pub jobs: Option<u16>,
     /// Time limit of each part's study, seconds: past it the study stops (within one march
     /// of the fill analysis or one facet of the wall map; any other stage runs to its end)
     /// and the part fails with exit code 2 [default: none].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub timeout: Option<f64>,
     /// No progress bar and no closing count.
     #[arg(short, long)]

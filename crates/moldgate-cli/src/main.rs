@@ -91,6 +91,17 @@ impl Failure {
 /// as a person says them: "invalid digit found in string" is "expected a whole number".
 fn plain_parse_words(message: &str) -> String {
     let mut m = message.to_string();
+    // A negative count: "invalid value '-1' for '--gates <K>': invalid digit found in string".
+    let negative = message
+        .split('\'')
+        .nth(1)
+        .is_some_and(|v| v.starts_with('-') && v[1..].parse::<f64>().is_ok());
+    if negative {
+        m = m.replace(
+            "invalid digit found in string",
+            "expected a whole number, not a negative one",
+        );
+    }
     for (rust, plain) in [
         ("invalid digit found in string", "expected a whole number"),
         (

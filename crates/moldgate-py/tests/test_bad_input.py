@@ -106,6 +106,7 @@ def test_an_object_without_arrays():
         ({"n": -0.3}, "n must be a positive finite number, got -0.3"),
         ({"units": "furlong"}, "units: unknown unit 'furlong'"),
         ({"fill": "yes"}, "got the text \"yes\", expected a boolean"),
+        ({"strategy": 1}, "strategy: got the number 1, expected `paper` or `balanced`"),
         ({"keep_out": 5}, r"keep_out: expected a region \(\"box:...\" or \"sphere:...\"\) or a list of them, got 5"),
         ({"gate_at": [(1, 2)]}, r"gate_at 1 '1.0,2.0': expected x,y,z \(three numbers in mm\), got 2 values"),
         ({"gate_at": ["a,b,c"]}, "gate_at 1 'a,b,c': x is not a number"),

@@ -157,10 +157,32 @@ pub fn read_text(path: &Path, noun: &str, limit: u64) -> Result<String, TextErro
 pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
     let place = e
         .span()
-        .map(|s| format!("line {}: ", 1 + text[..s.start].matches('\n').count()))
+        .map(|s| {
+            let line = 1 + text[..s.start].matches('\n').count();
+            match key_before(text, s.start) {
+                Some(key) => format!("line {line}: {key}: "),
+                None => format!("line {line}: "),
+            }
+        })
         .unwrap_or_default();
     let what = plain_words(e.message().trim_end_matches('.'));
     format!("{place}{what}")
+}
+
+/// The key whose value starts at byte `at` of a TOML text (`k` of `k = "hot"` or of
+/// `{ n = 1, k = "hot" }`), if the text before it on its line ends in `key =`.
+fn key_before(text: &str, at: usize) -> Option<&str> {
+    let before = text.get(..at)?;
+    let line = &before[before.rfind('\n').map_or(0, |i| i + 1)..];
+    let head = line.trim_end().strip_suffix('=')?.trim_end();
+    let is_key = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.' | '"');
+    let start = head
+        .char_indices()
+        .rev()
+        .find(|&(_, c)| !is_key(c))
+        .map_or(0, |(i, c)| i + c.len_utf8());
+    let key = head[start..].trim_matches('"');
+    (!key.is_empty()).then_some(key)
 }
 
 /// serde's words for a value's type as a person says them (the study options' JSON and
@@ -173,6 +195,7 @@ pub(crate) fn plain_words(message: &str) -> String {
         ("expected u32", "expected a whole number of 0 or more"),
         ("expected u16", "expected a whole number of 0 or more"),
         ("expected f64", "expected a number"),
+        ("expected path string", "expected a file path in quotes"),
         ("expected f32", "expected a number"),
         ("expected i64", "expected a whole number"),
         (

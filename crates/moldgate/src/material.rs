@@ -288,7 +288,10 @@ mod tests {
         // A value of the wrong type in a person's words, not serde's name of the type.
         let e =
             materials_from_toml(&good.replace("t_melt = 280.0", "t_melt = \"hot\"")).unwrap_err();
-        assert_eq!(e, "line 3: got the text \"hot\", expected a number");
+        assert_eq!(e, "line 3: t_melt: got the text \"hot\", expected a number");
+        // ... in an inline table too.
+        let e = materials_from_toml("MyPA = { n = 0.4, k = \"x\" }\n").unwrap_err();
+        assert!(e.starts_with("line 1: k: got the text"), "{e}");
         // An empty file, and one of more materials than the limit, before any is checked.
         let e = materials_from_toml("# nothing yet\n").unwrap_err();
         assert!(e.starts_with("no materials in the file"), "{e}");

@@ -678,6 +678,15 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
     let out = moldgate(root, &["locate", "--manifest", "dir.toml"]);
     assert_fails(&out, USAGE, &["dir.toml", "part 1", "demold"]);
 
+    // A value of the wrong type names its line and its key.
+    std::fs::write(root.join("type.toml"), "[[part]]\nfile = 3\n").unwrap();
+    let out = moldgate(root, &["locate", "--manifest", "type.toml"]);
+    assert_fails(
+        &out,
+        USAGE,
+        &["type.toml: line 2: file: got the number 3, expected a file path in quotes"],
+    );
+
     std::fs::write(root.join("none.toml"), "# nothing\n").unwrap();
     let out = moldgate(root, &["locate", "--manifest", "none.toml"]);
     assert_fails(&out, USAGE, &["none.toml", "no part"]);

@@ -340,6 +340,21 @@ fn non_positive_lengths_and_counts() {
             &["--jobs", "0"],
             "invalid value '0' for '--jobs <N>': expected a whole number from 1 to 65535, got 0",
         ),
+        // A negative count or time is a value out of range, not an unknown flag.
+        (
+            &["--gates", "-1"],
+            "invalid value '-1' for '--gates <K>': expected a whole number, not a negative one",
+        ),
+        (
+            &["--jobs", "-2"],
+            "expected a whole number from 1 to 65535, got -2",
+        ),
+        (
+            &["--circle-points", "-3"],
+            "expected a whole number, not a negative one",
+        ),
+        (&["--max-nodes", "-5"], "not a negative one"),
+        (&["--timeout", "-1"], "--timeout"),
         (
             &["--no-such-option"],
             "unexpected argument '--no-such-option'",

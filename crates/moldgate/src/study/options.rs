@@ -512,6 +512,21 @@ impl StudyOptions {
                 field = Some(format!("material.{p}"));
             }
         }
+        // A choice of names given as another type: serde's "expected string or map" as the
+        // names the option takes, from the error of a text that is none of them.
+        if let (Some(f), true) = (field.as_deref(), message.contains("expected string or map")) {
+            let mut named = object.clone();
+            named.insert(f.to_string(), serde_json::Value::from("\u{1}"));
+            if let Err(e) = serde_json::from_value::<StudyOptions>(serde_json::Value::Object(named))
+            {
+                let names = e.to_string();
+                // "unknown variant `\u{1}`, expected `paper` or `balanced`" (or "one of").
+                if let Some(at) = names.find("`, expected ") {
+                    let names = names[at + 3..].split(" at line").next().unwrap_or_default();
+                    message = message.replace("expected string or map", names);
+                }
+            }
+        }
         let mut message = with_nearest_name(&crate::files::plain_words(&message));
         // The count of gates is read as any count, 0 included, then refused below 1
         // (`fill_options`): its type error names the range it really takes.
@@ -882,6 +897,24 @@ mod tests {
             far.contains("unknown field `colour`, expected one of"),
             "{far}"
         );
+        // A choice of names given as a number: the names it takes.
+        for (json, says) in [
+            (
+                r#"{"strategy": 1}"#,
+                "strategy: got the number 1, expected `paper` or `balanced`",
+            ),
+            (
+                r#"{"parting_line": 3}"#,
+                "parting_line: got the number 3, expected ",
+            ),
+            (
+                r#"{"objective": true}"#,
+                "objective: got true, expected `length` or `resistance`",
+            ),
+        ] {
+            let s = said(json);
+            assert!(s.contains(says), "{s}");
+        }
     }
 
     #[test]
