@@ -123,8 +123,8 @@ export class Moldgate {
 
   report(h) { return this.bytes(() => this.x.mg_report(h)).then((b) => decoder.decode(b)); }
   glb(h, colouring) { return this.bytes(() => this.x.mg_glb(h, colouring)); }
-  png(h) { return this.bytes(() => this.x.mg_png(h)); }
-  html(h) { return this.bytes(() => this.x.mg_html(h)); }
+  png(h, colouring) { return this.bytes(() => this.x.mg_png(h, colouring)); }
+  html(h, colouring) { return this.bytes(() => this.x.mg_html(h, colouring)); }
   drop(h) { this.x.mg_drop(h); }
   samples() { return this.json(() => this.x.mg_samples()); }
   materials() { return this.json(() => this.x.mg_materials()); }

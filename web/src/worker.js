@@ -3,7 +3,7 @@
 // to cancel a study and starts a new one.
 //
 // Messages in:  {type: "info"} | {type: "materials", file} | {type: "study", id, bytes, request, colouring}
-//               | {type: "glb", id, colouring} | {type: "download", id, what}
+//               | {type: "glb", id, colouring} | {type: "download", id, what, colouring}
 // Messages out: {type: "info", ...} | {type: "materials", materials} | {type: "progress", id, stage, fraction}
 //               | {type: "result", id, report, glb, times} | {type: "glb", id, glb}
 //               | {type: "download", id, what, bytes} | {type: "error", id, message, trapped, fileError}
@@ -55,7 +55,7 @@ async function handleMessage(mg, m) {
       return { type: "glb", id: m.id, glb, transfer: [glb.buffer] };
     }
     case "download": {
-      const f = { report: (h) => mg.report(h), png: (h) => mg.png(h), glb: (h) => mg.glb(h, m.colouring), html: (h) => mg.html(h) }[m.what];
+      const f = { report: (h) => mg.report(h), png: (h) => mg.png(h, m.colouring), glb: (h) => mg.glb(h, m.colouring), html: (h) => mg.html(h, m.colouring) }[m.what];
       const bytes = await f(handle);
       return { type: "download", id: m.id, what: m.what, bytes };
     }

@@ -358,10 +358,22 @@ describe("moldgate in the browser", () => {
     // The fill's entry of the view's colourings says which field it is.
     const fill = await page.$eval("#colouring option[value='3']", (o) => o.textContent);
     assert.equal(fill, "flow length");
+    // The downloaded picture is coloured as the view is: the study's own colouring and the
+    // fill's field give one picture, the height another.
+    const downloadPng = async () => {
+      const [download] = await Promise.all([page.waitForEvent("download"), page.click("[data-download=png]")]);
+      return readFileSync(await download.path());
+    };
+    const own = await downloadPng();
     await page.selectOption("#colouring", "1");
     await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("height"));
+    const height = await downloadPng();
+    writeFileSync(join(TMP, "download-height.png"), height);
+    assert.equal((await pixelStats(page, height)).pixels, 1600 * 900);
+    assert.ok(!height.equals(own), "the height's picture is the study's own");
     await page.selectOption("#colouring", "3");
     await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("flow length"));
+    assert.ok((await downloadPng()).equals(own), "the fill's field is the study's own colouring");
     await page.selectOption("#colouring", "0");
     await page.click("#defaults");
     assert.equal(await page.inputValue("#color_by"), "fill_order");

@@ -25,7 +25,7 @@ test("a sample is studied, with progress, and its outputs are whole", async () =
   const glb = await mg.glb(h, 3);
   assert.equal(new TextDecoder().decode(glb.subarray(0, 4)), "glTF");
   assert.equal(new DataView(glb.buffer).getUint32(8, true), glb.length);
-  const png = await mg.png(h);
+  const png = await mg.png(h, 0);
   assert.equal(png[1], 0x50);
   mg.drop(h);
   await assert.rejects(mg.report(h), new MoldgateError(`no study ${h}`));

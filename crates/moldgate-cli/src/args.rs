@@ -379,9 +379,10 @@ pub struct BatchArgs {
     /// Threads for the whole run, parts and their inner stages together [default: all cores].
     #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..), allow_negative_numbers = true)]
     pub jobs: Option<u16>,
-    /// Time limit of each part's study, seconds: past it the study stops (within one march
-    /// of the fill analysis or one facet of the wall map; any other stage runs to its end)
-    /// and the part fails with exit code 2 [default: none].
+    /// Time limit of each part's study, seconds: past it the study stops (within one step
+    /// of the fill's cells, one march of the fill analysis or one facet of a wall map; the
+    /// load and the gate's own stages run to their end) and the part fails with exit code 2
+    /// [default: none].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub timeout: Option<f64>,
     /// No progress bar and no closing count.

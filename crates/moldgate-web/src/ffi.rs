@@ -234,22 +234,26 @@ pub extern "C" fn mg_report(handle: u32) -> u32 {
 /// 2 wall thickness, 3 fill order).
 #[no_mangle]
 pub extern "C" fn mg_glb(handle: u32, colouring: u32) -> u32 {
+    with_session(handle, |s| s.glb(colouring_of(colouring)?))
+}
+
+/// The PNG picture of a study, the part coloured by `colouring` (as [`mg_glb`]).
+#[no_mangle]
+pub extern "C" fn mg_png(handle: u32, colouring: u32) -> u32 {
+    with_session(handle, |s| s.png(colouring_of(colouring)?))
+}
+
+/// The HTML report of a study, its picture coloured by `colouring` (as [`mg_glb`]).
+#[no_mangle]
+pub extern "C" fn mg_html(handle: u32, colouring: u32) -> u32 {
     with_session(handle, |s| {
-        let c = Colouring::from_code(colouring).ok_or(format!("no colouring {colouring}"))?;
-        s.glb(c)
+        s.html(colouring_of(colouring)?).map(String::into_bytes)
     })
 }
 
-/// The PNG picture of a study.
-#[no_mangle]
-pub extern "C" fn mg_png(handle: u32) -> u32 {
-    with_session(handle, Session::png)
-}
-
-/// The HTML report of a study.
-#[no_mangle]
-pub extern "C" fn mg_html(handle: u32) -> u32 {
-    with_session(handle, |s| s.html().map(String::into_bytes))
+/// The colouring of an export's code, or the message for a code of none.
+fn colouring_of(code: u32) -> Result<Colouring, String> {
+    Colouring::from_code(code).ok_or(format!("no colouring {code}"))
 }
 
 /// Forgets a study.

@@ -312,16 +312,15 @@ impl Session {
         Ok(scene)
     }
 
-    /// The 1600x900 PNG picture.
-    pub fn png(&self) -> Result<Vec<u8>, String> {
-        self.study
-            .png(&self.part, self.title.clone())
-            .map_err(|e| e.to_string())
+    /// The 1600x900 PNG picture, the part coloured by `colouring` as the view shows it.
+    pub fn png(&self, colouring: Colouring) -> Result<Vec<u8>, String> {
+        let scene = self.scene(colouring)?;
+        self.study.png_of(scene).map_err(|e| e.to_string())
     }
 
-    /// The self-contained HTML report, with the picture.
-    pub fn html(&self) -> Result<String, String> {
-        let png = self.png()?;
+    /// The self-contained HTML report, with the picture coloured by `colouring`.
+    pub fn html(&self, colouring: Colouring) -> Result<String, String> {
+        let png = self.png(colouring)?;
         self.study.html(Some(&png)).map_err(|e| e.to_string())
     }
 }
@@ -461,8 +460,21 @@ mod tests {
         for c in [Colouring::FillOrder, Colouring::WallThickness] {
             assert!(s.glb(c).unwrap().starts_with(b"glTF"));
         }
-        assert!(s.png().unwrap().starts_with(b"\x89PNG"));
-        assert!(s.html().unwrap().contains("<html"));
+        assert!(s.png(Colouring::Study).unwrap().starts_with(b"\x89PNG"));
+        assert!(s.html(Colouring::Study).unwrap().contains("<html"));
+        // The picture is coloured as the view: the fill's field is the study's own
+        // colouring, the height another picture.
+        let study = s.png(Colouring::Study).unwrap();
+        assert_eq!(s.png(Colouring::FillOrder).unwrap(), study);
+        assert_ne!(s.png(Colouring::Height).unwrap(), study);
+        assert_ne!(s.png(Colouring::WallThickness).unwrap(), study);
+        let r = request(r#"{ "sample": "cover", "options": { "demold": "-z" } }"#);
+        let s = Session::new(b"", &r, &quiet).unwrap();
+        assert!(s.png(Colouring::FillOrder).unwrap_err().contains("fill"));
+        assert!(s
+            .html(Colouring::WallThickness)
+            .unwrap_err()
+            .contains("wall"));
     }
 
     #[test]

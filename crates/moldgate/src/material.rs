@@ -269,6 +269,16 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
         }
         m.name = key;
         m.validate().map_err(|e| e.to_string())?;
+        // A radius no part could hold, refused here as a study would refuse it: a
+        // material listed is one that can be studied.
+        let r = m.gate_radius_mm();
+        if r > crate::study::MAX_GATE_RADIUS_MM {
+            return Err(format!(
+                "material [{}]: Eq. 8 gives a gate radius of {r:.3e} mm, more than {} mm; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C))",
+                m.name,
+                crate::study::MAX_GATE_RADIUS_MM
+            ));
+        }
         out.push(m);
     }
     Ok(out)
@@ -289,6 +299,14 @@ mod tests {
         let e =
             materials_from_toml(&good.replace("t_melt = 280.0", "t_melt = \"hot\"")).unwrap_err();
         assert_eq!(e, "line 3: t_melt: got the text \"hot\", expected a number");
+        // A material whose Eq. 8 radius no part could hold (gamma_opt in 1/min, say).
+        let e = materials_from_toml(&good.replace("gamma_opt = 1000.0", "gamma_opt = 1e-9"))
+            .unwrap_err();
+        assert!(
+            e.starts_with("material [MyPA]: Eq. 8 gives a gate radius of ")
+                && e.contains("more than 1000 mm; check its parameters' units"),
+            "{e}"
+        );
         // ... in an inline table too.
         let e = materials_from_toml("MyPA = { n = 0.4, k = \"x\" }\n").unwrap_err();
         assert!(e.starts_with("line 1: k: got the text"), "{e}");

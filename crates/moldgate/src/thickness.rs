@@ -200,7 +200,7 @@ pub fn wall_thickness_of(
     options: &ThicknessOptions,
     triangles: &[u32],
 ) -> Vec<f32> {
-    wall_thickness_of_known(mesh, bvh, options, triangles, Known::default())
+    wall_thickness_of_known(mesh, bvh, options, triangles, Known::default(), None)
 }
 
 /// What a caller that loaded the mesh knows of it, which the rays would otherwise find out
@@ -224,13 +224,15 @@ impl Known {
     }
 }
 
-/// [`wall_thickness_of`] with what the caller knows of the mesh (see [`Known`]).
+/// [`wall_thickness_of`] with what the caller knows of the mesh (see [`Known`]); once
+/// `cancel` is set, the facets not yet cast are NaN.
 pub fn wall_thickness_of_known(
     mesh: &Mesh,
     bvh: &Bvh,
     options: &ThicknessOptions,
     triangles: &[u32],
     known: Known,
+    cancel: Option<&Cancel>,
 ) -> Vec<f32> {
     // Each listed triangle once, however often it is listed (a facet may own several
     // cells), out-of-range indices ignored.
@@ -253,7 +255,7 @@ pub fn wall_thickness_of_known(
             .filter(|&t| wanted[t as usize])
             .collect()
     };
-    thickness_in_order(mesh, bvh, options, &order, None, known)
+    thickness_in_order(mesh, bvh, options, &order, cancel, known)
 }
 
 /// The thickness of the listed triangles (NaN for the others), in the mesh's order, cast in
@@ -738,9 +740,16 @@ mod tests {
             let every: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
             let o = ThicknessOptions::default();
             let found = wall_thickness_of(mesh, &bvh, &o, &every);
-            let known = wall_thickness_of_known(mesh, &bvh, &o, &every, Known { closed: said });
+            let known =
+                wall_thickness_of_known(mesh, &bvh, &o, &every, Known { closed: said }, None);
             let bits = |w: &[f32]| w.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&found), bits(&known), "mesh {k}");
+            // A set token: no facet cast.
+            let token = Cancel::new();
+            token.cancel();
+            let stopped =
+                wall_thickness_of_known(mesh, &bvh, &o, &every, Known::default(), Some(&token));
+            assert!(stopped.iter().all(|w| w.is_nan()), "mesh {k}");
         }
     }
 

@@ -2880,18 +2880,20 @@ pub fn prepare(
     centres: &crate::centre::Centres,
     options: &FillOptions,
 ) -> Result<Cells, FillError> {
-    prepare_with(mesh, centres, None, options)
+    prepare_with(mesh, centres, None, options, None)
 }
 
 /// [`prepare`] with the mesh's topology when the caller loaded it: the number of bodies
 /// (see [`Bodies::of_counted`]) and whether the surface is closed (for the walls, see
 /// [`crate::thickness::Known`]) are then read from it, not found again. The same cells,
-/// and the same analysis.
+/// and the same analysis. Once `cancel` is set, the cells stop at their next step
+/// ([`FillError::Cancelled`]).
 pub fn prepare_with(
     mesh: &Mesh,
     centres: &crate::centre::Centres,
     topology: Option<&crate::mesh::Topology>,
     options: &FillOptions,
+    cancel: Option<&Cancel>,
 ) -> Result<Cells, FillError> {
     let t = Instant::now();
     let mut bodies = Bodies::of_counted(mesh, topology.map(|t| t.bodies));
@@ -2910,7 +2912,7 @@ pub fn prepare_with(
         &options.flow,
     )?;
     // `choose_cell` checked the grid, the estimated solid cells and the samples at h.
-    let voxels = Voxels::build(mesh, h, &bodies.of_triangle);
+    let voxels = Voxels::build(mesh, h, &bodies.of_triangle, cancel).ok_or(FillError::Cancelled)?;
     // The triangles' bodies served the cells only (which hold each cell's body): let go
     // before the walls and the marches (4 bytes a triangle of the mesh).
     bodies.of_triangle = Vec::new();
@@ -3078,10 +3080,16 @@ pub fn analyse_prepared(
                     &crate::thickness::ThicknessOptions::default(),
                     &owners,
                     known,
+                    cancel,
                 ))
             }
             _ => None,
         };
+        // Walls cut short by the caller's token are not summarised, nor the costs and the
+        // paper gate's fields made from them: the analysis stops after this side.
+        if crate::cancel::is_set(cancel) {
+            return None;
+        }
         let triangle_walls = match walls {
             Walls::Given(w) => Some(w),
             Walls::Measure(_) => measured.as_deref(),
@@ -3116,12 +3124,12 @@ pub fn analyse_prepared(
             || march(v, &[first], Some(&costs.pressure_cost)),
         );
         let paper_s = seconds(t_paper);
-        (
+        Some((
             costs,
             (nominal, wall_source, wall),
             (fill, pressure),
             (costs_s, paper_s),
-        )
+        ))
     };
     let length_side = || {
         let t_length = Instant::now();
@@ -3153,7 +3161,7 @@ pub fn analyse_prepared(
     };
     let (walls_made, (length, length_s, search)) = rayon::join(walls_side, length_side);
     let (costs, (nominal, wall_source, wall), (fill, pressure), (costs_s, paper_fill_s)) =
-        walls_made;
+        walls_made.ok_or(FillError::Cancelled)?;
     let joined_s = seconds(t);
     domain.set_walls(costs);
     // The cell size is set from an estimate of the wall before it is measured; warn only

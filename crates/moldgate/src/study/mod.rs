@@ -28,7 +28,7 @@ mod words;
 pub use options::{
     CentreChoice, ColorByChoice, Demold, JsonOptionsError, MaterialChoice, NearestChoice,
     ObjectiveChoice, Settings, StrategyChoice, StudyOptions, ThicknessChoice, MAX_GATE_AT,
-    MAX_NODES_LIMIT,
+    MAX_GATE_RADIUS_MM, MAX_NODES_LIMIT,
 };
 pub use run::{GateMarker, Study};
 pub use words::keyword_words;
@@ -93,8 +93,9 @@ pub struct Progress {
 /// The observer is called on the calling thread between stages (never inside a parallel
 /// loop), so it may take a lock or write to a terminal. The cancellation token is read
 /// between stages, in the fill stage (whose several-gate search and suitability map may
-/// run for minutes on a large part) every few thousand cells of each march, and in the wall
-/// stage before each facet's rays; once set, the study returns [`StudyError::Cancelled`]
+/// run for minutes on a large part) between the steps of its cells, before each facet's
+/// rays of its walls and every few thousand cells of each march, and in the wall stage
+/// before each facet's rays; once set, the study returns [`StudyError::Cancelled`]
 /// naming the stage it stopped at. The other stages run to their end (each is bounded by
 /// the part's size and the options' limits).
 #[derive(Clone, Copy, Default)]

@@ -119,7 +119,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     let prepare = || {
         s.fill
             .as_ref()
-            .map(|o| flow::prepare_with(mesh, &part.centres, Some(&part.topology), o))
+            .map(|o| flow::prepare_with(mesh, &part.centres, Some(&part.topology), o, hooks.cancel))
     };
     let (mut bvh, mut tree_s, located) = if wants_tree && !auto_demold {
         enter(Stage::Tree)?;
@@ -256,7 +256,13 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             };
             let prepared = || match cells.take() {
                 Some(made) => made,
-                None => flow::prepare_with(mesh, &analysis.centres, Some(&part.topology), o),
+                None => flow::prepare_with(
+                    mesh,
+                    &analysis.centres,
+                    Some(&part.topology),
+                    o,
+                    hooks.cancel,
+                ),
             };
             let cancel = hooks.cancel;
             let mut f =
@@ -686,7 +692,13 @@ impl Study {
     /// The 1600x900 PNG picture of the study (the view along D and an isometric view), its
     /// second title line naming the material and the demolding direction.
     pub fn png(&self, part: &LoadedMesh, title: impl Into<String>) -> Result<Vec<u8>, StudyError> {
-        let mut scene = self.scene(part, title)?;
+        self.png_of(self.scene(part, title)?)
+    }
+
+    /// [`Study::png`] of `scene`, one of this study's [`Study::scene`] that the caller may
+    /// have coloured by another field ([`Scene::with_field`]): a front end's picture of
+    /// what its view shows.
+    pub fn png_of(&self, mut scene: Scene<'_>) -> Result<Vec<u8>, StudyError> {
         let d = self.report.options.demold;
         // A direction such as -z reads (0.000, 0.000, -1.000), not with negative zeros.
         scene.subtitle = crate::report::without_negative_zeros(

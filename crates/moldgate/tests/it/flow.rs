@@ -1232,3 +1232,18 @@ fn a_suitability_map_whose_best_node_is_on_another_body_says_so() {
         "{warning}"
     );
 }
+
+/// The cells read the caller's token: set, they stop with `Cancelled`, not after building
+/// the grid whole.
+#[test]
+fn cells_made_with_a_set_token_are_cancelled() {
+    let cover = moldgate::samples::sample("cover").unwrap();
+    let centres = moldgate::Centres::of(&cover);
+    let options = flow::FillOptions::default();
+    let token = moldgate::cancel::Cancel::new();
+    let made = flow::prepare_with(&cover, &centres, None, &options, Some(&token));
+    assert!(made.is_ok());
+    token.cancel();
+    let stopped = flow::prepare_with(&cover, &centres, None, &options, Some(&token));
+    assert!(matches!(stopped, Err(flow::FillError::Cancelled)));
+}
