@@ -185,17 +185,35 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
         ..*hooks
     };
     let mut study = moldgate::study_with(&part, &s.study, &hooks).map_err(|e| match e {
-        StudyError::Cancelled { stage } if deadline.is_some() => {
+        StudyError::Cancelled { stage, located } if deadline.is_some() => {
             let hint = s.study.less_time_words(stage);
-            Failure::timeout(format!(
-                "{name}: stopped at --timeout {} s, in the {stage} stage{}",
-                s.timeout.unwrap_or_default().as_secs_f64(),
-                if hint.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({hint})")
-                }
-            ))
+            // The method's gate, when the stop came after it was found.
+            let gate = located
+                .as_ref()
+                .and_then(|r| r.gate.as_ref())
+                .map(|g| {
+                    let [x, y, z] = g.point;
+                    format!(
+                        "; the method's gate, found before the stop: ({x:.3}, {y:.3}, {z:.3}) mm"
+                    )
+                })
+                .unwrap_or_default();
+            Failure {
+                located: located.map(|mut r| {
+                    r.input = input.clone();
+                    r.timings.load_s = load_s;
+                    r
+                }),
+                ..Failure::timeout(format!(
+                    "{name}: stopped at --timeout {} s, in the {stage} stage{}{gate}",
+                    s.timeout.unwrap_or_default().as_secs_f64(),
+                    if hint.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({hint})")
+                    }
+                ))
+            }
         }
         e => failure(&e, &name),
     })?;

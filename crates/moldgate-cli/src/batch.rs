@@ -228,9 +228,11 @@ fn run_part(part: &Part, out: Option<&Path>) -> Outcome {
     let time_s = t.elapsed().as_secs_f64();
     let report = match result {
         Ok(r) => r,
-        Err(f) => {
+        // A study stopped at --timeout in its fill stage gives its row the gate found
+        // before the stop; no report is written for it (it is not the one asked for).
+        Err(mut f) => {
             return Outcome {
-                report: None,
+                report: f.located.take().map(|r| *r),
                 failure: Some(f),
                 time_s,
             }

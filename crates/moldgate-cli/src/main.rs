@@ -45,6 +45,9 @@ pub struct Failure {
     /// Whether the study was stopped at `--timeout` (exit code 2, as for an option; a
     /// batch's row says `timeout`).
     pub timed_out: bool,
+    /// What a study stopped in its fill stage found before the stop (see
+    /// [`moldgate::StudyError::Cancelled`]): a batch's row gives its gate.
+    pub located: Option<Box<moldgate::report::Report>>,
 }
 
 impl Failure {
@@ -55,6 +58,7 @@ impl Failure {
             code,
             message: message.into(),
             timed_out: false,
+            located: None,
         }
     }
 

@@ -256,7 +256,7 @@ pub fn batch_row(
                         bytes,
                     },
                 ),
-                Err(m) => return Err((Status::InputError, m)),
+                Err(m) => return Err((Status::InputError, m, None)),
             };
             let load_s = t.elapsed().as_secs_f64();
             // A timer that stops the study at the limit, woken early when the study ends.
@@ -284,28 +284,46 @@ pub fn batch_row(
             let mut s =
                 studied.map_err(|e| {
                     let (status, _) = study_error(&e);
-                    match &e {
-                        StudyError::Cancelled { stage } => {
+                    match e {
+                        // Stopped in the fill stage: the row keeps the gate found before.
+                        StudyError::Cancelled { stage, located } => {
+                            let stage = &stage;
                             // The command line's words, in the package's keywords.
                             let hint = settings
                                 .less_time_words(*stage)
                                 .replace("no --suitability", "no suitability map")
                                 .replace("no --wall-thickness", "no wall_thickness");
                             let hint = moldgate::study::keyword_words(&hint, "True");
+                            let gate = located
+                                .as_ref()
+                                .and_then(|r| r.gate.as_ref())
+                                .map(|g| {
+                                    let [x, y, z] = g.point;
+                                    format!("; the method's gate, found before the stop: ({x:.3}, {y:.3}, {z:.3}) mm")
+                                })
+                                .unwrap_or_default();
+                            let located = located.map(|mut r| {
+                                r.input = input.clone();
+                                r.timings.load_s = load_s;
+                                r
+                            });
                             (
                                 Status::Timeout,
                                 format!(
-                                "{file}: stopped at its timeout of {} s, in the {stage} stage{}",
+                                "{file}: stopped at its timeout of {} s, in the {stage} stage{}{gate}",
                                 timeout.unwrap_or_default(),
                                 if hint.is_empty() { String::new() } else { format!(" ({hint})") }
                             ),
+                                located,
                             )
                         }
-                        StudyError::Demold(d) => (status, format!("{file}: --demold auto: {d}")),
-                        StudyError::Fill(f @ FillError::GateOffPart(..)) => {
-                            (status, format!("{file}: {f}"))
+                        StudyError::Demold(d) => {
+                            (status, format!("{file}: --demold auto: {d}"), None)
                         }
-                        _ => (status, e.to_string()),
+                        StudyError::Fill(f @ FillError::GateOffPart(..)) => {
+                            (status, format!("{file}: {f}"), None)
+                        }
+                        e => (status, e.to_string(), None),
                     }
                 })?;
             s.set_input(input, load_s);
@@ -315,13 +333,21 @@ pub fn batch_row(
             Err((
                 Status::InternalError,
                 "internal error, please report it (see the panic message above)".into(),
+                None,
             ))
         })
     });
     let time_s = t.elapsed().as_secs_f64();
     let row = match &row {
         Ok(report) => BatchRow::studied(&file, u, &demold, report, time_s),
-        Err((status, m)) => BatchRow::new(&file, u, &demold, None, Some((*status, m)), time_s),
+        Err((status, m, located)) => BatchRow::new(
+            &file,
+            u,
+            &demold,
+            located.as_deref(),
+            Some((*status, m)),
+            time_s,
+        ),
     };
     Ok(row.to_json())
 }

@@ -349,10 +349,13 @@ def test_a_batch_row_past_its_timeout_says_so(cover_stl):
     row = moldgate.batch_row(cover_stl, timeout=0.2, **heavy)
     assert time.perf_counter() - t < 5
     assert row["status"] == "timeout" and row["exit_code"] == 2, row
-    assert "stopped at its timeout of 0.2 s, in the" in row["error"], row
+    assert "stopped at its timeout of 0.2 s, in the fill stage" in row["error"], row
+    # Stopped in the fill stage, the row keeps the method's gate found before the stop.
+    gate = lambda r: [r["gate_x_mm"], r["gate_y_mm"], r["gate_z_mm"]]
+    assert gate(row) == gate(moldgate.batch_row(cover_stl)), row
+    assert "the method's gate, found before the stop" in row["error"], row
     # Within its limit, the row of no limit.
     quick = moldgate.batch_row(cover_stl, timeout=60)
-    gate = lambda r: [r["gate_x_mm"], r["gate_y_mm"], r["gate_z_mm"]]
     assert quick["status"] == "ok" and gate(quick) == gate(moldgate.batch_row(cover_stl))
     with pytest.raises(moldgate.OptionsError, match="timeout"):
         moldgate.batch_row(cover_stl, timeout=-1)

@@ -597,7 +597,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
             StatusCode::GATEWAY_TIMEOUT,
             "timeout",
             format!(
-                "the study did not finish within {} s (--timeout); it stops within a march of the fill analysis or a facet of the wall map, or at the end of any other stage it is in, and its analysis slot is free then",
+                "the study did not finish within {} s (--timeout); it stops within a step of the fill analysis (a step of its cells, a facet of its walls, a march) or a facet of the wall map, or at the end of any other stage it is in, and its analysis slot is free then",
                 limits.timeout.as_secs_f64()
             ),
         )

@@ -19,8 +19,9 @@ pub enum Status {
     InputError,
     /// An option was refused (2).
     OptionError,
-    /// The study was stopped at its time limit (2, as for the option that set it). The
-    /// row has no numbers: the stages before the stop are not kept.
+    /// The study was stopped at its time limit (2, as for the option that set it).
+    /// Stopped in the fill stage, the row has the numbers of the part located before the
+    /// stop (the method's gate); stopped before, none.
     Timeout,
     /// An output could not be written (5).
     OutputError,

@@ -611,7 +611,36 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
         error.contains("stopped at --timeout 0.2 s, in the fill stage"),
         "{error}"
     );
-    assert!(row["gate_x_mm"].is_null(), "{row}");
+    // Stopped in the fill stage, the row keeps the method's gate found before the stop:
+    // the gate of the part located without the fill, and says so.
+    let located = moldgate(root, &["locate", "m/cover.stl", "--json"]);
+    let located: Value = serde_json::from_str(&stdout(&located)).unwrap();
+    let gate = &located["gate"]["point"];
+    for (k, axis) in ["gate_x_mm", "gate_y_mm", "gate_z_mm"].iter().enumerate() {
+        assert_eq!(row[axis], gate[k], "{row}");
+    }
+    assert_eq!(row["gates"], 1, "{row}");
+    assert!(
+        error.contains("; the method's gate, found before the stop: ("),
+        "{error}"
+    );
+    assert!(
+        row["warnings"]
+            .as_str()
+            .unwrap()
+            .contains("the fill analysis was stopped before its end"),
+        "{row}"
+    );
+    // No report is written for it: it is not the one asked for.
+    let out_dir = root.join("reports");
+    std::fs::create_dir(&out_dir).unwrap();
+    let args = [
+        &["locate", "m", "--out-dir", "reports", "--timeout", "0.2"][..],
+        &heavy,
+    ]
+    .concat();
+    assert_code(&moldgate(root, &args), USAGE);
+    assert_eq!(std::fs::read_dir(&out_dir).unwrap().count(), 0);
     // The hint names only what was asked for; the table's last line counts the stops.
     let args = [&["locate", "m", "--timeout", "0.2"][..], &heavy[..4]].concat();
     let out = moldgate(root, &args);

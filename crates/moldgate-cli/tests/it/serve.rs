@@ -903,7 +903,7 @@ fn a_study_past_the_time_limit_stops_inside_its_fill() {
     assert!(e["message"]
         .as_str()
         .unwrap()
-        .contains("it stops within a march of the fill analysis or a facet"));
+        .contains("it stops within a step of the fill analysis (a step of its cells, a facet of its walls, a march) or a facet"));
     while get(s.addr, "/healthz").json()["running"] != 0 {
         assert!(t.elapsed() < Duration::from_secs(120));
         std::thread::sleep(Duration::from_millis(20));

@@ -119,7 +119,10 @@ impl Hooks<'_> {
     /// Reports `stage` at `fraction`, then fails if the study was cancelled.
     pub(crate) fn enter(&self, stage: Stage, fraction: f64) -> Result<(), StudyError> {
         if crate::cancel::is_set(self.cancel) {
-            return Err(StudyError::Cancelled { stage });
+            return Err(StudyError::Cancelled {
+                stage,
+                located: None,
+            });
         }
         if let Some(p) = self.progress {
             p(Progress { stage, fraction });
@@ -188,6 +191,11 @@ pub enum StudyError {
     Cancelled {
         /// The stage that did not start, or that stopped part way.
         stage: Stage,
+        /// What the stages before a stop in the fill stage found: the report of the
+        /// located part without its fill (the method's gate, the automatic direction and
+        /// the wall map when asked for), with a warning that says so. `None` when the
+        /// study stopped before the fill stage.
+        located: Option<Box<crate::report::Report>>,
     },
     /// The picture could not be drawn.
     #[error("cannot draw the part: {0}")]

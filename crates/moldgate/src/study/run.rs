@@ -230,6 +230,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             let w = wall_thickness_until(mesh, bvh, &options, known, hooks.cancel).ok_or(
                 StudyError::Cancelled {
                     stage: Stage::WallThickness,
+                    located: None,
                 },
             )?;
             Some((w, t.elapsed().as_secs_f64()))
@@ -248,7 +249,37 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 placed: snapped.iter().map(|g| g.point).collect(),
                 ..o.clone()
             };
-            enter(Stage::Fill)?;
+            // Stopped in the fill stage, the study gives what it found before: the
+            // located part's report, without its fill.
+            let stopped = || {
+                let mut located = Report::new(
+                    Input {
+                        path: None,
+                        sample: None,
+                        bytes: 0,
+                    },
+                    &part.stats,
+                    &part.warnings,
+                    &s.material,
+                    s.radius_source,
+                    &analysis,
+                    0.0,
+                );
+                if let Some(auto) = &auto {
+                    located = located.with_demold_auto(auto.clone());
+                }
+                if let Some((w, time_s)) = &wall {
+                    located = located.with_wall_thickness(w, *time_s);
+                }
+                located.warnings.push(
+                    "the fill analysis was stopped before its end: this report is the located part's, without its fill".into(),
+                );
+                StudyError::Cancelled {
+                    stage: Stage::Fill,
+                    located: Some(Box::new(located)),
+                }
+            };
+            enter(Stage::Fill).map_err(|_| stopped())?;
             let walls = match (&wall, &bvh) {
                 (Some((w, _)), _) if w.nominal_mm.is_some() => flow::Walls::Given(&w.per_triangle),
                 (_, Some(bvh)) => flow::Walls::Measure(bvh),
@@ -267,7 +298,10 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             let cancel = hooks.cancel;
             let mut f =
                 flow::analyse_prepared(mesh, &analysis, &s.material, walls, o, cancel, prepared)
-                    .map_err(StudyError::from)?;
+                    .map_err(|e| match e {
+                        FillError::Cancelled => stopped(),
+                        e => StudyError::from(e),
+                    })?;
             f.times.tree_s = tree_s;
             f.times.cells_beside_s = cells_beside_s;
             Some(f)
@@ -745,7 +779,10 @@ impl Study {
 impl From<FillError> for StudyError {
     fn from(e: FillError) -> Self {
         match e {
-            FillError::Cancelled => StudyError::Cancelled { stage: Stage::Fill },
+            FillError::Cancelled => StudyError::Cancelled {
+                stage: Stage::Fill,
+                located: None,
+            },
             e => StudyError::Fill(e),
         }
     }

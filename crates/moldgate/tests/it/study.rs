@@ -153,7 +153,7 @@ fn a_cancelled_study_stops_before_the_next_stage() {
         cancel: Some(&cancel),
     };
     match study_with(&part, &settings, &hooks) {
-        Err(StudyError::Cancelled { stage }) => assert_eq!(stage, Stage::Tree),
+        Err(StudyError::Cancelled { stage, .. }) => assert_eq!(stage, Stage::Tree),
         other => panic!("{other:?}"),
     }
     // Cancelled while locating: the fill never starts.
@@ -183,6 +183,53 @@ fn a_study_cancelled_in_its_fill_stops_there() {
     assert_eq!(cancelled_as(json, Stage::Fill), Stage::Fill);
 }
 
+/// Stopped in its fill stage, a study gives what it found before: the report of the part
+/// located without its fill, its gate the one a study without the fill finds. Stopped
+/// before, it gives nothing.
+#[test]
+fn a_study_stopped_in_its_fill_gives_the_located_part() {
+    let part = sample("cover");
+    let json = r#"{ "fill": true, "gates": 3, "wall_thickness": true }"#;
+    let settings = options(json).validate().unwrap();
+    let stopped_at = |stage: Stage| {
+        let cancel = Cancel::new();
+        let observer = |p: Progress| {
+            if p.stage == stage {
+                cancel.cancel();
+            }
+        };
+        let hooks = Hooks {
+            progress: Some(&observer),
+            cancel: Some(&cancel),
+        };
+        match study_with(&part, &settings, &hooks) {
+            Err(StudyError::Cancelled { stage, located }) => (stage, located),
+            other => panic!("{other:?}"),
+        }
+    };
+    let (stage, located) = stopped_at(Stage::Fill);
+    assert_eq!(stage, Stage::Fill);
+    let located = located.expect("the located part");
+    let unfilled = study(&part, &options(r#"{ "wall_thickness": true }"#)).unwrap();
+    let expected = unfilled.report();
+    assert_eq!(
+        located.gate.as_ref().map(|g| g.point),
+        expected.gate.as_ref().map(|g| g.point)
+    );
+    assert!(located.fill.is_none());
+    assert_eq!(
+        located.wall_thickness.as_ref().map(|w| w.nominal_mm),
+        expected.wall_thickness.as_ref().map(|w| w.nominal_mm)
+    );
+    assert!(located
+        .warnings
+        .iter()
+        .any(|w| w.starts_with("the fill analysis was stopped before its end")));
+    let (stage, located) = stopped_at(Stage::WallThickness);
+    assert_eq!(stage, Stage::WallThickness);
+    assert!(located.is_none());
+}
+
 /// The stage a study of the cover sample with options `json` stops at when its token is
 /// set as `stage` starts.
 fn cancelled_as(json: &str, stage: Stage) -> Stage {
@@ -198,7 +245,7 @@ fn cancelled_as(json: &str, stage: Stage) -> Stage {
         cancel: Some(&cancel),
     };
     match study_with(&sample("cover"), &settings, &hooks) {
-        Err(StudyError::Cancelled { stage }) => stage,
+        Err(StudyError::Cancelled { stage, .. }) => stage,
         other => panic!("{other:?}"),
     }
 }
@@ -244,7 +291,7 @@ fn a_fill_cancelled_at_any_moment_stops_cleanly() {
         });
         *fill_started.lock().unwrap() = None;
         match result {
-            Err(StudyError::Cancelled { stage }) => {
+            Err(StudyError::Cancelled { stage, .. }) => {
                 assert_eq!(stage, Stage::Fill, "cancelled after {delay_ms} ms");
                 let late = returned.saturating_duration_since(cancelled);
                 println!("cancelled {delay_ms} ms into the fill: returned {late:?} later");
