@@ -361,6 +361,10 @@ pub struct ServeArgs {
     pub web_dir: Option<PathBuf>,
 }
 
+/// The most threads `--jobs` starts (as `serve --analyses`): each thread reserves its
+/// stack, and a pool of tens of thousands took minutes to start on two cores.
+pub const MAX_JOBS: u16 = 1024;
+
 /// Options of `locate` for several parts.
 #[derive(Debug, Args)]
 pub struct BatchArgs {
@@ -376,8 +380,9 @@ pub struct BatchArgs {
     /// `[[part]]` tables with `file` (relative to the manifest), `units`, `demold`.
     #[arg(long, value_name = "FILE.toml", conflicts_with = "sample")]
     pub manifest: Option<PathBuf>,
-    /// Threads for the whole run, parts and their inner stages together [default: all cores].
-    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..), allow_negative_numbers = true)]
+    /// Threads for the whole run, parts and their inner stages together, at most 1024
+    /// [default: all cores].
+    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=MAX_JOBS as i64), allow_negative_numbers = true)]
     pub jobs: Option<u16>,
     /// Time limit of each part's study, seconds: past it the study stops (within one step
     /// of the fill's cells, one march of the fill analysis or one facet of a wall map; the

@@ -125,7 +125,7 @@ fn plain_parse_words(message: &str) -> String {
     ] {
         m = m.replace(rust, plain);
     }
-    // clap's range of a count: "0 is not in 1..=65535".
+    // clap's range of a count: "0 is not in 1..=1024".
     if let Some(at) = m.find(" is not in ") {
         let range = &m[at + " is not in ".len()..];
         if let Some((low, high)) = range.split_once("..=") {

@@ -338,7 +338,7 @@ fn non_positive_lengths_and_counts() {
         ),
         (
             &["--jobs", "0"],
-            "invalid value '0' for '--jobs <N>': expected a whole number from 1 to 65535, got 0",
+            "invalid value '0' for '--jobs <N>': expected a whole number from 1 to 1024, got 0",
         ),
         // A negative count or time is a value out of range, not an unknown flag.
         (
@@ -347,13 +347,18 @@ fn non_positive_lengths_and_counts() {
         ),
         (
             &["--jobs", "-2"],
-            "expected a whole number from 1 to 65535, got -2",
+            "expected a whole number from 1 to 1024, got -2",
         ),
         (
             &["--circle-points", "-3"],
             "expected a whole number, not a negative one",
         ),
         (&["--max-nodes", "-5"], "not a negative one"),
+        // A pool of threads a machine can start in a moment.
+        (
+            &["--jobs", "65535"],
+            "expected a whole number from 1 to 1024, got 65535",
+        ),
         (&["--timeout", "-1"], "--timeout"),
         (
             &["--no-such-option"],
