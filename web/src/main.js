@@ -325,6 +325,8 @@ async function analyse({ keepCamera = false } = {}) {
   const colouring = Number($("colouring").value);
   try {
     const r = await ask({ type: "study", bytes, request, colouring }, [bytes]);
+    // The view's colouring when the one chosen needs what this study did not make.
+    $("colouring").value = String(r.colouring);
     const report = JSON.parse(r.report);
     const extras = await viewer.show(r.glb, { keepCamera });
     await new Promise(requestAnimationFrame);

@@ -5,7 +5,7 @@
 // Messages in:  {type: "info"} | {type: "materials", file} | {type: "study", id, bytes, request, colouring}
 //               | {type: "glb", id, colouring} | {type: "download", id, what, colouring}
 // Messages out: {type: "info", ...} | {type: "materials", materials} | {type: "progress", id, stage, fraction}
-//               | {type: "result", id, report, glb, times} | {type: "glb", id, glb}
+//               | {type: "result", id, report, glb, colouring, times} | {type: "glb", id, glb}
 //               | {type: "download", id, what, bytes} | {type: "error", id, message, trapped, fileError}
 
 import { Moldgate } from "./moldgate.js";
@@ -39,13 +39,24 @@ async function handleMessage(mg, m) {
       const t1 = performance.now();
       const report = await mg.report(handle);
       postMessage({ type: "progress", id: m.id, stage: "3d", fraction: 1 });
-      const glb = await mg.glb(handle, m.colouring);
+      // A colouring chosen for an earlier study may need what this one did not make (the
+      // fill, the walls): the view then shows the study as studied.
+      let colouring = m.colouring;
+      let glb;
+      try {
+        glb = await mg.glb(handle, colouring);
+      } catch (e) {
+        if (colouring === 0) throw e;
+        colouring = 0;
+        glb = await mg.glb(handle, colouring);
+      }
       const t2 = performance.now();
       return {
         type: "result",
         id: m.id,
         report,
         glb,
+        colouring,
         times: { study_ms: t1 - t0, glb_ms: t2 - t1 },
         transfer: [glb.buffer],
       };

@@ -379,6 +379,22 @@ describe("moldgate in the browser", () => {
     assert.equal(await page.inputValue("#color_by"), "fill_order");
   });
 
+  test("a colouring the next study does not make falls back to the study's own", async () => {
+    await page.selectOption("#demold", "-z");
+    await page.check("#fill");
+    assert.equal(await studySample(page, "cover"), "done");
+    await page.selectOption("#colouring", "3");
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("fill"));
+    // Without the fill, the fill's colouring cannot be shown: the study is still shown, as
+    // studied, and the fill's colouring is offered disabled.
+    await page.uncheck("#fill");
+    assert.equal(await analyseAgain(page), "done");
+    assert.equal(await page.inputValue("#colouring"), "0");
+    assert.equal(await page.$eval("#colouring option[value='3']", (o) => o.disabled), true);
+    await page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("height"));
+    await page.click("#defaults");
+  });
+
   test("a materials file gives its materials to the list and the study, as --materials-file does", async () => {
     const toml = join(TMP, "mine.toml");
     writeFileSync(toml, "[MyPP]\nn = 0.3\nt_melt = 230\nt_wall = 50\ngamma_opt = 10000\nmu_opt = 9.88\nk = 0.15\n\n[HDPE]\nn = 0.4\nt_melt = 220\nt_wall = 40\ngamma_opt = 1000\nmu_opt = 300\nk = 0.4\n");
@@ -417,8 +433,11 @@ describe("moldgate in the browser", () => {
     await page.setInputFiles("#materials_file", toml);
     await page.waitForFunction(() => document.getElementById("materials-file-status").textContent.startsWith("2 materials"));
     assert.equal(await page.inputValue("#material"), "HDPE");
+    assert.equal(await page.isVisible("#materials-builtin"), true);
     await page.click("#materials-builtin");
     await page.waitForFunction(() => document.getElementById("materials-builtin").hidden);
+    // Hidden on the page, not only marked so.
+    assert.equal(await page.isHidden("#materials-builtin"), true);
     assert.equal(await page.inputValue("#material"), "PE-HD");
     assert.equal(await page.$eval("#materials-file-status", (e) => e.hidden), true);
     await page.click("#defaults");

@@ -96,7 +96,8 @@ def test_an_object_without_arrays():
         ({"spacing": -1.0}, "spacing must be a positive number, got -1"),
         ({"spacing": float("nan")}, "spacing must be a finite number, got nan"),
         ({"gate_radius": float("inf")}, "gate_radius must be a finite number, got inf"),
-        ({"gate_radius": 1e300}, "gate_radius must be at most 1000 mm, got 1.000e300"),
+        ({"gate_radius": 1e300}, "gate_radius must be from 0.001 to 1000 mm, got 1.000e300"),
+        ({"gate_radius": 1e-9}, "gate_radius must be from 0.001 to 1000 mm, got 1.000e-9"),
         (
             {"material": {"n": float("nan"), "t_melt": 230, "t_wall": 50, "gamma_opt": 1e4, "mu_opt": 10, "k": 0.15}},
             "material.n must be a finite number, got nan",
@@ -107,6 +108,7 @@ def test_an_object_without_arrays():
         ({"units": "furlong"}, "units: unknown unit 'furlong'"),
         ({"fill": "yes"}, "got the text \"yes\", expected a boolean"),
         ({"strategy": 1}, "strategy: got the number 1, expected `paper` or `balanced`"),
+        ({"gate_at": 5}, r"gate_at: give points \(x, y, z\) in mm, one or a list of them; got 5"),
         ({"keep_out": 5}, r"keep_out: expected a region \(\"box:...\" or \"sphere:...\"\) or a list of them, got 5"),
         ({"gate_at": [(1, 2)]}, r"gate_at 1 '1.0,2.0': expected x,y,z \(three numbers in mm\), got 2 values"),
         ({"gate_at": ["a,b,c"]}, "gate_at 1 'a,b,c': x is not a number"),

@@ -267,21 +267,70 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
                 slot.insert(out.len());
             }
         }
-        m.name = key;
-        m.validate().map_err(|e| e.to_string())?;
-        // A radius no part could hold, refused here as a study would refuse it: a
+        // A value out of range is placed at its line (or its table's, when the fault is
+        // the parameters together).
+        let place = |parameter: Option<&str>| {
+            line_of(text, &key, parameter).map_or(String::new(), |l| format!("line {l}: "))
+        };
+        m.name = key.clone();
+        m.validate().map_err(|e| {
+            let parameter = match &e {
+                OptionsError::NonPositiveMaterial { parameter, .. } => Some(*parameter),
+                OptionsError::MeltNotAboveWall { .. } => Some("t_wall"),
+                _ => None,
+            };
+            format!("{}{e}", place(parameter))
+        })?;
+        // A radius no gate could have, refused here as a study would refuse it: a
         // material listed is one that can be studied.
         let r = m.gate_radius_mm();
-        if r > crate::study::MAX_GATE_RADIUS_MM {
+        let (least, most) = (
+            crate::study::MIN_GATE_RADIUS_MM,
+            crate::study::MAX_GATE_RADIUS_MM,
+        );
+        if !(least..=most).contains(&r) {
             return Err(format!(
-                "material [{}]: Eq. 8 gives a gate radius of {r:.3e} mm, more than {} mm; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C))",
-                m.name,
-                crate::study::MAX_GATE_RADIUS_MM
+                "{}material '{key}': Eq. 8 gives a gate radius of {r:.3e} mm, {}; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C))",
+                place(None),
+                match r > most {
+                    true => format!("more than {most} mm"),
+                    false => format!("less than {least} mm"),
+                }
             ));
         }
         out.push(m);
     }
     Ok(out)
+}
+
+/// The line (from 1) of `parameter` in the material `table` of a materials file's TOML
+/// text, or of the table itself without a parameter or when it is not found: the line of
+/// `[table]` (or `["table"]`), or of `table = { ... }` for an inline table.
+fn line_of(text: &str, table: &str, parameter: Option<&str>) -> Option<usize> {
+    let assigns = |line: &str, key: &str| {
+        let line = line.trim_start();
+        let rest = line
+            .strip_prefix(key)
+            .or_else(|| line.strip_prefix(&format!("\"{key}\"")));
+        rest.is_some_and(|r| r.trim_start().starts_with('='))
+    };
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines.iter().position(|l| {
+        let l = l.trim();
+        l == format!("[{table}]") || l == format!("[\"{table}\"]")
+    });
+    let Some(header) = header else {
+        // An inline table: its own line holds its parameters.
+        return lines.iter().position(|l| assigns(l, table)).map(|i| i + 1);
+    };
+    let found = parameter.and_then(|p| {
+        lines[header + 1..]
+            .iter()
+            .take_while(|l| !l.trim_start().starts_with('['))
+            .position(|l| assigns(l, p))
+            .map(|i| header + 1 + i)
+    });
+    Some(found.unwrap_or(header) + 1)
 }
 
 #[cfg(test)]
@@ -299,14 +348,29 @@ mod tests {
         let e =
             materials_from_toml(&good.replace("t_melt = 280.0", "t_melt = \"hot\"")).unwrap_err();
         assert_eq!(e, "line 3: t_melt: got the text \"hot\", expected a number");
-        // A material whose Eq. 8 radius no part could hold (gamma_opt in 1/min, say).
+        // A material whose Eq. 8 radius no gate could have (gamma_opt in 1/min, say), at
+        // its table's line.
         let e = materials_from_toml(&good.replace("gamma_opt = 1000.0", "gamma_opt = 1e-9"))
             .unwrap_err();
         assert!(
-            e.starts_with("material [MyPA]: Eq. 8 gives a gate radius of ")
+            e.starts_with("line 1: material 'MyPA': Eq. 8 gives a gate radius of ")
                 && e.contains("more than 1000 mm; check its parameters' units"),
             "{e}"
         );
+        let e = materials_from_toml(&good.replace("gamma_opt = 1000.0", "gamma_opt = 1e300"))
+            .unwrap_err();
+        assert!(e.contains("less than 0.001 mm"), "{e}");
+        // A value out of range at its own line.
+        let e = materials_from_toml(&good.replace("mu_opt = 200.0", "mu_opt = -9.88")).unwrap_err();
+        assert!(e.starts_with("line 6: ") && e.contains("mu_opt"), "{e}");
+        let e = materials_from_toml(&format!(
+            "# mine\n\n{}",
+            good.replace("t_wall = 80.0", "t_wall = 300.0")
+        ))
+        .unwrap_err();
+        assert!(e.starts_with("line 6: "), "{e}");
+        let e = materials_from_toml("MyPA = { n = -1, t_melt = 280.0, t_wall = 80.0, gamma_opt = 1000.0, mu_opt = 200.0, k = 0.25 }\n").unwrap_err();
+        assert!(e.starts_with("line 1: "), "{e}");
         // ... in an inline table too.
         let e = materials_from_toml("MyPA = { n = 0.4, k = \"x\" }\n").unwrap_err();
         assert!(e.starts_with("line 1: k: got the text"), "{e}");
@@ -331,7 +395,7 @@ mod tests {
             .replace("mu_opt = 200.0", "mu_opt = 1e-308");
         let e = materials_from_toml(&huge).unwrap_err();
         assert!(
-            e.starts_with("material 'MyPA': its parameters give a gate radius of inf mm"),
+            e.starts_with("line 1: material 'MyPA': its parameters give a gate radius of inf mm"),
             "{e}"
         );
         // A huge value is written short, not in 309 digits.

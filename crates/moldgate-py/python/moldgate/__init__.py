@@ -163,6 +163,10 @@ def _options_json(options: Mapping[str, Any]) -> str:
             raise OptionsError(
                 f"gate_at: give points (x, y, z) in mm, one or a list of them; got a flat list of {len(gate_at)} numbers"
             )
+        elif not hasattr(gate_at, "__iter__"):
+            raise OptionsError(
+                f"gate_at: give points (x, y, z) in mm, one or a list of them; got {gate_at!r}"
+            )
         options["gate_at"] = [_point_text(p) for p in gate_at]
     if "keep_out" in options and options["keep_out"] is None:
         options["keep_out"] = []

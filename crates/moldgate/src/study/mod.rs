@@ -28,7 +28,7 @@ mod words;
 pub use options::{
     CentreChoice, ColorByChoice, Demold, JsonOptionsError, MaterialChoice, NearestChoice,
     ObjectiveChoice, Settings, StrategyChoice, StudyOptions, ThicknessChoice, MAX_GATE_AT,
-    MAX_GATE_RADIUS_MM, MAX_NODES_LIMIT,
+    MAX_GATE_RADIUS_MM, MAX_NODES_LIMIT, MIN_GATE_RADIUS_MM,
 };
 pub use run::{GateMarker, Study};
 pub use words::keyword_words;

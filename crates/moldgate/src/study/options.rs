@@ -316,6 +316,11 @@ pub const MAX_GATE_AT: usize = 32;
 /// The largest gate radius taken, mm, given or from Eq. 8: a metre, far beyond any gate.
 pub const MAX_GATE_RADIUS_MM: f64 = 1000.0;
 
+/// The smallest gate radius taken, mm, given or from Eq. 8: a micrometre, far below any
+/// gate (the automatic grid spacing follows the radius, and a radius of 1e-296 mm asked
+/// for a grid beyond any limit, said as the part's units' fault).
+pub const MIN_GATE_RADIUS_MM: f64 = 0.001;
+
 /// Gate radii of injection moulding, mm: Eq. 8's radius of a material outside them is
 /// warned about (the built-in library's span 0.78 to 1.92 mm).
 const PLAUSIBLE_RADIUS_MM: (f64, f64) = (0.2, 10.0);
@@ -577,13 +582,17 @@ impl StudyOptions {
         };
         // A radius no part could hold is refused before any work (and before a message
         // writes it out in hundreds of digits).
-        if gate_radius_mm > MAX_GATE_RADIUS_MM {
+        if !(MIN_GATE_RADIUS_MM..=MAX_GATE_RADIUS_MM).contains(&gate_radius_mm) {
             let said = format!("{gate_radius_mm:.3e}");
+            let beyond = match gate_radius_mm > MAX_GATE_RADIUS_MM {
+                true => format!("more than {MAX_GATE_RADIUS_MM} mm"),
+                false => format!("less than {MIN_GATE_RADIUS_MM} mm"),
+            };
             return Err(match radius_source {
                 RadiusSource::Material => invalid(
                     "material",
                     format!(
-                        "{}: Eq. 8 gives a gate radius of {said} mm, more than {MAX_GATE_RADIUS_MM} mm; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C))",
+                        "{}: Eq. 8 gives a gate radius of {said} mm, {beyond}; check its parameters' units (gamma_opt in 1/s, mu_opt in Pa s, k in W/(m C))",
                         match material.name.as_str() {
                             "" => "(given)",
                             name => name,
@@ -592,7 +601,9 @@ impl StudyOptions {
                 ),
                 _ => invalid(
                     "gate_radius",
-                    format!("must be at most {MAX_GATE_RADIUS_MM} mm, got {said}"),
+                    format!(
+                        "must be from {MIN_GATE_RADIUS_MM} to {MAX_GATE_RADIUS_MM} mm, got {said}"
+                    ),
                 ),
             });
         }
@@ -1085,7 +1096,20 @@ color_by = "flow_length"
         };
         assert_eq!(
             refused(r#"{ "gate_radius": 1e300 }"#),
-            "gate_radius must be at most 1000 mm, got 1.000e300"
+            "gate_radius must be from 0.001 to 1000 mm, got 1.000e300"
+        );
+        assert_eq!(
+            refused(r#"{ "gate_radius": 1e-6 }"#),
+            "gate_radius must be from 0.001 to 1000 mm, got 1.000e-6"
+        );
+        let e = refused(
+            r#"{ "material": { "name": "Fast", "n": 0.3, "t_melt": 230, "t_wall": 50,
+                 "gamma_opt": 1e300, "mu_opt": 10, "k": 0.15 } }"#,
+        );
+        assert!(
+            e.starts_with("material Fast: Eq. 8 gives a gate radius of ")
+                && e.contains("mm, less than 0.001 mm; check its parameters' units"),
+            "{e}"
         );
         let e = refused(
             r#"{ "material": { "name": "Odd", "n": 0.3, "t_melt": 230, "t_wall": 50,
