@@ -48,7 +48,13 @@ fn options(json: &str) -> Result<StudyOptions, String> {
     let serde_json::Value::Object(object) = value else {
         return Err("the options must be a table of names and values".into());
     };
-    let mut o = StudyOptions::from_json_object(object).map_err(|e| e.to_string())?;
+    // A value given is named as Python writes it (True, None), not as JSON.
+    let mut o = StudyOptions::from_json_object(object).map_err(|e| {
+        e.to_string()
+            .replace(": got true,", ": got True,")
+            .replace(": got false,", ": got False,")
+            .replace("got no value (null)", "got None")
+    })?;
     if let MaterialChoice::Parameters(m) = &mut o.material {
         if m.name.is_empty() {
             m.name = "user material".into();

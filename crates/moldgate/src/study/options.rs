@@ -533,10 +533,16 @@ impl StudyOptions {
             }
         }
         let mut message = with_nearest_name(&crate::files::plain_words(&message));
-        // The count of gates is read as any count, 0 included, then refused below 1
-        // (`fill_options`): its type error names the range it really takes.
-        if field.as_deref() == Some("gates") {
-            message = message.replace("a whole number of 0 or more", "a whole number of 1 or more");
+        // Counts are read as any count, 0 included, then refused out of their range
+        // (`validate`): a type error names the range the option really takes.
+        let range = match field.as_deref() {
+            Some("gates") => Some("a whole number of 1 or more".to_string()),
+            Some("circle_points") => Some("a whole number of 3 or more".to_string()),
+            Some("max_nodes") => Some(format!("a whole number from 1 to {MAX_NODES_LIMIT}")),
+            _ => None,
+        };
+        if let Some(range) = range {
+            message = message.replace("a whole number of 0 or more", &range);
         }
         Err(JsonOptionsError { field, message })
     }
@@ -917,6 +923,14 @@ mod tests {
             (
                 r#"{"parting_line": 3}"#,
                 "parting_line: got the number 3, expected ",
+            ),
+            (
+                r#"{"circle_points": true}"#,
+                "circle_points: got true, expected a whole number of 3 or more",
+            ),
+            (
+                r#"{"max_nodes": 1e6}"#,
+                "max_nodes: got the decimal number 1000000.0, expected a whole number from 1 to ",
             ),
             (
                 r#"{"objective": true}"#,
