@@ -205,8 +205,9 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
                     r
                 }),
                 ..Failure::timeout(format!(
-                    "{name}: stopped at --timeout {} s, in the {stage} stage{}{gate}",
+                    "{name}: stopped at --timeout {} s, in the {} stage{}{gate}",
                     s.timeout.unwrap_or_default().as_secs_f64(),
+                    stage.to_string().replace('_', " "),
                     if hint.is_empty() {
                         String::new()
                     } else {

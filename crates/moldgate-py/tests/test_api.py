@@ -350,8 +350,12 @@ def test_a_batch_row_past_its_timeout_says_so(cover_stl):
     assert time.perf_counter() - t < 5
     assert row["status"] == "timeout" and row["exit_code"] == 2, row
     assert "stopped at its timeout of 0.2 s, in the fill stage" in row["error"], row
-    # Stopped in the fill stage, the row keeps the method's gate found before the stop.
+    # A layout asked for and not found: no gate in the row.
     gate = lambda r: [r["gate_x_mm"], r["gate_y_mm"], r["gate_z_mm"]]
+    assert gate(row) == [None, None, None], row
+    # Stopped in the fill stage, a study whose answer is the method's gate keeps it.
+    row = moldgate.batch_row(cover_stl, timeout=0.2, fill=True, cell=0.3, suitability=True)
+    assert row["status"] == "timeout", row
     assert gate(row) == gate(moldgate.batch_row(cover_stl)), row
     assert "the method's gate, found before the stop" in row["error"], row
     # Within its limit, the row of no limit.

@@ -20,8 +20,8 @@ pub enum Status {
     /// An option was refused (2).
     OptionError,
     /// The study was stopped at its time limit (2, as for the option that set it).
-    /// Stopped in the fill stage, the row has the numbers of the part located before the
-    /// stop (the method's gate); stopped before, none.
+    /// Stopped after the gate was located, a study whose answer is the method's gate has
+    /// the numbers of the part located before the stop; any other, none.
     Timeout,
     /// An output could not be written (5).
     OutputError,

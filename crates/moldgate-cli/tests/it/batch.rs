@@ -611,8 +611,18 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
         error.contains("stopped at --timeout 0.2 s, in the fill stage"),
         "{error}"
     );
-    // Stopped in the fill stage, the row keeps the method's gate found before the stop:
-    // the gate of the part located without the fill, and says so.
+    // A layout asked for and not found: no gate in the row (the method's is not the
+    // answer asked for).
+    assert!(row["gate_x_mm"].is_null(), "{row}");
+    // Stopped in the fill stage, a study whose answer is the method's gate keeps it in its
+    // row: the gate of the part located without the fill, and says so.
+    let single = ["--fill", "--cell", "0.3", "--suitability"];
+    let args = [&["locate", "m", "--json", "--timeout", "0.2"][..], &single].concat();
+    let out = moldgate(root, &args);
+    let row = &json_lines(&stdout(&out))[0];
+    assert_eq!(row["status"], "timeout", "{row}");
+    let error = row["error"].as_str().unwrap();
+    assert!(error.contains("in the fill stage"), "{error}");
     let located = moldgate(root, &["locate", "m/cover.stl", "--json"]);
     let located: Value = serde_json::from_str(&stdout(&located)).unwrap();
     let gate = &located["gate"]["point"];
@@ -631,12 +641,30 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
             .contains("the fill analysis was stopped before its end"),
         "{row}"
     );
+    // A balanced gate asked for and not found: no gate in the row either.
+    let args = [
+        &[
+            "locate",
+            "m",
+            "--json",
+            "--timeout",
+            "0.2",
+            "--strategy",
+            "balanced",
+        ][..],
+        &single[1..],
+    ]
+    .concat();
+    let out = moldgate(root, &args);
+    let row = &json_lines(&stdout(&out))[0];
+    assert_eq!(row["status"], "timeout", "{row}");
+    assert!(row["gate_x_mm"].is_null(), "{row}");
     // No report is written for it: it is not the one asked for.
     let out_dir = root.join("reports");
     std::fs::create_dir(&out_dir).unwrap();
     let args = [
         &["locate", "m", "--out-dir", "reports", "--timeout", "0.2"][..],
-        &heavy,
+        &single,
     ]
     .concat();
     assert_code(&moldgate(root, &args), USAGE);

@@ -191,10 +191,11 @@ pub enum StudyError {
     Cancelled {
         /// The stage that did not start, or that stopped part way.
         stage: Stage,
-        /// What the stages before a stop in the fill stage found: the report of the
-        /// located part without its fill (the method's gate, the automatic direction and
-        /// the wall map when asked for), with a warning that says so. `None` when the
-        /// study stopped before the fill stage.
+        /// What the stages before the stop found, when it came after the gate was located
+        /// (in the wall map or the fill stage) and the study's answer is the method's gate
+        /// (no balanced gate nor layout asked for): the report of the located part without
+        /// what was stopped (the gate, the automatic direction, the wall map when made),
+        /// with a warning that says so. `None` otherwise.
         located: Option<Box<crate::report::Report>>,
     },
     /// The picture could not be drawn.

@@ -220,19 +220,51 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             analysis.counts.centre_hits, crate::report::three_figures(analysis.grid.spacing)
         ));
     }
+    // Stopped after the gate was located, a study whose answer is the method's gate (no
+    // balanced gate nor layout asked for) gives the located part's report: the gate, the
+    // automatic direction, the wall map when made, and a warning naming what is missing.
+    let answer_is_located = s
+        .fill
+        .as_ref()
+        .is_none_or(|o| o.strategy == flow::Strategy::Paper && o.gates == 1);
+    let stopped = |stage: Stage, wall: Option<&(WallThickness, f64)>, missing: &str| {
+        let located = answer_is_located.then(|| {
+            let mut located = Report::new(
+                Input {
+                    path: None,
+                    sample: None,
+                    bytes: 0,
+                },
+                &part.stats,
+                &part.warnings,
+                &s.material,
+                s.radius_source,
+                &analysis,
+                0.0,
+            );
+            if let Some(auto) = &auto {
+                located = located.with_demold_auto(auto.clone());
+            }
+            if let Some((w, time_s)) = wall {
+                located = located.with_wall_thickness(w, *time_s);
+            }
+            located.warnings.push(format!(
+                "{missing} was stopped before its end: the gate is the method's, found before the stop, and {missing} is missing"
+            ));
+            Box::new(located)
+        });
+        StudyError::Cancelled { stage, located }
+    };
     // The full wall map only when asked for; the fill analysis measures its own samples.
     let wall = match (&bvh, s.wall_thickness) {
         (Some(bvh), true) => {
-            enter(Stage::WallThickness)?;
+            let stopped_walls = || stopped(Stage::WallThickness, None, "the wall map");
+            enter(Stage::WallThickness).map_err(|_| stopped_walls())?;
             let t = Instant::now();
             let options = ThicknessOptions::default();
             let known = Known::of(&part.topology);
-            let w = wall_thickness_until(mesh, bvh, &options, known, hooks.cancel).ok_or(
-                StudyError::Cancelled {
-                    stage: Stage::WallThickness,
-                    located: None,
-                },
-            )?;
+            let w = wall_thickness_until(mesh, bvh, &options, known, hooks.cancel)
+                .ok_or_else(stopped_walls)?;
             Some((w, t.elapsed().as_secs_f64()))
         }
         _ => None,
@@ -249,37 +281,9 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 placed: snapped.iter().map(|g| g.point).collect(),
                 ..o.clone()
             };
-            // Stopped in the fill stage, the study gives what it found before: the
-            // located part's report, without its fill.
-            let stopped = || {
-                let mut located = Report::new(
-                    Input {
-                        path: None,
-                        sample: None,
-                        bytes: 0,
-                    },
-                    &part.stats,
-                    &part.warnings,
-                    &s.material,
-                    s.radius_source,
-                    &analysis,
-                    0.0,
-                );
-                if let Some(auto) = &auto {
-                    located = located.with_demold_auto(auto.clone());
-                }
-                if let Some((w, time_s)) = &wall {
-                    located = located.with_wall_thickness(w, *time_s);
-                }
-                located.warnings.push(
-                    "the fill analysis was stopped before its end: this report is the located part's, without its fill".into(),
-                );
-                StudyError::Cancelled {
-                    stage: Stage::Fill,
-                    located: Some(Box::new(located)),
-                }
-            };
-            enter(Stage::Fill).map_err(|_| stopped())?;
+            // Stopped in the fill stage, the study gives what it found before.
+            let stopped_fill = || stopped(Stage::Fill, wall.as_ref(), "the fill analysis");
+            enter(Stage::Fill).map_err(|_| stopped_fill())?;
             let walls = match (&wall, &bvh) {
                 (Some((w, _)), _) if w.nominal_mm.is_some() => flow::Walls::Given(&w.per_triangle),
                 (_, Some(bvh)) => flow::Walls::Measure(bvh),
@@ -299,7 +303,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             let mut f =
                 flow::analyse_prepared(mesh, &analysis, &s.material, walls, o, cancel, prepared)
                     .map_err(|e| match e {
-                        FillError::Cancelled => stopped(),
+                        FillError::Cancelled => stopped_fill(),
                         e => StudyError::from(e),
                     })?;
             f.times.tree_s = tree_s;
@@ -316,7 +320,14 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         ),
         (None, _) => p,
     });
-    enter(Stage::Report)?;
+    // Every analysis has run: the report is made even past a cancellation (it takes
+    // milliseconds), rather than throw the study away at its last step.
+    if let Some(p) = hooks.progress {
+        p(crate::study::Progress {
+            stage: Stage::Report,
+            fraction: fraction(Stage::Report),
+        });
+    }
     let input = Input {
         path: None,
         sample: None,

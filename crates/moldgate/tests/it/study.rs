@@ -183,15 +183,15 @@ fn a_study_cancelled_in_its_fill_stops_there() {
     assert_eq!(cancelled_as(json, Stage::Fill), Stage::Fill);
 }
 
-/// Stopped in its fill stage, a study gives what it found before: the report of the part
-/// located without its fill, its gate the one a study without the fill finds. Stopped
-/// before, it gives nothing.
+/// Stopped after its gate was located, a study whose answer is the method's gate gives
+/// what it found before: the report of the part located without what was stopped, its
+/// gate the one a study without it finds. A study whose answer is a balanced gate or a
+/// layout gives none: the gate it asked for was not found.
 #[test]
-fn a_study_stopped_in_its_fill_gives_the_located_part() {
+fn a_study_stopped_after_its_gate_gives_the_located_part() {
     let part = sample("cover");
-    let json = r#"{ "fill": true, "gates": 3, "wall_thickness": true }"#;
-    let settings = options(json).validate().unwrap();
-    let stopped_at = |stage: Stage| {
+    let stopped_at = |json: &str, stage: Stage| {
+        let settings = options(json).validate().unwrap();
         let cancel = Cancel::new();
         let observer = |p: Progress| {
             if p.stage == stage {
@@ -207,11 +207,12 @@ fn a_study_stopped_in_its_fill_gives_the_located_part() {
             other => panic!("{other:?}"),
         }
     };
-    let (stage, located) = stopped_at(Stage::Fill);
-    assert_eq!(stage, Stage::Fill);
-    let located = located.expect("the located part");
     let unfilled = study(&part, &options(r#"{ "wall_thickness": true }"#)).unwrap();
     let expected = unfilled.report();
+    let json = r#"{ "fill": true, "wall_thickness": true }"#;
+    let (stage, located) = stopped_at(json, Stage::Fill);
+    assert_eq!(stage, Stage::Fill);
+    let located = located.expect("the located part");
     assert_eq!(
         located.gate.as_ref().map(|g| g.point),
         expected.gate.as_ref().map(|g| g.point)
@@ -221,13 +222,35 @@ fn a_study_stopped_in_its_fill_gives_the_located_part() {
         located.wall_thickness.as_ref().map(|w| w.nominal_mm),
         expected.wall_thickness.as_ref().map(|w| w.nominal_mm)
     );
+    assert!(located.warnings.iter().any(
+        |w| w.starts_with("the fill analysis was stopped before its end: the gate is the method's")
+    ));
+    // Stopped in the wall map: the gate, without the map.
+    let (stage, located) = stopped_at(json, Stage::WallThickness);
+    assert_eq!(stage, Stage::WallThickness);
+    let located = located.expect("the located part");
+    assert_eq!(
+        located.gate.as_ref().map(|g| g.point),
+        expected.gate.as_ref().map(|g| g.point)
+    );
+    assert!(located.wall_thickness.is_none());
     assert!(located
         .warnings
         .iter()
-        .any(|w| w.starts_with("the fill analysis was stopped before its end")));
-    let (stage, located) = stopped_at(Stage::WallThickness);
-    assert_eq!(stage, Stage::WallThickness);
-    assert!(located.is_none());
+        .any(|w| w.starts_with("the wall map was stopped before its end")));
+    // A balanced gate or a layout asked for: nothing that could be read as the answer.
+    for json in [
+        r#"{ "fill": true, "gates": 3 }"#,
+        r#"{ "strategy": "balanced", "wall_thickness": true }"#,
+    ] {
+        for stage in [Stage::Fill, Stage::WallThickness] {
+            if stage == Stage::WallThickness && !json.contains("wall") {
+                continue;
+            }
+            let (_, located) = stopped_at(json, stage);
+            assert!(located.is_none(), "{json} at {stage}");
+        }
+    }
 }
 
 /// The stage a study of the cover sample with options `json` stops at when its token is
