@@ -26,8 +26,9 @@ pub struct Settings {
     pub timeout: Option<Duration>,
 }
 
-/// The longest `--timeout`, seconds (about 115 days: beyond it, none is meant).
-const MAX_TIMEOUT_S: f64 = 1e7;
+/// The longest `--timeout`, seconds (about 115 days: beyond it, none is meant); the
+/// service's time limits too.
+pub const MAX_TIMEOUT_S: f64 = 1e7;
 
 /// Validates the raw arguments of `locate` once into [`Settings`].
 pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {

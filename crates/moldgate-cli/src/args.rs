@@ -319,7 +319,7 @@ pub struct ServeArgs {
         long,
         default_value_t = 60.0,
         value_name = "S",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     pub timeout: f64,
     /// Time limit for receiving a request body, seconds (408 past it).
@@ -327,7 +327,7 @@ pub struct ServeArgs {
         long,
         default_value_t = 60.0,
         value_name = "S",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     pub read_timeout: f64,
     /// Largest grid a request may ask for, in nodes.
@@ -345,7 +345,7 @@ pub struct ServeArgs {
         long,
         default_value_t = 30.0,
         value_name = "S",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     pub header_timeout: f64,
     /// Connections open at once; more wait in the listen queue until one closes.
@@ -388,7 +388,7 @@ pub struct BatchArgs {
     /// of the fill's cells, one march of the fill analysis or one facet of a wall map; the
     /// load and the gate's own stages run to their end) and the part fails with exit code 2
     /// [default: none].
-    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub timeout: Option<f64>,
     /// No progress bar and no closing count.
     #[arg(short, long)]

@@ -363,6 +363,13 @@ fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>
                 entry.file.display()
             ))
         };
+        if entry.file.as_os_str().is_empty() {
+            return Err(Failure::usage(format!(
+                "{}: part {}: file is empty: give the mesh file's path, relative to the manifest",
+                path.display(),
+                i + 1
+            )));
+        }
         let mut settings = base.clone();
         if let Some(u) = &entry.units {
             settings.units = u

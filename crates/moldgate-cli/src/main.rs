@@ -99,7 +99,8 @@ fn plain_parse_words(message: &str) -> String {
     let negative = message
         .split('\'')
         .nth(1)
-        .is_some_and(|v| v.starts_with('-') && v[1..].parse::<f64>().is_ok());
+        .and_then(|v| v.parse::<f64>().ok())
+        .is_some_and(|v| v < 0.0);
     if negative {
         m = m.replace(
             "invalid digit found in string",

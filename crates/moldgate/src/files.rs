@@ -196,6 +196,9 @@ pub(crate) fn plain_words(message: &str) -> String {
         ("expected u16", "expected a whole number of 0 or more"),
         ("expected f64", "expected a number"),
         ("expected path string", "expected a file path in quotes"),
+        // A whole number beyond 64 bits, which serde names by its type.
+        ("` as i128,", "`,"),
+        ("` as u128,", "`,"),
         ("expected f32", "expected a number"),
         ("expected i64", "expected a whole number"),
         (

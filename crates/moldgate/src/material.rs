@@ -371,6 +371,13 @@ mod tests {
         assert!(e.starts_with("line 6: "), "{e}");
         let e = materials_from_toml("MyPA = { n = -1, t_melt = 280.0, t_wall = 80.0, gamma_opt = 1000.0, mu_opt = 200.0, k = 0.25 }\n").unwrap_err();
         assert!(e.starts_with("line 1: "), "{e}");
+        // A whole number beyond 64 bits, without serde's name of its type.
+        let e =
+            materials_from_toml(&good.replace("k = 0.25", "k = 99999999999999999999")).unwrap_err();
+        assert_eq!(
+            e,
+            "line 7: k: got the number 99999999999999999999, expected a number"
+        );
         // ... in an inline table too.
         let e = materials_from_toml("MyPA = { n = 0.4, k = \"x\" }\n").unwrap_err();
         assert!(e.starts_with("line 1: k: got the text"), "{e}");

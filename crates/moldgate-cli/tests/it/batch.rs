@@ -744,6 +744,10 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
         &["type.toml: line 2: file: got the number 3, expected a file path in quotes"],
     );
 
+    std::fs::write(root.join("empty.toml"), "[[part]]\nfile = \"\"\n").unwrap();
+    let out = moldgate(root, &["locate", "--manifest", "empty.toml"]);
+    assert_fails(&out, USAGE, &["empty.toml: part 1: file is empty"]);
+
     std::fs::write(root.join("none.toml"), "# nothing\n").unwrap();
     let out = moldgate(root, &["locate", "--manifest", "none.toml"]);
     assert_fails(&out, USAGE, &["none.toml", "no part"]);

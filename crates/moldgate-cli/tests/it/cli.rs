@@ -361,6 +361,10 @@ fn non_positive_lengths_and_counts() {
         ),
         (&["--timeout", "-1"], "--timeout"),
         (
+            &["--timeout", "-inf"],
+            "--timeout must be a number of seconds above 0 and at most 1e7, got -inf",
+        ),
+        (
             &["--no-such-option"],
             "unexpected argument '--no-such-option'",
         ),

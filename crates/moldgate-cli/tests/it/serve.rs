@@ -400,7 +400,7 @@ fn bad_options_are_400_with_the_librarys_message() {
         (
             "circle_points=2.5",
             "circle_points",
-            "expected a whole number of 0 or more",
+            "expected a whole number of 3 or more",
         ),
         ("demold=0,0,0", "demold", "non-zero finite vector"),
         ("gates=0", "gates", "must be at least 1"),
