@@ -344,20 +344,13 @@ pub fn batch_row(
         })
     });
     let time_s = t.elapsed().as_secs_f64();
-    // The row's warnings and reasons name the options as the package's keywords, as
-    // `study()`'s report does (`require_flat=True`, not `--require-flat`).
     let row = match &row {
-        Ok(report) => {
-            BatchRow::studied(&file, u, &demold, &report.in_keyword_words("True"), time_s)
-        }
+        Ok(report) => BatchRow::studied(&file, u, &demold, report, time_s),
         Err((status, m, located)) => BatchRow::new(
             &file,
             u,
             &demold,
-            located
-                .as_ref()
-                .map(|r| r.in_keyword_words("True"))
-                .as_ref(),
+            located.as_deref(),
             Some((*status, m)),
             time_s,
         ),

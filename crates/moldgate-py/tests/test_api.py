@@ -75,13 +75,6 @@ def test_the_report_advises_keywords_not_flags():
     assert "require_flat=True" in page and "--require-flat" not in page
 
 
-def test_a_batch_row_advises_keywords_not_flags(cover_stl):
-    row = moldgate.batch_row(cover_stl, demold="auto", fill=True)
-    assert row["status"] == "ok", row
-    assert "require_flat=True" in row["warnings"], row
-    assert "--" not in row["warnings"], row
-
-
 def test_only_the_grid_gate_has_the_paper_s_wall():
     # A layout's gates and the parting line's gate lie elsewhere than the grid gate: the
     # wall measured at the grid gate is not theirs.
