@@ -155,18 +155,56 @@ pub fn read_text(path: &Path, noun: &str, limit: u64) -> Result<String, TextErro
 /// first byte, from 1), without the parser's own excerpt of the text, and with a value's
 /// type in plain words (`expected a number`, not `expected f64`).
 pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
-    let place = e
-        .span()
-        .map(|s| {
-            let line = 1 + text[..s.start].matches('\n').count();
-            match key_before(text, s.start) {
-                Some(key) => format!("line {line}: {key}: "),
-                None => format!("line {line}: "),
-            }
-        })
-        .unwrap_or_default();
-    let what = plain_words(e.message().trim_end_matches('.'));
-    format!("{place}{what}")
+    let mut what = plain_words(e.message().trim_end_matches('.'));
+    let Some(span) = e.span().filter(|s| text.get(s.start..s.end).is_some()) else {
+        return what;
+    };
+    let line_no = 1 + text[..span.start].matches('\n').count();
+    let line_start = text[..span.start].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].lines().next().unwrap_or_default().trim();
+    let value = &text[span.start..span.end];
+    // What serde calls a table, named as the TOML that made it: a date (a table to
+    // serde), a dotted key, a list of tables.
+    let is_date = |v: &str| {
+        let b = v.as_bytes();
+        (b.len() >= 10 && b[..4].iter().all(u8::is_ascii_digit) && b[4] == b'-')
+            || (b.len() >= 5 && b[..2].iter().all(u8::is_ascii_digit) && b[2] == b':')
+    };
+    let mut key = key_before(text, span.start).map(str::to_string);
+    if is_date(value) {
+        what = what.replace("got a table", "got a date");
+    } else if let Some(inner) = line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {
+        key.get_or_insert_with(|| inner.trim().to_string());
+        what = what.replace(
+            "got a table",
+            &format!("got a list of tables ([[{}]])", inner.trim()),
+        );
+    } else if let Some(inner) = line
+        .strip_prefix('[')
+        .and_then(|l| l.strip_suffix(']'))
+        .filter(|_| what.contains("expected a sequence"))
+    {
+        key.get_or_insert_with(|| inner.trim().to_string());
+        what = what.replace(
+            "expected a sequence",
+            &format!("expected a list of tables ([[{}]])", inner.trim()),
+        );
+    } else if key.is_none() {
+        // `gamma_opt.value = 1000`: the dotted key makes gamma_opt a table.
+        let bare = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+        let first: String = text[span.start..]
+            .chars()
+            .take_while(|&c| bare(c))
+            .collect();
+        if !first.is_empty() && text[span.start + first.len()..].starts_with('.') {
+            what = format!("{what} (a dotted key, {first}.…, makes a table)");
+            key = Some(first);
+        }
+    }
+    match key {
+        Some(key) => format!("line {line_no}: {key}: {what}"),
+        None => format!("line {line_no}: {what}"),
+    }
 }
 
 /// The key whose value starts at byte `at` of a TOML text (`k` of `k = "hot"` or of

@@ -378,6 +378,24 @@ mod tests {
             e,
             "line 7: k: got the number 99999999999999999999, expected a number"
         );
+        // What serde calls a table, named as the TOML that made it.
+        for (text, says) in [
+            (
+                good.replace("k = 0.25", "k.value = 0.25"),
+                "line 7: k: got a table, expected a number (a dotted key, k.…, makes a table)",
+            ),
+            (
+                good.replace("k = 0.25", "k = 1979-05-27"),
+                "line 7: k: got a date, expected a number",
+            ),
+            (
+                good.replace("[MyPA]", "[[MyPA]]"),
+                "line 1: MyPA: got a list of tables ([[MyPA]])",
+            ),
+        ] {
+            let e = materials_from_toml(&text).unwrap_err();
+            assert!(e.starts_with(says), "{e}");
+        }
         // ... in an inline table too.
         let e = materials_from_toml("MyPA = { n = 0.4, k = \"x\" }\n").unwrap_err();
         assert!(e.starts_with("line 1: k: got the text"), "{e}");

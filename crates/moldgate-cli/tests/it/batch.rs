@@ -744,6 +744,15 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
         &["type.toml: line 2: file: got the number 3, expected a file path in quotes"],
     );
 
+    // A single table where a list of them is wanted.
+    std::fs::write(root.join("single.toml"), "[part]\nfile = \"a.stl\"\n").unwrap();
+    let out = moldgate(root, &["locate", "--manifest", "single.toml"]);
+    assert_fails(
+        &out,
+        USAGE,
+        &["single.toml: line 1: part: got a table, expected a list of tables ([[part]])"],
+    );
+
     std::fs::write(root.join("empty.toml"), "[[part]]\nfile = \"\"\n").unwrap();
     let out = moldgate(root, &["locate", "--manifest", "empty.toml"]);
     assert_fails(&out, USAGE, &["empty.toml: part 1: file is empty"]);
