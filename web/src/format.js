@@ -47,6 +47,16 @@ const FLAG_LABELS = {
   "--gate-at": "'Your own gates' (or shift-click on the part)",
   "--fit-radius": "'When no node passes the wall rule, take the largest gate radius that fits'",
   "--parting-line": "'Parting line'",
+  "--suitability": "'Gate-suitability map'",
+  "--centre": "'Centre of mass'",
+  "--nearest": "'Nearest the centre'",
+  "--thickness-rule": "'Wall thicker than the gate radius'",
+  "--keep-out": "'Keep-out regions'",
+  "--cosmetic": "'Visible (cosmetic) side'",
+  "--flat-tol": "'Flatness tolerance'",
+  "--circle-points": "'Points on each circle'",
+  "--grid-offset": "'Grid offset'",
+  "--color-by": "'The fill's colours show'",
 };
 
 /** The page's names for the options (the library's field names) an option error starts with. */
@@ -99,11 +109,28 @@ export function inPageWords(message) {
     const field = f[1] === "material" && f[2] in MATERIAL_LABELS ? `'Material': ${MATERIAL_LABELS[f[2]]}` : FIELD_LABELS[f[1]];
     message = field + message.slice(f[0].length);
   }
-  return message
+  return flagWords(message, (flag) => `the command line's ${flag}`);
+}
+
+/** `text` with the command line's flags named by the page's controls; a flag the page has
+ * no control for is `unknown(flag)`. */
+function flagWords(text, unknown) {
+  return text
     .replace(/--objective (length|resistance)/g, (_, v) => `'Balanced and several gates minimise: ${v === "length" ? "the longest flow length" : "the largest flow resistance"}'`)
     .replace(/--cell (\d+(?:\.\d+)?)/g, "'Fill cell size' of $1 mm")
     .replace(/\(--fit-radius takes it\)/g, "(set 'Gate radius' to it)")
     .replace(/mm\^2/g, "mm²")
     .replace(/mm\^3/g, "mm³")
-    .replace(/--[a-z][a-z-]*[a-z]/g, (flag) => FLAG_LABELS[flag] ?? `the command line's ${flag}`);
+    .replace(/--[a-z][a-z-]*[a-z]/g, (flag) => FLAG_LABELS[flag] ?? unknown(flag));
+}
+
+/** The study's HTML page (the library's, as the command line writes it) in the page's
+ * words: its text names the page's controls, not the command line's flags. Its style and
+ * its embedded JSON (the command line's report, as the report download is) are left as
+ * they are, and so are flags of no control (`moldgate locate --json`). */
+export function pageInPageWords(html) {
+  return html
+    .split(/(<style[\s\S]*?<\/style>|<script[\s\S]*?<\/script>)/)
+    .map((part, i) => (i % 2 === 1 ? part : flagWords(part, (flag) => flag)))
+    .join("");
 }

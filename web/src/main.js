@@ -3,7 +3,7 @@
 
 import "./style.css";
 import { Viewer } from "./viewer.js";
-import { inPageWords } from "./format.js";
+import { inPageWords, pageInPageWords } from "./format.js";
 import { showReport } from "./results.js";
 
 const $ = (id) => document.getElementById(id);
@@ -411,6 +411,8 @@ async function download(what) {
   if (!current) return;
   try {
     const r = await ask({ type: "download", what, colouring: Number($("colouring").value) });
+    // The page names the controls of this app, not the command line's flags.
+    if (what === "html") r.bytes = new TextEncoder().encode(pageInPageWords(new TextDecoder().decode(r.bytes)));
     const type = { report: "application/json", png: "image/png", glb: "model/gltf-binary", html: "text/html" }[what];
     const ext = { report: "json", png: "png", glb: "glb", html: "html" }[what];
     const base = current.name.replace(/\.[^.]*$/, "").replace(/[^\w.-]+/g, "_") || "part";

@@ -628,6 +628,17 @@ describe("moldgate in the browser", () => {
     const html = readFileSync(files.html, "utf8");
     assert.match(html, /^<!DOCTYPE html>|^<!doctype html>/i);
     assert.match(html, /data:image\/png;base64,/);
+    // The page names this app's controls, not the command line's flags (which the command
+    // line's page for the same study does); its style is the command line's.
+    const cliPage = join(TMP, "cli-page.html");
+    cli(["locate", "--sample", "cover", "--demold", "-z", "--report", cliPage]);
+    const visible = (page) => page.replace(/<style[\s\S]*?<\/style>|<script[\s\S]*?<\/script>/g, "");
+    const style = (page) => /<style[\s\S]*?<\/style>/.exec(page)[0];
+    const cliHtml = readFileSync(cliPage, "utf8");
+    assert.match(visible(cliHtml), /--suitability/);
+    assert.doesNotMatch(visible(html), /--(suitability|wall-thickness|aesthetic|require-flat|gates|centre|nearest|objective)\b/);
+    assert.match(visible(html), /'Gate-suitability map'/);
+    assert.equal(style(html), style(cliHtml));
   });
 
   test("every control has a label and the keyboard reaches them", async () => {

@@ -5,7 +5,7 @@ import { readFileSync } from "node:fs";
 import { join } from "node:path";
 import { test } from "node:test";
 
-import { inPageWords, seconds } from "../src/format.js";
+import { inPageWords, pageInPageWords, seconds } from "../src/format.js";
 import { Moldgate, MoldgateError } from "../src/moldgate.js";
 import { WEB } from "./harness.mjs";
 
@@ -71,6 +71,11 @@ test("the library's messages read in the page's words", () => {
   );
   assert.equal(inPageWords("the largest that fits (--fit-radius takes it)"), "the largest that fits (set 'Gate radius' to it)");
   assert.equal(inPageWords("x; --material-file y"), "x; the command line's --material-file y");
+  // A page: its text in the page's words, its style, its JSON and flags of no control kept.
+  assert.equal(
+    pageInPageWords("<style>a { color: var(--accent-dark); }</style><p>With <code>--suitability</code>, or <code>moldgate locate --json</code></p><script>{\"w\": \"--require-flat\"}</script>"),
+    "<style>a { color: var(--accent-dark); }</style><p>With <code>'Gate-suitability map'</code>, or <code>moldgate locate --json</code></p><script>{\"w\": \"--require-flat\"}</script>",
+  );
   assert.equal(inPageWords("--objective length minimises the longest flow path L_max instead"), "'Balanced and several gates minimise: the longest flow length' minimises the longest flow path L_max instead");
   assert.equal(inPageWords("flow lengths are rough; try --cell 1.000"), "flow lengths are rough; try 'Fill cell size' of 1.000 mm");
   assert.equal(inPageWords("its undercut, 499 mm^2, is"), "its undercut, 499 mm², is");
