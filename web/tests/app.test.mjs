@@ -673,6 +673,13 @@ describe("layouts", () => {
         const gate = await box("#gate-point");
         assert.ok(view.width > width * 0.4 && view.height > height * 0.6, `view ${view.width}x${view.height}`);
         assert.ok(gate.right <= width && gate.bottom <= height, "the gate is on screen");
+        // The colourings that say what they need do not widen the toolbar's menu past 13 rem
+        // (it widened once another colouring was chosen).
+        await app.page.selectOption("#colouring", "1");
+        await app.page.waitForFunction(() => document.getElementById("colour-bar").dataset.field?.startsWith("height"));
+        const menu = await app.page.$eval("#colouring", (e) => e.getBoundingClientRect().width / parseFloat(getComputedStyle(document.documentElement).fontSize));
+        assert.ok(menu <= 13.01, `the colouring menu is ${menu} rem wide`);
+        await app.page.selectOption("#colouring", "0");
         const scroll = await app.page.evaluate(() => document.documentElement.scrollWidth);
         assert.ok(scroll <= width, `page ${scroll} px wide`);
         const font = await app.page.$eval("#gate-point", (e) => parseFloat(getComputedStyle(e).fontSize));
