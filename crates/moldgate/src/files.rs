@@ -171,6 +171,25 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
             || (b.len() >= 5 && b[..2].iter().all(u8::is_ascii_digit) && b[2] == b':')
     };
     let mut key = key_before(text, span.start).map(str::to_string);
+    // A key whose value is missing from its line: the parser reads on (a bare word, or the
+    // next line as a key of its own), and says so in its words.
+    const NO_VALUE: &str = "no value after `=` (a value goes on its key's own line)";
+    let rest_of_line = text[span.start..].lines().next().unwrap_or_default().trim();
+    if key.is_some() && (rest_of_line.is_empty() || rest_of_line.starts_with('#')) {
+        return format!("line {line_no}: {}: {NO_VALUE}", key.unwrap_or_default());
+    }
+    if what.starts_with("key with no value") {
+        let before = &text[..line_start];
+        let previous = before
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+            .last();
+        if let Some((i, l)) = previous.filter(|(_, l)| l.trim_end().ends_with('=')) {
+            let key = l.trim().trim_end_matches('=').trim().trim_matches('"');
+            return format!("line {}: {key}: {NO_VALUE}", i + 1);
+        }
+    }
     if is_date(value) {
         what = what.replace("got a table", "got a date");
     } else if let Some(inner) = line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {

@@ -378,6 +378,18 @@ mod tests {
             e,
             "line 7: k: got the number 99999999999999999999, expected a number"
         );
+        // A value missing from its key's line, at the key's line.
+        for text in [
+            good.replace("k = 0.25", "k =\n0.25"),
+            good.replace("k = 0.25", "k = # soon"),
+            good.replace("k = 0.25", "k =\n\n# soon\n0.25"),
+        ] {
+            let e = materials_from_toml(&text).unwrap_err();
+            assert_eq!(
+                e,
+                "line 7: k: no value after `=` (a value goes on its key's own line)"
+            );
+        }
         // What serde calls a table, named as the TOML that made it.
         for (text, says) in [
             (
