@@ -332,11 +332,11 @@ fn expand(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Option<String>)>, Failure>
 #[serde(deny_unknown_fields)]
 struct Entry {
     /// The mesh file, relative to the manifest's folder.
-    file: PathBuf,
+    file: toml::Spanned<PathBuf>,
     /// Its unit [default: `--units`].
-    units: Option<String>,
+    units: Option<toml::Spanned<String>>,
     /// Its demolding direction [default: `--demold`].
-    demold: Option<String>,
+    demold: Option<toml::Spanned<String>>,
 }
 
 /// A manifest file.
@@ -351,50 +351,61 @@ struct Manifest {
 /// direction. Syntax errors and bad values are errors of the command line (exit code 2), with
 /// the line or the part named.
 fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>, Failure> {
-    let manifest: Manifest = crate::toml_file::read_toml(path)?;
+    let (manifest, text): (Manifest, String) = crate::toml_file::read_toml(path)?;
+    // The line (from 1) of a value's first byte.
+    let line_of = |at: usize| 1 + text[..at.min(text.len())].matches('\n').count();
     let folder = path.parent().unwrap_or(Path::new(""));
     let mut parts = Vec::with_capacity(manifest.part.len());
     for (i, entry) in manifest.part.into_iter().enumerate() {
-        let fail = |what: String| {
+        let file = entry.file.get_ref();
+        // A value's fault, at its line.
+        let fail = |at: usize, what: String| {
             Failure::usage(format!(
-                "{}: part {} ({}): {what}",
+                "{}: line {}: part {} ({}): {what}",
                 path.display(),
+                line_of(at),
                 i + 1,
-                entry.file.display()
+                file.display()
             ))
         };
-        if entry.file.as_os_str().is_empty() {
+        if file.as_os_str().is_empty() {
             return Err(Failure::usage(format!(
-                "{}: part {}: file is empty: give the mesh file's path, relative to the manifest",
+                "{}: line {}: part {}: file is empty: give the mesh file's path, relative to the manifest",
                 path.display(),
+                line_of(entry.file.span().start),
                 i + 1
             )));
         }
         let mut settings = base.clone();
         if let Some(u) = &entry.units {
             settings.units = u
+                .get_ref()
                 .parse::<Units>()
-                .map_err(|e| fail(format!("units: {e}")))?;
+                .map_err(|e| fail(u.span().start, format!("units: {e}")))?;
         }
         // `auto` as on the command line: the part's own direction is chosen for it.
         match &entry.demold {
-            Some(d) if d.trim().eq_ignore_ascii_case("auto") => {
+            Some(d) if d.get_ref().trim().eq_ignore_ascii_case("auto") => {
                 settings.study.locate.direction = Direction::default();
                 settings.study.demold = Demold::Auto;
             }
             Some(d) => {
-                let d = d
+                let direction = d
+                    .get_ref()
                     .parse::<Direction>()
-                    .map_err(|e| fail(format!("demold: {e}")))?;
-                settings.study.locate.direction = d;
-                settings.study.demold = Demold::Given(d);
+                    .map_err(|e| fail(d.span().start, format!("demold: {e}")))?;
+                settings.study.locate.direction = direction;
+                settings.study.demold = Demold::Given(direction);
             }
             None => {}
         }
         parts.push(Part {
-            path: folder.join(&entry.file),
+            path: folder.join(file),
             settings,
-            demold: entry.demold.unwrap_or_else(|| demold.to_string()),
+            demold: entry
+                .demold
+                .map(toml::Spanned::into_inner)
+                .unwrap_or_else(|| demold.to_string()),
             skipped: None,
         });
     }

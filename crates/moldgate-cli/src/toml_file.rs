@@ -20,10 +20,12 @@ pub fn read_toml_text(path: &Path) -> Result<String, Failure> {
     })
 }
 
-/// Reads and parses a TOML file ([`read_toml_text`]); a syntax error or a bad value is an
-/// error of the command line (exit code 2) naming the line.
-pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Failure> {
+/// Reads and parses a TOML file ([`read_toml_text`]), and gives its text too (for the lines
+/// of values read as `toml::Spanned`); a syntax error or a bad value is an error of the
+/// command line (exit code 2) naming the line.
+pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<(T, String), Failure> {
     let text = read_toml_text(path)?;
-    toml::from_str(&text)
-        .map_err(|e| Failure::usage(format!("{}: {}", path.display(), toml_message(&text, &e))))
+    let value = toml::from_str(&text)
+        .map_err(|e| Failure::usage(format!("{}: {}", path.display(), toml_message(&text, &e))))?;
+    Ok((value, text))
 }

@@ -725,7 +725,11 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
     )
     .unwrap();
     let out = moldgate(root, &["locate", "--manifest", "units.toml"]);
-    assert_fails(&out, USAGE, &["units.toml", "part 1", "a.stl", "ft"]);
+    assert_fails(
+        &out,
+        USAGE,
+        &["units.toml: line 3: part 1 (a.stl): units: unknown unit 'ft'"],
+    );
 
     std::fs::write(
         root.join("dir.toml"),
@@ -733,7 +737,7 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
     )
     .unwrap();
     let out = moldgate(root, &["locate", "--manifest", "dir.toml"]);
-    assert_fails(&out, USAGE, &["dir.toml", "part 1", "demold"]);
+    assert_fails(&out, USAGE, &["dir.toml: line 3: part 1 (a.stl): demold"]);
 
     // A value of the wrong type names its line and its key.
     std::fs::write(root.join("type.toml"), "[[part]]\nfile = 3\n").unwrap();
@@ -755,7 +759,7 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
 
     std::fs::write(root.join("empty.toml"), "[[part]]\nfile = \"\"\n").unwrap();
     let out = moldgate(root, &["locate", "--manifest", "empty.toml"]);
-    assert_fails(&out, USAGE, &["empty.toml: part 1: file is empty"]);
+    assert_fails(&out, USAGE, &["empty.toml: line 2: part 1: file is empty"]);
 
     std::fs::write(root.join("none.toml"), "# nothing\n").unwrap();
     let out = moldgate(root, &["locate", "--manifest", "none.toml"]);
