@@ -129,8 +129,13 @@ function flagWords(text, unknown) {
  * its embedded JSON (the command line's report, as the report download is) are left as
  * they are, and so are flags of no control (`moldgate locate --json`). */
 export function pageInPageWords(html) {
+  const choices = (text) =>
+    text
+      .replace(/--nearest (2d|3d)/g, (_, v) => `'Nearest the centre: ${v === "2d" ? "in the plane" : "in 3D"}'`)
+      .replace(/--centre (volume|surface)/g, (_, v) => `'Centre of mass: ${v}'`)
+      .replace(/--gate-at\b/g, "'Your own gates'");
   return html
     .split(/(<style[\s\S]*?<\/style>|<script[\s\S]*?<\/script>)/)
-    .map((part, i) => (i % 2 === 1 ? part : flagWords(part, (flag) => flag)))
+    .map((part, i) => (i % 2 === 1 ? part : flagWords(choices(part), (flag) => flag)))
     .join("");
 }

@@ -76,6 +76,11 @@ test("the library's messages read in the page's words", () => {
     pageInPageWords("<style>a { color: var(--accent-dark); }</style><p>With <code>--suitability</code>, or <code>moldgate locate --json</code></p><script>{\"w\": \"--require-flat\"}</script>"),
     "<style>a { color: var(--accent-dark); }</style><p>With <code>'Gate-suitability map'</code>, or <code>moldgate locate --json</code></p><script>{\"w\": \"--require-flat\"}</script>",
   );
+  // A choice by the words of its menu; the own gates by their box alone.
+  assert.equal(
+    pageInPageWords("<p>(or with <code>--nearest 2d</code>), <code>--centre volume</code>; Your gates (--gate-at)</p>"),
+    "<p>(or with <code>'Nearest the centre: in the plane'</code>), <code>'Centre of mass: volume'</code>; Your gates ('Your own gates')</p>",
+  );
   assert.equal(inPageWords("--objective length minimises the longest flow path L_max instead"), "'Balanced and several gates minimise: the longest flow length' minimises the longest flow path L_max instead");
   assert.equal(inPageWords("flow lengths are rough; try --cell 1.000"), "flow lengths are rough; try 'Fill cell size' of 1.000 mm");
   assert.equal(inPageWords("its undercut, 499 mm^2, is"), "its undercut, 499 mm², is");

@@ -185,8 +185,7 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
             .enumerate()
             .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
             .last();
-        if let Some((i, l)) = previous.filter(|(_, l)| l.trim_end().ends_with('=')) {
-            let key = l.trim().trim_end_matches('=').trim().trim_matches('"');
+        if let Some((i, key)) = previous.and_then(|(i, l)| Some((i, assigned_key(l)?))) {
             return format!("line {}: {key}: {NO_VALUE}", i + 1);
         }
     }
@@ -194,10 +193,8 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
         what = what.replace("got a table", "got a date");
     } else if let Some(inner) = line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {
         key.get_or_insert_with(|| inner.trim().to_string());
-        what = what.replace(
-            "got a table",
-            &format!("got a list of tables ([[{}]])", inner.trim()),
-        );
+        let inner = inner.trim();
+        what = format!("got a list of tables ([[{inner}]]), expected one table ([{inner}])");
     } else if let Some(inner) = line
         .strip_prefix('[')
         .and_then(|l| l.strip_suffix(']'))
@@ -216,8 +213,16 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
             .take_while(|&c| bare(c))
             .collect();
         if !first.is_empty() && text[span.start + first.len()..].starts_with('.') {
-            what = format!("{what} (a dotted key, {first}.…, makes a table)");
+            if what.contains("got a table") {
+                what = format!("{what} (a dotted key, {first}.…, makes a table)");
+            }
             key = Some(first);
+        } else if what.starts_with("duplicate key") && !first.is_empty() {
+            // The key given twice: the error is at its second place.
+            key = Some(first);
+        } else if let Some(inner) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            // A table's own fault (a field missing): the table by its name.
+            key = Some(inner.trim().trim_matches('"').to_string());
         }
     }
     match key {
@@ -230,7 +235,13 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
 /// `{ n = 1, k = "hot" }`), if the text before it on its line ends in `key =`.
 fn key_before(text: &str, at: usize) -> Option<&str> {
     let before = text.get(..at)?;
-    let line = &before[before.rfind('\n').map_or(0, |i| i + 1)..];
+    assigned_key(&before[before.rfind('\n').map_or(0, |i| i + 1)..])
+}
+
+/// The key of a line's text that ends in `key =`: a whole key, bare (`t_melt`, `a.b`) or
+/// quoted without a quote inside, at the line's start or after an inline table's `{` or
+/// `,`. Not a key: text inside a string that ends in `=` (`a = "b =`).
+fn assigned_key(line: &str) -> Option<&str> {
     let head = line.trim_end().strip_suffix('=')?.trim_end();
     let is_key = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.' | '"');
     let start = head
@@ -238,8 +249,18 @@ fn key_before(text: &str, at: usize) -> Option<&str> {
         .rev()
         .find(|&(_, c)| !is_key(c))
         .map_or(0, |(i, c)| i + c.len_utf8());
-    let key = head[start..].trim_matches('"');
-    (!key.is_empty()).then_some(key)
+    let raw = &head[start..];
+    let whole_before = head[..start].trim_end();
+    let opens =
+        whole_before.is_empty() || whole_before.ends_with('{') || whole_before.ends_with(',');
+    let quoted = raw.starts_with('"') || raw.ends_with('"');
+    let well_quoted = !quoted
+        || (raw.len() >= 2
+            && raw.starts_with('"')
+            && raw.ends_with('"')
+            && !raw[1..raw.len() - 1].contains('"'));
+    let key = raw.trim_matches('"');
+    (opens && well_quoted && !key.is_empty()).then_some(key)
 }
 
 /// serde's words for a value's type as a person says them (the study options' JSON and

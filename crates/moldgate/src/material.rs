@@ -402,12 +402,36 @@ mod tests {
             ),
             (
                 good.replace("[MyPA]", "[[MyPA]]"),
-                "line 1: MyPA: got a list of tables ([[MyPA]])",
+                "line 1: MyPA: got a list of tables ([[MyPA]]), expected one table ([MyPA])",
+            ),
+            (
+                good.replace("k = 0.25", "k = 0.25\nk = 0.3"),
+                "line 8: k: duplicate key",
+            ),
+            (
+                good.replace("k = 0.25\n", ""),
+                "line 1: MyPA: missing field `k`",
             ),
         ] {
             let e = materials_from_toml(&text).unwrap_err();
             assert!(e.starts_with(says), "{e}");
         }
+        // Text inside a string that ends in `=` is not a key; a quoted key with `=` in it
+        // is not cut at its `=`.
+        for (text, not) in [
+            (good.replace("k = 0.25", "k = \"b =\nn2 = 1"), "line 7: b:"),
+            (
+                good.replace("k = 0.25", "k = 'lit =\nn2 = 1"),
+                "line 7: lit:",
+            ),
+            (good.replace("k = 0.25", "\"t =melt\" ="), "line 7: melt:"),
+        ] {
+            let e = materials_from_toml(&text).unwrap_err();
+            assert!(!e.starts_with(not), "{e}");
+        }
+        // A string with no `=` in it is still named by its key.
+        let e = materials_from_toml(&good.replace("k = 0.25", "k = \"x\"")).unwrap_err();
+        assert!(e.starts_with("line 7: k: got the text"), "{e}");
         // ... in an inline table too.
         let e = materials_from_toml("MyPA = { n = 0.4, k = \"x\" }\n").unwrap_err();
         assert!(e.starts_with("line 1: k: got the text"), "{e}");
