@@ -185,39 +185,30 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
         cancel: deadline.as_ref().map(|d| d.token()).or(hooks.cancel),
         ..*hooks
     };
-    let mut study = moldgate::study_with(&part, &s.study, &hooks).map_err(|e| match e {
-        StudyError::Cancelled { stage, located } if deadline.is_some() => {
-            let hint = s.study.less_time_words(stage);
-            // The method's gate, when the stop came after it was found.
-            let gate = located
-                .as_ref()
-                .and_then(|r| r.gate.as_ref())
-                .map(|g| {
-                    let [x, y, z] = g.point;
-                    format!(
-                        "; the method's gate, found before the stop: ({x:.3}, {y:.3}, {z:.3}) mm"
-                    )
-                })
-                .unwrap_or_default();
-            Failure {
-                located: located.map(|mut r| {
-                    r.input = input.clone();
-                    r.timings.load_s = load_s;
-                    r
-                }),
-                ..Failure::timeout(format!(
-                    "{name}: stopped at --timeout {} s, in the {} stage{}{gate}",
-                    s.timeout.unwrap_or_default().as_secs_f64(),
-                    stage.to_string().replace('_', " "),
-                    if hint.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" ({hint})")
-                    }
-                ))
+    let mut study = moldgate::study_with(&part, &s.study, &hooks).map_err(|e| {
+        let gate = e.gate_before_stop();
+        match e {
+            StudyError::Cancelled { stage, located } if deadline.is_some() => {
+                let hint = s.study.less_time_words(stage);
+                Failure {
+                    located: located.map(|mut r| {
+                        r.set_input(input.clone(), load_s);
+                        r
+                    }),
+                    ..Failure::timeout(format!(
+                        "{name}: stopped at --timeout {} s, in the {} stage{}{gate}",
+                        s.timeout.unwrap_or_default().as_secs_f64(),
+                        stage.to_string().replace('_', " "),
+                        if hint.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" ({hint})")
+                        }
+                    ))
+                }
             }
+            e => failure(&e, &name),
         }
-        e => failure(&e, &name),
     })?;
     drop(deadline);
     study.set_input(input, load_s);

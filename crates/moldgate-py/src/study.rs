@@ -290,6 +290,7 @@ pub fn batch_row(
             let mut s =
                 studied.map_err(|e| {
                     let (status, _) = study_error(&e);
+                    let gate = e.gate_before_stop();
                     match e {
                         // Stopped in the fill stage: the row keeps the gate found before.
                         StudyError::Cancelled { stage, located } => {
@@ -300,17 +301,8 @@ pub fn batch_row(
                                 .replace("no --suitability", "no suitability map")
                                 .replace("no --wall-thickness", "no wall_thickness");
                             let hint = moldgate::study::keyword_words(&hint, "True");
-                            let gate = located
-                                .as_ref()
-                                .and_then(|r| r.gate.as_ref())
-                                .map(|g| {
-                                    let [x, y, z] = g.point;
-                                    format!("; the method's gate, found before the stop: ({x:.3}, {y:.3}, {z:.3}) mm")
-                                })
-                                .unwrap_or_default();
                             let located = located.map(|mut r| {
-                                r.input = input.clone();
-                                r.timings.load_s = load_s;
+                                r.set_input(input.clone(), load_s);
                                 r
                             });
                             (

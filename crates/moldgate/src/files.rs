@@ -189,21 +189,25 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
             return format!("line {}: {key}: {NO_VALUE}", i + 1);
         }
     }
+    // The error's line as a table's header: its name, and whether it opens a list of
+    // tables (`[[X]]`) or one (`[X]`).
+    let header = match line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {
+        Some(inner) => Some((inner.trim(), true)),
+        None => line
+            .strip_prefix('[')
+            .and_then(|l| l.strip_suffix(']'))
+            .map(|inner| (inner.trim(), false)),
+    };
     if is_date(value) {
         what = what.replace("got a table", "got a date");
-    } else if let Some(inner) = line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {
-        key.get_or_insert_with(|| inner.trim().to_string());
-        let inner = inner.trim();
+    } else if let Some((inner, true)) = header {
+        key.get_or_insert_with(|| inner.to_string());
         what = format!("got a list of tables ([[{inner}]]), expected one table ([{inner}])");
-    } else if let Some(inner) = line
-        .strip_prefix('[')
-        .and_then(|l| l.strip_suffix(']'))
-        .filter(|_| what.contains("expected a sequence"))
-    {
-        key.get_or_insert_with(|| inner.trim().to_string());
+    } else if let (Some((inner, false)), true) = (header, what.contains("expected a sequence")) {
+        key.get_or_insert_with(|| inner.to_string());
         what = what.replace(
             "expected a sequence",
-            &format!("expected a list of tables ([[{}]])", inner.trim()),
+            &format!("expected a list of tables ([[{inner}]])"),
         );
     } else if key.is_none() {
         // `gamma_opt.value = 1000`: the dotted key makes gamma_opt a table.
@@ -220,9 +224,9 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
         } else if what.starts_with("duplicate key") && !first.is_empty() {
             // The key given twice: the error is at its second place.
             key = Some(first);
-        } else if let Some(inner) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+        } else if let Some((inner, false)) = header {
             // A table's own fault (a field missing): the table by its name.
-            key = Some(inner.trim().trim_matches('"').to_string());
+            key = Some(inner.trim_matches('"').to_string());
         }
     }
     match key {

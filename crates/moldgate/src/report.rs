@@ -358,6 +358,14 @@ pub struct WallThicknessReport {
 }
 
 impl Report {
+    /// Says where the part came from and how long it took to load: `input`, and
+    /// `timings.load_s` (added to `timings.total_s`).
+    pub fn set_input(&mut self, input: Input, load_s: f64) {
+        self.input = input;
+        self.timings.load_s = load_s;
+        self.timings.total_s += load_s;
+    }
+
     /// Whether the balanced gate is the paper's grid gate while the answer is another (the
     /// aesthetic gate): the grid gate stays the balanced gate when no candidate beats it
     /// by more than a flow cell.

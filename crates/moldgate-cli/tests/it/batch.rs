@@ -739,27 +739,29 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
     let out = moldgate(root, &["locate", "--manifest", "dir.toml"]);
     assert_fails(&out, USAGE, &["dir.toml: line 3: part 1 (a.stl): demold"]);
 
-    // A value of the wrong type names its line and its key.
-    std::fs::write(root.join("type.toml"), "[[part]]\nfile = 3\n").unwrap();
-    let out = moldgate(root, &["locate", "--manifest", "type.toml"]);
-    assert_fails(
-        &out,
-        USAGE,
-        &["type.toml: line 2: file: got the number 3, expected a file path in quotes"],
-    );
-
-    // A single table where a list of them is wanted.
-    std::fs::write(root.join("single.toml"), "[part]\nfile = \"a.stl\"\n").unwrap();
-    let out = moldgate(root, &["locate", "--manifest", "single.toml"]);
-    assert_fails(
-        &out,
-        USAGE,
-        &["single.toml: line 1: part: got a table, expected a list of tables ([[part]])"],
-    );
-
-    std::fs::write(root.join("empty.toml"), "[[part]]\nfile = \"\"\n").unwrap();
-    let out = moldgate(root, &["locate", "--manifest", "empty.toml"]);
-    assert_fails(&out, USAGE, &["empty.toml: line 2: part 1: file is empty"]);
+    // A value of the wrong type names its line and its key; a single table where a list
+    // of them is wanted, and an empty file name, are said as such.
+    for (name, text, says) in [
+        (
+            "type.toml",
+            "[[part]]\nfile = 3\n",
+            "type.toml: line 2: file: got the number 3, expected a file path in quotes",
+        ),
+        (
+            "single.toml",
+            "[part]\nfile = \"a.stl\"\n",
+            "single.toml: line 1: part: got a table, expected a list of tables ([[part]])",
+        ),
+        (
+            "empty.toml",
+            "[[part]]\nfile = \"\"\n",
+            "empty.toml: line 2: part 1: file is empty",
+        ),
+    ] {
+        std::fs::write(root.join(name), text).unwrap();
+        let out = moldgate(root, &["locate", "--manifest", name]);
+        assert_fails(&out, USAGE, &[says]);
+    }
 
     std::fs::write(root.join("none.toml"), "# nothing\n").unwrap();
     let out = moldgate(root, &["locate", "--manifest", "none.toml"]);

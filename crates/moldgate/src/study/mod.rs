@@ -115,6 +115,29 @@ impl std::fmt::Debug for Hooks<'_> {
     }
 }
 
+impl StudyError {
+    /// What a front end adds to its message of a study stopped after its gate was
+    /// located (see [`StudyError::Cancelled`]): "; the method's gate, found before the
+    /// stop: (x, y, z) mm", or nothing.
+    pub fn gate_before_stop(&self) -> String {
+        match self {
+            StudyError::Cancelled {
+                located: Some(r), ..
+            } => r
+                .gate
+                .as_ref()
+                .map(|g| {
+                    let [x, y, z] = g.point;
+                    format!(
+                        "; the method's gate, found before the stop: ({x:.3}, {y:.3}, {z:.3}) mm"
+                    )
+                })
+                .unwrap_or_default(),
+            _ => String::new(),
+        }
+    }
+}
+
 impl Hooks<'_> {
     /// Reports `stage` at `fraction`, then fails if the study was cancelled.
     pub(crate) fn enter(&self, stage: Stage, fraction: f64) -> Result<(), StudyError> {

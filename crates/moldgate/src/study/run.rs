@@ -227,24 +227,31 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         .fill
         .as_ref()
         .is_none_or(|o| o.strategy == flow::Strategy::Paper && o.gates == 1);
+    // The report of the located part, with the automatic direction when chosen: the
+    // study's own, and a stopped study's.
+    let located_report = |auto: Option<crate::undercut::AutoDemold>| {
+        let input = Input {
+            path: None,
+            sample: None,
+            bytes: 0,
+        };
+        let report = Report::new(
+            input,
+            &part.stats,
+            &part.warnings,
+            &s.material,
+            s.radius_source,
+            &analysis,
+            0.0,
+        );
+        match auto {
+            Some(auto) => report.with_demold_auto(auto),
+            None => report,
+        }
+    };
     let stopped = |stage: Stage, wall: Option<&(WallThickness, f64)>, missing: &str| {
         let located = answer_is_located.then(|| {
-            let mut located = Report::new(
-                Input {
-                    path: None,
-                    sample: None,
-                    bytes: 0,
-                },
-                &part.stats,
-                &part.warnings,
-                &s.material,
-                s.radius_source,
-                &analysis,
-                0.0,
-            );
-            if let Some(auto) = &auto {
-                located = located.with_demold_auto(auto.clone());
-            }
+            let mut located = located_report(auto.clone());
             if let Some((w, time_s)) = wall {
                 located = located.with_wall_thickness(w, *time_s);
             }
@@ -328,24 +335,8 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             fraction: fraction(Stage::Report),
         });
     }
-    let input = Input {
-        path: None,
-        sample: None,
-        bytes: 0,
-    };
-    let mut report = Report::new(
-        input,
-        &part.stats,
-        &part.warnings,
-        &s.material,
-        s.radius_source,
-        &analysis,
-        0.0,
-    );
+    let mut report = located_report(auto);
     let locate_total_s = report.timings.total_s;
-    if let Some(auto) = auto {
-        report = report.with_demold_auto(auto);
-    }
     if let Some((w, time_s)) = &wall {
         report = report.with_wall_thickness(w, *time_s);
     }
@@ -535,9 +526,7 @@ impl Study {
     /// Says where the part came from and how long it took to load: the report's `input`,
     /// and `timings.load_s` (added to `timings.total_s`).
     pub fn set_input(&mut self, input: Input, load_s: f64) {
-        self.report.input = input;
-        self.report.timings.load_s = load_s;
-        self.report.timings.total_s += load_s;
+        self.report.set_input(input, load_s);
     }
 
     /// The report as pretty JSON with a final newline (what `locate --json` prints); no

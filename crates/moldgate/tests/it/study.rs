@@ -190,23 +190,7 @@ fn a_study_cancelled_in_its_fill_stops_there() {
 #[test]
 fn a_study_stopped_after_its_gate_gives_the_located_part() {
     let part = sample("cover");
-    let stopped_at = |json: &str, stage: Stage| {
-        let settings = options(json).validate().unwrap();
-        let cancel = Cancel::new();
-        let observer = |p: Progress| {
-            if p.stage == stage {
-                cancel.cancel();
-            }
-        };
-        let hooks = Hooks {
-            progress: Some(&observer),
-            cancel: Some(&cancel),
-        };
-        match study_with(&part, &settings, &hooks) {
-            Err(StudyError::Cancelled { stage, located }) => (stage, located),
-            other => panic!("{other:?}"),
-        }
-    };
+    let stopped_at = |json: &str, stage: Stage| stopped_at(&part, json, stage);
     let unfilled = study(&part, &options(r#"{ "wall_thickness": true }"#)).unwrap();
     let expected = unfilled.report();
     let json = r#"{ "fill": true, "wall_thickness": true }"#;
@@ -256,6 +240,12 @@ fn a_study_stopped_after_its_gate_gives_the_located_part() {
 /// The stage a study of the cover sample with options `json` stops at when its token is
 /// set as `stage` starts.
 fn cancelled_as(json: &str, stage: Stage) -> Stage {
+    stopped_at(&sample("cover"), json, stage).0
+}
+
+/// The stage a study of `part` with options `json` stops at when its token is set as
+/// `stage` starts, and the located part it gives.
+fn stopped_at(part: &LoadedMesh, json: &str, stage: Stage) -> (Stage, Option<Box<Report>>) {
     let settings = options(json).validate().unwrap();
     let cancel = Cancel::new();
     let observer = |p: Progress| {
@@ -267,8 +257,8 @@ fn cancelled_as(json: &str, stage: Stage) -> Stage {
         progress: Some(&observer),
         cancel: Some(&cancel),
     };
-    match study_with(&sample("cover"), &settings, &hooks) {
-        Err(StudyError::Cancelled { stage, .. }) => stage,
+    match study_with(part, &settings, &hooks) {
+        Err(StudyError::Cancelled { stage, located }) => (stage, located),
         other => panic!("{other:?}"),
     }
 }
