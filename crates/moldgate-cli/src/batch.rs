@@ -678,13 +678,29 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
         let no_gate = rows.iter().filter(|r| r.exit_code == 4).count();
         let failed = rows.len() - skipped - ok - no_gate;
         let timed_out = rows.iter().filter(|r| r.status == Status::Timeout).count();
+        let parts = rows.len() - skipped;
         let _ = write!(
             out,
-            "{} parts: {ok} with a gate, {no_gate} without, {failed} failed",
-            rows.len() - skipped
+            "{parts} part{}: {ok} with a gate, {no_gate} without, {failed} failed",
+            if parts == 1 { "" } else { "s" }
         );
         if timed_out > 0 {
-            let _ = write!(out, " ({timed_out} stopped at --timeout)");
+            // A part stopped after its gate was located keeps that gate in its row.
+            let kept = rows
+                .iter()
+                .filter(|r| r.status == Status::Timeout && r.gate_x_mm.is_some())
+                .count();
+            let _ = match kept {
+                0 => write!(out, " ({timed_out} stopped at --timeout)"),
+                k if k == timed_out => write!(
+                    out,
+                    " ({timed_out} stopped at --timeout, each with the method's gate found before the stop)"
+                ),
+                k => write!(
+                    out,
+                    " ({timed_out} stopped at --timeout, {k} of them with the method's gate found before the stop)"
+                ),
+            };
         }
         if skipped > 0 {
             let _ = write!(out, ", {skipped} skipped (not regular files)");

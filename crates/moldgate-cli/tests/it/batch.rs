@@ -680,7 +680,18 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
     );
     assert!(
         stdout(&out)
-            .contains("1 parts: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout)"),
+            .contains("1 part: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout)"),
+        "{}",
+        stdout(&out)
+    );
+    // A part stopped after its gate was located keeps it, and the last line says so.
+    let args = [&["locate", "m", "--timeout", "0.2"][..], &single].concat();
+    let out = moldgate(root, &args);
+    assert_code(&out, USAGE);
+    assert!(
+        stdout(&out).contains(
+            "1 part: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout, each with the method's gate found before the stop)"
+        ),
         "{}",
         stdout(&out)
     );
