@@ -88,7 +88,8 @@ pub enum ObjectiveArg {
 pub enum ColorByArg {
     /// Flow length from the gate, mm.
     FlowLength,
-    /// Estimated fill time from the gate, s.
+    /// Estimated fill time from the gate, s (`fill-time` names it too).
+    #[value(alias = "fill-time")]
     FillOrder,
     /// Wall thickness, mm.
     Wall,

@@ -1,6 +1,7 @@
 //! Reading a request body within the limits: refused by its `Content-Length` before any
 //! byte is read when it is too large, cut at the limit when it streams, and given a
-//! deadline so a client that sends a byte a second cannot hold a slot.
+//! deadline so a client that sends a byte a second cannot hold a slot; the bytes held are
+//! taken from the server's upload budget as they arrive.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -9,6 +10,7 @@ use std::time::Duration;
 use axum::body::{Body, Bytes};
 use axum::http::{header, HeaderMap, StatusCode};
 use http_body_util::BodyExt;
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::error::ApiError;
 
@@ -52,18 +54,47 @@ pub fn check_length(headers: &HeaderMap, max: u64) -> Result<Option<u64>, ApiErr
     Ok(Some(declared))
 }
 
-/// Reads the whole body: at most `max` bytes, all of it within `timeout`. `declared` (the
-/// checked `Content-Length`) sizes the buffer once, so a large upload is not copied as it
-/// grows.
+/// The body bytes a request holds of the server's upload budget (a permit a byte), taken
+/// as they arrive and given back when dropped.
+pub struct Held(Option<OwnedSemaphorePermit>);
+
+impl Held {
+    /// Takes `n` more bytes of `budget`, or says the server is busy.
+    fn take(&mut self, budget: &Arc<Semaphore>, n: usize, total: usize) -> Result<(), ApiError> {
+        if n == 0 {
+            return Ok(());
+        }
+        let more = u32::try_from(n)
+            .ok()
+            .and_then(|n| budget.clone().try_acquire_many_owned(n).ok())
+            .ok_or_else(|| {
+                ApiError::busy(format!(
+                    "the server is busy receiving other uploads: they hold its upload memory of {} MiB ((--analyses + --queue) x --max-upload); try again later",
+                    total >> 20
+                ))
+            })?;
+        match &mut self.0 {
+            Some(held) => held.merge(more),
+            none => *none = Some(more),
+        }
+        Ok(())
+    }
+}
+
+/// Reads the whole body: at most `max` bytes, all of it within `timeout`, each chunk's
+/// bytes taken from `budget` (of `total` bytes) as it arrives. `declared` (the checked
+/// `Content-Length`) sizes the buffer once, so a large upload is not copied as it grows
+/// (its pages are the system's only once written).
 pub async fn read(
     body: Body,
     declared: Option<u64>,
-    max: u64,
-    timeout: Duration,
+    (max, timeout): (u64, Duration),
+    (budget, total): (&Arc<Semaphore>, usize),
     counter: &BytesIn,
-) -> Result<Bytes, ApiError> {
+) -> Result<(Bytes, Held), ApiError> {
     let deadline = tokio::time::Instant::now() + timeout;
     let mut body = body;
+    let mut held = Held(None);
     let mut out = Vec::with_capacity(declared.unwrap_or(0).min(max) as usize);
     loop {
         let frame = match tokio::time::timeout_at(deadline, body.frame()).await {
@@ -98,8 +129,9 @@ pub async fn read(
             if out.len() as u64 + data.len() as u64 > max {
                 return Err(too_large(max, "body"));
             }
+            held.take(budget, data.len(), total)?;
             out.extend_from_slice(&data);
         }
     }
-    Ok(Bytes::from(out))
+    Ok((Bytes::from(out), held))
 }

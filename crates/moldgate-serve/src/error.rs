@@ -9,6 +9,9 @@ use moldgate::study::StudyError;
 use moldgate::{LoadError, OptionsError};
 use serde_json::{json, Value};
 
+/// The seconds a busy server's 503 asks the client to wait before it tries again.
+pub const RETRY_AFTER_S: &str = "5";
+
 /// An error answer: its status, a kind (one word, stable), a message for people, and
 /// where the problem is (an option, a line or byte of the mesh, a header) when known.
 #[derive(Debug, Clone)]
@@ -44,6 +47,12 @@ impl ApiError {
         self
     }
 
+    /// 503: the server is busy; the answer asks the client to come back in a few
+    /// seconds (`Retry-After`).
+    pub fn busy(message: impl Into<String>) -> ApiError {
+        ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "busy", message)
+    }
+
     /// 400: an option that cannot be read or is out of range.
     pub fn options(message: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::BAD_REQUEST, "options", message)
@@ -66,9 +75,9 @@ impl ApiError {
         };
         let e422 = ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message);
         match e {
-            LoadError::Syntax { place, .. } | LoadError::NonFinite { place, .. } => {
-                e422.at(place.to_string())
-            }
+            LoadError::Syntax { place, .. }
+            | LoadError::NonFinite { place, .. }
+            | LoadError::OutOfRange { place, .. } => e422.at(place.to_string()),
             LoadError::Truncated { offset, .. } => e422.at(format!("byte {offset}")),
             LoadError::CountMismatch { expected, .. } => e422.at(format!("byte {expected}")),
             LoadError::TruncatedHeader { .. } => e422.at("byte 0"),
@@ -111,7 +120,10 @@ impl ApiError {
             StudyError::Fill(FillError::GateOffPart(..)) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message)
             }
-            StudyError::Fill(_) => ApiError::options(message),
+            StudyError::Fill(f) => match f.field() {
+                Some(field) => ApiError::options(message).at(field),
+                None => ApiError::options(message),
+            },
             StudyError::Demold(_) => {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message).at("demold")
             }
@@ -142,11 +154,18 @@ impl ApiError {
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body = serde_json::to_vec(&self.body()).unwrap_or_default();
-        (
+        let mut response = (
             self.status,
             [(axum::http::header::CONTENT_TYPE, "application/json")],
             body,
         )
-            .into_response()
+            .into_response();
+        if self.status == StatusCode::SERVICE_UNAVAILABLE {
+            response.headers_mut().insert(
+                axum::http::header::RETRY_AFTER,
+                axum::http::HeaderValue::from_static(RETRY_AFTER_S),
+            );
+        }
+        response
     }
 }

@@ -12,9 +12,12 @@
 //! - at most [`Limits::connections`] connections are open at once; more wait in the
 //!   listen queue until one closes;
 //! - at most [`Limits::analyses`] studies run at once, on blocking threads (never on the
-//!   async workers), with at most [`Limits::queue`] more admitted and waiting; a request
-//!   beyond that is refused at once with 503, before its body is read, so the memory held
-//!   by uploads is at most (analyses + queue) x max upload;
+//!   async workers), with at most [`Limits::queue`] more admitted and waiting; a study is
+//!   admitted once its body is read (a slow upload holds no place), and a request that
+//!   finds every place taken is refused with 503, before its body is read when they are
+//!   taken as it arrives;
+//! - the bodies held (being received or admitted) are at most (analyses + queue) x max
+//!   upload bytes in all, counted as they arrive (503 past it);
 //! - a study past [`Limits::timeout`] is cancelled through [`moldgate::study::Hooks`] and
 //!   answered with 504;
 //! - bad input is a JSON error with a 4xx status; a panic in a study is caught, logged and
@@ -134,10 +137,17 @@ impl std::error::Error for ServeError {}
 /// The state every handler shares.
 pub(crate) struct App {
     pub limits: Limits,
-    /// Permits for the studies admitted (running or waiting): analyses + queue.
+    /// Permits for the studies admitted (running or waiting): analyses + queue. A study is
+    /// admitted once its body is read.
     pub admitted: Arc<Semaphore>,
     /// Permits for the studies running.
     pub running: Arc<Semaphore>,
+    /// The bytes of request bodies the server holds (being received, or admitted), a
+    /// permit a byte: [`App::upload_budget`] in all. A body takes its bytes as they
+    /// arrive, so a slow upload holds only what it sent.
+    pub uploads: Arc<Semaphore>,
+    /// Requests whose body is being received.
+    pub receiving: std::sync::atomic::AtomicUsize,
 }
 
 impl App {
@@ -145,8 +155,30 @@ impl App {
         App {
             admitted: Arc::new(Semaphore::new(limits.analyses + limits.queue)),
             running: Arc::new(Semaphore::new(limits.analyses)),
+            uploads: Arc::new(Semaphore::new(App::upload_budget(&limits))),
+            receiving: Default::default(),
             limits,
         }
+    }
+
+    /// The bytes of bodies held at most: a full upload for each study that may be
+    /// admitted, (analyses + queue) x max upload, the bound the admission kept when it
+    /// came before the upload.
+    pub fn upload_budget(limits: &Limits) -> usize {
+        let places = (limits.analyses as u64).saturating_add(limits.queue as u64);
+        let bytes = places.saturating_mul(limits.max_upload);
+        usize::try_from(bytes)
+            .unwrap_or(usize::MAX)
+            .min(Semaphore::MAX_PERMITS)
+    }
+
+    /// Studies running, and admitted and waiting for a slot.
+    pub fn busy(&self) -> (usize, usize) {
+        let l = &self.limits;
+        let running = l.analyses - self.running.available_permits().min(l.analyses);
+        let admitted =
+            (l.analyses + l.queue) - self.admitted.available_permits().min(l.analyses + l.queue);
+        (running, admitted.saturating_sub(running))
     }
 }
 

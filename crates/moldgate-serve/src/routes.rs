@@ -244,13 +244,11 @@ async fn openapi() -> Response {
 
 /// `GET /healthz`: alive, and how busy.
 async fn healthz(State(app): State<Arc<App>>) -> Response {
-    let l = &app.limits;
-    let running = l.analyses - app.running.available_permits().min(l.analyses);
-    let admitted =
-        (l.analyses + l.queue) - app.admitted.available_permits().min(l.analyses + l.queue);
+    let (running, waiting) = app.busy();
     json_response(json!({
         "status": "ok",
         "running": running,
-        "waiting": admitted.saturating_sub(running),
+        "waiting": waiting,
+        "receiving": app.receiving.load(std::sync::atomic::Ordering::Relaxed),
     }))
 }

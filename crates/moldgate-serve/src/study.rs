@@ -4,6 +4,7 @@
 
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -99,6 +100,27 @@ struct Controls {
 /// Splits the query into the service's own parameters and the study options (as a JSON
 /// object, see [`options_object`]).
 fn parse_query(query: &str) -> Result<(Controls, Vec<(String, String)>), ApiError> {
+    // A name or value whose percent-encoded bytes are not UTF-8 would be read with
+    // replacement characters: refused, by its parameter, before that.
+    for pair in query.split('&') {
+        let (name, value) = pair.split_once('=').unwrap_or((pair, ""));
+        let name_text = std::str::from_utf8(&percent_decoded(name)).map(str::to_string);
+        match (name_text, std::str::from_utf8(&percent_decoded(value))) {
+            (Ok(_), Ok(_)) => {}
+            (Ok(name), Err(_)) => {
+                return Err(ApiError::options(format!(
+                    "the value of {name} is not UTF-8 text (its percent-encoded bytes make no characters: '{value}')"
+                ))
+                .at(name))
+            }
+            (Err(_), _) => {
+                return Err(ApiError::options(format!(
+                    "the query parameter name '{name}' is not UTF-8 text (its percent-encoded bytes make no characters)"
+                ))
+                .at("query"))
+            }
+        }
+    }
     let pairs: Vec<(String, String)> = serde_urlencoded::from_str(query)
         .map_err(|e| ApiError::options(format!("the query cannot be read: {e}")).at("query"))?;
     let mut controls = Controls {
@@ -109,6 +131,13 @@ fn parse_query(query: &str) -> Result<(Controls, Vec<(String, String)>), ApiErro
     let mut seen = std::collections::HashSet::new();
     let mut rest = Vec::new();
     for (k, v) in pairs {
+        if k.is_empty() {
+            return Err(ApiError::options(format!(
+                "a query parameter has no name (before '={}'); parameters are name=value, joined by &",
+                moldgate::error::excerpt(v.as_bytes())
+            ))
+            .at("query"));
+        }
         let own = matches!(k.as_str(), "format" | "output" | "units");
         if own && !seen.insert(k.clone()) {
             return Err(ApiError::options(format!("{k} is given more than once")).at(k));
@@ -125,6 +154,31 @@ fn parse_query(query: &str) -> Result<(Controls, Vec<(String, String)>), ApiErro
         }
     }
     Ok((controls, rest))
+}
+
+/// The bytes of a query's name or value once decoded (`+` a space, `%XX` a byte; a `%`
+/// not followed by two hexadecimal digits stays as it is, as the form decoding reads it).
+fn percent_decoded(text: &str) -> Vec<u8> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        match bytes[i] {
+            b'+' => out.push(b' '),
+            b'%' if i + 2 < bytes.len() => match (hex(bytes[i + 1]), hex(bytes[i + 2])) {
+                (Some(h), Some(l)) => {
+                    out.push((h * 16 + l) as u8);
+                    i += 3;
+                    continue;
+                }
+                _ => out.push(b'%'),
+            },
+            b => out.push(b),
+        }
+        i += 1;
+    }
+    out
 }
 
 /// The query's option pairs as a JSON object for [`StudyOptions`]'s serde: a list field
@@ -473,10 +527,8 @@ fn work(
         let mut e = ApiError::new(
             StatusCode::UNPROCESSABLE_ENTITY,
             "no_gate",
-            format!(
-                "no gate: {}",
-                moldgate::study::keyword_words(reason, "true")
-            ),
+            // The reason says it ("no node qualifies for a gate: ...").
+            moldgate::study::keyword_words(reason, "true"),
         );
         e.report = serde_json::to_value(report.in_keyword_words("true")).ok();
         return Err(e);
@@ -520,6 +572,22 @@ fn settings(
     options.validate().map_err(|e| ApiError::study(&e))
 }
 
+/// One request counted among those whose body is being received, until dropped.
+struct Receiving<'a>(&'a AtomicUsize);
+
+impl<'a> Receiving<'a> {
+    fn new(count: &'a AtomicUsize) -> Self {
+        count.fetch_add(1, Ordering::Relaxed);
+        Receiving(count)
+    }
+}
+
+impl Drop for Receiving<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
 /// `POST /v1/study`.
 pub async fn handler(State(app): State<Arc<App>>, req: Request) -> Response {
     match handle(app, req).await {
@@ -530,18 +598,21 @@ pub async fn handler(State(app): State<Arc<App>>, req: Request) -> Response {
 
 async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
     let limits = &app.limits;
-    // Admission first: a request beyond the running studies and the queue is refused
-    // before a byte of its body is read.
-    let admitted = app.admitted.clone().try_acquire_owned().map_err(|_| {
-        ApiError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "busy",
-            format!(
-                "the server is busy: {} studies running and {} waiting (--analyses, --queue); try again later",
-                limits.analyses, limits.queue
-            ),
-        )
-    })?;
+    // A study is admitted once its body is read, so that a slow upload holds no place; a
+    // request that finds every place taken as it arrives is refused before a byte of its
+    // body is read.
+    let busy = |app: &App| {
+        let (running, waiting) = app.busy();
+        ApiError::busy(format!(
+            "the server is busy: {running} {} running and {waiting} waiting, its most (--analyses {}, --queue {}); try again later",
+            if running == 1 { "study" } else { "studies" },
+            limits.analyses,
+            limits.queue
+        ))
+    };
+    if app.admitted.available_permits() == 0 {
+        return Err(busy(&app));
+    }
     let declared = body::check_length(req.headers(), limits.max_upload)?;
     let (controls, pairs) = parse_query(req.uri().query().unwrap_or(""))?;
     let counter = req
@@ -559,14 +630,24 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         Some(_) => None,
     };
     let (_, body) = req.into_parts();
-    let bytes = body::read(
-        body,
-        declared,
-        limits.max_upload,
-        limits.read_timeout,
-        &counter,
-    )
-    .await?;
+    let budget = (&app.uploads, App::upload_budget(limits));
+    let (bytes, held) = {
+        // Counted while it is read, however the reading ends (a client gone drops it).
+        let _receiving = Receiving::new(&app.receiving);
+        body::read(
+            body,
+            declared,
+            (limits.max_upload, limits.read_timeout),
+            budget,
+            &counter,
+        )
+        .await?
+    };
+    let admitted = app
+        .admitted
+        .clone()
+        .try_acquire_owned()
+        .map_err(|_| busy(&app))?;
     let (upload, settings) = match (boundary, early) {
         (Some(boundary), _) => {
             let (upload, object) = multipart(bytes, boundary, controls.format.as_deref()).await?;
@@ -602,17 +683,30 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
             ),
         )
     };
+    // A study that waits for a slot past the time limit never starts: said so.
+    let never_started = || {
+        ApiError::new(
+            StatusCode::GATEWAY_TIMEOUT,
+            "timeout",
+            format!(
+                "the study waited {} s (--timeout) for an analysis slot and did not start: the server's {} slots (--analyses) were taken by other studies all that time; try again later",
+                limits.timeout.as_secs_f64(),
+                limits.analyses
+            ),
+        )
+    };
     let running = tokio::time::timeout_at(deadline, app.running.clone().acquire_owned())
         .await
-        .map_err(|_| timed_out())?
+        .map_err(|_| never_started())?
         .map_err(|_| ApiError::internal("the service is shutting down"))?;
     let cancel = Cancel::new();
     let flag = cancel.clone();
     let units = controls.units;
     let output = controls.output;
     let task = tokio::task::spawn_blocking(move || {
-        // Both permits live until the study really ends, even after a 504 was answered.
-        let _permits = (admitted, running);
+        // The permits (and the body's bytes) live until the study really ends, even after
+        // a 504 was answered.
+        let _permits = (admitted, running, held);
         let started = Instant::now();
         let result = guarded(|| work(upload, units, &settings, output, &flag));
         // After its 504, how long the study held its slot, and where it stopped.
@@ -641,6 +735,20 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn query_text_is_decoded_as_the_form_decoding_reads_it() {
+        assert_eq!(percent_decoded("a+b%2C%2c%zz%4"), b"a b,,%zz%4");
+        assert_eq!(percent_decoded("%FF%FE"), [0xff, 0xfe]);
+        assert_eq!(percent_decoded(""), b"");
+        // Every query the form decoding reads as UTF-8 passes; one that is not is refused
+        // by its parameter.
+        assert!(parse_query("demold=%2By&material=P%C3%A9").is_ok());
+        let Err(e) = parse_query("gates=2&demold=%C3") else {
+            panic!("a value that is not UTF-8 was read");
+        };
+        assert_eq!(e.place.as_deref(), Some("demold"));
+    }
 
     #[test]
     fn a_panic_in_a_study_is_a_500_internal_error() {

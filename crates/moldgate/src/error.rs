@@ -248,15 +248,15 @@ pub enum OptionsError {
         /// The largest value accepted.
         limit: u64,
     },
-    /// The rays' hit records of the largest grid allowed would take more memory than the
-    /// budget.
+    /// The rays' hit records of the part's grid would take more memory than the budget
+    /// (checked once the grid is laid, before its rays).
     #[error(
-        "a node limit of {max_nodes} with {circle_points} circle points can need {} MiB for the ray hits (up to {runs} sets of one 24-byte and {circle_points} 8-byte records a node), more than the budget of {} MiB; lower the node limit (--max-nodes) to at most {nodes_within} or use fewer circle points",
+        "a grid of {nodes} nodes with {circle_points} circle points can need {} MiB for the ray hits (up to {runs} sets of one 24-byte and {circle_points} 8-byte records a node), more than the budget of {} MiB; use at most {points_within} circle points, or a wider spacing (at most {nodes_within} nodes)",
         .bytes >> 20, .budget >> 20
     )]
     RayMemory {
-        /// The node limit.
-        max_nodes: u64,
+        /// The grid's nodes.
+        nodes: u64,
         /// Points on each node's circle.
         circle_points: u64,
         /// Sets of hits drawn apart (one per thread, up to a limit).
@@ -265,7 +265,9 @@ pub enum OptionsError {
         bytes: u64,
         /// The budget in bytes.
         budget: u64,
-        /// The largest node limit within the budget with these circle points.
+        /// The most circle points within the budget on this grid.
+        points_within: u64,
+        /// The largest grid within the budget with these circle points.
         nodes_within: u64,
     },
     /// The automatic spacing gives too many nodes: the part is too large for its gate (most
@@ -325,7 +327,7 @@ impl OptionsError {
             }
             OptionsError::GridTooLarge { .. } => Some("spacing"),
             OptionsError::GridOffset(_) => Some("grid_offset"),
-            OptionsError::RayMemory { .. } => Some("max_nodes"),
+            OptionsError::RayMemory { .. } => Some("circle_points"),
             OptionsError::BadRegion(_) => Some("keep_out"),
             OptionsError::ZeroDirection(..) | OptionsError::BadDirection(_) => Some("demold"),
             _ => None,
@@ -400,6 +402,10 @@ fn length_text(x: f64) -> String {
 pub(crate) fn figures(x: f64) -> String {
     if !(x.is_finite() && x != 0.0) {
         return x.to_string();
+    }
+    // Past a part's largest coordinate, the exponent says more than its digits.
+    if x.abs() >= 1e9 {
+        return format!("{x:.3e}");
     }
     let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
     let text = format!("{x:.decimals$}");

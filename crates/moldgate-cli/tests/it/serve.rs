@@ -319,6 +319,15 @@ fn obj_and_ply_bodies_are_read_by_their_content_type() {
         b"v 0 0 0\nv 1 0\nf 1 2 3\n",
     );
     assert_eq!(assert_error(&s, &bad, 422, "mesh")["where"], "line 2");
+    // A coordinate beyond the limit is placed as a NaN one is.
+    let far = request(
+        s.addr,
+        "POST",
+        "/v1/study",
+        &[("content-type", "model/obj")],
+        b"v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    assert_eq!(assert_error(&s, &far, 422, "mesh")["where"], "line 2");
 }
 
 #[test]
@@ -435,6 +444,25 @@ fn bad_options_are_400_with_the_librarys_message() {
             "raise the node limit (max_nodes)",
         ),
         ("flat_tol=-1", "flat_tol", "flat"),
+        // The fill's cell, too small for its limits or too large for the part.
+        (
+            "fill=true&cell=0.001",
+            "cell",
+            "choose a cell of at least",
+        ),
+        (
+            "fill=true&cell=1e300",
+            "cell",
+            "a cell of 1.000e300 mm is larger than",
+        ),
+        // A parameter without a name, and text that is not UTF-8.
+        ("=1", "query", "a query parameter has no name (before '=1')"),
+        (
+            "material=%FF%FE",
+            "material",
+            "the value of material is not UTF-8 text (its percent-encoded bytes make no characters: '%FF%FE')",
+        ),
+        ("%FF=1", "query", "the query parameter name '%FF' is not UTF-8 text"),
     ];
     for (query, place, needle) in cases {
         let r = study_stl(s.addr, query, &stl);
@@ -462,7 +490,10 @@ fn keep_outs_that_forbid_everything_are_422_with_the_reason_and_the_report() {
         &sample_stl("plate"),
     );
     let e = assert_error(&s, &r, 422, "no_gate");
-    assert!(e["message"].as_str().unwrap().contains("kept out"), "{e}");
+    let message = e["message"].as_str().unwrap();
+    assert!(message.contains("kept out"), "{e}");
+    // The reason once, as the report gives it.
+    assert_eq!(message, r.json()["report"]["no_gate_reason"], "{e}");
     assert!(r.json()["report"]["counts"].is_object());
 }
 
@@ -838,42 +869,120 @@ fn connections_over_the_bound_wait_until_one_closes() {
     assert_alive(s.addr);
 }
 
+/// Opens `n` uploads of `body`'s length that send only its first `sent` bytes and hold.
+fn held_uploads(
+    addr: std::net::SocketAddr,
+    body: &[u8],
+    sent: usize,
+    n: usize,
+) -> Vec<std::net::TcpStream> {
+    (0..n)
+        .map(|_| {
+            let mut c = connect(addr);
+            c.write_all(
+                head(
+                    "POST",
+                    "/v1/study",
+                    &[("content-type", "model/stl")],
+                    Some(body.len()),
+                )
+                .as_bytes(),
+            )
+            .unwrap();
+            c.write_all(&body[..sent]).unwrap();
+            c
+        })
+        .collect()
+}
+
+/// Waits until `/healthz` says `key` is `value` (at most 30 s).
+fn until_health(addr: std::net::SocketAddr, key: &str, value: u64) {
+    let t = Instant::now();
+    while get(addr, "/healthz").json()[key] != value {
+        assert!(t.elapsed() < Duration::from_secs(30), "{key} never {value}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 #[test]
-fn requests_beyond_the_queue_are_503() {
+fn slow_uploads_hold_no_place_of_the_queue() {
     let s = start(&["--analyses", "1", "--queue", "1"]);
     let stl = sample_stl("plate");
-    // Two uploads that never finish hold the one running slot and the one queue slot.
-    let mut held = Vec::new();
-    for _ in 0..2 {
-        let mut c = connect(s.addr);
-        c.write_all(
-            head(
-                "POST",
-                "/v1/study",
-                &[("content-type", "model/stl")],
-                Some(stl.len()),
-            )
-            .as_bytes(),
-        )
-        .unwrap();
-        c.write_all(&stl[..100]).unwrap();
-        held.push(c);
-    }
-    std::thread::sleep(Duration::from_millis(300));
+    // Uploads that never finish are received, not admitted: others are served.
+    let held = held_uploads(s.addr, &stl, 100, 4);
+    until_health(s.addr, "receiving", 4);
+    let health = get(s.addr, "/healthz").json();
+    assert_eq!(
+        (&health["running"], &health["waiting"]),
+        (&0.into(), &0.into()),
+        "{health}"
+    );
     let r = study_stl(s.addr, "", &stl);
-    assert_error(&s, &r, 503, "busy");
-    // When they go, studies are admitted again.
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
     drop(held);
-    let t = Instant::now();
-    loop {
-        let r = study_stl(s.addr, "", &stl);
-        if r.status == 200 {
-            break;
-        }
-        assert_eq!(r.status, 503);
-        assert!(t.elapsed() < Duration::from_secs(10));
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    until_health(s.addr, "receiving", 0);
+}
+
+#[test]
+fn studies_beyond_the_queue_are_503_and_one_that_waits_past_its_time_never_starts() {
+    let s = start(&["--analyses", "1", "--queue", "1", "--timeout", "0.4"]);
+    let stl = sample_stl("cover");
+    let addr = s.addr;
+    let send = |query: &'static str| {
+        let stl = stl.clone();
+        std::thread::spawn(move || study_stl(addr, query, &stl))
+    };
+    // The first holds the one slot past the time limit: its grid's rays (about 1.5
+    // million nodes, half a second or more) are a stage that runs to its end.
+    let first = send("spacing=0.08");
+    until_health(s.addr, "running", 1);
+    // The second takes the one queue place, and waits.
+    let second = send("");
+    until_health(s.addr, "waiting", 1);
+    let r = study_stl(s.addr, "", &stl);
+    let e = assert_error(&s, &r, 503, "busy");
+    assert_eq!(
+        e["message"],
+        "the server is busy: 1 study running and 1 waiting, its most (--analyses 1, --queue 1); try again later"
+    );
+    assert_eq!(r.header("retry-after"), Some("5"));
+    let first = first.join().unwrap();
+    assert_eq!(first.status, 504);
+    // The second's time ran out before the slot was free: it never started.
+    let second = second.join().unwrap();
+    let e = assert_error(&s, &second, 504, "timeout");
+    assert!(
+        e["message"].as_str().unwrap().starts_with(
+            "the study waited 0.4 s (--timeout) for an analysis slot and did not start"
+        ),
+        "{e}"
+    );
+    // When the slot is free, studies are admitted again.
+    until_health(s.addr, "running", 0);
+    assert_eq!(study_stl(s.addr, "", &stl).status, 200);
+}
+
+#[test]
+fn uploads_past_the_upload_memory_are_503() {
+    // One MiB uploads, one slot and one queue place: 2 MiB of bodies held at most.
+    let s = start(&["--analyses", "1", "--queue", "1", "--max-upload", "1"]);
+    let body = vec![b' '; 1 << 20];
+    let held = held_uploads(s.addr, &body, (1 << 20) - 1, 2);
+    until_health(s.addr, "receiving", 2);
+    // Let the server read what was sent.
+    std::thread::sleep(Duration::from_millis(500));
+    let r = study_stl(s.addr, "", &sample_stl("plate"));
+    let e = assert_error(&s, &r, 503, "busy");
+    assert!(
+        e["message"].as_str().unwrap().starts_with(
+            "the server is busy receiving other uploads: they hold its upload memory of 2 MiB"
+        ),
+        "{e}"
+    );
+    assert_eq!(r.header("retry-after"), Some("5"));
+    drop(held);
+    until_health(s.addr, "receiving", 0);
+    assert_eq!(study_stl(s.addr, "", &sample_stl("plate")).status, 200);
 }
 
 #[test]

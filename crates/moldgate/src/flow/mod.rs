@@ -310,17 +310,22 @@ fn choose_cell(
     let diagonal = mesh.bounds().diagonal();
     if let Some(h) = options.cell_mm {
         if !(h.is_finite() && h > 0.0) {
-            return Err(FillError::Option(format!(
-                "the cell size must be a positive number, got {h}"
-            )));
+            return Err(FillError::option(
+                "cell",
+                format!("the cell size must be a positive number, got {h}"),
+            ));
         }
         if h > MAX_CELL_OF_DIAGONAL * diagonal {
-            return Err(FillError::Option(format!(
-                "a cell of {h} mm is larger than {} of the part's diagonal ({:.3} mm): at most {:.3} mm",
-                MAX_CELL_OF_DIAGONAL,
-                diagonal,
-                MAX_CELL_OF_DIAGONAL * diagonal
-            )));
+            return Err(FillError::option(
+                "cell",
+                format!(
+                    "a cell of {} mm is larger than {} of the part's diagonal ({:.3} mm): at most {:.3} mm",
+                    crate::error::figures(h),
+                    MAX_CELL_OF_DIAGONAL,
+                    diagonal,
+                    MAX_CELL_OF_DIAGONAL * diagonal
+                ),
+            ));
         }
         return match check_limits(mesh, body_of, h, sums, options) {
             Ok(()) => Ok((h, None)),
@@ -352,9 +357,10 @@ fn choose_cell(
     }
     let mut h = (nominal_wall_mm / 2.0).min(diagonal / 120.0);
     if !(h.is_finite() && h > 0.0) {
-        return Err(FillError::Option(format!(
-            "no cell size fits a part of diagonal {diagonal} mm"
-        )));
+        return Err(FillError::option(
+            "cell",
+            format!("no cell size fits a part of diagonal {diagonal} mm"),
+        ));
     }
     // The grid's cell count falls as h^-3: jump close, then step.
     let n = Voxels::cells_for(&mesh.bounds(), h);
@@ -391,7 +397,7 @@ fn coarsen(
     }
     Err((
         h,
-        first.unwrap_or_else(|| FillError::Option("no cell size keeps the limits".into())),
+        first.unwrap_or_else(|| FillError::option("cell", "no cell size keeps the limits")),
     ))
 }
 
@@ -2688,9 +2694,14 @@ pub enum FillError {
         /// Candidates available.
         available: usize,
     },
-    /// Bad option.
-    #[error("{0}")]
-    Option(String),
+    /// Bad option: the option at fault (`cell`, `gates`) and what is wrong.
+    #[error("{message}")]
+    Option {
+        /// The option, as a study option's name.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
     /// The caller's cancellation token was set while the analysis ran.
     #[error("the fill analysis was cancelled")]
     Cancelled,
@@ -2711,6 +2722,24 @@ pub enum FillError {
 }
 
 impl FillError {
+    /// A bad option `field`: `message`.
+    pub(crate) fn option(field: &'static str, message: impl Into<String>) -> Self {
+        FillError::Option {
+            field,
+            message: message.into(),
+        }
+    }
+
+    /// The study option at fault, when one is: the cell size for a cell or a count of
+    /// the work it sets over its limit.
+    pub fn field(&self) -> Option<&'static str> {
+        match self {
+            FillError::Option { field, .. } => Some(field),
+            FillError::TooLarge { .. } => Some("cell"),
+            _ => None,
+        }
+    }
+
     /// The refusal of `count` of `what` at cells of `cell_mm`, over `limit`; the count
     /// grows as the cell's side to the power `-power` (3 for cells, 2 for surface samples),
     /// which gives the least side that keeps the limit (with 5 % to spare, for the grid's
@@ -2973,10 +3002,13 @@ pub fn analyse_prepared(
         .map_err(|e| FillError::NoGate(e.to_string()))?
         .point();
     if options.gates > options.flow.max_gates {
-        return Err(FillError::Option(format!(
-            "{} gates asked for, over the limit of {}",
-            options.gates, options.flow.max_gates
-        )));
+        return Err(FillError::option(
+            "gates",
+            format!(
+                "{} gates asked for, over the limit of {}",
+                options.gates, options.flow.max_gates
+            ),
+        ));
     }
     // The marches below keep their working arrays per thread until the analysis ends.
     let _arrays = march::KeepArrays::new();

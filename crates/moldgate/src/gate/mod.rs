@@ -247,23 +247,30 @@ impl LocateOptions {
                 });
             }
         }
-        // The worst case: the largest grid allowed, with the most sets of hits any machine
-        // draws, so that options valid here are valid everywhere.
-        let per_node = 24 + 8 * self.circle_points as u64;
-        let runs = projection::MAX_RUNS as u64;
-        let bytes = self.max_nodes as u64 * per_node * runs;
-        if bytes > RAY_MEMORY_BUDGET_BYTES {
-            return Err(OptionsError::RayMemory {
-                max_nodes: self.max_nodes as u64,
-                circle_points: self.circle_points as u64,
-                runs,
-                bytes,
-                budget: RAY_MEMORY_BUDGET_BYTES,
-                nodes_within: RAY_MEMORY_BUDGET_BYTES / (per_node * runs),
-            });
-        }
         Ok(())
     }
+}
+
+/// Refuses a grid of `nodes` whose rays' hit records, with `circle_points` points a node,
+/// could take more than [`RAY_MEMORY_BUDGET_BYTES`]: counted with the most sets of hits any
+/// machine draws, so that a grid accepted here is accepted everywhere.
+fn check_ray_memory(nodes: usize, circle_points: usize) -> Result<(), OptionsError> {
+    let per_node = 24 + 8 * circle_points as u64;
+    let runs = projection::MAX_RUNS as u64;
+    let bytes = (nodes as u64).saturating_mul(per_node * runs);
+    if bytes <= RAY_MEMORY_BUDGET_BYTES {
+        return Ok(());
+    }
+    let per_grid = (nodes as u64).max(1) * runs;
+    Err(OptionsError::RayMemory {
+        nodes: nodes as u64,
+        circle_points: circle_points as u64,
+        runs,
+        bytes,
+        budget: RAY_MEMORY_BUDGET_BYTES,
+        points_within: (RAY_MEMORY_BUDGET_BYTES / per_grid).saturating_sub(24) / 8,
+        nodes_within: RAY_MEMORY_BUDGET_BYTES / (per_node * runs),
+    })
 }
 
 impl Default for LocateOptions {
@@ -673,6 +680,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         }
         grid => grid?,
     };
+    check_ray_memory(grid.len(), options.circle_points)?;
     check_ray_tests(part, &frame, &grid, options.circle_points, lo, hi)?;
     let flat_tolerance_mm = options.flat_tolerance_mm.unwrap_or(0.1 * r);
     if !(flat_tolerance_mm.is_finite() && flat_tolerance_mm >= 0.0) {

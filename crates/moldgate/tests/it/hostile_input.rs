@@ -210,29 +210,47 @@ fn options_that_size_memory_are_checked_against_their_budget() {
         too_many_points.validate(),
         Err(OptionsError::AboveLimit { limit, .. }) if limit == MAX_CIRCLE_POINTS as u64
     ));
-    let huge_grid = LocateOptions {
-        max_nodes: 20_000_000,
+    // The rays' memory is counted on the part's own grid, once it is laid: the largest
+    // node limit with the most circle points is valid ...
+    let most = LocateOptions {
+        max_nodes: moldgate::gate::MAX_NODES_LIMIT,
+        circle_points: MAX_CIRCLE_POINTS,
         ..LocateOptions::default()
     };
-    let err = huge_grid.validate().unwrap_err();
+    assert_eq!(most.validate(), Ok(()));
+    let plate = from_generated(moldgate::samples::sample("plate").expect("a plate sample"));
+    // ... a small grid with them is studied ...
+    let small = LocateOptions {
+        circle_points: 64,
+        ..most.clone()
+    };
+    assert!(locate(&plate, &small).is_ok());
+    // ... and a fine one is refused before its rays, with what fits.
+    let fine = LocateOptions {
+        spacing: moldgate::gate::quadrature::Spacing::Mm(0.05),
+        ..most.clone()
+    };
+    let t = std::time::Instant::now();
+    let err = locate(&plate, &fine).unwrap_err();
+    println!("refused in {:.3} s", t.elapsed().as_secs_f64());
     let OptionsError::RayMemory {
+        nodes,
         bytes,
         budget,
+        points_within,
         nodes_within,
         ..
     } = err
     else {
         panic!("expected RayMemory, got {err:?}");
     };
-    assert!(
-        bytes > budget && nodes_within >= 4_000_000,
-        "{nodes_within}"
-    );
-    let within = LocateOptions {
-        max_nodes: nodes_within as usize,
-        ..LocateOptions::default()
-    };
-    assert_eq!(within.validate(), Ok(()));
+    assert!(bytes > budget, "{err}");
+    assert_eq!(err.field(), Some("circle_points"));
+    // What it says fits does.
+    let fits = |nodes: u64, points: u64| (24 + 8 * points) * nodes * 4 <= budget;
+    assert!(fits(nodes, points_within) && !fits(nodes, points_within + 1));
+    assert!(fits(nodes_within, MAX_CIRCLE_POINTS as u64));
+    assert!(!fits(nodes_within + 1, MAX_CIRCLE_POINTS as u64));
     // locate checks them too, before any work.
     let part = from_generated(moldgate::samples::sample("plate").expect("a plate sample"));
     assert!(locate(&part, &too_many_points).is_err());
@@ -248,10 +266,9 @@ fn a_study_checks_the_same_budgets_when_its_options_are_validated() {
         refused(r#"{ "circle_points": 1000 }"#),
         StudyError::Locate(OptionsError::AboveLimit { limit, .. }) if limit == MAX_CIRCLE_POINTS as u64
     ));
-    assert!(matches!(
-        refused(r#"{ "max_nodes": 20000000 }"#),
-        StudyError::Locate(OptionsError::RayMemory { .. })
-    ));
+    // The rays' memory depends on the part's grid: not refused with the options alone.
+    let o: StudyOptions = serde_json::from_str(r#"{ "max_nodes": 20000000 }"#).unwrap();
+    assert!(o.validate().is_ok());
     // One node limit: the study's is the gate location's.
     assert_eq!(
         moldgate::study::MAX_NODES_LIMIT,
