@@ -91,10 +91,30 @@ fn option_over_its_memory_budget_is_refused_before_loading() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("at most 360"), "{stderr}");
-    let out = moldgate(&["locate", "missing.stl", "--max-nodes", "20000000"]);
+    let out = moldgate(&["locate", "missing.stl", "--max-nodes", "20000001"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("MiB"), "{stderr}");
+    assert!(stderr.contains("between 1 and 20000000"), "{stderr}");
+    // The rays' memory is counted on the part's grid, once it is laid: many circle points
+    // on a fine grid are refused before the rays, with what fits.
+    let fine = [
+        "locate",
+        "--sample",
+        "plate",
+        "--circle-points",
+        "360",
+        "--spacing",
+        "0.05",
+    ];
+    let out = moldgate(&fine);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("MiB for the ray hits") && stderr.contains("use at most"),
+        "{stderr}"
+    );
+    let out = moldgate(&["locate", "--sample", "plate", "--circle-points", "360"]);
+    assert_eq!(out.status.code(), Some(0));
 }
 
 #[test]
