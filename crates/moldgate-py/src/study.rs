@@ -158,7 +158,7 @@ pub fn study(
             let _ = done.send(outcome);
         });
         // Why the study was stopped, if it was: a signal's exception, or the time limit.
-        let mut stopped: Option<PyErr> = None;
+        let mut stopped: Option<Stop> = None;
         let outcome = loop {
             let waited = py.detach(|| {
                 result
@@ -179,18 +179,39 @@ pub fn study(
                 continue;
             }
             if let Err(signal) = py.check_signals() {
-                stopped = Some(signal);
+                stopped = Some(Stop::Signal(signal));
                 cancel.cancel();
             } else if limit.is_some_and(|l| started.elapsed() >= l) {
-                stopped = Some(pyo3::exceptions::PyTimeoutError::new_err(format!(
-                    "the study took longer than its timeout of {} s and was stopped (a coarser cell, fewer gates or no suitability map take less time)",
-                    timeout.unwrap_or_default()
-                )));
+                stopped = Some(Stop::Time);
                 cancel.cancel();
             }
         };
-        if let Some(e) = stopped {
-            return Err(e);
+        match stopped {
+            Some(Stop::Signal(e)) => return Err(e),
+            // The stage it stopped in, what takes less time there, and the gate found
+            // before the stop, as the command line says them.
+            Some(Stop::Time) => {
+                let said = match &outcome {
+                    Ok(Err(e @ StudyError::Cancelled { stage, .. })) => {
+                        let hint = less_time_keywords(&settings, *stage);
+                        format!(
+                            " in the {stage} stage{}{}",
+                            if hint.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" ({hint})")
+                            },
+                            e.gate_before_stop()
+                        )
+                    }
+                    _ => String::new(),
+                };
+                return Err(pyo3::exceptions::PyTimeoutError::new_err(format!(
+                    "the study took longer than its timeout of {} s and was stopped{said}",
+                    timeout.unwrap_or_default()
+                )));
+            }
+            None => {}
         }
         let mut s = match outcome {
             Ok(Ok(s)) => s,
@@ -200,6 +221,24 @@ pub fn study(
         s.set_input(input, load_s);
         Ok(Study { study: s, part })
     })
+}
+
+/// Why a study was stopped before its end.
+enum Stop {
+    /// A signal (Ctrl-C), with its exception.
+    Signal(PyErr),
+    /// The time limit.
+    Time,
+}
+
+/// What takes less time in a study stopped at `stage`, in the package's keywords (the
+/// command line's words, `a coarser --cell`, as `a coarser cell`).
+fn less_time_keywords(settings: &Settings, stage: moldgate::study::Stage) -> String {
+    let hint = settings
+        .less_time_words(stage)
+        .replace("no --suitability", "no suitability map")
+        .replace("no --wall-thickness", "no wall_thickness");
+    moldgate::study::keyword_words(&hint, "True")
 }
 
 /// The longest time limit `study` takes, seconds (a day).
@@ -295,12 +334,7 @@ pub fn batch_row(
                         // Stopped in the fill stage: the row keeps the gate found before.
                         StudyError::Cancelled { stage, located } => {
                             let stage = &stage;
-                            // The command line's words, in the package's keywords.
-                            let hint = settings
-                                .less_time_words(*stage)
-                                .replace("no --suitability", "no suitability map")
-                                .replace("no --wall-thickness", "no wall_thickness");
-                            let hint = moldgate::study::keyword_words(&hint, "True");
+                            let hint = less_time_keywords(&settings, *stage);
                             let located = located.map(|mut r| {
                                 r.set_input(input.clone(), load_s);
                                 r
@@ -316,7 +350,7 @@ pub fn batch_row(
                             )
                         }
                         StudyError::Demold(d) => {
-                            (status, format!("{file}: --demold auto: {d}"), None)
+                            (status, format!("{file}: demold=\"auto\": {d}"), None)
                         }
                         StudyError::Fill(f @ FillError::GateOffPart(..)) => {
                             (status, format!("{file}: {f}"), None)

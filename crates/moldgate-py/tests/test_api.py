@@ -350,6 +350,8 @@ def test_a_batch_row_past_its_timeout_says_so(cover_stl):
     assert time.perf_counter() - t < 5
     assert row["status"] == "timeout" and row["exit_code"] == 2, row
     assert "stopped at its timeout of 0.2 s, in the fill stage" in row["error"], row
+    # What takes less time, in the package's keywords.
+    assert "(a coarser cell, fewer gates or no suitability map take less time)" in row["error"], row
     # A layout asked for and not found: no gate in the row.
     gate = lambda r: [r["gate_x_mm"], r["gate_y_mm"], r["gate_z_mm"]]
     assert gate(row) == [None, None, None], row

@@ -103,6 +103,16 @@ def test_an_object_without_arrays():
             "material.n must be a finite number, got nan",
         ),
         ({"max_nodes": 2**70}, "max_nodes is out of range, got 1180591620717411303424"),
+        # numpy's scalars are checked as Python's are, each by its name.
+        ({"n": np.float32("nan")}, "^n must be a finite number, got nan$"),
+        ({"gate_radius": np.float32("inf")}, "^gate_radius must be a finite number, got inf$"),
+        (
+            {"material": {"n": np.float32("nan"), "t_melt": 230, "t_wall": 50, "gamma_opt": 1e4, "mu_opt": 10, "k": 0.15}},
+            "^material.n must be a finite number, got nan$",
+        ),
+        # A value of no option's kind is refused by its name.
+        ({"demold": (x for x in (0, 0, 1))}, r"^demold: a generator is not an option value \(give a number"),
+        ({"keep_out": [object()]}, r"^keep_out: a object is not an option value"),
         ({"max_nodes": 0}, "max_nodes must be between 1 and"),
         ({"n": -0.3}, "n must be a positive finite number, got -0.3"),
         ({"units": "furlong"}, "units: unknown unit 'furlong'"),
@@ -124,6 +134,22 @@ def test_an_object_without_arrays():
 def test_unknown_option_name_or_value(options, message):
     with pytest.raises(moldgate.OptionsError, match=message):
         moldgate.study(moldgate.sample("plate"), **options)
+
+
+def test_numbers_of_numpy_and_decimal_are_numbers():
+    from decimal import Decimal
+
+    plate = moldgate.sample("plate")
+    same = moldgate.study(plate, gate_radius=1.5, spacing=2.0).gate.point
+    for radius, spacing in ((Decimal("1.5"), Decimal("2")), (np.float32(1.5), np.int64(2))):
+        assert np.array_equal(moldgate.study(plate, gate_radius=radius, spacing=spacing).gate.point, same)
+    with pytest.raises(moldgate.OptionsError, match="^gate_radius must be a finite number, got NaN$"):
+        moldgate.study(plate, gate_radius=Decimal("NaN"))
+
+
+def test_a_step_tolerance_with_a_part_already_read_is_refused():
+    with pytest.raises(moldgate.OptionsError, match="^step_tolerance_mm applies to a STEP or IGES file given by its path; this part is a Part"):
+        moldgate.study(moldgate.sample("plate"), step_tolerance_mm=1.0)
 
 
 def test_a_missing_file_is_named(tmp_path):
@@ -269,10 +295,16 @@ def test_a_study_stops_at_its_timeout_or_on_ctrl_c():
     # A study long enough to stop (the several-gate search on a fine grid of the cap).
     heavy = dict(gates=4, cell=0.3, suitability=True, objective="resistance")
     t = time.perf_counter()
-    with pytest.raises(TimeoutError, match="took longer than its timeout of 0.2 s"):
+    with pytest.raises(TimeoutError, match="took longer than its timeout of 0.2 s") as stop:
         moldgate.study(moldgate.sample("cover"), timeout=0.2, **heavy)
     stopped = time.perf_counter() - t
     assert stopped < 5, f"stopped after {stopped:.1f} s"
+    # It names the stage it stopped in and what takes less time there, in keywords.
+    said = str(stop.value)
+    assert "stopped in the fill stage (a coarser cell, fewer gates or no suitability map take less time)" in said, said
+    # Stopped in the fill stage, a study whose answer is the method's gate gives that gate.
+    with pytest.raises(TimeoutError, match="the method's gate, found before the stop: ") as stop:
+        moldgate.study(moldgate.sample("cover"), timeout=0.2, fill=True, cell=0.3, suitability=True)
     # Ctrl-C: the signal's KeyboardInterrupt, once the study has stopped.
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:

@@ -20,6 +20,7 @@ the GIL, so threads study parts in parallel.
 
 from __future__ import annotations
 
+import decimal as _decimal
 import json as _json
 import math as _math
 import numbers as _numbers
@@ -116,15 +117,6 @@ def default_options() -> dict:
     return _json.loads(_moldgate.default_options())
 
 
-def _plain(value: Any) -> Any:
-    """numpy scalars and arrays as plain Python values, for JSON."""
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if hasattr(value, "item"):
-        return value.item()
-    raise TypeError(f"{type(value).__name__} is not an option value")
-
-
 def _is_number(v: Any) -> bool:
     """A real number, Python's or numpy's (``np.int64``, ``np.float32``), not a bool."""
     return isinstance(v, _numbers.Real) and not isinstance(v, bool)
@@ -180,21 +172,36 @@ def _options_json(options: Mapping[str, Any]) -> str:
                 "keep_out: expected a region (\"box:...\" or \"sphere:...\") or a list of them, "
                 f"got {options['keep_out']!r}"
             ) from None
-    # JSON has no NaN or infinity, and the options' integers fit 64 bits: said here by name
-    # (a material's parameter as material.n), not as a JSON parser's complaint about the
-    # text it was given.
-    values = list(options.items())
-    if isinstance(options.get("material"), Mapping):
-        values += [(f"material.{k}", v) for k, v in options["material"].items()]
-    for name, value in values:
-        if isinstance(value, float) and not _math.isfinite(value):
-            raise OptionsError(f"{name} must be a finite number, got {value}")
-        if isinstance(value, int) and not isinstance(value, bool) and not -(2**63) <= value < 2**64:
+    plain = {name: _json_value(name, value) for name, value in options.items()}
+    return _json.dumps(plain, allow_nan=False)
+
+
+def _json_value(name: str, value: Any) -> Any:
+    """An option's value as JSON takes it: numpy's scalars and arrays and a ``Decimal`` as
+    plain numbers and lists. JSON has no NaN or infinity, the options' integers fit 64
+    bits, and a value of no option's kind (a generator, an object) is refused: each said
+    here by the option's name (a material's parameter as ``material.n``), not as a JSON
+    writer's complaint about a value."""
+    if value is None or isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, _numbers.Integral):
+        if not -(2**63) <= int(value) < 2**64:
             raise OptionsError(f"{name} is out of range, got {value}")
-    try:
-        return _json.dumps(options, default=_plain, allow_nan=False)
-    except (TypeError, ValueError) as e:
-        raise OptionsError(f"cannot read the options: {e}") from None
+        return int(value)
+    if isinstance(value, (_numbers.Real, _decimal.Decimal)):
+        if not _math.isfinite(float(value)):
+            raise OptionsError(f"{name} must be a finite number, got {value}")
+        return float(value)
+    if isinstance(value, Mapping):
+        return {k: _json_value(f"{name}.{k}", v) for k, v in value.items()}
+    if hasattr(value, "tolist"):
+        return _json_value(name, value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [_json_value(name, v) for v in value]
+    raise OptionsError(
+        f"{name}: a {type(value).__name__} is not an option value "
+        "(give a number, text, True or False, or a list of them)"
+    )
 
 
 def _check_part_keywords(units: Any, step_tolerance_mm: Any) -> None:
@@ -233,6 +240,13 @@ def _part(part: Any, units: str, step_tolerance_mm: Optional[float]) -> Part:
                 f"units: this Part was read in {own}; units={units!r} applies to a path or "
                 f"arrays only: read the file again with moldgate.load(path, units={units!r})"
             )
+    if step_tolerance_mm is not None and not isinstance(part, (str, _os.PathLike)):
+        # Read already (or not a file): the tolerance would be ignored without a word.
+        raise OptionsError(
+            "step_tolerance_mm applies to a STEP or IGES file given by its path; this part is "
+            f"a {type(part).__name__}: load the file with moldgate.load(path, step_tolerance_mm=...)"
+        )
+    if isinstance(part, Part):
         return part
     if isinstance(part, (str, _os.PathLike)):
         return load(part, units, step_tolerance_mm=step_tolerance_mm)

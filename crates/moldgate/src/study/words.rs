@@ -45,6 +45,24 @@ const VALUES: &[&str] = &[
     "units",
 ];
 
+/// The words an option takes as its value (`--objective length`); none for an option
+/// whose value is a number or a name, so that the word after such a flag stays the
+/// sentence's (`a coarser --cell takes less time`).
+fn words_of(key: &str) -> &'static [&'static str] {
+    match key {
+        "centre" => &["surface", "volume"],
+        "nearest" => &["3d", "2d"],
+        "parting_line" => &["outline", "longest", "longest-loop"],
+        "thickness_rule" => &["require", "ignore"],
+        "strategy" => &["paper", "balanced"],
+        "objective" => &["length", "resistance"],
+        "color_by" => &["flow-length", "fill-order", "fill-time", "wall", "height"],
+        "units" => &["mm", "cm", "m", "in"],
+        "demold" => &["auto"],
+        _ => &[],
+    }
+}
+
 /// `message` with every command-line flag of a study option named as its keyword: a switch
 /// as `key=truth` (`"true"` for the service's query, `"True"` for Python), a flag with a
 /// value after it as `key=value`, any other as `key`. Flags of no option (`--json`) stay.
@@ -82,12 +100,7 @@ pub fn keyword_words(message: &str, truth: &str) -> String {
                 let word = &value[..end];
                 let is_value = word.parse::<f64>().is_ok()
                     || (word.len() == 1 && word.chars().all(|c| c.is_ascii_uppercase()))
-                    || (!word.is_empty()
-                        && word.starts_with(|c: char| c.is_ascii_alphanumeric())
-                        && word
-                            .chars()
-                            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
-                        && !matches!(word, "or" | "and" | "to" | "keeps" | "minimises"));
+                    || words_of(&key).contains(&word);
                 if is_value {
                     out.push('=');
                     out.push_str(word);
@@ -161,6 +174,17 @@ mod tests {
                 "with --parting-line longest-loop",
                 "with parting_line=longest-loop",
             ),
+            // A word after a flag that takes a number is the sentence's.
+            (
+                "in the fill stage (a coarser --cell takes less time)",
+                "in the fill stage (a coarser cell takes less time)",
+            ),
+            (
+                "(a coarser --cell or fewer --gates take less time)",
+                "(a coarser cell or fewer gates take less time)",
+            ),
+            ("set --units in", "set units=in"),
+            ("with --color-by wall changes", "with color_by=wall changes"),
         ] {
             assert_eq!(keyword_words(cli, "true"), keywords);
         }
