@@ -21,6 +21,16 @@ export function threeFigures(t) {
   return carried < d ? t.toFixed(carried) : text;
 }
 
+/** The colour bar's two ends as text, to the same decimals: three significant figures of
+ * the span between them (a fill time from 2e-6 s at the gate to 0.105 s reads "0" to
+ * "0.105", a wall from 0.14 to 8.43 mm "0.14" to "8.43"), whole numbers from 100 up. */
+export function barEnds(min, max) {
+  const span = Math.abs(max - min) || Math.abs(max) || 1;
+  const decimals = Math.min(12, Math.max(0, 2 - Math.floor(Math.log10(span))));
+  const text = (x) => (Math.abs(x) >= 100 ? x.toFixed(0) : String(Number(x.toFixed(decimals))));
+  return [text(min), text(max)];
+}
+
 /** The page's names for the options the library's messages name (as the command line
  * names its flags). */
 const OPTION_LABELS = {
@@ -83,6 +93,15 @@ const FIELD_LABELS = {
   parting_line: "'Parting line'",
 };
 
+/** The names the library's range checks give a few options, as the page labels them. */
+const LIBRARY_NAMES = {
+  "circle points": "'Points on each circle'",
+  "the node limit": "'Largest grid (nodes)'",
+  "flatness tolerance": "'Flatness tolerance'",
+  "gate radius": "'Gate radius'",
+  spacing: "'Grid spacing'",
+};
+
 /** The material parameters' names in the page's custom material. */
 const MATERIAL_LABELS = {
   n: "'Power-law index n'",
@@ -103,6 +122,10 @@ export function inPageWords(message) {
   if (m && m[1] in OPTION_LABELS && m[2] in OPTION_LABELS) {
     message = `${OPTION_LABELS[m[1]]} and ${OPTION_LABELS[m[2]]} cannot be used together: ${message.slice(m[0].length)}`;
   }
+  // "gate_at 2 ...": the second of the own gates (typed ones first, then those placed).
+  message = message.replace(/^(?:options: )?gate_at (\d+)\b/, (_, n) => `'Your own gates', gate ${n},`);
+  // The library's own names of a few options ("circle points must be at most 360").
+  message = message.replace(/^(circle points|the node limit|flatness tolerance|gate radius|spacing)(?= must | is )/, (name) => LIBRARY_NAMES[name]);
   // "options: material.n: ..." or "spacing must ...": the field at fault first.
   const f = /^(?:options: )?([a-z_]+)(?:\.([a-z_]+))?(?=:| must | is )/.exec(message);
   if (f && f[1] in FIELD_LABELS) {

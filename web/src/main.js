@@ -3,7 +3,7 @@
 
 import "./style.css";
 import { Viewer } from "./viewer.js";
-import { inPageWords, pageInPageWords } from "./format.js";
+import { barEnds, inPageWords, pageInPageWords } from "./format.js";
 import { showReport } from "./results.js";
 
 const $ = (id) => document.getElementById(id);
@@ -105,7 +105,7 @@ function listMaterials(materials) {
   for (const m of materials) {
     const o = document.createElement("option");
     o.value = m.name;
-    o.textContent = `${m.name} (R = ${m.gate_radius_mm.toFixed(2)} mm)${m.origin === "built-in" ? "" : `, from ${m.origin}`}`;
+    o.textContent = `${m.name} (R = ${m.gate_radius_mm.toFixed(3)} mm)${m.origin === "built-in" ? "" : `, from ${m.origin}`}`;
     o.title = m.description;
     select.append(o);
   }
@@ -244,7 +244,7 @@ let started = 0;
 let runs = 0;
 
 /** The app's state for people (the overlays) and for tests: `data-state` (loading, ready,
- * busy, done, error) and `data-run`, counting the studies started. */
+ * busy, done, error, stopped) and `data-run`, counting the studies started. */
 function setState(state) {
   app.dataset.state = state;
 }
@@ -275,6 +275,14 @@ function showError(message, fileError = false) {
     : "Open or drop another part, or change the options and analyse again.";
   box.append(p, hint);
   box.hidden = false;
+  bringViewIntoSight();
+}
+
+/** In the one-column layout (a narrow window) the view is below the options: brought into
+ * sight when a study starts or fails, so that its progress and its message show where the
+ * designer looks. */
+function bringViewIntoSight() {
+  if (window.matchMedia("(max-width: 1000px)").matches) $("view-area").scrollIntoView({ block: "start" });
 }
 
 function clearResults(status) {
@@ -317,6 +325,7 @@ async function analyse({ keepCamera = false } = {}) {
   $("busy-text").textContent = STAGES.start;
   $("progress").value = 0;
   clearResults(`Analysing ${part.name}…`);
+  bringViewIntoSight();
   const asked = formState();
   const request = { file_name: part.name, units: $("units").value, options: studyOptions() };
   if (part.sample) request.sample = part.sample;
@@ -365,11 +374,9 @@ function showColourBar(field) {
   const unit = field.unit ? ` ${field.unit}` : "";
   $("colour-bar-name").textContent = field.name;
   bar.querySelector(".bar").style.background = `linear-gradient(to right, ${VIRIDIS.join(", ")})`;
-  // Three significant figures (a fill time of 0.0160 s is not "0.02 s"), whole numbers
-  // from 100 up.
-  const text = (x) => (Math.abs(x) >= 100 ? x.toFixed(0) : String(Number(x.toPrecision(3))));
-  $("colour-bar-min").textContent = `${text(field.min)}${unit}`;
-  $("colour-bar-max").textContent = `${text(field.max)}${unit}`;
+  const [min, max] = barEnds(field.min, field.max);
+  $("colour-bar-min").textContent = `${min}${unit}`;
+  $("colour-bar-max").textContent = `${max}${unit}`;
   bar.dataset.field = field.name;
   bar.hidden = false;
 }
@@ -477,9 +484,24 @@ function wire() {
   window.addEventListener("dragover", (e) => e.preventDefault());
   window.addEventListener("drop", (e) => e.preventDefault());
 
+  // The browser refuses a form whose invalid field is in a closed section without a word:
+  // the section opens first, so that its message shows at the field (a click on Analyse,
+  // or Enter in a field, which clicks it).
+  $("analyse").addEventListener("click", () => {
+    const details = $("options").querySelector(":invalid")?.closest("details");
+    if (details) details.open = true;
+  });
   $("options").addEventListener("submit", (e) => {
     e.preventDefault();
     analyse();
+  });
+  // A study stopped by the designer: its worker goes, the part stays open for the next.
+  $("stop").addEventListener("click", () => {
+    if (app.dataset.state !== "busy") return;
+    cancelStudy();
+    $("busy").hidden = true;
+    clearResults(`Stopped: ${part.name} was not analysed. Change the options (a coarser 'Fill cell size', fewer gates) and analyse again.`);
+    setState("stopped");
   });
   $("defaults").addEventListener("click", () => {
     setDefaults();

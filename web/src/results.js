@@ -82,7 +82,7 @@ function gateSection(r) {
     for (const s of several.gates) {
       ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % ${of}, ${worst(s)}`));
     }
-    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the best single gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
+    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the balanced gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
     // Chosen by its flow length, the layout's fill time is given too, said not minimised.
     if (several.fill_time_s == null && several.layout_fill_time_s != null) {
       content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill ${r.fill.bodies > 1 ? "their body" : "the part"} in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
@@ -212,6 +212,8 @@ function partSection(r) {
     // A part read in the wrong units (metres as mm) is a fraction of a millimetre: three
     // figures, not "0.0".
     ["Size", `${size.map((s) => (s >= 1 ? s.toFixed(1) : threeFigures(s))).join(" × ")} mm`],
+    // Where the part lies in its file's frame, which typed gates are given in.
+    ["Extends from", `${v3(m.bounds_min, Math.max(...size) < 10 ? 4 : 2)} to ${v3(m.bounds_max, Math.max(...size) < 10 ? 4 : 2)} mm`, { id: "part-bounds" }],
     ["Mesh", m.open_edges === 0 && m.non_manifold_edges === 0 ? `closed, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}` : `${m.open_edges} open and ${m.non_manifold_edges} non-manifold edges, ${m.bodies} ${m.bodies === 1 ? "body" : "bodies"}`],
     ["Demolding direction D", v3(r.options.demold, 3), xyz(r.options.demold)],
     // A part of a few millimetres (often one read in the wrong units) gets four decimals.

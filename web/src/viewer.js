@@ -20,9 +20,10 @@ import {
 import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
 
-/** The layers of the file a user can hide, by node name (or name prefix for the gates). */
+/** The layers of the file a user can hide, by node name (the answer's gates are `gate N`
+ * and `gate of body N`; `gate suitability`, the map, is not a gate). */
 export const LAYERS = {
-  gates: (name) => name.startsWith("gate "),
+  gates: (name) => /^gate (\d+|of body \d+)$/.test(name),
   placed: (name) => name.startsWith("your gate "),
   centre: (name) => name === "centre of mass",
   parting: (name) => name === "parting line",
@@ -85,18 +86,35 @@ const SIGHT_DELAY_MS = 150;
 
 /** A red ring of constant size on screen around each gate, so a 1 mm gate shows on a 300 mm
  * part; dashed for the own gate of a body the answer's gates do not reach ("gate of body N"). */
-function gateRingTexture(dashed = false) {
+function gateRingTexture(dashed = false, label = "") {
+  // The ring in the middle of a canvas of 1.5 times its size, with room for its number at
+  // the upper right (a layout of several gates).
   const c = document.createElement("canvas");
-  c.width = c.height = 64;
+  c.width = c.height = RING_CANVAS;
   const g = c.getContext("2d");
+  const middle = RING_CANVAS / 2;
   g.strokeStyle = "rgb(220, 20, 40)";
   g.lineWidth = 7;
   if (dashed) g.setLineDash([9, 7]);
   g.beginPath();
-  g.arc(32, 32, 26, 0, 2 * Math.PI);
+  g.arc(middle, middle, 26, 0, 2 * Math.PI);
   g.stroke();
+  if (label) {
+    g.font = "bold 26px sans-serif";
+    g.textAlign = "right";
+    g.textBaseline = "top";
+    g.lineWidth = 5;
+    g.setLineDash([]);
+    g.strokeStyle = "rgba(255, 255, 255, 0.9)";
+    g.strokeText(label, RING_CANVAS - 2, 2);
+    g.fillStyle = "rgb(220, 20, 40)";
+    g.fillText(label, RING_CANVAS - 2, 2);
+  }
   return new CanvasTexture(c);
 }
+
+/** A ring's canvas, pixels a side (the ring itself is 64). */
+const RING_CANVAS = 96;
 
 export class Viewer {
   constructor(container) {
@@ -190,17 +208,26 @@ export class Viewer {
     this.root.updateMatrixWorld(true);
     // Each gate's ring is drawn over the part, so a gate on the far side is still found,
     // but faint while the part hides it (see `updateSight`).
+    // Several gates of a layout are numbered as the results list them.
+    const numbered = rings.filter(([name]) => /^gate \d+$/.test(name)).length > 1;
     for (const [name, gate] of rings) {
+      const number = numbered ? /^gate (\d+)$/.exec(name)?.[1] ?? "" : "";
+      const map = number
+        ? gateRingTexture(false, number)
+        : name.startsWith("gate of body ")
+          ? this.bodyRingTexture
+          : this.ringTexture;
       const ring = new Sprite(
         new SpriteMaterial({
-          map: name.startsWith("gate of body ") ? this.bodyRingTexture : this.ringTexture,
+          map,
           depthTest: false,
           transparent: true,
           sizeAttenuation: false,
         })
       );
       ring.name = `${gate.name} marker`;
-      ring.scale.set(0.06, 0.06, 1);
+      ring.userData.ownTexture = !!number;
+      ring.scale.set(0.09, 0.09, 1);
       new Box3().setFromObject(gate).getCenter(ring.position);
       ring.renderOrder = 10;
       this.scene.add(ring);
@@ -218,6 +245,7 @@ export class Viewer {
   clear() {
     for (const r of this.rings || []) {
       this.scene.remove(r);
+      if (r.userData.ownTexture) r.material.map.dispose();
       r.material.dispose();
     }
     this.rings = [];

@@ -5,7 +5,7 @@ import { readFileSync } from "node:fs";
 import { join } from "node:path";
 import { test } from "node:test";
 
-import { inPageWords, pageInPageWords, seconds } from "../src/format.js";
+import { barEnds, inPageWords, pageInPageWords, seconds } from "../src/format.js";
 import { Moldgate, MoldgateError } from "../src/moldgate.js";
 import { WEB } from "./harness.mjs";
 
@@ -92,6 +92,25 @@ test("the library's messages read in the page's words", () => {
     inPageWords("gates and aesthetic cannot be used together: why"),
     "'Number of gates' above 1 and 'Aesthetic: gate on the parting line' cannot be used together: why"
   );
+  // The library's own names of an option, and a line of the page's own gates.
+  assert.equal(inPageWords("circle points must be at most 360, got 100000000"), "'Points on each circle' must be at most 360, got 100000000");
+  assert.equal(
+    inPageWords("gate_at 1 'middle': expected x,y,z (three numbers in mm), got 1 value"),
+    "'Your own gates', gate 1, 'middle': expected x,y,z (three numbers in mm), got 1 value"
+  );
+  assert.equal(
+    inPageWords("gate_at 2 (0.000, 0.000, 5.000) is 3.000 mm from the part's surface"),
+    "'Your own gates', gate 2, (0.000, 0.000, 5.000) is 3.000 mm from the part's surface"
+  );
   // Words with dashes that are not flags stay as they are.
   assert.equal(inPageWords("a 2-core run, x - y"), "a 2-core run, x - y");
+});
+
+test("the colour bar's ends read to the decimals of the span between them", () => {
+  assert.deepEqual(barEnds(2.05e-6, 0.105), ["0", "0.105"]);
+  assert.deepEqual(barEnds(0.14, 8.43), ["0.14", "8.43"]);
+  assert.deepEqual(barEnds(-205.2, -201.3), ["-205", "-201"]);
+  assert.deepEqual(barEnds(0.016, 0.0512), ["0.016", "0.0512"]);
+  assert.deepEqual(barEnds(3, 3), ["3", "3"]);
+  assert.deepEqual(barEnds(0, 0), ["0", "0"]);
 });

@@ -199,7 +199,7 @@ fn fill(
         let worst = |x: f64| format!("{what} {} {unit}", f.objective.value_text(x));
         let _ = writeln!(
             s,
-            "  {} gates: {} ({:.1} % shorter than with the best single gate), balance {:.2} (smallest share / largest)",
+            "  {} gates: {} ({:.1} % shorter than with the balanced gate), balance {:.2} (smallest share / largest)",
             m.gates.len(),
             worst(m.value()),
             m.improvement_pct,

@@ -287,18 +287,13 @@ impl Session {
                         .map(|&p| frame.height(p) as f32)
                         .collect(),
                     cells: None,
+                    span: None,
                 }
             }
-            Colouring::WallThickness => Field {
-                name: "wall thickness".into(),
-                unit: "mm".into(),
-                per_vertex: self
-                    .study
-                    .wall_thickness_per_vertex()
-                    .ok_or("the wall thickness was not measured (turn on 'wall thickness')")?
-                    .to_vec(),
-                cells: None,
-            },
+            Colouring::WallThickness => self
+                .study
+                .wall_field()
+                .ok_or("the wall thickness was not measured (turn on 'wall thickness')")?,
             Colouring::FillOrder => self
                 .study
                 .fill_field()

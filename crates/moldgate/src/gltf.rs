@@ -868,6 +868,7 @@ mod tests {
                         unit: String::new(),
                         per_vertex: vec![],
                         cells: None,
+                        span: None,
                     },
                     display: None,
                     gates: vec![],

@@ -694,7 +694,7 @@ fn fill_table(h: &mut String, r: &Report) {
         let _ = writeln!(
             h,
             "<p id=\"several\">{} gates together: {what} {} {unit} ({:.1} % shorter than \
-             with the best single gate), balance {:.2} (smallest share over the largest).</p>\n\
+             with the balanced gate), balance {:.2} (smallest share over the largest).</p>\n\
              <table>\n<tr><th>gate</th><th>point</th>\
              <th>share of {} volume (reached first by {field})</th><th>{what} in its share</th></tr>",
             m.gates.len(),

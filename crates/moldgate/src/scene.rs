@@ -23,16 +23,21 @@ pub struct Field {
     /// the writers then draw it on the surface refined to the cells ([`crate::display`]),
     /// and its colour bar spans the cells' values.
     pub cells: Option<Arc<CellField>>,
+    /// The colour bar's span when it is not the values' own: a wall map's facets' range
+    /// (the report's minimum and maximum), which the vertices' means of their facets
+    /// narrow. Values outside it take its end colours.
+    pub span: Option<[f32; 2]>,
 }
 
 impl Field {
     /// The smallest and largest finite value of the field: over its cells when it has them
-    /// (the range the report quotes), over its vertices otherwise; `None` when none is
-    /// finite.
+    /// (the range the report quotes), its [`Field::span`] when given, over its vertices
+    /// otherwise; `None` when none is finite.
     pub fn range(&self) -> Option<[f32; 2]> {
-        match &self.cells {
-            Some(c) => c.range(),
-            None => crate::colormap::Range::of(&self.per_vertex).map(|r| [r.min, r.max]),
+        match (&self.cells, self.span) {
+            (Some(c), _) => c.range(),
+            (None, Some(span)) => Some(span),
+            (None, None) => crate::colormap::Range::of(&self.per_vertex).map(|r| [r.min, r.max]),
         }
     }
 }
@@ -157,6 +162,7 @@ impl<'a> Scene<'a> {
                 unit: "mm".into(),
                 per_vertex,
                 cells: None,
+                span: None,
             },
             display: None,
             gates,
@@ -187,6 +193,7 @@ impl<'a> Scene<'a> {
             unit: field.unit.clone(),
             per_vertex: vec![f32::NAN; self.mesh.vertices.len()],
             cells: None,
+            span: None,
         };
         self.display = None;
         self.node_field = Some(field);

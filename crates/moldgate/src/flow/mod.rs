@@ -1788,8 +1788,9 @@ pub struct MultiGate {
     /// the flow-length objective it is the time of the layout found, which the search did
     /// not minimise. `None` until the fill analysis has marched it.
     pub layout_fill_time_s: Option<f64>,
-    /// How much shorter the objective is than with the best single gate (the balanced
-    /// gate, or the paper gate when no candidate beats it), %.
+    /// How much shorter the objective is than with the balanced gate (the best single gate
+    /// the report gives: the paper gate when no candidate beats it), by the value its fill
+    /// reports, %.
     pub improvement_pct: f64,
     /// Smallest volume share over the largest (1: perfectly even).
     pub balance: f64,
@@ -2833,6 +2834,7 @@ impl FillAnalysis {
             cells: (!values.is_empty())
                 .then(|| self.field_cells.clone())
                 .flatten(),
+            span: None,
         })
     }
 }
@@ -3316,11 +3318,6 @@ pub fn analyse_prepared(
     if head.is_none() {
         warnings.push("no qualifying candidate feeds the gate's body".into());
     }
-    // The best single gate's objective, which a layout of several gates is measured against:
-    // the balanced gate's, or the paper gate's when it stays.
-    let best_single = head
-        .as_ref()
-        .map_or(paper_value, |(_, _, value)| value.min(paper_value));
     times.balanced_s = searched_s + seconds(t);
     // The balanced gate's objective field, when it is the balanced gate's own (it beat the
     // paper gate).
@@ -3462,12 +3459,6 @@ pub fn analyse_prepared(
                     g.fill_time_s = g.l_max_mm.take().map(|x| x * per_mm);
                 }
             }
-            // A best single gate of no finite, positive value leaves nothing to compare with.
-            layout.improvement_pct = if best_single.is_finite() && best_single > 0.0 {
-                100.0 * (1.0 - layout.value() / best_single)
-            } else {
-                0.0
-            };
             Some(layout)
         } else {
             None
@@ -3503,10 +3494,6 @@ pub fn analyse_prepared(
                 fill: better.fill,
             };
             *fields = Some(better.fields);
-            // The best single gate a layout of several is measured against is now lower.
-            if let Some(layout) = several.as_mut() {
-                layout.improvement_pct = 100.0 * (1.0 - layout.value() / value.min(best_single));
-            }
             warnings.push(format!(
                 "the balanced search stopped unproven at its limit of runs with a gate of {} {unit}; the suitability map's best node is exact and no node's bound is lower (it scores {} {unit} from its cell's centre, {} {unit} from its surface point), so it is the balanced gate, proven by the map",
                 options.objective.value_text(old),
@@ -3515,6 +3502,20 @@ pub fn analyse_prepared(
                 unit = options.objective.value_words().1,
             ));
         }
+    }
+    // A layout is measured against the best single gate the report gives: the balanced
+    // gate (the paper gate when no candidate beats it by more than a cell), by the value
+    // its fill reports, so that the gain can be checked from the numbers shown. A value
+    // that is not finite and positive leaves nothing to compare with.
+    let single = balanced
+        .as_ref()
+        .map_or(paper_value, |(b, _)| b.search.value);
+    if let Some(layout) = several.as_mut() {
+        layout.improvement_pct = if single.is_finite() && single > 0.0 {
+            100.0 * (1.0 - layout.value() / single)
+        } else {
+            0.0
+        };
     }
     if let Some(layout) = &several {
         if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
@@ -3532,11 +3533,11 @@ pub fn analyse_prepared(
             // The search is local: a small gain may be the part's (a fill time set by a few
             // slow, thin places) or the search's (a layout it did not reach).
             warnings.push(format!(
-                "the layout of {} gates found shortens the {what} by only {:.1} % against the best single gate, {} against {} {unit} (shares of the volume {} %); the search is local and may miss a better layout: try your own gates with --gate-at",
+                "the layout of {} gates found shortens the {what} by only {:.1} % against the balanced gate, {} against {} {unit} (shares of the volume {} %); the search is local and may miss a better layout: try your own gates with --gate-at",
                 layout.gates.len(),
                 layout.improvement_pct.max(0.0),
                 value(layout.value()),
-                value(best_single),
+                value(single),
                 shares.join(", "),
             ));
         }

@@ -194,8 +194,12 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
             has_missing: true,
             ..FieldRange::of(&f.per_node)
         },
-        // A field on cells spans its cells' values (the range the report quotes).
-        None => match scene.field.cells.as_ref().and_then(|c| c.range()) {
+        // A field on cells spans its cells' values (the range the report quotes), a wall
+        // map its facets' (its span).
+        None => match (scene.field.cells.is_some() || scene.field.span.is_some())
+            .then(|| scene.field.range())
+            .flatten()
+        {
             Some([lo, hi]) => FieldRange {
                 min_max: Some((lo, hi)),
                 has_missing: values.iter().any(|v| !v.is_finite()),

@@ -37,8 +37,10 @@ pub struct Study {
     wall_per_vertex: Option<Vec<f32>>,
     /// What the fill's pictures are coloured by, when the fill ran.
     colour_by: Option<flow::ColourBy>,
-    /// Whether the pictures show the wall of every facet when it was measured: asked for
-    /// (`color_by = "wall"`) without the fill, which pictures its own fields.
+    /// Whether the pictures show the wall of every facet when it was measured: without the
+    /// fill (which pictures its own fields), unless the height is asked for (`color_by =
+    /// "height"`); the fill's colourings have no field then, and the wall map is what the
+    /// study measured.
     pictures_wall: bool,
     gates: Vec<GateMarker>,
     /// On a part of several bodies, the own gate of each body the answer's gates do not
@@ -393,7 +395,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         wall: wall.map(|(w, _)| w),
         wall_per_vertex,
         colour_by,
-        pictures_wall: s.fill.is_none() && s.color_by == ColorByChoice::Wall,
+        pictures_wall: s.fill.is_none() && s.color_by != ColorByChoice::Height,
         gates,
         body_gates,
         placed: placed_markers,
@@ -651,8 +653,27 @@ impl Study {
         }
     }
 
+    /// The wall map as a colour field, when it was measured: each vertex the area-weighted
+    /// mean of its facets' walls, the colour bar spanning the facets' own range (the
+    /// report's minimum and maximum, which the means narrow).
+    pub fn wall_field(&self) -> Option<Field> {
+        let per_vertex = self.wall_per_vertex.clone()?;
+        let span = self
+            .wall
+            .as_ref()
+            .and_then(|w| Some([w.min_mm? as f32, w.max_mm? as f32]));
+        Some(Field {
+            name: "wall thickness".into(),
+            unit: "mm".into(),
+            per_vertex,
+            cells: None,
+            span,
+        })
+    }
+
     /// What pictures and 3D files show: the part coloured by the fill's `color_by` field
-    /// when the fill ran (by height along D otherwise, or with `color_by = "height"`), the answer's gates, the centre of mass, the
+    /// when the fill ran, by the wall map when it was measured without the fill, by height
+    /// along D otherwise (or with `color_by = "height"`), the answer's gates, the centre of mass, the
     /// parting line, the qualifying points. `title` is the first title line (the file's
     /// name).
     pub fn scene<'a>(
@@ -669,13 +690,8 @@ impl Study {
         } else if let Some(f) = self.fill_field() {
             let display = self.display(part, &f);
             scene = scene.with_refined_field(f, display);
-        } else if let (true, Some(w)) = (self.pictures_wall, &self.wall_per_vertex) {
-            scene = scene.with_field(Field {
-                name: "wall thickness".into(),
-                unit: "mm".into(),
-                per_vertex: w.clone(),
-                cells: None,
-            });
+        } else if let (true, Some(f)) = (self.pictures_wall, self.wall_field()) {
+            scene = scene.with_field(f);
         }
         let r = self.analysis.options.gate_radius_mm;
         scene.gates = self

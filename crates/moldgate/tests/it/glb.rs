@@ -140,6 +140,7 @@ fn empty_field() -> Field {
         unit: String::new(),
         per_vertex: Vec::new(),
         cells: None,
+        span: None,
     }
 }
 
@@ -324,6 +325,7 @@ fn cube_has_sharp_edges() {
         unit: "mm".into(),
         per_vertex: mesh.vertices.iter().map(|p| p.z as f32).collect(),
         cells: None,
+        span: None,
     };
     let scene = Scene {
         mesh: &mesh,

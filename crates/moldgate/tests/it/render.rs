@@ -166,6 +166,7 @@ fn the_field_colours_the_part_where_the_values_are() {
         unit: "".into(),
         per_vertex: vec![f32::NAN; part.mesh.vertices.len()],
         cells: None,
+        span: None,
     });
     let picture = render(&unknown, &RenderOptions::default()).unwrap();
     let image = decode(&picture.png().unwrap());
@@ -203,6 +204,7 @@ fn bad_requests_are_errors() {
         unit: "mm".into(),
         per_vertex: vec![1.0; 3],
         cells: None,
+        span: None,
     });
     assert!(matches!(
         png(&short, &RenderOptions::default()),

@@ -591,6 +591,35 @@ fn the_wall_map_colours_the_pictures_without_the_fill_when_asked_for() {
         .warnings
         .iter()
         .all(|w| !w.contains("--color-by")));
+    // Its colour bar spans the facets' walls, as the report gives them (the vertices'
+    // means of their facets are narrower).
+    let w = s.report().wall_thickness.as_ref().unwrap();
+    let [lo, hi] = scene.field.range().unwrap();
+    assert_eq!(
+        [lo as f64, hi as f64],
+        [
+            w.min_mm.unwrap() as f32 as f64,
+            w.max_mm.unwrap() as f32 as f64
+        ]
+    );
+    let means = moldgate::colormap::Range::of(walls).unwrap();
+    assert!(means.min >= lo && means.max <= hi, "{means:?}");
+    // Measured without the fill, the wall map is what the pictures show unless the height
+    // is asked for.
+    let s = study(&part, &options(r#"{ "wall_thickness": true }"#)).unwrap();
+    assert_eq!(
+        s.scene(&part, "cover").unwrap().field.name,
+        "wall thickness"
+    );
+    let s = study(
+        &part,
+        &options(r#"{ "wall_thickness": true, "color_by": "height" }"#),
+    )
+    .unwrap();
+    assert_eq!(
+        s.scene(&part, "cover").unwrap().field.name,
+        "height along D"
+    );
     // Not measured: height, and a warning saying so.
     let s = study(&part, &options(r#"{ "color_by": "wall" }"#)).unwrap();
     assert_eq!(
