@@ -298,6 +298,27 @@ pub fn render(r: &Report) -> String {
             )
         }
     );
+    // Where the part lies in its file's frame (the frame of --gate-at and --keep-out). A
+    // side to 0.1 mm, or three figures below a millimetre (a part read in other units).
+    let side = |x: f64| {
+        if x >= 1.0 {
+            format!("{x:.1}")
+        } else {
+            three_figures(x)
+        }
+    };
+    let size = std::array::from_fn::<f64, 3, _>(|i| m.bounds_max[i] - m.bounds_min[i]);
+    if size.iter().all(|s| s.is_finite()) {
+        let _ = writeln!(
+            s,
+            "part box: {} to {} mm, size {} x {} x {} mm",
+            v3(m.bounds_min),
+            v3(m.bounds_max),
+            side(size[0]),
+            side(size[1]),
+            side(size[2])
+        );
+    }
     let o = &r.options;
     let _ = writeln!(
         s,

@@ -586,6 +586,25 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
         pp.contains("material PP: gate radius 1.4254 mm (from the material)\n"),
         "{pp}"
     );
+    // Where the part lies, in the frame its gates and keep-outs are given in, is the
+    // JSON's box.
+    let json = assert_ok(&moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "plate", "--json"],
+    ));
+    let m = &serde_json::from_str::<serde_json::Value>(&json).unwrap()["mesh"];
+    let corner = |v: &serde_json::Value| {
+        let c: Vec<String> = (0..3)
+            .map(|i| format!("{:.3}", v[i].as_f64().unwrap()))
+            .collect();
+        format!("({})", c.join(", "))
+    };
+    let said = format!(
+        "part box: {} to {} mm, size ",
+        corner(&m["bounds_min"]),
+        corner(&m["bounds_max"])
+    );
+    assert!(pp.contains(&said), "{said} in {pp}");
 }
 
 /// A user material of a built-in's name (ignoring case and separators) wins over it.
