@@ -62,7 +62,9 @@ static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 ///
 /// - a new file or a regular file: through an exclusively created temporary file of
 ///   unpredictable name in the same folder ([`TEMP_PREFIX`]), then a rename, so the file is
-///   either the old one or the complete new one;
+///   either the old one or the complete new one; a file that is there is replaced only if
+///   this user may write it (a read-only file is refused, as a shell's `>` refuses it),
+///   and the new one keeps its permissions;
 /// - a symbolic link: the same, in the folder of the file it finally points to, which is
 ///   replaced while the link stays (a link to a special file writes into that file; a link
 ///   that points nowhere is refused);
@@ -100,6 +102,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
             path.display()
         )));
     }
+    // A file that is there is replaced only if this user may write it, as a shell's `>`
+    // would (the rename needs only the folder's permission), and keeps its permissions.
+    let kept_permissions = match std::fs::metadata(&target) {
+        Ok(m) => {
+            if let Err(e) = std::fs::OpenOptions::new().write(true).open(&target) {
+                return Err(fail(&format_args!(
+                    "the file is there and this user may not write it ({e}); nothing was written"
+                )));
+            }
+            Some(m.permissions())
+        }
+        Err(_) => None,
+    };
     sweep_stale(dir);
     // The file is written beside its target first: an error here is the folder's (a
     // read-only folder, or a file system such as /proc that makes no new files).
@@ -113,6 +128,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     let result = tmp
         .as_file_mut()
         .write_all(bytes)
+        .and_then(|_| match &kept_permissions {
+            Some(p) => tmp.as_file().set_permissions(p.clone()),
+            None => Ok(()),
+        })
         .and_then(|_| tmp.as_file().sync_all())
         .and_then(|_| tmp.persist(&target).map(drop).map_err(|e| e.error));
     // On an error the temporary file is removed when `tmp` is dropped.

@@ -295,6 +295,79 @@ fn output_through_a_symlink_replaces_its_target_and_keeps_the_link() {
     assert!(temporaries(dir.path()).is_empty() && temporaries(&elsewhere).is_empty());
 }
 
+/// A file that is there keeps its permissions when it is replaced, and one this user may
+/// not write is not replaced (the rename needs only the folder's permission): as a
+/// shell's `>` would.
+#[test]
+fn an_output_file_keeps_its_permissions_and_a_read_only_one_is_refused() {
+    use std::os::unix::fs::PermissionsExt;
+    let test = "an_output_file_keeps_its_permissions_and_a_read_only_one_is_refused";
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let mode = |p: &Path, m: u32| std::fs::set_permissions(p, std::fs::Permissions::from_mode(m));
+    let mode_of = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    // A private file stays private.
+    let private = dir.path().join("private.json");
+    std::fs::write(&private, "old").unwrap();
+    mode(&private, 0o600).unwrap();
+    let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "private.json"]);
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    assert!(std::fs::read_to_string(&private)
+        .unwrap()
+        .contains("schema_version"));
+    assert_eq!(mode_of(&private), 0o600);
+    // A read-only file in a folder anyone may write: not replaced. Permissions do not stop
+    // the superuser, so as root the binary runs as `nobody` through setpriv.
+    mode(dir.path(), 0o777).unwrap();
+    mode(&dir.path().join("part.stl"), 0o644).unwrap();
+    let locked = dir.path().join("locked.json");
+    std::fs::write(&locked, "keep").unwrap();
+    mode(&locked, 0o444).unwrap();
+    let args = [
+        "locate",
+        "part.stl",
+        "-o",
+        "locked.json",
+        "--png",
+        "locked.png",
+    ];
+    let root = std::fs::OpenOptions::new()
+        .write(true)
+        .open(&locked)
+        .is_ok();
+    let out = if !root {
+        moldgate(dir.path(), &args)
+    } else {
+        let run = Command::new("setpriv")
+            .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(env!("CARGO_BIN_EXE_moldgate"))
+            .args(args)
+            .current_dir(dir.path())
+            .stdin(Stdio::null())
+            .output();
+        match run {
+            Ok(out) if !String::from_utf8_lossy(&out.stderr).contains("setpriv") => out,
+            _ => {
+                let why = "running as root, and setpriv cannot drop to user nobody";
+                eprintln!("{test}: skipped: {why}");
+                println!("{test}: skipped: {why}");
+                return;
+            }
+        }
+    };
+    assert_eq!(out.status.code(), Some(OUTPUT), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains(
+            "locked.json: cannot write: the file is there and this user may not write it"
+        ),
+        "{}",
+        stderr(&out)
+    );
+    assert_eq!(std::fs::read_to_string(&locked).unwrap(), "keep");
+    assert_eq!(mode_of(&locked), 0o444);
+    assert!(temporaries(dir.path()).is_empty());
+}
+
 #[test]
 fn output_to_a_dangling_symlink_is_refused() {
     let dir = tempfile::tempdir().unwrap();
