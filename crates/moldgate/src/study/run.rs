@@ -14,6 +14,10 @@ use crate::render::RenderOptions;
 use crate::report::{AnswerGate, Input, Report};
 use crate::scene::{Field, Marker, Scene};
 use crate::study::{judge, ColorByChoice, Demold, Hooks, Settings, Stage, StudyError};
+
+/// Why a fill asked for was not made on a part without a gate.
+const NO_FILL_WITHOUT_GATE: &str =
+    "no fill analysis: it starts from the method's gate, and this part has none";
 use crate::thickness::{wall_thickness_until, Known, ThicknessOptions, WallThickness};
 use crate::undercut::auto_direction_beside_loaded;
 
@@ -343,8 +347,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         report = report.with_wall_thickness(w, *time_s);
     }
     let colour_by = s.fill.as_ref().map(|o| o.colour_by);
+    let asked_fill = s.fill.is_some();
     if let Some(fill) = fill {
         report = report.with_fill(fill, analysis.centre);
+    } else if asked_fill {
+        // Asked for and not made: said, not left to a missing section.
+        report.warnings.push(NO_FILL_WITHOUT_GATE.into());
     }
     // The tree serves several stages: counted once, on its own.
     if bvh.is_some() {

@@ -762,3 +762,24 @@ fn the_keyword_report_names_options_as_keywords_and_changes_nothing_else() {
     assert!(flags.contains("--require-flat") && flags.contains("--objective"));
     assert!(!page.contains("--objective") && page.contains("objective"));
 }
+
+/// A fill asked for on a part without a gate is said not made, not left to a missing
+/// section.
+#[test]
+fn a_fill_asked_for_without_a_gate_says_it_was_not_made() {
+    let part = sample("cover");
+    let s = study(&part, &options(r#"{ "fill": true, "gate_radius": 40 }"#)).unwrap();
+    let r = s.report();
+    assert!(r.gate.is_none() && r.fill.is_none());
+    assert!(
+        r.warnings
+            .iter()
+            .any(|w| w
+                == "no fill analysis: it starts from the method's gate, and this part has none"),
+        "{:?}",
+        r.warnings
+    );
+    // Without the fill asked for, no such word.
+    let s = study(&part, &options(r#"{ "gate_radius": 40 }"#)).unwrap();
+    assert!(s.report().warnings.iter().all(|w| !w.contains("no fill")));
+}
