@@ -251,8 +251,8 @@ pub enum OptionsError {
     /// The rays' hit records of the part's grid would take more memory than the budget
     /// (checked once the grid is laid, before its rays).
     #[error(
-        "a grid of {nodes} nodes with {circle_points} circle points can need {} MiB for the ray hits (up to {runs} sets of one 24-byte and {circle_points} 8-byte records a node), more than the budget of {} MiB; use at most {points_within} circle points, or a wider spacing (at most {nodes_within} nodes)",
-        .bytes >> 20, .budget >> 20
+        "a grid of {nodes} nodes with {circle_points} circle points can need {} MiB for the ray hits (up to {runs} sets of one 24-byte and {circle_points} 8-byte records a node), more than the budget of {} MiB; use at most {points_within} circle points, or a spacing of at least {} mm (at most {nodes_within} nodes)",
+        .bytes >> 20, .budget >> 20, figures(*.min_spacing_mm)
     )]
     RayMemory {
         /// The grid's nodes.
@@ -269,6 +269,8 @@ pub enum OptionsError {
         points_within: u64,
         /// The largest grid within the budget with these circle points.
         nodes_within: u64,
+        /// The least spacing whose grid over this part is within the budget, mm.
+        min_spacing_mm: f64,
     },
     /// The automatic spacing gives too many nodes: the part is too large for its gate (most
     /// often a file in other units than the ones it was read in).

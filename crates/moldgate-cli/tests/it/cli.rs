@@ -552,7 +552,7 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
     ));
     let html = std::fs::read_to_string(dir.path().join("r.html")).unwrap();
     assert!(!html.contains("family values"));
-    assert!(html.contains("from the centre of mass (grid gate)"));
+    assert!(html.contains("from the centre of mass (the paper's gate: the qualifying node nearest the centre of mass)"));
     // The balanced strategy's gate is named so in the headline, not the grid's.
     assert_ok(&moldgate(
         dir.path(),
@@ -567,7 +567,7 @@ fn the_summary_says_when_values_are_typical_of_a_family() {
         ],
     ));
     let html = std::fs::read_to_string(dir.path().join("b.html")).unwrap();
-    assert!(html.contains("from the centre of mass (balanced gate)"));
+    assert!(html.contains("from the centre of mass (the balanced gate)"));
     // A layout's summary row gives every gate, not its first alone.
     assert_ok(&moldgate(
         dir.path(),
@@ -1018,7 +1018,7 @@ fn units_metres_scale_the_part_and_millimetres_warn() {
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     let warnings = report["warnings"].to_string();
     assert!(
-        warnings.contains("set its units to in, cm or m (--units)"),
+        warnings.contains("if the file is in metres, set its units to m (--units)"),
         "{warnings}"
     );
 }

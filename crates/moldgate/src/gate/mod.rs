@@ -254,7 +254,8 @@ impl LocateOptions {
 /// Refuses a grid of `nodes` whose rays' hit records, with `circle_points` points a node,
 /// could take more than [`RAY_MEMORY_BUDGET_BYTES`]: counted with the most sets of hits any
 /// machine draws, so that a grid accepted here is accepted everywhere.
-fn check_ray_memory(nodes: usize, circle_points: usize) -> Result<(), OptionsError> {
+fn check_ray_memory(grid: &Grid, circle_points: usize) -> Result<(), OptionsError> {
+    let nodes = grid.len();
     let per_node = 24 + 8 * circle_points as u64;
     let runs = projection::MAX_RUNS as u64;
     let bytes = (nodes as u64).saturating_mul(per_node * runs);
@@ -270,6 +271,10 @@ fn check_ray_memory(nodes: usize, circle_points: usize) -> Result<(), OptionsErr
         budget: RAY_MEMORY_BUDGET_BYTES,
         points_within: (RAY_MEMORY_BUDGET_BYTES / per_grid).saturating_sub(24) / 8,
         nodes_within: RAY_MEMORY_BUDGET_BYTES / (per_node * runs),
+        min_spacing_mm: quadrature::least_spacing(
+            DVec2::from_array(grid.box_hi) - DVec2::from_array(grid.box_lo),
+            (RAY_MEMORY_BUDGET_BYTES / (per_node * runs)) as usize,
+        ),
     })
 }
 
@@ -386,6 +391,8 @@ pub struct Analysis {
     /// The diagonal of the part's box in the mesh's axes, mm (the size the loader's units
     /// warning quotes).
     pub diagonal_mm: f64,
+    /// The units the part was read in.
+    pub units: crate::mesh::Units,
     /// The grid of nodes.
     pub grid: Grid,
     /// Flatness tolerance used, in mm.
@@ -484,7 +491,9 @@ impl Analysis {
         let across = self.diagonal_mm;
         if crate::mesh::units::size_is_suspicious(across) {
             s += &format!(
-                "; the part is {across:.4} mm across as read: if the file is not in millimetres, set its units to in, cm or m (--units); otherwise try a smaller gate radius or spacing, another demolding direction, or --aesthetic"
+                "; the part is {across:.4} mm across as read in {}: {}; otherwise try a smaller gate radius or spacing, another demolding direction, or --aesthetic",
+                self.units.long_name(),
+                crate::mesh::units::units_advice(across, self.units)
             );
         } else if self.counts.kept_out + self.counts.cosmetic > 0 {
             // The designer's own regions took nodes: they come first.
@@ -680,7 +689,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         }
         grid => grid?,
     };
-    check_ray_memory(grid.len(), options.circle_points)?;
+    check_ray_memory(&grid, options.circle_points)?;
     check_ray_tests(part, &frame, &grid, options.circle_points, lo, hi)?;
     let flat_tolerance_mm = options.flat_tolerance_mm.unwrap_or(0.1 * r);
     if !(flat_tolerance_mm.is_finite() && flat_tolerance_mm >= 0.0) {
@@ -855,6 +864,7 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         centre,
         frame,
         diagonal_mm: bounds.diagonal(),
+        units: part.stats.units,
         grid,
         flat_tolerance_mm,
         counts,

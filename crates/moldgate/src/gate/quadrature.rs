@@ -71,19 +71,13 @@ impl Grid {
         let count = |s: f64| (s / spacing + 1e-9).floor() + 1.0;
         let (nu, nw) = (count(span.x), count(span.y));
         if nu * nw > max_nodes as f64 {
-            // The smallest spacing whose grid fits: nodes ~ (su/h + 1)(sw/h + 1) <= max.
-            let (su, sw, m) = (span.x, span.y, max_nodes as f64);
-            let a = m - 1.0;
-            let b = -(su + sw);
-            let c = -su * sw;
-            let h = (-b + (b * b - 4.0 * a * c).sqrt()) / (2.0 * a);
             return Err(OptionsError::GridTooLarge {
                 spacing_mm: spacing,
                 n_u: nu as u64,
                 n_w: nw as u64,
                 nodes: (nu * nw) as u64,
                 limit: max_nodes as u64,
-                min_spacing_mm: h * 1.0001,
+                min_spacing_mm: least_spacing(span, max_nodes),
             });
         }
         let (n_u, n_w) = (nu as usize, nw as usize);
@@ -120,6 +114,17 @@ impl Grid {
         let (iu, iw) = self.coords(i);
         DVec2::from_array(self.first) + DVec2::new(iu as f64, iw as f64) * self.spacing
     }
+}
+
+/// The smallest spacing whose grid over a box of `span` has at most `max_nodes` nodes:
+/// nodes ~ (su/h + 1)(sw/h + 1) <= max, with a margin of 1e-4 for the rounding.
+pub(crate) fn least_spacing(span: DVec2, max_nodes: usize) -> f64 {
+    let (su, sw, m) = (span.x, span.y, max_nodes as f64);
+    let a = m - 1.0;
+    let b = -(su + sw);
+    let c = -su * sw;
+    let h = (-b + (b * b - 4.0 * a * c).sqrt()) / (2.0 * a);
+    h * 1.0001
 }
 
 #[cfg(test)]

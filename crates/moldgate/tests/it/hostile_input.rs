@@ -499,7 +499,8 @@ fn inch_sized_part_read_as_mm_is_warned() {
     assert!(
         part.warnings
             .iter()
-            .any(|w| w.contains("set its units to in")),
+            .any(|w| w
+                .contains("if the file is in centimetres or inches, set its units to cm or in")),
         "{:?}",
         part.warnings
     );
