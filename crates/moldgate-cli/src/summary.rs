@@ -71,9 +71,10 @@ fn fill(
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
         let _ = writeln!(
             s,
-            "  flow-cell walls (the fill model's: one facet sampled per surface cell, {} cells, {} slivers left out): min {}, 5 % {}, median {}, 95 % {}, max {} mm",
+            "  flow-cell walls (the fill model's: one facet sampled per surface cell, {} cells, {} {} left out): min {}, 5 % {}, median {}, 95 % {}, max {} mm",
             w.samples,
             w.slivers,
+            if w.slivers == 1 { "sliver" } else { "slivers" },
             mm(w.min_mm),
             mm(w.p05_mm),
             mm(w.nominal_mm),
@@ -93,7 +94,11 @@ fn fill(
                 seconds_text(q.fill_time_s)
             );
         }
-        more(s, p.last_to_fill.len(), "last places to fill");
+        more(
+            s,
+            p.last_to_fill.len(),
+            ("last place to fill", "last places to fill"),
+        );
         for w in p.weld_lines.iter().take(3) {
             let _ = writeln!(
                 s,
@@ -103,7 +108,11 @@ fn fill(
                 w.flow_length_mm
             );
         }
-        more(s, p.weld_lines.len(), "places where fronts meet");
+        more(
+            s,
+            p.weld_lines.len(),
+            ("place where fronts meet", "places where fronts meet"),
+        );
     }
     match &f.balanced {
         Some(b) if b.is_paper_gate => {
@@ -734,12 +743,13 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
 
 /// The summary lists the first three of a gate's last places to fill and of its weld
 /// lines: when there are more, a line says how many and where they all are.
-fn more(s: &mut String, count: usize, what: &str) {
+fn more(s: &mut String, count: usize, (one, many): (&str, &str)) {
     if count > 3 {
+        let left = count - 3;
         let _ = writeln!(
             s,
-            "    ... {} more {what} in the JSON and the report page ({count} in all)",
-            count - 3
+            "    ... {left} more {} in the JSON and the report page ({count} in all)",
+            if left == 1 { one } else { many }
         );
     }
 }

@@ -118,14 +118,16 @@ pub fn page(r: &Report, json: &str, png: Option<&[u8]>) -> String {
             let _ = writeln!(
                 h,
                 "<p class=\"answer\" id=\"answer\">Gate at <b id=\"gate\">{} mm</b>, radius \
-                 R = {:.3} mm, {:.3} mm from the centre of mass ({} gate).</p>",
+                 R = {:.3} mm, {:.3} mm from the centre of mass ({}).</p>",
                 v3(g.point),
                 r.options.gate_radius_mm,
                 g.distance_3d_mm,
                 match (g.strategy, g.mode) {
-                    (crate::flow::Strategy::Balanced, _) => "balanced",
-                    (_, crate::GateMode::Paper) => "grid",
-                    (_, crate::GateMode::Aesthetic) => "parting-line",
+                    (crate::flow::Strategy::Balanced, _) => "the balanced gate",
+                    (_, crate::GateMode::Paper) =>
+                        "the paper's gate: the qualifying node nearest the centre of mass",
+                    (_, crate::GateMode::Aesthetic) =>
+                        "the aesthetic gate: the point of the parting line nearest the centre of mass",
                 }
             );
         }
@@ -398,7 +400,12 @@ fn counts_table(h: &mut String, r: &Report) {
         ("Whole gate circle on the part", c.circle_on_part),
         ("... and wall thicker than R", c.thicker_than_radius),
         ("... of which wall thickness unknown", c.thickness_unknown),
-        ("... and circle flat", c.flat),
+        // Not a step after the wall: counted among the whole circles, and a rule only
+        // with --require-flat.
+        (
+            "Whole gate circle on the part and flat (a rule only with --require-flat)",
+            c.flat,
+        ),
         ("Qualifying (every rule in force)", c.qualifying),
     ];
     for (name, n) in rows {

@@ -697,11 +697,15 @@ fn draw_overlays(
         if d.hidden {
             label += " (hidden)";
         }
-        // A label reads as the gate it is nearest: the designer's gates count too.
+        // A label reads as the mark it is nearest: the designer's gates count too, and so
+        // does the centre of mass's cross when it is off the disc (a large gate's label
+        // beside the cross read as the cross's; a cross on the disc is the same place).
+        let cross_apart = (cx - x).hypot(cy - y) > r + 12.0 * k;
         let others: Vec<[f32; 2]> = (0..discs.len())
             .filter(|&j| j != i)
             .map(|j| discs[j].at)
             .chain(placed_discs.iter().map(|d| d.at))
+            .chain(cross_apart.then_some([cx, cy]))
             .collect();
         let (tx, ty, align, own) =
             gate_label_place([x, y], r, &label, &gate_style, &taken, inside, k, &others);
@@ -1797,19 +1801,39 @@ fn draw_side_bar(
         }
         *y += row + (lines.len().max(1) - 1) as f32 * 17.0 * k;
     };
-    let mut gate_text = match scene.gates.first() {
-        Some(g) => format!("gate, disc of R = {:.3} mm", g.radius_mm),
-        None => "no gate".to_string(),
-    };
-    if scene.gates.iter().any(|g| g.body.is_some()) {
-        gate_text += "; a gate of body N: that body's own gate, from which the picture fills it";
+    match scene.gates.first() {
+        Some(g) => {
+            let mut gate_text = format!("gate, disc of R = {:.3} mm", g.radius_mm);
+            if scene.gates.iter().any(|g| g.body.is_some()) {
+                gate_text +=
+                    "; a gate of body N: that body's own gate, from which the picture fills it";
+            }
+            item(canvas, &mut y, &gate_text, &|c, cy| {
+                let r = 8.0 * k;
+                c.stroke_circle(sx, cy, r, BLACK, 4.5 * k);
+                c.stroke_circle(sx, cy, r, WHITE, 2.5 * k);
+                c.fill_circle(sx, cy, r, GATE_COLOUR);
+            });
+        }
+        // No disc is drawn: the swatch is an empty, struck-out circle, not a gate's.
+        None => item(
+            canvas,
+            &mut y,
+            "no gate: no node passes the rules (the report says why)",
+            &|c, cy| {
+                let r = 8.0 * k;
+                c.stroke_circle(sx, cy, r, INK, 1.5 * k);
+                let d = r * std::f32::consts::FRAC_1_SQRT_2;
+                c.stroke_polyline(
+                    &[[sx - d, cy + d], [sx + d, cy - d]],
+                    false,
+                    INK,
+                    1.5 * k,
+                    None,
+                );
+            },
+        ),
     }
-    item(canvas, &mut y, &gate_text, &|c, cy| {
-        let r = 8.0 * k;
-        c.stroke_circle(sx, cy, r, BLACK, 4.5 * k);
-        c.stroke_circle(sx, cy, r, WHITE, 2.5 * k);
-        c.fill_circle(sx, cy, r, GATE_COLOUR);
-    });
     if !scene.placed.is_empty() {
         item(
             canvas,
