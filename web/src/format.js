@@ -23,10 +23,15 @@ export function threeFigures(t) {
 
 /** The colour bar's two ends as text, to the same decimals: three significant figures of
  * the span between them (a fill time from 2e-6 s at the gate to 0.105 s reads "0" to
- * "0.105", a wall from 0.14 to 8.43 mm "0.14" to "8.43"), whole numbers from 100 up. */
+ * "0.105", a wall from 0.14 to 8.43 mm "0.14" to "8.43"), at most four of the larger end,
+ * whole numbers from 100 up. */
 export function barEnds(min, max) {
+  // Three figures of the span, but no more than four of the larger end (a uniform wall of
+  // 3 mm with rounding noise reads "3" to "3", not "2.99999785" to "3.00000596").
+  const figures = (x) => 2 - Math.floor(Math.log10(x));
   const span = Math.abs(max - min) || Math.abs(max) || 1;
-  const decimals = Math.min(12, Math.max(0, 2 - Math.floor(Math.log10(span))));
+  const larger = Math.max(Math.abs(min), Math.abs(max)) || 1;
+  const decimals = Math.min(12, Math.max(0, Math.min(figures(span), figures(larger) + 1)));
   const text = (x) => (Math.abs(x) >= 100 ? x.toFixed(0) : String(Number(x.toFixed(decimals))));
   return [text(min), text(max)];
 }
@@ -124,6 +129,8 @@ export function inPageWords(message) {
   }
   // "gate_at 2 ...": the second of the own gates (typed ones first, then those placed).
   message = message.replace(/^(?:options: )?gate_at (\d+)\b/, (_, n) => `'Your own gates', gate ${n},`);
+  // The rays' memory: what fits, by the controls that set it.
+  message = message.replace(/use at most (\d+) circle points, or a spacing of at least ([\d.e+-]+) mm/, "set 'Points on each circle' to at most $1, or 'Grid spacing' to at least $2 mm");
   // The library's own names of a few options ("circle points must be at most 360").
   message = message.replace(/^(circle points|the node limit|flatness tolerance|gate radius|spacing)(?= must | is )/, (name) => LIBRARY_NAMES[name]);
   // "options: material.n: ..." or "spacing must ...": the field at fault first.

@@ -254,9 +254,21 @@ function startRun() {
   setState("busy");
 }
 
+/** The stage the study under way said last, and the timer that keeps its time going
+ * between the stages' reports (a stage may run for many seconds). */
+let stageWords = "";
+setInterval(() => {
+  if (app.dataset.state === "busy" && stageWords) showStage();
+}, 500);
+
+function showStage() {
+  $("busy-text").textContent = `${stageWords}… ${((performance.now() - started) / 1000).toFixed(1)} s`;
+}
+
 function onProgress({ id, stage, fraction }) {
   if (id !== seq) return;
-  $("busy-text").textContent = `${STAGES[stage] ?? stage}… ${((performance.now() - started) / 1000).toFixed(1)} s`;
+  stageWords = STAGES[stage] ?? stage;
+  showStage();
   $("progress").value = fraction;
 }
 
@@ -323,6 +335,7 @@ async function analyse({ keepCamera = false } = {}) {
   $("drop-hint").hidden = true;
   $("busy").hidden = false;
   $("busy-text").textContent = STAGES.start;
+  stageWords = "";
   $("progress").value = 0;
   clearResults(`Analysing ${part.name}…`);
   bringViewIntoSight();

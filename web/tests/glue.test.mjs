@@ -102,6 +102,10 @@ test("the library's messages read in the page's words", () => {
     inPageWords("gate_at 2 (0.000, 0.000, 5.000) is 3.000 mm from the part's surface"),
     "'Your own gates', gate 2, (0.000, 0.000, 5.000) is 3.000 mm from the part's surface"
   );
+  assert.equal(
+    inPageWords("cover: a grid of 3844001 nodes with 360 circle points can need 42583 MiB for the ray hits, more than the budget of 3072 MiB; use at most 23 circle points, or a spacing of at least 0.1474 mm (at most 277309 nodes)"),
+    "cover: a grid of 3844001 nodes with 360 circle points can need 42583 MiB for the ray hits, more than the budget of 3072 MiB; set 'Points on each circle' to at most 23, or 'Grid spacing' to at least 0.1474 mm (at most 277309 nodes)"
+  );
   // Words with dashes that are not flags stay as they are.
   assert.equal(inPageWords("a 2-core run, x - y"), "a 2-core run, x - y");
 });
@@ -113,4 +117,6 @@ test("the colour bar's ends read to the decimals of the span between them", () =
   assert.deepEqual(barEnds(0.016, 0.0512), ["0.016", "0.0512"]);
   assert.deepEqual(barEnds(3, 3), ["3", "3"]);
   assert.deepEqual(barEnds(0, 0), ["0", "0"]);
+  assert.deepEqual(barEnds(2.99999785, 3.00000596), ["3", "3"]);
+  assert.deepEqual(barEnds(0.0003, 0.0287), ["0.0003", "0.0287"]);
 });

@@ -692,6 +692,10 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
                 .count();
             let _ = match kept {
                 0 => write!(out, " ({timed_out} stopped at --timeout)"),
+                1 if timed_out == 1 => write!(
+                    out,
+                    " (1 stopped at --timeout, with the method's gate found before the stop)"
+                ),
                 k if k == timed_out => write!(
                     out,
                     " ({timed_out} stopped at --timeout, each with the method's gate found before the stop)"

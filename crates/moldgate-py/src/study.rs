@@ -237,7 +237,7 @@ fn less_time_keywords(settings: &Settings, stage: moldgate::study::Stage) -> Str
     let hint = settings
         .less_time_words(stage)
         .replace("no --suitability", "no suitability map")
-        .replace("no --wall-thickness", "no wall_thickness");
+        .replace("no --wall-thickness", "no wall map");
     moldgate::study::keyword_words(&hint, "True")
 }
 

@@ -112,7 +112,7 @@ def test_an_object_without_arrays():
         ),
         # A value of no option's kind is refused by its name.
         ({"demold": (x for x in (0, 0, 1))}, r"^demold: a generator is not an option value \(give a number"),
-        ({"keep_out": [object()]}, r"^keep_out: a object is not an option value"),
+        ({"keep_out": [object()]}, r"^keep_out: an object is not an option value"),
         ({"max_nodes": 0}, "max_nodes must be between 1 and"),
         ({"n": -0.3}, "n must be a positive finite number, got -0.3"),
         ({"units": "furlong"}, "units: unknown unit 'furlong'"),
@@ -145,6 +145,20 @@ def test_numbers_of_numpy_and_decimal_are_numbers():
         assert np.array_equal(moldgate.study(plate, gate_radius=radius, spacing=spacing).gate.point, same)
     with pytest.raises(moldgate.OptionsError, match="^gate_radius must be a finite number, got NaN$"):
         moldgate.study(plate, gate_radius=Decimal("NaN"))
+    with pytest.raises(moldgate.OptionsError, match="^cell must be a finite number, got sNaN$"):
+        moldgate.study(plate, cell=Decimal("sNaN"))
+    # A point of Decimals is one point, as one of floats is.
+    placed = lambda s: s.report["placed_gates"]["gates"]
+    on = placed(moldgate.study(plate, gate_at=[0.0, 0.0, 4.0]))
+    assert on == placed(moldgate.study(plate, gate_at=[Decimal(0), Decimal(0), Decimal(4)]))
+    with pytest.raises(moldgate.OptionsError, match=r"gate_at 1 '1.0,sNaN,0.0': y"):
+        moldgate.study(plate, gate_at=[Decimal(1), Decimal("sNaN"), Decimal(0)])
+    # An iterator is refused by its name, whichever option it is given to.
+    for name in ("gate_at", "keep_out", "demold"):
+        with pytest.raises(moldgate.OptionsError, match=f"^{name}: a generator is not an option value"):
+            moldgate.study(plate, **{name: (x for x in (1, 2, 3))})
+    with pytest.raises(moldgate.OptionsError, match="^material: an object is not an option value"):
+        moldgate.study(plate, material=object())
 
 
 def test_a_step_tolerance_with_a_part_already_read_is_refused():

@@ -3,7 +3,7 @@
 //! deadline so a client that sends a byte a second cannot hold a slot; the bytes held are
 //! taken from the server's upload budget as they arrive.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -60,7 +60,11 @@ pub struct Held(Option<OwnedSemaphorePermit>);
 
 impl Held {
     /// Takes `n` more bytes of `budget`, or says the server is busy.
-    fn take(&mut self, budget: &Arc<Semaphore>, n: usize, total: usize) -> Result<(), ApiError> {
+    fn take(
+        &mut self,
+        (budget, total, receiving): (&Arc<Semaphore>, usize, &AtomicUsize),
+        n: usize,
+    ) -> Result<(), ApiError> {
         if n == 0 {
             return Ok(());
         }
@@ -68,8 +72,11 @@ impl Held {
             .ok()
             .and_then(|n| budget.clone().try_acquire_many_owned(n).ok())
             .ok_or_else(|| {
+                // This request is among those being received.
+                let others = receiving.load(Ordering::Relaxed).saturating_sub(1);
                 ApiError::busy(format!(
-                    "the server is busy receiving other uploads: they hold its upload memory of {} MiB ((--analyses + --queue) x --max-upload); try again later",
+                    "the server is busy: the bodies it holds ({others} other {} being received, and those of the studies admitted) fill its upload memory of {} MiB ((--analyses + --queue) x --max-upload); try again later",
+                    if others == 1 { "upload" } else { "uploads" },
                     total >> 20
                 ))
             })?;
@@ -82,14 +89,15 @@ impl Held {
 }
 
 /// Reads the whole body: at most `max` bytes, all of it within `timeout`, each chunk's
-/// bytes taken from `budget` (of `total` bytes) as it arrives. `declared` (the checked
+/// bytes taken from `budget` (its semaphore, its bytes in all, and the count of requests
+/// being received, which this one is among) as it arrives. `declared` (the checked
 /// `Content-Length`) sizes the buffer once, so a large upload is not copied as it grows
 /// (its pages are the system's only once written).
 pub async fn read(
     body: Body,
     declared: Option<u64>,
     (max, timeout): (u64, Duration),
-    (budget, total): (&Arc<Semaphore>, usize),
+    budget: (&Arc<Semaphore>, usize, &AtomicUsize),
     counter: &BytesIn,
 ) -> Result<(Bytes, Held), ApiError> {
     let deadline = tokio::time::Instant::now() + timeout;
@@ -129,7 +137,7 @@ pub async fn read(
             if out.len() as u64 + data.len() as u64 > max {
                 return Err(too_large(max, "body"));
             }
-            held.take(budget, data.len(), total)?;
+            held.take(budget, data.len())?;
             out.extend_from_slice(&data);
         }
     }

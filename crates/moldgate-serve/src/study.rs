@@ -604,7 +604,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
     let busy = |app: &App| {
         let (running, waiting) = app.busy();
         ApiError::busy(format!(
-            "the server is busy: {running} {} running and {waiting} waiting, its most (--analyses {}, --queue {}); try again later",
+            "the server is busy: {running} {} running and {waiting} waiting, as many as it takes (--analyses {}, --queue {}); try again later",
             if running == 1 { "study" } else { "studies" },
             limits.analyses,
             limits.queue
@@ -630,7 +630,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         Some(_) => None,
     };
     let (_, body) = req.into_parts();
-    let budget = (&app.uploads, App::upload_budget(limits));
+    let budget = (&app.uploads, App::upload_budget(limits), &app.receiving);
     let (bytes, held) = {
         // Counted while it is read, however the reading ends (a client gone drops it).
         let _receiving = Receiving::new(&app.receiving);
@@ -689,9 +689,13 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
             StatusCode::GATEWAY_TIMEOUT,
             "timeout",
             format!(
-                "the study waited {} s (--timeout) for an analysis slot and did not start: the server's {} slots (--analyses) were taken by other studies all that time; try again later",
+                "the study waited {} s (--timeout) for an analysis slot and did not start: the server's {} (--analyses) {} taken by other studies all that time; try again later",
                 limits.timeout.as_secs_f64(),
-                limits.analyses
+                match limits.analyses {
+                    1 => "one slot".to_string(),
+                    n => format!("{n} slots"),
+                },
+                if limits.analyses == 1 { "was" } else { "were" }
             ),
         )
     };

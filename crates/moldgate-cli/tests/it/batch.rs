@@ -690,7 +690,7 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
     assert_code(&out, USAGE);
     assert!(
         stdout(&out).contains(
-            "1 part: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout, each with the method's gate found before the stop)"
+            "1 part: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout, with the method's gate found before the stop)"
         ),
         "{}",
         stdout(&out)

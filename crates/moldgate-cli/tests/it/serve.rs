@@ -943,7 +943,7 @@ fn studies_beyond_the_queue_are_503_and_one_that_waits_past_its_time_never_start
     let e = assert_error(&s, &r, 503, "busy");
     assert_eq!(
         e["message"],
-        "the server is busy: 1 study running and 1 waiting, its most (--analyses 1, --queue 1); try again later"
+        "the server is busy: 1 study running and 1 waiting, as many as it takes (--analyses 1, --queue 1); try again later"
     );
     assert_eq!(r.header("retry-after"), Some("5"));
     let first = first.join().unwrap();
@@ -975,7 +975,7 @@ fn uploads_past_the_upload_memory_are_503() {
     let e = assert_error(&s, &r, 503, "busy");
     assert!(
         e["message"].as_str().unwrap().starts_with(
-            "the server is busy receiving other uploads: they hold its upload memory of 2 MiB"
+            "the server is busy: the bodies it holds (2 other uploads being received, and those of the studies admitted) fill its upload memory of 2 MiB"
         ),
         "{e}"
     );

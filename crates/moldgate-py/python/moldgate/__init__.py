@@ -20,6 +20,7 @@ the GIL, so threads study parts in parallel.
 
 from __future__ import annotations
 
+import collections.abc as _abc
 import decimal as _decimal
 import json as _json
 import math as _math
@@ -118,8 +119,9 @@ def default_options() -> dict:
 
 
 def _is_number(v: Any) -> bool:
-    """A real number, Python's or numpy's (``np.int64``, ``np.float32``), not a bool."""
-    return isinstance(v, _numbers.Real) and not isinstance(v, bool)
+    """A real number, Python's or numpy's (``np.int64``, ``np.float32``) or a ``Decimal``,
+    not a bool."""
+    return isinstance(v, (_numbers.Real, _decimal.Decimal)) and not isinstance(v, bool)
 
 
 def _point_text(point: Any) -> Any:
@@ -131,11 +133,18 @@ def _point_text(point: Any) -> Any:
         values = list(point.tolist() if hasattr(point, "tolist") else point)
     except TypeError:
         return str(point)
-    return ",".join(repr(float(v)) if _is_number(v) else str(v) for v in values)
+    # A Decimal NaN or infinity (a signalling NaN has no float) is left as its text.
+    exact = lambda v: _is_number(v) and not (isinstance(v, _decimal.Decimal) and not v.is_finite())
+    return ",".join(repr(float(v)) if exact(v) else str(v) for v in values)
 
 
 def _options_json(options: Mapping[str, Any]) -> str:
     options = dict(options)
+    # An iterator (a generator) is read once and would be half used by the checks below:
+    # refused by its name, as a value of no option's kind.
+    for name, value in options.items():
+        if isinstance(value, _abc.Iterator):
+            raise OptionsError(_not_an_option_value(name, value))
     # A direction as three numbers (a list, a tuple, a numpy array) is the "x,y,z" text.
     for name in ("demold", "cosmetic"):
         d = options.get(name)
@@ -188,6 +197,8 @@ def _json_value(name: str, value: Any) -> Any:
         if not -(2**63) <= int(value) < 2**64:
             raise OptionsError(f"{name} is out of range, got {value}")
         return int(value)
+    if isinstance(value, _decimal.Decimal) and not value.is_finite():
+        raise OptionsError(f"{name} must be a finite number, got {value}")
     if isinstance(value, (_numbers.Real, _decimal.Decimal)):
         if not _math.isfinite(float(value)):
             raise OptionsError(f"{name} must be a finite number, got {value}")
@@ -198,8 +209,14 @@ def _json_value(name: str, value: Any) -> Any:
         return _json_value(name, value.tolist())
     if isinstance(value, (list, tuple)):
         return [_json_value(name, v) for v in value]
-    raise OptionsError(
-        f"{name}: a {type(value).__name__} is not an option value "
+    raise OptionsError(_not_an_option_value(name, value))
+
+
+def _not_an_option_value(name: str, value: Any) -> str:
+    kind = type(value).__name__
+    article = "an" if kind[:1].lower() in "aeiou" else "a"
+    return (
+        f"{name}: {article} {kind} is not an option value "
         "(give a number, text, True or False, or a list of them)"
     )
 
