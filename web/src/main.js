@@ -318,16 +318,32 @@ function placeGate(point) {
     return;
   }
   placed.push(point);
-  analyse({ keepCamera: true });
+  analyse({ keepCamera: true, again: true });
 }
 
 function clearPlaced() {
   placed = [];
-  analyse({ keepCamera: true });
+  analyse({ keepCamera: true, again: true });
 }
 
-async function analyse({ keepCamera = false } = {}) {
+async function analyse({ keepCamera = false, again = false } = {}) {
   if (!part) return;
+  const request = { file_name: part.name, units: $("units").value, options: studyOptions() };
+  if (part.sample) request.sample = part.sample;
+  if (materialsFile) request.materials_file = materialsFile;
+  // The same part studied again (Analyse, a gate placed): the results on show stay when an
+  // option is refused (a mistyped keep-out region), marked as the earlier options', and the
+  // message says what to mend. A new part's study starts afresh.
+  if (again && current && app.dataset.state === "done") {
+    try {
+      await ask({ type: "check", request });
+    } catch (e) {
+      if (e.cancelled) return;
+      markStale();
+      showError(e.message);
+      return;
+    }
+  }
   if (app.dataset.state === "busy") cancelStudy();
   startRun();
   started = performance.now();
@@ -340,9 +356,6 @@ async function analyse({ keepCamera = false } = {}) {
   clearResults(`Analysing ${part.name}…`);
   bringViewIntoSight();
   const asked = formState();
-  const request = { file_name: part.name, units: $("units").value, options: studyOptions() };
-  if (part.sample) request.sample = part.sample;
-  if (materialsFile) request.materials_file = materialsFile;
   const bytes = part.bytes ? part.bytes.slice(0) : new ArrayBuffer(0);
   const colouring = Number($("colouring").value);
   try {
@@ -506,7 +519,7 @@ function wire() {
   });
   $("options").addEventListener("submit", (e) => {
     e.preventDefault();
-    analyse();
+    analyse({ again: true });
   });
   // A study stopped by the designer: its worker goes, the part stays open for the next.
   $("stop").addEventListener("click", () => {

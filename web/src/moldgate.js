@@ -112,6 +112,13 @@ export class Moldgate {
     }
   }
 
+  /** Checks `request`'s options as a study would before it reads the file; throws the
+   * library's message when one is refused. */
+  async check(request) {
+    const req = encoder.encode(JSON.stringify(request));
+    await this.call(() => this.withBytes(req, (rp, rl) => this.x.mg_check(rp, rl)));
+  }
+
   async bytes(f) {
     await this.call(f);
     return this.out();

@@ -2,9 +2,11 @@
 // WebAssembly build (rayon falls back to the calling thread). The page terminates this worker
 // to cancel a study and starts a new one.
 //
-// Messages in:  {type: "info"} | {type: "materials", file} | {type: "study", id, bytes, request, colouring}
+// Messages in:  {type: "info"} | {type: "materials", file} | {type: "check", id, request}
+//               | {type: "study", id, bytes, request, colouring}
 //               | {type: "glb", id, colouring} | {type: "download", id, what, colouring}
-// Messages out: {type: "info", ...} | {type: "materials", materials} | {type: "progress", id, stage, fraction}
+// Messages out: {type: "info", ...} | {type: "materials", materials} | {type: "checked"}
+//               | {type: "progress", id, stage, fraction}
 //               | {type: "result", id, report, glb, colouring, times} | {type: "glb", id, glb}
 //               | {type: "download", id, what, bytes} | {type: "error", id, message, trapped, fileError}
 
@@ -30,6 +32,9 @@ async function handleMessage(mg, m) {
       };
     case "materials":
       return { type: "materials", materials: await mg.materialsWith(m.file) };
+    case "check":
+      await mg.check(m.request);
+      return { type: "checked" };
     case "study": {
       current = m.id;
       if (handle) mg.drop(handle);

@@ -282,6 +282,24 @@ describe("moldgate in the browser", () => {
     await page.fill("#gate_radius", "");
   });
 
+  test("a refused option keeps the results on show, marked as the earlier options'", async () => {
+    assert.equal(await studySample(page, "plate"), "done");
+    const run = await page.$eval("#app", (e) => e.dataset.run);
+    await page.fill("#keep_out", "cube:1,2,3");
+    await page.click("#analyse");
+    await page.waitForFunction(() => !document.getElementById("error").hidden);
+    const message = await page.textContent("#error-message");
+    assert.match(message, /^'Keep-out regions'/, message);
+    // No study ran; the last one's results and view stay, said to be of other options.
+    assert.equal(await page.$eval("#app", (e) => e.dataset.run), run);
+    assert.equal(await page.$eval("#app", (e) => e.dataset.state), "done");
+    assert.ok(await page.$eval("#result-body", (e) => e.children.length > 0));
+    assert.ok(!(await page.$eval("#stale", (e) => e.hidden)));
+    await page.fill("#keep_out", "");
+    assert.equal(await analyseAgain(page), "done");
+    assert.ok(await page.$eval("#error", (e) => e.hidden));
+  });
+
   test("a grid too large for memory is refused before the work", async () => {
     await page.$eval("details", (d) => (d.open = true));
     await page.fill("#spacing", "0.0001");

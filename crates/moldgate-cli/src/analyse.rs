@@ -135,6 +135,7 @@ impl Source<'_> {
 
 /// Reads a mesh file and gives its size in bytes; every failure names the file.
 pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
+    crate::output::register_input(path);
     moldgate::files::read_mesh_file(path, units)
         .map_err(|e| Failure::input(format!("{}: {e}", path.display())))
 }

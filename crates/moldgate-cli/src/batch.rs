@@ -420,6 +420,11 @@ fn check_outputs(
     summary: Option<&Path>,
 ) -> Result<Vec<Option<PathBuf>>, Failure> {
     let same_file = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_path_buf());
+    // Every part is an input from the start, so no report written as parts finish may go
+    // over a part not yet read.
+    for p in parts.iter().filter(|p| p.skipped.is_none()) {
+        crate::output::register_input(&p.path);
+    }
     let inputs: HashSet<PathBuf> = parts
         .iter()
         .filter(|p| p.skipped.is_none())

@@ -24,6 +24,46 @@ pub fn refuse_input(output: &Path, input: Option<&Path>) -> Result<(), Failure> 
     Ok(())
 }
 
+/// The files read as inputs (meshes, manifests, materials files), by device and inode:
+/// [`write_atomic`] refuses to write over any of them at the moment it writes, whatever
+/// name or link leads there (a link planted in an output folder during the run included).
+static INPUTS: Mutex<Vec<(u64, u64)>> = Mutex::new(Vec::new());
+
+/// Records `path` (followed through links) as an input file. A path that cannot be read is
+/// not recorded: it is not read either.
+pub fn register_input(path: &Path) {
+    #[cfg(unix)]
+    if let Ok(m) = std::fs::metadata(path) {
+        use std::os::unix::fs::MetadataExt;
+        let id = (m.dev(), m.ino());
+        let mut inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+        if !inputs.contains(&id) {
+            inputs.push(id);
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+}
+
+/// Whether `path` (followed through links) is a file recorded by [`register_input`].
+fn is_input(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        std::fs::metadata(path).is_ok_and(|m| {
+            INPUTS
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .contains(&(m.dev(), m.ino()))
+        })
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        false
+    }
+}
+
 /// Whether two paths name the same file, whether or not it exists yet: their folders are
 /// compared after resolving links and `..`.
 pub fn same_file(a: &Path, b: &Path) -> bool {
@@ -102,6 +142,15 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
             path.display()
         )));
     }
+    let over_input = || {
+        Failure::output(format!(
+            "{}: refusing to write the output over an input file",
+            path.display()
+        ))
+    };
+    if is_input(&target) {
+        return Err(over_input());
+    }
     // A file that is there is replaced only if this user may write it, as a shell's `>`
     // would (the rename needs only the folder's permission), and keeps its permissions.
     let kept_permissions = match std::fs::metadata(&target) {
@@ -133,7 +182,15 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
             None => Ok(()),
         })
         .and_then(|_| tmp.as_file().sync_all())
-        .and_then(|_| tmp.persist(&target).map(drop).map_err(|e| e.error));
+        .and_then(|_| {
+            // Asked again at the last moment: the name may have been made an input's since.
+            if is_input(&target) {
+                return Err(std::io::Error::other(
+                    "refusing to write the output over an input file",
+                ));
+            }
+            tmp.persist(&target).map(drop).map_err(|e| e.error)
+        });
     // On an error the temporary file is removed when `tmp` is dropped.
     release(&registered);
     result.map_err(|e| fail(&e))

@@ -11,6 +11,7 @@ use crate::Failure;
 /// is not UTF-8 is an error of the command line's file (exit code 2), naming the line and
 /// byte. Every message names the file.
 pub fn read_toml_text(path: &Path) -> Result<String, Failure> {
+    crate::output::register_input(path);
     read_text(path, "a TOML file", MAX_TOML_BYTES).map_err(|e| {
         let message = format!("{}: {e}", path.display());
         match e {

@@ -184,6 +184,25 @@ pub unsafe extern "C" fn mg_study(
     }
 }
 
+/// Checks the request at `(request_ptr, request_len)` (JSON of [`Request`]) as [`mg_study`]
+/// would before it reads the file: 1 when its options are sound, else 0 with the message in
+/// the output. The page asks it before it lets the results shown go.
+///
+/// # Safety
+/// The range must be readable.
+#[no_mangle]
+pub unsafe extern "C" fn mg_check(request_ptr: *const u8, request_len: usize) -> u32 {
+    // SAFETY: the caller gives a readable range.
+    let request = unsafe { bytes(request_ptr, request_len) };
+    let result = request_of(request)
+        .map_err(session::Failure::from)
+        .and_then(|r| Session::settings(&r).map(drop));
+    match result {
+        Ok(()) => finish(Ok(Vec::new()), 1),
+        Err(failure) => finish(Err(failure.message), 1),
+    }
+}
+
 /// 1 when the last study refused ([`mg_study`] returned 0) was refused for its file, which
 /// cannot be read as a mesh (no option mends it), else 0.
 #[no_mangle]

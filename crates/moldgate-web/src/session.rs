@@ -6,7 +6,7 @@ use moldgate::clock::Instant;
 use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::report::Input;
 use moldgate::scene::{Field, Scene};
-use moldgate::study::{Hooks, Progress, Study, StudyOptions};
+use moldgate::study::{Hooks, Progress, Settings, Study, StudyOptions};
 use serde::Deserialize;
 
 /// The largest file the page accepts, in bytes. A wasm32 module addresses 4 GiB in all, and
@@ -186,18 +186,13 @@ pub fn load(bytes: &[u8], file_name: &str, units: Units) -> Result<LoadedMesh, S
 }
 
 impl Session {
-    /// Reads the request's file from `bytes` (or makes its sample) and studies it,
-    /// reporting progress through `progress`.
-    pub fn new(
-        bytes: &[u8],
-        request: &Request,
-        progress: &(dyn Fn(Progress) + Sync),
-    ) -> Result<Session, Failure> {
+    /// The units and the validated settings of `request`: its options checked as a study
+    /// checks them, without the file (the page asks before it lets the last results go).
+    pub fn settings(request: &Request) -> Result<(Units, Settings), Failure> {
         let units: Units = match &request.units {
             Some(u) => u.parse().map_err(|e: String| format!("units: {e}"))?,
             None => Units::Mm,
         };
-        // Options first: a bad option is refused before the file is read.
         let user = match &request.materials_file {
             Some(file) => file.materials()?,
             None => Vec::new(),
@@ -206,6 +201,18 @@ impl Session {
             .options
             .validate_with(&user)
             .map_err(|e| e.to_string())?;
+        Ok((units, settings))
+    }
+
+    /// Reads the request's file from `bytes` (or makes its sample) and studies it,
+    /// reporting progress through `progress`.
+    pub fn new(
+        bytes: &[u8],
+        request: &Request,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Session, Failure> {
+        // Options first: a bad option is refused before the file is read.
+        let (units, settings) = Session::settings(request)?;
         let start = Instant::now();
         let (part, input, title) = match &request.sample {
             Some(name) => {
@@ -369,6 +376,21 @@ mod tests {
             .write_stl(&mut out)
             .unwrap();
         out
+    }
+
+    #[test]
+    fn options_are_checked_without_the_file_as_a_study_checks_them() {
+        let good =
+            request(r#"{ "file_name": "a.stl", "options": { "keep_out": ["sphere:0,0,0,1"] } }"#);
+        assert!(Session::settings(&good).is_ok());
+        let bad = request(r#"{ "file_name": "a.stl", "options": { "keep_out": ["cube:1,2,3"] } }"#);
+        let said = Session::settings(&bad).err().unwrap().message;
+        let studied = Session::new(&stl_of("plate"), &bad, &quiet)
+            .err()
+            .unwrap()
+            .message;
+        assert_eq!(said, studied);
+        assert!(said.contains("cube:1,2,3"), "{said}");
     }
 
     #[test]

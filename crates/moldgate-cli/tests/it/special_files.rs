@@ -504,3 +504,55 @@ fn killed_during_a_large_write_leaves_no_temporary_file() {
         let _ = std::fs::remove_file(dir.path().join("big.glb"));
     }
 }
+
+/// A manifest and a materials file are inputs too: no output is written over them, by
+/// any name or link, and they are left as they were.
+#[test]
+fn no_output_is_written_over_a_manifest_or_a_materials_file() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let manifest = "[[part]]\nfile = \"part.stl\"\n";
+    std::fs::write(dir.path().join("m.toml"), manifest).unwrap();
+    // A manifest is read whatever its name: one named as a summary may be given as one.
+    std::fs::write(dir.path().join("m.csv"), manifest).unwrap();
+    symlink("m.toml", dir.path().join("link.jsonl")).unwrap();
+    for (read, summary) in [("m.csv", "m.csv"), ("m.toml", "link.jsonl")] {
+        let out = moldgate(
+            dir.path(),
+            &["locate", "--manifest", read, "--summary", summary],
+        );
+        assert_eq!(out.status.code(), Some(OUTPUT), "{}", stderr(&out));
+        assert!(
+            stderr(&out).contains("refusing to write the output over an input file"),
+            "{}",
+            stderr(&out)
+        );
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("m.toml")).unwrap(),
+            manifest
+        );
+    }
+    let materials =
+        "[MyPP]\nn = 0.3\nt_melt = 230\nt_wall = 40\ngamma_opt = 1000\nmu_opt = 200\nk = 0.15\n";
+    std::fs::write(dir.path().join("mats.toml"), materials).unwrap();
+    symlink("mats.toml", dir.path().join("mats.png")).unwrap();
+    for args in [&["-o", "mats.toml"][..], &["--png", "mats.png"][..]] {
+        let all = [
+            &["locate", "part.stl", "--materials-file", "mats.toml"][..],
+            args,
+        ]
+        .concat();
+        let out = moldgate(dir.path(), &all);
+        assert_eq!(
+            out.status.code(),
+            Some(OUTPUT),
+            "{args:?}: {}",
+            stderr(&out)
+        );
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("mats.toml")).unwrap(),
+            materials
+        );
+    }
+    assert!(temporaries(dir.path()).is_empty());
+}
