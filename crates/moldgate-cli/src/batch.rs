@@ -167,13 +167,13 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
             (Some(reason), Status::Skipped) => {
                 eprintln!(
                     "moldgate: skipped {}: {}",
-                    crate::printable(&row.file),
+                    crate::printable_name(&row.file),
                     crate::printable(reason)
                 )
             }
             (Some(reason), _) => eprintln!(
                 "moldgate: error: {}: {}",
-                crate::printable(&row.file),
+                crate::printable_name(&row.file),
                 crate::printable(reason)
             ),
             _ => {}

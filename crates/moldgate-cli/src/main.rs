@@ -221,6 +221,25 @@ fn main() -> ExitCode {
     }
 }
 
+/// A file's name as one line: every control character escaped, a newline too (a name
+/// with a newline would print a line that reads as a message of its own).
+pub fn printable_name(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return text.into();
+    }
+    text.chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            escaped
+        })
+        .collect::<String>()
+        .into()
+}
+
 /// `text` with its control characters but the line break escaped (`\u{1b}`): a message
 /// quotes file names and options as given, and a name holding a terminal escape must not
 /// reach the terminal as one.

@@ -155,6 +155,41 @@ pub fn read_text(path: &Path, noun: &str, limit: u64) -> Result<String, TextErro
 /// first byte, from 1), without the parser's own excerpt of the text, and with a value's
 /// type in plain words (`expected a number`, not `expected f64`).
 pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
+    bounded(toml_message_whole(text, e))
+}
+
+/// The longest text a message quotes of a value, in characters.
+const QUOTED_CHARS: usize = 60;
+
+/// `message` with each quoted text (between double quotes) longer than [`QUOTED_CHARS`]
+/// cut to its start and its length: a value of megabytes is not copied into a message.
+fn bounded(message: String) -> String {
+    let parts: Vec<&str> = message.split('"').collect();
+    if parts
+        .iter()
+        .skip(1)
+        .step_by(2)
+        .all(|q| q.chars().count() <= QUOTED_CHARS)
+    {
+        return message;
+    }
+    parts
+        .iter()
+        .enumerate()
+        .map(|(i, part)| {
+            let n = part.chars().count();
+            if i % 2 == 1 && n > QUOTED_CHARS && i + 1 < parts.len() {
+                let start: String = part.chars().take(QUOTED_CHARS).collect();
+                format!("{start}... ({n} characters)")
+            } else {
+                part.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\"")
+}
+
+fn toml_message_whole(text: &str, e: &toml::de::Error) -> String {
     let mut what = plain_words(e.message().trim_end_matches('.'));
     let Some(span) = e.span().filter(|s| text.get(s.start..s.end).is_some()) else {
         return what;
@@ -393,6 +428,37 @@ pub fn read_mesh_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), St
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_value_is_quoted_by_its_start_and_length() {
+        let text = format!("[X]\nn = \"{}\"\n", "a".repeat(100_000));
+        let e = toml::from_str::<toml::Table>(&text).map(drop).err();
+        // Read as a table it parses; as a number it does not.
+        assert!(e.is_none());
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct M {
+            #[serde(rename = "X")]
+            x: N,
+        }
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct N {
+            n: f64,
+        }
+        let e = toml::from_str::<M>(&text).unwrap_err();
+        let said = toml_message(&text, &e);
+        assert!(said.len() < 200, "{} bytes", said.len());
+        assert!(
+            said.contains(&format!("\"{}... (100000 characters)\"", "a".repeat(60))),
+            "{said}"
+        );
+        // Short values are quoted whole.
+        assert_eq!(
+            bounded("got the text \"abc\", expected".into()),
+            "got the text \"abc\", expected"
+        );
+    }
 
     #[test]
     fn sizes_read_as_a_person_writes_them() {

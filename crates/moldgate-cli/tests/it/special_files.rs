@@ -556,3 +556,24 @@ fn no_output_is_written_over_a_manifest_or_a_materials_file() {
     }
     assert!(temporaries(dir.path()).is_empty());
 }
+
+/// A file name with a line break prints as one line: a part named to look like a message
+/// of its own cannot make one.
+#[test]
+fn a_name_with_a_line_break_prints_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("in")).unwrap();
+    std::fs::write(
+        dir.path().join("in").join("bad\nmoldgate: error: fake.stl"),
+        b"junk",
+    )
+    .unwrap();
+    let out = moldgate(dir.path(), &["locate", "in"]);
+    assert_eq!(out.status.code(), Some(INPUT), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("moldgate: error: in/bad\\nmoldgate: error: fake.stl: "),
+        "{err}"
+    );
+}
