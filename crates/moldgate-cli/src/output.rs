@@ -107,7 +107,8 @@ static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 ///   and the new one keeps its permissions;
 /// - a symbolic link: the same, in the folder of the file it finally points to, which is
 ///   replaced while the link stays (a link to a special file writes into that file; a link
-///   that points nowhere is refused);
+///   that points nowhere is refused, and so is one another user made in a sticky folder
+///   all may write, which may have been planted);
 /// - a FIFO or a character device (`/dev/null`, `/dev/stdout`, a terminal): opened and
 ///   written into as a stream, never replaced;
 /// - a folder, a block device or a socket: refused.
@@ -121,6 +122,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     let target = match std::fs::symlink_metadata(path) {
         Err(e) if e.kind() == ErrorKind::NotFound => path.to_path_buf(),
         Err(e) => return Err(fail(&e)),
+        Ok(m) if m.file_type().is_symlink() && planted(path, &m) => {
+            return Err(fail(&"it is a symbolic link another user made in a folder all may write (sticky, as /tmp): not followed"))
+        }
         Ok(m) if m.file_type().is_symlink() => match std::fs::metadata(path) {
             Err(e) if e.kind() == ErrorKind::NotFound => {
                 return Err(fail(&"it is a symbolic link that points nowhere"))
@@ -194,6 +198,33 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     // On an error the temporary file is removed when `tmp` is dropped.
     release(&registered);
     result.map_err(|e| fail(&e))
+}
+
+/// Whether the symbolic link `path` (its own metadata `link`) may have been planted: it is
+/// in a sticky folder that all may write (as /tmp), and neither this user nor the folder's
+/// owner made it. Linux's `protected_symlinks` refuses to follow such a link for the same
+/// reason; the command resolves links itself, so it asks here.
+fn planted(path: &Path, link: &std::fs::Metadata) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let Ok(folder) = std::fs::metadata(dir) else {
+            return false;
+        };
+        let shared = folder.mode() & 0o1002 == 0o1002;
+        // SAFETY: geteuid has no preconditions and cannot fail.
+        let me = unsafe { libc::geteuid() };
+        shared && link.uid() != me && link.uid() != folder.uid()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (path, link);
+        false
+    }
 }
 
 /// A new temporary file in `dir`: created exclusively (`O_EXCL`, so a link planted under

@@ -577,3 +577,52 @@ fn a_name_with_a_line_break_prints_on_one_line() {
         "{err}"
     );
 }
+
+/// A link another user made in a sticky folder all may write (as /tmp) is not followed: it
+/// may have been planted to lead an output over someone's file. One of this user's is.
+#[test]
+fn a_link_planted_by_another_user_in_a_shared_folder_is_not_followed() {
+    use std::os::unix::fs::{lchown, MetadataExt, PermissionsExt};
+    let test = "a_link_planted_by_another_user_in_a_shared_folder_is_not_followed";
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "part.stl");
+    let shared = dir.path().join("shared");
+    std::fs::create_dir(&shared).unwrap();
+    std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    std::fs::write(dir.path().join("important.conf"), "keep").unwrap();
+    let link = shared.join("report.json");
+    symlink("../important.conf", &link).unwrap();
+    let me = std::fs::symlink_metadata(&link).unwrap().uid();
+    // Another user's link: only the superuser can give a link away.
+    let other = if me == 65534 { 65533 } else { 65534 };
+    if lchown(&link, Some(other), None).is_err() {
+        let why = "not running as root, so no link of another user can be made";
+        eprintln!("{test}: skipped: {why}");
+        println!("{test}: skipped: {why}");
+        return;
+    }
+    let out = moldgate(
+        dir.path(),
+        &["locate", "part.stl", "-o", "shared/report.json"],
+    );
+    assert_eq!(out.status.code(), Some(OUTPUT), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("a symbolic link another user made"),
+        "{}",
+        stderr(&out)
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("important.conf")).unwrap(),
+        "keep"
+    );
+    // This user's own link is followed.
+    lchown(&link, Some(me), None).unwrap();
+    let out = moldgate(
+        dir.path(),
+        &["locate", "part.stl", "-o", "shared/report.json"],
+    );
+    assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+    assert!(std::fs::read_to_string(dir.path().join("important.conf"))
+        .unwrap()
+        .contains("schema_version"));
+}
