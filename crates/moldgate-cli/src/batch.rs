@@ -118,6 +118,12 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
     if let Some(m) = &b.manifest {
         parts.extend(read_manifest(m, &base, &a.demold)?);
     }
+    if parts.len() > MAX_PARTS {
+        return Err(Failure::usage(format!(
+            "{} parts given (files, folders' meshes and the manifest's), over the limit of {MAX_PARTS} a run takes: split them into several runs",
+            parts.len()
+        )));
+    }
     if parts.is_empty() {
         let m = b.manifest.as_deref().unwrap_or(Path::new("manifest"));
         return Err(Failure::usage(format!(
@@ -350,6 +356,10 @@ struct Manifest {
 /// Reads a manifest: its parts in order, each with the shared settings and its own unit and
 /// direction. Syntax errors and bad values are errors of the command line (exit code 2), with
 /// the line or the part named.
+/// The most parts one batch run takes (files, the meshes of folders and the manifest's
+/// parts together): its rows are held until the end, about 2 KiB each.
+pub const MAX_PARTS: usize = 100_000;
+
 fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>, Failure> {
     let (manifest, text): (Manifest, String) = crate::toml_file::read_toml(path)?;
     // The line (from 1) of a value's first byte.
@@ -483,6 +493,15 @@ fn check_outputs(
         }
         let out = dir.join(format!("{stem}.json"));
         refuse(&out)?;
+        // The summary and a report are one file when one is a link to the other, or both
+        // links to one file: the summary would replace the report.
+        if let Some(summary) = summary.filter(|s| crate::output::same_file(s, &out)) {
+            return Err(Failure::usage(format!(
+                "--summary {} and the report of {} in --out-dir are one file; give the summary another name",
+                summary.display(),
+                part.path.display()
+            )));
+        }
         outputs.push(Some(out));
     }
     Ok(outputs)

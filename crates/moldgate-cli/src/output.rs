@@ -64,8 +64,9 @@ fn is_input(path: &Path) -> bool {
     }
 }
 
-/// Whether two paths name the same file, whether or not it exists yet: their folders are
-/// compared after resolving links and `..`.
+/// Whether two paths name the same file, whether or not it exists yet: two files that are
+/// there by their device and inode (hard links too), else their folders compared after
+/// resolving links and `..`.
 pub fn same_file(a: &Path, b: &Path) -> bool {
     let resolved = |p: &Path| {
         let dir = match p.parent() {
@@ -74,6 +75,14 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
         };
         Some(dir.canonicalize().ok()?.join(p.file_name()?))
     };
+    // Two names of one file (hard links) are one file too.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return (x.dev(), x.ino()) == (y.dev(), y.ino());
+        }
+    }
     match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
         _ => match (resolved(a), resolved(b)) {
@@ -87,6 +96,9 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 /// characters. A file of this prefix left by a run that was killed is removed by the next
 /// run that writes in the same folder (see [`sweep_stale`]).
 pub const TEMP_PREFIX: &str = ".moldgate-tmp-";
+
+/// The random characters after [`TEMP_PREFIX`] in a temporary file's name.
+const TEMP_RANDOM_CHARS: usize = 12;
 
 /// Temporary files older than this are leftovers of a run that was killed.
 const STALE_AFTER: Duration = Duration::from_secs(3600);
@@ -235,7 +247,7 @@ fn planted(path: &Path, link: &std::fs::Metadata) -> bool {
 pub fn temporary_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     tempfile::Builder::new()
         .prefix(TEMP_PREFIX)
-        .rand_bytes(12)
+        .rand_bytes(TEMP_RANDOM_CHARS)
         .make_in(dir, |path| {
             register(path);
             let mut open = std::fs::OpenOptions::new();
@@ -315,7 +327,15 @@ pub fn sweep_stale(dir: &Path) {
     };
     let now = SystemTime::now();
     for entry in entries.flatten() {
-        if !entry.file_name().to_string_lossy().starts_with(TEMP_PREFIX) {
+        // Only names this command makes: the prefix and 12 random letters or digits.
+        let name = entry.file_name();
+        let ours = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(TEMP_PREFIX))
+            .is_some_and(|rest| {
+                rest.len() == TEMP_RANDOM_CHARS && rest.bytes().all(|b| b.is_ascii_alphanumeric())
+            });
+        if !ours {
             continue;
         }
         // `DirEntry::metadata` does not follow links.

@@ -361,3 +361,8 @@ def test_directions_as_numbers_and_other_pythonic_forms():
     for bad in (-1, 0, float("nan"), "1"):
         with pytest.raises(moldgate.OptionsError, match="step_tolerance_mm must be a positive number"):
             moldgate.study(plate, step_tolerance_mm=bad)
+
+
+def test_a_path_of_bytes_is_refused_by_its_type():
+    with pytest.raises(TypeError, match=r"^path must be text or a path \(str or os.PathLike\), got bytes$"):
+        moldgate.load(b"cover.stl")

@@ -922,3 +922,67 @@ fn a_report_that_cannot_be_written_is_an_output_error_of_its_part() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("cap.json"), "{err}");
 }
+
+#[test]
+fn a_run_of_more_parts_than_its_limit_is_refused_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    let out = moldgate(root, &["sample", "cover", "-o", "c.stl"]);
+    assert_code(&out, OK);
+    let n = moldgate_cli_max_parts() + 1;
+    std::fs::write(
+        root.join("many.toml"),
+        "[[part]]\nfile = \"c.stl\"\n".repeat(n),
+    )
+    .unwrap();
+    let out = moldgate(
+        root,
+        &["locate", "--manifest", "many.toml", "--summary", "s.jsonl"],
+    );
+    assert_code(&out, USAGE);
+    assert!(
+        stderr(&out).contains(&format!(
+            "{n} parts given (files, folders' meshes and the manifest's), over the limit of {}",
+            n - 1
+        )),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!root.join("s.jsonl").exists());
+}
+
+/// The limit as documented (docs/cli.md), 100,000 parts.
+fn moldgate_cli_max_parts() -> usize {
+    100_000
+}
+
+/// A summary that is a part's report by another name (a hard or a symbolic link) is
+/// refused before the work: it would replace the report.
+#[test]
+fn a_summary_that_is_a_report_by_another_name_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    assert_code(&moldgate(root, &["sample", "cover", "-o", "c.stl"]), OK);
+    std::fs::create_dir(root.join("od")).unwrap();
+    std::fs::write(root.join("od/c.json"), "old").unwrap();
+    std::fs::hard_link(root.join("od/c.json"), root.join("hard.jsonl")).unwrap();
+    std::os::unix::fs::symlink("od/c.json", root.join("soft.jsonl")).unwrap();
+    for summary in ["hard.jsonl", "soft.jsonl"] {
+        let out = moldgate(
+            root,
+            &["locate", "c.stl", "--out-dir", "od", "--summary", summary],
+        );
+        assert_code(&out, USAGE);
+        assert!(
+            stderr(&out).contains(&format!(
+                "--summary {summary} and the report of c.stl in --out-dir are one file"
+            )),
+            "{}",
+            stderr(&out)
+        );
+        assert_eq!(
+            std::fs::read_to_string(root.join("od/c.json")).unwrap(),
+            "old"
+        );
+    }
+}

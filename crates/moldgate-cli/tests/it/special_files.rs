@@ -436,11 +436,19 @@ fn stale_temporary_files_are_swept_by_the_next_write() {
             .unwrap();
         f.set_modified(when).unwrap();
     };
-    for name in [".moldgate-tmp-old", ".moldgate-tmp-fresh", ".other-old.tmp"] {
+    // Names of the command's own make (12 random letters or digits), and one of the prefix
+    // that it does not make, which is left alone however old.
+    for name in [
+        ".moldgate-tmp-oldAAAAAAAAA",
+        ".moldgate-tmp-freshAAAAAAA",
+        ".other-old.tmp",
+        ".moldgate-tmp-users-own",
+    ] {
         std::fs::write(dir.path().join(name), "x").unwrap();
     }
-    age(".moldgate-tmp-old", old);
+    age(".moldgate-tmp-oldAAAAAAAAA", old);
     age(".other-old.tmp", old);
+    age(".moldgate-tmp-users-own", old);
     // A link of the prefix is never followed nor removed, whatever its target's age.
     std::fs::write(dir.path().join("victim"), "precious").unwrap();
     age("victim", old);
@@ -449,7 +457,11 @@ fn stale_temporary_files_are_swept_by_the_next_write() {
     assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
     assert_eq!(
         temporaries(dir.path()),
-        [".moldgate-tmp-fresh", ".moldgate-tmp-link"]
+        [
+            ".moldgate-tmp-freshAAAAAAA",
+            ".moldgate-tmp-link",
+            ".moldgate-tmp-users-own"
+        ]
     );
     assert!(dir.path().join(".other-old.tmp").exists());
     assert_eq!(

@@ -92,6 +92,10 @@ def load(
     Raises :class:`LoadError` (with the file and place) for a file that cannot be read.
     """
     _check_units_type(units)
+    if isinstance(path, bytes) or not isinstance(path, (str, _os.PathLike)):
+        raise TypeError(
+            f"path must be text or a path (str or os.PathLike), got {type(path).__name__}"
+        )
     if _is_step(path):
         from . import _step
 
