@@ -93,7 +93,9 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         )),
         // The part's fault, not an option's: an input error that names the file.
         StudyError::Locate(
-            l @ (OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. }),
+            l @ (OptionsError::PartTooLarge { .. }
+            | OptionsError::OverlappingSurface { .. }
+            | OptionsError::TangledSurface { .. }),
         ) => Failure::input(format!("{part}: {l}")),
         StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),

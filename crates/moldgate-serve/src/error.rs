@@ -107,7 +107,9 @@ impl ApiError {
             }
             // The part's fault, not an option's (as the command line's exit code 3).
             StudyError::Locate(
-                OptionsError::PartTooLarge { .. } | OptionsError::OverlappingSurface { .. },
+                OptionsError::PartTooLarge { .. }
+                | OptionsError::OverlappingSurface { .. }
+                | OptionsError::TangledSurface { .. },
             ) => ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message),
             // An option over its limit or budget, or a grid over max_nodes for the spacing.
             StudyError::Locate(l) => match l.field() {

@@ -307,6 +307,22 @@ pub enum OptionsError {
         /// The budget of tests.
         budget: f64,
     },
+    /// The walls' rays would cost more than [`crate::thickness::WALL_WORK_BUDGET`] on a
+    /// tree whose boxes overlap across the part (random or overlapping triangles): known
+    /// from the tree's area cost before any wall is measured.
+    #[error(
+        "the triangles' boxes overlap across the part (the ray tree's area cost is {cost:.0}, where moulded parts have 15 to 40), so measuring the walls of {facets} facets would take about {work:.1e} box and triangle visits, more than the budget of {budget:.1e}; this mesh holds overlapping or random triangles: leave out the wall map and the fill analysis"
+    )]
+    TangledSurface {
+        /// The tree's area cost ([`crate::raycast::Bvh::area_cost`]).
+        cost: f64,
+        /// The facets whose walls would be measured.
+        facets: u64,
+        /// The cost times the facets.
+        work: f64,
+        /// The budget of work.
+        budget: f64,
+    },
 }
 
 impl OptionsError {

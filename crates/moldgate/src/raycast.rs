@@ -464,6 +464,65 @@ impl Bvh {
         Region { groups, len }
     }
 
+    /// The tree's surface-area cost: the boxes a ray through the root's box meets, on
+    /// average over rays in every direction, each weighted by its work (a node 1, a leaf its
+    /// triangles): each box counts its surface area over the root's. A mesh whose surface a
+    /// ray crosses a few times has a cost of tens; a soup of long random triangles, whose
+    /// boxes overlap across the whole part, a cost growing with its triangles.
+    pub fn area_cost(&self) -> f64 {
+        let area = |lo: [f32; 3], hi: [f32; 3]| {
+            let d = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]].map(|v| f64::from(v.max(0.0)));
+            2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
+        };
+        let lane = |n: &Node4, k: usize| {
+            (
+                [
+                    n.lo[0].to_array()[k],
+                    n.lo[1].to_array()[k],
+                    n.lo[2].to_array()[k],
+                ],
+                [
+                    n.hi[0].to_array()[k],
+                    n.hi[1].to_array()[k],
+                    n.hi[2].to_array()[k],
+                ],
+            )
+        };
+        if self.root & LEAF != 0 {
+            return self.ids.len() as f64;
+        }
+        let root = &self.nodes[self.root as usize];
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for k in 0..4 {
+            if root.child[k] == NO_CHILD {
+                continue;
+            }
+            let (l, h) = lane(root, k);
+            for i in 0..3 {
+                lo[i] = lo[i].min(l[i]);
+                hi[i] = hi[i].max(h[i]);
+            }
+        }
+        let whole = area(lo, hi).max(f64::MIN_POSITIVE);
+        let mut cost = 1.0;
+        for n in &self.nodes {
+            for k in 0..4 {
+                let c = n.child[k];
+                if c == NO_CHILD {
+                    continue;
+                }
+                let (l, h) = lane(n, k);
+                let work = if c & LEAF != 0 {
+                    (4 * leaf_packets(c).len()) as f64
+                } else {
+                    1.0
+                };
+                cost += work * area(l, h) / whole;
+            }
+        }
+        cost
+    }
+
     /// The nearest hit of `ray`, or `None` when it hits nothing within its limits.
     pub fn first_hit(&self, ray: &Ray) -> Option<Hit> {
         self.first_hit_in(ray, &Region::WHOLE)

@@ -149,6 +149,35 @@ fn area([a, b, c]: [DVec3; 3]) -> f64 {
     0.5 * (b - a).cross(c - a).length()
 }
 
+/// A tree's area cost above which its boxes overlap as no moulded part's do: the shared
+/// parts' trees cost 15 to 39; a soup of random triangles across a box costs about 0.6 a
+/// triangle (6,053 for 10,000).
+pub const TANGLED_AREA_COST: f64 = 400.0;
+
+/// The most work the walls may take on a tangled tree ([`TANGLED_AREA_COST`]), in box and
+/// triangle visits estimated as the area cost times the facets measured: about 37 ns each
+/// on two threads of the development machine, so about 7 s (the 352k housing's walls are
+/// 1.4e7, in 0.54 s). 40,000 random triangles (9.7e8, 36 s) are refused; 10,000 (6.1e7,
+/// 2 s) are measured. A tree of a moulded part's cost is never refused: its work grows
+/// with its facets alone, bounded by the mesh's size.
+pub const WALL_WORK_BUDGET: f64 = 2e8;
+
+/// Refuses the walls of `facets` facets on `bvh` when its boxes overlap as no moulded
+/// part's do and the work would pass [`WALL_WORK_BUDGET`]: before any wall is measured.
+pub fn check_work(bvh: &Bvh, facets: usize) -> Result<(), crate::OptionsError> {
+    let cost = bvh.area_cost();
+    let work = cost * facets as f64;
+    if cost > TANGLED_AREA_COST && work > WALL_WORK_BUDGET {
+        return Err(crate::OptionsError::TangledSurface {
+            cost,
+            facets: facets as u64,
+            work,
+            budget: WALL_WORK_BUDGET,
+        });
+    }
+    Ok(())
+}
+
 /// The wall thickness of every triangle of `mesh` (see the module for the rule). Builds its
 /// own ray-casting tree; use [`wall_thickness_with`] to share one.
 pub fn wall_thickness(mesh: &Mesh, options: &ThicknessOptions) -> WallThickness {

@@ -273,6 +273,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         (Some(bvh), true) => {
             let stopped_walls = || stopped(Stage::WallThickness, None, "the wall map");
             enter(Stage::WallThickness).map_err(|_| stopped_walls())?;
+            crate::thickness::check_work(bvh, mesh.triangles.len()).map_err(StudyError::Locate)?;
             let t = Instant::now();
             let options = ThicknessOptions::default();
             let known = Known::of(&part.topology);
@@ -299,7 +300,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             enter(Stage::Fill).map_err(|_| stopped_fill())?;
             let walls = match (&wall, &bvh) {
                 (Some((w, _)), _) if w.nominal_mm.is_some() => flow::Walls::Given(&w.per_triangle),
-                (_, Some(bvh)) => flow::Walls::Measure(bvh),
+                (_, Some(bvh)) => {
+                    // Its own walls, at most one a facet: the same bound as the wall map's.
+                    crate::thickness::check_work(bvh, mesh.triangles.len())
+                        .map_err(StudyError::Locate)?;
+                    flow::Walls::Measure(bvh)
+                }
                 _ => flow::Walls::Estimate,
             };
             let prepared = || match cells.take() {

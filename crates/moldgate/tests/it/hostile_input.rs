@@ -97,6 +97,61 @@ fn overlapping_triangles_are_refused_before_the_rays() {
     assert!(locate(&part, &options(2.0)).is_ok());
 }
 
+/// `n` random triangles across a 100 mm cube, each of its own three corners.
+fn random_soup(n: usize, seed: u64) -> Mesh {
+    let mut rng = SplitMix(seed);
+    let mut coord = || (rng.next() >> 11) as f64 / (1u64 << 53) as f64 * 100.0;
+    let vertices: Vec<DVec3> = (0..3 * n)
+        .map(|_| DVec3::new(coord(), coord(), coord()))
+        .collect();
+    let triangles = (0..n as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
+    Mesh {
+        vertices,
+        triangles,
+    }
+}
+
+#[test]
+fn walls_of_a_tangled_surface_are_refused_before_they_are_measured() {
+    use moldgate::raycast::Bvh;
+    use moldgate::thickness::{check_work, TANGLED_AREA_COST, WALL_WORK_BUDGET};
+    // The trees of a moulded part's surface cost tens, whatever its size.
+    let cover = moldgate::samples::sample("cover").unwrap();
+    assert!(Bvh::new(&cover).area_cost() < 50.0);
+    assert!(check_work(&Bvh::new(&cover), 100_000_000).is_ok());
+    // 40,000 random triangles: refused (their walls took 36 s on two threads).
+    let soup = random_soup(40_000, 11);
+    let tree = Bvh::new(&soup);
+    let cost = tree.area_cost();
+    assert!(cost > TANGLED_AREA_COST, "{cost}");
+    let err = check_work(&tree, soup.triangles.len()).unwrap_err();
+    let OptionsError::TangledSurface { work, budget, .. } = err else {
+        panic!("expected TangledSurface, got {err:?}");
+    };
+    assert!(work > budget && budget == WALL_WORK_BUDGET);
+    message_is_one_short_clean_line(&err);
+    // 5,000 of them take a fraction of a second: measured.
+    let small = random_soup(5_000, 12);
+    assert!(check_work(&Bvh::new(&small), small.triangles.len()).is_ok());
+    // A study asked for the wall map refuses before the work, as the part's fault.
+    let part = from_generated(soup);
+    let o: StudyOptions = serde_json::from_str(
+        r#"{ "wall_thickness": true, "spacing": 10, "thickness_rule": "ignore" }"#,
+    )
+    .unwrap();
+    let t = std::time::Instant::now();
+    let Err(e) = study(&part, &o) else {
+        panic!("the walls of a tangled surface were measured");
+    };
+    assert!(
+        matches!(e, StudyError::Locate(OptionsError::TangledSurface { .. })),
+        "{e}"
+    );
+    assert!(t.elapsed().as_secs_f64() < 10.0, "{:?}", t.elapsed());
+}
+
 #[test]
 fn duplicate_triangles_are_dropped_at_weld_time() {
     let mut text = b"v 0 0 0\nv 50 0 0\nv 0 50 0\nv 50 50 10\n".to_vec();
