@@ -23,6 +23,28 @@ pub fn moldgate(dir: &Path, args: &[&str]) -> Output {
         .expect("the moldgate binary runs")
 }
 
+/// Runs the binary in `dir` as user `nobody` (through `setpriv`), for a test of
+/// permissions that do not stop the superuser; `None`, with the skip said under `test`'s
+/// name, when setpriv cannot drop to that user.
+pub fn moldgate_as_nobody(dir: &Path, args: &[&str], test: &str) -> Option<Output> {
+    let run = Command::new("setpriv")
+        .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+        .arg(env!("CARGO_BIN_EXE_moldgate"))
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .output();
+    match run {
+        Ok(out) if !String::from_utf8_lossy(&out.stderr).contains("setpriv") => Some(out),
+        _ => {
+            let why = "running as root, and setpriv cannot drop to user nobody";
+            eprintln!("{test}: skipped: {why}");
+            println!("{test}: skipped: {why}");
+            None
+        }
+    }
+}
+
 pub fn stdout(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
