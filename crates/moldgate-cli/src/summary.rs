@@ -245,14 +245,14 @@ fn fill(
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("own gate {} (the paper's rule on this body alone: its qualifying node nearest its centre of mass){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), if b.pictured { format!("; the pictures fill the body from it, drawn as 'gate of body {}'", b.body) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
+                format!("own gate {} (the paper's rule on this body alone: its qualifying node nearest its centre of mass){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), if b.pictured { format!("; the pictures fill the body from it, drawn as 'gate of {}'", moldgate::flow::body_name(b.body)) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
             }
             _ => "no qualifying node on it: no gate".into(),
         };
         let _ = writeln!(
             s,
-            "  body {} ({:.1} % of the volume{}): {gate}",
-            b.body,
+            "  {} ({:.1} % of the volume{}): {gate}",
+            moldgate::flow::body_name(b.body),
             100.0 * b.volume_share,
             if b.is_answer_body {
                 ", holds the answer's gate"

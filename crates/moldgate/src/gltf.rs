@@ -163,7 +163,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         };
         let solid = cylinder(g.point, axis, g.radius_mm, 0.5 * g.radius_mm);
         let name = match g.body {
-            Some(b) => format!("gate of body {b}"),
+            Some(b) => format!("gate of {}", crate::flow::body_name(b)),
             None => format!("gate {}", i + 1),
         };
         let m = doc.triangles(&name, solid, Look::Gate);

@@ -774,7 +774,7 @@ fn fill_table(h: &mut String, r: &Report) {
             let _ = writeln!(
                 h,
                 "<tr><th>{}{}</th><td class=\"n\">{:.1} %</td><td class=\"n\">{:.2} mm</td>{cells}</tr>",
-                b.body,
+                crate::flow::body_name(b.body),
                 match (b.is_answer_body, b.pictured) {
                     (true, true) => " (holds the answer's gate; pictured from its own)",
                     (true, false) => " (holds the answer's gate)",

@@ -75,20 +75,6 @@ fn parse_csv(text: &str) -> Vec<Vec<String>> {
 // ---------------------------------------------------------------------------------------------
 // Building parts
 
-fn binary(facets: &[Facet]) -> Vec<u8> {
-    let mut bytes = b"moldgate batch test".to_vec();
-    bytes.resize(80, b' ');
-    bytes.extend_from_slice(&(facets.len() as u32).to_le_bytes());
-    for facet in facets {
-        bytes.extend_from_slice(&[0u8; 12]);
-        for v in facet.iter().flatten() {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        bytes.extend_from_slice(&[0u8; 2]);
-    }
-    bytes
-}
-
 /// A folder `parts/` holding the five samples, a thin plate (no gate: 0.5 mm wall, under
 /// R_gate), three bad files, and things batch mode must not take (a text file, an STL in a
 /// subfolder). Returns the temporary root.
@@ -101,9 +87,9 @@ fn mixed_folder() -> TempDir {
         assert_code(&out, OK);
     }
     let thin = box_facets([0.0; 3], [40.0, 30.0, 0.5]);
-    std::fs::write(parts.join("thin.STL"), binary(&thin)).unwrap();
+    std::fs::write(parts.join("thin.STL"), binary_stl(&thin)).unwrap();
     std::fs::write(parts.join("empty.stl"), b"").unwrap();
-    let block = binary(&box_facets([0.0; 3], [40.0, 30.0, 10.0]));
+    let block = binary_stl(&box_facets([0.0; 3], [40.0, 30.0, 10.0]));
     std::fs::write(parts.join("truncated.stl"), &block[..block.len() - 20]).unwrap();
     std::fs::write(parts.join("words.stl"), b"solid x\nfacet normal oops\n").unwrap();
     std::fs::write(parts.join("notes.txt"), b"not a part").unwrap();
@@ -487,8 +473,8 @@ fn manifest_gives_each_part_its_unit_and_direction() {
     let mm = box_facets([0.0; 3], [40.0, 30.0, 10.0]);
     let inch = 25.4f32;
     let inches = box_facets([0.0; 3], [40.0 / inch, 30.0 / inch, 10.0 / inch]);
-    std::fs::write(root.join("m/block_mm.stl"), binary(&mm)).unwrap();
-    std::fs::write(root.join("m/block_in.stl"), binary(&inches)).unwrap();
+    std::fs::write(root.join("m/block_mm.stl"), binary_stl(&mm)).unwrap();
+    std::fs::write(root.join("m/block_in.stl"), binary_stl(&inches)).unwrap();
     std::fs::write(
         root.join("m/parts.toml"),
         "# paths relative to this file\n\
@@ -708,7 +694,7 @@ fn summary_says_the_direction_demold_auto_chose() {
     // A 40 x 30 x 4 mm plate: every axis is free of undercut, z is the shallowest draw.
     std::fs::write(
         root.join("m/plate.stl"),
-        binary(&box_facets([0.0; 3], [40.0, 30.0, 4.0])),
+        binary_stl(&box_facets([0.0; 3], [40.0, 30.0, 4.0])),
     )
     .unwrap();
     let out = moldgate(root, &["locate", "m", "--json", "--demold", "auto"]);

@@ -485,3 +485,41 @@ fn suitability_scores_every_qualifying_node_and_leaves_other_runs_unchanged() {
     );
     assert_eq!(with["gate"], without["gate"]);
 }
+
+#[test]
+fn bodies_are_counted_from_one_in_words_and_from_zero_in_json() {
+    use crate::common::{binary_stl, box_facets};
+    let dir = tempfile::tempdir().unwrap();
+    // Two boxes side by side: the larger first in the file, holding the centre of mass.
+    let mut facets = box_facets([0.0; 3], [40.0, 30.0, 10.0]);
+    facets.extend(box_facets([50.0, 0.0, 0.0], [70.0, 30.0, 10.0]));
+    let part = dir.path().join("two.stl");
+    std::fs::write(&part, binary_stl(&facets)).unwrap();
+    let part = part.to_str().unwrap();
+    let out = moldgate(&["locate", part, "--demold", "+z", "--fill"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("  body 1 (66.7 % of the volume, holds the answer's gate)"),
+        "{text}"
+    );
+    assert!(text.contains("  body 2 (33.3 % of the volume)"), "{text}");
+    assert!(!text.contains("body 0"), "{text}");
+    assert!(
+        text.contains("warning: the gate feeds body 1 only"),
+        "{text}"
+    );
+    // JSON keeps indices from 0.
+    let v = json(&["locate", part, "--demold", "+z", "--fill", "--json"]);
+    let bodies: Vec<u64> = v["fill"]["body_gates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["body"].as_u64().unwrap())
+        .collect();
+    assert_eq!(bodies, [0, 1]);
+}

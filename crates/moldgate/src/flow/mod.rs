@@ -405,6 +405,12 @@ fn coarsen(
 /// zero-area slivers): they make no cells, need no gate and are not counted as bodies.
 pub const STRAY_BODY_AREA_SHARE: f64 = 1e-3;
 
+/// The name a body goes by in words and pictures: "body 1" for the body of index 0. The
+/// reports' `body` fields are indices from 0; a designer counts the bodies from 1.
+pub fn body_name(index: u32) -> String {
+    format!("body {}", u64::from(index) + 1)
+}
+
 /// The bodies of a mesh as the fill analysis sees them.
 #[derive(Debug, Clone)]
 pub struct Bodies {
@@ -3268,8 +3274,8 @@ pub fn analyse_prepared(
     drop(pressure);
     if paper.reached_share < 0.999 {
         warnings.push(format!(
-            "the gate feeds body {} only: {:.1} % of the part's volume is not reached",
-            paper.body,
+            "the gate feeds {} only: {:.1} % of the part's volume is not reached",
+            body_name(paper.body),
             100.0 * (1.0 - paper.reached_share)
         ));
     }
@@ -3554,8 +3560,9 @@ pub fn analyse_prepared(
         if let (true, Some(body)) = (domain.bodies > 1, body) {
             let share = domain.volume_share(body);
             warnings.push(format!(
-                "the layout of {} gates is on body {body} only ({:.1} % of the part's volume), and its shares are of that body's volume: {} none of its gates (a gate per body is listed with the fill)",
+                "the layout of {} gates is on {} only ({:.1} % of the part's volume), and its shares are of that body's volume: {} none of its gates (a gate per body is listed with the fill)",
                 layout.gates.len(),
+                body_name(body),
                 100.0 * share,
                 match domain.bodies - 1 {
                     1 => "the other body gets".to_string(),
@@ -3620,8 +3627,10 @@ pub fn analyse_prepared(
         if best != answer {
             let share = domain.volume_share(best);
             warnings.push(format!(
-                "the suitability map scores each node by the fill of its own body only: its best node is on body {best} ({:.1} % of the part's volume), not on the answer's body {answer}; compare nodes within one body",
-                100.0 * share
+                "the suitability map scores each node by the fill of its own body only: its best node is on {} ({:.1} % of the part's volume), not on the answer's {}; compare nodes within one body",
+                body_name(best),
+                100.0 * share,
+                body_name(answer)
             ));
         }
     }

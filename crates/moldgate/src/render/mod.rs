@@ -690,7 +690,7 @@ fn draw_overlays(
         draw_gate(canvas, &d.outline, [x, y, r], d.hidden, k);
         let answer_gates = scene.gates.iter().filter(|g| g.body.is_none()).count();
         let mut label = match scene.gates[i].body {
-            Some(b) => format!("gate of body {b}"),
+            Some(b) => format!("gate of {}", crate::flow::body_name(b)),
             None if answer_gates > 1 => format!("gate {}", i + 1),
             None => "gate".to_string(),
         };

@@ -89,6 +89,21 @@ pub fn box_facets(min: [f32; 3], max: [f32; 3]) -> Vec<Facet> {
         .collect()
 }
 
+/// A binary STL of `facets` (normals left zero).
+pub fn binary_stl(facets: &[Facet]) -> Vec<u8> {
+    let mut bytes = b"moldgate test".to_vec();
+    bytes.resize(80, b' ');
+    bytes.extend_from_slice(&(facets.len() as u32).to_le_bytes());
+    for facet in facets {
+        bytes.extend_from_slice(&[0u8; 12]);
+        for v in facet.iter().flatten() {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[0u8; 2]);
+    }
+    bytes
+}
+
 /// Asserts a failure with exit code `code` whose stderr is exactly one line
 /// `moldgate: error: ...` containing every one of `needles`; returns that line.
 #[track_caller]
