@@ -792,7 +792,8 @@ pub struct GateFill {
     /// nominal wall would take, slowed where walls are thinner; comparable across parts and
     /// converging as the cells shrink.
     pub fill_time_s: f64,
-    /// L_max over the nominal wall of the gate's body.
+    /// L / t: each body's longest flow over that body's nominal wall, the largest over the
+    /// bodies the gates reach (with one body, L_max over the nominal wall).
     pub flow_ratio: f64,
     /// The material's limit of that ratio, if known.
     pub flow_ratio_limit: Option<f64>,
@@ -942,10 +943,16 @@ fn summarise_layout(
     let fill_time_s = argmax(&fill.t).1 * per_mm;
     let mut reached_volume = vec![0usize; domain.bodies];
     let mut cells = vec![0usize; domain.bodies];
+    // Each body's longest flow: a layout's gates may feed several bodies.
+    let mut body_l_max = vec![0.0f64; domain.bodies];
     for c in 0..v.len() {
         let b = domain.body[c] as usize;
         cells[b] += 1;
-        reached_volume[b] += length.t[c].is_finite() as usize;
+        let t = length.t[c];
+        reached_volume[b] += t.is_finite() as usize;
+        if t.is_finite() && t > body_l_max[b] {
+            body_l_max[b] = t;
+        }
     }
     let total_volume: f64 = domain.body_volume_mm3.iter().sum();
     let reached_share = (0..domain.bodies)
@@ -953,13 +960,19 @@ fn summarise_layout(
         .sum::<f64>()
         / total_volume.max(f64::MIN_POSITIVE);
     let p_max = argmax(&pressure.t).1;
-    // The ratio of the gate's own body (Eq. 1's L / H with that body's nominal wall).
-    let flow_ratio = l_max
-        / domain
-            .body_nominal_wall_mm
-            .get(domain.body[src.cell as usize] as usize)
-            .copied()
-            .unwrap_or(domain.nominal_wall_mm);
+    // Eq. 1's L / H, each body's longest flow over its own nominal wall, the largest over
+    // the bodies the gates reach (so the order of a layout's gates does not matter).
+    let flow_ratio = body_l_max
+        .iter()
+        .enumerate()
+        .map(|(b, &l)| {
+            l / domain
+                .body_nominal_wall_mm
+                .get(b)
+                .copied()
+                .unwrap_or(domain.nominal_wall_mm)
+        })
+        .fold(0.0, f64::max);
     let limit = material.max_flow_ratio;
     let (last_to_fill, weld_lines) = rayon::join(
         || last_to_fill(v, &fill.t, &length.t, per_mm, 5),

@@ -1256,3 +1256,34 @@ fn cells_made_with_a_set_token_are_cancelled() {
     let stopped = flow::prepare_with(&cover, &centres, None, &options, Some(&token));
     assert!(matches!(stopped, Err(flow::FillError::Cancelled)));
 }
+
+#[test]
+fn a_layout_over_two_bodies_takes_the_larger_flow_ratio_whatever_the_gates_order() {
+    // A long thick plate and a short thin one: the thick plate's L / t is the larger.
+    let two = boxes(&[
+        ([0.0, 0.0, 0.0], [80.0, 20.0, 3.0], true),
+        ([90.0, 0.0, 0.0], [110.0, 20.0, 1.5], true),
+    ]);
+    let domain = Domain::with_body_walls(
+        flow::voxel::Voxels::new(&two, 0.5),
+        None,
+        3.0,
+        &[3.0, 1.5],
+        &pp(),
+    );
+    assert_eq!(domain.bodies, 2);
+    let walls = &domain.body_nominal_wall_mm;
+    assert!(walls[0] > 1.5 * walls[1], "{walls:?}");
+    let thick = DVec3::new(2.0, 10.0, 3.0);
+    let thin = DVec3::new(100.0, 10.0, 1.5);
+    let (a, _, _) = flow::fill_from_all(&domain, &[thick, thin], &pp()).unwrap();
+    let (b, _, _) = flow::fill_from_all(&domain, &[thin, thick], &pp()).unwrap();
+    assert_ne!(a.body, b.body, "the first gate's body differs");
+    assert_eq!(a.flow_ratio, b.flow_ratio);
+    // Each body alone: the layout's ratio is the larger of the two.
+    let (alone_thick, _) = flow::fill_from(&domain, thick, &pp()).unwrap();
+    let (alone_thin, _) = flow::fill_from(&domain, thin, &pp()).unwrap();
+    let larger = alone_thick.flow_ratio.max(alone_thin.flow_ratio);
+    assert!(alone_thick.flow_ratio != alone_thin.flow_ratio);
+    assert!((a.flow_ratio - larger).abs() < 1e-9, "{} {larger}", a.flow_ratio);
+}
