@@ -263,7 +263,12 @@ function placedSection(r) {
   const p = r.placed_gates;
   const ol = el("ol", { id: "placed-list" });
   p.gates.forEach((g, i) => {
-    const verdict = g.qualifies ? "qualifies" : `fails: ${g.why}`;
+    const offFlat = g.qualifies && !g.flat && g.step_mm !== null && g.step_mm !== undefined;
+    const verdict = !g.qualifies
+      ? `fails: ${g.why}`
+      : offFlat
+        ? `qualifies, off a flat seat (its disc reaches ${mm(g.step_mm)} off its height along D)`
+        : "qualifies";
     ol.append(el("li", {
       class: "placed-gate", "data-qualifies": g.qualifies, "data-failed-rule": g.failed_rule ?? "",
       "data-moved": g.moved_mm, "data-asked": g.asked.join(","), ...xyz(g.point),

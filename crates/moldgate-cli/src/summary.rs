@@ -628,7 +628,12 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match (g.failed_rule, &g.why) {
-            (None, _) => "qualifies".to_string(),
+            (None, _) => match g.step_mm.filter(|_| !g.flat) {
+                Some(step) => format!(
+                    "qualifies, off a flat seat (its disc reaches {step:.2} mm off its height)"
+                ),
+                None => "qualifies".to_string(),
+            },
             (Some(rule), Some(why)) => format!("FAILS: {} ({why})", rule_words(rule)),
             (Some(rule), None) => format!("FAILS: {}", rule_words(rule)),
         };

@@ -523,3 +523,92 @@ fn bodies_are_counted_from_one_in_words_and_from_zero_in_json() {
         .collect();
     assert_eq!(bodies, [0, 1]);
 }
+
+#[test]
+fn a_placed_gate_off_a_flat_seat_qualifies_with_a_warning() {
+    // The cover opened to -z: its grid gate sits on the boss inside, whose disc reaches 10 mm
+    // off its height; (-3.6, 3.6, 28) is a flat seat on the floor.
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("c.html");
+    let html = html.to_str().unwrap();
+    let base = [
+        "locate",
+        "--sample",
+        "cover",
+        "--demold",
+        "-z",
+        "--gate-at",
+        "0,0,18",
+        "--gate-at",
+        "-3.6,3.6,28",
+    ];
+    let out = moldgate(&[&base[..], &["--report", html]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = |k: &str| {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(k))
+            .unwrap_or("")
+    };
+    assert!(
+        line("your gate 1 ")
+            .ends_with("qualifies, off a flat seat (its disc reaches 10.00 mm off its height)"),
+        "{text}"
+    );
+    assert!(line("your gate 2 ").ends_with("qualifies"), "{text}");
+    assert!(
+        text.contains("warning: your gate 1 at (0.000, 0.000, 18.000) qualifies but is not on a flat seat: its disc reaches 10.00 mm off its height along D"),
+        "{text}"
+    );
+    assert!(!text.contains("your gate 2 at"), "{text}");
+    let page = std::fs::read_to_string(html).unwrap();
+    assert!(page.contains("off a flat seat</b> (its disc reaches 10.00 mm"));
+    let v = json(&[&base[..], &["--json"]].concat());
+    let gates = v["placed_gates"]["gates"].as_array().unwrap();
+    assert_eq!(gates[0]["flat"], false);
+    assert!((gates[0]["step_mm"].as_f64().unwrap() - 10.0).abs() < 1e-6);
+    assert_eq!(gates[1]["flat"], true);
+    assert!(gates[1]["step_mm"].as_f64().unwrap() < 0.143);
+}
+
+#[test]
+fn a_flow_ratio_over_the_material_s_limit_is_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("low.toml");
+    std::fs::write(
+        &file,
+        "[Low]\nn = 0.3\nt_melt = 230\nt_wall = 40\ngamma_opt = 1000\nmu_opt = 300\nk = 0.2\nmax_flow_ratio = 10\n",
+    )
+    .unwrap();
+    let file = file.to_str().unwrap();
+    let args = [
+        "locate",
+        "--sample",
+        "cover",
+        "--materials-file",
+        file,
+        "--material",
+        "Low",
+    ];
+    let v = json(&[&args[..], &["--fill", "--json"]].concat());
+    let ratio = v["fill"]["paper"]["flow_ratio"].as_f64().unwrap();
+    assert!(ratio > 10.0, "{ratio}");
+    let said = format!(
+        "from the paper gate the longest flow is {ratio:.0} times the wall (L/t), over the material's limit of 10"
+    );
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().starts_with(&said)),
+        "{warnings:?}"
+    );
+    // Within the limit (PP's 250), no such warning.
+    let v = json(&["locate", "--sample", "cover", "--fill", "--json"]);
+    let text = v["warnings"].to_string();
+    assert!(!text.contains("times the wall (L/t)"), "{text}");
+}

@@ -1577,6 +1577,37 @@ fn seat_warnings(
     warnings
 }
 
+/// A warning for each fill reported whose flow ratio L/t exceeds the material's limit: the
+/// paper gate's, the balanced gate's when it is another gate, the designer's gates'.
+fn flow_ratio_warnings(
+    paper: &GateFill,
+    balanced: Option<&BalancedFill>,
+    placed: Option<&PlacedFill>,
+) -> Vec<String> {
+    let fills = [
+        Some(("the paper gate", paper)),
+        balanced
+            .filter(|b| !b.is_paper_gate)
+            .map(|b| ("the balanced gate", &b.fill)),
+        placed.map(|p| match p.shares.len() {
+            1 => ("your gate", &p.fill),
+            _ => ("your gates together", &p.fill),
+        }),
+    ];
+    fills
+        .into_iter()
+        .flatten()
+        .filter(|(_, f)| f.exceeds_flow_ratio)
+        .filter_map(|(what, f)| {
+            let limit = f.flow_ratio_limit?;
+            Some(format!(
+                "from {what} the longest flow is {:.0} times the wall (L/t), over the material's limit of {limit:.0}: the melt may freeze before it reaches the last place to fill (a short shot); more gates, a gate nearer the middle of the flow, thicker walls or a material of longer flow would shorten it",
+                f.flow_ratio
+            ))
+        })
+        .collect()
+}
+
 /// A layout's gate filling less than this share of the volume does nothing useful.
 pub const IDLE_GATE_SHARE: f64 = 0.01;
 
@@ -3772,6 +3803,12 @@ pub fn analyse_prepared(
     if let Some(m) = &mut several {
         m.layout_fill_time_s = layout_fill_time_s;
     }
+    let placed = placed.map(|(p, _)| p);
+    warnings.extend(flow_ratio_warnings(
+        &paper,
+        balanced.as_ref(),
+        placed.as_ref(),
+    ));
     check()?;
     Ok(FillAnalysis {
         cell_mm: h,
@@ -3788,7 +3825,7 @@ pub fn analyse_prepared(
         paper: Some(paper),
         balanced,
         several,
-        placed: placed.map(|(p, _)| p),
+        placed,
         suitability,
         warnings,
         times,

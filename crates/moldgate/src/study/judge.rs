@@ -97,6 +97,9 @@ pub struct PlacedGate {
     pub disc_thickness_mm: Option<f64>,
     /// The circle lies within the flatness tolerance.
     pub flat: bool,
+    /// How far the circle reaches off the point's height along D, mm (`null` when the point
+    /// is not seen along D or its circle is not wholly on the part).
+    pub step_mm: Option<f64>,
     /// 3D distance to the centre of mass, mm.
     pub distance_3d_mm: f64,
     /// With the fill: the share of the reached volume this gate fills first.
@@ -338,6 +341,7 @@ fn judge_one(
         thickness_mm: if seen { hit.thickness() } else { None },
         disc_thickness_mm: if seen { v.disc_thickness } else { None },
         flat: seen && v.flat,
+        step_mm: (seen && v.circle_on_part).then_some(v.step),
         distance_3d_mm: p.distance(analysis.centre),
         volume_share: None,
         l_max_mm: None,
@@ -367,6 +371,44 @@ impl PlacedGates {
             }
         }
         self
+    }
+
+    /// A warning for the gates that qualify but sit off a flat seat (the paper does not
+    /// require a flat seat, so they pass, as the grid gate does with its own warning):
+    /// `tol` is the analysis's flatness tolerance, mm.
+    pub fn not_flat_warning(&self, tol: f64) -> Option<String> {
+        let off: Vec<(usize, f64)> = self
+            .gates
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| g.qualifies && !g.flat)
+            .filter_map(|(i, g)| g.step_mm.filter(|&s| s > tol).map(|s| (i, s)))
+            .collect();
+        let what = |i: usize| match self.gates.len() {
+            1 => "your gate".to_string(),
+            _ => format!("your gate {}", i + 1),
+        };
+        match off.as_slice() {
+            [] => None,
+            [(i, step)] => {
+                let p = self.gates[*i].point;
+                Some(format!(
+                    "{} at ({:.3}, {:.3}, {:.3}) qualifies but is not on a flat seat: its disc reaches {step:.2} mm off its height along D (a step, rib or slope; flatness tolerance {tol:.3} mm)",
+                    what(*i),
+                    p[0],
+                    p[1],
+                    p[2]
+                ))
+            }
+            _ => Some(format!(
+                "{} of your gates qualify but are not on a flat seat: {} (how far each disc reaches off its height along D: a step, rib or slope; flatness tolerance {tol:.3} mm)",
+                off.len(),
+                off.iter()
+                    .map(|(i, s)| format!("gate {} {s:.2} mm", i + 1))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+        }
     }
 
     /// The snapped points, in order.

@@ -395,6 +395,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             })
             .collect()
     });
+    if let Some(w) = placed
+        .as_ref()
+        .and_then(|p| p.not_flat_warning(analysis.flat_tolerance_mm))
+    {
+        report.warnings.push(w);
+    }
     report.placed_gates = placed;
     let wall_per_vertex = wall.as_ref().map(|(w, _)| w.per_vertex(mesh));
     if let Some(p) = hooks.progress {

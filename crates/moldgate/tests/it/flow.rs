@@ -1285,5 +1285,9 @@ fn a_layout_over_two_bodies_takes_the_larger_flow_ratio_whatever_the_gates_order
     let (alone_thin, _) = flow::fill_from(&domain, thin, &pp()).unwrap();
     let larger = alone_thick.flow_ratio.max(alone_thin.flow_ratio);
     assert!(alone_thick.flow_ratio != alone_thin.flow_ratio);
-    assert!((a.flow_ratio - larger).abs() < 1e-9, "{} {larger}", a.flow_ratio);
+    assert!(
+        (a.flow_ratio - larger).abs() < 1e-9,
+        "{} {larger}",
+        a.flow_ratio
+    );
 }
