@@ -179,6 +179,18 @@ pub enum OptionsError {
         /// Its value.
         value: f64,
     },
+    /// A material parameter beyond what any polymer melt has.
+    #[error("material '{material}': {parameter} = {value:?} is out of range: {why}")]
+    MaterialOutOfRange {
+        /// The material's name.
+        material: String,
+        /// The parameter's name.
+        parameter: &'static str,
+        /// Its value.
+        value: f64,
+        /// The range and why.
+        why: &'static str,
+    },
     /// The melt is not hotter than the mould wall.
     #[error(
         "material '{material}': the melt temperature ({t_melt:?} C) must be above the wall temperature ({t_wall:?} C)"

@@ -84,6 +84,26 @@ impl Material {
                 });
             }
         }
+        let out_of_range = |parameter, value, why| OptionsError::MaterialOutOfRange {
+            material: self.name.clone(),
+            parameter,
+            value,
+            why,
+        };
+        if self.n > 1.0 {
+            return Err(out_of_range(
+                "n",
+                self.n,
+                "the power-law index of a polymer melt is at most 1 (1 is Newtonian; melts are about 0.2 to 0.5); above 1 the melt would thicken as it shears",
+            ));
+        }
+        if let Some(value) = self.max_flow_ratio.filter(|&v| v > MAX_FLOW_RATIO) {
+            return Err(out_of_range(
+                "max_flow_ratio",
+                value,
+                "the L/t limit is at most 1000 (design guides give 50 to 400)",
+            ));
+        }
         if self.t_melt <= self.t_wall {
             return Err(OptionsError::MeltNotAboveWall {
                 material: self.name.clone(),
@@ -113,6 +133,10 @@ impl Material {
         1000.0 * (3.0 + 1.0 / self.n) * self.melt_velocity_m_s() / self.gamma_opt
     }
 }
+
+/// The largest L/t limit a material may give (`max_flow_ratio`): design guides give 50 to
+/// 400, so a larger one is a mistake of units or digits.
+pub const MAX_FLOW_RATIO: f64 = 1000.0;
 
 /// A material of [`library_with`]: the built-in library's, or a user's.
 #[derive(Debug, Clone)]
@@ -267,6 +291,24 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
                 slot.insert(out.len());
             }
         }
+        // Two tables that name one built-in (by its name or its aliases) would each replace
+        // it, and which one `--material` found would depend on the spelling.
+        if let Some(info) = library().iter().find(|i| {
+            std::iter::once(&i.material.name)
+                .chain(&i.aliases)
+                .any(|n| name::same(n, &key))
+        }) {
+            if let Some(other) = out.iter().find(|m| {
+                std::iter::once(&info.material.name)
+                    .chain(&info.aliases)
+                    .any(|n| name::same(n, &m.name))
+            }) {
+                return Err(format!(
+                    "materials [{}] and [{key}] both name the built-in {} (by its name or an alias): keep one",
+                    other.name, info.material.name
+                ));
+            }
+        }
         // A value out of range is placed at its line (or its table's, when the fault is
         // the parameters together).
         let place = |parameter: Option<&str>| {
@@ -275,7 +317,8 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
         m.name = key.clone();
         m.validate().map_err(|e| {
             let parameter = match &e {
-                OptionsError::NonPositiveMaterial { parameter, .. } => Some(*parameter),
+                OptionsError::NonPositiveMaterial { parameter, .. }
+                | OptionsError::MaterialOutOfRange { parameter, .. } => Some(*parameter),
                 OptionsError::MeltNotAboveWall { .. } => Some("t_wall"),
                 _ => None,
             };
@@ -450,6 +493,30 @@ mod tests {
             materials_from_toml(&at_limit).unwrap().len(),
             MAX_USER_MATERIALS
         );
+        // Beyond any polymer melt: a shear-thickening n, an L/t limit of a mistaken digit.
+        let e = materials_from_toml(&good.replace("n = 0.4", "n = 5")).unwrap_err();
+        assert!(
+            e.starts_with("line 2: material 'MyPA': n = 5.0 is out of range: the power-law index of a polymer melt is at most 1"),
+            "{e}"
+        );
+        assert!(materials_from_toml(&good.replace("n = 0.4", "n = 1")).is_ok());
+        let e = materials_from_toml(&format!("{good}max_flow_ratio = 1e308\n")).unwrap_err();
+        assert!(
+            e.starts_with("line 8: material 'MyPA': max_flow_ratio = 1e308 is out of range: the L/t limit is at most 1000"),
+            "{e}"
+        );
+        assert!(materials_from_toml(&format!("{good}max_flow_ratio = 1000\n")).is_ok());
+        // Two tables naming one built-in, by its name and an alias, or by two aliases.
+        let pe = |name: &str| good.replace("[MyPA]", &format!("[{name}]"));
+        for (a, b) in [("hdpe", "PE-HD"), ("hdpe", "pe_hd")] {
+            let e = materials_from_toml(&format!("{}{}", pe(a), pe(b))).unwrap_err();
+            assert!(
+                e.ends_with("both name the built-in PE-HD (by its name or an alias): keep one"),
+                "{e}"
+            );
+        }
+        // One table replacing a built-in is fine.
+        assert!(materials_from_toml(&pe("hdpe")).is_ok());
         // Each parameter in range, but Eq. 7-8 overflow together.
         let huge = good
             .replace("k = 0.25", "k = 1e308")
