@@ -48,6 +48,36 @@ impl Region {
     }
 }
 
+impl Region {
+    /// True when a disc of radius `r` somewhere in the box `min..max` could reach into the
+    /// region: the region comes within `r` of the box.
+    pub fn meets_box(&self, min: DVec3, max: DVec3, r: f64) -> bool {
+        match *self {
+            Region::Box { min: a, max: b } => {
+                let (a, b) = (DVec3::from_array(a), DVec3::from_array(b));
+                // The gap between the two boxes along each axis.
+                let gap = (a - max).max(min - b).max(DVec3::ZERO);
+                gap.length() < r || gap == DVec3::ZERO
+            }
+            Region::Sphere { centre, radius } => {
+                let c = DVec3::from_array(centre);
+                c.clamp(min, max).distance(c) < radius + r
+            }
+        }
+    }
+
+    /// The region in words, mm.
+    pub fn describe(&self) -> String {
+        let v = |p: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", p[0], p[1], p[2]);
+        match *self {
+            Region::Box { min, max } => format!("the box {} to {} mm", v(min), v(max)),
+            Region::Sphere { centre, radius } => {
+                format!("the sphere of radius {radius:.3} mm at {} mm", v(centre))
+            }
+        }
+    }
+}
+
 impl FromStr for Region {
     type Err = OptionsError;
 
@@ -108,6 +138,31 @@ mod tests {
             "sphere",
         ] {
             assert!(bad.parse::<Region>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_region_meets_a_box_when_it_comes_within_the_radius() {
+        let (min, max) = (DVec3::ZERO, DVec3::splat(10.0));
+        let sphere = |c: [f64; 3], radius| Region::Sphere { centre: c, radius };
+        // Inside, touching across a gap below r, and beyond r (along an axis, and past a
+        // corner, where the gap is the diagonal).
+        assert!(sphere([5.0; 3], 1.0).meets_box(min, max, 0.5));
+        assert!(sphere([11.9, 5.0, 5.0], 1.0).meets_box(min, max, 1.0));
+        assert!(!sphere([12.1, 5.0, 5.0], 1.0).meets_box(min, max, 1.0));
+        assert!(!sphere([11.5, 11.5, 11.5], 1.0).meets_box(min, max, 1.0));
+        let cube = |a: [f64; 3], b: [f64; 3]| Region::Box { min: a, max: b };
+        assert!(cube([2.0; 3], [3.0; 3]).meets_box(min, max, 0.1));
+        assert!(cube([-5.0; 3], [20.0; 3]).meets_box(min, max, 0.1));
+        assert!(cube([10.5, 0.0, 0.0], [11.0, 1.0, 1.0]).meets_box(min, max, 0.6));
+        assert!(!cube([10.5, 0.0, 0.0], [11.0, 1.0, 1.0]).meets_box(min, max, 0.4));
+        assert!(!cube([10.3, 10.3, 10.3], [11.0; 3]).meets_box(min, max, 0.5));
+        // Each agrees with `touches` at the box's nearest point.
+        for (region, expect) in [
+            (sphere([12.1, 5.0, 5.0], 1.0), false),
+            (cube([10.5, 0.0, 0.0], [11.0, 1.0, 1.0]), true),
+        ] {
+            assert_eq!(region.touches(DVec3::new(10.0, 0.5, 0.5), 0.6), expect);
         }
     }
 }

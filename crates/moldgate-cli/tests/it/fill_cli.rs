@@ -612,3 +612,34 @@ fn a_flow_ratio_over_the_material_s_limit_is_a_warning() {
     let text = v["warnings"].to_string();
     assert!(!text.contains("times the wall (L/t)"), "{text}");
 }
+
+#[test]
+fn a_keep_out_region_that_keeps_nothing_out_is_said() {
+    // The cover is 120 x 80 x 30 mm about the origin: one region far off (a slip of units),
+    // one over its middle, one on the part's corner where no node qualifies.
+    let out = moldgate(&[
+        "locate",
+        "--sample",
+        "cover",
+        "--keep-out",
+        "sphere:1000,0,0,1",
+        "--keep-out",
+        "box:-10,-10,-10,10,10,40",
+        "--keep-out",
+        "box:-60,-40,0,-59,-39,1",
+    ]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let warned: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("warning: keep-out region"))
+        .collect();
+    assert_eq!(
+        warned,
+        [
+            "warning: keep-out region 1 (the sphere of radius 1.000 mm at (1000.000, 0.000, 0.000) mm) keeps out no node that qualifies: it lies outside the part's box (check its coordinates and units)",
+            "warning: keep-out region 3 (the box (-60.000, -40.000, 0.000) to (-59.000, -39.000, 1.000) mm) keeps out no node that qualifies: no node that passes the paper's rules lies within the gate radius of it",
+        ],
+        "{text}"
+    );
+}

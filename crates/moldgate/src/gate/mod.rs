@@ -797,10 +797,19 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         }
     };
     let mut pool = Vec::new();
+    // Which keep-out regions keep some node out: one that keeps none out is said.
+    let mut region_used = vec![false; options.keep_out.len()];
     for i in (0..grid.len()).filter(|&i| qualifies(&nodes[i])) {
         let hit = centre_hits[i];
         let p = frame.point(grid.node(i), hit.first);
-        if options.keep_out.iter().any(|k| k.touches(p, r)) {
+        let mut kept = false;
+        for (used, k) in region_used.iter_mut().zip(&options.keep_out) {
+            if k.touches(p, r) {
+                *used = true;
+                kept = true;
+            }
+        }
+        if kept {
             counts.kept_out += 1;
         } else if options.cosmetic.is_some_and(|c| {
             oriented_normal(hit.triangle).dot(c.vector()) > crate::keepout::COSMETIC_COS
@@ -811,6 +820,20 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
         }
     }
     counts.qualifying = pool.len();
+    for (k, region) in options.keep_out.iter().enumerate() {
+        if !region_used[k] {
+            warnings.push(format!(
+                "keep-out region {} ({}) keeps out no node that qualifies: {}",
+                k + 1,
+                region.describe(),
+                match region.meets_box(bounds.min, bounds.max, r) {
+                    false => "it lies outside the part's box (check its coordinates and units)",
+                    true =>
+                        "no node that passes the paper's rules lies within the gate radius of it",
+                }
+            ));
+        }
+    }
     let qualifying_points = pool
         .iter()
         .map(|&i| frame.point(grid.node(i), centre_hits[i].first))
