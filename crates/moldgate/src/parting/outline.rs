@@ -107,7 +107,10 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         // 1. Rim edges.
         // The segments are made from the edges where they are needed, not stored: an array
         // of them (48 bytes an edge) would be held beside the rays.
-        let mut raster = Outside::new(group.iter().map(|&e| segment(edges[e as usize])));
+        let mut raster = Outside::with_cells(
+            group.iter().map(|&e| segment(edges[e as usize])),
+            super::outside::cells_for(group.len()),
+        );
         let (mut rim, rim_segments): (Vec<[u32; 2]>, Vec<Segment>) = group
             .par_iter()
             .map(|&e| (edges[e as usize], segment(edges[e as usize])))
@@ -657,6 +660,59 @@ mod tests {
             }
             assert_eq!(from_band, both, "{name}");
             assert!(marked > 0, "{name}: some rim edges are in the band");
+        }
+    }
+
+    /// Small bodies are drawn in small rasters (`cells_for`) and still get their rims: a
+    /// file of 300 loose unit cubes gives 300 closed rims, each the cube's 4 mm square.
+    #[test]
+    fn many_small_bodies_each_get_a_closed_rim() {
+        // A unit cube of 12 triangles wound outwards: its rim is the bottom's 4 edges.
+        let corner = |i: u32| {
+            crate::math::DVec3::new(f64::from(i & 1), f64::from((i >> 1) & 1), f64::from(i >> 2))
+        };
+        let cube = Mesh {
+            vertices: (0..8).map(corner).collect(),
+            triangles: vec![
+                [0, 2, 3],
+                [0, 3, 1],
+                [4, 5, 7],
+                [4, 7, 6],
+                [0, 1, 5],
+                [0, 5, 4],
+                [2, 6, 7],
+                [2, 7, 3],
+                [0, 4, 6],
+                [0, 6, 2],
+                [1, 3, 7],
+                [1, 7, 5],
+            ],
+        };
+        let mut many = Mesh {
+            vertices: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for k in 0..300u32 {
+            let at = crate::math::DVec3::new(f64::from(k % 20) * 3.0, f64::from(k / 20) * 3.0, 0.0);
+            let n = many.vertices.len() as u32;
+            many.vertices.extend(cube.vertices.iter().map(|&p| at + p));
+            many.triangles
+                .extend(cube.triangles.iter().map(|t| t.map(|v| v + n)));
+        }
+        assert_eq!(super::super::outside::cells_for(4), 32);
+        assert_eq!(
+            super::super::outside::cells_for(128),
+            super::super::outside::CELLS
+        );
+        let topology = Topology::new(&many);
+        assert_eq!(topology.bodies, 300);
+        let frame = Frame::new("+z".parse::<Direction>().unwrap());
+        let line = outline(&many, &topology, &frame);
+        assert_eq!(line.rims.len(), 300);
+        assert_eq!(line.edges_all, 4 * 300, "4 edges between the sides a cube");
+        for rim in &line.rims {
+            assert!(rim.closed);
+            assert!((rim.length_mm - 4.0).abs() < 1e-9, "{}", rim.length_mm);
         }
     }
 

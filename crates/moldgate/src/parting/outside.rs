@@ -17,6 +17,14 @@ use crate::math::DVec2;
 
 /// Cells along the longer side of one body's raster (the cell is its extent over this).
 pub(super) const CELLS: usize = 1024;
+/// Cells along the longer side of the raster of a body of `edges` edges between the sides:
+/// [`CELLS`], or fewer for a body of few edges (a small loose piece: a file of thousands of
+/// them would otherwise draw and flood a whole part's raster for each), at least 8 an edge
+/// and at least 16. A body of 128 edges or more has the full raster.
+pub(super) fn cells_for(edges: usize) -> usize {
+    edges.saturating_mul(8).clamp(16, CELLS)
+}
+
 /// Empty cells of margin round the body's projection.
 const MARGIN: usize = 2;
 
@@ -63,14 +71,23 @@ pub(super) struct Segment {
 impl Outside {
     /// The raster of `segments` (one body's edges between the sides), with the outside
     /// flooded from its border.
+    #[cfg(test)]
     pub(super) fn new(segments: impl Iterator<Item = Segment> + Clone) -> Outside {
+        Outside::with_cells(segments, CELLS)
+    }
+
+    /// [`Outside::new`] with `cells` along the longer side instead of [`CELLS`].
+    pub(super) fn with_cells(
+        segments: impl Iterator<Item = Segment> + Clone,
+        cells: usize,
+    ) -> Outside {
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         for s in segments.clone() {
             lo = lo.min(s.a).min(s.b);
             hi = hi.max(s.a).max(s.b);
         }
         let extent = (hi - lo).max_element().max(1e-9);
-        let cell = extent / CELLS as f64;
+        let cell = extent / cells.max(1) as f64;
         let lo = lo - DVec2::splat(MARGIN as f64 * cell);
         let n_u = (((hi.x - lo.x) / cell).ceil() as usize + MARGIN + 1).max(1);
         let n_w = (((hi.y - lo.y) / cell).ceil() as usize + MARGIN + 1).max(1);
