@@ -95,6 +95,11 @@ pub const FIT_FLOOR_DIVISOR: f64 = 10.0;
 /// Bisection steps of the search.
 pub const FIT_STEPS: usize = 8;
 
+/// The runs of the rays of the search for the largest radius that fits, at most (the
+/// refused radius's run, the floor's and [`FIT_STEPS`]): the search is run only when these
+/// runs together stay within [`RAY_TEST_BUDGET`].
+const FIT_RUNS: f64 = (2 + FIT_STEPS) as f64;
+
 /// Whether a flat seat is required.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -555,6 +560,7 @@ type Qualifying = (Vec<DVec3>, Vec<f32>);
 fn largest_fitting_radius(
     part: &LoadedMesh,
     analysis: &Analysis,
+    cancel: Option<&crate::cancel::Cancel>,
 ) -> Result<(RadiusFit, Qualifying), OptionsError> {
     let refused = analysis.options.gate_radius_mm;
     let options = LocateOptions {
@@ -570,7 +576,8 @@ fn largest_fitting_radius(
             gate_radius_mm: r,
             ..options.clone()
         };
-        let a = locate_once(part, &o)?;
+        // A probe needs the nodes only: not the parting line.
+        let a = locate_once(part, &o, Parting::Skip)?;
         Ok(a.grid_gate
             .map(|g| (g, (a.qualifying_points, a.qualifying_step_mm))))
     };
@@ -579,6 +586,10 @@ fn largest_fitting_radius(
     if best.is_some() {
         let (mut lo, mut hi) = (floor, refused);
         for _ in 0..FIT_STEPS {
+            // Stopped, the search keeps the largest radius found so far.
+            if crate::cancel::is_set(cancel) {
+                break;
+            }
             let mid = 0.5 * (lo + hi);
             match gate_at(mid)? {
                 Some(g) => {
@@ -609,10 +620,42 @@ fn largest_fitting_radius(
 /// Does no I/O. Fails only on invalid options; a part where no node qualifies is an
 /// [`Analysis`] whose [`Analysis::gate`] says why.
 pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
+    locate_until(part, options, None)
+}
+
+/// [`locate`] that a set `cancel` token cuts short where it may: the search for the largest
+/// radius that fits (up to 1 + [`FIT_STEPS`] runs of the rays) stops before its next run,
+/// keeping what it found. The caller reads the token after it returns.
+pub fn locate_until(
+    part: &LoadedMesh,
+    options: &LocateOptions,
+    cancel: Option<&crate::cancel::Cancel>,
+) -> Result<Analysis, OptionsError> {
     let start = Instant::now();
-    let mut analysis = locate_once(part, options)?;
-    if analysis.thickness_removed_all() {
-        let (mut fit, points) = largest_fitting_radius(part, &analysis)?;
+    let mut analysis = locate_once(part, options, Parting::Find)?;
+    if analysis.thickness_removed_all() && crate::cancel::is_set(cancel) {
+        analysis.warnings.push(
+            "the search for the largest gate radius that fits was not run: the study was stopped (time limit or cancel)".into(),
+        );
+    } else if analysis.thickness_removed_all()
+        && ray_tests_within(part, &analysis, RAY_TEST_BUDGET / FIT_RUNS) * FIT_RUNS
+            > RAY_TEST_BUDGET
+    {
+        analysis.warnings.push(format!(
+            "the search for the largest gate radius that fits was not run: its {} runs of the rays would make about {:.1e} ray-triangle tests, over the budget of {:.0e} (the part's surface lies many layers deep along D)",
+            FIT_RUNS,
+            ray_tests_within(part, &analysis, f64::INFINITY) * FIT_RUNS,
+            RAY_TEST_BUDGET
+        ));
+    } else if analysis.thickness_removed_all() {
+        let (mut fit, points) = largest_fitting_radius(part, &analysis, cancel)?;
+        if fit.probes < 1 + FIT_STEPS && fit.radius_mm.is_some() {
+            analysis.warnings.push(format!(
+                "the search for the largest gate radius that fits was stopped (time limit or cancel) after {} of its {} runs: a larger radius may fit",
+                fit.probes,
+                1 + FIT_STEPS
+            ));
+        }
         if options.thickness_fallback == ThicknessFallback::LargestFitting {
             if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
                 analysis.warnings.push(format!(
@@ -635,8 +678,19 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
     Ok(analysis)
 }
 
+/// Whether [`locate_once`] finds the parting line.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Parting {
+    Find,
+    Skip,
+}
+
 /// [`locate`] without the radius search.
-fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, OptionsError> {
+fn locate_once(
+    part: &LoadedMesh,
+    options: &LocateOptions,
+    find_parting: Parting,
+) -> Result<Analysis, OptionsError> {
     let mesh = &part.mesh;
     let r = options.gate_radius_mm;
     options.validate()?;
@@ -732,9 +786,10 @@ fn locate_once(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, O
             let centre = centres.get(options.centre).unwrap_or(centres.surface);
             times.centre_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let parting = match options.parting {
-                PartingRule::Longest => PartingLine::new(mesh, &part.topology, &frame),
-                PartingRule::Outline => PartingLine::outline(mesh, &part.topology, &frame),
+            let parting = match (find_parting, options.parting) {
+                (Parting::Skip, _) => PartingLine::default(),
+                (_, PartingRule::Longest) => PartingLine::new(mesh, &part.topology, &frame),
+                (_, PartingRule::Outline) => PartingLine::outline(mesh, &part.topology, &frame),
             };
             // Keep-out regions apply to the parting-line gate too (cosmetic faces do not:
             // the line is the boundary between the two halves).
@@ -922,9 +977,37 @@ fn check_ray_tests(
     if part.stats.area_mm2 * per_area <= RAY_TEST_BUDGET {
         return Ok(());
     }
+    let projected = projected_area(part, frame);
+    let ray_tests = projected * per_area;
+    if ray_tests <= RAY_TEST_BUDGET {
+        return Ok(());
+    }
+    let span = hi - lo;
+    Err(OptionsError::OverlappingSurface {
+        depth: projected / (span.x * span.y).max(grid.spacing * grid.spacing),
+        ray_tests,
+        budget: RAY_TEST_BUDGET,
+    })
+}
+
+/// The ray-triangle tests of one run of the rays on `analysis`'s grid (as
+/// [`check_ray_tests`] estimates them), bounded above by `cap`: the exact sum is taken only
+/// when the surface area's bound exceeds it.
+fn ray_tests_within(part: &LoadedMesh, analysis: &Analysis, cap: f64) -> f64 {
+    let lattices = (1 + analysis.options.circle_points) as f64;
+    let spacing = analysis.grid.spacing;
+    let per_area = lattices / (spacing * spacing);
+    let bound = part.stats.area_mm2 * per_area;
+    if bound <= cap {
+        return bound;
+    }
+    projected_area(part, &analysis.frame) * per_area
+}
+
+/// The sum of the triangles' areas projected along the frame's D, mm^2.
+fn projected_area(part: &LoadedMesh, frame: &Frame) -> f64 {
     let mesh = &part.mesh;
-    let projected: f64 = mesh
-        .triangles
+    mesh.triangles
         .par_chunks(16 * 1024)
         .map(|block| {
             block
@@ -937,17 +1020,7 @@ fn check_ray_tests(
         })
         .collect::<Vec<f64>>()
         .iter()
-        .sum();
-    let ray_tests = projected * per_area;
-    if ray_tests <= RAY_TEST_BUDGET {
-        return Ok(());
-    }
-    let span = hi - lo;
-    Err(OptionsError::OverlappingSurface {
-        depth: projected / (span.x * span.y).max(grid.spacing * grid.spacing),
-        ray_tests,
-        budget: RAY_TEST_BUDGET,
-    })
+        .sum()
 }
 
 /// For each of the `k` circle points, the node lattice shifted by

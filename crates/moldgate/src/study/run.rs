@@ -133,7 +133,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         let t = Instant::now();
         let (((bvh, tree_s), prepared), located) = rayon::join(
             || rayon::join(build_tree, prepare),
-            || crate::locate(part, &options),
+            || crate::gate::locate_until(part, &options, hooks.cancel),
         );
         cells = prepared;
         joined_s = Some(Joined::Locate(t.elapsed().as_secs_f64()));
@@ -157,7 +157,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                     direction: d,
                     ..options.clone()
                 };
-                crate::locate(part, &o)
+                crate::gate::locate_until(part, &o, hooks.cancel)
             };
             // Lines still tied after the shallowest draw go to one on which a gate
             // qualifies; the line located beside the rays is not located again.
@@ -215,7 +215,7 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         Some(located) => located,
         None => {
             enter(Stage::Locate)?;
-            crate::locate(part, &options)
+            crate::gate::locate_until(part, &options, hooks.cancel)
         }
     };
     let mut analysis = located.map_err(StudyError::Locate)?;

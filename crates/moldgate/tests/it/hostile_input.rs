@@ -574,3 +574,30 @@ fn inch_sized_part_read_as_mm_is_warned() {
     let as_inches = read_stl(Cursor::new(&bytes), bytes.len() as u64, Units::In).unwrap();
     assert!(!as_inches.warnings.iter().any(|w| w.contains("--units")));
 }
+
+/// The search for the largest gate radius that fits runs the rays up to ten times; a study
+/// stopped (its time limit) does not start it, and says so.
+#[test]
+fn a_stopped_locate_does_not_search_the_radius_that_fits() {
+    // The plate is 3 mm thick: a 4 mm gate has no wall thick enough under it.
+    let part = from_generated(moldgate::samples::sample("plate").unwrap());
+    let options = LocateOptions {
+        gate_radius_mm: 4.0,
+        ..LocateOptions::default()
+    };
+    let searched = locate(&part, &options).unwrap();
+    assert!(searched.grid_gate.is_none());
+    let fit = searched.radius_fit.as_ref().expect("searched");
+    assert!(fit.radius_mm.is_some_and(|r| r < 3.0), "{fit:?}");
+    let cancel = moldgate::cancel::Cancel::new();
+    cancel.cancel();
+    let stopped = moldgate::gate::locate_until(&part, &options, Some(&cancel)).unwrap();
+    assert!(stopped.radius_fit.is_none());
+    assert!(
+        stopped.warnings.iter().any(|w| w
+            == "the search for the largest gate radius that fits was not run: the study was stopped (time limit or cancel)"),
+        "{:?}",
+        stopped.warnings
+    );
+    assert!(!searched.warnings.iter().any(|w| w.contains("was not run")));
+}
