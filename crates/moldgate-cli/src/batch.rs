@@ -441,7 +441,8 @@ fn check_outputs(
         .map(|p| same_file(&p.path))
         .collect();
     let refuse = |out: &Path| {
-        if inputs.contains(&same_file(out)) {
+        // By name, and by device and inode (a hard link to an input is that input).
+        if inputs.contains(&same_file(out)) || crate::output::is_input(out) {
             Err(Failure::output(format!(
                 "{}: refusing to write the output over an input file",
                 out.display()

@@ -221,35 +221,31 @@ fn main() -> ExitCode {
     }
 }
 
-/// A file's name as one line: every control character escaped, a newline too (a name
-/// with a newline would print a line that reads as a message of its own).
-pub fn printable_name(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(char::is_control) {
-        return text.into();
-    }
-    text.chars()
-        .flat_map(|c| {
-            let escaped: Vec<char> = if c.is_control() {
-                c.escape_default().collect()
-            } else {
-                vec![c]
-            };
-            escaped
-        })
-        .collect::<String>()
-        .into()
+/// Whether a character is escaped in a message: a control character (a line break, a
+/// terminal escape) or a bidirectional formatting mark (U+202E would print the rest of the
+/// line reversed).
+fn escaped_in_messages(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
 }
 
-/// `text` with its control characters but the line break escaped (`\u{1b}`): a message
-/// quotes file names and options as given, and a name holding a terminal escape must not
-/// reach the terminal as one.
+/// A file's name as one line: every control character and bidirectional mark escaped, a
+/// newline too (a name with a newline would print a line that reads as a message of its
+/// own).
+pub fn printable_name(text: &str) -> std::borrow::Cow<'_, str> {
+    printable(text)
+}
+
+/// `text` with its control characters and bidirectional marks escaped (`\n`, `\u{1b}`,
+/// `\u{202e}`): a message is one line and quotes file names and options as given, and a
+/// name holding a line break or a terminal escape must not reach the terminal as one.
 pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(|c| c.is_control() && c != '\n') {
+    if !text.chars().any(escaped_in_messages) {
         return text.into();
     }
     let mut out = String::with_capacity(text.len() + 8);
     for c in text.chars() {
-        if c.is_control() && c != '\n' {
+        if escaped_in_messages(c) {
             out.extend(c.escape_default());
         } else {
             out.push(c);

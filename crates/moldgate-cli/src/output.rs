@@ -11,11 +11,8 @@ use crate::Failure;
 /// Refuses an output path that names the input file (also through links or `..`).
 pub fn refuse_input(output: &Path, input: Option<&Path>) -> Result<(), Failure> {
     let Some(input) = input else { return Ok(()) };
-    let same = match (output.canonicalize(), input.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => output == input,
-    };
-    if same {
+    // Through links, `..` and hard links.
+    if same_file(output, input) {
         return Err(Failure::output(format!(
             "{}: refusing to write the output over the input file",
             output.display()
@@ -46,7 +43,7 @@ pub fn register_input(path: &Path) {
 }
 
 /// Whether `path` (followed through links) is a file recorded by [`register_input`].
-fn is_input(path: &Path) -> bool {
+pub fn is_input(path: &Path) -> bool {
     #[cfg(unix)]
     {
         use std::os::unix::fs::MetadataExt;

@@ -279,6 +279,7 @@ pub fn render(r: &Report) -> String {
         .clone()
         .or(r.input.sample.as_ref().map(|n| format!("sample '{n}'")))
         .unwrap_or_default();
+    let name = crate::printable_name(&name);
     let m = &r.mesh;
     let _ = writeln!(
         s,

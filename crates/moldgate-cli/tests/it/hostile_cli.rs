@@ -215,3 +215,22 @@ fn names_and_options_with_terminal_escapes_are_printed_escaped() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// A file name with a line break or a bidirectional mark prints escaped: the error is one
+/// line, and the summary's first line names the file on one line too.
+#[test]
+fn a_file_name_with_a_line_break_prints_on_one_line() {
+    use crate::common::{assert_fails, moldgate as run_in, stderr, stdout};
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_in(dir.path(), &["locate", "gone\nmoldgate: fine.stl"]);
+    assert_fails(&out, 3, &["gone\\nmoldgate: fine.stl: cannot open"]);
+    let out = run_in(dir.path(), &["locate", "x\u{202e}lts.stl"]);
+    assert_fails(&out, 3, &["x\\u{202e}lts.stl: cannot open"]);
+    let name = "a\nmoldgate: ok.stl";
+    let sample = run_in(dir.path(), &["sample", "plate", "-o", name]);
+    assert!(sample.status.success(), "{}", stderr(&sample));
+    let out = run_in(dir.path(), &["locate", name]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let first = stdout(&out).lines().next().unwrap_or("").to_string();
+    assert!(first.starts_with("a\\nmoldgate: ok.stl: "), "{first}");
+}

@@ -626,3 +626,34 @@ fn a_link_planted_by_another_user_in_a_shared_folder_is_not_followed() {
         .unwrap()
         .contains("schema_version"));
 }
+
+/// A hard link to an input is that input: a batch whose report would go over one is refused
+/// before any part is studied (no other report written), and so is a single part's output.
+#[test]
+fn an_output_hard_linked_to_an_input_is_refused_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    sample(dir.path(), "plate", "a.stl");
+    sample(dir.path(), "cap", "b.stl");
+    std::fs::create_dir(dir.path().join("out")).unwrap();
+    std::fs::hard_link(dir.path().join("a.stl"), dir.path().join("out/a.json")).unwrap();
+    let before = std::fs::read(dir.path().join("a.stl")).unwrap();
+    let out = moldgate(
+        dir.path(),
+        &["locate", "a.stl", "b.stl", "--out-dir", "out"],
+    );
+    assert_eq!(out.status.code(), Some(OUTPUT), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("out/a.json: refusing to write the output over an input file"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(
+        !dir.path().join("out/b.json").exists(),
+        "no part was studied"
+    );
+    std::fs::hard_link(dir.path().join("a.stl"), dir.path().join("a.json")).unwrap();
+    let out = moldgate(dir.path(), &["locate", "a.stl", "-o", "a.json"]);
+    assert_eq!(out.status.code(), Some(OUTPUT), "{}", stderr(&out));
+    assert!(stderr(&out).contains("refusing to write the output over the input file"));
+    assert_eq!(std::fs::read(dir.path().join("a.stl")).unwrap(), before);
+}
