@@ -390,6 +390,77 @@ pub fn mesh_kind(path: &Path) -> MeshKind {
     }
 }
 
+/// The most memory reading a mesh file may take, in bytes per byte of the file, from the
+/// files measured to take the most: binary STL 127 bytes a 50-byte facet (2.5 times the
+/// file); an OBJ of small fans 14 times the file (bare vertex lines about 3 times); binary
+/// PLY, whose records are the smallest, taken as twice STL's.
+fn memory_per_file_byte(kind: MeshKind) -> u64 {
+    match kind {
+        MeshKind::Stl => 3,
+        MeshKind::Obj => 16,
+        MeshKind::Ply => 8,
+    }
+}
+
+/// Refuses a file whose reading could take more memory than `limit` bytes (when known)
+/// before a byte of it is read: [`memory_per_file_byte`] times its size.
+fn check_memory(kind: MeshKind, len: u64, limit: Option<u64>) -> Result<(), String> {
+    let need = len.saturating_mul(memory_per_file_byte(kind));
+    match limit {
+        Some(limit) if need > limit => {
+            let gib = |b: u64| b as f64 / f64::from(1u32 << 30);
+            Err(format!(
+                "a file of {:.1} MiB may take up to {:.1} GiB of memory to read ({} times its size for this format), more than the {:.1} GiB this process may use (the memory available, or its limit): use a machine with more memory or a coarser mesh",
+                len as f64 / f64::from(1u32 << 20),
+                gib(need),
+                memory_per_file_byte(kind),
+                gib(limit)
+            ))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The memory this process may still take, in bytes, when the system says (Linux): the
+/// least of the memory available (`MemAvailable`), the process's soft limits on its address
+/// space and data (`ulimit -v`, `ulimit -d`, from `/proc/self/limits`) and its control
+/// group's limit less its use (cgroup v2). What the process uses already is not subtracted
+/// from its limits: the reading comes first.
+pub fn memory_limit() -> Option<u64> {
+    let mut least: Option<u64> = None;
+    let mut take = |v: u64| least = Some(least.map_or(v, |l| l.min(v)));
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    if let Some(text) = read("/proc/meminfo") {
+        if let Some(kib) = text
+            .lines()
+            .find_map(|l| l.strip_prefix("MemAvailable:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        {
+            take(kib.saturating_mul(1024));
+        }
+    }
+    if let Some(text) = read("/proc/self/limits") {
+        for name in ["Max address space", "Max data size"] {
+            // "Max address space   4096000000   unlimited   bytes": the soft limit.
+            if let Some(soft) = text
+                .lines()
+                .find_map(|l| l.strip_prefix(name))
+                .and_then(|rest| rest.split_whitespace().next())
+                .and_then(|v| v.parse::<u64>().ok())
+            {
+                take(soft);
+            }
+        }
+    }
+    if let (Some(max), Some(current)) = (
+        read("/sys/fs/cgroup/memory.max").and_then(|t| t.trim().parse::<u64>().ok()),
+        read("/sys/fs/cgroup/memory.current").and_then(|t| t.trim().parse::<u64>().ok()),
+    ) {
+        take(max.saturating_sub(current));
+    }
+    least
+}
+
 /// Reads the mesh file `path` (STL, OBJ or PLY by its extension; STL for any other) in
 /// `units`, and gives its size in bytes. A path that is not a regular file is refused before
 /// it is opened for reading ("is a FIFO, not a mesh file"); the messages do not name the
@@ -406,6 +477,7 @@ pub fn read_mesh_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), St
             "reports a size of 0 but holds data (a file of /proc or /sys?): not a mesh file".into(),
         );
     }
+    check_memory(mesh_kind(path), len, memory_limit())?;
     // Opened once per reading thread for large binary files, each time checked again.
     let open = || {
         open_regular(path, "a mesh file")
@@ -428,6 +500,24 @@ pub fn read_mesh_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), St
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_that_could_take_more_memory_than_the_limit_is_refused_before_reading() {
+        // 100 MiB of binary STL may take 300 MiB: refused under 256 MiB, read under 512.
+        let mib = 1u64 << 20;
+        let e = check_memory(MeshKind::Stl, 100 * mib, Some(256 * mib)).unwrap_err();
+        assert!(
+            e.starts_with("a file of 100.0 MiB may take up to 0.3 GiB of memory to read (3 times its size for this format), more than the 0.2 GiB"),
+            "{e}"
+        );
+        assert!(check_memory(MeshKind::Stl, 100 * mib, Some(512 * mib)).is_ok());
+        assert!(check_memory(MeshKind::Obj, 100 * mib, Some(1500 * mib)).is_err());
+        assert!(check_memory(MeshKind::Obj, 100 * mib, None).is_ok());
+        assert!(check_memory(MeshKind::Ply, u64::MAX, Some(u64::MAX - 1)).is_err());
+        // This machine says how much it has.
+        #[cfg(target_os = "linux")]
+        assert!(memory_limit().is_some_and(|m| m > 0));
+    }
 
     #[test]
     fn a_long_value_is_quoted_by_its_start_and_length() {
