@@ -758,6 +758,15 @@ impl StudyOptions {
                 PLAUSIBLE_RADIUS_MM.0,
                 PLAUSIBLE_RADIUS_MM.1,
             ));
+        } else if radius_source == RadiusSource::Forced
+            && !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm)
+        {
+            warnings.push(format!(
+                "--gate-radius {} mm is far outside the {}-{} mm of injection-moulding gates: check its unit (millimetres, a radius, not a diameter)",
+                crate::report::three_figures(gate_radius_mm),
+                PLAUSIBLE_RADIUS_MM.0,
+                PLAUSIBLE_RADIUS_MM.1,
+            ));
         }
         // Without the fill the pictures are coloured by height, or by the wall map when it
         // is measured and asked for.
@@ -1098,6 +1107,21 @@ color_by = "flow_length"
             ),
             "{w:?}"
         );
+        // A forced radius outside moulding practice (a diameter, or inches), said too; one
+        // inside is not.
+        for (json, warns) in [
+            (r#"{ "gate_radius": 12 }"#, true),
+            (r#"{ "gate_radius": 0.1 }"#, true),
+            (r#"{ "gate_radius": 1.5 }"#, false),
+        ] {
+            let w = warned(json);
+            assert_eq!(
+                w.iter()
+                    .any(|w| w.contains("far outside the 0.2-10 mm of injection-moulding gates")),
+                warns,
+                "{json}: {w:?}"
+            );
+        }
         let w = warned(r#"{ "gate_at": ["1,2,3", "4,5,6", "1.0,2,3e0"] }"#);
         assert_eq!(
             w,
