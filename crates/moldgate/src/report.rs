@@ -76,6 +76,8 @@ pub struct OptionsReport {
     pub keep_out: Vec<crate::keepout::Region>,
     /// Cosmetic direction (unit vector), or `null`.
     pub cosmetic: Option<[f64; 3]>,
+    /// Which edges make the parting line: `outline` or `longest`.
+    pub parting_line: crate::parting::PartingRule,
 }
 
 /// The material and the quantities of Eq. 7-8.
@@ -472,6 +474,7 @@ impl Report {
                 mode: o.mode,
                 keep_out: o.keep_out.clone(),
                 cosmetic: o.cosmetic.map(|c| c.vector().to_array()),
+                parting_line: o.parting,
             },
             mesh: stats.clone(),
             warnings: mesh_warnings
