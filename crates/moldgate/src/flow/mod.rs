@@ -2013,39 +2013,55 @@ fn clustered_layout(
         return None;
     }
     let mean = cells.iter().copied().sum::<DVec3>() / cells.len() as f64;
-    let farthest_from = |centres: &[DVec3]| {
-        cells
+    let stopped = || crate::cancel::is_set(v.cancel.as_ref());
+    // The cell farthest from every centre so far (the last of equals, as `max_by` gives),
+    // each cell's squared distance to its nearest centre kept as the centres are added.
+    let farthest = |nearest_d2: &[f64]| {
+        let (i, _) = nearest_d2
             .iter()
-            .copied()
-            .max_by(|a, b| {
-                let d = |p: &DVec3| {
-                    centres
-                        .iter()
-                        .map(|c| c.distance_squared(*p))
-                        .fold(f64::INFINITY, f64::min)
-                };
-                d(a).total_cmp(&d(b))
-            })
-            .expect("cells")
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .expect("cells");
+        cells[i]
     };
-    let mut centres = vec![farthest_from(&[mean])];
+    let mut nearest_d2: Vec<f64> = cells
+        .par_iter()
+        .map(|p| mean.distance_squared(*p))
+        .collect();
+    let mut centres = vec![farthest(&nearest_d2)];
+    nearest_d2.fill(f64::INFINITY);
     while centres.len() < k {
-        centres.push(farthest_from(&centres));
+        if stopped() {
+            return None;
+        }
+        let newest = *centres.last().expect("a centre");
+        nearest_d2
+            .par_iter_mut()
+            .zip(&cells)
+            .for_each(|(d, p)| *d = d.min(newest.distance_squared(*p)));
+        centres.push(farthest(&nearest_d2));
     }
     let mut label = vec![0usize; cells.len()];
     for _ in 0..30 {
-        let mut changed = false;
-        for (i, p) in cells.iter().enumerate() {
-            let nearest = (0..k)
-                .min_by(|&a, &b| {
-                    centres[a]
-                        .distance_squared(*p)
-                        .total_cmp(&centres[b].distance_squared(*p))
-                })
-                .expect("k > 0");
-            changed |= nearest != label[i];
-            label[i] = nearest;
+        if stopped() {
+            return None;
         }
+        let changed = label
+            .par_iter_mut()
+            .zip(&cells)
+            .map(|(l, p)| {
+                let nearest = (0..k)
+                    .min_by(|&a, &b| {
+                        centres[a]
+                            .distance_squared(*p)
+                            .total_cmp(&centres[b].distance_squared(*p))
+                    })
+                    .expect("k > 0");
+                let changed = nearest != *l;
+                *l = nearest;
+                changed
+            })
+            .reduce(|| false, |a, b| a | b);
         let mut sums = vec![(DVec3::ZERO, 0usize); k];
         for (i, p) in cells.iter().enumerate() {
             sums[label[i]].0 += *p;
@@ -2137,7 +2153,13 @@ fn several_gates_search(
     // Which cells hold a candidate the search may still take: the nearest of them to a far
     // point is needed, not the whole field from it.
     let mut open = vec![false; v.len()];
+    // Stopped, the search gives up: each march it would start would stop at once, but
+    // only after making its arrays of every cell.
+    let stopped = || crate::cancel::is_set(v.cancel.as_ref());
     while chosen.len() < k {
+        if stopped() {
+            return None;
+        }
         for &i in &pool {
             open[candidates[i].cell as usize] = false;
         }
@@ -2329,6 +2351,9 @@ fn several_gates_search(
     let mut ahead: Option<(usize, usize, Examined)> = None;
     let mut at = following(0, 0, false, moves, &stayed_at);
     while let Some((round, g, mut improved)) = at {
+        if stopped() {
+            return None;
+        }
         let found = match ahead.take() {
             Some((r, h, found)) if (r, h) == (round, g) => found,
             _ => {
@@ -2442,6 +2467,10 @@ pub fn redundant_gates(
     (0..n)
         .into_par_iter()
         .filter(|&g| {
+            // Stopped, no gate is named.
+            if crate::cancel::is_set(domain.voxels.cancel.as_ref()) {
+                return false;
+            }
             let others: Vec<Source> = (0..n)
                 .filter(|&o| o != g)
                 .map(|o| candidates[layout.gates[o].candidate])
@@ -4610,6 +4639,34 @@ mod tests {
                 counted
             })
             .sum()
+    }
+
+    /// A stopped study's several-gate search gives up before its next march (each would
+    /// make its arrays of every cell before it stopped), the clustered start before its
+    /// next pass over the cells, and the test of redundant gates names none.
+    #[test]
+    fn a_stopped_several_gate_search_gives_up() {
+        let (_, mut domain, candidates) = sample_domains().swap_remove(2);
+        let pool: Vec<usize> = (0..candidates.len()).collect();
+        let body = domain.body[candidates[0].cell as usize];
+        let layout =
+            several_gates(&domain, &candidates, Objective::Length, 0, 3, APART).expect("a layout");
+        assert!(clustered_layout(&domain, &candidates, &pool, body, 3, APART).is_some());
+        let token = crate::cancel::Cancel::new();
+        token.cancel();
+        domain.voxels.cancel = Some(token);
+        assert!(several_gates_search(
+            &domain,
+            &candidates,
+            ask(Objective::Length, 3),
+            0,
+            None,
+            true,
+            None
+        )
+        .is_none());
+        assert!(clustered_layout(&domain, &candidates, &pool, body, 3, APART).is_none());
+        assert!(redundant_gates(&domain, &candidates, Objective::Length, &layout, 0.0).is_empty());
     }
 
     #[test]
