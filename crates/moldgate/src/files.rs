@@ -235,7 +235,7 @@ fn toml_message_whole(text: &str, e: &toml::de::Error) -> String {
     };
     if is_date(value) {
         what = what.replace("got a table", "got a date");
-    } else if let Some((inner, true)) = header {
+    } else if let (Some((inner, true)), false) = (header, what.starts_with("missing field")) {
         key.get_or_insert_with(|| inner.to_string());
         what = format!("got a list of tables ([[{inner}]]), expected one table ([{inner}])");
     } else if let (Some((inner, false)), true) = (header, what.contains("expected a sequence")) {

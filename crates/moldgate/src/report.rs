@@ -491,7 +491,12 @@ impl Report {
                 surface: c.surface.to_array(),
                 volume: c.volume.map(|v| v.to_array()),
                 used: analysis.centre.to_array(),
-                kind: o.centre,
+                // The one used: the surface's when the volume's was asked for and the mesh
+                // encloses none.
+                kind: match c.get(o.centre) {
+                    Some(_) => o.centre,
+                    None => CentreKind::Surface,
+                },
                 area_mm2: c.area_mm2,
                 volume_mm3: c.volume_mm3,
             },

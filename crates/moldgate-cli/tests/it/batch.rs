@@ -754,6 +754,11 @@ fn bad_manifests_are_usage_errors_naming_the_place() {
             "[[part]]\nfile = \"\"\n",
             "empty.toml: line 2: part 1: file is empty",
         ),
+        (
+            "nofile.toml",
+            "[[part]]\nunits = \"mm\"\n",
+            "nofile.toml: line 1: missing field `file`",
+        ),
     ] {
         std::fs::write(root.join(name), text).unwrap();
         let out = moldgate(root, &["locate", "--manifest", name]);

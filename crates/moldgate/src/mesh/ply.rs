@@ -341,12 +341,20 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
                     return Err(syntax(place, "expected 'element NAME COUNT'"));
                 };
                 let count: u64 = count.parse().map_err(|_| {
+                    let digits = !count.is_empty() && count.bytes().all(|b| b.is_ascii_digit());
                     syntax(
                         place,
-                        format!(
-                            "element count '{}' is not a whole number",
-                            shown(count.as_bytes())
-                        ),
+                        match digits {
+                            // A whole number past u64: far past every limit below.
+                            true => format!(
+                                "element count '{}' is too large (more than 2^64)",
+                                shown(count.as_bytes())
+                            ),
+                            false => format!(
+                                "element count '{}' is not a whole number",
+                                shown(count.as_bytes())
+                            ),
+                        },
                     )
                 })?;
                 if (name == "vertex" || name == "face") && elements.iter().any(|e| e.name == name) {

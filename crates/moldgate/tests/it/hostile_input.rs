@@ -601,3 +601,26 @@ fn a_stopped_locate_does_not_search_the_radius_that_fits() {
     );
     assert!(!searched.warnings.iter().any(|w| w.contains("was not run")));
 }
+
+/// An element count of more digits than any number the reader keeps is said to be too
+/// large, not to be no whole number; a count that is no number still is.
+#[test]
+fn a_ply_count_past_every_limit_is_too_large() {
+    let header = |count: &str| {
+        format!("ply\nformat ascii 1.0\nelement vertex {count}\nproperty float x\nend_header\n")
+    };
+    let err = read_ply(Cursor::new(header("99999999999999999999999")), Units::Mm)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("element count '99999999999999999999999' is too large (more than 2^64)"),
+        "{err}"
+    );
+    let err = read_ply(Cursor::new(header("12x")), Units::Mm)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("element count '12x' is not a whole number"),
+        "{err}"
+    );
+}

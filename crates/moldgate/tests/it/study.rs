@@ -783,3 +783,33 @@ fn a_fill_asked_for_without_a_gate_says_it_was_not_made() {
     let s = study(&part, &options(r#"{ "gate_radius": 40 }"#)).unwrap();
     assert!(s.report().warnings.iter().all(|w| !w.contains("no fill")));
 }
+
+/// The centre of mass of the volume asked for on a mesh that encloses none: the surface's
+/// is used, and the report says which it used.
+#[test]
+fn the_centre_used_is_reported_when_the_volume_s_cannot_be() {
+    let sheet = moldgate::mesh::Mesh {
+        vertices: vec![
+            moldgate::math::DVec3::new(0.0, 0.0, 0.0),
+            moldgate::math::DVec3::new(10.0, 0.0, 0.0),
+            moldgate::math::DVec3::new(10.0, 10.0, 0.0),
+            moldgate::math::DVec3::new(0.0, 10.0, 0.0),
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let part = moldgate::mesh::from_generated(sheet);
+    let s = study(
+        &part,
+        &options(r#"{ "centre": "volume", "thickness_rule": "ignore" }"#),
+    )
+    .unwrap();
+    let r = s.report();
+    assert_eq!(r.centre_of_mass.kind, moldgate::CentreKind::Surface);
+    assert!(r
+        .warnings
+        .iter()
+        .any(|w| w.contains("the surface centre of mass is used")));
+    // A closed part gives the volume's.
+    let s = study(&sample("cover"), &options(r#"{ "centre": "volume" }"#)).unwrap();
+    assert_eq!(s.report().centre_of_mass.kind, moldgate::CentreKind::Volume);
+}
