@@ -114,6 +114,9 @@ pub enum DemoldError {
         /// The budget of tests.
         budget: f64,
     },
+    /// The study was stopped (its time limit, or a cancel) while the lines were drawn.
+    #[error("the choice of the demolding direction was stopped")]
+    Cancelled,
 }
 
 /// The most ray-triangle tests the choice of a line may make, over every line it draws (a
@@ -677,13 +680,25 @@ pub fn auto_direction_beside_loaded<T: Send>(
     beside: impl Fn(Direction) -> T + Sync,
     gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
 ) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
+    auto_direction_beside_loaded_until(part, sampling, beside, gate_qualifies, None)
+}
+
+/// [`auto_direction_beside_loaded`] that a set `cancel` token stops at the lines' next
+/// batch of ray tests ([`DemoldError::Cancelled`]).
+pub fn auto_direction_beside_loaded_until<T: Send>(
+    part: &LoadedMesh,
+    sampling: Sampling,
+    beside: impl Fn(Direction) -> T + Sync,
+    gate_qualifies: impl FnMut(Direction, Option<&T>) -> bool,
+    cancel: Option<&crate::cancel::Cancel>,
+) -> Result<(AutoDemold, Option<(Direction, T)>), DemoldError> {
     choose(
         &part.mesh,
         Some(part.centres),
         sampling,
         beside,
         gate_qualifies,
-        &projection::TestBudget::new(AUTO_RAY_TEST_BUDGET),
+        &projection::TestBudget::new(AUTO_RAY_TEST_BUDGET).with_cancel(cancel),
     )
 }
 
@@ -748,7 +763,11 @@ fn choose<T: Send>(
         }
     };
     let mut tried = settling.tried;
-    // Past the budget the drawings stopped part way: no line's undercut is known.
+    // Stopped, or past the budget, the drawings stopped part way: no line's undercut is
+    // known.
+    if budget.cancelled() {
+        return Err(DemoldError::Cancelled);
+    }
     if budget.exceeded() {
         return Err(DemoldError::TooManyTests {
             budget: budget.limit(),

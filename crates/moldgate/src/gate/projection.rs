@@ -685,6 +685,8 @@ const RAY_BLOCK: usize = 4096;
 pub struct TestBudget {
     limit: u64,
     used: AtomicU64,
+    /// Once set, the drawings stop as past the limit ([`TestBudget::cancelled`]).
+    cancel: Option<crate::cancel::Cancel>,
 }
 
 /// Tests a task charges to a [`TestBudget`] at once (fewer atomic operations; a task
@@ -701,7 +703,24 @@ impl TestBudget {
                 limit.max(0.0) as u64
             },
             used: AtomicU64::new(0),
+            cancel: None,
         }
+    }
+
+    /// This budget, stopped also when `cancel` is set.
+    pub fn with_cancel(mut self, cancel: Option<&crate::cancel::Cancel>) -> TestBudget {
+        self.cancel = cancel.cloned();
+        self
+    }
+
+    /// Whether the drawings were stopped by the cancel token.
+    pub fn cancelled(&self) -> bool {
+        crate::cancel::is_set(self.cancel.as_ref())
+    }
+
+    /// Whether the drawings stop: past the limit, or cancelled.
+    pub fn stopped(&self) -> bool {
+        self.exceeded() || self.cancelled()
     }
 
     /// No limit.
@@ -727,7 +746,7 @@ impl TestBudget {
     /// Charges `tests`; whether the limit still holds.
     fn charge(&self, tests: u64) -> bool {
         let before = self.used.fetch_add(tests, Ordering::Relaxed);
-        before.saturating_add(tests) <= self.limit
+        before.saturating_add(tests) <= self.limit && !self.cancelled()
     }
 }
 
@@ -1072,7 +1091,7 @@ where
             // that both threads draw it (which rays are blocked does not depend on the tasks).
             let task = POINT_BLOCK.min(part.len().div_ceil(POINT_TASKS).max(POINT_BLOCK_LEAST));
             part.par_chunks(task).enumerate().for_each(|(b, block)| {
-                if budget.exceeded() {
+                if budget.stopped() {
                     return;
                 }
                 // Tests counted here, charged to the budget in batches.
@@ -1160,7 +1179,7 @@ where
         let size = triangles.len().div_ceil(rounds.max(1)).max(1);
         for (r, part) in triangles.chunks(size).enumerate() {
             draw(r * size, part);
-            if budget.exceeded() {
+            if budget.stopped() {
                 break;
             }
             if (r + 1) * size < triangles.len() {
@@ -1174,7 +1193,7 @@ where
             return found();
         }
         all_found.extend(found());
-        if budget.exceeded() {
+        if budget.stopped() {
             break;
         }
     }

@@ -19,7 +19,7 @@ use crate::study::{judge, ColorByChoice, Demold, Hooks, Settings, Stage, StudyEr
 const NO_FILL_WITHOUT_GATE: &str =
     "no fill analysis: it starts from the method's gate, and this part has none";
 use crate::thickness::{wall_thickness_until, Known, ThicknessOptions, WallThickness};
-use crate::undercut::auto_direction_beside_loaded;
+use crate::undercut::auto_direction_beside_loaded_until;
 
 /// One gate of the answer, as pictures and 3D files show it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -172,11 +172,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             // they fill the gaps its steps leave on both threads.
             let choose = || {
                 let t = Instant::now();
-                let chosen = auto_direction_beside_loaded(
+                let chosen = auto_direction_beside_loaded_until(
                     part,
                     Sampling::Centroid,
                     locate_along,
                     gate_qualifies,
+                    hooks.cancel,
                 );
                 (chosen, t.elapsed().as_secs_f64())
             };
@@ -193,7 +194,13 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
                 cells = prepared;
                 joined_s = Some(Joined::Demold(t.elapsed().as_secs_f64()));
             }
-            let (auto, early) = chosen.map_err(StudyError::Demold)?;
+            let (auto, early) = chosen.map_err(|e| match e {
+                crate::undercut::DemoldError::Cancelled => StudyError::Cancelled {
+                    stage: Stage::Demold,
+                    located: None,
+                },
+                e => StudyError::Demold(e),
+            })?;
             demold_s = Some(choice_s);
             options.direction = auto.direction();
             let located = match early {

@@ -386,3 +386,27 @@ fn demold_auto_of_a_loaded_part_is_that_of_its_mesh() {
         );
     }
 }
+
+/// A stopped study's choice of the direction stops drawing at its next batch of tests and
+/// says it was stopped, not that the budget was passed; not stopped, the same part chooses.
+#[test]
+fn a_stopped_choice_of_the_direction_says_so() {
+    let part = moldgate::mesh::from_generated(samples::sample("cover").unwrap());
+    let choose = |cancel: Option<&moldgate::cancel::Cancel>| {
+        moldgate::undercut::auto_direction_beside_loaded_until(
+            &part,
+            Sampling::Centroid,
+            |_| (),
+            |_, _| true,
+            cancel,
+        )
+    };
+    assert!(choose(None).is_ok());
+    let token = moldgate::cancel::Cancel::new();
+    assert!(choose(Some(&token)).is_ok());
+    token.cancel();
+    assert!(matches!(
+        choose(Some(&token)),
+        Err(moldgate::undercut::DemoldError::Cancelled)
+    ));
+}
