@@ -97,6 +97,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
     if body_of_vertex.is_some() {
         order.sort_by_key(|&e| body_of(edges[e as usize][0]));
     }
+    // Each body's raster: the full one unless the part has very many bodies.
+    let cells = super::outside::cells_for(by_body.as_ref().map_or(1, Groups::len));
     let mut all_rim: Vec<[u32; 2]> = Vec::new();
     let mut rims = Vec::new();
     let mut kept = Vec::new();
@@ -107,10 +109,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         // 1. Rim edges.
         // The segments are made from the edges where they are needed, not stored: an array
         // of them (48 bytes an edge) would be held beside the rays.
-        let mut raster = Outside::with_cells(
-            group.iter().map(|&e| segment(edges[e as usize])),
-            super::outside::cells_for(group.len()),
-        );
+        let mut raster =
+            Outside::with_cells(group.iter().map(|&e| segment(edges[e as usize])), cells);
         let (mut rim, rim_segments): (Vec<[u32; 2]>, Vec<Segment>) = group
             .par_iter()
             .map(|&e| (edges[e as usize], segment(edges[e as usize])))
@@ -384,6 +384,11 @@ impl Groups {
             fill[l] += 1;
         }
         Groups { start, items }
+    }
+
+    /// The number of bodies.
+    fn len(&self) -> usize {
+        self.start.len() - 1
     }
 
     /// The triangles of body `body` (none for a body beyond the labels).
@@ -663,8 +668,9 @@ mod tests {
         }
     }
 
-    /// Small bodies are drawn in small rasters (`cells_for`) and still get their rims: a
-    /// file of 300 loose unit cubes gives 300 closed rims, each the cube's 4 mm square.
+    /// The bodies of a part of many are drawn in smaller rasters (`cells_for`) and still
+    /// get their rims: a file of 300 loose unit cubes gives 300 closed rims, each the cube's
+    /// 4 mm square.
     #[test]
     fn many_small_bodies_each_get_a_closed_rim() {
         // A unit cube of 12 triangles wound outwards: its rim is the bottom's 4 edges.
@@ -699,9 +705,14 @@ mod tests {
             many.triangles
                 .extend(cube.triangles.iter().map(|t| t.map(|v| v + n)));
         }
-        assert_eq!(super::super::outside::cells_for(4), 32);
         assert_eq!(
-            super::super::outside::cells_for(128),
+            super::super::outside::cells_for(64),
+            super::super::outside::CELLS
+        );
+        assert_eq!(super::super::outside::cells_for(300), 472);
+        assert_eq!(super::super::outside::cells_for(1_000_000), 64);
+        assert_eq!(
+            super::super::outside::cells_for(1),
             super::super::outside::CELLS
         );
         let topology = Topology::new(&many);

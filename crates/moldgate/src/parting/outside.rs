@@ -17,12 +17,17 @@ use crate::math::DVec2;
 
 /// Cells along the longer side of one body's raster (the cell is its extent over this).
 pub(super) const CELLS: usize = 1024;
-/// Cells along the longer side of the raster of a body of `edges` edges between the sides:
-/// [`CELLS`], or fewer for a body of few edges (a small loose piece: a file of thousands of
-/// them would otherwise draw and flood a whole part's raster for each), at least 8 an edge
-/// and at least 16. A body of 128 edges or more has the full raster.
-pub(super) fn cells_for(edges: usize) -> usize {
-    edges.saturating_mul(8).clamp(16, CELLS)
+/// Cells of all the bodies' rasters together, at most: a part of up to 64 bodies draws
+/// each in the full [`CELLS`] x [`CELLS`]; a file of more (thousands of loose pieces) shares
+/// this among them, so that it is not drawn and flooded at a whole part's cost per piece.
+pub(super) const RASTER_CELLS_BUDGET: usize = 64 * CELLS * CELLS;
+
+/// Cells along the longer side of each body's raster for a part of `bodies` bodies:
+/// [`CELLS`] for up to 64 bodies, fewer past that (the square root of their share of
+/// [`RASTER_CELLS_BUDGET`]), at least 64.
+pub(super) fn cells_for(bodies: usize) -> usize {
+    let share = RASTER_CELLS_BUDGET / bodies.max(1);
+    (share as f64).sqrt().floor().clamp(64.0, CELLS as f64) as usize
 }
 
 /// Empty cells of margin round the body's projection.
