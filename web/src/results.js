@@ -87,6 +87,12 @@ function gateSection(r) {
     if (several.fill_time_s == null && several.layout_fill_time_s != null) {
       content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill ${r.fill.bodies > 1 ? "their body" : "the part"} in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
     }
+    // The fill with all its gates open: L/t and the Eq. 1 pressure of the layout.
+    const g = several.fill;
+    if (g) {
+      const limit = g.flow_ratio_limit ? (g.exceeds_flow_ratio ? `, over the material's limit of ${g.flow_ratio_limit.toFixed(0)}` : ` (limit ${g.flow_ratio_limit.toFixed(0)})`) : "";
+      content.push(el("p", { id: "layout-fill", "data-flow-ratio": g.flow_ratio, "data-pressure": g.pressure_mpa }, `With all ${several.gates.length} gates open: flow length / wall L/t ${g.flow_ratio.toFixed(0)}${limit}, Eq. 1 pressure ${threeFigures(g.pressure_mpa)} MPa (the most any place needs from its gate).`));
+    }
   }
   return section("gate-result", "Gate", ...content);
 }

@@ -527,6 +527,10 @@ describe("moldgate in the browser", () => {
       await page.textContent("#layout-fill-time"),
       `These gates together fill the part in ${seconds(expected.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`,
     );
+    // The layout's own L/t and pressure, all gates open, as the command line gives them.
+    assert.equal(await page.getAttribute("#layout-fill", "data-flow-ratio"), String(expected.fill.flow_ratio));
+    assert.equal(await page.getAttribute("#layout-fill", "data-pressure"), String(expected.fill.pressure_mpa));
+    assert.match(await page.textContent("#layout-fill"), /^With all 2 gates open: flow length \/ wall L\/t \d+ \(limit 250\), Eq. 1 pressure /);
     await page.click("#defaults");
   });
 

@@ -38,6 +38,40 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     );
 }
 
+/// The first three of a fill's last places to fill and of its weld lines, their flow paths
+/// measured from `from` (`the gate`, `the nearest gate`).
+fn fill_places(s: &mut String, g: &moldgate::flow::GateFill, from: &str) {
+    for (i, q) in g.last_to_fill.iter().enumerate().take(3) {
+        let _ = writeln!(
+                s,
+                "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from {from}, filled at {} s",
+                i + 1,
+                v3(q.point),
+                q.flow_length_mm,
+                seconds_text(q.fill_time_s)
+            );
+    }
+    more(
+        s,
+        g.last_to_fill.len(),
+        ("last place to fill", "last places to fill"),
+    );
+    for w in g.weld_lines.iter().take(3) {
+        let _ = writeln!(
+            s,
+            "    fronts meet ({:.0} deg) near {}, {:.1} mm from {from}",
+            w.meeting_angle_deg,
+            v3(w.point),
+            w.flow_length_mm
+        );
+    }
+    more(
+        s,
+        g.weld_lines.len(),
+        ("place where fronts meet", "places where fronts meet"),
+    );
+}
+
 /// The fill analysis in a few lines; `balanced_is_paper_gate` when the balanced gate is the
 /// paper's grid gate beside another answer ([`Report::balanced_is_paper_gate_beside_another`]).
 fn fill(
@@ -84,35 +118,7 @@ fn fill(
     }
     if let Some(p) = &f.paper {
         fill_line(s, label, p);
-        for (i, q) in p.last_to_fill.iter().enumerate().take(3) {
-            let _ = writeln!(
-                s,
-                "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from the gate, filled at {} s",
-                i + 1,
-                v3(q.point),
-                q.flow_length_mm,
-                seconds_text(q.fill_time_s)
-            );
-        }
-        more(
-            s,
-            p.last_to_fill.len(),
-            ("last place to fill", "last places to fill"),
-        );
-        for w in p.weld_lines.iter().take(3) {
-            let _ = writeln!(
-                s,
-                "    fronts meet ({:.0} deg) near {}, {:.1} mm from the gate",
-                w.meeting_angle_deg,
-                v3(w.point),
-                w.flow_length_mm
-            );
-        }
-        more(
-            s,
-            p.weld_lines.len(),
-            ("place where fronts meet", "places where fronts meet"),
-        );
+        fill_places(s, p, "the gate");
     }
     match &f.balanced {
         Some(b) if b.is_paper_gate => {
@@ -223,6 +229,21 @@ fn fill(
                 if f.bodies > 1 { " over their body" } else { "" },
                 moldgate::report::seconds_text(t)
             );
+        }
+        if let Some(g) = &m.fill {
+            let limit = match g.flow_ratio_limit {
+                Some(l) if g.exceeds_flow_ratio => format!(" EXCEEDS the material's {l:.0}"),
+                Some(l) => format!(" (limit {l:.0})"),
+                None => String::new(),
+            };
+            let _ = writeln!(
+                s,
+                "  all {} gates open: flow length / wall L/t {:.0}{limit}, pressure {} MPa (Eq. 1: the most any place needs from its gate)",
+                m.gates.len(),
+                g.flow_ratio,
+                three_figures(g.pressure_mpa)
+            );
+            fill_places(s, g, "the nearest gate");
         }
         // A layout lies on one body: with several, its shares are of that body's volume.
         let of = if f.bodies > 1 {

@@ -731,6 +731,23 @@ fn fill_table(h: &mut String, r: &Report) {
         // asks of it (and what the pictures colour, unless the designer's gates take them
         // over): given, and said not to be what the layout was chosen for, so that a colour
         // bar ending above a single gate's fill time does not read as a fault.
+        if let Some(g) = &m.fill {
+            let limit = match g.flow_ratio_limit {
+                Some(l) if g.exceeds_flow_ratio => {
+                    format!(", <b class=\"warn\">over the material's limit of {l:.0}</b>")
+                }
+                Some(l) => format!(" (limit {l:.0})"),
+                None => String::new(),
+            };
+            let _ = writeln!(
+                h,
+                "<p id=\"layout-fill\">With all {} gates open: flow length / wall L/t {:.0}{limit}, \
+                 Eq. 1 pressure {} MPa (the most any place needs from its gate).</p>",
+                m.gates.len(),
+                g.flow_ratio,
+                crate::report::three_figures(g.pressure_mpa)
+            );
+        }
         if let (crate::flow::Objective::Length, Some(t)) = (f.objective, m.layout_fill_time_s) {
             let pictured = r.placed_gates.as_ref().is_none_or(|p| p.fill.is_none())
                 && !f.per_vertex.fill_time_s.is_empty();
@@ -797,14 +814,22 @@ fn fill_table(h: &mut String, r: &Report) {
         (crate::flow::Strategy::Balanced, Some(b)) => (Some(&b.fill), "balanced"),
         _ => (f.paper.as_ref(), "paper"),
     };
-    // With several gates the answer is a layout, whose last places are not made here: say
-    // whose these are, and how to have the layout's.
-    let (whose, layout_note) = match &f.several {
-        None => ("the answer's gate".to_string(), ""),
-        Some(_) => (
-            format!("the {gate} gate alone"),
-            "; for the layout's own, give its gates with --gate-at",
-        ),
+    // With several gates the answer is a layout: its own last places, all gates open
+    // (flow paths from the nearest gate).
+    let (answer, whose, layout_note) = match &f.several {
+        None => (answer, "the answer's gate".to_string(), ""),
+        Some(m) => match &m.fill {
+            Some(layout) => (
+                Some(layout),
+                format!("the {} gates together", m.gates.len()),
+                "; flow paths from the nearest gate",
+            ),
+            None => (
+                answer,
+                format!("the {gate} gate alone"),
+                "; for the layout's own, give its gates with --gate-at",
+            ),
+        },
     };
     if let Some(g) = answer {
         let last: Vec<String> = g

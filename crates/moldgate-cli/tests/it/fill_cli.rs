@@ -101,6 +101,27 @@ fn several_gates_share_the_volume() {
         .sum();
     assert!((shares - 1.0).abs() < 1e-9, "{shares}");
     assert!(m["l_max_mm"].as_f64() <= r["fill"]["paper"]["l_max_mm"].as_f64());
+    // The layout's own fill, all gates open: its L_max is the layout's, its fill time the
+    // one given beside it, its L/t that L_max over the nominal wall (one body), and it has
+    // a pressure and last places of its own.
+    let f = &m["fill"];
+    let num = |v: &Value| v.as_f64().unwrap();
+    assert!(
+        (num(&f["l_max_mm"]) - num(&m["l_max_mm"])).abs() < 1e-9,
+        "{f}"
+    );
+    assert!((num(&f["fill_time_s"]) - num(&m["layout_fill_time_s"])).abs() < 1e-12);
+    let nominal = num(&r["fill"]["nominal_wall_mm"]);
+    assert!((num(&f["flow_ratio"]) - num(&f["l_max_mm"]) / nominal).abs() < 1e-9);
+    assert!(num(&f["pressure_mpa"]) > 0.0);
+    assert!(!f["last_to_fill"].as_array().unwrap().is_empty());
+    let text = String::from_utf8(moldgate(&["locate", "--sample", "tray", "--gates", "2"]).stdout)
+        .unwrap();
+    let said = format!(
+        "  all 2 gates open: flow length / wall L/t {:.0} (limit 250), pressure ",
+        num(&f["flow_ratio"])
+    );
+    assert!(text.contains(&said), "{text}");
 }
 
 /// Each place last to fill says what its length is (the flow path from the gate) and when it
@@ -154,9 +175,12 @@ fn several_gates_minimising_the_fill_time_are_summarised_in_seconds() {
     ]);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
+    // The layout's line and its gates' lines (the fill of all gates open, its L/t and last
+    // places, are lines of their own).
     let layout: Vec<&str> = text
         .lines()
         .skip_while(|l| !l.starts_with("  2 gates: "))
+        .filter(|l| l.starts_with("  2 gates: ") || l.starts_with("    gate "))
         .take(3)
         .collect();
     assert_eq!(layout.len(), 3, "{text}");

@@ -109,12 +109,15 @@ fn the_report_of_a_layout_names_its_values_and_whose_last_places_it_lists() {
         several.contains("3 gates together: fill time 0.") && several.contains("% shorter than"),
         "{several}"
     );
-    // The last places listed are a single gate's, and the page says so.
+    // The last places listed are the layout's own, all its gates open, and the page says
+    // so, with the layout's L/t and pressure.
     assert!(
-        html.contains("Last to fill from the paper gate alone"),
+        html.contains("Last to fill from the 3 gates together"),
         "{html}"
     );
     assert!(!html.contains("Last to fill from the answer's gate"));
+    assert!(!html.contains("gate alone"));
+    assert!(html.contains("<p id=\"layout-fill\">With all 3 gates open: flow length / wall L/t "));
 }
 
 #[test]

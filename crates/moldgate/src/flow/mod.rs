@@ -1578,17 +1578,22 @@ fn seat_warnings(
 }
 
 /// A warning for each fill reported whose flow ratio L/t exceeds the material's limit: the
-/// paper gate's, the balanced gate's when it is another gate, the designer's gates'.
+/// paper gate's, the balanced gate's when it is another gate, a layout's of several gates,
+/// the designer's gates'.
 fn flow_ratio_warnings(
     paper: &GateFill,
     balanced: Option<&BalancedFill>,
+    several: Option<&MultiGate>,
     placed: Option<&PlacedFill>,
 ) -> Vec<String> {
+    let layout = several.and_then(|m| Some((m.gates.len(), m.fill.as_ref()?)));
+    let layout_words = layout.map(|(k, _)| format!("the layout of {k} gates"));
     let fills = [
         Some(("the paper gate", paper)),
         balanced
             .filter(|b| !b.is_paper_gate)
             .map(|b| ("the balanced gate", &b.fill)),
+        layout_words.as_deref().zip(layout.map(|(_, f)| f)),
         placed.map(|p| match p.shares.len() {
             1 => ("your gate", &p.fill),
             _ => ("your gates together", &p.fill),
@@ -1838,6 +1843,11 @@ pub struct MultiGate {
     /// the flow-length objective it is the time of the layout found, which the search did
     /// not minimise. `None` until the fill analysis has marched it.
     pub layout_fill_time_s: Option<f64>,
+    /// The fill with all the gates open, as a gate's fill (its `gate`, `body` and
+    /// `wall_across_mm` the first gate's): L_max, L/t (each body's over its own nominal
+    /// wall), the Eq. 1 pressure, the fill time, the last places to fill and the weld
+    /// lines. `None` until the fill analysis has marched it.
+    pub fill: Option<GateFill>,
     /// How much shorter the objective is than with the balanced gate (the best single gate
     /// the report gives: the paper gate when no candidate beats it), by the value its fill
     /// reports, %.
@@ -2440,6 +2450,7 @@ fn several_gates_search(
         l_max_mm: Some(worst),
         fill_time_s: None,
         layout_fill_time_s: None,
+        fill: None,
         improvement_pct: 0.0,
         balance,
         runs: runs + from_centre.runs() + trial_runs.into_inner(),
@@ -3716,11 +3727,26 @@ pub fn analyse_prepared(
         march(&domain.voxels, &sources, cost)
     };
     let all_gates = |cost: Option<&[f32]>| several_pictured.map(|m| from_layout(m, cost));
-    // The layout's fill time whichever objective chose it: one march from its gates under
-    // the fill's cost, which is also the field the pictures colour by the fill time.
-    let mut layout_fill = several
-        .as_ref()
-        .map(|m| from_layout(m, Some(&domain.fill_cost)));
+    // The layout's fill whichever objective chose it: the three fields from all its gates
+    // at once (the fill time's is also the field the pictures colour by the fill time, the
+    // flow length's the one they colour by flow length), summarised as a gate's fill.
+    let (mut layout_fill, mut layout_length, mut layout_summary) = match several.as_ref() {
+        Some(m) => {
+            let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
+            let points: Vec<DVec3> = sources.iter().map(|s| s.point).collect();
+            let [length, fill, pressure] = march_layout(&domain, &sources, [None, None, None]);
+            let (mut summary, _) = summarise_layout(
+                &domain,
+                &points,
+                &sources,
+                material,
+                [&length, &fill, &pressure],
+            );
+            snap_places(&domain, mesh, &mut summary);
+            (Some(fill), Some(length), Some(summary))
+        }
+        None => (None, None, None),
+    };
     let layout_fill_time_s = layout_fill
         .as_ref()
         .map(|f| argmax(&f.t).1.max(0.0) * per_mm);
@@ -3728,7 +3754,10 @@ pub fn analyse_prepared(
     // time, from every pictured gate at once when there are several.
     let mut pictured_t: Option<(Vec<f64>, Kind)> = match options.colour_by {
         ColourBy::FlowLength => Some((
-            all_gates(None).map_or_else(|| fields.length.t.clone(), |f| f.t),
+            match several_pictured.and(layout_length.take()) {
+                Some(f) => f.t,
+                None => all_gates(None).map_or_else(|| fields.length.t.clone(), |f| f.t),
+            },
             Kind::Length,
         )),
         ColourBy::FillTime => Some((
@@ -3831,11 +3860,13 @@ pub fn analyse_prepared(
     }
     if let Some(m) = &mut several {
         m.layout_fill_time_s = layout_fill_time_s;
+        m.fill = layout_summary.take();
     }
     let placed = placed.map(|(p, _)| p);
     warnings.extend(flow_ratio_warnings(
         &paper,
         balanced.as_ref(),
+        several.as_ref(),
         placed.as_ref(),
     ));
     check()?;
@@ -4454,6 +4485,7 @@ mod tests {
             l_max_mm: None,
             fill_time_s: Some(0.00621),
             layout_fill_time_s: Some(0.00621),
+            fill: None,
             improvement_pct: 5.5,
             balance: 0.1,
             runs: 1,
@@ -4499,6 +4531,7 @@ mod tests {
             l_max_mm: Some(10.0),
             fill_time_s: None,
             layout_fill_time_s: None,
+            fill: None,
             improvement_pct: 1.0,
             balance: 0.0,
             runs: 1,
