@@ -170,6 +170,7 @@ fn a_gate_beside_another_adds_nothing_to_the_layout() {
         l_max_mm: Some(worst),
         fill_time_s: None,
         layout_fill_time_s: None,
+        fill: None,
         improvement_pct: 0.0,
         balance: 1.0,
         runs: 1,
