@@ -868,7 +868,7 @@ fn weld_list(h: &mut String, whose: &str, g: &crate::flow::GateFill) {
     for w in &g.weld_lines {
         let _ = writeln!(
             h,
-            "<li>at {} mm, {:.1} mm long, {:.1} mm from the gate, fronts meeting at {:.0}°</li>",
+            "<li>at {} mm, {:.1} mm long, {:.1} mm of flow path from its gate, fronts meeting at {:.0}°</li>",
             v3(w.point),
             w.extent_mm,
             w.flow_length_mm,
