@@ -173,13 +173,13 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
             (Some(reason), Status::Skipped) => {
                 eprintln!(
                     "moldgate: skipped {}: {}",
-                    crate::printable_name(&row.file),
+                    crate::printable(&row.file),
                     crate::printable(reason)
                 )
             }
             (Some(reason), _) => eprintln!(
                 "moldgate: error: {}: {}",
-                crate::printable_name(&row.file),
+                crate::printable(&row.file),
                 crate::printable(reason)
             ),
             _ => {}
@@ -655,7 +655,7 @@ fn table(rows: &[BatchRow], quiet: bool) -> String {
     // command).
     let names: Vec<String> = rows
         .iter()
-        .map(|r| crate::printable(&r.file).replace('\n', "\\n"))
+        .map(|r| crate::printable(&r.file).into_owned())
         .collect();
     let width = names
         .iter()

@@ -229,13 +229,6 @@ fn escaped_in_messages(c: char) -> bool {
         || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
 }
 
-/// A file's name as one line: every control character and bidirectional mark escaped, a
-/// newline too (a name with a newline would print a line that reads as a message of its
-/// own).
-pub fn printable_name(text: &str) -> std::borrow::Cow<'_, str> {
-    printable(text)
-}
-
 /// `text` with its control characters and bidirectional marks escaped (`\n`, `\u{1b}`,
 /// `\u{202e}`): a message is one line and quotes file names and options as given, and a
 /// name holding a line break or a terminal escape must not reach the terminal as one.

@@ -18,13 +18,19 @@ fn mm(x: Option<f64>, open: bool) -> String {
     }
 }
 
-/// One line of a gate's fill.
-fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
-    let limit = match g.flow_ratio_limit {
+/// A fill's L/t against the material's limit, after the ratio: " (limit 250)", or
+/// " EXCEEDS the material's 10"; nothing when the limit is unknown.
+fn limit_words(g: &moldgate::flow::GateFill) -> String {
+    match g.flow_ratio_limit {
         Some(m) if g.exceeds_flow_ratio => format!(" EXCEEDS the material's {m:.0}"),
         Some(m) => format!(" (limit {m:.0})"),
         None => String::new(),
-    };
+    }
+}
+
+/// One line of a gate's fill.
+fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
+    let limit = limit_words(g);
     let _ = writeln!(
         s,
         "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {} MPa, fill time {} s (estimate)",
@@ -231,11 +237,7 @@ fn fill(
             );
         }
         if let Some(g) = &m.fill {
-            let limit = match g.flow_ratio_limit {
-                Some(l) if g.exceeds_flow_ratio => format!(" EXCEEDS the material's {l:.0}"),
-                Some(l) => format!(" (limit {l:.0})"),
-                None => String::new(),
-            };
+            let limit = limit_words(g);
             let _ = writeln!(
                 s,
                 "  all {} gates open: flow length / wall L/t {:.0}{limit}, pressure {} MPa (Eq. 1: the most any place needs from its gate)",
@@ -300,7 +302,7 @@ pub fn render(r: &Report) -> String {
         .clone()
         .or(r.input.sample.as_ref().map(|n| format!("sample '{n}'")))
         .unwrap_or_default();
-    let name = crate::printable_name(&name);
+    let name = crate::printable(&name);
     let m = &r.mesh;
     let _ = writeln!(
         s,
@@ -650,7 +652,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match (g.failed_rule, &g.why) {
-            (None, _) => match g.step_mm.filter(|_| !g.flat) {
+            (None, _) => match g.off_flat_mm() {
                 Some(step) => format!(
                     "qualifies, off a flat seat (its disc reaches {step:.2} mm off its height)"
                 ),

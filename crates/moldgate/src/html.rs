@@ -484,7 +484,7 @@ fn placed_table(h: &mut String, r: &Report) {
     let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2} mm"));
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match &g.why {
-            None => match g.step_mm.filter(|_| !g.flat) {
+            None => match g.off_flat_mm() {
                 Some(step) => format!(
                     "qualifies, <b class=\"warn\">off a flat seat</b> (its disc reaches {step:.2} mm off its height along D)"
                 ),

@@ -293,16 +293,11 @@ pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
         }
         // Two tables that name one built-in (by its name or its aliases) would each replace
         // it, and which one `--material` found would depend on the spelling.
-        if let Some(info) = library().iter().find(|i| {
-            std::iter::once(&i.material.name)
-                .chain(&i.aliases)
-                .any(|n| name::same(n, &key))
-        }) {
-            if let Some(other) = out.iter().find(|m| {
-                std::iter::once(&info.material.name)
-                    .chain(&info.aliases)
-                    .any(|n| name::same(n, &m.name))
-            }) {
+        if let Some(info) = find(&key) {
+            if let Some(other) = out
+                .iter()
+                .find(|m| find(&m.name).is_some_and(|o| std::ptr::eq(o, info)))
+            {
                 return Err(format!(
                     "materials [{}] and [{key}] both name the built-in {} (by its name or an alias): keep one",
                     other.name, info.material.name

@@ -42,25 +42,6 @@ fn point(v: &Value) -> [f64; 3] {
 // ---------------------------------------------------------------------------------------------
 // Building parts
 
-/// A binary STL whose header declares `declared` triangles.
-fn binary_declaring(declared: u32, facets: &[Facet]) -> Vec<u8> {
-    let mut bytes = b"solid written by the moldgate CLI tests".to_vec();
-    bytes.resize(80, b' ');
-    bytes.extend_from_slice(&declared.to_le_bytes());
-    for facet in facets {
-        bytes.extend_from_slice(&[0u8; 12]);
-        for v in facet.iter().flatten() {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        bytes.extend_from_slice(&[0u8; 2]);
-    }
-    bytes
-}
-
-fn binary(facets: &[Facet]) -> Vec<u8> {
-    binary_declaring(facets.len() as u32, facets)
-}
-
 fn ascii(facets: &[Facet]) -> String {
     let mut s = String::from("solid part\n");
     for facet in facets {
@@ -123,7 +104,7 @@ fn empty_file() {
 
 #[test]
 fn truncated_binary() {
-    let bytes = binary(&block());
+    let bytes = binary_stl(&block());
     // Cut 20 bytes into triangle 5, which starts at byte 84 + 5 x 50 = 334.
     let (dir, _) = part("cut.stl", &bytes[..84 + 5 * 50 + 20]);
     let out = moldgate(dir.path(), &["locate", "cut.stl"]);
@@ -143,7 +124,7 @@ fn truncated_binary() {
 #[test]
 fn binary_shorter_than_its_header() {
     // Cut inside the triangle count, whose zero bytes show the file is not text.
-    let bytes = binary(&block());
+    let bytes = binary_stl(&block());
     let (dir, _) = part("stub.stl", &bytes[..82]);
     let out = moldgate(dir.path(), &["locate", "stub.stl"]);
     assert_fails(&out, INPUT, &["stub.stl", "82 bytes", "84-byte header"]);
@@ -152,7 +133,7 @@ fn binary_shorter_than_its_header() {
 #[test]
 fn count_mismatch() {
     // The header declares 10 triangles, 12 follow: extra data from byte 84 + 500.
-    let (dir, _) = part("long.stl", &binary_declaring(10, &block()));
+    let (dir, _) = part("long.stl", &binary_stl_declaring(10, &block()));
     let out = moldgate(dir.path(), &["locate", "long.stl"]);
     assert_fails(
         &out,
@@ -182,7 +163,7 @@ fn ascii_file_cut_inside_a_facet() {
 
 #[test]
 fn binary_nan_coordinate() {
-    let mut bytes = binary(&block());
+    let mut bytes = binary_stl(&block());
     // Triangle 3, corner 1, y: 84 + 3 x 50 + 12 (normal) + 12 + 4.
     let at = 84 + 3 * 50 + 12 + 12 + 4;
     bytes[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
@@ -215,7 +196,7 @@ fn mesh_without_area() {
             [[0.0, y, 0.0], [1.0, y, 0.0], [2.0, y, 0.0]]
         })
         .collect();
-    let (dir, _) = part("flat.stl", &binary(&flat));
+    let (dir, _) = part("flat.stl", &binary_stl(&flat));
     let out = moldgate(dir.path(), &["locate", "flat.stl"]);
     assert_fails(&out, INPUT, &["flat.stl", "non-zero area", "6 facets"]);
 }
@@ -408,7 +389,7 @@ fn suggested_minimum_spacing_is_accepted() {
     // Regression: the minimum was printed rounded to nearest, so on a 1 x 0.6 mm part with
     // --max-nodes 1024 it suggested 0.0250 mm, which gives 41 x 25 = 1025 nodes.
     let facets = box_facets([0.0; 3], [1.0, 0.6, 0.3]);
-    let (dir, _) = part("small.stl", &binary(&facets));
+    let (dir, _) = part("small.stl", &binary_stl(&facets));
     for max_nodes in ["1024", "1577", "500", "3001"] {
         let out = moldgate(
             dir.path(),
@@ -858,7 +839,7 @@ fn clap_usage_errors_exit_with_code_2() {
 #[test]
 fn no_node_qualifies_on_a_thin_plate_with_a_large_gate() {
     let plate = box_facets([0.0; 3], [100.0, 60.0, 0.5]);
-    let (dir, _) = part("thin.stl", &binary(&plate));
+    let (dir, _) = part("thin.stl", &binary_stl(&plate));
     let out = moldgate(dir.path(), &["locate", "thin.stl", "--gate-radius", "5"]);
     assert_fails(
         &out,
@@ -901,7 +882,7 @@ fn no_node_qualifies_on_a_thin_plate_with_a_large_gate() {
 
 #[test]
 fn output_over_the_input_is_refused() {
-    let bytes = binary(&block());
+    let bytes = binary_stl(&block());
     let (dir, path) = part("part.stl", &bytes);
     std::fs::create_dir(dir.path().join("sub")).unwrap();
     for output in ["part.stl", "./part.stl", "sub/../part.stl"] {
@@ -915,7 +896,7 @@ fn output_over_the_input_is_refused() {
 
 #[test]
 fn output_into_a_missing_folder_fails_and_leaves_nothing() {
-    let (dir, _) = part("part.stl", &binary(&block()));
+    let (dir, _) = part("part.stl", &binary_stl(&block()));
     let out = moldgate(
         dir.path(),
         &["locate", "part.stl", "-o", "no/such/folder/report.json"],
@@ -935,7 +916,7 @@ fn output_into_a_missing_folder_fails_and_leaves_nothing() {
 
 #[test]
 fn output_onto_a_folder_fails() {
-    let (dir, _) = part("part.stl", &binary(&block()));
+    let (dir, _) = part("part.stl", &binary_stl(&block()));
     std::fs::create_dir(dir.path().join("report.json")).unwrap();
     let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "report.json"]);
     assert_fails(&out, OUTPUT, &["report.json", "folder"]);
@@ -945,7 +926,7 @@ fn output_onto_a_folder_fails() {
 
 #[test]
 fn output_is_written_whole_as_json_without_temporary_files() {
-    let (dir, _) = part("part.stl", &binary(&block()));
+    let (dir, _) = part("part.stl", &binary_stl(&block()));
     // An older, longer report in the way is replaced whole.
     std::fs::write(dir.path().join("out.json"), "x".repeat(100_000)).unwrap();
     let out = moldgate(dir.path(), &["locate", "part.stl", "-o", "out.json"]);
@@ -1002,7 +983,7 @@ fn json_on_stdout_matches_the_summary() {
 fn units_metres_scale_the_part_and_millimetres_warn() {
     // The 40 x 30 x 10 mm block written in metres.
     let facets = box_facets([0.0; 3], [0.04, 0.03, 0.01]);
-    let (dir, _) = part("metres.stl", &binary(&facets));
+    let (dir, _) = part("metres.stl", &binary_stl(&facets));
     let report = json(&moldgate(
         dir.path(),
         &["locate", "metres.stl", "--units", "m", "--json"],
@@ -1274,7 +1255,7 @@ fn demold_auto_warns_when_every_direction_has_undercuts() {
         facets.push(mesh.corners(t).map(|v| v.as_vec3().to_array()));
     }
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("undercut.stl"), binary(&facets)).unwrap();
+    std::fs::write(dir.path().join("undercut.stl"), binary_stl(&facets)).unwrap();
     let out = moldgate(
         dir.path(),
         &[

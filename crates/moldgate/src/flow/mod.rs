@@ -866,15 +866,25 @@ pub fn fill_from_all(
         .iter()
         .map(|&p| domain.source(p))
         .collect::<Option<_>>()?;
-    let [length, fill, pressure] = march_layout(domain, &sources, [None, None, None]);
+    Some(fill_from_sources(domain, points, &sources, material))
+}
+
+/// [`fill_from_all`] from the gates' sources (`points` with their cells).
+fn fill_from_sources(
+    domain: &Domain,
+    points: &[DVec3],
+    sources: &[Source],
+    material: &Material,
+) -> (GateFill, GateFields, Vec<GateShare>) {
+    let [length, fill, pressure] = march_layout(domain, sources, [None, None, None]);
     let (gate_fill, shares) = summarise_layout(
         domain,
         points,
-        &sources,
+        sources,
         material,
         [&length, &fill, &pressure],
     );
-    Some((gate_fill, GateFields { length, fill }, shares))
+    (gate_fill, GateFields { length, fill }, shares)
 }
 
 /// The fields of a layout of gates: flow length, fill order and pressure, in that order
@@ -2023,7 +2033,6 @@ fn clustered_layout(
         return None;
     }
     let mean = cells.iter().copied().sum::<DVec3>() / cells.len() as f64;
-    let stopped = || crate::cancel::is_set(v.cancel.as_ref());
     // The cell farthest from every centre so far (the last of equals, as `max_by` gives),
     // each cell's squared distance to its nearest centre kept as the centres are added.
     let farthest = |nearest_d2: &[f64]| {
@@ -2041,7 +2050,7 @@ fn clustered_layout(
     let mut centres = vec![farthest(&nearest_d2)];
     nearest_d2.fill(f64::INFINITY);
     while centres.len() < k {
-        if stopped() {
+        if v.stopped() {
             return None;
         }
         let newest = *centres.last().expect("a centre");
@@ -2053,7 +2062,7 @@ fn clustered_layout(
     }
     let mut label = vec![0usize; cells.len()];
     for _ in 0..30 {
-        if stopped() {
+        if v.stopped() {
             return None;
         }
         let changed = label
@@ -2165,9 +2174,8 @@ fn several_gates_search(
     let mut open = vec![false; v.len()];
     // Stopped, the search gives up: each march it would start would stop at once, but
     // only after making its arrays of every cell.
-    let stopped = || crate::cancel::is_set(v.cancel.as_ref());
     while chosen.len() < k {
-        if stopped() {
+        if v.stopped() {
             return None;
         }
         for &i in &pool {
@@ -2361,7 +2369,7 @@ fn several_gates_search(
     let mut ahead: Option<(usize, usize, Examined)> = None;
     let mut at = following(0, 0, false, moves, &stayed_at);
     while let Some((round, g, mut improved)) = at {
-        if stopped() {
+        if v.stopped() {
             return None;
         }
         let found = match ahead.take() {
@@ -2479,7 +2487,7 @@ pub fn redundant_gates(
         .into_par_iter()
         .filter(|&g| {
             // Stopped, no gate is named.
-            if crate::cancel::is_set(domain.voxels.cancel.as_ref()) {
+            if domain.voxels.stopped() {
                 return false;
             }
             let others: Vec<Source> = (0..n)
@@ -3720,49 +3728,34 @@ pub fn analyse_prepared(
     }
     // Only the field the pictures show (a pass over the vertices each).
     let mut per_vertex = VertexFields::default();
-    // With several gates the pictured flow length or fill time is that of all of them
-    // together: one more march from every gate at once.
-    let from_layout = |m: &MultiGate, cost: Option<&[f32]>| {
-        let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
-        march(&domain.voxels, &sources, cost)
-    };
-    let all_gates = |cost: Option<&[f32]>| several_pictured.map(|m| from_layout(m, cost));
-    // The layout's fill whichever objective chose it: the three fields from all its gates
-    // at once (the fill time's is also the field the pictures colour by the fill time, the
-    // flow length's the one they colour by flow length), summarised as a gate's fill.
-    let (mut layout_fill, mut layout_length, mut layout_summary) = match several.as_ref() {
+    // The layout's fill whichever objective chose it, from all its gates at once: its
+    // flow length and fill time are also the fields the pictures colour when the layout is
+    // pictured.
+    let (mut layout_summary, mut layout_fields) = match several.as_ref() {
         Some(m) => {
             let sources: Vec<Source> = m.gates.iter().map(|g| candidates[g.candidate]).collect();
             let points: Vec<DVec3> = sources.iter().map(|s| s.point).collect();
-            let [length, fill, pressure] = march_layout(&domain, &sources, [None, None, None]);
-            let (mut summary, _) = summarise_layout(
-                &domain,
-                &points,
-                &sources,
-                material,
-                [&length, &fill, &pressure],
-            );
+            let (mut summary, fields, _) = fill_from_sources(&domain, &points, &sources, material);
             snap_places(&domain, mesh, &mut summary);
-            (Some(fill), Some(length), Some(summary))
+            (Some(summary), Some(fields))
         }
-        None => (None, None, None),
+        None => (None, None),
     };
-    let layout_fill_time_s = layout_fill
-        .as_ref()
-        .map(|f| argmax(&f.t).1.max(0.0) * per_mm);
+    let layout_fill_time_s = layout_summary.as_ref().map(|f| f.fill_time_s);
     // The pictured field of the cells when it is a field of the fill: flow length or fill
     // time, from every pictured gate at once when there are several.
+    let pictured_layout = several_pictured.and(layout_fields.take());
     let mut pictured_t: Option<(Vec<f64>, Kind)> = match options.colour_by {
         ColourBy::FlowLength => Some((
-            match several_pictured.and(layout_length.take()) {
-                Some(f) => f.t,
-                None => all_gates(None).map_or_else(|| fields.length.t.clone(), |f| f.t),
+            match pictured_layout {
+                Some(f) => f.length.t,
+                None => fields.length.t.clone(),
             },
             Kind::Length,
         )),
         ColourBy::FillTime => Some((
-            match several_pictured.and(layout_fill.take()) {
-                Some(f) => f.t,
+            match pictured_layout {
+                Some(f) => f.fill.t,
                 None => fields.fill.t.clone(),
             },
             Kind::Fill,

@@ -342,6 +342,11 @@ pub(crate) fn samples_bound_of_sums(side: f64, side2: f64, triangles: f64, h: f6
 }
 
 impl Voxels {
+    /// Whether the study these cells belong to was stopped (their [`Voxels::cancel`] token).
+    pub(crate) fn stopped(&self) -> bool {
+        crate::cancel::is_set(self.cancel.as_ref())
+    }
+
     /// Voxelises `mesh` with cells of side `h` mm, each body of the mesh its own. The caller keeps
     /// the work sane: [`Voxels::bounded`] checks the limits before it allocates.
     pub fn new(mesh: &Mesh, h: f64) -> Voxels {

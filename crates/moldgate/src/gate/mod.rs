@@ -633,21 +633,12 @@ pub fn locate_until(
 ) -> Result<Analysis, OptionsError> {
     let start = Instant::now();
     let mut analysis = locate_once(part, options, Parting::Find)?;
-    if analysis.thickness_removed_all() && crate::cancel::is_set(cancel) {
-        analysis.warnings.push(
-            "the search for the largest gate radius that fits was not run: the study was stopped (time limit or cancel)".into(),
-        );
-    } else if analysis.thickness_removed_all()
-        && ray_tests_within(part, &analysis, RAY_TEST_BUDGET / FIT_RUNS) * FIT_RUNS
-            > RAY_TEST_BUDGET
-    {
-        analysis.warnings.push(format!(
-            "the search for the largest gate radius that fits was not run: its {} runs of the rays would make about {:.1e} ray-triangle tests, over the budget of {:.0e} (the part's surface lies many layers deep along D)",
-            FIT_RUNS,
-            ray_tests_within(part, &analysis, f64::INFINITY) * FIT_RUNS,
-            RAY_TEST_BUDGET
-        ));
-    } else if analysis.thickness_removed_all() {
+    if !analysis.thickness_removed_all() {
+        return Ok(analysis);
+    }
+    if let Some(why) = fit_search_skipped(part, &analysis, cancel) {
+        analysis.warnings.push(why);
+    } else {
         let (mut fit, points) = largest_fitting_radius(part, &analysis, cancel)?;
         if fit.probes < 1 + FIT_STEPS && fit.radius_mm.is_some() {
             analysis.warnings.push(format!(
@@ -676,6 +667,29 @@ pub fn locate_until(
         analysis.times.total_s = start.elapsed().as_secs_f64();
     }
     Ok(analysis)
+}
+
+/// Why the search for the largest radius that fits is not run on `analysis`, if it is not:
+/// the study was stopped, or its runs of the rays would pass [`RAY_TEST_BUDGET`].
+fn fit_search_skipped(
+    part: &LoadedMesh,
+    analysis: &Analysis,
+    cancel: Option<&crate::cancel::Cancel>,
+) -> Option<String> {
+    if crate::cancel::is_set(cancel) {
+        return Some(
+            "the search for the largest gate radius that fits was not run: the study was stopped (time limit or cancel)".into(),
+        );
+    }
+    // Over its share of the budget, a run's estimate is the projected areas' (exact).
+    let (spacing, points) = (analysis.grid.spacing, analysis.options.circle_points);
+    let cap = RAY_TEST_BUDGET / FIT_RUNS;
+    let tests = ray_tests_within(part, &analysis.frame, spacing, points, cap) * FIT_RUNS;
+    (tests > RAY_TEST_BUDGET).then(|| {
+        format!(
+            "the search for the largest gate radius that fits was not run: its {FIT_RUNS} runs of the rays would make about {tests:.1e} ray-triangle tests, over the budget of {RAY_TEST_BUDGET:.0e} (the part's surface lies many layers deep along D)"
+        )
+    })
 }
 
 /// Whether [`locate_once`] finds the parting line.
@@ -972,16 +986,12 @@ fn check_ray_tests(
     lo: DVec2,
     hi: DVec2,
 ) -> Result<(), OptionsError> {
-    let lattices = (1 + circle_points) as f64;
-    let per_area = lattices / (grid.spacing * grid.spacing);
-    if part.stats.area_mm2 * per_area <= RAY_TEST_BUDGET {
-        return Ok(());
-    }
-    let projected = projected_area(part, frame);
-    let ray_tests = projected * per_area;
+    let ray_tests = ray_tests_within(part, frame, grid.spacing, circle_points, RAY_TEST_BUDGET);
     if ray_tests <= RAY_TEST_BUDGET {
         return Ok(());
     }
+    // Over the cap, the tests are the projected areas' (not the bound).
+    let projected = ray_tests / ray_tests_per_area(grid.spacing, circle_points);
     let span = hi - lo;
     Err(OptionsError::OverlappingSurface {
         depth: projected / (span.x * span.y).max(grid.spacing * grid.spacing),
@@ -990,18 +1000,28 @@ fn check_ray_tests(
     })
 }
 
-/// The ray-triangle tests of one run of the rays on `analysis`'s grid (as
-/// [`check_ray_tests`] estimates them), bounded above by `cap`: the exact sum is taken only
-/// when the surface area's bound exceeds it.
-fn ray_tests_within(part: &LoadedMesh, analysis: &Analysis, cap: f64) -> f64 {
-    let lattices = (1 + analysis.options.circle_points) as f64;
-    let spacing = analysis.grid.spacing;
-    let per_area = lattices / (spacing * spacing);
+/// The rays of every lattice (the node's and each circle point's) per mm^2 of projected
+/// triangle.
+fn ray_tests_per_area(spacing: f64, circle_points: usize) -> f64 {
+    (1 + circle_points) as f64 / (spacing * spacing)
+}
+
+/// The ray-triangle tests of one run of the rays, estimated from the triangles' projected
+/// areas: the surface area's bound when it is within `cap` (no pass over the triangles),
+/// else the sum of the projected areas.
+fn ray_tests_within(
+    part: &LoadedMesh,
+    frame: &Frame,
+    spacing: f64,
+    circle_points: usize,
+    cap: f64,
+) -> f64 {
+    let per_area = ray_tests_per_area(spacing, circle_points);
     let bound = part.stats.area_mm2 * per_area;
     if bound <= cap {
         return bound;
     }
-    projected_area(part, &analysis.frame) * per_area
+    projected_area(part, frame) * per_area
 }
 
 /// The sum of the triangles' areas projected along the frame's D, mm^2.

@@ -349,6 +349,14 @@ fn judge_one(
     }
 }
 
+impl PlacedGate {
+    /// How far the disc reaches off the point's height along D when it is not flat, mm:
+    /// a gate that qualifies with it sits on a step, rib or slope.
+    pub fn off_flat_mm(&self) -> Option<f64> {
+        self.step_mm.filter(|_| !self.flat)
+    }
+}
+
 impl PlacedGates {
     /// Adds the fill of the layout (`None`: the fill did not run, for `reason`).
     pub(crate) fn with_fill(mut self, fill: Option<PlacedFill>, reason: Option<&str>) -> Self {
@@ -381,8 +389,8 @@ impl PlacedGates {
             .gates
             .iter()
             .enumerate()
-            .filter(|(_, g)| g.qualifies && !g.flat)
-            .filter_map(|(i, g)| g.step_mm.filter(|&s| s > tol).map(|s| (i, s)))
+            .filter(|(_, g)| g.qualifies)
+            .filter_map(|(i, g)| g.off_flat_mm().filter(|&s| s > tol).map(|s| (i, s)))
             .collect();
         let what = |i: usize| match self.gates.len() {
             1 => "your gate".to_string(),

@@ -744,10 +744,11 @@ impl StudyOptions {
             }
         }
         // Eq. 8's radius far outside moulding practice is most often a parameter in the
-        // wrong unit (a shear rate of 1 for 10,000 1/s): said, not refused.
-        if radius_source == RadiusSource::Material
-            && !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm)
-        {
+        // wrong unit (a shear rate of 1 for 10,000 1/s), a forced one a diameter or inches:
+        // said, not refused.
+        let implausible =
+            !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm);
+        if implausible && radius_source == RadiusSource::Material {
             let material_words = match material.name.as_str() {
                 "" => "the material given".to_string(),
                 name => format!("material {name}"),
@@ -758,9 +759,7 @@ impl StudyOptions {
                 PLAUSIBLE_RADIUS_MM.0,
                 PLAUSIBLE_RADIUS_MM.1,
             ));
-        } else if radius_source == RadiusSource::Forced
-            && !(PLAUSIBLE_RADIUS_MM.0..=PLAUSIBLE_RADIUS_MM.1).contains(&gate_radius_mm)
-        {
+        } else if implausible && radius_source == RadiusSource::Forced {
             warnings.push(format!(
                 "--gate-radius {} mm is far outside the {}-{} mm of injection-moulding gates: check its unit (millimetres, a radius, not a diameter)",
                 crate::report::three_figures(gate_radius_mm),

@@ -91,9 +91,15 @@ pub fn box_facets(min: [f32; 3], max: [f32; 3]) -> Vec<Facet> {
 
 /// A binary STL of `facets` (normals left zero).
 pub fn binary_stl(facets: &[Facet]) -> Vec<u8> {
-    let mut bytes = b"moldgate test".to_vec();
+    binary_stl_declaring(facets.len() as u32, facets)
+}
+
+/// A binary STL whose header declares `declared` triangles (its header starts with
+/// `solid`, as some exporters' do).
+pub fn binary_stl_declaring(declared: u32, facets: &[Facet]) -> Vec<u8> {
+    let mut bytes = b"solid written by the moldgate CLI tests".to_vec();
     bytes.resize(80, b' ');
-    bytes.extend_from_slice(&(facets.len() as u32).to_le_bytes());
+    bytes.extend_from_slice(&declared.to_le_bytes());
     for facet in facets {
         bytes.extend_from_slice(&[0u8; 12]);
         for v in facet.iter().flatten() {
