@@ -21,6 +21,16 @@ impl std::fmt::Display for Place {
     }
 }
 
+/// A non-finite coordinate in words: NaN, or an infinity, which in a text file is also what a
+/// number too large for a 64-bit float reads as (1e400, or a hundred thousand digits).
+pub(crate) fn non_finite(value: &f64) -> String {
+    if value.is_nan() {
+        "NaN".into()
+    } else {
+        format!("{value}: infinite, or a number too large to represent")
+    }
+}
+
 /// A mesh file that cannot be read.
 #[derive(Debug, Error)]
 pub enum LoadError {
@@ -74,7 +84,7 @@ pub enum LoadError {
         message: String,
     },
     /// A coordinate that is NaN or infinite.
-    #[error("{place}: triangle {triangle} has a non-finite coordinate ({value})")]
+    #[error("{place}: triangle {triangle} has a non-finite coordinate ({})", non_finite(.value))]
     NonFinite {
         /// Where the coordinate is.
         place: Place,
@@ -90,7 +100,7 @@ pub enum LoadError {
         facets: u64,
     },
     /// A vertex of an array mesh with a NaN or infinite coordinate.
-    #[error("vertex {vertex} has a non-finite coordinate ({value})")]
+    #[error("vertex {vertex} has a non-finite coordinate ({})", non_finite(.value))]
     NonFiniteVertex {
         /// 0-based vertex index.
         vertex: u64,

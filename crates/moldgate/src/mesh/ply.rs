@@ -159,7 +159,10 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
                         if !value.is_finite() {
                             return Err(syntax(
                                 place,
-                                format!("{what} has a non-finite coordinate ({value})"),
+                                format!(
+                                    "{what} has a non-finite coordinate ({})",
+                                    crate::error::non_finite(&value)
+                                ),
                             ));
                         }
                         if value.abs() > limit {

@@ -624,3 +624,25 @@ fn a_ply_count_past_every_limit_is_too_large() {
         "{err}"
     );
 }
+
+/// A number too large for a 64-bit float (a hundred thousand digits, or 1e400) reads as
+/// infinity: the message names its line and says so, rather than "inf" alone; a NaN is
+/// named as such.
+#[test]
+fn a_number_too_large_to_represent_is_named_at_its_line() {
+    let facet = |z: &str| {
+        format!(
+            "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 {z}\nendloop\nendfacet\nendsolid x\n"
+        )
+    };
+    for z in ["9".repeat(100_000), "1e400".into(), "-1e400".into()] {
+        let e = stl(facet(&z).as_bytes()).unwrap_err().to_string();
+        assert!(
+            e.starts_with("line 6: triangle 0 has a non-finite coordinate (")
+                && e.ends_with("inf: infinite, or a number too large to represent)"),
+            "{e}"
+        );
+    }
+    let e = stl(facet("nan").as_bytes()).unwrap_err().to_string();
+    assert_eq!(e, "line 6: triangle 0 has a non-finite coordinate (NaN)");
+}
