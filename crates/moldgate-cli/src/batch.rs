@@ -361,7 +361,8 @@ struct Manifest {
 pub const MAX_PARTS: usize = 100_000;
 
 fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>, Failure> {
-    let (manifest, text): (Manifest, String) = crate::toml_file::read_toml(path)?;
+    let (manifest, text): (Manifest, String) =
+        crate::toml_file::read_toml(path, moldgate::files::MAX_TOML_BYTES)?;
     // The line (from 1) of a value's first byte.
     let line_of = |at: usize| 1 + text[..at.min(text.len())].matches('\n').count();
     let folder = path.parent().unwrap_or(Path::new(""));

@@ -15,7 +15,7 @@ use crate::Failure;
 /// Reads a TOML file of user materials, each named by its table, in the order of their
 /// names.
 pub fn read_materials(path: &Path) -> Result<Vec<Material>, Failure> {
-    let text = read_toml_text(path)?;
+    let text = read_toml_text(path, moldgate::files::MAX_MATERIALS_BYTES)?;
     material::materials_from_toml(&text)
         .map_err(|e| Failure::usage(format!("{}: {e}", path.display())))
 }

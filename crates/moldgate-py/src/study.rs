@@ -33,10 +33,10 @@ fn serde_message(e: &serde_json::Error) -> String {
 }
 
 /// Reads a TOML file of user materials, each named by its table (the command line's
-/// `--materials-file`): a regular file of at most `MAX_TOML_BYTES`.
+/// `--materials-file`): a regular file of at most `MAX_MATERIALS_BYTES`.
 fn read_materials(path: &Path) -> Result<Vec<Material>, String> {
     let fail = |e: String| format!("{}: {e}", path.display());
-    let text = moldgate::files::read_text(path, "a TOML file", moldgate::files::MAX_TOML_BYTES)
+    let text = moldgate::files::read_toml_text(path, moldgate::files::MAX_MATERIALS_BYTES)
         .map_err(|e| fail(e.to_string()))?;
     moldgate::material::materials_from_toml(&text).map_err(fail)
 }

@@ -206,7 +206,7 @@ def test_a_materials_file_over_its_limit_or_not_utf8_is_refused(tmp_path):
     big = tmp_path / "big.toml"
     with open(big, "wb") as f:
         f.truncate(3 << 30)  # sparse: refused by its size, not read
-    with pytest.raises(moldgate.OptionsError, match=r"big\.toml: is over the limit of 16 MiB for a TOML file \(3 GiB\)"):
+    with pytest.raises(moldgate.OptionsError, match=r"big\.toml: is over the limit of 1 MiB for a TOML file \(3 GiB\)"):
         moldgate.study(moldgate.sample("plate"), materials_file=big)
     latin = tmp_path / "latin.toml"
     latin.write_bytes(b"[X]\n# caf\xe9\n")

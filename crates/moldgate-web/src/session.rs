@@ -38,21 +38,14 @@ pub struct Request {
 pub struct MaterialsFile {
     /// The file's name (`materials.toml`).
     pub name: String,
-    /// Its text, at most [`moldgate::files::MAX_TOML_BYTES`].
+    /// Its text, at most [`moldgate::files::MAX_MATERIALS_BYTES`].
     pub text: String,
 }
 
 impl MaterialsFile {
     /// The file's materials, each named by its table; an error names the file and the line.
     pub fn materials(&self) -> Result<Vec<moldgate::Material>, String> {
-        let limit = moldgate::files::MAX_TOML_BYTES;
-        if self.text.len() as u64 > limit {
-            return Err(format!(
-                "{}: {} bytes, over the limit of {limit} bytes for a TOML file",
-                self.name,
-                self.text.len()
-            ));
-        }
+        // Its size is checked by the library's reader, before it parses.
         moldgate::material::materials_from_toml(&self.text)
             .map_err(|e| format!("{}: {e}", self.name))
     }

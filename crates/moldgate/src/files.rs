@@ -12,9 +12,22 @@ use std::path::Path;
 
 use crate::mesh::{self, LoadedMesh, Units};
 
-/// The largest text file read by [`read_text`] for a TOML file (a materials library or a
-/// batch manifest of many thousand parts is a small fraction of it).
+/// The largest TOML file read by [`read_toml_text`] for a batch manifest (one of the
+/// command line's 100,000 parts, about 100 bytes a part, is about half of it).
 pub const MAX_TOML_BYTES: u64 = 16 << 20;
+
+/// The largest materials file ([`crate::material::materials_from_toml`], the command line's
+/// `--materials-file`, Python's `materials_file`, the browser app's upload): its 1000
+/// materials at most of a few hundred bytes each take a third of it. Parsing a TOML text
+/// may take up to [`TOML_MEMORY_PER_BYTE`] times its size, so a hostile file of this size
+/// takes under 100 MB.
+pub const MAX_MATERIALS_BYTES: u64 = 1 << 20;
+
+/// The most memory parsing a TOML text may take, per byte of the text: the shapes measured
+/// to take the most are an array of 8 million one-digit numbers, 16 MiB of text and a peak
+/// of 1.27 GB (76 times), and arrays of empty arrays or tables (66 times); tables of a
+/// key each take 37 times.
+pub const TOML_MEMORY_PER_BYTE: u64 = 80;
 
 /// What a file is, for messages: "a regular file", "a folder", "a FIFO", ...
 pub fn file_kind(m: &std::fs::Metadata) -> &'static str {
@@ -75,7 +88,7 @@ pub fn open_regular(path: &Path, noun: &str) -> Result<File, String> {
 }
 
 /// A size in bytes for messages: `16 MiB`, `3.0 GiB`, `512 bytes`.
-fn size_text(bytes: u64) -> String {
+pub(crate) fn size_text(bytes: u64) -> String {
     const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
     let mut value = bytes as f64;
     let mut unit = "bytes";
@@ -149,6 +162,25 @@ pub fn read_text(path: &Path, noun: &str, limit: u64) -> Result<String, TextErro
         let line = 1 + e.as_bytes()[..byte].iter().filter(|&&b| b == b'\n').count();
         TextError::NotUtf8 { line, byte }
     })
+}
+
+/// The text of the TOML file `path` ([`read_text`] with `limit`, as "a TOML file"), refused
+/// before it is read when parsing it could take more memory than this process may use
+/// ([`TOML_MEMORY_PER_BYTE`] times its size, against [`memory_limit`]).
+pub fn read_toml_text(path: &Path, limit: u64) -> Result<String, TextError> {
+    let noun = "a TOML file";
+    if let Ok(len) = std::fs::metadata(path).map(|m| m.len()) {
+        if len <= limit {
+            check_memory_of(
+                len,
+                (TOML_MEMORY_PER_BYTE, "a TOML file"),
+                "a smaller file",
+                memory_limit(),
+            )
+            .map_err(TextError::Unreadable)?;
+        }
+    }
+    read_text(path, noun, limit)
 }
 
 /// A TOML parser's error as the front ends say it: `line N: what` (the line of the error's
@@ -405,15 +437,31 @@ fn memory_per_file_byte(kind: MeshKind) -> u64 {
 /// Refuses a file whose reading could take more memory than `limit` bytes (when known)
 /// before a byte of it is read: [`memory_per_file_byte`] times its size.
 fn check_memory(kind: MeshKind, len: u64, limit: Option<u64>) -> Result<(), String> {
-    let need = len.saturating_mul(memory_per_file_byte(kind));
+    check_memory_of(
+        len,
+        (memory_per_file_byte(kind), "this format"),
+        "a coarser mesh",
+        limit,
+    )
+}
+
+/// Refuses a file of `len` bytes that may take `per_byte` times its size to read (`what`
+/// names its kind in the message, `advice` what to use instead) when that is more than
+/// `limit` bytes (when known).
+fn check_memory_of(
+    len: u64,
+    (per_byte, what): (u64, &str),
+    advice: &str,
+    limit: Option<u64>,
+) -> Result<(), String> {
+    let need = len.saturating_mul(per_byte);
     match limit {
         Some(limit) if need > limit => {
             let gib = |b: u64| b as f64 / f64::from(1u32 << 30);
             Err(format!(
-                "a file of {:.1} MiB may take up to {:.1} GiB of memory to read ({} times its size for this format), more than the {:.1} GiB this process may use (the memory available, or its limit): use a machine with more memory or a coarser mesh",
+                "a file of {:.1} MiB may take up to {:.1} GiB of memory to read ({per_byte} times its size for {what}), more than the {:.1} GiB this process may use (the memory available, or its limit): use a machine with more memory or {advice}",
                 len as f64 / f64::from(1u32 << 20),
                 gib(need),
-                memory_per_file_byte(kind),
                 gib(limit)
             ))
         }
@@ -500,6 +548,34 @@ pub fn read_mesh_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), St
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_toml_file_that_could_take_more_memory_to_parse_than_the_limit_is_refused() {
+        // 16 MiB of TOML may take 1.25 GiB to parse: refused under 1 GiB, read under 2.
+        let mib = 1u64 << 20;
+        let toml = (TOML_MEMORY_PER_BYTE, "a TOML file");
+        let e = check_memory_of(16 * mib, toml, "a smaller file", Some(1024 * mib)).unwrap_err();
+        assert_eq!(
+            e,
+            "a file of 16.0 MiB may take up to 1.2 GiB of memory to read (80 times its size for a TOML file), more than the 1.0 GiB this process may use (the memory available, or its limit): use a machine with more memory or a smaller file"
+        );
+        assert!(check_memory_of(16 * mib, toml, "", Some(2048 * mib)).is_ok());
+        // Through the reader, before a byte is read: a sparse file within the size limit.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        std::fs::File::create(&path)
+            .unwrap()
+            .set_len(MAX_MATERIALS_BYTES)
+            .unwrap();
+        assert!(read_toml_text(&path, MAX_MATERIALS_BYTES).is_ok_and(|t| t.len() == 1 << 20));
+        let over = std::fs::File::create(dir.path().join("over.toml")).unwrap();
+        over.set_len(MAX_MATERIALS_BYTES + 1).unwrap();
+        let e = read_toml_text(&dir.path().join("over.toml"), MAX_MATERIALS_BYTES).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "is over the limit of 1 MiB for a TOML file (1.0 MiB)"
+        );
+    }
 
     #[test]
     fn a_file_that_could_take_more_memory_than_the_limit_is_refused_before_reading() {

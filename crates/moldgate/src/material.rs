@@ -248,14 +248,23 @@ impl Listing {
     }
 }
 
-/// The most materials one materials file may hold (the file's own limit, 16 MiB, would
-/// allow some 200,000); a study looks a name up among them, and every front end lists them.
+/// The most materials one materials file may hold (its limit in bytes,
+/// [`crate::files::MAX_MATERIALS_BYTES`], would allow some 10,000); a study looks a name up
+/// among them, and every front end lists them.
 pub const MAX_USER_MATERIALS: usize = 1000;
 
-/// The materials of a TOML text (a user's materials file): each table a material named by
-/// its key, in the order of their names, each checked as [`Material::validate`] does. A
+/// The materials of a TOML text (a user's materials file, at most
+/// [`crate::files::MAX_MATERIALS_BYTES`]): each table a material named by its key, in the order of their names, each checked as [`Material::validate`] does. A
 /// syntax error names its line.
 pub fn materials_from_toml(text: &str) -> Result<Vec<Material>, String> {
+    let limit = crate::files::MAX_MATERIALS_BYTES;
+    if text.len() as u64 > limit {
+        return Err(format!(
+            "is over the limit of {} for a materials file ({})",
+            crate::files::size_text(limit),
+            crate::files::size_text(text.len() as u64)
+        ));
+    }
     let table: std::collections::BTreeMap<String, Material> =
         toml::from_str(text).map_err(|e| crate::files::toml_message(text, &e))?;
     if table.is_empty() {
@@ -374,6 +383,33 @@ fn line_of(text: &str, table: &str, parameter: Option<&str>) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_materials_text_over_its_limit_is_refused_before_it_is_parsed_and_a_full_library_fits() {
+        // The most materials a file may hold, each with every parameter and a comment, is a
+        // fraction of the limit.
+        let one = |i: usize| {
+            format!("# Grade {i}, from its data sheet\n[Grade{i:04}]\nn = 0.35\nt_melt = 230.0\nt_wall = 40.0\ngamma_opt = 1000.0\nmu_opt = 150.0\nk = 0.2\nmax_flow_ratio = 250.0\n")
+        };
+        let library: String = (0..MAX_USER_MATERIALS).map(one).collect();
+        assert!(library.len() as u64 * 3 < crate::files::MAX_MATERIALS_BYTES);
+        assert_eq!(
+            materials_from_toml(&library).unwrap().len(),
+            MAX_USER_MATERIALS
+        );
+        // One byte over: refused by its length, whatever it holds (here an array whose parse
+        // would take some 80 times its size).
+        let mut big = String::from("a = [");
+        while (big.len() as u64) < crate::files::MAX_MATERIALS_BYTES {
+            big.push_str("1,");
+        }
+        big.push_str("1]\n");
+        let e = materials_from_toml(&big).unwrap_err();
+        assert!(
+            e.starts_with("is over the limit of 1 MiB for a materials file (1."),
+            "{e}"
+        );
+    }
 
     #[test]
     fn a_materials_file_s_faults_are_named_with_their_line_or_material() {

@@ -133,7 +133,7 @@ fn a_materials_file_over_its_size_limit_is_refused_before_it_is_read() {
     assert_fails(
         &out,
         INPUT,
-        &["big.toml: is over the limit of 16 MiB for a TOML file (3 GiB)"],
+        &["big.toml: is over the limit of 1 MiB for a TOML file (3 GiB)"],
     );
 }
 
