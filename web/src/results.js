@@ -189,9 +189,14 @@ function suitabilityPart(m) {
   const best = m.best === null ? null : m.nodes[m.best];
   const what = m.objective === "resistance" ? "fill time" : "L_max";
   const gap = m.max_gap_pct === null ? "unbounded" : `${m.max_gap_pct.toFixed(1)} %`;
+  // A best score the map's runs did not prove is a lower bound, said as such (as the
+  // command line's summary and the report page say it).
+  const bestText = (n) => n.kind === "lower_bound"
+    ? `at least ${value(n.score)} ${m.unit} (a lower bound: the map's runs ended before a march at this node; ${n.upper === null ? "no upper bound" : `at most ${value(n.upper)} ${m.unit}`})`
+    : `${value(n.score)} ${m.unit}`;
   return el("div", { id: "suitability-result", "data-nodes": m.nodes.length, "data-exact": m.exact, "data-best": best ? best.score : "" },
     el("p", {}, `Gate suitability: ${m.nodes.length.toLocaleString("en")} qualifying nodes scored by the ${what} of a gate at each, ${value(lo)} to ${value(hi)} ${m.unit} (lower is better; the 3D view colours them, dark blue best).`),
-    el("p", {}, best ? `Best node ${v3(best.point)} mm: ${value(best.score)} ${m.unit}. ${m.exact} scores exact (to ${value(m.tolerance)} ${m.unit}, the cells' resolution: the balanced gate's own value may differ by as much), the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
+    el("p", {}, best ? `Best node ${v3(best.point)} mm: ${bestText(best)}. ${m.exact} scores exact (to ${value(m.tolerance)} ${m.unit}, the cells' resolution: the balanced gate's own value may differ by as much), the others lower bounds within ${gap} of their upper bounds.` : "No node scored."));
 }
 
 function countsSection(c, fit) {

@@ -386,9 +386,9 @@ pub struct BatchArgs {
     #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=MAX_JOBS as i64), allow_negative_numbers = true)]
     pub jobs: Option<u16>,
     /// Time limit of each part's study, seconds: past it the study stops (within one step
-    /// of the fill's cells, one march of the fill analysis or one facet of a wall map; the
-    /// load and the gate's own stages run to their end) and the part fails with exit code 2
-    /// [default: none].
+    /// of the fill's cells, one march of the fill analysis, one facet of a wall map or one
+    /// block of triangles of the gate's rays; the load runs to its end) and the part fails
+    /// with exit code 2 [default: none].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub timeout: Option<f64>,
     /// No progress bar and no closing count.

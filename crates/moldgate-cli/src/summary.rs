@@ -105,7 +105,7 @@ fn fill(
     );
     let _ = writeln!(
         s,
-        "  (fill time: the way from the gate over the front speed of Eq. 7, each mm weighted by its wall; an estimate for comparing gates and parts, not the fill time of a moulding machine, which sets its own injection rate)"
+        "  (fill time: the way from the gate over the front speed of Eq. 7, each mm weighted by its wall against its body's nominal wall; an estimate for comparing gates on one part, not between parts (a part of thin walls does not read slower than one of thick walls: compare L_max, L/t and the pressure), and not the fill time of a moulding machine, which sets its own injection rate)"
     );
     if let Some(w) = &f.wall {
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
@@ -193,14 +193,13 @@ fn fill(
         if let Some(best) = m.best.map(|b| &m.nodes[b]) {
             let _ = writeln!(
                 s,
-                "  gate suitability: {} nodes scored by the {what} of a gate there, {} to {} {} (lower is better); best {} at {} {}",
+                "  gate suitability: {} nodes scored by the {what} of a gate there, {} to {} {} (lower is better); best {}: {}",
                 m.nodes.len(),
                 value(lo),
                 value(hi),
                 m.unit,
                 v3(best.point),
-                value(best.score),
-                m.unit
+                m.best_value_text().unwrap_or_default()
             );
             let _ = writeln!(
                 s,

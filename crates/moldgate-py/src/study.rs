@@ -122,8 +122,10 @@ fn study_error(e: &StudyError) -> (Status, PyErrBox) {
 ///
 /// The study runs on a thread of its own while this one waits without the GIL, looking
 /// every 50 ms for a signal (Ctrl-C: `KeyboardInterrupt`) and for the time limit `timeout`
-/// (seconds: the built-in `TimeoutError`); either stops the study within a march or two of
-/// the fill (its cancellation token) before the exception is raised.
+/// (seconds: the built-in `TimeoutError`); either stops the study (its cancellation token)
+/// within a step of it (a march of the fill, a facet of a wall map, a block of triangles of
+/// the gate's rays; the load runs to its end) before the exception is raised. A study that
+/// ends before the look that finds its limit passed is returned.
 #[pyfunction]
 #[pyo3(signature = (part, options_json, materials_file = None, timeout = None))]
 pub fn study(

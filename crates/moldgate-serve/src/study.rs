@@ -4,7 +4,7 @@
 
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -655,7 +655,7 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
             StatusCode::GATEWAY_TIMEOUT,
             "timeout",
             format!(
-                "the study did not finish within {} s (--timeout); it stops within a step of the fill analysis (a step of its cells, a facet of its walls, a march) or a facet of the wall map, or at the end of any other stage it is in, and its analysis slot is free then",
+                "the study did not finish within {} s (--timeout); it stops within a step of the fill analysis (a step of its cells, a facet of its walls, a march), a facet of the wall map or a block of triangles of the gate's rays, or at the end of any other step it is in, and its analysis slot is free then",
                 limits.timeout.as_secs_f64()
             ),
         )
@@ -682,6 +682,16 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         .map_err(|_| ApiError::internal("the service is shutting down"))?;
     let cancel = Cancel::new();
     let flag = cancel.clone();
+    // Why the study was stopped, if it was: set before its token, read by its last line.
+    let why = Arc::new(AtomicU8::new(RAN));
+    let stopped_why = why.clone();
+    // The client that hangs up drops this future, and with it the wait below: the guard
+    // stops the study then, so that nobody's study holds a slot and its memory to the end
+    // (a study of minutes, past --timeout). Once the wait has ended it stops nothing.
+    let mut hang_up = StopOnDrop {
+        cancel: Some(cancel.clone()),
+        why: why.clone(),
+    };
     let units = controls.units;
     let output = controls.output;
     let task = tokio::task::spawn_blocking(move || {
@@ -690,25 +700,61 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         let _permits = (admitted, running, held);
         let started = Instant::now();
         let result = guarded(|| work(upload, units, &settings, output, &flag));
-        // After its 504, how long the study held its slot, and where it stopped.
+        // After its 504, or its client's going, how long the study held its slot, and
+        // where it stopped.
         if flag.is_cancelled() {
             let how = match &result {
                 Ok(_) => "finished".to_string(),
+                // Where it stopped, without the answer's words for a client that waited.
+                Err(e) if e.kind == "timeout" => e
+                    .message
+                    .strip_prefix("the study took longer than the time limit and was ")
+                    .unwrap_or(&e.message)
+                    .to_string(),
                 Err(e) => e.message.clone(),
             };
+            let whose = match stopped_why.load(Ordering::Relaxed) {
+                HUNG_UP => "a study whose client hung up",
+                _ => "a study past --timeout",
+            };
             eprintln!(
-                "moldgate: a study past --timeout ended {:.2} s after it started: {how}",
+                "moldgate: {whose} ended {:.2} s after it started: {how}",
                 started.elapsed().as_secs_f64()
             );
         }
         result
     });
-    match tokio::time::timeout_at(deadline, task).await {
+    let waited = tokio::time::timeout_at(deadline, task).await;
+    hang_up.cancel = None;
+    match waited {
         Ok(Ok(result)) => result,
         Ok(Err(join)) => Err(ApiError::internal(format!("the study failed: {join}"))),
         Err(_) => {
+            why.store(TIMED_OUT, Ordering::Relaxed);
             cancel.cancel();
             Err(timed_out())
+        }
+    }
+}
+
+/// Why a study was stopped ([`StopOnDrop::why`]): it ran on, its time ran out, or its
+/// client hung up.
+const RAN: u8 = 0;
+const TIMED_OUT: u8 = 1;
+const HUNG_UP: u8 = 2;
+
+/// Stops a study when the request's future is dropped while it waits for the study (its
+/// client hung up), naming that as the reason; `cancel` is taken away once the wait ended.
+struct StopOnDrop {
+    cancel: Option<Cancel>,
+    why: Arc<AtomicU8>,
+}
+
+impl Drop for StopOnDrop {
+    fn drop(&mut self) {
+        if let Some(cancel) = self.cancel.take() {
+            self.why.store(HUNG_UP, Ordering::Relaxed);
+            cancel.cancel();
         }
     }
 }

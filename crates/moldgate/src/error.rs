@@ -173,6 +173,10 @@ pub enum LoadError {
 /// An analysis option that is out of range.
 #[derive(Debug, Error, PartialEq)]
 pub enum OptionsError {
+    /// The gate's rays were stopped by a cancel (a study's time limit, Ctrl-C) before they
+    /// were all cast: there is no analysis. A study gives its own `Cancelled` instead.
+    #[error("the gate's rays were stopped (time limit or cancel) before they were all cast")]
+    Stopped,
     /// The demolding direction has zero length or is not finite.
     #[error("a direction must be a non-zero finite vector, got ({0}, {1}, {2})")]
     ZeroDirection(f64, f64, f64),

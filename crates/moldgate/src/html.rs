@@ -893,7 +893,11 @@ fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
         });
     let best = m.best.map_or("none".to_string(), |b| {
         let n = &m.nodes[b];
-        format!("{} mm, {} {unit}", v3(n.point), value(n.score))
+        format!(
+            "{} mm, {}",
+            v3(n.point),
+            m.best_value_text().unwrap_or_default()
+        )
     });
     let gap = |g: Option<f64>| g.map_or("unbounded".to_string(), |g| format!("{g:.1} %"));
     let _ = writeln!(
@@ -982,16 +986,19 @@ where the mould halves meet. Aesthetic parts (<code>--aesthetic</code>) take the
 (height along D until a flow or thickness analysis provides another field).</dd>
 <dt>Fill analysis</dt><dd>A geometric model of the melt's way through the part: the part as
 cubic cells, and the shortest way from the gate to every cell through the solid.</dd>
-<dt>L_max (longest flow path)</dt><dd>The longest flow length: the way the melt travels from the gate to the
-place it reaches last, in mm.</dd>
+<dt>L_max (longest flow path)</dt><dd>The longest flow length: the way through the solid from
+the gate to the place farthest from it along that way, in mm. The place the fill time
+estimate reaches last may be another, nearer one behind thin walls.</dd>
 <dt>L/t (flow length / wall)</dt><dd>L_max over the nominal wall thickness. Each material fills reliably only up to
 a ratio (its limit, from design guides); above it the part may not fill.</dd>
 <dt>Pressure (Eq. 1)</dt><dd>The pressure drop of the melt along that way at the optimal
 shear rate, 12 &mu; v L / H&sup2; summed along the path, in MPa.</dd>
 <dt>Fill time (estimate)</dt><dd>When the melt front reaches a place, in seconds: the way
-from the gate, each mm weighted by the wall's resistance ((H_ref/H)^((n+1)/n), thin walls
-slow the front), over the front speed of Eq. 7. Comparable between gates and parts; a
-geometric estimate, not a simulation.</dd>
+from the gate, each mm weighted by the wall's resistance relative to its body's nominal
+wall H_ref ((H_ref/H)^((n+1)/n): thin walls slow the front), over the front speed of
+Eq. 7. Comparable between gates on one part, not between parts (a part of thin walls does
+not read slower than one of thick walls: compare L_max, L/t and the pressure); a geometric
+estimate, not a simulation nor a machine's fill time.</dd>
 <dt>Wall along D, flow-cell wall, facet wall</dt><dd>Three measures of a wall.
 <b>Wall along D</b> (the paper's rule): the node's ray along the demolding direction D,
 from the gate through the part; \"thinnest under the disc\" is the least over the gate's

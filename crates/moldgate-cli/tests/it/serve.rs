@@ -1012,7 +1012,7 @@ fn a_study_past_the_time_limit_stops_inside_its_fill() {
     assert!(e["message"]
         .as_str()
         .unwrap()
-        .contains("it stops within a step of the fill analysis (a step of its cells, a facet of its walls, a march) or a facet"));
+        .contains("it stops within a step of the fill analysis (a step of its cells, a facet of its walls, a march), a facet of the wall map or a block of triangles of the gate's rays"));
     while get(s.addr, "/healthz").json()["running"] != 0 {
         assert!(t.elapsed() < Duration::from_secs(120));
         std::thread::sleep(Duration::from_millis(20));
@@ -1028,6 +1028,60 @@ fn a_study_past_the_time_limit_stops_inside_its_fill() {
         .unwrap_or_else(|| panic!("no line for the study's end in\n{log}"));
     println!("{ended}");
     assert!(ended.ends_with("(cancelled at the fill stage)"), "{ended}");
+}
+
+/// A client that hangs up while its study runs stops the study (it held its slot and its
+/// memory to its end, past --timeout, when only the time limit stopped studies): the slot
+/// is free within a step of the fill, long before the limit, and the log names why.
+#[test]
+fn a_study_whose_client_hangs_up_stops_before_its_time_limit() {
+    let s = start(&["--timeout", "60", "--analyses", "1"]);
+    let stl = sample_stl("cover");
+    let mut c = connect(s.addr);
+    let query = "/v1/study?fill=true&gates=4&suitability=true&cell=0.5";
+    c.write_all(
+        head(
+            "POST",
+            query,
+            &[("content-type", "model/stl")],
+            Some(stl.len()),
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    c.write_all(&stl).unwrap();
+    let t = Instant::now();
+    while get(s.addr, "/healthz").json()["running"] == 0 {
+        assert!(
+            t.elapsed() < Duration::from_secs(20),
+            "the study never started"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // Well into the study (it takes several seconds), the client goes.
+    std::thread::sleep(Duration::from_millis(300));
+    drop(c);
+    let gone = Instant::now();
+    while get(s.addr, "/healthz").json()["running"] != 0 {
+        assert!(
+            gone.elapsed() < Duration::from_secs(3),
+            "the study of a client that hung up still runs"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    println!(
+        "slot free {:.2} s after the client hung up",
+        gone.elapsed().as_secs_f64()
+    );
+    let log = s.log_text();
+    let ended = log
+        .lines()
+        .find(|l| l.contains("a study whose client hung up ended"))
+        .unwrap_or_else(|| panic!("no line for the study's end in\n{log}"));
+    assert!(
+        ended.ends_with(": stopped (cancelled at the fill stage)"),
+        "{ended}"
+    );
 }
 
 #[test]

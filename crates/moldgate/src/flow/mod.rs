@@ -789,8 +789,9 @@ pub struct GateFill {
     /// Estimated fill time of the last place to fill, s: the fill-order field (each mm
     /// weighted by the flow resistance of its wall, (H_ref / H)^((n+1)/n)) over the Eq. 7
     /// front velocity. It is the time a front moving at the Eq. 7 velocity through the
-    /// nominal wall would take, slowed where walls are thinner; comparable across parts and
-    /// converging as the cells shrink.
+    /// nominal wall would take, slowed where walls are thinner and hastened where thicker;
+    /// it converges as the cells shrink and compares gates on one part, not parts (each
+    /// body's walls are weighed against its own nominal wall).
     pub fill_time_s: f64,
     /// L / t: each body's longest flow over that body's nominal wall, the largest over the
     /// bodies the gates reach (with one body, L_max over the nominal wall).

@@ -101,6 +101,27 @@ pub struct Suitability {
     pub runs: usize,
 }
 
+impl Suitability {
+    /// The best node's score in words with its unit (`58.9 mm`). When the map's runs ran out
+    /// before that score was proven (a lower bound), it says so with the node's upper
+    /// bound: a lower bound is not a value a gate there is known to reach.
+    pub fn best_value_text(&self) -> Option<String> {
+        let n = &self.nodes[self.best?];
+        let value = |x: f64| format!("{} {}", self.objective.value_text(x), self.unit);
+        Some(match n.kind {
+            ScoreKind::Exact => value(n.score),
+            ScoreKind::LowerBound => format!(
+                "at least {} (a lower bound: the map's runs ended before a march at this node; {})",
+                value(n.score),
+                n.upper.map_or("no upper bound".to_string(), |u| format!(
+                    "at most {}",
+                    value(u)
+                ))
+            ),
+        })
+    }
+}
+
 /// Bounds of the nodes of one unique cell.
 #[derive(Debug, Clone, Copy)]
 struct Bounds {
@@ -301,4 +322,40 @@ pub fn suitability(
         off_part,
         runs,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_best_score_left_at_a_lower_bound_is_said_to_be_one() {
+        let node = |score: f64, upper: Option<f64>, kind| NodeScore {
+            node: 0,
+            point: [0.0; 3],
+            score,
+            upper,
+            kind,
+        };
+        let mut map = Suitability {
+            objective: Objective::Length,
+            unit: "mm",
+            tolerance: 0.5,
+            nodes: vec![node(58.94, Some(60.89), ScoreKind::LowerBound)],
+            best: Some(0),
+            exact: 0,
+            max_gap_pct: Some(3.3),
+            median_gap_pct: Some(3.3),
+            off_part: 0,
+            runs: 40,
+        };
+        assert_eq!(
+            map.best_value_text().unwrap(),
+            "at least 58.9 mm (a lower bound: the map's runs ended before a march at this node; at most 60.9 mm)"
+        );
+        map.nodes[0] = node(59.76, Some(59.76), ScoreKind::Exact);
+        assert_eq!(map.best_value_text().unwrap(), "59.8 mm");
+        map.best = None;
+        assert_eq!(map.best_value_text(), None);
+    }
 }

@@ -557,11 +557,12 @@ type Qualifying = (Vec<DVec3>, Vec<f32>);
 
 /// Searches the largest gate radius below `analysis`'s that fits (see [`RadiusFit`]).
 /// Also the qualifying points at the radius found, and their steps (empty when none fits).
+/// `None` when `cancel` stopped the search during its first run.
 fn largest_fitting_radius(
     part: &LoadedMesh,
     analysis: &Analysis,
     cancel: Option<&crate::cancel::Cancel>,
-) -> Result<(RadiusFit, Qualifying), OptionsError> {
+) -> Result<Option<(RadiusFit, Qualifying)>, OptionsError> {
     let refused = analysis.options.gate_radius_mm;
     let options = LocateOptions {
         spacing: Spacing::Mm(analysis.grid.spacing),
@@ -570,19 +571,30 @@ fn largest_fitting_radius(
         ..analysis.options.clone()
     };
     let mut probes = 0;
-    let mut gate_at = |r: f64| -> Result<Option<(Gate, Qualifying)>, OptionsError> {
-        probes += 1;
+    // A probe's gate, or `None` when the search was stopped during it (its rays cut short,
+    // so it tells nothing).
+    type Probe = Option<Option<(Gate, Qualifying)>>;
+    let mut gate_at = |r: f64| -> Result<Probe, OptionsError> {
         let o = LocateOptions {
             gate_radius_mm: r,
             ..options.clone()
         };
         // A probe needs the nodes only: not the parting line.
-        let a = locate_once(part, &o, Parting::Skip)?;
-        Ok(a.grid_gate
-            .map(|g| (g, (a.qualifying_points, a.qualifying_step_mm))))
+        let a = match locate_once(part, &o, Parting::Skip, cancel) {
+            Err(OptionsError::Stopped) => return Ok(None),
+            a => a?,
+        };
+        probes += 1;
+        Ok(Some(
+            a.grid_gate
+                .map(|g| (g, (a.qualifying_points, a.qualifying_step_mm))),
+        ))
     };
     let floor = refused / FIT_FLOOR_DIVISOR;
-    let mut best = gate_at(floor)?.map(|g| (floor, g));
+    let Some(first) = gate_at(floor)? else {
+        return Ok(None);
+    };
+    let mut best = first.map(|g| (floor, g));
     if best.is_some() {
         let (mut lo, mut hi) = (floor, refused);
         for _ in 0..FIT_STEPS {
@@ -592,11 +604,12 @@ fn largest_fitting_radius(
             }
             let mid = 0.5 * (lo + hi);
             match gate_at(mid)? {
-                Some(g) => {
+                Some(Some(g)) => {
                     lo = mid;
                     best = Some((mid, g));
                 }
-                None => hi = mid,
+                Some(None) => hi = mid,
+                None => break,
             }
         }
     }
@@ -612,7 +625,7 @@ fn largest_fitting_radius(
         accepted: false,
         thickest_wall_mm: analysis.thickest_disc_wall_mm,
     };
-    Ok((fit, points))
+    Ok(Some((fit, points)))
 }
 
 /// Locates the gate on a loaded part: the paper's algorithm, end to end.
@@ -624,47 +637,55 @@ pub fn locate(part: &LoadedMesh, options: &LocateOptions) -> Result<Analysis, Op
 }
 
 /// [`locate`] that a set `cancel` token cuts short where it may: the search for the largest
-/// radius that fits (up to 1 + [`FIT_STEPS`] runs of the rays) stops before its next run,
-/// keeping what it found. The caller reads the token after it returns.
+/// radius that fits (up to 1 + [`FIT_STEPS`] runs of the rays) stops within its run,
+/// keeping what its earlier runs found; the gate's own rays stop within a block of
+/// triangles, and then there is no analysis ([`OptionsError::Stopped`]). The caller reads
+/// the token after it returns.
 pub fn locate_until(
     part: &LoadedMesh,
     options: &LocateOptions,
     cancel: Option<&crate::cancel::Cancel>,
 ) -> Result<Analysis, OptionsError> {
     let start = Instant::now();
-    let mut analysis = locate_once(part, options, Parting::Find)?;
+    let mut analysis = locate_once(part, options, Parting::Find, cancel)?;
     if !analysis.thickness_removed_all() {
         return Ok(analysis);
     }
-    if let Some(why) = fit_search_skipped(part, &analysis, cancel) {
-        analysis.warnings.push(why);
-    } else {
-        let (mut fit, points) = largest_fitting_radius(part, &analysis, cancel)?;
-        if fit.probes < 1 + FIT_STEPS && fit.radius_mm.is_some() {
-            analysis.warnings.push(format!(
+    let searched = match fit_search_skipped(part, &analysis, cancel) {
+        Some(why) => Err(why),
+        None => largest_fitting_radius(part, &analysis, cancel)?.ok_or_else(|| {
+            "the search for the largest gate radius that fits was stopped during its first run (time limit or cancel): no radius was found".to_string()
+        }),
+    };
+    match searched {
+        Err(why) => analysis.warnings.push(why),
+        Ok((mut fit, points)) => {
+            if fit.probes < 1 + FIT_STEPS && fit.radius_mm.is_some() {
+                analysis.warnings.push(format!(
                 "the search for the largest gate radius that fits was stopped (time limit or cancel) after {} of its {} runs: a larger radius may fit",
                 fit.probes,
                 1 + FIT_STEPS
             ));
-        }
-        if options.thickness_fallback == ThicknessFallback::LargestFitting {
-            if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
-                analysis.warnings.push(format!(
+            }
+            if options.thickness_fallback == ThicknessFallback::LargestFitting {
+                if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
+                    analysis.warnings.push(format!(
                     "no node passes the thickness rule with R_gate = {:.3} mm ({}); the gate is the one of the largest radius that fits, {r_fit:.3} mm",
                     fit.refused_mm, fit.reason
                 ));
-                analysis.grid_gate = Some(gate);
-                // The radius in force is the fitted one: the picture's disc, the report and
-                // the fill's gates (their spacing, their seats) read it.
-                analysis.options.gate_radius_mm = r_fit;
-                // The nodes that qualify at that radius: the fill's candidates (the
-                // balanced gate, several gates, the suitability map).
-                (analysis.qualifying_points, analysis.qualifying_step_mm) = points;
-                fit.accepted = true;
+                    analysis.grid_gate = Some(gate);
+                    // The radius in force is the fitted one: the picture's disc, the report and
+                    // the fill's gates (their spacing, their seats) read it.
+                    analysis.options.gate_radius_mm = r_fit;
+                    // The nodes that qualify at that radius: the fill's candidates (the
+                    // balanced gate, several gates, the suitability map).
+                    (analysis.qualifying_points, analysis.qualifying_step_mm) = points;
+                    fit.accepted = true;
+                }
             }
+            analysis.radius_fit = Some(fit);
+            analysis.times.total_s = start.elapsed().as_secs_f64();
         }
-        analysis.radius_fit = Some(fit);
-        analysis.times.total_s = start.elapsed().as_secs_f64();
     }
     Ok(analysis)
 }
@@ -704,6 +725,7 @@ fn locate_once(
     part: &LoadedMesh,
     options: &LocateOptions,
     find_parting: Parting,
+    cancel: Option<&crate::cancel::Cancel>,
 ) -> Result<Analysis, OptionsError> {
     let mesh = &part.mesh;
     let r = options.gate_radius_mm;
@@ -784,13 +806,16 @@ fn locate_once(
     let ((hits, projection_s), (centres, centre, parting, aesthetic_gate, parting_s)) = rayon::join(
         || {
             let t = Instant::now();
-            let hits = projection::cast(
+            let hits = projection::cast_until(
                 &mesh.vertices,
                 &frame,
                 &mesh.triangles,
                 &node_lattice,
                 &circle_lattices,
+                cancel,
             );
+            // Set by now, the token may have cut the rays short: no hit is used.
+            let hits = (!crate::cancel::is_set(cancel)).then_some(hits);
             (hits, t.elapsed().as_secs_f64())
         },
         || {
@@ -822,6 +847,7 @@ fn locate_once(
     if centres.get(options.centre).is_none() {
         warnings.push("the mesh encloses no volume, so the surface centre of mass is used".into());
     }
+    let hits = hits.ok_or(OptionsError::Stopped)?;
     times.projection_s = projection_s;
     times.parting_s = parting_s;
 

@@ -217,6 +217,20 @@ pub fn cast(
     nodes: &RayLattice,
     circles: &[RayLattice],
 ) -> Projection {
+    cast_until(vertices, frame, triangles, nodes, circles, None)
+}
+
+/// [`cast`], drawing no more blocks of triangles once `cancel` is set: the hits are then
+/// those of the triangles drawn before, and the caller must not use them (it checks the
+/// token after the call).
+pub fn cast_until(
+    vertices: &[DVec3],
+    frame: &Frame,
+    triangles: &[[u32; 3]],
+    nodes: &RayLattice,
+    circles: &[RayLattice],
+    cancel: Option<&crate::cancel::Cancel>,
+) -> Projection {
     let base = vertices.first().map_or(0.0, |&p| frame.height(p));
     let threads = rayon::current_num_threads().max(1);
     let blocks = triangles.len().div_ceil(BLOCK);
@@ -264,6 +278,9 @@ pub fn cast(
         .for_each(|(queue, node_hits, lattices, group)| {
             let node = node_hits.map(|h| (nodes, &mut h[..]));
             let next = || {
+                if crate::cancel::is_set(cancel) {
+                    return None;
+                }
                 let b = queue.fetch_add(1, Ordering::Relaxed);
                 (b < blocks).then(|| b * BLOCK..((b + 1) * BLOCK).min(triangles.len()))
             };

@@ -94,10 +94,11 @@ pub struct Progress {
 /// loop), so it may take a lock or write to a terminal. The cancellation token is read
 /// between stages, in the fill stage (whose several-gate search and suitability map may
 /// run for minutes on a large part) between the steps of its cells, before each facet's
-/// rays of its walls and every few thousand cells of each march, and in the wall stage
-/// before each facet's rays; once set, the study returns [`StudyError::Cancelled`]
-/// naming the stage it stopped at. The other stages run to their end (each is bounded by
-/// the part's size and the options' limits).
+/// rays of its walls and every few thousand cells of each march, in the wall stage
+/// before each facet's rays, and in the locate stage before each block of triangles its
+/// rays draw (and each run of the search for the radius that fits); once set, the study
+/// returns [`StudyError::Cancelled`] naming the stage it stopped at. The other steps run to
+/// their end (each is bounded by the part's size and the options' limits).
 #[derive(Clone, Copy, Default)]
 pub struct Hooks<'a> {
     /// Called with each stage as it starts, and with [`Stage::Report`] at 1.0 at the end.

@@ -225,7 +225,14 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
             crate::gate::locate_until(part, &options, hooks.cancel)
         }
     };
-    let mut analysis = located.map_err(StudyError::Locate)?;
+    let mut analysis = located.map_err(|e| match e {
+        // Its rays stopped by the token: no gate to report.
+        crate::OptionsError::Stopped => StudyError::Cancelled {
+            stage: Stage::Locate,
+            located: None,
+        },
+        e => StudyError::Locate(e),
+    })?;
     analysis.warnings.extend(s.warnings.iter().cloned());
     if analysis.counts.centre_hits < MIN_NODES_ON_PART {
         analysis.warnings.push(format!(

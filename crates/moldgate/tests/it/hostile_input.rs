@@ -576,7 +576,8 @@ fn inch_sized_part_read_as_mm_is_warned() {
 }
 
 /// The search for the largest gate radius that fits runs the rays up to ten times; a study
-/// stopped (its time limit) does not start it, and says so.
+/// stopped (its time limit) does not run them, nor the gate's own rays: a token set before
+/// the rays gives no analysis at all, at once.
 #[test]
 fn a_stopped_locate_does_not_search_the_radius_that_fits() {
     // The plate is 3 mm thick: a 4 mm gate has no wall thick enough under it.
@@ -591,15 +592,53 @@ fn a_stopped_locate_does_not_search_the_radius_that_fits() {
     assert!(fit.radius_mm.is_some_and(|r| r < 3.0), "{fit:?}");
     let cancel = moldgate::cancel::Cancel::new();
     cancel.cancel();
-    let stopped = moldgate::gate::locate_until(&part, &options, Some(&cancel)).unwrap();
-    assert!(stopped.radius_fit.is_none());
-    assert!(
-        stopped.warnings.iter().any(|w| w
-            == "the search for the largest gate radius that fits was not run: the study was stopped (time limit or cancel)"),
-        "{:?}",
-        stopped.warnings
-    );
+    let stopped = moldgate::gate::locate_until(&part, &options, Some(&cancel));
+    assert_eq!(stopped.unwrap_err(), OptionsError::Stopped);
     assert!(!searched.warnings.iter().any(|w| w.contains("was not run")));
+}
+
+/// The gate's rays stop within a block of triangles once a study's token is set: a study of
+/// 2.8 million nodes over the cover sample, whose rays take most of its time, stopped a
+/// fifth into it says it stopped in the locate stage, with no gate (the rays ran to their
+/// end before, and the study stopped after them, with the method's gate). It prints how
+/// long each took.
+#[test]
+fn the_gate_s_rays_stop_when_the_study_is_stopped() {
+    let part = from_generated(moldgate::samples::sample("cover").unwrap());
+    let size = part.mesh.bounds().diagonal();
+    let options = StudyOptions {
+        spacing: Some(size / 2500.0),
+        max_nodes: 4_000_000,
+        ..StudyOptions::default()
+    };
+    let settings = options.validate().unwrap();
+    let whole = std::time::Instant::now();
+    let done = study(&part, &options).unwrap();
+    let whole = whole.elapsed();
+    let nodes = done.analysis().grid.len();
+    assert!(nodes > 2_000_000, "{nodes}");
+    let cancel = moldgate::cancel::Cancel::new();
+    let hooks = moldgate::study::Hooks {
+        cancel: Some(&cancel),
+        ..Default::default()
+    };
+    let stopped = std::thread::scope(|s| {
+        s.spawn(|| {
+            std::thread::sleep(whole / 5);
+            cancel.cancel();
+        });
+        let t = std::time::Instant::now();
+        let r = moldgate::study::study_with(&part, &settings, &hooks);
+        (r, t.elapsed())
+    });
+    println!("whole study {whole:?}, stopped one {:?}", stopped.1);
+    match stopped.0 {
+        Err(StudyError::Cancelled { stage, located }) => {
+            assert_eq!(stage, moldgate::study::Stage::Locate);
+            assert!(located.is_none());
+        }
+        other => panic!("{:?}", other.map(|s| s.analysis().gate().is_ok())),
+    }
 }
 
 /// An element count of more digits than any number the reader keeps is said to be too

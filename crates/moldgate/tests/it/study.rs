@@ -156,7 +156,8 @@ fn a_cancelled_study_stops_before_the_next_stage() {
         Err(StudyError::Cancelled { stage, .. }) => assert_eq!(stage, Stage::Tree),
         other => panic!("{other:?}"),
     }
-    // Cancelled while locating: the fill never starts.
+    // Cancelled as the locate stage starts: its rays stop (they ran to their end before,
+    // and the study stopped at the fill), and the fill never starts.
     let cancel = Cancel::new();
     let observer = |p: Progress| {
         if p.stage == Stage::Locate {
@@ -169,7 +170,7 @@ fn a_cancelled_study_stops_before_the_next_stage() {
     };
     match study_with(&part, &settings, &hooks) {
         Err(e @ StudyError::Cancelled { .. }) => {
-            assert_eq!(e.to_string(), "cancelled at the fill stage")
+            assert_eq!(e.to_string(), "cancelled at the locate stage")
         }
         other => panic!("{other:?}"),
     }
