@@ -99,9 +99,10 @@ impl ApiError {
             | StudyError::Parse { field, .. }
             | StudyError::Conflict { first: field, .. } => ApiError::options(message).at(*field),
             // A parameter at fault is named as the query parameter that sets it (`n=0`).
-            StudyError::Material(OptionsError::NonPositiveMaterial { parameter, .. }) => {
-                ApiError::options(message).at(*parameter)
-            }
+            StudyError::Material(
+                OptionsError::NonPositiveMaterial { parameter, .. }
+                | OptionsError::MaterialOutOfRange { parameter, .. },
+            ) => ApiError::options(message).at(*parameter),
             StudyError::UnknownMaterial { .. } | StudyError::Material(_) => {
                 ApiError::options(message).at("material")
             }

@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use axum::extract::rejection::PathRejection;
 use axum::extract::{Path as UrlPath, State};
 use axum::http::{header, HeaderName, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -209,7 +210,21 @@ async fn samples() -> Response {
 }
 
 /// `GET /v1/samples/{name}`: a sample part as binary STL (mm).
-async fn sample(UrlPath(name): UrlPath<String>) -> Response {
+async fn sample(name: Result<UrlPath<String>, PathRejection>) -> Response {
+    // A name that is no text (`%FF`) is an unknown sample too, said in JSON like every
+    // error (axum's own answer would be plain text).
+    let name = match name {
+        Ok(UrlPath(name)) => name,
+        Err(e) => {
+            return ApiError::new(
+                StatusCode::NOT_FOUND,
+                "not_found",
+                format!("unknown sample: {}", e.body_text()),
+            )
+            .at("name")
+            .into_response()
+        }
+    };
     let Some(mesh) = moldgate::samples::sample(&name) else {
         let known: Vec<&str> = moldgate::samples::SAMPLES.iter().map(|s| s.name).collect();
         return ApiError::new(

@@ -96,6 +96,9 @@ fn small_endpoints_answer_json_with_isolation_headers() {
     assert_eq!(stl.header("content-type"), Some("model/stl"));
     assert_eq!(stl.body, sample_stl("cover"));
     assert_error(&s, &get(s.addr, "/v1/samples/nope"), 404, "not_found");
+    // A name that is no UTF-8 text: JSON too (it was axum's plain-text 400).
+    let e = assert_error(&s, &get(s.addr, "/v1/samples/%FF"), 404, "not_found");
+    assert_eq!(e["where"], "name", "{e}");
 
     let doc = get(s.addr, "/v1/openapi.json").json();
     assert_eq!(doc["openapi"], "3.1.0");
@@ -188,6 +191,10 @@ fn multipart_options_and_formats_give_the_same_report() {
     assert_eq!(by_query.status, 200);
     // A material parameter at fault is named as its query parameter, not as `material`.
     let bad = study_stl(s.addr, "material=PC&n=0", &stl);
+    let e = assert_error(&s, &bad, 400, "options");
+    assert_eq!(e["where"], "n", "{e}");
+    // Out of range, as well as not positive (it was `material`).
+    let bad = study_stl(s.addr, "material=PC&n=2", &stl);
     let e = assert_error(&s, &bad, 400, "options");
     assert_eq!(e["where"], "n", "{e}");
     let b = "moldgateboundary";
