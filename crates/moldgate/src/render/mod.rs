@@ -797,8 +797,8 @@ struct Disc {
 }
 
 impl Disc {
-    /// The disc of gate `g` in the view of `cam`, hidden when the depths drawn there lie
-    /// in front of its point (beyond `tolerance`, mm).
+    /// The disc of gate `g` in the view of `cam`, hidden when the depths drawn at its point
+    /// and one pixel around it all lie in front of it (beyond `tolerance`, mm).
     fn of(cam: &Camera, g: &crate::scene::Marker, depths: &Depths, tolerance: f64) -> Disc {
         let (outline, r) = gate_outline(cam, g);
         let p = cam.to_pixel(g.point);
@@ -806,7 +806,7 @@ impl Disc {
             outline,
             r,
             at: [p.x as f32, p.y as f32],
-            hidden: !depths.visible(p.x, p.y, cam.depth(g.point), tolerance),
+            hidden: !depths.visible_around(p.x, p.y, cam.depth(g.point), tolerance),
         }
     }
 }
@@ -835,7 +835,7 @@ fn ask_depths(scene: &Scene, view: &View) -> Depths {
         .chain(scene.placed.iter().map(|g| &g.marker))
     {
         let q = cam.to_pixel(p.point);
-        depths.ask(q.x, q.y);
+        depths.ask_around(q.x, q.y);
     }
     depths
 }

@@ -267,6 +267,24 @@ impl Depths {
         }
     }
 
+    /// [`Depths::ask`] at (x, y) and at the eight places one pixel around it, for
+    /// [`Depths::visible_around`].
+    pub fn ask_around(&mut self, x: f64, y: f64) {
+        for (dx, dy) in AROUND {
+            self.ask(x + dx, y + dy);
+        }
+    }
+
+    /// Whether a point at (x, y), asked for with [`Depths::ask_around`], is visible
+    /// ([`Depths::visible`]) there or one pixel around: a point on the edge of a step (a
+    /// gate whose disc reaches the face above it) shows beside the step's upper face, whose
+    /// edge may cover the sample under the point itself.
+    pub fn visible_around(&self, x: f64, y: f64, depth: f64, tolerance: f64) -> bool {
+        AROUND
+            .iter()
+            .any(|(dx, dy)| self.visible(x + dx, y + dy, depth, tolerance))
+    }
+
     /// Sorts the places asked for, before drawing.
     fn prepare(&mut self) {
         self.at.sort_unstable();
@@ -293,6 +311,19 @@ impl Depths {
         }
     }
 }
+
+/// A point and the eight places one pixel around it, canvas pixels.
+const AROUND: [(f64, f64); 9] = [
+    (0.0, 0.0),
+    (-1.0, 0.0),
+    (1.0, 0.0),
+    (0.0, -1.0),
+    (0.0, 1.0),
+    (-1.0, -1.0),
+    (1.0, -1.0),
+    (-1.0, 1.0),
+    (1.0, 1.0),
+];
 
 /// A panel's view of the mesh, found before its bands are drawn: the vertices projected and
 /// the box of samples they reach.
@@ -1821,5 +1852,13 @@ mod tests {
         assert_eq!(depths.depth_at(95.0, 95.0), None);
         assert!(depths.visible(55.0, 45.0, 2.0, 0.0));
         assert!(!depths.visible(55.0, 45.0, 1.5, 0.1));
+        // A point of the lower square at the higher one's edge: the sample under it is the
+        // higher face's, the pixel beside it the lower's, where the point shows.
+        assert_eq!(depths.depth_at(40.2, 45.0), Some(2.0));
+        assert_eq!(depths.depth_at(39.2, 45.0), Some(1.0));
+        assert!(!depths.visible(40.2, 45.0, 1.0, 0.1));
+        assert!(depths.visible_around(40.2, 45.0, 1.0, 0.1));
+        // Under the higher face a pixel and more from its edge, it stays hidden.
+        assert!(!depths.visible_around(55.0, 45.0, 1.0, 0.1));
     }
 }
