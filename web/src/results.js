@@ -172,8 +172,8 @@ function bodyGates(bodies) {
     const share = `${(100 * b.volume_share).toFixed(1)} % of the volume`;
     const own = b.is_answer_body ? ", holds the answer's gate" : "";
     const text = b.gate === null
-      ? `Body ${b.body + 1} (${share}${own}): no qualifying node`
-      : `Body ${b.body + 1} (${share}${own}): own gate ${v3(b.gate)} mm (the paper's rule on this body alone)${b.pictured ? "; the 3D view fills the body from it, marked by a dashed ring" : ""}, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
+      ? `Body ${b.body + 1} (${share}${own}): ${b.rule === "parting_line" ? "no parting line" : "no qualifying node"}`
+      : `Body ${b.body + 1} (${share}${own}): own gate ${v3(b.gate)} mm (${b.rule === "parting_line" ? "the aesthetic rule on this body alone: the point of its parting line nearest its centre of mass" : "the paper's rule on this body alone"})${b.pictured ? "; the 3D view fills the body from it, marked by a dashed ring" : ""}, longest flow ${mm(b.l_max_mm, 1)}, fill time ${b.fill_time_s === null ? "unknown" : `${seconds(b.fill_time_s)} s`} at its own nominal wall of ${mm(b.nominal_wall_mm)}`;
     items.append(el("li", b.gate === null ? { "data-body": b.body } : { "data-body": b.body, ...xyz(b.gate) }, text));
   }
   return el("div", {}, el("p", {}, `A gate per body (the file holds ${bodies.length} separate bodies; a gate fills only its own):`), items);

@@ -267,9 +267,14 @@ fn fill(
     for b in &f.body_gates {
         let gate = match (b.gate, b.l_max_mm, b.fill_time_s) {
             (Some(g), Some(l), Some(t)) => {
-                format!("own gate {} (the paper's rule on this body alone: its qualifying node nearest its centre of mass){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), if b.pictured { format!("; the pictures fill the body from it, drawn as 'gate of {}'", moldgate::flow::body_name(b.body)) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
+                format!("own gate {} ({}){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), b.rule.words(), if b.pictured { format!("; the pictures fill the body from it, drawn as 'gate of {}'", moldgate::flow::body_name(b.body)) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
             }
-            _ => "no qualifying node on it: no gate".into(),
+            _ => match b.rule {
+                moldgate::flow::BodyGateRule::Paper => "no qualifying node on it: no gate".into(),
+                moldgate::flow::BodyGateRule::PartingLine => {
+                    "no parting line on it: no gate".into()
+                }
+            },
         };
         let _ = writeln!(
             s,

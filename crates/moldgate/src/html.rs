@@ -777,12 +777,12 @@ fn fill_table(h: &mut String, r: &Report) {
     if !f.body_gates.is_empty() {
         let _ = writeln!(
             h,
-            "<p id=\"bodies\">A gate per body (each body's qualifying node nearest its own \
-             centre of mass: the paper's rule on the body alone, which for the body fed by the \
+            "<p id=\"bodies\">A gate per body ({}, which for the body fed by the \
              answer's gate is not that gate; each body's fill time is taken against its own \
              nominal wall; where the gates a picture shows do not reach a body, the picture fills \
              that body from its own gate, listed here):</p>\n<table>\n<tr><th>body</th><th>share of the volume</th>\
-             <th>nominal wall</th><th>gate</th><th>longest flow path<br>L_max</th><th>fill time (estimate)</th></tr>"
+             <th>nominal wall</th><th>gate</th><th>longest flow path<br>L_max</th><th>fill time (estimate)</th></tr>",
+            f.body_gates[0].rule.words()
         );
         for b in &f.body_gates {
             let cells = match (b.gate, b.l_max_mm, b.fill_time_s) {
@@ -791,7 +791,14 @@ fn fill_table(h: &mut String, r: &Report) {
                     v3(g),
                     seconds_text(t)
                 ),
-                _ => "<td colspan=\"3\">no qualifying node on it: no gate</td>".to_string(),
+                _ => match b.rule {
+                    crate::flow::BodyGateRule::Paper => {
+                        "<td colspan=\"3\">no qualifying node on it: no gate</td>".to_string()
+                    }
+                    crate::flow::BodyGateRule::PartingLine => {
+                        "<td colspan=\"3\">no parting line on it: no gate</td>".to_string()
+                    }
+                },
             };
             let _ = writeln!(
                 h,

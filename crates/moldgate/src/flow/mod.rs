@@ -2870,9 +2870,12 @@ pub struct BodyGate {
     pub volume_share: f64,
     /// Its centre of mass, mm.
     pub centre_of_mass: [f64; 3],
-    /// The gate: the body's qualifying node nearest its centre of mass (the paper's rule
-    /// applied to the body); `None` when no qualifying node lies on the body.
+    /// The gate by `rule` on the body; `None` when no qualifying node (no parting line)
+    /// lies on the body.
     pub gate: Option<[f64; 3]>,
+    /// The rule that placed it: the answer's own (the paper's rule, or with `--aesthetic`
+    /// the parting line's).
+    pub rule: BodyGateRule,
     /// True for the body of the answer's gate.
     pub is_answer_body: bool,
     /// True when the pictures show the body filled from this gate, which they draw: the
@@ -2886,6 +2889,31 @@ pub struct BodyGate {
     /// The body's nominal wall H_ref, mm: the median of its own wall samples (the part's
     /// nominal wall when it has none).
     pub nominal_wall_mm: f64,
+}
+
+/// The rule that places a body's own gate ([`BodyGate::rule`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyGateRule {
+    /// The paper's rule on the body alone: its qualifying node nearest its centre of mass.
+    Paper,
+    /// The aesthetic rule on the body alone (`--aesthetic`): the point of its parting line
+    /// nearest its centre of mass, outside the keep-out regions.
+    PartingLine,
+}
+
+impl BodyGateRule {
+    /// The rule in words, for the front ends.
+    pub fn words(self) -> &'static str {
+        match self {
+            BodyGateRule::Paper => {
+                "the paper's rule on this body alone: its qualifying node nearest its centre of mass"
+            }
+            BodyGateRule::PartingLine => {
+                "the aesthetic rule on this body alone: the point of its parting line nearest its centre of mass"
+            }
+        }
+    }
 }
 
 /// What a picture is coloured by.
@@ -3786,6 +3814,7 @@ pub fn analyse_prepared(
         }
         gates_per_body(
             &domain,
+            mesh,
             &bodies,
             analysis,
             material,
@@ -3891,12 +3920,14 @@ pub fn analyse_prepared(
     })
 }
 
-/// The gate of every body: the paper's rule on the body, its qualifying node nearest its
-/// centre of mass, with its flow length and fill time over the body. Each body's fields are
-/// handed to `pictured` as soon as they are marched (to draw a body the pictured gates do
-/// not reach), which says whether the pictures show them, and are let go.
+/// The gate of every body by the answer's rule on the body alone ([`BodyGateRule`]: the
+/// paper's, its qualifying node nearest its centre of mass, or with `--aesthetic` the point
+/// of its parting line nearest it), with its flow length and fill time over the body. Each
+/// body's fields are handed to `pictured` as soon as they are marched (to draw a body the
+/// pictured gates do not reach), which says whether the pictures show them, and are let go.
 fn gates_per_body(
     domain: &Domain,
+    mesh: &Mesh,
     bodies: &Bodies,
     analysis: &crate::gate::Analysis,
     material: &Material,
@@ -3906,6 +3937,10 @@ fn gates_per_body(
     // Summed once for every body (`Domain::volume_share` sums per call).
     let total: f64 = domain.body_volume_mm3.iter().sum();
     let per_mm = seconds_per_mm(material);
+    let rule = match analysis.options.mode {
+        crate::GateMode::Aesthetic => BodyGateRule::PartingLine,
+        _ => BodyGateRule::Paper,
+    };
     (0..domain.bodies as u32)
         .map(|b| {
             let centre = bodies
@@ -3913,12 +3948,26 @@ fn gates_per_body(
                 .get(b as usize)
                 .copied()
                 .unwrap_or(DVec3::ZERO);
-            let gate = analysis
-                .qualifying_points
-                .iter()
-                .filter(|&&p| domain.body_at(p) == Some(b))
-                .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
-                .copied();
+            let gate = match rule {
+                BodyGateRule::Paper => analysis
+                    .qualifying_points
+                    .iter()
+                    .filter(|&&p| domain.body_at(p) == Some(b))
+                    .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
+                    .copied(),
+                // As the answer's parting-line gate is found (its step along an edge, the
+                // keep-out regions), on the body's own edges.
+                BodyGateRule::PartingLine => {
+                    let r = analysis.options.gate_radius_mm;
+                    analysis
+                        .parting
+                        .nearest_allowed(mesh, &analysis.frame, centre, 0.25 * r, |p| {
+                            domain.body_at(p) == Some(b)
+                                && !analysis.options.keep_out.iter().any(|k| k.touches(p, r))
+                        })
+                        .map(|g| g.point)
+                }
+            };
             // The body's flow length and fill order from its gate, marched side by side: the
             // largest of each is what the body's gate reports (as a fill's summary finds
             // them), and the fields are what the pictures may show. Neither the pressure nor
@@ -3937,6 +3986,7 @@ fn gates_per_body(
                 volume_share: domain.body_volume_mm3[b as usize] / total.max(f64::MIN_POSITIVE),
                 centre_of_mass: centre.to_array(),
                 gate: gate.map(|g| g.to_array()),
+                rule,
                 is_answer_body: answer_body == Some(b),
                 pictured: fill.as_ref().is_some_and(|f| pictured(b, &f.1)),
                 l_max_mm,

@@ -1292,3 +1292,53 @@ fn a_layout_over_two_bodies_takes_the_larger_flow_ratio_whatever_the_gates_order
         a.flow_ratio
     );
 }
+
+/// With `--aesthetic`, each body's own gate is placed by the aesthetic rule on that body
+/// (the point of its parting line nearest its centre of mass), as the answer's is: the
+/// second body's gate was the paper's node in the middle of its face.
+#[test]
+fn each_body_s_own_gate_follows_the_answer_s_rule() {
+    let two = moldgate::mesh::from_generated(boxes(&[
+        ([0.0, 0.0, 0.0], [80.0, 20.0, 3.0], true),
+        ([90.0, 0.0, 0.0], [110.0, 20.0, 3.0], true),
+    ]));
+    let gates = |mode| {
+        let options = moldgate::LocateOptions {
+            mode,
+            ..Default::default()
+        };
+        let analysis = moldgate::locate(&two, &options).unwrap();
+        let fill = flow::analyse(
+            &two.mesh,
+            &analysis,
+            &pp(),
+            flow::Walls::Estimate,
+            &flow::FillOptions::default(),
+        )
+        .unwrap();
+        (analysis, fill.body_gates)
+    };
+    let (paper, by_paper) = gates(moldgate::GateMode::Paper);
+    let (aesthetic, by_rim) = gates(moldgate::GateMode::Aesthetic);
+    assert_eq!((by_paper.len(), by_rim.len()), (2, 2));
+    for (b, (p, r)) in by_paper.iter().zip(&by_rim).enumerate() {
+        assert_eq!(p.rule, flow::BodyGateRule::Paper);
+        assert_eq!(r.rule, flow::BodyGateRule::PartingLine);
+        let (p, r) = (
+            DVec3::from_array(p.gate.unwrap()),
+            DVec3::from_array(r.gate.unwrap()),
+        );
+        // The paper's gate is on the body's top face, inside its outline; the aesthetic
+        // one on its parting line (an edge of the line, within the body's box).
+        assert!(paper.qualifying_points.contains(&p), "body {b}: {p}");
+        let on_line = aesthetic.parting.edges.iter().any(|&[i, j]| {
+            let (a, c) = (two.mesh.vertices[i as usize], two.mesh.vertices[j as usize]);
+            moldgate::math::nearest_on_segment(a, c, r).distance(r) < 1e-9
+        });
+        assert!(on_line, "body {b}: {r} is not on the parting line");
+        let x = if b == 0 { 0.0..=80.0 } else { 90.0..=110.0 };
+        assert!(x.contains(&r.x), "body {b}: {r}");
+        let rim = r.x == *x.start() || r.x == *x.end() || r.y == 0.0 || r.y == 20.0;
+        assert!(rim, "body {b}: {r} is not on the body's rim");
+    }
+}
