@@ -494,17 +494,31 @@ impl Analysis {
         // A part whose size suggests other units fails for that reason more often than any,
         // so that comes first.
         let across = self.diagonal_mm;
+        // The parting line's gate is suggested only when there is one (keep-out regions may
+        // cover the whole line too).
+        let aesthetic = if self.aesthetic_gate.is_some() {
+            ", or --aesthetic"
+        } else {
+            ""
+        };
+        let (comma, or) = if aesthetic.is_empty() {
+            (" or", "")
+        } else {
+            (",", aesthetic)
+        };
         if crate::mesh::units::size_is_suspicious(across) {
             s += &format!(
-                "; the part is {across:.4} mm across as read in {}: {}; otherwise try a smaller gate radius or spacing, another demolding direction, or --aesthetic",
+                "; the part is {across:.4} mm across as read in {}: {}; otherwise try a smaller gate radius or spacing{comma} another demolding direction{or}",
                 self.units.long_name(),
                 crate::mesh::units::units_advice(across, self.units)
             );
         } else if self.counts.kept_out + self.counts.cosmetic > 0 {
             // The designer's own regions took nodes: they come first.
-            s += " (try smaller keep-out regions or no cosmetic side, a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
+            s += &format!(" (try smaller keep-out regions or no cosmetic side, a smaller gate radius or spacing{comma} another demolding direction{or})");
         } else {
-            s += " (try a smaller gate radius or spacing, another demolding direction, or --aesthetic)";
+            s += &format!(
+                " (try a smaller gate radius or spacing{comma} another demolding direction{or})"
+            );
         }
         s
     }

@@ -685,3 +685,35 @@ fn a_number_too_large_to_represent_is_named_at_its_line() {
     let e = stl(facet("nan").as_bytes()).unwrap_err().to_string();
     assert_eq!(e, "line 6: triangle 0 has a non-finite coordinate (NaN)");
 }
+
+/// A part where no node qualifies suggests the parting line's gate (`--aesthetic`) only when
+/// there is one: keep-out regions over the whole part cover its parting line too.
+#[test]
+fn no_gate_suggests_the_parting_line_only_when_it_has_a_gate() {
+    let part = from_generated(moldgate::samples::sample("plate").unwrap());
+    let reason = |options: LocateOptions| {
+        let a = locate(&part, &options).unwrap();
+        (
+            a.aesthetic_gate.is_some(),
+            a.gate().unwrap_err().to_string(),
+        )
+    };
+    // Too large a gate for the 3 mm plate: the line has a gate.
+    let (line, why) = reason(LocateOptions {
+        gate_radius_mm: 4.0,
+        thickness_fallback: moldgate::gate::ThicknessFallback::Report,
+        ..LocateOptions::default()
+    });
+    assert!(line);
+    assert!(why.ends_with(", or --aesthetic)"), "{why}");
+    // Everything kept out, the line too.
+    let (line, why) = reason(LocateOptions {
+        keep_out: vec!["box:-1000,-1000,-1000,1000,1000,1000".parse().unwrap()],
+        ..LocateOptions::default()
+    });
+    assert!(!line);
+    assert!(
+        why.ends_with("(try smaller keep-out regions or no cosmetic side, a smaller gate radius or spacing or another demolding direction)"),
+        "{why}"
+    );
+}
