@@ -424,7 +424,7 @@ pub fn render(r: &Report) -> String {
     if let Some(g) = &r.aesthetic_gate {
         let _ = writeln!(
             s,
-            "aesthetic gate (parting line, {:.1} mm long): {} mm, {:.3} mm from the centre of mass",
+            "aesthetic gate (parting line, {:.1} mm long): {} mm, {:.3} mm from the centre of mass (an edge gate in the parting plane: the paper's rules for a gate seen along D, its disc on the part and the wall along D, do not apply to it; check the wall where it enters)",
             r.parting_line.length_mm,
             v3(g.point),
             g.distance_3d_mm

@@ -353,7 +353,9 @@ fn summary_table(h: &mut String, r: &Report) {
             h,
             "Parting-line gate",
             &format!(
-                "{} mm, {:.3} mm from the centre of mass",
+                "{} mm, {:.3} mm from the centre of mass (an edge gate in the parting plane: \
+                 the paper's rules for a gate seen along D, its disc on the part and the wall \
+                 along D, do not apply to it; check the wall where it enters)",
                 v3(g.point),
                 g.distance_3d_mm
             ),

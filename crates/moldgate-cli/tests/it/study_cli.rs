@@ -296,4 +296,9 @@ fn the_html_fill_table_names_the_parting_line_gate_in_aesthetic_mode() {
     let html = std::fs::read_to_string(&page).unwrap();
     assert!(html.contains("<tr><th>parting-line gate</th>"));
     assert!(!html.contains("<tr><th>paper gate</th>"));
+    // The parting line's gate is an edge gate: the summary and the page say that the
+    // paper's rules along D (which it would fail, on the outline) are not its rules.
+    let said = "(an edge gate in the parting plane: the paper's rules for a gate seen along D, its disc on the part and the wall along D, do not apply to it; check the wall where it enters)";
+    assert!(String::from_utf8_lossy(&out.stdout).contains(said));
+    assert!(html.contains(said), "the page");
 }
