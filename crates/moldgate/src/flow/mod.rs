@@ -3014,6 +3014,9 @@ pub struct Cells {
     bodies: Bodies,
     /// The wall estimated from the centres (2 V / A), mm.
     estimate: f64,
+    /// Whether the mesh encloses no volume (an open surface, a sheet): its cells are a film
+    /// along the surface.
+    no_volume: bool,
     /// The limit that coarsened the cells, if one did.
     coarsened: Option<FillError>,
     voxels: Voxels,
@@ -3057,7 +3060,8 @@ pub fn prepare_with(
     let mut bodies = Bodies::of_counted(mesh, topology.map(|t| t.bodies));
     let known = topology.map_or_else(Default::default, crate::thickness::Known::of);
     let c = centres;
-    let estimate = if c.volume_mm3 > 0.0 && c.area_mm2 > 0.0 {
+    let no_volume = !(c.volume_mm3 > 0.0 && c.area_mm2 > 0.0);
+    let estimate = if !no_volume {
         2.0 * c.volume_mm3 / c.area_mm2
     } else {
         mesh.bounds().diagonal() / 100.0
@@ -3086,6 +3090,7 @@ pub fn prepare_with(
     Ok(Cells {
         bodies,
         estimate,
+        no_volume,
         coarsened,
         voxels,
         known,
@@ -3146,6 +3151,7 @@ pub fn analyse_prepared(
     let Cells {
         bodies,
         estimate,
+        no_volume,
         coarsened,
         mut voxels,
         known,
@@ -3343,6 +3349,11 @@ pub fn analyse_prepared(
         .max(length_s)
         .min(joined_s - times.wall_s - costs_s);
     let searched_s = joined_s - times.wall_s - costs_s - times.paper_s;
+    if no_volume {
+        warnings.push(
+            "the mesh encloses no volume (an open surface or a sheet): the fill runs on a film of cells along its surface, so its walls, pressure and flow ratio are not those of a moulded part; close the mesh for a fill analysis".into(),
+        );
+    }
     if bodies.count > 1 {
         warnings.push(format!(
             "the part has {} separate bodies; a gate fills only its own body (see the gate per body)",

@@ -1342,3 +1342,37 @@ fn each_body_s_own_gate_follows_the_answer_s_rule() {
         assert!(rim, "body {b}: {r} is not on the body's rim");
     }
 }
+
+/// A mesh that encloses no volume (one open triangle) still gets a fill, on a film of cells
+/// along its surface, with a warning that its walls, pressure and flow ratio are not a
+/// moulded part's (its 2V/A wall is tiny and its pressure huge); a closed plate gets none.
+#[test]
+fn a_fill_of_a_mesh_that_encloses_no_volume_is_warned() {
+    let warnings = |mesh: Mesh| {
+        let part = moldgate::mesh::from_generated(mesh);
+        let analysis = moldgate::locate(&part, &Default::default()).unwrap();
+        let fill = flow::analyse(
+            &part.mesh,
+            &analysis,
+            &pp(),
+            flow::Walls::Estimate,
+            &flow::FillOptions::default(),
+        )
+        .unwrap();
+        fill.warnings
+    };
+    let said = "the mesh encloses no volume (an open surface or a sheet): the fill runs on a film of cells along its surface";
+    let sheet = Mesh {
+        vertices: vec![
+            DVec3::ZERO,
+            DVec3::new(10.0, 0.0, 0.0),
+            DVec3::new(0.0, 10.0, 0.0),
+        ],
+        triangles: vec![[0, 1, 2]],
+    };
+    assert!(warnings(sheet).iter().any(|w| w.starts_with(said)));
+    let plate = boxes(&[([0.0, 0.0, 0.0], [40.0, 20.0, 3.0], true)]);
+    assert!(!warnings(plate)
+        .iter()
+        .any(|w| w.contains("encloses no volume")));
+}
