@@ -691,6 +691,11 @@ pub fn locate_until(
                     // The radius in force is the fitted one: the picture's disc, the report and
                     // the fill's gates (their spacing, their seats) read it.
                     analysis.options.gate_radius_mm = r_fit;
+                    // And the flatness tolerance that follows it (a tenth of the radius unless
+                    // given), as the runs at that radius judged their seats.
+                    if options.flat_tolerance_mm.is_none() {
+                        analysis.flat_tolerance_mm = 0.1 * r_fit;
+                    }
                     // The nodes that qualify at that radius: the fill's candidates (the
                     // balanced gate, several gates, the suitability map).
                     (analysis.qualifying_points, analysis.qualifying_step_mm) = points;

@@ -717,3 +717,30 @@ fn no_gate_suggests_the_parting_line_only_when_it_has_a_gate() {
         "{why}"
     );
 }
+
+/// A gate radius taken from the search for the largest that fits brings its flatness
+/// tolerance with it (a tenth of the radius, unless one was given): the report said the
+/// tolerance of the radius refused.
+#[test]
+fn the_fitted_radius_brings_its_flatness_tolerance() {
+    let part = from_generated(moldgate::samples::sample("plate").unwrap());
+    let fitted = |flat_tolerance_mm| {
+        let a = locate(
+            &part,
+            &LocateOptions {
+                gate_radius_mm: 4.0,
+                thickness_fallback: moldgate::gate::ThicknessFallback::LargestFitting,
+                flat_tolerance_mm,
+                ..LocateOptions::default()
+            },
+        )
+        .unwrap();
+        assert!(a.radius_fit.as_ref().is_some_and(|f| f.accepted));
+        (a.options.gate_radius_mm, a.flat_tolerance_mm)
+    };
+    let (r, tolerance) = fitted(None);
+    assert!(r < 3.0, "{r}");
+    assert_eq!(tolerance, 0.1 * r);
+    // A tolerance given stays.
+    assert_eq!(fitted(Some(0.05)).1, 0.05);
+}
