@@ -1532,13 +1532,15 @@ fn map_best_gate(
 }
 
 /// Warnings for the fill's own gates (the balanced gate when it moved from the paper gate,
-/// each gate of a layout) whose node's disc is not flat within the analysis's tolerance:
-/// the paper gate gets its warning from the gate search, and these are qualifying nodes
-/// too, whose seats were not checked for flatness (the paper does not require it).
+/// each gate of a layout, each body's own gate)
+/// whose node's disc is not flat within the analysis's tolerance: the paper gate gets its
+/// warning from the gate search, and these are qualifying nodes too, whose seats were not
+/// checked for flatness (the paper does not require it).
 fn seat_warnings(
     analysis: &crate::gate::Analysis,
     balanced: Option<&BalancedFill>,
     several: Option<&MultiGate>,
+    body_gates: &[BodyGate],
 ) -> Vec<String> {
     let tol = analysis.flat_tolerance_mm;
     let step_at = |p: [f64; 3]| {
@@ -1583,6 +1585,18 @@ fn seat_warnings(
                     .collect::<Vec<_>>()
                     .join(", "),
             )),
+        }
+    }
+    // The bodies' own gates, but one that is the grid gate itself (warned by the gate
+    // search); a parting line's gate is an edge gate, with no seat.
+    let grid_gate = analysis.grid_gate.as_ref().map(|g| g.point.to_array());
+    for b in body_gates
+        .iter()
+        .filter(|b| b.rule == BodyGateRule::Paper && b.gate != grid_gate)
+    {
+        if let Some((g, step)) = b.gate.and_then(|g| step_at(g).map(|s| (g, s))) {
+            let what = format!("the own gate of {}", body_name(b.body));
+            warnings.push(words(what, g, step));
         }
     }
     warnings
@@ -3883,7 +3897,12 @@ pub fn analyse_prepared(
     if let Some(b) = &mut balanced {
         snap_places(&domain, mesh, &mut b.fill);
     }
-    warnings.extend(seat_warnings(analysis, balanced.as_ref(), several.as_ref()));
+    warnings.extend(seat_warnings(
+        analysis,
+        balanced.as_ref(),
+        several.as_ref(),
+        &body_gates,
+    ));
     if let Some(b) = balanced.as_ref().filter(|b| !b.is_paper_gate) {
         warnings.extend(worse_by_other_measures(
             options.objective,

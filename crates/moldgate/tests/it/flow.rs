@@ -1376,3 +1376,44 @@ fn a_fill_of_a_mesh_that_encloses_no_volume_is_warned() {
         .iter()
         .any(|w| w.contains("encloses no volume")));
 }
+
+/// A body's own gate off a flat seat is warned about, as the grid gate, the balanced gate
+/// and a layout's gates are: a plate with a 2 mm rib along its middle puts its own gate
+/// beside the rib (or on it), where the gate's disc reaches both the plate and the rib's
+/// top, 3 mm apart.
+#[test]
+fn a_body_s_own_gate_off_a_flat_seat_is_warned() {
+    let part = moldgate::mesh::from_generated(boxes(&[
+        ([0.0, 0.0, 0.0], [80.0, 40.0, 3.0], true),
+        ([90.0, 0.0, 0.0], [110.0, 20.0, 3.0], true),
+        ([99.0, 0.0, 3.0], [101.0, 20.0, 6.0], true),
+    ]));
+    let analysis = moldgate::locate(&part, &Default::default()).unwrap();
+    let fill = flow::analyse(
+        &part.mesh,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions::default(),
+    )
+    .unwrap();
+    let ribbed = &fill.body_gates[1];
+    assert!(!ribbed.is_answer_body);
+    let g = ribbed.gate.unwrap();
+    let r = analysis.options.gate_radius_mm;
+    assert!((99.0 - r..=101.0 + r).contains(&g[0]), "{g:?}");
+    let said = format!(
+        "the own gate of body 2 at ({:.3}, {:.3}, {:.3}) is not on a flat seat: its disc reaches 3.00 mm off its height along D",
+        g[0], g[1], g[2]
+    );
+    assert!(
+        fill.warnings.iter().any(|w| w.starts_with(&said)),
+        "{:#?}",
+        fill.warnings
+    );
+    // The answer's body: its own gate is the grid gate (flat), not warned twice.
+    assert!(!fill
+        .warnings
+        .iter()
+        .any(|w| w.contains("own gate of body 1")));
+}
