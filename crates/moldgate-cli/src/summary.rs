@@ -49,13 +49,13 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
 fn fill_places(s: &mut String, g: &moldgate::flow::GateFill, from: &str) {
     for (i, q) in g.last_to_fill.iter().enumerate().take(3) {
         let _ = writeln!(
-                s,
-                "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from {from}, filled at {} s",
-                i + 1,
-                v3(q.point),
-                q.flow_length_mm,
-                seconds_text(q.fill_time_s)
-            );
+            s,
+            "    last to fill #{} (in the last 20 % of the fill): {}, {:.1} mm of flow path from {from}, filled at {} s",
+            i + 1,
+            v3(q.point),
+            q.flow_length_mm,
+            seconds_text(q.fill_time_s)
+        );
     }
     more(
         s,
@@ -269,12 +269,7 @@ fn fill(
             (Some(g), Some(l), Some(t)) => {
                 format!("own gate {} ({}){}, longest flow {l:.1} mm, fill time {} s at its own nominal wall of {:.2} mm", v3(g), b.rule.words(), if b.pictured { format!("; the pictures fill the body from it, drawn as 'gate of {}'", moldgate::flow::body_name(b.body)) } else { String::new() }, seconds_text(t), b.nominal_wall_mm)
             }
-            _ => match b.rule {
-                moldgate::flow::BodyGateRule::Paper => "no qualifying node on it: no gate".into(),
-                moldgate::flow::BodyGateRule::PartingLine => {
-                    "no parting line on it: no gate".into()
-                }
-            },
+            _ => b.rule.no_gate_words().into(),
         };
         let _ = writeln!(
             s,

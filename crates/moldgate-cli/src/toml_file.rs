@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use moldgate::files::{read_toml_text as read_text, toml_message, TextError};
+use moldgate::files::{toml_message, TextError};
 
 use crate::Failure;
 
@@ -14,7 +14,7 @@ use crate::Failure;
 /// byte. Every message names the file.
 pub fn read_toml_text(path: &Path, limit: u64) -> Result<String, Failure> {
     crate::output::register_input(path);
-    read_text(path, limit).map_err(|e| {
+    moldgate::files::read_toml_text(path, limit).map_err(|e| {
         let message = format!("{}: {e}", path.display());
         match e {
             TextError::Unreadable(_) => Failure::input(message),

@@ -4,7 +4,7 @@
 
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -682,15 +682,16 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         .map_err(|_| ApiError::internal("the service is shutting down"))?;
     let cancel = Cancel::new();
     let flag = cancel.clone();
-    // Why the study was stopped, if it was: set before its token, read by its last line.
-    let why = Arc::new(AtomicU8::new(RAN));
-    let stopped_why = why.clone();
+    // Whether the study was stopped for its client's going (else for its time): set before
+    // its token, read by its last line.
+    let hung_up = Arc::new(AtomicBool::new(false));
+    let stopped_why = hung_up.clone();
     // The client that hangs up drops this future, and with it the wait below: the guard
     // stops the study then, so that nobody's study holds a slot and its memory to the end
     // (a study of minutes, past --timeout). Once the wait has ended it stops nothing.
     let mut hang_up = StopOnDrop {
         cancel: Some(cancel.clone()),
-        why: why.clone(),
+        hung_up,
     };
     let units = controls.units;
     let output = controls.output;
@@ -714,8 +715,8 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
                 Err(e) => e.message.clone(),
             };
             let whose = match stopped_why.load(Ordering::Relaxed) {
-                HUNG_UP => "a study whose client hung up",
-                _ => "a study past --timeout",
+                true => "a study whose client hung up",
+                false => "a study past --timeout",
             };
             eprintln!(
                 "moldgate: {whose} ended {:.2} s after it started: {how}",
@@ -730,30 +731,23 @@ async fn handle(app: Arc<App>, req: Request) -> Result<Answer, ApiError> {
         Ok(Ok(result)) => result,
         Ok(Err(join)) => Err(ApiError::internal(format!("the study failed: {join}"))),
         Err(_) => {
-            why.store(TIMED_OUT, Ordering::Relaxed);
             cancel.cancel();
             Err(timed_out())
         }
     }
 }
 
-/// Why a study was stopped ([`StopOnDrop::why`]): it ran on, its time ran out, or its
-/// client hung up.
-const RAN: u8 = 0;
-const TIMED_OUT: u8 = 1;
-const HUNG_UP: u8 = 2;
-
 /// Stops a study when the request's future is dropped while it waits for the study (its
-/// client hung up), naming that as the reason; `cancel` is taken away once the wait ended.
+/// client hung up), setting `hung_up` first; `cancel` is taken away once the wait ended.
 struct StopOnDrop {
     cancel: Option<Cancel>,
-    why: Arc<AtomicU8>,
+    hung_up: Arc<AtomicBool>,
 }
 
 impl Drop for StopOnDrop {
     fn drop(&mut self) {
         if let Some(cancel) = self.cancel.take() {
-            self.why.store(HUNG_UP, Ordering::Relaxed);
+            self.hung_up.store(true, Ordering::Relaxed);
             cancel.cancel();
         }
     }

@@ -173,7 +173,7 @@ pub fn read_toml_text(path: &Path, limit: u64) -> Result<String, TextError> {
         if len <= limit {
             check_memory_of(
                 len,
-                (TOML_MEMORY_PER_BYTE, "a TOML file"),
+                (TOML_MEMORY_PER_BYTE, noun),
                 "a smaller file",
                 memory_limit(),
             )

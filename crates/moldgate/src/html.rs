@@ -793,14 +793,7 @@ fn fill_table(h: &mut String, r: &Report) {
                     v3(g),
                     seconds_text(t)
                 ),
-                _ => match b.rule {
-                    crate::flow::BodyGateRule::Paper => {
-                        "<td colspan=\"3\">no qualifying node on it: no gate</td>".to_string()
-                    }
-                    crate::flow::BodyGateRule::PartingLine => {
-                        "<td colspan=\"3\">no parting line on it: no gate</td>".to_string()
-                    }
-                },
+                _ => format!("<td colspan=\"3\">{}</td>", b.rule.no_gate_words()),
             };
             let _ = writeln!(
                 h,

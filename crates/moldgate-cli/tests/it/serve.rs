@@ -25,6 +25,15 @@ fn sample_stl(name: &str) -> Vec<u8> {
     std::fs::read(dir.path().join("part.stl")).unwrap()
 }
 
+/// The server's log line that holds `needle` (a study's end), or a panic with the log.
+fn log_line(s: &Server, needle: &str) -> String {
+    let log = s.log_text();
+    log.lines()
+        .find(|l| l.contains(needle))
+        .unwrap_or_else(|| panic!("no line with '{needle}' in\n{log}"))
+        .to_string()
+}
+
 fn assert_alive(addr: SocketAddr) {
     let r = get(addr, "/healthz");
     assert_eq!(r.status, 200);
@@ -1028,11 +1037,7 @@ fn a_study_past_the_time_limit_stops_inside_its_fill() {
         "slot free {:.2} s after the request",
         t.elapsed().as_secs_f64()
     );
-    let log = s.log_text();
-    let ended = log
-        .lines()
-        .find(|l| l.contains("a study past --timeout ended"))
-        .unwrap_or_else(|| panic!("no line for the study's end in\n{log}"));
+    let ended = log_line(&s, "a study past --timeout ended");
     println!("{ended}");
     assert!(ended.ends_with("(cancelled at the fill stage)"), "{ended}");
 }
@@ -1080,11 +1085,7 @@ fn a_study_whose_client_hangs_up_stops_before_its_time_limit() {
         "slot free {:.2} s after the client hung up",
         gone.elapsed().as_secs_f64()
     );
-    let log = s.log_text();
-    let ended = log
-        .lines()
-        .find(|l| l.contains("a study whose client hung up ended"))
-        .unwrap_or_else(|| panic!("no line for the study's end in\n{log}"));
+    let ended = log_line(&s, "a study whose client hung up ended");
     assert!(
         ended.ends_with(": stopped (cancelled at the fill stage)"),
         "{ended}"

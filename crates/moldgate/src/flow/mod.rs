@@ -1532,10 +1532,10 @@ fn map_best_gate(
 }
 
 /// Warnings for the fill's own gates (the balanced gate when it moved from the paper gate,
-/// each gate of a layout, each body's own gate)
-/// whose node's disc is not flat within the analysis's tolerance: the paper gate gets its
-/// warning from the gate search, and these are qualifying nodes too, whose seats were not
-/// checked for flatness (the paper does not require it).
+/// each gate of a layout, each body's own gate) whose node's disc is not flat within the
+/// analysis's tolerance: the paper gate gets its warning from the gate search, and these
+/// are qualifying nodes too, whose seats were not checked for flatness (the paper does not
+/// require it).
 fn seat_warnings(
     analysis: &crate::gate::Analysis,
     balanced: Option<&BalancedFill>,
@@ -2928,6 +2928,14 @@ impl BodyGateRule {
             }
         }
     }
+
+    /// Why a body has no gate by the rule, for the front ends.
+    pub fn no_gate_words(self) -> &'static str {
+        match self {
+            BodyGateRule::Paper => "no qualifying node on it: no gate",
+            BodyGateRule::PartingLine => "no parting line on it: no gate",
+        }
+    }
 }
 
 /// What a picture is coloured by.
@@ -3985,18 +3993,13 @@ fn gates_per_body(
                     .filter(|&&p| domain.body_at(p) == Some(b))
                     .min_by(|p, q| p.distance(centre).total_cmp(&q.distance(centre)))
                     .copied(),
-                // As the answer's parting-line gate is found (its step along an edge, the
-                // keep-out regions), on the body's own edges.
-                BodyGateRule::PartingLine => {
-                    let r = analysis.options.gate_radius_mm;
-                    analysis
-                        .parting
-                        .nearest_allowed(mesh, &analysis.frame, centre, 0.25 * r, |p| {
-                            domain.body_at(p) == Some(b)
-                                && !analysis.options.keep_out.iter().any(|k| k.touches(p, r))
-                        })
-                        .map(|g| g.point)
-                }
+                // As the answer's parting-line gate is found, on the body's own edges.
+                BodyGateRule::PartingLine => analysis
+                    .options
+                    .parting_gate(&analysis.parting, mesh, &analysis.frame, centre, |p| {
+                        domain.body_at(p) == Some(b)
+                    })
+                    .map(|g| g.point),
             };
             // The body's flow length and fill order from its gate, marched side by side: the
             // largest of each is what the body's gate reports (as a fill's summary finds

@@ -198,6 +198,30 @@ pub const RAY_MEMORY_BUDGET_BYTES: u64 = 3 << 30;
 pub const RAY_TEST_BUDGET: f64 = 1e9;
 
 impl LocateOptions {
+    /// The flatness tolerance at gate radius `r`, mm: the one given, else a tenth of `r`.
+    pub(crate) fn flat_tolerance_at(&self, r: f64) -> f64 {
+        self.flat_tolerance_mm.unwrap_or(0.1 * r)
+    }
+
+    /// The parting line's gate of the aesthetic rule: the point of `parting` nearest
+    /// `centre` outside the keep-out regions (searched along each edge in steps of a
+    /// quarter of the gate radius), among the points `also` keeps.
+    pub(crate) fn parting_gate(
+        &self,
+        parting: &PartingLine,
+        mesh: &crate::mesh::Mesh,
+        frame: &Frame,
+        centre: DVec3,
+        also: impl Fn(DVec3) -> bool,
+    ) -> Option<AestheticGate> {
+        let r = self.gate_radius_mm;
+        // Keep-out regions apply to the parting-line gate too (cosmetic faces do not: the
+        // line is the boundary between the two halves).
+        parting.nearest_allowed(mesh, frame, centre, 0.25 * r, |p| {
+            also(p) && !self.keep_out.iter().any(|k| k.touches(p, r))
+        })
+    }
+
     /// Checks every option against its range and stated limit before any work: a front end
     /// calls it when it builds the options, and [`locate`] calls it again.
     pub fn validate(&self) -> Result<(), OptionsError> {
@@ -671,41 +695,41 @@ pub fn locate_until(
             "the search for the largest gate radius that fits was stopped during its first run (time limit or cancel): no radius was found".to_string()
         }),
     };
-    match searched {
-        Err(why) => analysis.warnings.push(why),
-        Ok((mut fit, points)) => {
-            if fit.probes < 1 + FIT_STEPS && fit.radius_mm.is_some() {
-                analysis.warnings.push(format!(
-                "the search for the largest gate radius that fits was stopped (time limit or cancel) after {} of its {} runs: a larger radius may fit",
-                fit.probes,
-                1 + FIT_STEPS
+    let (mut fit, points) = match searched {
+        Ok(found) => found,
+        Err(why) => {
+            analysis.warnings.push(why);
+            return Ok(analysis);
+        }
+    };
+    if fit.probes < 1 + FIT_STEPS && fit.radius_mm.is_some() {
+        analysis.warnings.push(format!(
+            "the search for the largest gate radius that fits was stopped (time limit or cancel) after {} of its {} runs: a larger radius may fit",
+            fit.probes,
+            1 + FIT_STEPS
+        ));
+    }
+    if options.thickness_fallback == ThicknessFallback::LargestFitting {
+        if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
+            analysis.warnings.push(format!(
+                "no node passes the thickness rule with R_gate = {:.3} mm ({}); the gate is the one of the largest radius that fits, {r_fit:.3} mm",
+                fit.refused_mm, fit.reason
             ));
-            }
-            if options.thickness_fallback == ThicknessFallback::LargestFitting {
-                if let (Some(r_fit), Some(gate)) = (fit.radius_mm, fit.gate) {
-                    analysis.warnings.push(format!(
-                    "no node passes the thickness rule with R_gate = {:.3} mm ({}); the gate is the one of the largest radius that fits, {r_fit:.3} mm",
-                    fit.refused_mm, fit.reason
-                ));
-                    analysis.grid_gate = Some(gate);
-                    // The radius in force is the fitted one: the picture's disc, the report and
-                    // the fill's gates (their spacing, their seats) read it.
-                    analysis.options.gate_radius_mm = r_fit;
-                    // And the flatness tolerance that follows it (a tenth of the radius unless
-                    // given), as the runs at that radius judged their seats.
-                    if options.flat_tolerance_mm.is_none() {
-                        analysis.flat_tolerance_mm = 0.1 * r_fit;
-                    }
-                    // The nodes that qualify at that radius: the fill's candidates (the
-                    // balanced gate, several gates, the suitability map).
-                    (analysis.qualifying_points, analysis.qualifying_step_mm) = points;
-                    fit.accepted = true;
-                }
-            }
-            analysis.radius_fit = Some(fit);
-            analysis.times.total_s = start.elapsed().as_secs_f64();
+            analysis.grid_gate = Some(gate);
+            // The radius in force is the fitted one: the picture's disc, the report and the
+            // fill's gates (their spacing, their seats) read it.
+            analysis.options.gate_radius_mm = r_fit;
+            // And the flatness tolerance that follows it, as the runs at that radius judged
+            // their seats.
+            analysis.flat_tolerance_mm = options.flat_tolerance_at(r_fit);
+            // The nodes that qualify at that radius: the fill's candidates (the balanced
+            // gate, several gates, the suitability map).
+            (analysis.qualifying_points, analysis.qualifying_step_mm) = points;
+            fit.accepted = true;
         }
     }
+    analysis.radius_fit = Some(fit);
+    analysis.times.total_s = start.elapsed().as_secs_f64();
     Ok(analysis)
 }
 
@@ -800,7 +824,7 @@ fn locate_once(
     };
     check_ray_memory(&grid, options.circle_points)?;
     check_ray_tests(part, &frame, &grid, options.circle_points, lo, hi)?;
-    let flat_tolerance_mm = options.flat_tolerance_mm.unwrap_or(0.1 * r);
+    let flat_tolerance_mm = options.flat_tolerance_at(r);
     if !(flat_tolerance_mm.is_finite() && flat_tolerance_mm >= 0.0) {
         return Err(OptionsError::NonPositive {
             option: "flatness tolerance",
@@ -849,11 +873,7 @@ fn locate_once(
                 (_, PartingRule::Longest) => PartingLine::new(mesh, &part.topology, &frame),
                 (_, PartingRule::Outline) => PartingLine::outline(mesh, &part.topology, &frame),
             };
-            // Keep-out regions apply to the parting-line gate too (cosmetic faces do not:
-            // the line is the boundary between the two halves).
-            let aesthetic_gate = parting.nearest_allowed(mesh, &frame, centre, 0.25 * r, |p| {
-                !options.keep_out.iter().any(|k| k.touches(p, r))
-            });
+            let aesthetic_gate = options.parting_gate(&parting, mesh, &frame, centre, |_| true);
             (
                 centres,
                 centre,

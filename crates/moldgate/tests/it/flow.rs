@@ -26,6 +26,24 @@ fn pp() -> Material {
     Material::builtin("PP").unwrap()
 }
 
+/// `part` located with `options` and its fill with the estimated walls and the default
+/// fill options, in PP.
+fn located_fill(
+    part: &moldgate::mesh::LoadedMesh,
+    options: &moldgate::LocateOptions,
+) -> (moldgate::Analysis, flow::FillAnalysis) {
+    let analysis = moldgate::locate(part, options).unwrap();
+    let fill = flow::analyse(
+        &part.mesh,
+        &analysis,
+        &pp(),
+        flow::Walls::Estimate,
+        &flow::FillOptions::default(),
+    )
+    .unwrap();
+    (analysis, fill)
+}
+
 #[test]
 fn plate_gated_at_its_centre_reaches_its_corners_at_the_half_diagonal() {
     let plate = boxes(&[([-50.0, -30.0, 0.0], [50.0, 30.0, 3.0], true)]);
@@ -1307,15 +1325,7 @@ fn each_body_s_own_gate_follows_the_answer_s_rule() {
             mode,
             ..Default::default()
         };
-        let analysis = moldgate::locate(&two, &options).unwrap();
-        let fill = flow::analyse(
-            &two.mesh,
-            &analysis,
-            &pp(),
-            flow::Walls::Estimate,
-            &flow::FillOptions::default(),
-        )
-        .unwrap();
+        let (analysis, fill) = located_fill(&two, &options);
         (analysis, fill.body_gates)
     };
     let (paper, by_paper) = gates(moldgate::GateMode::Paper);
@@ -1350,16 +1360,7 @@ fn each_body_s_own_gate_follows_the_answer_s_rule() {
 fn a_fill_of_a_mesh_that_encloses_no_volume_is_warned() {
     let warnings = |mesh: Mesh| {
         let part = moldgate::mesh::from_generated(mesh);
-        let analysis = moldgate::locate(&part, &Default::default()).unwrap();
-        let fill = flow::analyse(
-            &part.mesh,
-            &analysis,
-            &pp(),
-            flow::Walls::Estimate,
-            &flow::FillOptions::default(),
-        )
-        .unwrap();
-        fill.warnings
+        located_fill(&part, &Default::default()).1.warnings
     };
     let said = "the mesh encloses no volume (an open surface or a sheet): the fill runs on a film of cells along its surface";
     let sheet = Mesh {
@@ -1388,15 +1389,7 @@ fn a_body_s_own_gate_off_a_flat_seat_is_warned() {
         ([90.0, 0.0, 0.0], [110.0, 20.0, 3.0], true),
         ([99.0, 0.0, 3.0], [101.0, 20.0, 6.0], true),
     ]));
-    let analysis = moldgate::locate(&part, &Default::default()).unwrap();
-    let fill = flow::analyse(
-        &part.mesh,
-        &analysis,
-        &pp(),
-        flow::Walls::Estimate,
-        &flow::FillOptions::default(),
-    )
-    .unwrap();
+    let (analysis, fill) = located_fill(&part, &Default::default());
     let ribbed = &fill.body_gates[1];
     assert!(!ribbed.is_answer_body);
     let g = ribbed.gate.unwrap();
