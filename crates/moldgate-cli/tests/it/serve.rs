@@ -939,43 +939,95 @@ fn slow_uploads_hold_no_place_of_the_queue() {
     until_health(s.addr, "receiving", 0);
 }
 
+/// Sends a study of the cover that runs several seconds (the fill's several-gate search
+/// and suitability map) on a connection of its own, and waits until it runs: dropping the
+/// connection stops it.
+fn long_study(addr: std::net::SocketAddr) -> std::net::TcpStream {
+    let stl = sample_stl("cover");
+    let mut c = connect(addr);
+    let query = "/v1/study?fill=true&gates=4&suitability=true&cell=0.5";
+    c.write_all(
+        head(
+            "POST",
+            query,
+            &[("content-type", "model/stl")],
+            Some(stl.len()),
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    c.write_all(&stl).unwrap();
+    until_health(addr, "running", 1);
+    c
+}
+
 #[test]
-fn studies_beyond_the_queue_are_503_and_one_that_waits_past_its_time_never_starts() {
-    let s = start(&["--analyses", "1", "--queue", "1", "--timeout", "0.4"]);
+fn studies_beyond_the_queue_are_503() {
+    let s = start(&["--analyses", "1", "--queue", "1", "--timeout", "60"]);
     let stl = sample_stl("cover");
     let addr = s.addr;
-    let send = |query: &'static str| {
+    // The first holds the one slot, the second takes the one queue place and waits.
+    let first = long_study(addr);
+    let second = {
         let stl = stl.clone();
-        std::thread::spawn(move || study_stl(addr, query, &stl))
+        std::thread::spawn(move || study_stl(addr, "", &stl))
     };
-    // The first holds the one slot past the time limit: its grid's rays (about 1.5
-    // million nodes, half a second or more) are a stage that runs to its end.
-    let first = send("spacing=0.08");
-    until_health(s.addr, "running", 1);
-    // The second takes the one queue place, and waits.
-    let second = send("");
-    until_health(s.addr, "waiting", 1);
-    let r = study_stl(s.addr, "", &stl);
+    until_health(addr, "waiting", 1);
+    let r = study_stl(addr, "", &stl);
     let e = assert_error(&s, &r, 503, "busy");
     assert_eq!(
         e["message"],
         "the server is busy: 1 study running and 1 waiting, as many as it takes (--analyses 1, --queue 1); try again later"
     );
     assert_eq!(r.header("retry-after"), Some("5"));
-    let first = first.join().unwrap();
-    assert_eq!(first.status, 504);
-    // The second's time ran out before the slot was free: it never started.
+    // The first's client goes: its study stops, and the one waiting runs.
+    drop(first);
     let second = second.join().unwrap();
-    let e = assert_error(&s, &second, 504, "timeout");
+    assert_eq!(
+        second.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&second.body)
+    );
+    until_health(addr, "running", 0);
+    assert_eq!(study_stl(addr, "", &stl).status, 200);
+}
+
+#[test]
+fn a_study_that_waits_past_its_time_never_starts() {
+    let s = start(&["--analyses", "1", "--queue", "1", "--timeout", "0.1"]);
+    let stl = sample_stl("cover");
+    let addr = s.addr;
+    // Two studies sent at once, each with a grid of about 2 million nodes, whose rays (0.3 s
+    // or more) stop only between blocks of 4096 triangles: the cover's 2044 are one block.
+    // The one that runs is stopped at the end of its rays, well past the limit; the other
+    // waited for the slot all its 0.1 s and never started.
+    let send = || {
+        let stl = stl.clone();
+        std::thread::spawn(move || study_stl(addr, "spacing=0.07", &stl))
+    };
+    let (a, b) = (send(), send());
+    let mut messages: Vec<String> = [a.join().unwrap(), b.join().unwrap()]
+        .iter()
+        .map(|r| {
+            let e = assert_error(&s, r, 504, "timeout");
+            e["message"].as_str().unwrap().to_string()
+        })
+        .collect();
+    messages.sort();
     assert!(
-        e["message"].as_str().unwrap().starts_with(
-            "the study waited 0.4 s (--timeout) for an analysis slot and did not start"
+        messages[0].starts_with("the study did not finish within 0.1 s (--timeout)"),
+        "{messages:?}"
+    );
+    assert!(
+        messages[1].starts_with(
+            "the study waited 0.1 s (--timeout) for an analysis slot and did not start"
         ),
-        "{e}"
+        "{messages:?}"
     );
     // When the slot is free, studies are admitted again.
-    until_health(s.addr, "running", 0);
-    assert_eq!(study_stl(s.addr, "", &stl).status, 200);
+    until_health(addr, "running", 0);
+    assert_eq!(study_stl(addr, "", &sample_stl("plate")).status, 200);
 }
 
 #[test]
