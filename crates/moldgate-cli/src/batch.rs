@@ -200,10 +200,10 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
 }
 
 /// The exit code of a batch from the codes of its failed parts: the most serious one, in the
-/// order internal error (1), output (5), input (3), option (2), no gate (4); 0 when every
-/// part has a gate.
+/// order internal error (1), output (5), input (3), option (2), stopped at `--timeout` (6),
+/// no gate (4); 0 when every part has a gate.
 pub fn exit_code(codes: impl IntoIterator<Item = u8>) -> u8 {
-    const SEVERITY: [u8; 5] = [1, 5, 3, 2, 4];
+    const SEVERITY: [u8; 6] = [1, 5, 3, 2, 6, 4];
     codes
         .into_iter()
         .filter(|&c| c != 0)
@@ -753,6 +753,8 @@ mod tests {
         assert_eq!(exit_code([4, 3, 2]), 3);
         assert_eq!(exit_code([3, 5, 4]), 5);
         assert_eq!(exit_code([5, 1, 3]), 1);
+        assert_eq!(exit_code([4, 6]), 6);
+        assert_eq!(exit_code([6, 2]), 2);
     }
 
     #[test]

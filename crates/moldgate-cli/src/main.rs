@@ -42,8 +42,8 @@ pub struct Failure {
     pub code: u8,
     /// One line for stderr.
     pub message: String,
-    /// Whether the study was stopped at `--timeout` (exit code 2, as for an option; a
-    /// batch's row says `timeout`).
+    /// Whether the study was stopped at `--timeout` (exit code 6; a batch's row says
+    /// `timeout`).
     pub timed_out: bool,
     /// What a study stopped in its fill stage found before the stop (see
     /// [`moldgate::StudyError::Cancelled`]): a batch's row gives its gate.
@@ -52,7 +52,7 @@ pub struct Failure {
 
 impl Failure {
     /// A failure with exit code `code` (1 internal error, 2 option, 3 input, 4 no gate,
-    /// 5 output).
+    /// 5 output, 6 stopped at `--timeout`).
     pub fn new(code: u8, message: impl Into<String>) -> Failure {
         Failure {
             code,
@@ -67,11 +67,12 @@ impl Failure {
         Failure::new(2, message)
     }
 
-    /// A study stopped at `--timeout`: exit code 2, as for the option that set the limit.
+    /// A study stopped at `--timeout`: exit code 6, apart from a bad option's 2, so that a
+    /// pipeline can tell a part worth trying again with more time from a command to fix.
     pub fn timeout(message: impl Into<String>) -> Failure {
         Failure {
             timed_out: true,
-            ..Failure::usage(message)
+            ..Failure::new(6, message)
         }
     }
 

@@ -348,7 +348,7 @@ def test_a_batch_row_past_its_timeout_says_so(cover_stl):
     t = time.perf_counter()
     row = moldgate.batch_row(cover_stl, timeout=0.2, **heavy)
     assert time.perf_counter() - t < 5
-    assert row["status"] == "timeout" and row["exit_code"] == 2, row
+    assert row["status"] == "timeout" and row["exit_code"] == 6, row
     assert "stopped at its timeout of 0.2 s, in the fill stage" in row["error"], row
     # What takes less time, in the package's keywords.
     assert "(a coarser cell, fewer gates or no suitability map take less time)" in row["error"], row

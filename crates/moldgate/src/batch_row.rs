@@ -19,7 +19,7 @@ pub enum Status {
     InputError,
     /// An option was refused (2).
     OptionError,
-    /// The study was stopped at its time limit (2, as for the option that set it).
+    /// The study was stopped at its time limit (6).
     /// Stopped after the gate was located, a study whose answer is the method's gate has
     /// the numbers of the part located before the stop; any other, none.
     Timeout,
@@ -41,6 +41,7 @@ impl Status {
             3 => Status::InputError,
             4 => Status::NoGate,
             5 => Status::OutputError,
+            6 => Status::Timeout,
             _ => Status::InternalError,
         }
     }
@@ -50,10 +51,11 @@ impl Status {
         match self {
             Status::Ok | Status::Skipped => 0,
             Status::InternalError => 1,
-            Status::OptionError | Status::Timeout => 2,
+            Status::OptionError => 2,
             Status::InputError => 3,
             Status::NoGate => 4,
             Status::OutputError => 5,
+            Status::Timeout => 6,
         }
     }
 
@@ -193,7 +195,7 @@ mod tests {
 
     #[test]
     fn statuses_and_exit_codes_agree() {
-        for code in 0..=5 {
+        for code in 0..=6 {
             assert_eq!(Status::from_exit_code(code).exit_code(), code);
         }
         let json = serde_json::to_string(&Status::NoGate).unwrap();

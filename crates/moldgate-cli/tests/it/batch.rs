@@ -586,12 +586,12 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
     let heavy = ["--gates", "8", "--cell", "0.3", "--suitability"];
     let args = [&["locate", "m", "--json", "--timeout", "0.2"][..], &heavy].concat();
     let out = moldgate(root, &args);
-    assert_code(&out, USAGE);
+    assert_code(&out, TIMEOUT);
     let rows = json_lines(&stdout(&out));
     assert_eq!(rows.len(), 1);
     let row = &rows[0];
     assert_eq!(row["status"], "timeout", "{row}");
-    assert_eq!(row["exit_code"], 2, "{row}");
+    assert_eq!(row["exit_code"], 6, "{row}");
     let error = row["error"].as_str().unwrap();
     assert!(
         error.contains("stopped at --timeout 0.2 s, in the fill stage"),
@@ -653,12 +653,12 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
         &single,
     ]
     .concat();
-    assert_code(&moldgate(root, &args), USAGE);
+    assert_code(&moldgate(root, &args), TIMEOUT);
     assert_eq!(std::fs::read_dir(&out_dir).unwrap().count(), 0);
     // The hint names only what was asked for; the table's last line counts the stops.
     let args = [&["locate", "m", "--timeout", "0.2"][..], &heavy[..4]].concat();
     let out = moldgate(root, &args);
-    assert_code(&out, USAGE);
+    assert_code(&out, TIMEOUT);
     let err = stderr(&out);
     assert!(
         err.contains("(a coarser --cell or fewer --gates take less time)"),
@@ -673,7 +673,7 @@ fn a_part_stopped_at_its_timeout_is_a_timeout_row() {
     // A part stopped after its gate was located keeps it, and the last line says so.
     let args = [&["locate", "m", "--timeout", "0.2"][..], &single].concat();
     let out = moldgate(root, &args);
-    assert_code(&out, USAGE);
+    assert_code(&out, TIMEOUT);
     assert!(
         stdout(&out).contains(
             "1 part: 0 with a gate, 0 without, 1 failed (1 stopped at --timeout, with the method's gate found before the stop)"

@@ -739,7 +739,7 @@ fn extreme_material_parameters_name_the_material_and_read_short() {
 }
 
 #[test]
-fn timeout_stops_a_long_study_with_exit_code_2() {
+fn timeout_stops_a_long_study_with_exit_code_6() {
     let dir = tempfile::tempdir().unwrap();
     let out = moldgate(
         dir.path(),
@@ -758,7 +758,7 @@ fn timeout_stops_a_long_study_with_exit_code_2() {
     );
     assert_fails(
         &out,
-        USAGE,
+        TIMEOUT,
         &["stopped at --timeout 0.2 s, in the fill stage"],
     );
     for bad in ["0", "-1", "nan", "inf"] {

@@ -12,6 +12,7 @@ pub const USAGE: i32 = 2;
 pub const INPUT: i32 = 3;
 pub const NO_GATE: i32 = 4;
 pub const OUTPUT: i32 = 5;
+pub const TIMEOUT: i32 = 6;
 
 /// Runs the binary in `dir` with no standard input.
 pub fn moldgate(dir: &Path, args: &[&str]) -> Output {
