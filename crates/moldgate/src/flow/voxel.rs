@@ -20,6 +20,13 @@
 //! a lid and its box, even where they share a cell. (A cell crossed by two bodies' surfaces
 //! goes to one of them.)
 //!
+//! **The triangle of a surface cell.** Of the triangles that pass through a cell, the cell
+//! keeps the one whose centroid, where the fill measures its wall, is nearest the cell's
+//! centre (of two at one distance, the larger by [`triangle_rank`]): a rule of the
+//! triangles' corners alone, so that the same part gives the same cells and walls whatever
+//! the order of its triangles in the file or of the corners in each, and one that samples
+//! the wall where the cell is rather than at a large triangle's far centroid.
+//!
 //! The grid origin is shifted by a small irrational fraction of a cell so that cell centres
 //! do not fall exactly on the axis-aligned faces and edges of CAD meshes.
 
@@ -33,6 +40,66 @@ const EMPTY: u32 = u32::MAX;
 
 /// The triangles `0..n` in blocks of 4096, in order, for a parallel pass whose results are
 /// collected block by block.
+/// The order in which triangles whose centroids lie at one distance from a cell's centre
+/// give way to each other (the largest rank keeps the cell): the triangle's squared doubled area, rounded to `f32`, in the high
+/// half, and a hash of its corners in the low half (equal areas are common: a CAD mesh of a
+/// flat face is often a grid of equal triangles). Both are found from the corners sorted,
+/// and the hash sums the corners' hashes, so the rank depends on neither the triangle's
+/// place in the mesh nor the order of its corners.
+fn triangle_rank(corners: [DVec3; 3]) -> u64 {
+    let c = sorted_corners(corners);
+    let area2 = (c[1] - c[0]).cross(c[2] - c[0]).length_squared() as f32;
+    // A non-negative f32's bits order as the number (a NaN area ranks above all: its
+    // triangle has no body and marks no cell).
+    let area_bits = if area2 >= 0.0 {
+        area2.to_bits()
+    } else {
+        u32::MAX
+    };
+    // splitmix64's finaliser over each corner's bits, summed.
+    let mix = |mut x: u64| {
+        x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        x ^ (x >> 31)
+    };
+    let hash = c.iter().fold(0u64, |h, p| {
+        h.wrapping_add(mix(p.x.to_bits()
+            ^ p.y.to_bits().rotate_left(21)
+            ^ p.z.to_bits().rotate_left(42)))
+    });
+    (u64::from(area_bits) << 32) | (hash >> 32)
+}
+
+/// The cells a block of triangles marks, as (cell, triangle), and each mark's squared
+/// distance from its cell's centre to its triangle's centroid (f32 bits).
+type Marks = (Vec<(u32, u32)>, Vec<u32>);
+
+/// The centroid of a triangle, the same to the last bit whatever the order of its corners:
+/// each coordinate is summed least, middle, largest.
+#[inline]
+fn centroid([a, b, c]: [DVec3; 3]) -> DVec3 {
+    let (least, most) = (a.min(b).min(c), a.max(b).max(c));
+    let middle = a.min(b).max(a.max(b).min(c));
+    (least + middle + most) / 3.0
+}
+
+/// The corners of a triangle in one order whatever the order given (by x, then y, then z),
+/// so that what is computed from them rounds alike.
+#[inline]
+fn sorted_corners([a, b, c]: [DVec3; 3]) -> [DVec3; 3] {
+    let after = |p: DVec3, q: DVec3| {
+        p.x.total_cmp(&q.x)
+            .then(p.y.total_cmp(&q.y))
+            .then(p.z.total_cmp(&q.z))
+            .is_gt()
+    };
+    // Three compare-and-swaps (a general sort's call costs more than the work).
+    let (a, b) = if after(a, b) { (b, a) } else { (a, b) };
+    let (b, c) = if after(b, c) { (c, b) } else { (b, c) };
+    let (a, b) = if after(a, b) { (b, a) } else { (a, b) };
+    [a, b, c]
+}
+
 fn chunks(n: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize>> {
     const BLOCK: usize = 4096;
     (0..n.div_ceil(BLOCK))
@@ -164,16 +231,21 @@ fn sample_rows(mesh: &Mesh, t: usize, step: f64) -> ((DVec3, DVec3, DVec3), usiz
     ((a, b, c), rows, per_row)
 }
 
-/// The index of the cell holding `p` in the grid of cells of size `h` from `origin`, `dims`
-/// cells along each axis (clamped into the grid).
+/// The grid coordinates of the cell holding `p` in the grid of cells of size `h` from
+/// `origin`, `dims` cells along each axis (clamped into the grid).
 #[inline]
-fn cell_index(p: DVec3, origin: DVec3, h: f64, dims: [usize; 3]) -> usize {
+fn cell_coordinates(p: DVec3, origin: DVec3, h: f64, dims: [usize; 3]) -> [usize; 3] {
     let q = (p - origin) / h + 0.5;
-    let c = [
+    [
         floor_index(q.x).min(dims[0] - 1),
         floor_index(q.y).min(dims[1] - 1),
         floor_index(q.z).min(dims[2] - 1),
-    ];
+    ]
+}
+
+/// The dense number of the cell of grid coordinates `c`.
+#[inline]
+fn dense_index(c: [usize; 3], dims: [usize; 3]) -> usize {
     (c[2] * dims[1] + c[1]) * dims[0] + c[0]
 }
 
@@ -213,18 +285,18 @@ fn floor_signed(x: f64) -> isize {
 }
 
 /// Marks the cells of triangle `t`'s surface samples (rows at most `step` apart, samples
-/// at most `step` apart along each row) as (cell, `t`), each cell once per run of samples
-/// in it.
+/// at most `step` apart along each row): `mark(cell)` with the grid coordinates of each
+/// cell, once per run of samples in it.
 #[inline]
 fn mark_samples(
     mesh: &Mesh,
     t: usize,
     step: f64,
-    cell_of: &impl Fn(DVec3) -> usize,
-    out: &mut Vec<(u32, u32)>,
+    cell_of: &impl Fn(DVec3) -> [usize; 3],
+    mut mark: impl FnMut([usize; 3]),
 ) {
     let ((a, b, c), rows, per_row) = sample_rows(mesh, t, step);
-    let mut last = usize::MAX;
+    let mut last = [usize::MAX; 3];
     for r in 0..=rows {
         let s = r as f64 / rows as f64;
         let (p, q) = (a + (c - a) * s, b + (c - b) * s);
@@ -232,7 +304,7 @@ fn mark_samples(
         for j in 0..=n {
             let cell = cell_of(p + (q - p) * (j as f64 / n as f64));
             if cell != last {
-                out.push((cell as u32, t as u32));
+                mark(cell);
                 last = cell;
             }
         }
@@ -248,7 +320,7 @@ const CORNER_MARGIN: f64 = 1e-7;
 /// box lies inside one cell, or inside two cells side by side with its lowest and highest
 /// corners along their axis inside each (every corner clear of the faces by
 /// [`CORNER_MARGIN`]): the samples lie in the box and include the corners, so they mark
-/// exactly those cells (dense numbers of the grid of [`Voxels::layout`]; the second the
+/// exactly those cells (grid coordinates in the grid of [`Voxels::layout`]; the second the
 /// same as the first when there is one). `None` for other triangles, which are sampled.
 #[inline]
 fn few_cells(
@@ -257,7 +329,7 @@ fn few_cells(
     origin: DVec3,
     per_h: f64,
     dims: [usize; 3],
-) -> Option<[usize; 2]> {
+) -> Option<[[usize; 3]; 2]> {
     let [a, b, c] = mesh.corners(t);
     let lo = (a.min(b).min(c) - origin) * per_h + 0.5;
     let hi = (a.max(b).max(c) - origin) * per_h + 0.5;
@@ -285,8 +357,8 @@ fn few_cells(
     {
         return None;
     }
-    let dense = |c: glam::I64Vec3| (c.z as usize * dims[1] + c.y as usize) * dims[0] + c.x as usize;
-    Some([dense(first), dense(second)])
+    let coordinates = |c: glam::I64Vec3| [c.x as usize, c.y as usize, c.z as usize];
+    Some([coordinates(first), coordinates(second)])
 }
 
 /// Upper bound of the surface samples a voxelisation at `h` takes over the triangles
@@ -406,7 +478,7 @@ impl Voxels {
         let bounds = mesh.bounds();
         let (origin, dims) = Self::layout(&bounds, h);
         let n_cells = dims[0] * dims[1] * dims[2];
-        let cell_of = |p: DVec3| cell_index(p, origin, h, dims);
+        let cell_of = |p: DVec3| cell_coordinates(p, origin, h, dims);
 
         // Surface cells: rows of samples at most h/2 apart over every triangle.
         let step = SAMPLE_STEP * h;
@@ -414,32 +486,56 @@ impl Voxels {
         // 1e-13 of a cell of them, far inside the margin [`few_cells`] keeps.
         let per_h = 1.0 / h;
         let mut owner = vec![EMPTY; n_cells];
-        let marks: Vec<Vec<(u32, u32)>> = chunks(mesh.triangles.len())
+        let marks: Vec<Marks> = chunks(mesh.triangles.len())
             .map(|ts| {
                 // Most triangles mark one or two cells.
                 let mut out = Vec::with_capacity(2 * ts.len());
+                // Each mark's squared distance from its cell's centre to its triangle's
+                // centroid, in cells, as f32 bits (the centre of the cell of grid
+                // coordinates c lies c cells from the origin).
+                let mut near = Vec::with_capacity(2 * ts.len());
                 for t in ts {
                     if body_of[t] == EMPTY {
                         continue;
                     }
+                    let centroid = (centroid(mesh.corners(t)) - origin) * per_h;
+                    let mut mark = |cell: [usize; 3]| {
+                        out.push((dense_index(cell, dims) as u32, t as u32));
+                        let at = DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64);
+                        near.push(((centroid - at).length_squared() as f32).to_bits());
+                    };
                     // A triangle inside one cell or two (most triangles of a fine
                     // mesh) marks them from its box, without its samples.
                     match few_cells(mesh, t, origin, per_h, dims) {
                         Some([c0, c1]) => {
-                            out.push((c0 as u32, t as u32));
+                            mark(c0);
                             if c1 != c0 {
-                                out.push((c1 as u32, t as u32));
+                                mark(c1);
                             }
                         }
-                        None => mark_samples(mesh, t, step, &cell_of, &mut out),
+                        None => mark_samples(mesh, t, step, &cell_of, mark),
                     }
                 }
-                out
+                (out, near)
             })
             .collect();
-        for list in &marks {
-            for &(cell, t) in list {
-                owner[cell as usize] = t;
+        // The least distance of each cell so far (f32 bits: a non-negative f32's bits order
+        // as the number), in the array that numbers the solid cells below.
+        let mut nearest = vec![u32::MAX; n_cells];
+        for (list, near) in &marks {
+            for (&(cell, t), &d2) in list.iter().zip(near) {
+                let (o, best) = (&mut owner[cell as usize], &mut nearest[cell as usize]);
+                // The nearer centroid; of two at one distance, the triangle of larger rank,
+                // then (for a 2^-32 chance of two ranks alike) the earlier triangle.
+                let wins = *o == EMPTY
+                    || d2 < *best
+                    || (d2 == *best && {
+                        let rank = |t: u32| triangle_rank(mesh.corners(t as usize));
+                        (rank(t), *o) > (rank(*o), t)
+                    });
+                if wins {
+                    (*o, *best) = (t, d2);
+                }
             }
         }
         drop(marks);
@@ -450,7 +546,8 @@ impl Voxels {
         let (inside, open_columns) = Self::interior(mesh, origin, h, dims, body_of);
         go_on()?;
 
-        let mut index = vec![EMPTY; n_cells];
+        let mut index = nearest;
+        index.fill(EMPTY);
         let mut cells = Vec::new();
         let mut dense = Vec::new();
         let mut triangle = Vec::new();
@@ -897,12 +994,12 @@ mod tests {
             let diagonal = mesh.bounds().diagonal();
             for h in [diagonal / 300.0, diagonal / 97.3, diagonal / 31.0] {
                 let (origin, dims) = Voxels::layout(&mesh.bounds(), h);
-                let cell_of = |p: DVec3| cell_index(p, origin, h, dims);
+                let cell_of = |p: DVec3| cell_coordinates(p, origin, h, dims);
                 for t in 0..mesh.triangles.len() {
                     let mut sampled = Vec::new();
-                    mark_samples(&mesh, t, SAMPLE_STEP * h, &cell_of, &mut sampled);
-                    let mut sampled: Vec<usize> =
-                        sampled.iter().map(|&(c, _)| c as usize).collect();
+                    mark_samples(&mesh, t, SAMPLE_STEP * h, &cell_of, |c| {
+                        sampled.push(dense_index(c, dims))
+                    });
                     sampled.sort_unstable();
                     sampled.dedup();
                     let [lo, hi] = (0..3).fold([[0.0; 3]; 2], |[mut lo, mut hi], k| {
@@ -913,7 +1010,8 @@ mod tests {
                     });
                     let near_face = |x: f64| (x - x.round()).abs() <= CORNER_MARGIN;
                     let spans: Vec<f64> = (0..3).map(|k| hi[k].floor() - lo[k].floor()).collect();
-                    match few_cells(&mesh, t, origin, 1.0 / h, dims) {
+                    let few = few_cells(&mesh, t, origin, 1.0 / h, dims);
+                    match few.map(|c| c.map(|c| dense_index(c, dims))) {
                         Some([c0, c1]) if c0 == c1 => {
                             one += 1;
                             assert_eq!(sampled, [c0], "{name} {h} {t}");

@@ -923,9 +923,15 @@ fn balanced_gate_and_suitability_map_hold_against_brute_force_on_the_samples() {
             );
             // The chosen candidate is the best to within half a cell (the march is symmetric
             // only to that tolerance), proven unless the search reached its cap of 40 runs
-            // (the tray's resistance with its measured walls does, with the best candidate).
-            let settled = fast.proven || fast.runs >= 40;
-            if !settled || all[fast.candidate] > best + 0.5 * h || fast.runs >= cands.len() {
+            // (the tray's resistance with its measured walls does, 1.5 % above the best):
+            // then the bound it reports holds ("a candidate could be up to ... lower").
+            let capped = !fast.proven && fast.runs >= 40;
+            let holds = if capped {
+                best >= fast.lower_bound - 0.5 * h
+            } else {
+                fast.proven && all[fast.candidate] <= best + 0.5 * h
+            };
+            if !holds || fast.runs >= cands.len() {
                 failures.push(format!(
                     "{name} {objective:?}: balanced {} (proven {}, {} runs of {}), brute force {best}",
                     all[fast.candidate],
@@ -956,7 +962,17 @@ fn balanced_gate_and_suitability_map_hold_against_brute_force_on_the_samples() {
                 .map(|n| domain.source(DVec3::from_array(n.point)).unwrap())
                 .collect();
             let truth = brute_force(&domain, &sources, objective, &mut runs);
-            let tol = map.tolerance;
+            // The map's tolerance is one cell of path at cost 1; a march is symmetric only to
+            // about a cell at the cost where it starts, and with the resistance objective a
+            // node's cell may cost more (a wall thinner than the nominal): the tray's do.
+            let start_cost = domain.cost(objective).map_or(1.0, |c| {
+                sources
+                    .iter()
+                    .map(|s| f64::from(c[s.cell as usize]))
+                    .fold(1.0, f64::max)
+            });
+            let tol = map.tolerance * start_cost;
+            println!("{name} {objective:?}: nodes start at a cost of at most {start_cost:.2}");
             let mut worst_gap = 0.0f64;
             for (n, &e) in map.nodes.iter().zip(&truth) {
                 worst_gap = worst_gap.max((e - n.score) / e);
