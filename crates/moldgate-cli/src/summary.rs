@@ -201,6 +201,28 @@ fn fill(
                 v3(best.point),
                 m.best_value_text().unwrap_or_default()
             );
+            if m.spans_bodies() {
+                let bests: Vec<String> = m
+                    .best_per_body
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(body, best)| {
+                        let n = &m.nodes[(*best)?];
+                        Some(format!(
+                            "{} {}: {} {}",
+                            moldgate::flow::body_name(body as u32),
+                            v3(n.point),
+                            value(n.score),
+                            m.unit
+                        ))
+                    })
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "    each node is scored by the fill of its own body; the best of each: {} (the pictures colour each node against its own body's best)",
+                    bests.join(", ")
+                );
+            }
             let _ = writeln!(
                 s,
                 "    {} exact (to {} {}, the cells' resolution: the balanced gate's own value may differ by as much), the others lower bounds within {} of their upper bounds ({} marches)",

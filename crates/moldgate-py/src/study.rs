@@ -502,12 +502,17 @@ pub struct Suitability {
     exact: Py<PyArray1<bool>>,
     /// Index of each node in `Study.qualifying_points`, (k,) int64.
     nodes: Py<PyArray1<i64>>,
+    /// Body of each node, from 0, (k,) int64: each node is scored by the fill of its own
+    /// body, so scores compare only within one body.
+    bodies: Py<PyArray1<i64>>,
     /// `mm` (L_max) or `s` (fill time).
     unit: String,
     /// `length` or `resistance`.
     objective: String,
     /// Row of the best node (least score), or None.
     best: Option<usize>,
+    /// Row of the best node of each body, by body (None for a body without a node).
+    best_per_body: Vec<Option<usize>>,
 }
 
 #[pymethods]
@@ -749,6 +754,7 @@ impl Study {
             )
             .unbind(),
             nodes: PyArray1::from_vec(py, n.iter().map(|x| x.node as i64).collect()).unbind(),
+            bodies: PyArray1::from_vec(py, n.iter().map(|x| i64::from(x.body)).collect()).unbind(),
             unit: map.unit.to_string(),
             objective: match map.objective {
                 moldgate::flow::Objective::Length => "length",
@@ -756,6 +762,7 @@ impl Study {
             }
             .to_string(),
             best: map.best,
+            best_per_body: map.best_per_body.clone(),
         }))
     }
 

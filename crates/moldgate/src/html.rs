@@ -917,6 +917,29 @@ fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
         gap(m.median_gap_pct),
         m.runs
     );
+    if m.spans_bodies() {
+        let bests: Vec<String> = m
+            .best_per_body
+            .iter()
+            .enumerate()
+            .filter_map(|(body, best)| {
+                let n = &m.nodes[(*best)?];
+                Some(format!(
+                    "{} at {} mm, {} {unit}",
+                    crate::flow::body_name(body as u32),
+                    v3(n.point),
+                    value(n.score)
+                ))
+            })
+            .collect();
+        let _ = writeln!(
+            h,
+            "<p id=\"suitability-bodies\">The part has several bodies, and a gate fills only its \
+             own: each node is scored by the fill of its body, and the picture colours it by its \
+             score over its body's best (1: that best). The best of each body: {}.</p>",
+            bests.join("; ")
+        );
+    }
 }
 
 fn timings_table(h: &mut String, r: &Report) {

@@ -546,6 +546,29 @@ fn bodies_are_counted_from_one_in_words_and_from_zero_in_json() {
         .map(|b| b["body"].as_u64().unwrap())
         .collect();
     assert_eq!(bodies, [0, 1]);
+    // The suitability map: each node's body in the JSON, and each body's best in words.
+    let v = json(&["locate", part, "--demold", "+z", "--suitability", "--json"]);
+    let map = &v["fill"]["suitability"];
+    let nodes = map["nodes"].as_array().unwrap();
+    for n in nodes {
+        let on_second = n["point"][0].as_f64().unwrap() > 45.0;
+        assert_eq!(n["body"], u64::from(on_second), "{n}");
+    }
+    let best = |body: usize| &nodes[map["best_per_body"][body].as_u64().unwrap() as usize];
+    let out = moldgate(&["locate", part, "--demold", "+z", "--suitability"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.contains("each node is scored by the fill of its own body"))
+        .unwrap_or_else(|| panic!("{text}"));
+    for body in [0, 1] {
+        let score = best(body)["score"].as_f64().unwrap();
+        assert!(
+            line.contains(&format!("body {} (", body + 1))
+                && line.contains(&format!(": {score:.1} mm")),
+            "{line}"
+        );
+    }
 }
 
 #[test]

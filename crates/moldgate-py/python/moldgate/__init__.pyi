@@ -1,5 +1,5 @@
 import os
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -62,11 +62,15 @@ class Suitability:
     @property
     def nodes(self) -> npt.NDArray[np.int64]: ...
     @property
+    def bodies(self) -> npt.NDArray[np.int64]: ...
+    @property
     def unit(self) -> str: ...
     @property
     def objective(self) -> str: ...
     @property
     def best(self) -> Optional[int]: ...
+    @property
+    def best_per_body(self) -> List[Optional[int]]: ...
 
 class Study:
     @property

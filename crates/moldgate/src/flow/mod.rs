@@ -3781,7 +3781,7 @@ pub fn analyse_prepared(
         if best != answer {
             let share = domain.volume_share(best);
             warnings.push(format!(
-                "the suitability map scores each node by the fill of its own body only: its best node is on {} ({:.1} % of the part's volume), not on the answer's {}; compare nodes within one body",
+                "the suitability map scores each node by the fill of its own body only: its best node is on {} ({:.1} % of the part's volume), not on the answer's {}; compare nodes within one body (the pictures colour each node against the best of its own body)",
                 body_name(best),
                 100.0 * share,
                 body_name(answer)
@@ -4659,11 +4659,13 @@ mod tests {
             nodes: vec![suitability::NodeScore {
                 node: 0,
                 point: candidates[node].point.to_array(),
+                body: 0,
                 score: values[node],
                 upper: Some(values[node]),
                 kind,
             }],
             best: Some(0),
+            best_per_body: vec![Some(0)],
             exact: 1,
             max_gap_pct: Some(0.0),
             median_gap_pct: Some(0.0),

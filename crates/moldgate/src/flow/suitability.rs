@@ -65,6 +65,9 @@ pub struct NodeScore {
     pub node: usize,
     /// Its point on the part's surface, mm.
     pub point: [f64; 3],
+    /// The body its cell belongs to (numbered as the fill's bodies, from 0): a gate fills
+    /// only its own body, so scores compare within one body.
+    pub body: u32,
     /// The objective of a gate there (lower is better): L_max in mm, or the fill time in s.
     pub score: f64,
     /// An upper bound of the objective (equal to `score` for exact nodes; `None` when no
@@ -88,6 +91,10 @@ pub struct Suitability {
     pub nodes: Vec<NodeScore>,
     /// Index in `nodes` of the best node (least score; exact unless the budget ran out).
     pub best: Option<usize>,
+    /// Index in `nodes` of the best node of each body, by body number (`None` for a body
+    /// without a scored node): on a part of several bodies each node is scored by the fill
+    /// of its own body, so scores compare only within a body (see [`Suitability::spans_bodies`]).
+    pub best_per_body: Vec<Option<usize>>,
     /// Nodes whose score is exact.
     pub exact: usize,
     /// Largest gap between a node's upper bound and its score, over its score, percent
@@ -102,6 +109,13 @@ pub struct Suitability {
 }
 
 impl Suitability {
+    /// Whether the scored nodes lie on more than one body. Each node is scored by the fill of
+    /// its own body, so a small body's nodes score better than a large one's whatever their
+    /// place: the scores then compare only within a body.
+    pub fn spans_bodies(&self) -> bool {
+        self.nodes.windows(2).any(|w| w[0].body != w[1].body)
+    }
+
     /// The best node's score in words with its unit (`58.9 mm`). When the map's runs ran out
     /// before that score was proven (a lower bound), it says so with the node's upper
     /// bound: a lower bound is not a value a gate there is known to reach.
@@ -281,6 +295,7 @@ pub fn suitability(
             Some(NodeScore {
                 node,
                 point: p.to_array(),
+                body: domain.body[s.cell as usize],
                 score: b.lo * scale,
                 upper: if exact {
                     Some(b.lo * scale)
@@ -317,11 +332,26 @@ pub fn suitability(
         exact: nodes.iter().filter(|n| n.kind == ScoreKind::Exact).count(),
         max_gap_pct: gaps.last().map_or(Some(0.0), finite),
         median_gap_pct: gaps.get(gaps.len() / 2).map_or(Some(0.0), finite),
+        best_per_body: best_per_body(&nodes),
         nodes,
         best,
         off_part,
         runs,
     })
+}
+
+/// The node of least score of each body (an index in `nodes`; the first of equal scores),
+/// indexed by body; `None` for a body without a scored node.
+fn best_per_body(nodes: &[NodeScore]) -> Vec<Option<usize>> {
+    let bodies = nodes.iter().map(|n| n.body as usize + 1).max();
+    let mut best: Vec<Option<usize>> = vec![None; bodies.unwrap_or(0)];
+    for (i, n) in nodes.iter().enumerate() {
+        let b = &mut best[n.body as usize];
+        if b.is_none_or(|j| n.score < nodes[j].score) {
+            *b = Some(i);
+        }
+    }
+    best
 }
 
 #[cfg(test)]
@@ -333,6 +363,7 @@ mod tests {
         let node = |score: f64, upper: Option<f64>, kind| NodeScore {
             node: 0,
             point: [0.0; 3],
+            body: 0,
             score,
             upper,
             kind,
@@ -343,6 +374,7 @@ mod tests {
             tolerance: 0.5,
             nodes: vec![node(58.94, Some(60.89), ScoreKind::LowerBound)],
             best: Some(0),
+            best_per_body: vec![Some(0)],
             exact: 0,
             max_gap_pct: Some(3.3),
             median_gap_pct: Some(3.3),

@@ -286,20 +286,29 @@ pub struct Settings {
 
 impl Settings {
     /// What would make a study stopped at its time limit quicker, in the command line's
-    /// flags and among what was asked: "a coarser --cell, fewer --gates or no
-    /// --suitability", or "no --wall-thickness" for the wall stage.
+    /// flags and among what was asked, for the stage it stopped in: "a coarser --cell,
+    /// fewer --gates or no --suitability" for the fill, "no --wall-thickness" for the wall
+    /// stage, "a coarser --spacing" for the gate's grid, a given direction for `--demold
+    /// auto`; nothing for the other stages.
     pub fn less_time_words(&self, stage: crate::study::Stage) -> String {
+        use crate::study::Stage;
         let mut ways = Vec::new();
-        if stage == crate::study::Stage::WallThickness {
-            ways.push("no --wall-thickness");
-        } else if let Some(f) = &self.fill {
-            ways.push("a coarser --cell");
-            if f.gates > 1 {
-                ways.push("fewer --gates");
+        match stage {
+            Stage::WallThickness => ways.push("no --wall-thickness"),
+            Stage::Fill => {
+                if let Some(f) = &self.fill {
+                    ways.push("a coarser --cell");
+                    if f.gates > 1 {
+                        ways.push("fewer --gates");
+                    }
+                    if f.suitability {
+                        ways.push("no --suitability");
+                    }
+                }
             }
-            if f.suitability {
-                ways.push("no --suitability");
-            }
+            Stage::Locate => ways.push("a coarser --spacing"),
+            Stage::Demold => ways.push("a direction given to --demold (not auto)"),
+            Stage::Tree | Stage::Report => {}
         }
         match ways.as_slice() {
             [] => String::new(),
@@ -902,6 +911,40 @@ impl StudyOptions {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn what_takes_less_time_is_said_for_the_stage_stopped_in() {
+        use crate::study::Stage;
+        let settings = |json: &str| {
+            serde_json::from_str::<super::StudyOptions>(json)
+                .unwrap()
+                .validate()
+                .unwrap()
+        };
+        let heavy = settings(r#"{ "gates": 3, "suitability": true }"#);
+        assert_eq!(
+            heavy.less_time_words(Stage::Fill),
+            "a coarser --cell, fewer --gates or no --suitability take less time"
+        );
+        // The fill's options do nothing for a study stopped before the fill.
+        assert_eq!(
+            heavy.less_time_words(Stage::Locate),
+            "a coarser --spacing takes less time"
+        );
+        assert_eq!(
+            heavy.less_time_words(Stage::Demold),
+            "a direction given to --demold (not auto) takes less time"
+        );
+        assert_eq!(heavy.less_time_words(Stage::Tree), "");
+        assert_eq!(
+            settings("{}").less_time_words(Stage::WallThickness),
+            "no --wall-thickness takes less time"
+        );
+        assert_eq!(
+            crate::study::keyword_words(&heavy.less_time_words(Stage::Locate), "True"),
+            "a coarser spacing takes less time"
+        );
+    }
+
     use super::*;
 
     #[test]

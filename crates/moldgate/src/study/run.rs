@@ -613,18 +613,40 @@ impl Study {
     pub fn suitability_field(&self) -> Option<crate::scene::NodeField> {
         let map = self.fill()?.suitability.as_ref()?;
         let mut per_node = vec![f32::NAN; self.analysis.qualifying_points.len()];
+        // On a part of several bodies each node is scored by the fill of its own body, so
+        // one scale would paint a small body's every node better than a large body's best:
+        // each node is coloured by its score over its body's best instead (1: that best).
+        let per_body = map.spans_bodies().then_some(&map.best_per_body);
         for n in &map.nodes {
+            let best = per_body
+                .and_then(|b| b[n.body as usize])
+                .map(|i| map.nodes[i].score);
             if let Some(v) = per_node.get_mut(n.node) {
-                *v = n.score as f32;
+                *v = match best {
+                    Some(best) if best > 0.0 => (n.score / best) as f32,
+                    _ => n.score as f32,
+                };
             }
         }
-        let name = match map.objective {
-            flow::Objective::Length => "gate suitability: longest flow from a gate here",
-            flow::Objective::Resistance => "gate suitability: fill time from a gate here",
+        let what = match map.objective {
+            flow::Objective::Length => "longest flow",
+            flow::Objective::Resistance => "fill time",
+        };
+        let (name, unit) = match per_body {
+            Some(_) => (
+                format!(
+                    "gate suitability: {what} from a gate here over the best of its body (1: its best)"
+                ),
+                String::new(),
+            ),
+            None => (
+                format!("gate suitability: {what} from a gate here"),
+                map.unit.to_string(),
+            ),
         };
         Some(crate::scene::NodeField {
-            name: name.into(),
-            unit: map.unit.into(),
+            name,
+            unit,
             per_node,
         })
     }

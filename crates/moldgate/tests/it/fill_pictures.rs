@@ -189,6 +189,90 @@ fn the_suitability_map_is_drawn_on_the_parts_own_triangles() {
     assert!(scene.node_field.is_some() && scene.display.is_none());
 }
 
+/// On a part of two bodies each node is scored by its own body's fill, so the lid's every
+/// node scores better than the box's best: the pictures colour each node by its score over
+/// its own body's best, so that each body shows its best places; one body keeps its unit.
+#[test]
+fn the_suitability_map_of_two_bodies_colours_each_against_its_own_best() {
+    let part = box_and_lid();
+    let s = study(
+        &part,
+        &options(r#"{ "suitability": true, "demold": "+z" }"#),
+    )
+    .unwrap();
+    let map = s.fill().unwrap().suitability.as_ref().unwrap();
+    assert!(map.spans_bodies());
+    // Each node's body is the body of the side it lies on (the lid from x = 45 mm).
+    let lid = map.nodes.iter().find(|n| n.point[0] > 45.0).unwrap().body;
+    for n in &map.nodes {
+        assert_eq!(n.body == lid, n.point[0] > 45.0, "{n:?}");
+    }
+    // Each body's best is its least score, and the lid's beats the box's.
+    let least = |on_lid: bool| {
+        map.nodes
+            .iter()
+            .filter(|n| (n.body == lid) == on_lid)
+            .map(|n| n.score)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let best_score = |body: u32| map.nodes[map.best_per_body[body as usize].unwrap()].score;
+    assert_eq!(best_score(lid), least(true));
+    assert_eq!(best_score(1 - lid), least(false));
+    assert!(least(true) < least(false));
+    let field = s.suitability_field().unwrap();
+    assert!(
+        field.name.contains("over the best of its body"),
+        "{}",
+        field.name
+    );
+    assert_eq!(field.unit, "");
+    for n in &map.nodes {
+        let want = n.score
+            / if n.body == lid {
+                least(true)
+            } else {
+                least(false)
+            };
+        assert!(
+            (f64::from(field.per_node[n.node]) - want).abs() < 1e-6,
+            "{n:?}"
+        );
+    }
+    // Each body's best is 1, so each shows in the darkest colour.
+    for on_lid in [true, false] {
+        let least_ratio = map
+            .nodes
+            .iter()
+            .filter(|n| (n.body == lid) == on_lid)
+            .map(|n| field.per_node[n.node])
+            .fold(f32::INFINITY, f32::min);
+        assert_eq!(least_ratio, 1.0);
+    }
+    // The page says so, with each body's best.
+    let page = s.html(None).unwrap();
+    assert!(
+        page.contains("<p id=\"suitability-bodies\">The part has several bodies")
+            && page.contains(&format!("body {} at ", lid + 1))
+            && page.contains(&format!("body {} at ", 2 - lid)),
+        "{page}"
+    );
+    // One body: the scores themselves, in their unit.
+    let plate = coarse_plate(100.0, 70.0, 3.0);
+    let s = study(
+        &plate,
+        &options(r#"{ "suitability": true, "demold": "+z" }"#),
+    )
+    .unwrap();
+    let map = s.fill().unwrap().suitability.as_ref().unwrap();
+    assert!(!map.spans_bodies());
+    let field = s.suitability_field().unwrap();
+    assert_eq!(field.unit, "mm");
+    for n in &map.nodes {
+        assert_eq!(field.per_node[n.node], n.score as f32);
+    }
+    assert!(!s.html(None).unwrap().contains("suitability-bodies"));
+}
+
 /// A box 40 x 20 x 10 mm and a lid 40 x 20 x 2 mm 5 mm beside it, in one file.
 fn box_and_lid() -> LoadedMesh {
     let mut two = block(DVec3::ZERO, DVec3::new(40.0, 20.0, 10.0));
