@@ -987,6 +987,40 @@ mod tests {
     }
 
     #[test]
+    fn centroid_and_rank_do_not_depend_on_the_order_of_the_corners() {
+        // Coordinates whose sums round differently in different orders.
+        let (a, b, c) = (
+            DVec3::new(0.1, 1e16, -3.3),
+            DVec3::new(0.2, 1.0, 7.7),
+            DVec3::new(0.3, -1e16, 1e-9),
+        );
+        let orders = [
+            [a, b, c],
+            [b, c, a],
+            [c, a, b],
+            [a, c, b],
+            [b, a, c],
+            [c, b, a],
+        ];
+        let centres: Vec<[u64; 3]> = orders
+            .iter()
+            .map(|&o| centroid(o).to_array().map(f64::to_bits))
+            .collect();
+        assert!(centres.windows(2).all(|w| w[0] == w[1]), "{centres:?}");
+        // A plain sum in the order given does round apart here: the test can tell.
+        assert_ne!((a + b + c).x.to_bits(), (c + b + a).x.to_bits());
+        let ranks: Vec<u64> = orders.iter().map(|&o| triangle_rank(o)).collect();
+        assert!(ranks.windows(2).all(|w| w[0] == w[1]), "{ranks:?}");
+        // A larger triangle ranks higher; two of one area rank apart by their corners.
+        let small = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let large = [DVec3::ZERO, DVec3::X * 2.0, DVec3::Y];
+        let moved = small.map(|p| p + DVec3::Z);
+        assert!(triangle_rank(large) > triangle_rank(small));
+        assert_ne!(triangle_rank(small), triangle_rank(moved));
+        assert_eq!(triangle_rank(small) >> 32, triangle_rank(moved) >> 32);
+    }
+
+    #[test]
     fn a_triangle_in_one_or_two_cells_marks_the_cells_its_samples_mark() {
         let (mut one, mut two) = (0, 0);
         for name in ["plate", "cover", "cap", "tray", "bracket"] {
