@@ -369,8 +369,7 @@ async function analyse({ keepCamera = false, again = false } = {}) {
     current = { report, name: part.sample ?? part.name, asked };
     showReport($("result-body"), report, r.times);
     $("clear-placed")?.addEventListener("click", clearPlaced);
-    showColourBar(extras.field);
-    showColourBar(extras.suitability ?? extras.field);
+    showColourBar(barField(extras));
     offerColourings(report, request.options);
     $("downloads").hidden = false;
     $("status").textContent = report.gate
@@ -390,6 +389,14 @@ async function analyse({ keepCamera = false, again = false } = {}) {
 
 // viridis, low to high, sampled from matplotlib's table (as crates/moldgate/src/colormap.rs)
 const VIRIDIS = ["#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779", "#6ece58", "#b5de2b", "#fde725"];
+
+/** The field the colour bar names: the suitability map's when the scene has one (its
+ * scores read the other way from the fields', so the bar says which end is better), else
+ * the part's. */
+function barField(extras) {
+  const map = extras.suitability;
+  return map ? { ...map, name: `${map.name} (lower is better)` } : extras.field;
+}
 
 function showColourBar(field) {
   const bar = $("colour-bar");
@@ -431,7 +438,7 @@ async function recolour() {
   try {
     const r = await ask({ type: "glb", colouring: Number($("colouring").value) });
     const extras = await viewer.show(r.glb, { keepCamera: true });
-    showColourBar(extras.suitability ?? extras.field);
+    showColourBar(barField(extras));
     $("error").hidden = true;
   } catch (e) {
     if (e.cancelled) return;

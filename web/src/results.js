@@ -332,7 +332,8 @@ export function showReport(container, r, page) {
   if (r.demold_auto) {
     const ul = el("ul", {});
     // The undercut is flattened into each line; a line left at its lower bound says "at least".
-    for (const c of r.demold_auto.tried) ul.append(el("li", {}, `${v3(c.direction, 3)}: undercut ${c.evaluated ? "" : "at least "}${c.area_mm2.toFixed(1)} mm²`));
+    // The label tells a principal axis from the world axis it prints as at three decimals.
+    for (const c of r.demold_auto.tried) ul.append(el("li", {}, `${v3(c.direction, 3)} (${c.label}): undercut ${c.evaluated ? "" : "at least "}${c.area_mm2.toFixed(1)} mm²`));
     container.append(section("demold-auto-result", "Demolding directions tried", ul));
   }
   container.append(timingsSection(r, page));

@@ -490,6 +490,17 @@ describe("moldgate in the browser", () => {
     await page.click("#defaults");
   });
 
+  test("the automatic demolding direction lists the lines tried with the command line's labels", async () => {
+    await page.selectOption("#demold", "auto");
+    assert.equal(await studySample(page, "cover"), "done");
+    const items = await page.$$eval("#demold-auto-result li", (lis) => lis.map((li) => li.textContent));
+    const tried = cli(["locate", "--sample", "cover", "--demold", "auto"]).demold_auto.tried;
+    assert.equal(items.length, tried.length);
+    tried.forEach((c, i) => assert.ok(items[i].includes(`(${c.label}): undercut `), `${items[i]} / ${c.label}`));
+    assert.ok(tried.some((c) => c.kind === "axis" && c.label.endsWith(" axis")));
+    await page.click("#defaults");
+  });
+
   test("several gates minimising the fill time are given in seconds", async () => {
     await page.selectOption("#demold", "+z");
     await page.selectOption("#objective", "resistance");
@@ -502,6 +513,7 @@ describe("moldgate in the browser", () => {
     const map = expected.fill.suitability;
     assert.equal(map.unit, "s");
     assert.match(await page.textContent("#suitability-result"), new RegExp(`: ${seconds(map.nodes[map.best].score)} s\\. `));
+    assert.match(await page.textContent("#colour-bar-name"), /^gate suitability: fill time from a gate here \(lower is better\)$/);
     const several = expected.fill.several;
     assert.equal(several.l_max_mm, null);
     assert.equal(worst, `2 gates: fill time ${seconds(several.fill_time_s)} s (${several.improvement_pct.toFixed(1)} % shorter than with the balanced gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`);

@@ -550,15 +550,14 @@ pub enum CandidateKind {
     Principal,
 }
 
-/// One direction tried by [`auto_direction`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// One direction tried by [`auto_direction`]. Its JSON has its [`Candidate::label`] too.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
     /// The direction, signed by the module's rule.
     pub direction: [f64; 3],
     /// Axis or principal axis.
     pub kind: CandidateKind,
     /// Its undercut; a lower bound of it when `evaluated` is false.
-    #[serde(flatten)]
     pub undercut: Undercut,
     /// Whether every ray of the line was drawn. A line whose lower bound (the rays of its
     /// largest facets) already exceeds the least undercut by more than the tie is not: it
@@ -569,6 +568,33 @@ pub struct Candidate {
     /// Whether a gate qualifies on it, when the tie-break asked (the second tie-break);
     /// `None` when it was not asked.
     pub gate_qualifies: Option<bool>,
+}
+
+impl Serialize for Candidate {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        /// The fields in their order, with the label after the kind.
+        #[derive(Serialize)]
+        struct Fields<'a> {
+            direction: [f64; 3],
+            kind: CandidateKind,
+            label: String,
+            #[serde(flatten)]
+            undercut: &'a Undercut,
+            evaluated: bool,
+            extent_mm: f64,
+            gate_qualifies: Option<bool>,
+        }
+        Fields {
+            direction: self.direction,
+            kind: self.kind,
+            label: self.label(),
+            undercut: &self.undercut,
+            evaluated: self.evaluated,
+            extent_mm: self.extent_mm,
+            gate_qualifies: self.gate_qualifies,
+        }
+        .serialize(serializer)
+    }
 }
 
 impl Candidate {
@@ -1185,6 +1211,12 @@ mod tests {
         assert_eq!(
             candidate(diagonal, CandidateKind::Principal).label(),
             "principal axis 45.000 deg from x"
+        );
+        // The JSON has the label after the kind, the undercut's fields flattened.
+        let json = serde_json::to_string(&candidate(near_z, CandidateKind::Principal)).unwrap();
+        assert!(
+            json.contains(r#""kind":"principal","label":"principal axis 0.027 deg from z","area_mm2":0.0,"share":0.0,"evaluated":true"#),
+            "{json}"
         );
     }
     use super::*;
