@@ -168,7 +168,9 @@ async function loadMaterialsFile() {
  * they were studied with (an edit undone, or a value typed before the study that ran with
  * it, leaves them current). */
 function markStale(e) {
-  if (!current || ["file", "sample"].includes(e?.target?.id)) return;
+  if (["file", "sample"].includes(e?.target?.id)) return;
+  if ($("error").dataset.kind === "options") $("error").hidden = true;
+  if (!current) return;
   $("stale").hidden = formState() === current.asked;
 }
 
@@ -286,6 +288,9 @@ function showError(message, fileError = false) {
     ? "This file cannot be studied as it is: open or drop another part."
     : "Open or drop another part, or change the options and analyse again.";
   box.append(p, hint);
+  // A message about the options goes once they change (it spoke of the options as they
+  // were); one about the file stays until another part is opened.
+  box.dataset.kind = fileError ? "file" : "options";
   box.hidden = false;
   bringViewIntoSight();
 }

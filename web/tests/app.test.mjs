@@ -264,7 +264,9 @@ describe("moldgate in the browser", () => {
     const s = await shown(page);
     assert.match(s.error ?? "", /^'Gate chosen by: balanced' and 'Aesthetic: gate on the parting line' cannot be used together: the balanced gate/);
     assert.equal(await page.$eval("#error-hint", (e) => e.textContent), "Open or drop another part, or change the options and analyse again.");
+    // Its message goes with the options it spoke of.
     await page.click("#defaults");
+    assert.ok(await page.$eval("#error", (e) => e.hidden));
   });
 
   test("a part where no node qualifies says why and what to try", async () => {
@@ -295,7 +297,9 @@ describe("moldgate in the browser", () => {
     assert.equal(await page.$eval("#app", (e) => e.dataset.state), "done");
     assert.ok(await page.$eval("#result-body", (e) => e.children.length > 0));
     assert.ok(!(await page.$eval("#stale", (e) => e.hidden)));
+    // Changing the refused option takes its message away; the results stay, still stale.
     await page.fill("#keep_out", "");
+    assert.ok(await page.$eval("#error", (e) => e.hidden));
     assert.equal(await analyseAgain(page), "done");
     assert.ok(await page.$eval("#error", (e) => e.hidden));
   });
