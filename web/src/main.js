@@ -410,7 +410,12 @@ function showColourBar(field) {
     return;
   }
   const unit = field.unit ? ` ${field.unit}` : "";
-  $("colour-bar-name").textContent = field.name;
+  // A far tail of a few cells (the library stops the colours at the cells' 99th
+  // percentile): said beside the name, with the largest value.
+  const tail = field.largest === null || field.largest === undefined
+    ? ""
+    : ` (colours stop at the 99th percentile of the cells: the last 1 % reach up to ${barEnds(field.min, field.largest)[1]}${unit}, in the top colour)`;
+  $("colour-bar-name").textContent = `${field.name}${tail}`;
   bar.querySelector(".bar").style.background = `linear-gradient(to right, ${VIRIDIS.join(", ")})`;
   const [min, max] = barEnds(field.min, field.max);
   $("colour-bar-min").textContent = `${min}${unit}`;

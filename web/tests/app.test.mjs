@@ -494,6 +494,22 @@ describe("moldgate in the browser", () => {
     await page.click("#defaults");
   });
 
+  test("a far tail of slow cells is said beside the colour bar, with its largest value", async (t) => {
+    const path = join(PARTS, "esp32s3box_bottom_housing_352k.stl");
+    if (!existsSync(path)) {
+      t.skip(`${path} not found (set MOLDGATE_PARTS)`);
+      return;
+    }
+    await page.check("#fill");
+    assert.equal(await studyFile(page, path, { demold: "+y" }), "done");
+    const name = await page.textContent("#colour-bar-name");
+    assert.match(name, /^fill time \(estimate\) \(colours stop at the 99th percentile of the cells: the last 1 % reach up to 0\.12\d* s, in the top colour\)$/, name);
+    // The bar's top end is the percentile, well below the largest value.
+    const top = Number((await page.textContent("#colour-bar-max")).split(" ")[0]);
+    assert.ok(top > 0.02 && top < 0.05, String(top));
+    await page.click("#defaults");
+  });
+
   test("the automatic demolding direction lists the lines tried with the command line's labels", async () => {
     await page.selectOption("#demold", "auto");
     assert.equal(await studySample(page, "cover"), "done");

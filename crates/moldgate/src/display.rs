@@ -81,7 +81,33 @@ impl CellField {
             );
         (lo <= hi).then_some([lo, hi])
     }
+
+    /// The colour bar's span: the values' range, unless a few cells lie far beyond the
+    /// rest (the largest value over [`TAIL_FACTOR`] times the 99th percentile: on the 352k
+    /// housing, two thin keyhole slots fill in up to 0.12 s where 99 % of the part fills
+    /// within 0.017 s, and one scale over both paints the whole part one colour). Then the
+    /// span stops at the 99th percentile, those cells take its top colour, and the largest
+    /// value comes beside it.
+    pub fn colour_span(&self) -> Option<([f32; 2], Option<f32>)> {
+        colour_span_of(&self.values, self.range()?)
+    }
 }
+
+/// [`CellField::colour_span`] of `values`, whose finite range is `[lo, hi]`.
+fn colour_span_of(values: &[f32], [lo, hi]: [f32; 2]) -> Option<([f32; 2], Option<f32>)> {
+    let mut finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    let k = ((finite.len().checked_sub(1)?) as f64 * 0.99).floor() as usize;
+    let (_, &mut p99, _) = finite.select_nth_unstable_by(k, f32::total_cmp);
+    Some(if p99 > lo && p99 > 0.0 && hi > TAIL_FACTOR * p99 {
+        ([lo, p99], Some(hi))
+    } else {
+        ([lo, hi], None)
+    })
+}
+
+/// How far beyond the 99th percentile the largest value of a field on cells must lie for
+/// its colours to stop at that percentile ([`CellField::colour_span`]).
+pub const TAIL_FACTOR: f32 = 2.0;
 
 /// The part's surface as drawn for a field on cells: refined triangles, the triangle of the
 /// mesh each comes from, and the field at every vertex.
@@ -422,6 +448,34 @@ fn split_all_in_order(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_far_tail_of_a_few_cells_stops_the_colour_span_at_the_99th_percentile() {
+        let span_of = |v: &[f32]| {
+            let finite = v.iter().copied().filter(|x| x.is_finite());
+            let range = [
+                finite.clone().fold(f32::INFINITY, f32::min),
+                finite.fold(f32::NEG_INFINITY, f32::max),
+            ];
+            (super::colour_span_of(v, range).unwrap(), range)
+        };
+        // 1000 cells from 1 to 10, and 2 of them far beyond: the span stops below them.
+        let mut values: Vec<f32> = (0..1000).map(|i| 1.0 + 9.0 * i as f32 / 999.0).collect();
+        values[17] = 100.0;
+        values[500] = 80.0;
+        values[999] = f32::NAN;
+        let ((span, beyond), _) = span_of(&values);
+        assert_eq!(beyond, Some(100.0));
+        assert!(
+            span[0] == 1.0 && span[1] > 9.0 && span[1] < 10.0,
+            "{span:?}"
+        );
+        // Without a far tail the span is the range.
+        values[17] = 15.0;
+        values[500] = 12.0;
+        let ((span, beyond), range) = span_of(&values);
+        assert_eq!((span, beyond), (range, None));
+    }
+
     use super::*;
     use crate::flow::voxel::Voxels;
 

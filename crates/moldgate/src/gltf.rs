@@ -140,7 +140,8 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     if !mesh.triangles.is_empty() {
         // The part refined to the field's cells when the field has them.
         let (surface, values) = scene.surface();
-        let part = part_geometry(surface, values, scene.field.range(), scene.frame.d);
+        let span = scene.field.colour_span().map(|(span, _)| span);
+        let part = part_geometry(surface, values, span, scene.frame.d);
         let m = doc.triangles("part", part, Look::Part);
         children.push(doc.node("part", m));
     }
@@ -731,7 +732,9 @@ impl Document {
     /// The JSON document and the GLB framing around it and the binary chunk.
     fn finish(self, scene: &Scene, root: usize) -> Result<Vec<u8>, GlbError> {
         let bin_len = self.bin_len;
-        let range = scene.field.range().map(|[min, max]| Range { min, max });
+        let span = scene.field.colour_span();
+        let range = span.map(|([min, max], _)| Range { min, max });
+        let beyond = span.and_then(|(_, beyond)| beyond);
         let bounds = scene.mesh.bounds();
         let gates: Vec<Value> = scene
             .gates
@@ -770,7 +773,8 @@ impl Document {
                         "unit": scene.field.unit,
                         "min": range.map(|r| r.min),
                         "max": range.map(|r| r.max),
-                        "colour_map": "viridis, low to high; grey where unknown",
+                        "largest": beyond,
+                        "colour_map": "viridis, low to high; grey where unknown; with `largest`, the colours stop at `max`, the 99th percentile of the cells, and the last 1 % (up to `largest`) take the top colour",
                     },
                 },
             },

@@ -40,6 +40,16 @@ impl Field {
             (None, None) => crate::colormap::Range::of(&self.per_vertex).map(|r| [r.min, r.max]),
         }
     }
+
+    /// The span of the colours, and, when it stops below the largest value, that value:
+    /// a field on cells with a far tail of a few cells stops at their 99th percentile
+    /// ([`CellField::colour_span`]); any other spans its [`Field::range`].
+    pub fn colour_span(&self) -> Option<([f32; 2], Option<f32>)> {
+        match &self.cells {
+            Some(c) => c.colour_span(),
+            None => self.range().map(|r| (r, None)),
+        }
+    }
 }
 
 /// A scalar per qualifying point (the gate-suitability map), shown as colours over the

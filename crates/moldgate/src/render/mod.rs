@@ -197,12 +197,13 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<Picture, RenderE
         // A field on cells spans its cells' values (the range the report quotes), a wall
         // map its facets' (its span).
         None => match (scene.field.cells.is_some() || scene.field.span.is_some())
-            .then(|| scene.field.range())
+            .then(|| scene.field.colour_span())
             .flatten()
         {
-            Some([lo, hi]) => FieldRange {
+            Some(([lo, hi], beyond)) => FieldRange {
                 min_max: Some((lo, hi)),
                 has_missing: values.iter().any(|v| !v.is_finite()),
+                beyond,
             },
             _ => FieldRange::of(values),
         },
@@ -524,6 +525,16 @@ fn extents<const N: usize>(
         })
 }
 
+/// `v` to three significant figures, without an exponent (0.123, 12.3, 1230).
+fn significant(v: f64) -> String {
+    let digits = if v == 0.0 || !v.is_finite() {
+        0
+    } else {
+        (2 - v.abs().log10().floor() as i32).max(0) as usize
+    };
+    format!("{v:.digits$}")
+}
+
 /// The finite values of the field: their range, and how values map to 0..=1.
 #[derive(Debug, Clone, Copy)]
 struct FieldRange {
@@ -531,6 +542,8 @@ struct FieldRange {
     min_max: Option<(f32, f32)>,
     /// Some values are NaN (drawn grey).
     has_missing: bool,
+    /// The largest value, when the colours stop below it ([`Field::colour_span`]).
+    beyond: Option<f32>,
 }
 
 impl FieldRange {
@@ -550,6 +563,7 @@ impl FieldRange {
         FieldRange {
             min_max,
             has_missing,
+            beyond: None,
         }
     }
 
@@ -1750,6 +1764,23 @@ fn draw_side_bar(
                 );
             }
             y += bar_h + 14.0 * k;
+            // Cells beyond the span: said under the bar, with their largest value.
+            if let Some(top) = range.beyond {
+                let unit = if scene.field.unit.is_empty() {
+                    String::new()
+                } else {
+                    format!(" {}", scene.field.unit)
+                };
+                let words = format!(
+                    "colours stop at the 99th percentile of the cells: the last 1 % reach up to {}{unit} (the top colour)",
+                    significant(top as f64)
+                );
+                for line in wrap(&words, &label, layout.side_w) {
+                    canvas.text(x, y + 12.0 * k, &line, &label, Align::Left);
+                    y += 18.0 * k;
+                }
+                y += 6.0 * k;
+            }
         }
     }
     if scene.node_field.is_some() {

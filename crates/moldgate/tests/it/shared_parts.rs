@@ -1330,3 +1330,47 @@ fn each_body_of_the_psu_cover_fills_as_it_would_alone() {
         }
     }
 }
+
+/// The 352k housing's two thin keyhole slots fill in up to about 0.12 s where 99 % of its
+/// cells fill within a quarter of that: one colour scale over both painted the whole part
+/// one colour. The fill time's colours stop at the cells' 99th percentile, the GLB says so
+/// with the largest value, and the PNG's cells under the bar's top are few; the PSU cover,
+/// without such a tail, keeps its whole range.
+#[test]
+fn a_far_tail_of_slow_cells_does_not_take_the_whole_colour_scale() {
+    const TEST: &str = "a_far_tail_of_slow_cells_does_not_take_the_whole_colour_scale";
+    let parts = match shared_parts() {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
+    for (file, demold, tail) in [
+        ("esp32s3box_bottom_housing_352k.stl", "+y", true),
+        ("prusa_psu_cover_mk3_ascii.stl", "+z", false),
+    ] {
+        let i = PARTS.iter().position(|p| p.file == file).unwrap();
+        let loaded = loaded(parts, i);
+        let options: moldgate::study::StudyOptions =
+            serde_json::from_str(&format!(r#"{{ "demold": "{demold}", "fill": true }}"#)).unwrap();
+        let s = moldgate::study::study(loaded, &options).unwrap_or_else(|e| panic!("{e}"));
+        let scene = s.scene(loaded, file).unwrap();
+        let range = scene.field.range().unwrap();
+        let (span, beyond) = scene.field.colour_span().unwrap();
+        println!("{TEST}: {file}: range {range:?}, colours {span:?}, beyond {beyond:?}");
+        let glb = s.glb(loaded, file).unwrap();
+        let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+        let json: Value = serde_json::from_slice(&glb[20..20 + len]).unwrap();
+        let field = &json["asset"]["extras"]["field"];
+        // The JSON's numbers are the f32 values, written shortest.
+        let f32_of = |v: &Value| v.as_f64().unwrap() as f32;
+        assert_eq!(f32_of(&field["min"]), span[0], "{file}");
+        assert_eq!(f32_of(&field["max"]), span[1], "{file}");
+        if tail {
+            assert_eq!(beyond, Some(range[1]), "{file}");
+            assert!(range[1] > 2.0 * span[1], "{file}: {range:?} {span:?}");
+            assert_eq!(f32_of(&field["largest"]), range[1], "{file}");
+        } else {
+            assert_eq!((span, beyond), (range, None), "{file}");
+            assert!(field["largest"].is_null(), "{file}");
+        }
+    }
+}
