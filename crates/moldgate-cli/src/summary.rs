@@ -203,18 +203,9 @@ fn fill(
             );
             if m.spans_bodies() {
                 let bests: Vec<String> = m
-                    .best_per_body
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(body, best)| {
-                        let n = &m.nodes[(*best)?];
-                        Some(format!(
-                            "{} {}: {} {}",
-                            moldgate::flow::body_name(body as u32),
-                            v3(n.point),
-                            value(n.score),
-                            m.unit
-                        ))
+                    .body_bests()
+                    .map(|(body, n)| {
+                        format!("{body} {}: {} {}", v3(n.point), value(n.score), m.unit)
                     })
                     .collect();
                 let _ = writeln!(

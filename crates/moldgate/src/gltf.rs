@@ -135,13 +135,14 @@ impl Look {
 pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     let mut doc = Document::default();
     let mut children = Vec::new();
+    // The colours' span (and the largest value beyond it), for the part and the extras.
+    let span = scene.field.colour_span();
 
     let mesh = scene.mesh;
     if !mesh.triangles.is_empty() {
         // The part refined to the field's cells when the field has them.
         let (surface, values) = scene.surface();
-        let span = scene.field.colour_span().map(|(span, _)| span);
-        let part = part_geometry(surface, values, span, scene.frame.d);
+        let part = part_geometry(surface, values, span.map(|(s, _)| s), scene.frame.d);
         let m = doc.triangles("part", part, Look::Part);
         children.push(doc.node("part", m));
     }
@@ -227,7 +228,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     }
     doc.nodes.push(root);
     let root_index = doc.nodes.len() - 1;
-    doc.finish(scene, root_index)
+    doc.finish(scene, span, root_index)
 }
 
 /// A node per gate the designer placed, named `your gate N`: a cylinder like the answer's
@@ -729,10 +730,15 @@ impl Document {
         self.nodes.len() - 1
     }
 
-    /// The JSON document and the GLB framing around it and the binary chunk.
-    fn finish(self, scene: &Scene, root: usize) -> Result<Vec<u8>, GlbError> {
+    /// The JSON document and the GLB framing around it and the binary chunk; `span` is the
+    /// field's colour span ([`Scene`]'s `field.colour_span()`).
+    fn finish(
+        self,
+        scene: &Scene,
+        span: Option<([f32; 2], Option<f32>)>,
+        root: usize,
+    ) -> Result<Vec<u8>, GlbError> {
         let bin_len = self.bin_len;
-        let span = scene.field.colour_span();
         let range = span.map(|([min, max], _)| Range { min, max });
         let beyond = span.and_then(|(_, beyond)| beyond);
         let bounds = scene.mesh.bounds();

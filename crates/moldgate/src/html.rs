@@ -919,18 +919,8 @@ fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
     );
     if m.spans_bodies() {
         let bests: Vec<String> = m
-            .best_per_body
-            .iter()
-            .enumerate()
-            .filter_map(|(body, best)| {
-                let n = &m.nodes[(*best)?];
-                Some(format!(
-                    "{} at {} mm, {} {unit}",
-                    crate::flow::body_name(body as u32),
-                    v3(n.point),
-                    value(n.score)
-                ))
-            })
+            .body_bests()
+            .map(|(body, n)| format!("{body} at {} mm, {} {unit}", v3(n.point), value(n.score)))
             .collect();
         let _ = writeln!(
             h,

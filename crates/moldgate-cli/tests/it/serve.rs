@@ -1100,28 +1100,7 @@ fn a_study_past_the_time_limit_stops_inside_its_fill() {
 #[test]
 fn a_study_whose_client_hangs_up_stops_before_its_time_limit() {
     let s = start(&["--timeout", "60", "--analyses", "1"]);
-    let stl = sample_stl("cover");
-    let mut c = connect(s.addr);
-    let query = "/v1/study?fill=true&gates=4&suitability=true&cell=0.5";
-    c.write_all(
-        head(
-            "POST",
-            query,
-            &[("content-type", "model/stl")],
-            Some(stl.len()),
-        )
-        .as_bytes(),
-    )
-    .unwrap();
-    c.write_all(&stl).unwrap();
-    let t = Instant::now();
-    while get(s.addr, "/healthz").json()["running"] == 0 {
-        assert!(
-            t.elapsed() < Duration::from_secs(20),
-            "the study never started"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    let c = long_study(s.addr);
     // Well into the study (it takes several seconds), the client goes.
     std::thread::sleep(Duration::from_millis(300));
     drop(c);

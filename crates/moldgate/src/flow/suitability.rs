@@ -109,6 +109,15 @@ pub struct Suitability {
 }
 
 impl Suitability {
+    /// Each body's best node, with the body's name in words ("body 1"), for the bodies
+    /// that have a scored node, in body order.
+    pub fn body_bests(&self) -> impl Iterator<Item = (String, &NodeScore)> {
+        self.best_per_body
+            .iter()
+            .enumerate()
+            .filter_map(|(body, best)| Some((super::body_name(body as u32), &self.nodes[(*best)?])))
+    }
+
     /// Whether the scored nodes lie on more than one body. Each node is scored by the fill of
     /// its own body, so a small body's nodes score better than a large one's whatever their
     /// place: the scores then compare only within a body.

@@ -525,16 +525,6 @@ fn extents<const N: usize>(
         })
 }
 
-/// `v` to three significant figures, without an exponent (0.123, 12.3, 1230).
-fn significant(v: f64) -> String {
-    let digits = if v == 0.0 || !v.is_finite() {
-        0
-    } else {
-        (2 - v.abs().log10().floor() as i32).max(0) as usize
-    };
-    format!("{v:.digits$}")
-}
-
 /// The finite values of the field: their range, and how values map to 0..=1.
 #[derive(Debug, Clone, Copy)]
 struct FieldRange {
@@ -1773,7 +1763,7 @@ fn draw_side_bar(
                 };
                 let words = format!(
                     "colours stop at the 99th percentile of the cells: the last 1 % reach up to {}{unit} (the top colour)",
-                    significant(top as f64)
+                    crate::report::three_figures(f64::from(top))
                 );
                 for line in wrap(&words, &label, layout.side_w) {
                     canvas.text(x, y + 12.0 * k, &line, &label, Align::Left);
