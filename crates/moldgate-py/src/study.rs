@@ -265,7 +265,7 @@ fn time_limit(timeout: Option<f64>) -> PyResult<Option<std::time::Duration>> {
 /// Loads and studies one file and gives its batch summary row as one line of JSON, the
 /// row of `moldgate locate DIR --summary x.jsonl`. A part that fails is a failed row;
 /// options that are refused raise `OptionsError` (they would fail every part). A study
-/// past `timeout` seconds is stopped, and its row says so (status `timeout`, exit code 2,
+/// past `timeout` seconds is stopped, and its row says so (status `timeout`, exit code 6,
 /// as the command line's batch gives for `--timeout`).
 #[pyfunction]
 #[pyo3(signature = (path, options_json, materials_file = None, units = "mm", demold = None, timeout = None))]

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use moldgate::flow::{self, FillOptions, Strategy, Walls};
 use moldgate::raycast::Bvh;
+use moldgate::thickness::{wall_thickness_of, CrossCheck, ThicknessOptions};
 use moldgate::{locate, LocateOptions, Material};
 
 fn best<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
@@ -105,4 +106,26 @@ fn main() {
         flow::march(&domain.voxels, &[src], Some(&domain.fill_cost))
     });
     println!("one march with a cost {ms:.2} ms");
+    // The walls the fill measures: one facet per surface cell.
+    let mut owners: Vec<u32> = voxels
+        .triangle
+        .iter()
+        .zip(&voxels.surface)
+        .filter(|(_, &s)| s)
+        .map(|(&t, _)| t)
+        .collect();
+    let listed = owners.len();
+    owners.sort_unstable();
+    owners.dedup();
+    for check in [CrossCheck::Off, CrossCheck::On] {
+        let o = ThicknessOptions {
+            cross_check: check,
+            ..ThicknessOptions::default()
+        };
+        let (ms, _) = best(repeats, || wall_thickness_of(&part.mesh, &bvh, &o, &owners));
+        println!(
+            "walls of the cells' facets ({listed} listed, {} distinct), cross check {check:?}: {ms:.1} ms",
+            owners.len()
+        );
+    }
 }
