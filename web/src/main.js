@@ -350,6 +350,10 @@ async function analyse({ keepCamera = false, again = false } = {}) {
     }
   }
   if (app.dataset.state === "busy") cancelStudy();
+  // The same part studied again keeps the results on show under the progress until the new
+  // ones replace them: a study stopped or failed leaves them, marked as the earlier
+  // options' when the form differs. A new part's study starts afresh.
+  const keep = again && current !== null;
   startRun();
   started = performance.now();
   $("error").hidden = true;
@@ -358,7 +362,8 @@ async function analyse({ keepCamera = false, again = false } = {}) {
   $("busy-text").textContent = STAGES.start;
   stageWords = "";
   $("progress").value = 0;
-  clearResults(`Analysing ${part.name}…`);
+  if (keep) $("status").textContent = `Analysing ${part.name}…`;
+  else clearResults(`Analysing ${part.name}…`);
   bringViewIntoSight();
   const asked = formState();
   const bytes = part.bytes ? part.bytes.slice(0) : new ArrayBuffer(0);
@@ -372,6 +377,7 @@ async function analyse({ keepCamera = false, again = false } = {}) {
     await new Promise(requestAnimationFrame);
     const total = performance.now() - started;
     current = { report, name: part.sample ?? part.name, asked };
+    $("stale").hidden = true;
     showReport($("result-body"), report, r.times);
     $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(barField(extras));
@@ -386,7 +392,12 @@ async function analyse({ keepCamera = false, again = false } = {}) {
   } catch (e) {
     if (e.cancelled) return;
     $("busy").hidden = true;
-    clearResults(`${part.name} could not be analysed.`);
+    if (keep && current !== null && !e.fileError) {
+      $("status").textContent = `${part.name} could not be analysed with these options: the results on show are the earlier ones.`;
+      markStale();
+    } else {
+      clearResults(`${part.name} could not be analysed.`);
+    }
     showError(e.message, !!e.fileError);
     setState("error");
   }
@@ -538,12 +549,19 @@ function wire() {
     e.preventDefault();
     analyse({ again: true });
   });
-  // A study stopped by the designer: its worker goes, the part stays open for the next.
+  // A study stopped by the designer: its worker goes, the part stays open for the next, and
+  // the results on show before it (the same part's) stay, marked as the earlier options'
+  // when the form differs.
   $("stop").addEventListener("click", () => {
     if (app.dataset.state !== "busy") return;
     cancelStudy();
     $("busy").hidden = true;
-    clearResults(`Stopped: ${part.name} was not analysed. Change the options (a coarser 'Fill cell size', fewer gates) and analyse again.`);
+    if (current !== null) {
+      $("status").textContent = `Stopped: the results on show are those of the study before.`;
+      markStale();
+    } else {
+      clearResults(`Stopped: ${part.name} was not analysed. A long study runs faster with a coarser 'Fill cell size' or fewer gates.`);
+    }
     setState("stopped");
   });
   $("defaults").addEventListener("click", () => {

@@ -1126,15 +1126,32 @@ fn materials_doc_matches_the_library() {
 fn aesthetic_mode_gives_the_parting_line_gate() {
     let report = json(&moldgate(
         &std::env::temp_dir(),
-        &["locate", "--sample", "cover", "--aesthetic", "--json"],
+        &[
+            "locate",
+            "--sample",
+            "cover",
+            "--demold",
+            "-z",
+            "--aesthetic",
+            "--json",
+        ],
     ));
     assert_eq!(report["options"]["mode"], "aesthetic");
     assert_eq!(report["gate"]["mode"], "aesthetic");
     let gate = point(&report["gate"]["point"]);
     assert_eq!(gate, point(&report["aesthetic_gate"]["point"]));
     assert_ne!(gate, point(&report["paper_gate"]["point"]));
-    // The cover is open to -z: its parting line is the rim at z = 0.
+    // The cover is open to -z, demolded towards its opening: its parting line is the rim
+    // at z = 0.
     assert!(gate[2].abs() < 1e-9, "{gate:?}");
+    // Demolded the other way (its closed face towards +D), the fixed half forms its walls
+    // and the line runs round its top, at z = 30.
+    let report = json(&moldgate(
+        &std::env::temp_dir(),
+        &["locate", "--sample", "cover", "--aesthetic", "--json"],
+    ));
+    let gate = point(&report["gate"]["point"]);
+    assert!((gate[2] - 30.0).abs() < 1e-9, "{gate:?}");
 
     let summary = assert_ok(&moldgate(
         &std::env::temp_dir(),
@@ -1153,6 +1170,8 @@ fn parting_line_rule_is_chosen_by_flag() {
                 "locate",
                 "--sample",
                 "cover",
+                "--demold",
+                "-z",
                 "--aesthetic",
                 "--parting-line",
                 rule,

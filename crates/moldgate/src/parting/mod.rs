@@ -1,22 +1,25 @@
 //! The parting line for a demolding direction, and the aesthetic gate on it (the paper's
 //! Fig. 5).
 //!
-//! A triangle *faces the fixed side* when its outward normal points against the demolding
-//! direction D (n.D < -1e-6); every other triangle, including faces parallel to D, belongs to
-//! the moving (+D) half. The parting line is made of the edges shared by a triangle that faces
-//! the fixed side and one that does not. With drafted walls this is the silhouette of the part
-//! seen along D. On walls without draft (a band of faces parallel to D) the line runs along
-//! the -D end of the band: the mould splits where the part's -D face begins, so the +D half
-//! forms every vertical wall, as it does when those walls are drafted towards +D. For a cover
-//! open towards -D that is the outer edge of its rim; for a plate or a tray, the outline of the
-//! face that lies on the -D side.
+//! A triangle *faces the moving side* when its outward normal points along the demolding
+//! direction D (n.D > 1e-6); every other triangle, including faces parallel to D, belongs to
+//! the fixed (-D) half. The parting line is made of the edges shared by a triangle that
+//! faces the moving side and one that does not (the split of the reference implementation).
+//! With drafted walls this is the silhouette of the part seen along D. On walls without draft
+//! (a band of faces parallel to D) the line runs along the +D end of the band: the fixed half
+//! forms every vertical wall, as it does when the outer walls of a cover open towards +D are
+//! drafted to release from it (wider towards +D). D points from the fixed half (the cavity,
+//! which forms the outside) to the moving half (the core, which forms the faces turned
+//! towards +D and the inside of a cover open towards it), so for such a cover the line is the
+//! outer edge of its open rim, away from the show face; for a plate or a tray, the outline
+//! of the face that lies on the +D side.
 //!
 //! Such edges also run round holes, pockets, rib ends and threads, where the two halves do
 //! not meet. By default ([`PartingRule::Outline`], `outline.rs`) the parting line keeps, of
-//! them, the ones on each body's **outline** seen along D and at its -D end there (one edge
+//! them, the ones on each body's **outline** seen along D and at its +D end there (one edge
 //! per outline position on a vertical band), and closes them into one cycle per body round
 //! the outline on the mesh's edges (up the steps where that end changes height). The rims of
-//! holes, and of grooves, ribs and thread turns seen edge-on above the -D end, are not on
+//! holes, and of grooves, ribs and thread turns seen edge-on below the +D end, are not on
 //! it. With [`PartingRule::Longest`] (the paper's path) it is the longest connected loop of
 //! the edges between the sides, on the outline or not.
 
@@ -35,7 +38,7 @@ use crate::mesh::{Mesh, Topology};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PartingRule {
-    /// The default: the closed outer rim of each body seen along D, at the -D end of walls
+    /// The default: the closed outer rim of each body seen along D, at the +D end of walls
     /// without draft (the module's documentation).
     #[default]
     Outline,
@@ -55,7 +58,7 @@ pub struct PartingLine {
     /// Every edge between the two sides, on the outline or not.
     pub edges_all: usize,
     /// Number of connected sets of rim edges found (the edges between the sides on the
-    /// outline at its -D end, before they are closed into cycles; for
+    /// outline at its +D end, before they are closed into cycles; for
     /// [`PartingRule::Longest`], of all the edges between the sides).
     pub loops: usize,
     /// True when every kept loop is closed.
@@ -88,23 +91,23 @@ pub struct AestheticGate {
     pub distance_2d: f64,
 }
 
-/// Per-triangle flag: faces the fixed (-D) side (n.D < -1e-6 for the unit normal n).
-fn faces_fixed_side(mesh: &Mesh, d: DVec3, tilt: f64) -> Vec<bool> {
+/// Per-triangle flag: faces the moving (+D) side (n.D > `tilt` for the unit normal n).
+fn faces_moving_side(mesh: &Mesh, d: DVec3, tilt: f64) -> Vec<bool> {
     (0..mesh.triangles.len())
         .into_par_iter()
         .map(|t| {
             let [a, b, c] = mesh.corners(t);
             let cross = (b - a).cross(c - a);
-            cross.dot(d) < -tilt * cross.length()
+            cross.dot(d) > tilt * cross.length()
         })
         .collect()
 }
 
-/// The edges between a triangle that faces the fixed side and one that does not, sorted,
+/// The edges between a triangle that faces the moving side and one that does not, sorted,
 /// each once, as (smaller, larger) vertex pairs.
 fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec<[u32; 2]> {
-    let fixed = faces_fixed_side(mesh, frame.d, tilt);
-    // Each edge between the sides is found from its triangle that faces the fixed side,
+    let moving = faces_moving_side(mesh, frame.d, tilt);
+    // Each edge between the sides is found from its triangle that faces the moving side,
     // in blocks of triangles in parallel (the edges are sorted below). A plain loop a
     // block: most triangles are passed over on their own flag. The blocks' lists are
     // joined once, at their total size (a list grown edge by edge would be copied as it
@@ -116,7 +119,7 @@ fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec
         .map(|b| {
             let mut found = Vec::new();
             for t in b * BLOCK..((b + 1) * BLOCK).min(mesh.triangles.len()) {
-                if !fixed[t] {
+                if !moving[t] {
                     continue;
                 }
                 let across = topology.neighbours(t);
@@ -126,7 +129,7 @@ fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec
                     // As `Topology::two_sided`: an edge shared with exactly one other
                     // triangle.
                     if n == NO_TRIANGLE
-                        || fixed[n as usize]
+                        || moving[n as usize]
                         || (check && !topology.neighbours(n as usize).contains(&(t as u32)))
                     {
                         continue;
@@ -370,7 +373,9 @@ mod tests {
 
     #[test]
     fn cover_splits_at_the_outer_edge_of_its_rim() {
-        let (mesh, line, frame) = parting("cover", "+z");
+        // The cover opens towards -z: demolded towards its opening, the moving half forms
+        // its inside and the fixed half its outside, the line round the open rim.
+        let (mesh, line, frame) = parting("cover", "-z");
         assert!((line.length_mm - 400.0).abs() < 1e-9, "{}", line.length_mm);
         assert!(line.closed);
         assert!(all_on_plane(&mesh, &line, 0.0));
@@ -383,25 +388,35 @@ mod tests {
     }
 
     #[test]
-    fn plate_and_bracket_split_at_their_bottom_outline() {
-        let (mesh, line, _) = parting("plate", "+z");
+    fn plate_and_bracket_split_at_the_outline_of_their_plus_d_face() {
+        let (mesh, line, _) = parting("plate", "-z");
         assert!((line.length_mm - 320.0).abs() < 1e-9);
         assert!(all_on_plane(&mesh, &line, 0.0));
         assert_eq!(line.loops, 1, "the outline; the hole's rim is inside it");
-        let (mesh, line, _) = parting("bracket", "+z");
+        let (mesh, line, _) = parting("plate", "+z");
+        assert!((line.length_mm - 320.0).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 3.0));
+        let (mesh, line, _) = parting("bracket", "-z");
         assert!((line.length_mm - 200.0).abs() < 1e-9);
         assert!(all_on_plane(&mesh, &line, 0.0));
     }
 
     #[test]
     fn demolding_the_other_way_moves_the_line_to_the_other_end_of_the_walls() {
-        let (mesh, line, _) = parting("tray", "-z");
+        // The tray opens towards +z: its rim is the +D end.
+        let (mesh, line, _) = parting("tray", "+z");
         assert!((line.length_mm - 280.0).abs() < 1e-9);
         assert!(all_on_plane(&mesh, &line, 20.0));
-        let (mesh, line, _) = parting("cap", "+z");
+        let (mesh, line, _) = parting("tray", "-z");
+        assert!((line.length_mm - 280.0).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 0.0));
+        let (mesh, line, _) = parting("cap", "-z");
         // A 96-gon of radius 20 at the rim.
         let expected = 96.0 * 2.0 * 20.0 * (std::f64::consts::PI / 96.0).sin();
         assert!((line.length_mm - expected).abs() < 1e-9);
         assert!(all_on_plane(&mesh, &line, 0.0));
+        let (mesh, line, _) = parting("cap", "+z");
+        assert!((line.length_mm - expected).abs() < 1e-9);
+        assert!(all_on_plane(&mesh, &line, 15.0));
     }
 }

@@ -2,12 +2,12 @@
 //! each body seen along D.
 //!
 //! 1. *Rim edges.* Of the edges between the two sides, those on the body's outline seen
-//!    along D and at the part's **-D end** there (`outside.rs`: the body's edges between the
+//!    along D and at the part's **+D end** there (`outside.rs`: the body's edges between the
 //!    sides drawn into a raster of its projection, the outside flooded from the border). A
-//!    vertical band has one such edge per outline position, its -D end; the rims of holes,
-//!    grooves, ribs and thread turns, inside the outline or above its -D end, are not rim
+//!    vertical band has one such edge per outline position, its +D end; the rims of holes,
+//!    grooves, ribs and thread turns, inside the outline or below its +D end, are not rim
 //!    edges.
-//! 2. *One cycle per body.* The rim edges are not always one chain: where the -D end of a
+//! 2. *One cycle per body.* The rim edges are not always one chain: where the +D end of a
 //!    wall steps along D (a notch, a tab standing out of a wall) the rim runs up the step on
 //!    edges that join no two sides, and on finely tessellated rounded corners a few rim edges
 //!    fall a cell inside the outline. So the cycle is the cheapest closed path round the
@@ -39,7 +39,7 @@ use crate::mesh::topology::{body_of_vertex, NO_TRIANGLE};
 use crate::mesh::{Mesh, Topology};
 
 /// Faces whose normal is within this (as n.D for the unit normal) of the plane are walls
-/// along D, of the moving half: the f32 coordinates of a mesh file tilt a wall drawn along
+/// along D, of the fixed half: the f32 coordinates of a mesh file tilt a wall drawn along
 /// D by up to about 1e-4 on small facets, and such noise must not split a wall into strips
 /// of both sides. A wall drafted by 0.06 degrees or more is classed by its facing.
 const WALL_TILT: f64 = 1e-3;
@@ -66,7 +66,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         let p = mesh.vertices[v as usize];
         DVec2::new(p.dot(frame.u), p.dot(frame.w))
     };
-    let height = |v: u32| mesh.vertices[v as usize].dot(frame.d);
+    // Depth below the part's +D end (less is nearer it): the rim is the +D end of a wall.
+    let depth = |v: u32| -mesh.vertices[v as usize].dot(frame.d);
     // Each vertex's body (one array of the vertices' size, see `body_of_vertex`), and each
     // body's triangles (a counting sort by the body of their first corner), so that a
     // body's band reads its own triangles only and a part of many bodies is read once, not
@@ -90,8 +91,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
     let segment = |[a, b]: [u32; 2]| Segment {
         a: plane(a),
         b: plane(b),
-        height_a: height(a),
-        height_b: height(b),
+        depth_a: depth(a),
+        depth_b: depth(b),
     };
     let mut order: Vec<u32> = (0..edges.len() as u32).collect();
     if body_of_vertex.is_some() {

@@ -1,9 +1,9 @@
 //! Which edges of one body lie on its outline seen along D, and which of them at the part's
-//! -D end there: the body's edges between the two sides drawn into a raster over its
+//! +D end there: the body's edges between the two sides drawn into a raster over its
 //! projection, the cells outside them found from the raster's border.
 //!
 //! The outline of a body's projection is made of its edges between the two sides (the
-//! boundary of the faces turned towards -D, projected: every other face lies over or under
+//! boundary of the faces turned towards +D, projected: every other face lies over or under
 //! one of those, up to the walls along D, which cover no area). So those edges, drawn cell by
 //! cell (every cell a segment passes through, a 4-connected run), close the outline in the
 //! raster, and a flood from the border over the cells no edge passes through reaches exactly
@@ -46,7 +46,7 @@ pub(super) struct Outside {
     /// million cells, and `locate` builds it beside the rays.
     state: Vec<u8>,
     /// For the cells an edge passes through (a small share of the raster, about the edges'
-    /// length in cells): the lowest height along D of such an edge.
+    /// length in cells): the least depth below the +D end of such an edge.
     lowest: FxHashMap<u32, f32>,
     /// One bit a cell, rows of [`Outside::words`] words: the cell touches the outside (it
     /// or one of its eight neighbours is outside). An eighth of the raster's bytes, made
@@ -64,13 +64,14 @@ const NEAR_RIM: u8 = 4;
 /// In the band: [`NEAR_RIM`] and within the reach of the outside in both axes.
 const BAND: u8 = 32;
 
-/// An edge between the sides in frame coordinates: its ends in the plane and their heights.
+/// An edge between the sides in frame coordinates: its ends in the plane and their depths
+/// below the part's +D end (-p.D: less is nearer that end).
 #[derive(Clone, Copy)]
 pub(super) struct Segment {
     pub a: DVec2,
     pub b: DVec2,
-    pub height_a: f64,
-    pub height_b: f64,
+    pub depth_a: f64,
+    pub depth_b: f64,
 }
 
 impl Outside {
@@ -107,7 +108,7 @@ impl Outside {
             words: n_u.div_ceil(64),
         };
         for s in segments {
-            let low = s.height_a.min(s.height_b) as f32;
+            let low = s.depth_a.min(s.depth_b) as f32;
             let (state, lowest) = (&mut raster.state, &mut raster.lowest);
             cells_on(lo, cell, n_u, n_w, s.a, s.b, |c| {
                 state[c] = EDGE;
@@ -208,10 +209,10 @@ impl Outside {
         }
     }
 
-    /// Whether `s` is on the outline at the -D end of the part there: one of its cells
+    /// Whether `s` is on the outline at the +D end of the part there: one of its cells
     /// touches the outside (its eight neighbours), and in one of its cells no edge lies
-    /// lower than it by more than `tolerance` (on a vertical band, the edges above its -D
-    /// end share its cells with the edge at that end).
+    /// nearer that end than it by more than `tolerance` (on a vertical band, the edges below
+    /// its +D end share its cells with the edge at that end).
     pub(super) fn on_rim(&self, s: &Segment, tolerance: f64) -> bool {
         let n = ((s.a.distance(s.b) / (0.5 * self.cell)).ceil() as usize).clamp(1, 1 << 16);
         let sample = |k: usize| {
@@ -220,14 +221,14 @@ impl Outside {
         };
         // Most edges between the sides are inside the outline (the rims of holes, ribs,
         // threads): the test of the outside's cells, which reads only the raster, settles
-        // them before any look-up of the lowest heights.
+        // them before any look-up of the least depths.
         let touches = (0..n).any(|k| sample(k).0.is_some_and(|c| self.touches_outside(c)));
         touches
             && (0..n).any(|k| {
                 let (Some(c), t0, t1) = sample(k) else {
                     return false;
                 };
-                let h = lerp(s.height_a, s.height_b, t0).min(lerp(s.height_a, s.height_b, t1));
+                let h = lerp(s.depth_a, s.depth_b, t0).min(lerp(s.depth_a, s.depth_b, t1));
                 let lowest = self
                     .lowest
                     .get(&(c as u32))
@@ -246,7 +247,7 @@ impl Outside {
         self.cell
     }
 
-    /// Frees what only [`Outside::on_rim`] reads (the lowest heights of the edge cells, about
+    /// Frees what only [`Outside::on_rim`] reads (the least depths of the edge cells, about
     /// a megabyte on the 352k part, and the cells touching the outside), once the rim edges
     /// are found: the band and the cycle are made without them, beside the rays.
     pub(super) fn rims_found(&mut self) {
@@ -458,15 +459,15 @@ mod tests {
         Segment {
             a: DVec2::new(a.0, a.1),
             b: DVec2::new(b.0, b.1),
-            height_a: h,
-            height_b: h,
+            depth_a: h,
+            depth_b: h,
         }
     }
 
-    /// A square of side 10 at height 0, a smaller square inside it (a hole's rim) and, on
-    /// the square's right side, a segment above it (an edge up the wall).
+    /// A square of side 10 at depth 0, a smaller square inside it (a hole's rim) and, on
+    /// the square's right side, a segment deeper (an edge down the wall).
     #[test]
-    fn the_outer_square_is_the_rim_not_the_hole_nor_the_edge_above_it() {
+    fn the_outer_square_is_the_rim_not_the_hole_nor_the_edge_below_it() {
         let square = |s: f64, h: f64| {
             [
                 segment((-s, -s), (s, -s), h),
@@ -477,8 +478,8 @@ mod tests {
         };
         let mut all: Vec<Segment> = square(5.0, 0.0).to_vec();
         all.extend(square(2.0, 0.0));
-        let above = segment((5.0, -4.0), (5.0, 4.0), 3.0);
-        all.push(above);
+        let deeper = segment((5.0, -4.0), (5.0, 4.0), 3.0);
+        all.push(deeper);
         let raster = Outside::new(all.iter().copied());
         for s in &square(5.0, 0.0) {
             assert!(raster.on_rim(s, 0.01));
@@ -489,7 +490,7 @@ mod tests {
                 "a hole's rim is inside the outline"
             );
         }
-        assert!(!raster.on_rim(&above, 0.01), "above the -D end");
+        assert!(!raster.on_rim(&deeper, 0.01), "below the +D end");
     }
 
     /// A tab standing 4 cells proud of the right side of a square, over a fifth of its
@@ -535,7 +536,7 @@ mod tests {
     }
 
     /// Segments from a seeded generator: a closed ring with inner rings (holes) and loose
-    /// strokes, heights at random, over a raster a few hundred cells wide.
+    /// strokes, depths at random, over a raster a few hundred cells wide.
     fn random_segments(seed: u64) -> Vec<Segment> {
         let mut state = seed | 1;
         let mut next = move || {
