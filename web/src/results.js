@@ -77,15 +77,15 @@ function gateSection(r) {
     // The layout's values are of its objective: mm of L_max, or s of fill time.
     const worst = (x) => (x.fill_time_s != null ? `fill time ${seconds(x.fill_time_s)} s` : `L_max ${x.l_max_mm.toFixed(1)} mm`);
     const ol = el("ol", { id: "several-gates" });
-    // A layout lies on one body: with several, its shares are of that body's volume.
-    const of = r.fill.bodies > 1 ? "of its body's volume" : "of the volume";
+    // A layout that leaves a body without a gate: its shares are of the volume it reaches.
+    const of = several.fill && several.fill.reached_share < 0.9995 ? "of the volume the layout reaches" : "of the volume";
     for (const s of several.gates) {
       ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % ${of}, ${worst(s)}`));
     }
     content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the balanced gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
     // Chosen by its flow length, the layout's fill time is given too, said not minimised.
     if (several.fill_time_s == null && several.layout_fill_time_s != null) {
-      content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill ${r.fill.bodies > 1 ? "their body" : "the part"} in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
+      content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill ${several.fill && several.fill.reached_share < 0.9995 ? "the bodies they reach" : "the part"} in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
     }
     // The fill with all its gates open: L/t and the Eq. 1 pressure of the layout.
     const g = several.fill;
@@ -124,7 +124,8 @@ function gateFill(id, title, f) {
     ["Flow-cell wall at the gate (the fill model's sample)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
     ["Flow length / wall L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
     ["Fill pressure (Eq. 1)", `${threeFigures(f.pressure_mpa)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
-    ["Fill time (estimate)", `${seconds(f.fill_time_s)} s`, { class: "fill-time", "data-value": f.fill_time_s }],
+    ["Fill time (estimate, for comparing gates on this part)", `${seconds(f.fill_time_s)} s`, { class: "fill-time", "data-value": f.fill_time_s }],
+    ["99 % of the volume filled by (estimate)", `${seconds(f.fill_time_99_s)} s`, { class: "fill-time-99", "data-value": f.fill_time_99_s }],
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
   ];
   const last = el("ol", { class: "last-to-fill" });

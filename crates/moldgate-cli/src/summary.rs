@@ -33,14 +33,15 @@ fn fill_line(s: &mut String, label: &str, g: &moldgate::flow::GateFill) {
     let limit = limit_words(g);
     let _ = writeln!(
         s,
-        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {} MPa, fill time {} s (estimate)",
+        "  {label} {}: flow-cell wall {:.2} mm, longest flow L_max {:.1} mm (mean {:.1}), flow length / wall L/t {:.0}{limit}, pressure {} MPa, fill time {} s (estimate; 99 % of the volume by {} s)",
         v3(g.gate),
         g.wall_across_mm,
         g.l_max_mm,
         g.l_mean_mm,
         g.flow_ratio,
         three_figures(g.pressure_mpa),
-        seconds_text(g.fill_time_s)
+        seconds_text(g.fill_time_s),
+        seconds_text(g.fill_time_99_s)
     );
 }
 
@@ -105,7 +106,7 @@ fn fill(
     );
     let _ = writeln!(
         s,
-        "  (fill time: the way from the gate over the front speed of Eq. 7, each mm weighted by its wall against its body's nominal wall; an estimate for comparing gates on one part, not between parts (a part of thin walls does not read slower than one of thick walls: compare L_max, L/t and the pressure), and not the fill time of a moulding machine, which sets its own injection rate)"
+        "  (fill time: the way from the gate over the front speed of Eq. 7, each mm weighted by its wall against its body's nominal wall; an estimate for comparing gates on one part, not between parts (a part of thin walls does not read slower than one of thick walls: compare L_max, L/t and the pressure), and not the fill time of a moulding machine, which sets its own injection rate; the 99 % time is when 99 % of the volume is filled: far below the fill time, a few thin places fill last and set the fill time of nearly any gate)"
     );
     if let Some(w) = &f.wall {
         let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2}"));
@@ -243,8 +244,9 @@ fn fill(
             let _ = writeln!(
                 s,
                 "  their fill time (estimate){}: {} s, which the layout does not minimise (it minimises L_max)",
-                // A layout lies on one body: on a part of several, the time is that body's.
-                if f.bodies > 1 { " over their body" } else { "" },
+                // A layout that leaves a body without a gate: the time is of the bodies it
+                // reaches.
+                if m.leaves_a_body() { " over the bodies they reach" } else { "" },
                 moldgate::report::seconds_text(t)
             );
         }
@@ -259,9 +261,10 @@ fn fill(
             );
             fill_places(s, g, "the nearest gate");
         }
-        // A layout lies on one body: with several, its shares are of that body's volume.
-        let of = if f.bodies > 1 {
-            "of its body's volume"
+        // A layout that leaves a body without a gate: its shares are of the volume it
+        // reaches.
+        let of = if m.leaves_a_body() {
+            "of the volume the layout reaches"
         } else {
             "of the volume"
         };
@@ -704,7 +707,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     };
     let _ = writeln!(
         s,
-        "  {:<30} {:>9} {:>10} {:>16} {:>10} {:>6}  last to fill",
+        "  {:<30} {:>9} {:>10} {:>16} {:>10} {:>10} {:>6}  last to fill",
         if n == 1 {
             "fill (even where a rule fails)"
         } else {
@@ -714,6 +717,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
         "pressure",
         "flow/wall (limit)",
         "fill time",
+        "99 % by",
         "welds"
     );
     let row = |s: &mut String, label: &str, g: &moldgate::flow::GateFill| {
@@ -735,10 +739,11 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
         };
         let _ = writeln!(
             s,
-            "  {label:<30} {:>6.1} mm {:>6} MPa {ratio:>16} {:>8} s {:>6}  {last}{reach}",
+            "  {label:<30} {:>6.1} mm {:>6} MPa {ratio:>16} {:>8} s {:>8} s {:>6}  {last}{reach}",
             g.l_max_mm,
             three_figures(g.pressure_mpa),
             seconds_text(g.fill_time_s),
+            seconds_text(g.fill_time_99_s),
             g.weld_lines.len()
         );
     };

@@ -591,12 +591,13 @@ fn fill_cells(g: &crate::flow::GateFill) -> String {
         (None, _) => " (no limit known for this material)".to_string(),
     };
     format!(
-        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{} MPa</td><td class=\"n\">{} s</td><td class=\"n\">{:.2} mm</td>",
+        "<td>{} mm</td><td class=\"n\">{:.1} mm</td><td class=\"n\">{:.0}{limit}</td><td class=\"n\">{} MPa</td><td class=\"n\">{} s (99 % by {} s)</td><td class=\"n\">{:.2} mm</td>",
         v3(g.gate),
         g.l_max_mm,
         g.flow_ratio,
         three_figures(g.pressure_mpa),
         seconds_text(g.fill_time_s),
+        seconds_text(g.fill_time_99_s),
         g.wall_across_mm
     )
 }
@@ -758,19 +759,21 @@ fn fill_table(h: &mut String, r: &Report) {
                 "<p id=\"layout-fill-time\">These gates together fill {} in {} s \
                  (estimate), a time the layout does not minimise (it minimises the longest flow \
                  path): it may end later than a single gate's fill.{}</p>",
-                // A layout lies on one body: on a part of several, the time is that body's.
-                if f.bodies > 1 {
-                    "their body"
+                // A layout that leaves a body without a gate: the time is of the bodies it
+                // reaches.
+                if m.leaves_a_body() {
+                    "the bodies they reach"
                 } else {
                     "the part"
                 },
                 crate::report::seconds_text(t),
-                match (pictured, f.bodies > 1) {
+                match (pictured, m.leaves_a_body()) {
                     (false, _) => "",
                     (true, false) => " The pictures colour this fill time.",
                     (true, true) => {
-                        " The pictures colour this fill time on their body, and each other \
-                         body by the fill from its own gate (listed below), which may end later."
+                        " The pictures colour this fill time on the bodies they reach, and each \
+                         other body by the fill from its own gate (listed below), which may end \
+                         later."
                     }
                 }
             );
@@ -1013,7 +1016,10 @@ from the gate, each mm weighted by the wall's resistance relative to its body's 
 wall H_ref ((H_ref/H)^((n+1)/n): thin walls slow the front), over the front speed of
 Eq. 7. Comparable between gates on one part, not between parts (a part of thin walls does
 not read slower than one of thick walls: compare L_max, L/t and the pressure); a geometric
-estimate, not a simulation nor a machine's fill time.</dd>
+estimate, not a simulation nor a machine's fill time. The part's fill time is its last
+place's; the time &ldquo;99 % by&rdquo; is when 99 % of the volume is filled: far below the
+fill time, a few thin places fill last and set the fill time of nearly any gate (compare
+gates by L_max and the pressure first).</dd>
 <dt>Wall along D, flow-cell wall, facet wall</dt><dd>Three measures of a wall.
 <b>Wall along D</b> (the paper's rule): the node's ray along the demolding direction D,
 from the gate through the part; \"thinnest under the disc\" is the least over the gate's

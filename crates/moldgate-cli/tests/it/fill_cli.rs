@@ -54,6 +54,12 @@ fn fill_reports_both_gates_and_the_balanced_one_never_does_worse() {
         ] {
             assert!(g[key].as_f64().unwrap() > 0.0, "{key}: {g}");
         }
+        // 99 % of the volume is filled before the last place, not after.
+        let most = g["fill_time_99_s"].as_f64().unwrap();
+        assert!(
+            most > 0.0 && most <= g["fill_time_s"].as_f64().unwrap(),
+            "{g}"
+        );
         assert!(!g["last_to_fill"].as_array().unwrap().is_empty());
     }
     assert!(balanced["l_max_mm"].as_f64() <= paper["l_max_mm"].as_f64());
@@ -534,8 +540,50 @@ fn bodies_are_counted_from_one_in_words_and_from_zero_in_json() {
     assert!(text.contains("  body 2 (33.3 % of the volume)"), "{text}");
     assert!(!text.contains("body 0"), "{text}");
     assert!(
-        text.contains("warning: the gate feeds body 1 only"),
+        text.contains("warning: the paper gate feeds body 1 only"),
         "{text}"
+    );
+    // A layout of two gates gives each body one; of three over three bodies, with one gate
+    // short, the body left out is named.
+    let v = json(&["locate", part, "--demold", "+z", "--gates", "2", "--json"]);
+    let mut xs: Vec<bool> = v["gate"]["gates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["point"][0].as_f64().unwrap() > 45.0)
+        .collect();
+    xs.sort_unstable();
+    assert_eq!(xs, [false, true], "{}", v["gate"]);
+    let warned = |v: &Value| {
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|w| w.as_str().filter(|w| w.contains("none of its gates")))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    assert!(warned(&v).is_empty(), "{:?}", warned(&v));
+    let mut three = box_facets([0.0; 3], [40.0, 30.0, 10.0]);
+    three.extend(box_facets([50.0, 0.0, 0.0], [70.0, 30.0, 10.0]));
+    three.extend(box_facets([80.0, 0.0, 0.0], [90.0, 30.0, 10.0]));
+    let part3 = dir.path().join("three.stl");
+    std::fs::write(&part3, binary_stl(&three)).unwrap();
+    let v = json(&[
+        "locate",
+        part3.to_str().unwrap(),
+        "--demold",
+        "+z",
+        "--gates",
+        "2",
+        "--json",
+    ]);
+    let w = warned(&v);
+    assert!(
+        w.len() == 1
+            && w[0].contains("on body 1, body 2 only")
+            && w[0].contains("body 3 gets none of its gates (ask for at least 3 gates, one a body"),
+        "{w:?}"
     );
     // JSON keeps indices from 0.
     let v = json(&["locate", part, "--demold", "+z", "--fill", "--json"]);

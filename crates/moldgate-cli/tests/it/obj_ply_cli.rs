@@ -247,7 +247,11 @@ fn every_malformed_ascii_ply_names_its_line() {
     write(dir.path(), "cut.ply", lines[..15].join("\n") + "\n");
     assert_input_error(
         &moldgate(dir.path(), &["locate", "cut.ply"]),
-        &["cut.ply", "line 15", "ends before face 2"],
+        &[
+            "cut.ply",
+            "line 15",
+            "ends before face 2 of the 4 the header declares",
+        ],
     );
 }
 
@@ -287,7 +291,7 @@ fn every_malformed_binary_ply_names_its_byte() {
             "cut.ply",
             good[..face(3) + 6].to_vec(),
             face(3) + 5,
-            "ends inside face 3",
+            "ends inside face 3 of the 4 the header declares",
         ),
     ] {
         write(dir.path(), name, bytes);

@@ -793,6 +793,11 @@ pub struct GateFill {
     /// it converges as the cells shrink and compares gates on one part, not parts (each
     /// body's walls are weighed against its own nominal wall).
     pub fill_time_s: f64,
+    /// The estimated time by which 99 % of the volume it reaches is filled, s (the fill
+    /// order of the reached cells, which are of one size, at its 99th percentile). Where a
+    /// few thin places fill far later than the rest, they set [`GateFill::fill_time_s`]
+    /// whatever the gate; this time says how much of the part they hold back.
+    pub fill_time_99_s: f64,
     /// L / t: each body's longest flow over that body's nominal wall, the largest over the
     /// bodies the gates reach (with one body, L_max over the nominal wall).
     pub flow_ratio: f64,
@@ -952,6 +957,7 @@ fn summarise_layout(
     let l_mean = reached.iter().map(|&c| length.t[c as usize]).sum::<f64>() / reached.len() as f64;
     let per_mm = seconds_per_mm(material);
     let fill_time_s = argmax(&fill.t).1 * per_mm;
+    let fill_time_99_s = percentile_99(&fill.t) * per_mm;
     let mut reached_volume = vec![0usize; domain.bodies];
     let mut cells = vec![0usize; domain.bodies];
     // Each body's longest flow: a layout's gates may feed several bodies.
@@ -998,6 +1004,7 @@ fn summarise_layout(
         l_mean_mm: l_mean,
         farthest: v.centre(far).to_array(),
         fill_time_s,
+        fill_time_99_s,
         flow_ratio,
         flow_ratio_limit: limit,
         exceeds_flow_ratio: limit.is_some_and(|m| flow_ratio > m),
@@ -1007,6 +1014,45 @@ fn summarise_layout(
     };
     let shares = shares_of(length, points);
     (gate_fill, shares)
+}
+
+/// How much later than the 99 % time the last place may fill before the fill time is said
+/// to be set by a few places (as the pictures' colours stop at the 99th percentile when the
+/// largest value is over this times it).
+const LATE_TAIL_FACTOR: f64 = 2.0;
+
+/// The warning for a fill whose last 1 % fills far later than the rest (more than
+/// [`LATE_TAIL_FACTOR`] times the 99 % time): a few thin places then set the fill time
+/// whatever the gate.
+fn late_tail_warning(fill: &GateFill) -> Option<String> {
+    let (last, most) = (fill.fill_time_s, fill.fill_time_99_s);
+    if !(most > 0.0 && last > LATE_TAIL_FACTOR * most) {
+        return None;
+    }
+    let place = fill
+        .last_to_fill
+        .first()
+        .map(|p| {
+            let [x, y, z] = p.point;
+            format!(" (the last at ({x:.3}, {y:.3}, {z:.3}) mm)")
+        })
+        .unwrap_or_default();
+    Some(format!(
+        "the last 1 % of the volume fills far later than the rest: the paper gate's fill time is {} s, yet 99 % of the volume is filled by {} s; a few places of thin walls fill last{place} and set the fill time of nearly any gate: to compare gates, read L_max and the pressure first",
+        crate::report::seconds_text(last),
+        crate::report::seconds_text(most),
+    ))
+}
+
+/// The 99th percentile of a field's finite values (0 when there is none): the least value
+/// at or below which 99 % of them lie (the value of rank ceil(0.99 n), counted from 1).
+fn percentile_99(t: &[f64]) -> f64 {
+    let mut reached: Vec<f64> = t.iter().copied().filter(|x| x.is_finite()).collect();
+    if reached.is_empty() {
+        return 0.0;
+    }
+    let rank = (reached.len() * 99).div_ceil(100).max(1) - 1;
+    *reached.select_nth_unstable_by(rank, f64::total_cmp).1
 }
 
 /// Each source's share of the cells a multi-source field reaches, and its largest value
@@ -1895,6 +1941,12 @@ impl MultiGate {
     pub fn value(&self) -> f64 {
         self.l_max_mm.or(self.fill_time_s).unwrap_or(f64::NAN)
     }
+
+    /// Whether its gates leave part of the part unreached (a body without a gate of the
+    /// layout), once its fill is made.
+    pub fn leaves_a_body(&self) -> bool {
+        self.fill.as_ref().is_some_and(|f| f.reached_share < 0.9995)
+    }
 }
 
 /// The searches of a several-gate layout, each from its own start, that run side by side
@@ -2439,6 +2491,21 @@ fn several_gates_search(
         }
         at = following(round, g + 1, improved, moves, &stayed_at);
     }
+    let runs = runs + from_centre.runs() + trial_runs.into_inner();
+    Some(layout_of(candidates, &chosen, &field, worst, runs))
+}
+
+/// The layout of the gates `chosen` (indices into `candidates`) from their field: each
+/// gate's share of the reached cells and its longest value there, the layout's value
+/// `worst` (in the objective's units, under `l_max_mm` until the caller names it) and the
+/// marches `runs` it took.
+fn layout_of(
+    candidates: &[Source],
+    chosen: &[usize],
+    field: &Field,
+    worst: f64,
+    runs: usize,
+) -> MultiGate {
     let reached = field.t.iter().filter(|t| t.is_finite()).count().max(1);
     let gates: Vec<GateShare> = chosen
         .iter()
@@ -2446,7 +2513,7 @@ fn several_gates_search(
         .map(|(g, &i)| {
             let mut count = 0usize;
             let mut l_max = 0.0f64;
-            for c in 0..v.len() {
+            for c in 0..field.t.len() {
                 if field.source[c] == g as u32 {
                     count += 1;
                     l_max = l_max.max(field.t[c]);
@@ -2468,7 +2535,7 @@ fn several_gates_search(
             .copied()
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
-    Some(MultiGate {
+    MultiGate {
         gates,
         l_max_mm: Some(worst),
         fill_time_s: None,
@@ -2476,9 +2543,120 @@ fn several_gates_search(
         fill: None,
         improvement_pct: 0.0,
         balance,
-        runs: runs + from_centre.runs() + trial_runs.into_inner(),
+        runs,
         redundant: Vec::new(),
-    })
+    }
+}
+
+/// [`several_gates_from`] over the bodies of a part: on a part of one body (or whose
+/// candidates lie on one) it is that search. Otherwise each body the candidates lie on gets
+/// a gate, the start's body first and then the others by volume, as far as `k` goes (each
+/// body is moulded from its own gates: no melt crosses between bodies); each body's gates
+/// are found by [`several_gates_from`] on that body alone, its first from `first` on the
+/// start's body and elsewhere from the candidate nearest the centre of the body's cells;
+/// each gate beyond one a body goes, one at a time, to the body whose layout has the worst
+/// value then. The layout's shares and values are those of one march from all its gates.
+/// `None` when the bodies' candidates cannot take `k` gates.
+pub fn several_gates_over_bodies(
+    domain: &Domain,
+    candidates: &[Source],
+    objective: Objective,
+    first: usize,
+    k: usize,
+    min_distance_mm: f64,
+    start: Option<&Field>,
+) -> Option<MultiGate> {
+    let first_body = domain.body[candidates[first].cell as usize];
+    let mut bodies: Vec<u32> = candidates
+        .iter()
+        .map(|c| domain.body[c.cell as usize])
+        .filter(|&b| b != first_body)
+        .collect();
+    bodies.sort_unstable();
+    bodies.dedup();
+    if bodies.is_empty() || k < 2 {
+        return several_gates_from(
+            domain,
+            candidates,
+            objective,
+            first,
+            k,
+            min_distance_mm,
+            start,
+        );
+    }
+    let volume = |b: u32| domain.body_volume_mm3[b as usize];
+    bodies.sort_by(|&a, &b| volume(b).total_cmp(&volume(a)).then(a.cmp(&b)));
+    bodies.insert(0, first_body);
+    bodies.truncate(k);
+    let v = &domain.voxels;
+    let firsts: Vec<usize> = bodies
+        .iter()
+        .map(|&b| {
+            if b == first_body {
+                return first;
+            }
+            let cells: Vec<DVec3> = (0..v.len() as u32)
+                .filter(|&c| domain.body[c as usize] == b)
+                .map(|c| v.centre(c))
+                .collect();
+            let centre = cells.iter().copied().sum::<DVec3>() / cells.len().max(1) as f64;
+            in_body(domain, candidates, b)
+                .into_iter()
+                .min_by(|&x, &y| {
+                    let d = |i: usize| candidates[i].point.distance(centre);
+                    d(x).total_cmp(&d(y)).then(x.cmp(&y))
+                })
+                .expect("a body listed holds a candidate")
+        })
+        .collect();
+    let search = |i: usize, count: usize| {
+        several_gates_from(
+            domain,
+            candidates,
+            objective,
+            firsts[i],
+            count,
+            min_distance_mm,
+            start.filter(|_| i == 0),
+        )
+    };
+    let mut layouts: Vec<Option<MultiGate>> = (0..bodies.len())
+        .into_par_iter()
+        .map(|i| search(i, 1))
+        .collect();
+    let mut full: Vec<bool> = layouts.iter().map(Option::is_none).collect();
+    let mut runs = 0;
+    for _ in bodies.len()..k {
+        let worst = (0..bodies.len()).filter(|&i| !full[i]).max_by(|&a, &b| {
+            let value = |i: usize| layouts[i].as_ref().map_or(f64::NAN, MultiGate::value);
+            value(a).total_cmp(&value(b)).then(b.cmp(&a))
+        })?;
+        let count = layouts[worst].as_ref().map_or(0, |l| l.gates.len());
+        match search(worst, count + 1) {
+            Some(layout) => {
+                runs += layouts[worst].as_ref().map_or(0, |l| l.runs);
+                layouts[worst] = Some(layout);
+            }
+            None => full[worst] = true,
+        }
+        if v.stopped() {
+            return None;
+        }
+    }
+    let chosen: Vec<usize> = layouts
+        .iter()
+        .flatten()
+        .flat_map(|l| l.gates.iter().map(|g| g.candidate))
+        .collect();
+    if chosen.len() < k {
+        return None;
+    }
+    runs += layouts.iter().flatten().map(|l| l.runs).sum::<usize>() + 1;
+    let sources: Vec<Source> = chosen.iter().map(|&i| candidates[i]).collect();
+    let field = march(v, &sources, domain.cost(objective));
+    let worst = argmax(&field.t).1;
+    Some(layout_of(candidates, &chosen, &field, worst, runs))
 }
 
 /// The gates of `layout` (found among `candidates`, its value in the field's units) that
@@ -2498,6 +2676,17 @@ pub fn redundant_gates(
     }
     let limit = layout.value() + tolerance;
     let cost = domain.cost(objective);
+    // On a part of several bodies a gate may be its body's only one: the others then
+    // reach fewer cells, and it is needed however late they reach the rest.
+    let source = |o: usize| candidates[layout.gates[o].candidate];
+    let reached = |f: &Field| f.t.iter().filter(|t| t.is_finite()).count();
+    let all = (domain.bodies > 1).then(|| {
+        reached(&march(
+            &domain.voxels,
+            &(0..n).map(source).collect::<Vec<_>>(),
+            cost,
+        ))
+    });
     (0..n)
         .into_par_iter()
         .filter(|&g| {
@@ -2505,12 +2694,9 @@ pub fn redundant_gates(
             if domain.voxels.stopped() {
                 return false;
             }
-            let others: Vec<Source> = (0..n)
-                .filter(|&o| o != g)
-                .map(|o| candidates[layout.gates[o].candidate])
-                .collect();
-            let (_, reach) = march_until(&domain.voxels, &others, cost, |_, t| t > limit);
-            reach.is_infinite()
+            let others: Vec<Source> = (0..n).filter(|&o| o != g).map(source).collect();
+            let (field, reach) = march_until(&domain.voxels, &others, cost, |_, t| t > limit);
+            reach.is_infinite() && all.is_none_or(|all| reached(&field) >= all)
         })
         .collect()
 }
@@ -3428,7 +3614,11 @@ pub fn analyse_prepared(
     drop(pressure);
     if paper.reached_share < 0.999 {
         warnings.push(format!(
-            "the gate feeds {} only: {:.1} % of the part's volume is not reached",
+            "the {} feeds {} only: {:.1} % of the part's volume is not reached",
+            match analysis.options.mode {
+                crate::GateMode::Aesthetic => "aesthetic gate",
+                _ => "paper gate",
+            },
             body_name(paper.body),
             100.0 * (1.0 - paper.reached_share)
         ));
@@ -3594,7 +3784,7 @@ pub fn analyse_prepared(
             let first_field = balanced_field
                 .filter(|(search, _)| search.candidate == start)
                 .map(|(_, field)| field);
-            let mut layout = several_gates_from(
+            let mut layout = several_gates_over_bodies(
                 &domain,
                 &candidates,
                 options.objective,
@@ -3678,7 +3868,16 @@ pub fn analyse_prepared(
         };
     }
     if let Some(layout) = &several {
-        if layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
+        // A layout over several bodies feeds bodies a single gate cannot: its gain is not
+        // in its value alone.
+        let mut gated: Vec<u32> = layout
+            .gates
+            .iter()
+            .map(|g| domain.body[candidates[g.candidate].cell as usize])
+            .collect();
+        gated.sort_unstable();
+        gated.dedup();
+        if gated.len() == 1 && layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
             let (what, unit) = options.objective.value_words();
             // Close values: L_max to 0.01 mm, a fill time to three significant figures.
             let value = |x: f64| match options.objective {
@@ -3705,24 +3904,38 @@ pub fn analyse_prepared(
         if !layout.redundant.is_empty() {
             warnings.push(redundant_warning(layout, options.objective));
         }
-        // The layout's gates are all on the body of its first (the search keeps to it):
-        // on a part of several bodies, say so, and whose volume the shares are of.
-        let body = layout
-            .gates
-            .first()
-            .and_then(|g| domain.body_at(DVec3::from_array(g.point)));
-        if let (true, Some(body)) = (domain.bodies > 1, body) {
-            let share = domain.volume_share(body);
-            warnings.push(format!(
-                "the layout of {} gates is on {} only ({:.1} % of the part's volume), and its shares are of that body's volume: {} none of its gates (a gate per body is listed with the fill)",
-                layout.gates.len(),
-                body_name(body),
-                100.0 * share,
-                match domain.bodies - 1 {
-                    1 => "the other body gets".to_string(),
-                    n => format!("the other {n} bodies get"),
-                },
-            ));
+        // Each body the candidates lie on gets a gate while there are gates enough: on a
+        // part of several bodies, say which get none, and whose volume the shares are of.
+        if domain.bodies > 1 {
+            let without: Vec<u32> = (0..domain.bodies as u32)
+                .filter(|b| !gated.contains(b))
+                .collect();
+            if !without.is_empty() {
+                let names = |bodies: &[u32]| {
+                    bodies
+                        .iter()
+                        .map(|&b| body_name(b))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                let share: f64 = gated.iter().map(|&b| domain.volume_share(b)).sum();
+                let with_candidates = without
+                    .iter()
+                    .any(|&b| !in_body(&domain, &candidates, b).is_empty());
+                warnings.push(format!(
+                    "the layout of {} gates is on {} only ({:.1} % of the part's volume), and its shares are of that volume: {} {} none of its gates ({}; a gate per body is listed with the fill)",
+                    layout.gates.len(),
+                    names(&gated),
+                    100.0 * share,
+                    names(&without),
+                    if without.len() == 1 { "gets" } else { "get" },
+                    if with_candidates {
+                        format!("ask for at least {} gates, one a body", gated.len() + without.len())
+                    } else {
+                        format!("no node qualifies on {}", if without.len() == 1 { "it" } else { "them" })
+                    },
+                ));
+            }
         }
     }
     // The balanced gate's fill counts where it made the join longer than the rest.
@@ -3930,6 +4143,7 @@ pub fn analyse_prepared(
         several.as_ref(),
         placed.as_ref(),
     ));
+    warnings.extend(late_tail_warning(&paper));
     check()?;
     Ok(FillAnalysis {
         cell_mm: h,
@@ -4259,6 +4473,48 @@ mod tests {
     }
 
     #[test]
+    fn the_99_percent_time_is_the_value_of_its_rank_and_a_far_tail_is_warned() {
+        // 1..=200 with unreached cells among them: rank ceil(0.99 * 200) = 198.
+        let mut t: Vec<f64> = (1..=200).rev().map(f64::from).collect();
+        t.extend([f64::INFINITY; 7]);
+        assert_eq!(percentile_99(&t), 198.0);
+        assert_eq!(percentile_99(&[5.0]), 5.0);
+        assert_eq!(percentile_99(&[f64::INFINITY]), 0.0);
+        // By a sort, on values with ties.
+        let t: Vec<f64> = (0..1001).map(|i| f64::from(i % 37)).collect();
+        let mut sorted = t.clone();
+        sorted.sort_by(f64::total_cmp);
+        assert_eq!(
+            percentile_99(&t),
+            sorted[(1001 * 99usize).div_ceil(100) - 1]
+        );
+        let fill = |last: f64, most: f64| GateFill {
+            gate: [0.0; 3],
+            body: 0,
+            reached_share: 1.0,
+            wall_across_mm: 2.0,
+            l_max_mm: 10.0,
+            l_mean_mm: 5.0,
+            farthest: [0.0; 3],
+            fill_time_s: last,
+            fill_time_99_s: most,
+            flow_ratio: 5.0,
+            flow_ratio_limit: None,
+            exceeds_flow_ratio: false,
+            pressure_mpa: 1.0,
+            last_to_fill: Vec::new(),
+            weld_lines: Vec::new(),
+        };
+        assert!(
+            late_tail_warning(&fill(0.02, 0.01)).is_none(),
+            "twice is not far"
+        );
+        let w = late_tail_warning(&fill(0.0344, 0.0161)).expect("over twice");
+        assert!(w.contains("0.0344 s") && w.contains("0.0161 s"), "{w}");
+        assert!(late_tail_warning(&fill(0.01, 0.0)).is_none());
+    }
+
+    #[test]
     fn the_walls_quantiles_by_selection_are_those_of_a_sort() {
         let mesh = crate::samples::sample("cover").expect("sample");
         let voxels = Voxels::new(&mesh, 1.0);
@@ -4498,6 +4754,7 @@ mod tests {
             l_mean_mm: 0.5 * l_max_mm,
             farthest: [0.0; 3],
             fill_time_s,
+            fill_time_99_s: fill_time_s,
             flow_ratio: l_max_mm / 2.0,
             flow_ratio_limit: None,
             exceeds_flow_ratio: false,

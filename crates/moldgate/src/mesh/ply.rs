@@ -148,6 +148,7 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
             let what = Instance {
                 element: &element.name,
                 index,
+                count: element.count,
             };
             body.begin(&what)?;
             let mut xyz = [0.0f64; 3];
@@ -469,11 +470,21 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
 struct Instance<'a> {
     element: &'a str,
     index: u64,
+    /// How many the header declares.
+    count: u64,
 }
 
 impl std::fmt::Display for Instance<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{} {}", self.element, self.index)
+    }
+}
+
+impl Instance<'_> {
+    /// The instance with the count its header declares, for the messages of a file whose
+    /// data does not match its header ("face 1 of the 1000 the header declares").
+    fn of_declared(&self) -> String {
+        format!("{self} of the {} the header declares", self.count)
     }
 }
 
@@ -511,7 +522,7 @@ impl<R: BufRead> Body<R> {
             if !lines.next_into(line)? {
                 return Err(syntax(
                     Place::Line(lines.line_no),
-                    format!("the file ends before {what}"),
+                    format!("the file ends before {}", what.of_declared()),
                 ));
             }
             *pos = 0;
@@ -527,7 +538,7 @@ impl<R: BufRead> Body<R> {
             if line[*pos..].iter().any(|b| !b.is_ascii_whitespace()) {
                 return Err(syntax(
                     Place::Line(lines.line_no),
-                    format!("too many values on the line of {what}"),
+                    format!("too many values on the line of {}", what.of_declared()),
                 ));
             }
         }
@@ -585,7 +596,10 @@ impl<R: BufRead> Body<R> {
                 let bytes = &mut buf[..size];
                 if let Err(e) = reader.read_exact(bytes) {
                     return Err(if e.kind() == ErrorKind::UnexpectedEof {
-                        syntax(Place::Byte(*offset), format!("the file ends inside {what}"))
+                        syntax(
+                            Place::Byte(*offset),
+                            format!("the file ends inside {}", what.of_declared()),
+                        )
                     } else {
                         LoadError::Io(e)
                     });

@@ -685,23 +685,55 @@ fn a_layout_gives_its_fill_time_whichever_objective_chose_it() {
         "{t} against {minimised}"
     );
     assert!(!s.html(None).unwrap().contains("layout-fill-time"));
-    // On a part of two bodies the layout lies on one: the time is that body's, and the
-    // pictures colour the other from its own gate (its time may be later).
+    // On a part of two bodies each body gets a gate of the layout (no melt crosses between
+    // them), and the extra gate goes to the body whose layout is the worse: the longer one.
     let mut two = moldgate::samples::BoxUnion::default();
     two.add([0.0, 0.0, 0.0], [60.0, 30.0, 2.0]);
     two.add([80.0, 0.0, 0.0], [120.0, 30.0, 2.0]);
     let two = moldgate::mesh::from_generated(two.mesh());
+    let body_of = |g: &moldgate::flow::GateShare| usize::from(g.point[0] > 70.0);
     let s = study(&two, &options(r#"{"gates": 2, "demold": "+z"}"#)).unwrap();
     let fill = s.report().fill.as_ref().unwrap();
     assert_eq!(fill.bodies, 2);
-    let t = fill.several.as_ref().unwrap().layout_fill_time_s.unwrap();
+    let layout = fill.several.as_ref().unwrap();
+    let mut bodies: Vec<usize> = layout.gates.iter().map(body_of).collect();
+    bodies.sort_unstable();
+    assert_eq!(bodies, [0, 1], "{:?}", layout.gates);
+    assert!(!layout.leaves_a_body());
+    assert!(layout.fill.as_ref().unwrap().reached_share > 0.9995);
+    let shares: f64 = layout.gates.iter().map(|g| g.volume_share).sum();
+    assert!((shares - 1.0).abs() < 1e-9, "{shares}");
+    // The part's longest flow is the longer body's, from its own gate near its middle.
+    let longest = layout.l_max_mm.unwrap();
+    assert!(longest > 25.0 && longest < 40.0, "{longest}");
+    assert!(
+        !s.report()
+            .warnings
+            .iter()
+            .any(|w| w.contains("none of its gates")),
+        "{:?}",
+        s.report().warnings
+    );
+    let t = layout.layout_fill_time_s.unwrap();
     let page = s.html(None).unwrap();
     let said = format!(
-        "These gates together fill their body in {} s",
+        "These gates together fill the part in {} s",
         moldgate::report::seconds_text(t)
     );
     assert!(page.contains(&said), "the page lacks {said}");
-    assert!(page.contains("The pictures colour this fill time on their body, and each other body by the fill from its own gate"));
+    assert!(page.contains("The pictures colour this fill time."));
+    let three = study(&two, &options(r#"{"gates": 3, "demold": "+z"}"#)).unwrap();
+    let layout = three
+        .report()
+        .fill
+        .as_ref()
+        .unwrap()
+        .several
+        .as_ref()
+        .unwrap();
+    let on_long = layout.gates.iter().filter(|g| body_of(g) == 0).count();
+    assert_eq!(on_long, 2, "{:?}", layout.gates);
+    assert!(layout.l_max_mm.unwrap() < longest, "{:?}", layout.l_max_mm);
 }
 
 #[test]
