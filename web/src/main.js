@@ -80,6 +80,7 @@ function setDefaults() {
     else e.value = v === null || v === undefined ? "" : String(v);
   }
   $("gate_at_text").value = "";
+  placed = [];
   $("material").value = typeof d.material === "string" ? d.material : "PP";
   $("cosmetic").value = d.cosmetic ?? "";
   showMaterial();
@@ -164,6 +165,18 @@ async function loadMaterialsFile() {
   status.hidden = false;
 }
 
+/** Says beside 'Fill analysis' when other options run it whether ticked or not (the
+ * library's rule: the balanced gate, several gates and the suitability map need the fill). */
+function showFillImplied() {
+  const by = [];
+  if ($("strategy").value === "balanced") by.push("the balanced gate");
+  if ((Number($("gates").value) || 1) > 1) by.push("several gates");
+  if ($("suitability").checked) by.push("the gate-suitability map");
+  const note = $("fill-implied");
+  note.hidden = by.length === 0 || $("fill").checked;
+  note.textContent = by.length ? `The fill analysis runs anyway: ${by.join(", ")} need${by.length === 1 ? "s" : ""} it.` : "";
+}
+
 /** Marks the results as those of earlier options when the form differs from the options
  * they were studied with (an edit undone, or a value typed before the study that ran with
  * it, leaves them current). */
@@ -211,9 +224,8 @@ function studyOptions() {
   o.cosmetic = $("cosmetic").value === "vector" ? vectorOf("cosmetic") : $("cosmetic").value || null;
   o.keep_out = $("keep_out").value.split("\n").map((s) => s.trim()).filter(Boolean);
   // JavaScript writes a number so that it reads back to the same double.
-  // The gates typed in (as given: the library reads and checks them), then those clicked.
-  const typed = $("gate_at_text").value.split("\n").map((s) => s.trim()).filter(Boolean);
-  o.gate_at = [...typed, ...placed.map((p) => p.map(String).join(","))];
+  // The gates typed in or clicked (as given: the library reads and checks them).
+  o.gate_at = ownGates();
   if ($("material").value === "custom") {
     const m = { name: "custom" };
     for (const f of materialFields) m[f] = number(`m-${f}`);
@@ -239,7 +251,7 @@ function formState() {
 
 let viewer = null;
 let part = null; // {name, bytes} or {sample}
-let placed = []; // the designer's gates, [x, y, z] mm in the part's frame (shift-click)
+let placed = []; // the lines of the designer's gates placed by shift-click on this part ("x,y,z" mm)
 let current = null; // the study shown: {report, name}
 let started = 0;
 
@@ -315,20 +327,39 @@ function clearResults(status) {
 /** The library's limit of gates a designer places (`gate_at`). */
 const MAX_GATE_AT = 32;
 
-/** A gate placed by shift-click: judged with the others in a new study, the view kept. */
+/** The lines of 'Your own gates', typed or clicked, blank ones left out. */
+function ownGates() {
+  return $("gate_at_text").value.split("\n").map((s) => s.trim()).filter(Boolean);
+}
+
+/** A gate placed by shift-click: added to 'Your own gates' (where it can be read, edited
+ * or deleted like a typed one) and judged with the others in a new study, the view kept. */
 function placeGate(point) {
   if (!part || app.dataset.state === "busy") return;
-  if (placed.length >= MAX_GATE_AT) {
-    $("status").textContent = `At most ${placed.length} gates of your own: clear them to place others.`;
+  const lines = ownGates();
+  if (lines.length >= MAX_GATE_AT) {
+    $("status").textContent = `At most ${MAX_GATE_AT} gates of your own: clear them to place others.`;
     return;
   }
-  placed.push(point);
+  // JavaScript writes a number so that it reads back to the same double.
+  const line = point.map(String).join(",");
+  placed.push(line);
+  $("gate_at_text").value = [...lines, line].join("\n");
   analyse({ keepCamera: true, again: true });
 }
 
+/** Every gate of the designer's, typed or clicked, goes. */
 function clearPlaced() {
   placed = [];
+  $("gate_at_text").value = "";
   analyse({ keepCamera: true, again: true });
+}
+
+/** A new part: the gates clicked on the last one go from 'Your own gates' (they are points
+ * of its frame); the typed ones stay. */
+function forgetPlaced() {
+  if (placed.length) $("gate_at_text").value = ownGates().filter((l) => !placed.includes(l)).join("\n");
+  placed = [];
 }
 
 async function analyse({ keepCamera = false, again = false } = {}) {
@@ -492,7 +523,7 @@ async function download(what) {
 // ---------------------------------------------------------------- choosing a part
 
 async function openFile(file) {
-  placed = [];
+  forgetPlaced();
   if (!file) return;
   if (info && file.size > info.maxFileBytes) {
     if (app.dataset.state === "busy") cancelStudy();
@@ -510,7 +541,7 @@ async function openFile(file) {
 }
 
 function openSample(name) {
-  placed = [];
+  forgetPlaced();
   if (!name) return;
   part = { name: `${name} (sample)`, sample: name };
   $("analyse").disabled = false;
@@ -567,6 +598,7 @@ function wire() {
   $("defaults").addEventListener("click", () => {
     setDefaults();
     markStale();
+    showFillImplied();
   });
   $("material").addEventListener("change", showMaterial);
   $("demold").addEventListener("change", () => ($("demold-vector").hidden = $("demold").value !== "vector"));
@@ -576,6 +608,8 @@ function wire() {
   // options, until the next analysis (choosing a file or a sample starts one by itself).
   $("options").addEventListener("input", markStale);
   $("options").addEventListener("change", markStale);
+  $("options").addEventListener("input", showFillImplied);
+  $("options").addEventListener("change", showFillImplied);
   $("reset-view").addEventListener("click", () => viewer.reset());
   $("view-d").addEventListener("click", () => viewer.viewAlongD());
   for (const layer of ["gates", "placed", "centre", "parting", "qualifying"]) {

@@ -133,7 +133,7 @@ function gateFill(id, title, f) {
   const welds = el("ul", { class: "weld-lines" });
   for (const w of f.weld_lines.slice(0, 3)) welds.append(el("li", xyz(w.point), `near ${v3(w.point, 1)}, ${w.flow_length_mm.toFixed(1)} mm from the gate, fronts at ${w.meeting_angle_deg.toFixed(0)}°`));
   if (!f.weld_lines.length) welds.append(el("li", {}, "none found"));
-  return el("div", { id }, el("h4", {}, title), list(null, rows), el("p", {}, "Last to fill:"), last, el("p", {}, "Weld lines (where fronts meet):"), welds);
+  return el("div", { id }, el("h4", {}, title), list(null, rows), el("p", {}, "Last to fill:"), last, el("p", {}, `Weld lines (where fronts meet${f.weld_lines.length > 3 ? `; the first 3 of ${f.weld_lines.length}` : ""}):`), welds);
 }
 
 /** What a balanced search that stopped unproven leaves open, in the words of the

@@ -304,6 +304,19 @@ describe("moldgate in the browser", () => {
     assert.ok(await page.$eval("#error", (e) => e.hidden));
   });
 
+  test("options that run the fill whether ticked or not say so beside it", async () => {
+    assert.ok(await page.$eval("#fill-implied", (e) => e.hidden));
+    await page.check("#suitability");
+    assert.equal(await page.$eval("#fill-implied", (e) => e.hidden), false);
+    assert.match(await page.textContent("#fill-implied"), /runs anyway: the gate-suitability map needs it/);
+    await page.fill("#gates", "2");
+    assert.match(await page.textContent("#fill-implied"), /several gates, the gate-suitability map need it/);
+    await page.check("#fill");
+    assert.ok(await page.$eval("#fill-implied", (e) => e.hidden));
+    await page.click("#defaults");
+    assert.ok(await page.$eval("#fill-implied", (e) => e.hidden));
+  });
+
   test("a grid too large for memory is refused before the work", async () => {
     await page.$eval("details", (d) => (d.open = true));
     await page.fill("#spacing", "0.0001");
@@ -635,6 +648,8 @@ describe("moldgate in the browser", () => {
     assert.equal(await settled(page, () => page.click("#viewport canvas", { position: at, modifiers: ["Shift"] })), "done");
     const placed = await page.$$eval("#placed-list li", (ls) => ls.map((l) => ({ ...l.dataset })));
     assert.equal(placed.length, 1);
+    // The clicked gate is a line of 'Your own gates', to read, edit or delete.
+    assert.equal(await page.$eval("#gate_at_text", (e) => e.value), placed[0].asked);
     const expected = cli(["locate", "--sample", "plate", "--fill", "--gate-at", placed[0].asked]);
     const g = expected.placed_gates.gates[0];
     assert.equal(placed[0].qualifies, String(g.qualifies));
@@ -651,8 +666,10 @@ describe("moldgate in the browser", () => {
     const right = { x: box.width * 0.5, y: box.height * 0.62 };
     assert.equal(await settled(page, () => page.click("#viewport canvas", { position: right, modifiers: ["Shift"] })), "done");
     assert.equal(await page.$$eval("#placed-list li", (ls) => ls.length), 2);
+    assert.equal((await page.$eval("#gate_at_text", (e) => e.value)).split("\n").length, 2);
     assert.equal(await settled(page, () => page.click("#clear-placed")), "done");
     assert.equal(await page.$("#placed-result"), null);
+    assert.equal(await page.$eval("#gate_at_text", (e) => e.value), "");
     await page.uncheck("#fill");
   });
 
