@@ -26,10 +26,6 @@ pub struct Settings {
     pub timeout: Option<Duration>,
 }
 
-/// The longest `--timeout`, seconds (about 115 days: beyond it, none is meant); the
-/// service's time limits too.
-pub const MAX_TIMEOUT_S: f64 = 1e7;
-
 /// Validates the raw arguments of `locate` once into [`Settings`].
 pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
     let user = match &a.materials_file {
@@ -52,17 +48,12 @@ pub fn settings(a: &LocateArgs) -> Result<Settings, Failure> {
         .units
         .parse()
         .map_err(|e: String| Failure::usage(format!("--units: {e}")))?;
-    let timeout = match a.batch.timeout {
-        None => None,
-        Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIMEOUT_S => {
-            Some(Duration::from_secs_f64(t))
-        }
-        Some(t) => {
-            return Err(Failure::usage(format!(
-                "--timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S:e}, got {t:?}"
-            )))
-        }
-    };
+    let timeout = a
+        .batch
+        .timeout
+        .map(|t| moldgate::study::time_limit("--timeout", t))
+        .transpose()
+        .map_err(Failure::usage)?;
     Ok(Settings {
         study,
         units,

@@ -9,14 +9,7 @@ use crate::args::ServeArgs;
 use crate::Failure;
 
 fn seconds(flag: &str, s: f64) -> Result<Duration, Failure> {
-    use crate::analyse::MAX_TIMEOUT_S;
-    if s.is_finite() && s > 0.0 && s <= MAX_TIMEOUT_S {
-        Ok(Duration::from_secs_f64(s))
-    } else {
-        Err(Failure::usage(format!(
-            "{flag} must be a number of seconds above 0 and at most {MAX_TIMEOUT_S:e}, got {s:?}"
-        )))
-    }
+    moldgate::study::time_limit(flag, s).map_err(Failure::usage)
 }
 
 /// Runs the service until SIGTERM or Ctrl-C.

@@ -243,20 +243,13 @@ fn less_time_keywords(settings: &Settings, stage: moldgate::study::Stage) -> Str
     moldgate::study::keyword_words(&hint, "True")
 }
 
-/// The longest time limit `study` takes, seconds (a day).
-const MAX_TIMEOUT_S: f64 = 86_400.0;
-
-/// A time limit in seconds as a duration: above 0 and at most [`MAX_TIMEOUT_S`].
+/// A time limit in seconds as a duration: above 0 and at most a day (the library's
+/// [`moldgate::study::MAX_TIMEOUT_S`]).
 fn time_limit(timeout: Option<f64>) -> PyResult<Option<std::time::Duration>> {
-    match timeout {
-        None => Ok(None),
-        Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIMEOUT_S => {
-            Ok(Some(std::time::Duration::from_secs_f64(t)))
-        }
-        Some(t) => Err(OptionsError::new_err(format!(
-            "timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S}, got {t}"
-        ))),
-    }
+    timeout
+        .map(|t| moldgate::study::time_limit("timeout", t))
+        .transpose()
+        .map_err(OptionsError::new_err)
 }
 
 /// batch_row(path, options_json, materials_file=None, units="mm", demold=None, timeout=None)

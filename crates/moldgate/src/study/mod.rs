@@ -241,6 +241,22 @@ pub enum StudyError {
     Encode(String),
 }
 
+/// The longest time limit of a study, seconds (a day): every front end's (the command
+/// line's `--timeout`, the service's limits, the Python package's `timeout`).
+pub const MAX_TIMEOUT_S: f64 = 86_400.0;
+
+/// A time limit of `seconds` as a duration: a number above 0 and at most
+/// [`MAX_TIMEOUT_S`]; else the message, which names the limit as `name`.
+pub fn time_limit(name: &str, seconds: f64) -> Result<std::time::Duration, String> {
+    if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_TIMEOUT_S {
+        Ok(std::time::Duration::from_secs_f64(seconds))
+    } else {
+        Err(format!(
+            "{name} must be a number of seconds above 0 and at most {MAX_TIMEOUT_S} (a day), got {seconds}"
+        ))
+    }
+}
+
 /// Validates `options` and studies `part` with them, without hooks.
 pub fn study(part: &LoadedMesh, options: &StudyOptions) -> Result<Study, StudyError> {
     study_with(part, &options.validate()?, &Hooks::default())
