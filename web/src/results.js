@@ -149,7 +149,7 @@ function unproven(search) {
 
 /** The fill section; `mode`: "paper" or "aesthetic", the rule of the gate `f.paper` fills from. */
 function fillSection(f, mode) {
-  const parts = [el("p", {}, `${f.cells.toLocaleString("en")} cells of ${f.cell_mm.toFixed(3)} mm; nominal wall ${f.nominal_wall_mm.toFixed(2)} mm (${f.wall_source === "measured" ? "measured" : "2V/A estimate"})`)];
+  const parts = [el("p", {}, `${f.cells.toLocaleString("en")} cells of ${f.cell_mm.toFixed(3)} mm; nominal wall ${f.nominal_wall_mm.toFixed(2)} mm (${WALL_SOURCE[f.wall_source] ?? f.wall_source})`)];
   if (f.paper) parts.push(gateFill("fill-paper", mode === "aesthetic" ? "From the aesthetic gate" : "From the paper's gate", f.paper));
   if (f.balanced && !f.balanced.is_paper_gate) {
     parts.push(gateFill("fill-balanced", "From the balanced gate", f.balanced.fill));
@@ -320,6 +320,13 @@ function placedSection(r) {
 }
 
 /** Fills `container` with the report's results; `page` holds the page's own timings. */
+/** The nominal wall's source in words, as the library's `WallSource::words`. */
+const WALL_SOURCE = {
+  measured: "measured",
+  volume_over_area: "2V/A estimate",
+  diagonal_share: "a hundredth of the part's diagonal: the mesh encloses no volume",
+};
+
 export function showReport(container, r, page) {
   container.replaceChildren();
   container.append(r.gate ? gateSection(r) : noGateSection(r));

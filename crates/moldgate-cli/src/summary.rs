@@ -93,10 +93,7 @@ fn fill(
         f.cells,
         f.cell_mm,
         f.nominal_wall_mm,
-        match f.wall_source {
-            moldgate::flow::WallSource::Measured => "measured",
-            moldgate::flow::WallSource::VolumeOverArea => "2V/A estimate",
-        },
+        f.wall_source.words(),
         f.bodies,
         if f.bodies == 1 { "body" } else { "bodies" }
     );

@@ -614,10 +614,7 @@ fn fill_table(h: &mut String, r: &Report) {
         f.cells,
         f.cell_mm,
         f.nominal_wall_mm,
-        match f.wall_source {
-            crate::flow::WallSource::Measured => "measured",
-            crate::flow::WallSource::VolumeOverArea => "estimated as 2V/A",
-        },
+        f.wall_source.words(),
         f.bodies,
         if f.bodies == 1 { "body" } else { "bodies" },
         if f.stray_bodies > 0 {

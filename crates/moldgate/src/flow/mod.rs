@@ -2914,6 +2914,22 @@ pub enum WallSource {
     Measured,
     /// A uniform wall, estimated as 2 V / A (exact for a thin closed plate).
     VolumeOverArea,
+    /// A uniform wall of a hundredth of the part's diagonal: the mesh encloses no volume
+    /// (an open surface, a sheet), so neither a measure nor 2 V / A gives one.
+    DiagonalShare,
+}
+
+impl WallSource {
+    /// The source in words, as the summary and the page give it after the nominal wall.
+    pub fn words(self) -> &'static str {
+        match self {
+            WallSource::Measured => "measured",
+            WallSource::VolumeOverArea => "2V/A estimate",
+            WallSource::DiagonalShare => {
+                "a hundredth of the part's diagonal: the mesh encloses no volume"
+            }
+        }
+    }
 }
 
 /// Everything the fill analysis found.
@@ -3220,7 +3236,8 @@ pub struct WallSummary {
 #[derive(Debug)]
 pub struct Cells {
     bodies: Bodies,
-    /// The wall estimated from the centres (2 V / A), mm.
+    /// The wall estimated from the centres (2 V / A; without a volume, a hundredth of the
+    /// part's diagonal), mm.
     estimate: f64,
     /// Whether the mesh encloses no volume (an open surface, a sheet): its cells are a film
     /// along the surface.
@@ -3365,6 +3382,10 @@ pub fn analyse_prepared(
         known,
         seconds: cells_s,
     } = cells()?;
+    let estimate_source = match no_volume {
+        true => WallSource::DiagonalShare,
+        false => WallSource::VolumeOverArea,
+    };
     voxels.cancel = cancel.cloned();
     // The several-gate search's work depends only on the cells and the gates: refused
     // before the walls, the paper gate and the balanced search are made.
@@ -3477,12 +3498,12 @@ pub fn analyse_prepared(
                 let source = if summary.nominal_mm.is_some() {
                     WallSource::Measured
                 } else {
-                    WallSource::VolumeOverArea
+                    estimate_source
                 };
                 let body_nominal = body_nominal_walls(&domain.voxels, w);
                 (nominal, source, Some(summary), body_nominal)
             }
-            None => (estimate, WallSource::VolumeOverArea, None, Vec::new()),
+            None => (estimate, estimate_source, None, Vec::new()),
         };
         // Each body's own median wall is its reference (a body without samples takes the
         // part's): a thin lid beside a thick box fills as it would alone. The walls

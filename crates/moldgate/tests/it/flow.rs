@@ -1390,7 +1390,11 @@ fn a_fill_of_a_mesh_that_encloses_no_volume_is_warned() {
         ],
         triangles: vec![[0, 1, 2]],
     };
-    assert!(warnings(sheet).iter().any(|w| w.starts_with(said)));
+    assert!(warnings(sheet.clone()).iter().any(|w| w.starts_with(said)));
+    // Its nominal wall is not a 2 V / A of no volume, and says so.
+    let fill = located_fill(&moldgate::mesh::from_generated(sheet), &Default::default()).1;
+    assert_eq!(fill.wall_source, flow::WallSource::DiagonalShare);
+    assert!(fill.wall_source.words().contains("encloses no volume"));
     let plate = boxes(&[([0.0, 0.0, 0.0], [40.0, 20.0, 3.0], true)]);
     assert!(!warnings(plate)
         .iter()
