@@ -329,8 +329,11 @@ fn choose_cell(
         }
         return match check_limits(mesh, body_of, h, sums, options) {
             Ok(()) => Ok((h, None)),
-            // The least cell that keeps every limit, not only the one broken first: from
-            // that one's estimate, stepped as the cell chosen by itself is.
+            // The least cell that keeps every limit, not only the one broken first, and the
+            // same whatever cell was asked for: from that one's estimate, stepped as the
+            // cell chosen by itself is until it keeps them, then halved down to the least
+            // that does (to a millionth), and given a thousandth over it so that its four
+            // figures do not round below it.
             Err(FillError::TooLarge {
                 what,
                 count,
@@ -339,10 +342,22 @@ fn choose_cell(
                 least_cell_mm,
             }) => {
                 let most = MAX_CELL_OF_DIAGONAL * diagonal;
+                let keeps = |h: f64| check_limits(mesh, body_of, h, sums, options).is_ok();
                 let least = match coarsen(least_cell_mm.max(h), most, |h| {
                     check_limits(mesh, body_of, h, sums, options)
                 }) {
-                    Ok((h, _)) | Err((h, _)) => h,
+                    Ok((above, _)) => {
+                        let (mut low, mut high) = (h, above);
+                        while high - low > 1e-6 * high {
+                            let middle = 0.5 * (low + high);
+                            match keeps(middle) {
+                                true => high = middle,
+                                false => low = middle,
+                            }
+                        }
+                        high * (1.0 + 1e-3)
+                    }
+                    Err((h, _)) => h,
                 };
                 Err(FillError::TooLarge {
                     what,
