@@ -174,7 +174,7 @@ function showFillImplied() {
   if ($("suitability").checked) by.push("the gate-suitability map");
   const note = $("fill-implied");
   note.hidden = by.length === 0 || $("fill").checked;
-  note.textContent = by.length ? `The fill analysis runs anyway: ${by.join(", ")} need${by.length === 1 ? "s" : ""} it.` : "";
+  note.textContent = by.length ? `The fill analysis runs anyway, for ${by.join(", ")}.` : "";
 }
 
 /** Marks the results as those of earlier options when the form differs from the options
@@ -341,8 +341,8 @@ function placeGate(point) {
     $("status").textContent = `At most ${MAX_GATE_AT} gates of your own: clear them to place others.`;
     return;
   }
-  // JavaScript writes a number so that it reads back to the same double.
-  const line = point.map(String).join(",");
+  // To the micrometre: a line to read and edit (the gate is moved onto the surface).
+  const line = point.map((v) => String(Number(v.toFixed(3)))).join(",");
   placed.push(line);
   $("gate_at_text").value = [...lines, line].join("\n");
   analyse({ keepCamera: true, again: true });

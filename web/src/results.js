@@ -82,7 +82,12 @@ function gateSection(r) {
     for (const s of several.gates) {
       ol.append(el("li", xyz(s.point), `${v3(s.point)} mm fills ${(100 * s.volume_share).toFixed(1)} % ${of}, ${worst(s)}`));
     }
-    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${several.improvement_pct.toFixed(1)} % shorter than with the balanced gate), balance ${several.balance.toFixed(2)} (smallest share / largest)`), ol);
+    // As the library's MultiGate::against_single_words and balance_words.
+    const against = several.bodies > 1
+      ? `on ${several.bodies} bodies, each fed by its own gates, where the balanced gate alone feeds one`
+      : `${several.improvement_pct.toFixed(1)} % shorter than with the balanced gate`;
+    const balance = several.bodies > 1 ? "smallest share / largest of the gates of one body" : "smallest share / largest";
+    content.push(el("p", { id: "several-worst" }, `${several.gates.length} gates: ${worst(several)} (${against}), balance ${several.balance.toFixed(2)} (${balance})`), ol);
     // Chosen by its flow length, the layout's fill time is given too, said not minimised.
     if (several.fill_time_s == null && several.layout_fill_time_s != null) {
       content.push(el("p", { id: "layout-fill-time", "data-value": several.layout_fill_time_s }, `These gates together fill ${several.fill && several.fill.reached_share < 0.9995 ? "the bodies they reach" : "the part"} in ${seconds(several.layout_fill_time_s)} s (estimate), a time the layout does not minimise (it minimises the longest flow path).`));
@@ -124,7 +129,7 @@ function gateFill(id, title, f) {
     ["Flow-cell wall at the gate (the fill model's sample)", mm(f.wall_across_mm), { "data-value": f.wall_across_mm }],
     ["Flow length / wall L/t", ratio, { class: f.exceeds_flow_ratio ? "flow-ratio warning" : "flow-ratio", "data-value": f.flow_ratio }],
     ["Fill pressure (Eq. 1)", `${threeFigures(f.pressure_mpa)} MPa`, { class: "pressure", "data-value": f.pressure_mpa }],
-    ["Fill time (estimate, for comparing gates on this part)", `${seconds(f.fill_time_s)} s`, { class: "fill-time", "data-value": f.fill_time_s }],
+    ["Fill time (a geometric estimate, not a machine's)", `${seconds(f.fill_time_s)} s`, { class: "fill-time", "data-value": f.fill_time_s }],
     ["99 % of the volume filled by (estimate)", `${seconds(f.fill_time_99_s)} s`, { class: "fill-time-99", "data-value": f.fill_time_99_s }],
     ["Melt reaches", `${(100 * f.reached_share).toFixed(1)} % of the part`, { "data-value": f.reached_share }],
   ];

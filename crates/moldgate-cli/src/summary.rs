@@ -230,11 +230,12 @@ fn fill(
         let worst = |x: f64| format!("{what} {} {unit}", f.objective.value_text(x));
         let _ = writeln!(
             s,
-            "  {} gates: {} ({:.1} % shorter than with the balanced gate), balance {:.2} (smallest share / largest)",
+            "  {} gates: {} ({}), balance {:.2} ({})",
             m.gates.len(),
             worst(m.value()),
-            m.improvement_pct,
-            m.balance
+            m.against_single_words(),
+            m.balance,
+            m.balance_words()
         );
         // Chosen by its flow length, the layout's fill time is given too, said not minimised.
         if let (moldgate::flow::Objective::Length, Some(t)) = (f.objective, m.layout_fill_time_s) {

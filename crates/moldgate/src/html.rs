@@ -374,12 +374,24 @@ fn summary_table(h: &mut String, r: &Report) {
         h,
         "Parting line",
         &format!(
-            "{:.1} mm, {} edges, {} ({} loop{} found)",
+            "{:.1} mm, {} edges, {} ({})",
             p.length_mm,
             p.edges,
             if p.closed { "closed" } else { "open" },
-            p.loops,
-            if p.loops == 1 { "" } else { "s" }
+            match r.options.parting_line {
+                crate::parting::PartingRule::Outline => format!(
+                    "the outer rim: {} piece{} of rim edges joined into {} cycle{}, one a body",
+                    p.loops,
+                    if p.loops == 1 { "" } else { "s" },
+                    p.rims.len(),
+                    if p.rims.len() == 1 { "" } else { "s" }
+                ),
+                crate::parting::PartingRule::Longest => format!(
+                    "the longest of {} loop{} of edges between the sides",
+                    p.loops,
+                    if p.loops == 1 { "" } else { "s" }
+                ),
+            }
         ),
     );
     let _ = writeln!(h, "</table>");
@@ -705,16 +717,22 @@ fn fill_table(h: &mut String, r: &Report) {
         let field = f.objective.field_words();
         let _ = writeln!(
             h,
-            "<p id=\"several\">{} gates together: {what} {} {unit} ({:.1} % shorter than \
-             with the balanced gate), balance {:.2} (smallest share over the largest).</p>\n\
+            "<p id=\"several\">{} gates together: {what} {} {unit} ({}), balance {:.2} \
+             ({}).</p>\n\
              <table>\n<tr><th>gate</th><th>point</th>\
-             <th>share of {} volume (reached first by {field})</th><th>{what} in its share</th></tr>",
+             <th>share of {} (reached first by {field})</th><th>{what} in its share</th></tr>",
             m.gates.len(),
             f.objective.value_text(m.value()),
-            m.improvement_pct,
+            m.against_single_words(),
             m.balance,
-            // A layout lies on one body: with several, its shares are of that body's volume.
-            if f.bodies > 1 { "its body's" } else { "the" }
+            m.balance_words(),
+            // A layout that leaves a body without a gate: its shares are of the volume it
+            // reaches.
+            if m.leaves_a_body() {
+                "the volume the layout reaches"
+            } else {
+                "the part's volume"
+            }
         );
         for (i, g) in m.gates.iter().enumerate() {
             let _ = writeln!(

@@ -1949,12 +1949,39 @@ pub struct MultiGate {
     /// later than the layout's value: by the objective they add nothing (see
     /// [`redundant_gates`]); only one of them at a time can go.
     pub redundant: Vec<usize>,
+    /// The bodies its gates are on (1 on a part of one body; on a part of several, each
+    /// body the candidates lie on gets a gate while there are gates enough).
+    pub bodies: usize,
 }
 
 impl MultiGate {
     /// The value of the objective the layout minimised (see [`GateShare::value`]).
     pub fn value(&self) -> f64 {
         self.l_max_mm.or(self.fill_time_s).unwrap_or(f64::NAN)
+    }
+
+    /// How it compares with the best single gate, in words: how much shorter its value is,
+    /// or, over several bodies, that a single gate feeds one body only (its value is then
+    /// not the measure of what the gates bring).
+    pub fn against_single_words(&self) -> String {
+        match self.bodies {
+            0 | 1 => format!(
+                "{:.1} % shorter than with the balanced gate",
+                self.improvement_pct
+            ),
+            n => format!(
+                "on {n} bodies, each fed by its own gates, where the balanced gate alone feeds one"
+            ),
+        }
+    }
+
+    /// What its balance is, in words: the smallest share over the largest, within a body
+    /// when the layout is on several.
+    pub fn balance_words(&self) -> &'static str {
+        match self.bodies {
+            0 | 1 => "smallest share / largest",
+            _ => "smallest share / largest of the gates of one body",
+        }
     }
 
     /// Whether its gates leave part of the part unreached (a body without a gate of the
@@ -2507,49 +2534,80 @@ fn several_gates_search(
         at = following(round, g + 1, improved, moves, &stayed_at);
     }
     let runs = runs + from_centre.runs() + trial_runs.into_inner();
-    Some(layout_of(candidates, &chosen, &field, worst, runs))
+    Some(layout_of(domain, candidates, &chosen, &field, worst, runs))
 }
 
 /// The layout of the gates `chosen` (indices into `candidates`) from their field: each
-/// gate's share of the reached cells and its longest value there, the layout's value
+/// gate's share of the reached volume (its cells' share of each body it reaches, weighed by
+/// that body's volume, so that a gate that fills a body alone has that body's share) and
+/// its longest value there, the balance of the shares within each body, the layout's value
 /// `worst` (in the objective's units, under `l_max_mm` until the caller names it) and the
 /// marches `runs` it took.
 fn layout_of(
+    domain: &Domain,
     candidates: &[Source],
     chosen: &[usize],
     field: &Field,
     worst: f64,
     runs: usize,
 ) -> MultiGate {
-    let reached = field.t.iter().filter(|t| t.is_finite()).count().max(1);
+    let bodies = domain.bodies.max(1);
+    // Cells of each body, and of each gate in each body.
+    let mut cells = vec![0usize; bodies];
+    let mut count = vec![0usize; chosen.len() * bodies];
+    let mut l_max = vec![0.0f64; chosen.len()];
+    for c in 0..field.t.len() {
+        let b = domain.body[c] as usize;
+        cells[b] += 1;
+        let g = field.source[c] as usize;
+        if g < chosen.len() && field.t[c].is_finite() {
+            count[g * bodies + b] += 1;
+            l_max[g] = l_max[g].max(field.t[c]);
+        }
+    }
+    let volume = |g: usize| {
+        (0..bodies)
+            .map(|b| {
+                count[g * bodies + b] as f64 / cells[b].max(1) as f64
+                    * domain.body_volume_mm3.get(b).copied().unwrap_or(1.0)
+            })
+            .sum::<f64>()
+    };
+    let volumes: Vec<f64> = (0..chosen.len()).map(volume).collect();
+    let reached = volumes.iter().sum::<f64>().max(f64::MIN_POSITIVE);
     let gates: Vec<GateShare> = chosen
         .iter()
         .enumerate()
-        .map(|(g, &i)| {
-            let mut count = 0usize;
-            let mut l_max = 0.0f64;
-            for c in 0..field.t.len() {
-                if field.source[c] == g as u32 {
-                    count += 1;
-                    l_max = l_max.max(field.t[c]);
-                }
-            }
-            GateShare {
-                candidate: i,
-                point: candidates[i].point.to_array(),
-                volume_share: count as f64 / reached as f64,
-                l_max_mm: Some(l_max),
-                fill_time_s: None,
-            }
+        .map(|(g, &i)| GateShare {
+            candidate: i,
+            point: candidates[i].point.to_array(),
+            volume_share: volumes[g] / reached,
+            l_max_mm: Some(l_max[g]),
+            fill_time_s: None,
         })
         .collect();
-    let shares: Vec<f64> = gates.iter().map(|g| g.volume_share).collect();
-    let balance = shares.iter().copied().fold(f64::INFINITY, f64::min)
-        / shares
-            .iter()
-            .copied()
-            .fold(0.0, f64::max)
-            .max(f64::MIN_POSITIVE);
+    // The balance within each body of two gates or more (gates of different bodies do not
+    // share a volume), the least of them; 1 when no body has two.
+    let body_of = |i: usize| domain.body[candidates[i].cell as usize] as usize;
+    let balance = (0..bodies)
+        .filter_map(|b| {
+            let shares: Vec<f64> = (0..chosen.len())
+                .filter(|&g| body_of(chosen[g]) == b)
+                .map(|g| volumes[g])
+                .collect();
+            (shares.len() > 1).then(|| {
+                shares.iter().copied().fold(f64::INFINITY, f64::min)
+                    / shares
+                        .iter()
+                        .copied()
+                        .fold(0.0, f64::max)
+                        .max(f64::MIN_POSITIVE)
+            })
+        })
+        .fold(1.0, f64::min);
+    let mut on: Vec<usize> = chosen.iter().map(|&i| body_of(i)).collect();
+    on.sort_unstable();
+    on.dedup();
     MultiGate {
         gates,
         l_max_mm: Some(worst),
@@ -2560,6 +2618,7 @@ fn layout_of(
         balance,
         runs,
         redundant: Vec::new(),
+        bodies: on.len(),
     }
 }
 
@@ -2671,7 +2730,7 @@ pub fn several_gates_over_bodies(
     let sources: Vec<Source> = chosen.iter().map(|&i| candidates[i]).collect();
     let field = march(v, &sources, domain.cost(objective));
     let worst = argmax(&field.t).1;
-    Some(layout_of(candidates, &chosen, &field, worst, runs))
+    Some(layout_of(domain, candidates, &chosen, &field, worst, runs))
 }
 
 /// The gates of `layout` (found among `candidates`, its value in the field's units) that
@@ -4860,6 +4919,7 @@ mod tests {
             balance: 0.1,
             runs: 1,
             redundant,
+            bodies: 1,
         };
         let w = redundant_warning(&layout(&[0.5, 0.3, 0.2], vec![2]), Objective::Resistance);
         assert!(w.starts_with("gate 3 of the layout of 3 (20.0 % of the volume) adds nothing to the layout's fill time: without it, the other 2 gates reach no place later than its 0.00621 s"), "{w}");
@@ -4906,6 +4966,7 @@ mod tests {
             balance: 0.0,
             runs: 1,
             redundant: Vec::new(),
+            bodies: 1,
         };
         let sound = layout(vec![gate(0.0, 0.5), gate(10.0, 0.49), gate(20.0, 0.01)]);
         assert_eq!(idle_gates(&sound), None);

@@ -193,6 +193,7 @@ fn a_gate_beside_another_adds_nothing_to_the_layout() {
         balance: 1.0,
         runs: 1,
         redundant: Vec::new(),
+        bodies: 1,
     };
     assert_eq!(
         redundant_gates(&domain, &cands, Objective::Length, &layout, h),

@@ -346,8 +346,8 @@ fn the_html_report_gives_each_body_its_own_nominal_wall() {
     }
 }
 
-/// The page counts the parting line's loops in words that agree with their number: one
-/// plate has one loop, two plates side by side two.
+/// The page counts the parting line's pieces and cycles in words that agree with their
+/// number: one plate has one piece of rim and one cycle, two plates side by side two.
 #[test]
 fn the_html_report_counts_the_parting_line_s_loops_in_the_singular_and_the_plural() {
     let mut one = moldgate::samples::BoxUnion::default();
@@ -355,7 +355,16 @@ fn the_html_report_counts_the_parting_line_s_loops_in_the_singular_and_the_plura
     let mut two = moldgate::samples::BoxUnion::default();
     two.add([0.0, 0.0, 0.0], [40.0, 20.0, 2.0]);
     two.add([50.0, 0.0, 0.0], [90.0, 20.0, 2.0]);
-    for (boxes, words) in [(one, "(1 loop found)"), (two, "(2 loops found)")] {
+    for (boxes, words) in [
+        (
+            one,
+            "(the outer rim: 1 piece of rim edges joined into 1 cycle, one a body)",
+        ),
+        (
+            two,
+            "(the outer rim: 2 pieces of rim edges joined into 2 cycles, one a body)",
+        ),
+    ] {
         let part = moldgate::mesh::from_generated(boxes.mesh());
         let s = study(&part, &options(r#"{ "demold": "+z" }"#)).unwrap();
         let page = s.html(None).unwrap();
