@@ -3965,14 +3965,7 @@ pub fn analyse_prepared(
     if let Some(layout) = &several {
         // A layout over several bodies feeds bodies a single gate cannot: its gain is not
         // in its value alone.
-        let mut gated: Vec<u32> = layout
-            .gates
-            .iter()
-            .map(|g| domain.body[candidates[g.candidate].cell as usize])
-            .collect();
-        gated.sort_unstable();
-        gated.dedup();
-        if gated.len() == 1 && layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
+        if layout.bodies <= 1 && layout.improvement_pct < SMALL_LAYOUT_GAIN_PCT {
             let (what, unit) = options.objective.value_words();
             // Close values: L_max to 0.01 mm, a fill time to three significant figures.
             let value = |x: f64| match options.objective {
@@ -4002,6 +3995,13 @@ pub fn analyse_prepared(
         // Each body the candidates lie on gets a gate while there are gates enough: on a
         // part of several bodies, say which get none, and whose volume the shares are of.
         if domain.bodies > 1 {
+            let mut gated: Vec<u32> = layout
+                .gates
+                .iter()
+                .map(|g| domain.body[candidates[g.candidate].cell as usize])
+                .collect();
+            gated.sort_unstable();
+            gated.dedup();
             let without: Vec<u32> = (0..domain.bodies as u32)
                 .filter(|b| !gated.contains(b))
                 .collect();
