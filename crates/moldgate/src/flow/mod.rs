@@ -1027,7 +1027,11 @@ fn summarise_layout(
         last_to_fill,
         weld_lines,
     };
-    let shares = shares_of(length, points);
+    let bodies: Vec<u32> = sources
+        .iter()
+        .map(|s| domain.body[s.cell as usize])
+        .collect();
+    let shares = shares_of(length, points, &bodies);
     (gate_fill, shares)
 }
 
@@ -1072,7 +1076,7 @@ fn percentile_99(t: &[f64]) -> f64 {
 
 /// Each source's share of the cells a multi-source field reaches, and its largest value
 /// inside that share.
-fn shares_of(field: &Field, points: &[DVec3]) -> Vec<GateShare> {
+fn shares_of(field: &Field, points: &[DVec3], bodies: &[u32]) -> Vec<GateShare> {
     let mut count = vec![0usize; points.len()];
     let mut l_max = vec![0.0f64; points.len()];
     for (&s, &t) in field.source.iter().zip(&field.t) {
@@ -1088,6 +1092,7 @@ fn shares_of(field: &Field, points: &[DVec3]) -> Vec<GateShare> {
         .map(|(g, p)| GateShare {
             candidate: g,
             point: p.to_array(),
+            body: bodies[g],
             volume_share: count[g] as f64 / reached as f64,
             l_max_mm: Some(l_max[g]),
             fill_time_s: None,
@@ -1896,6 +1901,9 @@ pub struct GateShare {
     pub candidate: usize,
     /// The gate point, mm.
     pub point: [f64; 3],
+    /// The body it is on (numbered from 0 in the order of the bodies' first triangles, as
+    /// [`BodyGate::body`]).
+    pub body: u32,
     /// Share of the reached volume this gate fills first.
     pub volume_share: f64,
     /// Longest flow path inside its share, mm; `None` when the layout minimised the fill
@@ -2574,6 +2582,7 @@ fn layout_of(
             .sum::<f64>()
     };
     let volumes: Vec<f64> = (0..chosen.len()).map(volume).collect();
+    let body_of = |i: usize| domain.body[candidates[i].cell as usize] as usize;
     let reached = volumes.iter().sum::<f64>().max(f64::MIN_POSITIVE);
     let gates: Vec<GateShare> = chosen
         .iter()
@@ -2581,6 +2590,7 @@ fn layout_of(
         .map(|(g, &i)| GateShare {
             candidate: i,
             point: candidates[i].point.to_array(),
+            body: body_of(i) as u32,
             volume_share: volumes[g] / reached,
             l_max_mm: Some(l_max[g]),
             fill_time_s: None,
@@ -2588,7 +2598,6 @@ fn layout_of(
         .collect();
     // The balance within each body of two gates or more (gates of different bodies do not
     // share a volume), the least of them; 1 when no body has two.
-    let body_of = |i: usize| domain.body[candidates[i].cell as usize] as usize;
     let balance = (0..bodies)
         .filter_map(|b| {
             let shares: Vec<f64> = (0..chosen.len())
@@ -4906,6 +4915,7 @@ mod tests {
                 .map(|&s| GateShare {
                     candidate: 0,
                     point: [0.0; 3],
+                    body: 0,
                     volume_share: s,
                     l_max_mm: None,
                     fill_time_s: Some(0.01),
@@ -4952,6 +4962,7 @@ mod tests {
         let gate = |x: f64, share: f64| GateShare {
             candidate: 0,
             point: [x, 0.0, 0.0],
+            body: 0,
             volume_share: share,
             l_max_mm: None,
             fill_time_s: None,

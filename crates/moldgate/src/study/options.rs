@@ -464,6 +464,12 @@ fn with_nearest_name(message: &str) -> String {
     let Some((name, list)) = rest.split_once("`, expected one of ") else {
         return message.to_string();
     };
+    // The time limit is not an option of the study but of whoever runs it.
+    if name == "timeout" {
+        return format!(
+            "unknown field `timeout` (a study's time limit is set where it runs: the command line's --timeout, the Python functions' timeout argument, or by the service's operator with moldgate serve --timeout), expected one of {list}"
+        );
+    }
     let names = list.split(", ").map(|n| n.trim_matches('`'));
     let limit = (name.chars().count() / 3).max(1);
     let nearest = names
@@ -958,6 +964,9 @@ mod tests {
         assert!(said(r#"{"gate": 2}"#)
             .contains("unknown field `gate` (did you mean `gates`?), expected one of `demold`"));
         assert!(said(r#"{"gate_raduis": 2}"#).contains("(did you mean `gate_radius`?)"));
+        assert!(said(r#"{"timeout": 5}"#).contains(
+            "unknown field `timeout` (a study's time limit is set where it runs: the command line's --timeout"
+        ));
         assert!(said(r#"{"spacng": 1}"#).contains("(did you mean `spacing`?)"));
         // Nothing near: the list alone.
         let far = said(r#"{"colour": "red"}"#);

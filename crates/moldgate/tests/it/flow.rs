@@ -180,6 +180,7 @@ fn a_gate_beside_another_adds_nothing_to_the_layout() {
             .map(|&i| GateShare {
                 candidate: i,
                 point: cands[i].point.to_array(),
+                body: 0,
                 volume_share: 1.0 / 3.0,
                 l_max_mm: Some(worst),
                 fill_time_s: None,

@@ -708,6 +708,11 @@ fn a_layout_gives_its_fill_time_whichever_objective_chose_it() {
     let mut bodies: Vec<usize> = layout.gates.iter().map(body_of).collect();
     bodies.sort_unstable();
     assert_eq!(bodies, [0, 1], "{:?}", layout.gates);
+    // Each gate names its body, as the bodies' own gates are numbered.
+    for g in &layout.gates {
+        assert_eq!(g.body as usize, body_of(g), "{g:?}");
+    }
+    assert_eq!(layout.bodies, 2);
     assert!(!layout.leaves_a_body());
     assert!(layout.fill.as_ref().unwrap().reached_share > 0.9995);
     let shares: f64 = layout.gates.iter().map(|g| g.volume_share).sum();
