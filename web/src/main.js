@@ -423,7 +423,7 @@ async function analyse({ keepCamera = false, again = false } = {}) {
   } catch (e) {
     if (e.cancelled) return;
     $("busy").hidden = true;
-    if (keep && current !== null && !e.fileError) {
+    if (keep && !e.fileError) {
       $("status").textContent = `${part.name} could not be analysed with these options: the results on show are the earlier ones.`;
       markStale();
     } else {

@@ -96,16 +96,22 @@ impl CellField {
 /// [`CellField::colour_span`] of `values`, whose finite range is `[lo, hi]`.
 fn colour_span_of(values: &[f32], [lo, hi]: [f32; 2]) -> Option<([f32; 2], Option<f32>)> {
     let mut finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
-    // The value of rank ceil(0.99 n), as the fill's 99 % time takes it
-    // (`GateFill::fill_time_99_s`): the bar of the fill time ends at the time the report
-    // gives.
-    let k = (finite.len() * 99).div_ceil(100).checked_sub(1)?;
+    // The fill's 99 % time's rank (`GateFill::fill_time_99_s`): the bar of the fill time
+    // ends at the time the report gives.
+    let k = rank_of_99th(finite.len())?;
     let (_, &mut p99, _) = finite.select_nth_unstable_by(k, f32::total_cmp);
     Some(if p99 > lo && p99 > 0.0 && hi > TAIL_FACTOR * p99 {
         ([lo, p99], Some(hi))
     } else {
         ([lo, hi], None)
     })
+}
+
+/// The rank from 0 of the 99th percentile of `n` values in order: the value of rank
+/// ceil(0.99 n) counted from 1, the least at or below which 99 % of them lie (`None` for no
+/// value). The fill's 99 % time and the colour bar's far tail both take it.
+pub(crate) fn rank_of_99th(n: usize) -> Option<usize> {
+    (n * 99).div_ceil(100).checked_sub(1)
 }
 
 /// How far beyond the 99th percentile the largest value of a field on cells must lie for

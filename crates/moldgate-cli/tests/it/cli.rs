@@ -1122,20 +1122,16 @@ fn materials_doc_matches_the_library() {
     );
 }
 
+/// The JSON report of `locate --sample cover --aesthetic` with `more` options.
+fn aesthetic_cover(more: &[&str]) -> Value {
+    let mut args = vec!["locate", "--sample", "cover", "--aesthetic", "--json"];
+    args.extend_from_slice(more);
+    json(&moldgate(&std::env::temp_dir(), &args))
+}
+
 #[test]
 fn aesthetic_mode_gives_the_parting_line_gate() {
-    let report = json(&moldgate(
-        &std::env::temp_dir(),
-        &[
-            "locate",
-            "--sample",
-            "cover",
-            "--demold",
-            "-z",
-            "--aesthetic",
-            "--json",
-        ],
-    ));
+    let report = aesthetic_cover(&["--demold", "-z"]);
     assert_eq!(report["options"]["mode"], "aesthetic");
     assert_eq!(report["gate"]["mode"], "aesthetic");
     let gate = point(&report["gate"]["point"]);
@@ -1146,11 +1142,7 @@ fn aesthetic_mode_gives_the_parting_line_gate() {
     assert!(gate[2].abs() < 1e-9, "{gate:?}");
     // Demolded the other way (its closed face towards +D), the fixed half forms its walls
     // and the line runs round its top, at z = 30.
-    let report = json(&moldgate(
-        &std::env::temp_dir(),
-        &["locate", "--sample", "cover", "--aesthetic", "--json"],
-    ));
-    let gate = point(&report["gate"]["point"]);
+    let gate = point(&aesthetic_cover(&[])["gate"]["point"]);
     assert!((gate[2] - 30.0).abs() < 1e-9, "{gate:?}");
 
     let summary = assert_ok(&moldgate(
@@ -1164,20 +1156,7 @@ fn aesthetic_mode_gives_the_parting_line_gate() {
 fn parting_line_rule_is_chosen_by_flag() {
     // Both rules give the cover's rim at z = 0, closed, 400 mm.
     for rule in ["longest", "outline"] {
-        let report = json(&moldgate(
-            &std::env::temp_dir(),
-            &[
-                "locate",
-                "--sample",
-                "cover",
-                "--demold",
-                "-z",
-                "--aesthetic",
-                "--parting-line",
-                rule,
-                "--json",
-            ],
-        ));
+        let report = aesthetic_cover(&["--demold", "-z", "--parting-line", rule]);
         let line = &report["parting_line"];
         assert!(
             (line["length_mm"].as_f64().unwrap() - 400.0).abs() < 1e-9,

@@ -1035,17 +1035,12 @@ fn summarise_layout(
     (gate_fill, shares)
 }
 
-/// How much later than the 99 % time the last place may fill before the fill time is said
-/// to be set by a few places (as the pictures' colours stop at the 99th percentile when the
-/// largest value is over this times it).
-const LATE_TAIL_FACTOR: f64 = 2.0;
-
 /// The warning for a fill whose last 1 % fills far later than the rest (more than
-/// [`LATE_TAIL_FACTOR`] times the 99 % time): a few thin places then set the fill time
-/// whatever the gate.
+/// [`crate::display::TAIL_FACTOR`] times the 99 % time, where the pictures' colours stop at
+/// that time): a few thin places then set the fill time whatever the gate.
 fn late_tail_warning(fill: &GateFill) -> Option<String> {
     let (last, most) = (fill.fill_time_s, fill.fill_time_99_s);
-    if !(most > 0.0 && last > LATE_TAIL_FACTOR * most) {
+    if !(most > 0.0 && last > f64::from(crate::display::TAIL_FACTOR) * most) {
         return None;
     }
     let place = fill
@@ -1067,10 +1062,9 @@ fn late_tail_warning(fill: &GateFill) -> Option<String> {
 /// at or below which 99 % of them lie (the value of rank ceil(0.99 n), counted from 1).
 fn percentile_99(t: &[f64]) -> f64 {
     let mut reached: Vec<f64> = t.iter().copied().filter(|x| x.is_finite()).collect();
-    if reached.is_empty() {
+    let Some(rank) = crate::display::rank_of_99th(reached.len()) else {
         return 0.0;
-    }
-    let rank = (reached.len() * 99).div_ceil(100).max(1) - 1;
+    };
     *reached.select_nth_unstable_by(rank, f64::total_cmp).1
 }
 
@@ -2074,13 +2068,8 @@ pub fn several_gates_from(
     // gate reaches last.
     let far = v.centre(argmax(&start.t).0);
     let body = domain.body[candidates[first].cell as usize];
-    let second = in_body(domain, candidates, body)
-        .into_iter()
-        .min_by(|&x, &y| {
-            let d = |i: usize| candidates[i].point.distance(far);
-            d(x).total_cmp(&d(y)).then(x.cmp(&y))
-        })
-        .filter(|&i| i != first);
+    let second =
+        nearest_of(candidates, in_body(domain, candidates, body), far).filter(|&i| i != first);
     let ask = Ask {
         objective,
         k,
@@ -2679,17 +2668,13 @@ pub fn several_gates_over_bodies(
             if b == first_body {
                 return first;
             }
-            let cells: Vec<DVec3> = (0..v.len() as u32)
+            let (sum, count) = (0..v.len() as u32)
                 .filter(|&c| domain.body[c as usize] == b)
-                .map(|c| v.centre(c))
-                .collect();
-            let centre = cells.iter().copied().sum::<DVec3>() / cells.len().max(1) as f64;
-            in_body(domain, candidates, b)
-                .into_iter()
-                .min_by(|&x, &y| {
-                    let d = |i: usize| candidates[i].point.distance(centre);
-                    d(x).total_cmp(&d(y)).then(x.cmp(&y))
-                })
+                .fold((DVec3::ZERO, 0usize), |(sum, n), c| {
+                    (sum + v.centre(c), n + 1)
+                });
+            let centre = sum / count.max(1) as f64;
+            nearest_of(candidates, in_body(domain, candidates, b), centre)
                 .expect("a body listed holds a candidate")
         })
         .collect();
@@ -4004,11 +3989,7 @@ pub fn analyse_prepared(
         // Each body the candidates lie on gets a gate while there are gates enough: on a
         // part of several bodies, say which get none, and whose volume the shares are of.
         if domain.bodies > 1 {
-            let mut gated: Vec<u32> = layout
-                .gates
-                .iter()
-                .map(|g| domain.body[candidates[g.candidate].cell as usize])
-                .collect();
+            let mut gated: Vec<u32> = layout.gates.iter().map(|g| g.body).collect();
             gated.sort_unstable();
             gated.dedup();
             let without: Vec<u32> = (0..domain.bodies as u32)
@@ -4151,7 +4132,7 @@ pub fn analyse_prepared(
         match several_pictured {
             Some(m) => {
                 for g in &m.gates {
-                    reached[domain.body[candidates[g.candidate].cell as usize] as usize] = true;
+                    reached[g.body as usize] = true;
                 }
             }
             None => {
@@ -4478,7 +4459,17 @@ fn body_nominal_walls(voxels: &Voxels, per_triangle: &[f32]) -> Vec<f64> {
 }
 
 fn nearest_candidate(candidates: &[Source], p: DVec3) -> Option<usize> {
-    (0..candidates.len()).min_by(|&a, &b| {
+    nearest_of(candidates, 0..candidates.len(), p)
+}
+
+/// The candidate of `pool` (indices into `candidates`) nearest `p` in a straight line, the
+/// lowest index of equals.
+fn nearest_of(
+    candidates: &[Source],
+    pool: impl IntoIterator<Item = usize>,
+    p: DVec3,
+) -> Option<usize> {
+    pool.into_iter().min_by(|&a, &b| {
         candidates[a]
             .point
             .distance(p)
