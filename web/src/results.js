@@ -203,15 +203,15 @@ function suitabilityPart(m) {
   return el("div", { id: "suitability-result", "data-nodes": m.nodes.length, "data-exact": m.exact, "data-best": best ? best.score : "" },
     el("p", {}, `Gate suitability: ${m.nodes.length.toLocaleString("en")} qualifying nodes scored by the ${what} of a gate at each, ${value(lo)} to ${value(hi)} ${m.unit} (lower is better; the 3D view colours them, dark blue best).`),
     el("p", {}, best ? `Best node ${v3(best.point)} mm: ${bestText(best)}. ${m.exact} scores exact (to ${value(m.tolerance)} ${m.unit}, the cells' resolution: the balanced gate's own value may differ by as much), the others lower bounds within ${gap} of their upper bounds.` : "No node scored."),
-    ...bodiesPart(m, value));
+    ...bodiesPart(m, bestText));
 }
 
 /** On a part of several bodies, each body's best node: a gate fills only its own body, so
  * the scores compare within a body, and the 3D view colours each node against its body's
  * best. Nothing for one body. */
-function bodiesPart(m, value) {
+function bodiesPart(m, scoreText) {
   const bests = (m.best_per_body ?? [])
-    .map((i, body) => (i === null ? null : `body ${body + 1} at ${v3(m.nodes[i].point)} mm, ${value(m.nodes[i].score)} ${m.unit}`))
+    .map((i, body) => (i === null ? null : `body ${body + 1} at ${v3(m.nodes[i].point)} mm, ${scoreText(m.nodes[i])}`))
     .filter((t) => t !== null);
   if (bests.length < 2) return [];
   return [el("p", { id: "suitability-bodies" }, `The part has several bodies, and a gate fills only its own: each node is scored by the fill of its body, and the 3D view colours it by its score over its body's best (1: that best). The best of each body: ${bests.join("; ")}.`)];

@@ -202,9 +202,7 @@ fn fill(
             if m.spans_bodies() {
                 let bests: Vec<String> = m
                     .body_bests()
-                    .map(|(body, n)| {
-                        format!("{body} {}: {} {}", v3(n.point), value(n.score), m.unit)
-                    })
+                    .map(|(body, n)| format!("{body} {}: {}", v3(n.point), m.score_text(n)))
                     .collect();
                 let _ = writeln!(
                     s,

@@ -938,7 +938,7 @@ fn suitability_text(h: &mut String, f: &crate::flow::FillAnalysis) {
     if m.spans_bodies() {
         let bests: Vec<String> = m
             .body_bests()
-            .map(|(body, n)| format!("{body} at {} mm, {} {unit}", v3(n.point), value(n.score)))
+            .map(|(body, n)| format!("{body} at {} mm, {}", v3(n.point), m.score_text(n)))
             .collect();
         let _ = writeln!(
             h,

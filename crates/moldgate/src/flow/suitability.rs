@@ -15,7 +15,8 @@
 //! Over the marches run, each node keeps the largest lower bound and the smallest upper
 //! bound. A node marched from is exact. The marches alternate between the node of least
 //! lower bound that is not yet exact (so the best region is exact, as the balanced search
-//! proves its gate) and the node of widest gap (its field gives upper bounds near it), each
+//! proves its gate; each body's in turn on a part of several bodies, whose scores compare
+//! within a body only) and the node of widest gap (its field gives upper bounds near it), each
 //! followed by a march from the farthest cell of that node's field (a far point: the
 //! farthest cells of neighbouring nodes are mostly the same few extremes of the part, so
 //! far points raise the lower bounds of whole regions). The map stops when every node is
@@ -129,9 +130,15 @@ impl Suitability {
     /// before that score was proven (a lower bound), it says so with the node's upper
     /// bound: a lower bound is not a value a gate there is known to reach.
     pub fn best_value_text(&self) -> Option<String> {
-        let n = &self.nodes[self.best?];
+        Some(self.score_text(&self.nodes[self.best?]))
+    }
+
+    /// A node's score in words with its unit, said as a lower bound with its upper bound
+    /// when it is one (as [`Suitability::best_value_text`]): each body's best on a part of
+    /// several bodies is said so.
+    pub fn score_text(&self, n: &NodeScore) -> String {
         let value = |x: f64| format!("{} {}", self.objective.value_text(x), self.unit);
-        Some(match n.kind {
+        match n.kind {
             ScoreKind::Exact => value(n.score),
             ScoreKind::LowerBound => format!(
                 "at least {} (a lower bound: the map's runs ended before a march at this node; {})",
@@ -141,7 +148,7 @@ impl Suitability {
                     value(u)
                 ))
             ),
-        })
+        }
     }
 }
 
@@ -234,31 +241,48 @@ pub fn suitability(
     };
     let mut used = vec![false; v.len()];
     let mut far: Vec<u32> = given.iter().map(|g| argmax(&g.field.t).0).collect();
+    // Scores compare within a body only (a march reaches its own body), so each body's best
+    // is refined in turn: the best of a small body must not keep a large body's best at a
+    // lower bound.
+    let cell_body: Vec<u32> = cells.iter().map(|&c| domain.body[c as usize]).collect();
+    let bodies = cell_body.iter().max().map_or(0, |&b| b as usize + 1);
     let mut runs = 0;
     let mut refine_best = true;
+    let mut turn = 0;
     while runs < max_runs {
         let open = |b: &Bounds| !b.exact && b.hi - b.lo > tolerance;
-        // The node to march from: least lower bound, or widest gap, in turn.
-        let pick = |best: bool| {
+        let by_lo = |a: &usize, b: &usize| bounds[*a].lo.total_cmp(&bounds[*b].lo).then(a.cmp(b));
+        let least_in = |body: usize, open_only: bool| {
             (0..cells.len())
-                .filter(|&i| open(&bounds[i]))
-                .min_by(|&a, &b| {
-                    let key = |i: usize| {
-                        if best {
-                            bounds[i].lo
-                        } else {
-                            -(bounds[i].hi - bounds[i].lo)
-                        }
-                    };
-                    key(a).total_cmp(&key(b)).then(a.cmp(&b))
-                })
+                .filter(|&i| cell_body[i] as usize == body && (!open_only || open(&bounds[i])))
+                .min_by(by_lo)
         };
-        // The best node first until it is exact and no open node could beat it.
-        let best_exact = (0..cells.len())
-            .min_by(|&a, &b| bounds[a].lo.total_cmp(&bounds[b].lo).then(a.cmp(&b)))
-            .is_some_and(|i| !open(&bounds[i]));
+        let order = || (0..bodies).map(|k| (turn + k) % bodies);
+        // The node to march from: least lower bound (a body whose best is not yet exact
+        // first, the bodies in turn), or widest gap, in turn.
+        let pick = |best: bool| {
+            if best {
+                order()
+                    .find(|&b| least_in(b, false).is_some_and(|i| open(&bounds[i])))
+                    .and_then(|b| least_in(b, true))
+                    .or_else(|| order().filter_map(|b| least_in(b, true)).min_by(by_lo))
+            } else {
+                (0..cells.len())
+                    .filter(|&i| open(&bounds[i]))
+                    .min_by(|&a, &b| {
+                        let gap = |i: usize| -(bounds[i].hi - bounds[i].lo);
+                        gap(a).total_cmp(&gap(b)).then(a.cmp(&b))
+                    })
+            }
+        };
+        // Each body's best node first until it is exact and no open node of its body could
+        // beat it.
+        let best_exact = order().all(|b| least_in(b, false).is_none_or(|i| !open(&bounds[i])));
         let node = pick(refine_best || !best_exact).or_else(|| pick(true));
         refine_best = !refine_best;
+        if let Some(i) = node {
+            turn = (cell_body[i] as usize + 1) % bodies.max(1);
+        }
         let mut batch: Vec<u32> = Vec::new();
         if let Some(i) = node {
             batch.push(cells[i]);
