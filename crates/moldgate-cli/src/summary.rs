@@ -658,23 +658,18 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
     );
     let _ = writeln!(
         s,
-        "  {:<12} {:<28} {:>8}  {:<22} the paper's rules (disc of the gate radius)",
+        "  {:<14} {:<28} {:>8}  {:<22} the paper's rules (disc of the gate radius)",
         "gate", "on the surface (mm)", "moved", "wall along D (disc)",
     );
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match (g.failed_rule, &g.why) {
-            (None, _) => match g.off_flat_mm() {
-                Some(step) => format!(
-                    "qualifies, off a flat seat (its disc reaches {step:.2} mm off its height)"
-                ),
-                None => "qualifies".to_string(),
-            },
+            (None, _) => moldgate::study::judge::qualifies_words(g.off_flat_mm()),
             (Some(rule), Some(why)) => format!("FAILS: {} ({why})", rule_words(rule)),
             (Some(rule), None) => format!("FAILS: {}", rule_words(rule)),
         };
         let _ = writeln!(
             s,
-            "  {:<12} {:<28} {:>5.2} mm  {:<22} {verdict}",
+            "  {:<14} {:<28} {:>5.2} mm  {:<22} {verdict}",
             format!("your gate {}", i + 1),
             v3(g.point),
             g.moved_mm,
@@ -685,14 +680,19 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
             },
         );
     }
-    if let Some(g) = &r.paper_gate {
+    for g in moldgate::study::judge::beside_placed(r) {
         let _ = writeln!(
             s,
-            "  {:<12} {:<28} {:>8}  {:<22} qualifies (the method's proposal)",
-            "paper gate",
+            "  {:<14} {:<28} {:>8}  {:<22} {}",
+            g.name,
             v3(g.point),
             "",
-            wall(g.thickness_mm, g.disc_thickness_mm, open)
+            if g.thickness_mm.is_some() || g.disc_thickness_mm.is_some() {
+                wall(g.thickness_mm, g.disc_thickness_mm, open)
+            } else {
+                "-".into()
+            },
+            g.verdict
         );
     }
     let Some(fill) = &p.fill else {

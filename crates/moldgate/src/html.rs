@@ -498,12 +498,7 @@ fn placed_table(h: &mut String, r: &Report) {
     let mm = |x: Option<f64>| x.map_or("unknown".to_string(), |v| format!("{v:.2} mm"));
     for (i, g) in p.gates.iter().enumerate() {
         let verdict = match &g.why {
-            None => match g.off_flat_mm() {
-                Some(step) => format!(
-                    "qualifies, <b class=\"warn\">off a flat seat</b> (its disc reaches {step:.2} mm off its height along D)"
-                ),
-                None => "qualifies".to_string(),
-            },
+            None => off_flat_marked(&crate::study::judge::qualifies_words(g.off_flat_mm())),
             Some(why) => format!("<b class=\"warn\">fails</b>: {}", escape(why)),
         };
         let _ = writeln!(
@@ -519,14 +514,21 @@ fn placed_table(h: &mut String, r: &Report) {
             mm(g.disc_thickness_mm),
         );
     }
-    if let Some(g) = &r.paper_gate {
+    for g in crate::study::judge::beside_placed(r) {
+        let wall = |x: Option<f64>| match (g.thickness_mm, g.disc_thickness_mm) {
+            (None, None) => String::new(),
+            _ => mm(x),
+        };
+        // The verdict in the placed gates' words, the reach off a flat seat marked alike.
+        let verdict = off_flat_marked(&g.verdict);
         let _ = writeln!(
             h,
-            "<tr><th>paper gate</th><td></td><td>{}</td><td></td><td class=\"n\">{}</td>\
-             <td class=\"n\">{}</td><td>qualifies (the method's proposal)</td></tr>",
+            "<tr class=\"beside\"><th>{}</th><td></td><td>{}</td><td></td><td class=\"n\">{}</td>\
+             <td class=\"n\">{}</td><td>{verdict}</td></tr>",
+            escape(&g.name),
             v3(g.point),
-            mm(g.thickness_mm),
-            mm(g.disc_thickness_mm),
+            wall(g.thickness_mm),
+            wall(g.disc_thickness_mm),
         );
     }
     let _ = writeln!(h, "</table>");
@@ -565,7 +567,7 @@ fn placed_table(h: &mut String, r: &Report) {
     );
     if let Some(f) = &r.fill {
         if let Some(paper) = &f.paper {
-            line(h, "paper gate", paper);
+            line(h, &answer_gate_name(r), paper);
         }
         if let Some(b) = &f.balanced {
             line(h, "balanced gate", &b.fill);
@@ -592,6 +594,22 @@ fn placed_table(h: &mut String, r: &Report) {
         "your gates together"
     };
     weld_list(h, whose, fill);
+}
+
+/// A verdict in words (of [`crate::study::judge::qualifies_words`]), escaped, with its
+/// "off a flat seat" marked as a warning.
+fn off_flat_marked(verdict: &str) -> String {
+    escape(verdict).replacen(
+        "off a flat seat",
+        "<b class=\"warn\">off a flat seat</b>",
+        1,
+    )
+}
+
+/// The name of the gate the fill's first row is of: the paper gate, or the aesthetic gate
+/// in aesthetic mode.
+fn answer_gate_name(r: &Report) -> String {
+    format!("{} gate", r.options.mode.name())
 }
 
 /// One gate's fill as table cells: L_max, L/t against the material's limit, Eq. 1 pressure,
@@ -666,12 +684,14 @@ fn fill_table(h: &mut String, r: &Report) {
          <th>flow-cell wall<br>at the gate</th></tr>"
     );
     if let Some(p) = &f.paper {
-        // The fill of the answer's gate: the parting-line gate in aesthetic mode.
-        let label = match r.options.mode {
-            crate::GateMode::Paper => "paper gate",
-            crate::GateMode::Aesthetic => "parting-line gate",
-        };
-        let _ = writeln!(h, "<tr><th>{label}</th>{}</tr>", fill_cells(p));
+        // The fill of the answer's gate: the aesthetic gate in aesthetic mode (named as the
+        // summary and the placed gates' table name it).
+        let _ = writeln!(
+            h,
+            "<tr><th>{}</th>{}</tr>",
+            answer_gate_name(r),
+            fill_cells(p)
+        );
     }
     if let Some(b) = &f.balanced {
         // Beside the aesthetic gate, the paper's grid gate may be the balanced gate.

@@ -141,12 +141,22 @@ pub struct GateReport {
     pub disc_thickness_mm: Option<f64>,
     /// Circle within the flatness tolerance.
     pub flat: bool,
+    /// How far the circle reaches off the gate's height along D, mm.
+    pub step_mm: f64,
     /// 3D distance to the centre of mass, mm.
     pub distance_3d_mm: f64,
     /// Distance in the projection plane, mm.
     pub distance_2d_mm: f64,
     /// Nodes equally near.
     pub ties: usize,
+}
+
+impl GateReport {
+    /// How far the disc reaches off the gate's height along D when it is not flat, mm (as
+    /// [`crate::study::judge::PlacedGate::off_flat_mm`] says it of a placed gate).
+    pub fn off_flat_mm(&self) -> Option<f64> {
+        (!self.flat).then_some(self.step_mm)
+    }
 }
 
 impl From<&Gate> for GateReport {
@@ -161,6 +171,7 @@ impl From<&Gate> for GateReport {
             thickness_mm: g.thickness_mm,
             disc_thickness_mm: g.disc_thickness_mm,
             flat: g.flat,
+            step_mm: g.step_mm,
             distance_3d_mm: g.distance_3d,
             distance_2d_mm: g.distance_2d,
             ties: g.ties,

@@ -397,9 +397,9 @@ fn gates_placed_with_gate_at_are_judged_in_every_output() {
     );
     println!("{summary}");
     for needle in [
-        "your gate 1  (30.000, 20.000, 5.000)       2.00 mm  5.00 mm",
-        "your gate 2  (2.500, 20.000, 50.000)       2.00 mm  50.00 mm",
-        "your gate 3  (5.000, 20.000, 30.000)       0.50 mm  -",
+        "your gate 1    (30.000, 20.000, 5.000)       2.00 mm  5.00 mm",
+        "your gate 2    (2.500, 20.000, 50.000)       2.00 mm  50.00 mm",
+        "your gate 3    (5.000, 20.000, 30.000)       0.50 mm  -",
         "FAILS: not reachable from the +D mould half",
         "your gates together",
         "balanced gate",
@@ -650,11 +650,19 @@ fn a_placed_gate_off_a_flat_seat_qualifies_with_a_warning() {
             .unwrap_or("")
     };
     assert!(
-        line("your gate 1 ")
-            .ends_with("qualifies, off a flat seat (its disc reaches 10.00 mm off its height)"),
+        line("your gate 1 ").ends_with(
+            "qualifies, off a flat seat (its disc reaches 10.00 mm off its height along D)"
+        ),
         "{text}"
     );
     assert!(line("your gate 2 ").ends_with("qualifies"), "{text}");
+    // Gate 1 is the paper gate's point: the paper gate's row gives it the same verdict.
+    assert!(
+        line("paper gate ").ends_with(
+            "qualifies, off a flat seat (its disc reaches 10.00 mm off its height along D); the method's proposal"
+        ),
+        "{text}"
+    );
     assert!(
         text.contains("warning: your gate 1 at (0.000, 0.000, 18.000) qualifies but is not on a flat seat: its disc reaches 10.00 mm off its height along D"),
         "{text}"
@@ -737,4 +745,72 @@ fn a_keep_out_region_that_keeps_nothing_out_is_said() {
         ],
         "{text}"
     );
+}
+
+/// Beside the designer's gates the table gives the answer's verdict when the answer is not
+/// the paper gate: the balanced gate judged as a placed gate ("the answer, chosen by the
+/// fill"; the bracket's, 8.4 mm from its paper gate), the aesthetic gate as an edge gate
+/// that the paper's rules along D do not judge; the paper gate is then not "the method's
+/// proposal". The page's table has the same rows.
+#[test]
+fn the_placed_gates_table_gives_the_answers_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("r.html");
+    let html = html.to_str().unwrap();
+    let text = |args: &[&str]| {
+        let out = moldgate(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    // A row of the table of the designer's gates (the fill's own lines name gates too).
+    let row = |text: &str, name: &str| {
+        text.lines()
+            .skip_while(|l| !l.starts_with("your gates (--gate-at"))
+            .find(|l| l.starts_with(&format!("  {name} ")))
+            .unwrap_or_else(|| panic!("no {name} row in\n{text}"))
+            .to_string()
+    };
+    let balanced = text(&[
+        "locate",
+        "--sample",
+        "bracket",
+        "--strategy",
+        "balanced",
+        "--gate-at",
+        "18.6,20,5",
+        "--report",
+        html,
+    ]);
+    assert!(row(&balanced, "balanced gate").starts_with("  balanced gate  (10.200, 20.000, 5.000)"));
+    assert!(row(&balanced, "balanced gate").ends_with("qualifies; the answer, chosen by the fill"));
+    assert!(
+        row(&balanced, "paper gate").ends_with("qualifies"),
+        "{balanced}"
+    );
+    let page = std::fs::read_to_string(html).unwrap();
+    assert!(
+        page.contains("<tr class=\"beside\"><th>balanced gate</th>")
+            && page.contains("qualifies; the answer, chosen by the fill</td>"),
+        "{page}"
+    );
+    let aesthetic = text(&[
+        "locate",
+        "--sample",
+        "cover",
+        "--aesthetic",
+        "--gate-at",
+        "0,0,18",
+    ]);
+    assert!(
+        row(&aesthetic, "aesthetic gate").ends_with(
+            "the answer, an edge gate on the parting line: the paper's rules along D are not its rules (a gate placed there fails them)"
+        ),
+        "{aesthetic}"
+    );
+    assert!(!aesthetic.contains("the method's proposal"), "{aesthetic}");
+    assert!(!aesthetic.contains("  balanced gate  ("), "{aesthetic}");
 }

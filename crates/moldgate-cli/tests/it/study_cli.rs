@@ -277,7 +277,7 @@ fn the_html_report_shows_the_fill() {
     }
 }
 
-/// In aesthetic mode the fill table's first row is the parting-line gate's fill (the answer),
+/// In aesthetic mode the fill table's first row is the aesthetic gate's fill (the answer),
 /// named as such, not as the paper gate.
 #[test]
 fn the_html_fill_table_names_the_parting_line_gate_in_aesthetic_mode() {
@@ -294,7 +294,7 @@ fn the_html_fill_table_names_the_parting_line_gate_in_aesthetic_mode() {
     ]);
     assert!(out.status.success());
     let html = std::fs::read_to_string(&page).unwrap();
-    assert!(html.contains("<tr><th>parting-line gate</th>"));
+    assert!(html.contains("<tr><th>aesthetic gate</th>"));
     assert!(!html.contains("<tr><th>paper gate</th>"));
     // The parting line's gate is an edge gate: the summary and the page say that the
     // paper's rules along D (which it would fail, on the outline) are not its rules.

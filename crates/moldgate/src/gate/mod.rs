@@ -378,6 +378,9 @@ pub struct Gate {
     pub disc_thickness_mm: Option<f64>,
     /// Whether the circle lies within the flatness tolerance.
     pub flat: bool,
+    /// How far the circle reaches off the gate's height along D, mm (at most the flatness
+    /// tolerance when `flat`).
+    pub step_mm: f64,
     /// 3D distance from the gate point to the centre of mass.
     pub distance_3d: f64,
     /// Distance in the projection plane.
@@ -990,6 +993,7 @@ fn locate_once(
                 thickness_mm: hit.thickness(),
                 disc_thickness_mm: nodes[i].disc_thickness,
                 flat: nodes[i].flat,
+                step_mm: nodes[i].step,
                 distance_3d: point.distance(centre),
                 distance_2d: node_uw.distance(frame.project(centre)),
                 ties,

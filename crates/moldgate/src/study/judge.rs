@@ -126,6 +126,100 @@ pub struct PlacedGates {
     pub fill: Option<GateFill>,
     /// Why there is no fill, when there is none.
     pub no_fill_reason: Option<String>,
+    /// The study's answer judged as these gates are, when it is the balanced gate (a grid
+    /// node other than the paper gate, chosen by the fill), so that the table of these
+    /// gates gives the answer's verdict beside theirs; `null` otherwise (the paper gate's
+    /// verdict is the report's `paper_gate`).
+    pub balanced: Option<PlacedGate>,
+}
+
+/// The verdict of a gate that passes every rule in force, in words: `qualifies`, or, off a
+/// flat seat (`off_flat_mm`: how far its disc reaches off its height along D), with that
+/// reach. The designer's gates, the paper gate and the balanced gate beside them are said
+/// alike, so that one point gets one verdict.
+pub fn qualifies_words(off_flat_mm: Option<f64>) -> String {
+    match off_flat_mm {
+        Some(step) => {
+            format!(
+                "qualifies, off a flat seat (its disc reaches {step:.2} mm off its height along D)"
+            )
+        }
+        None => "qualifies".to_string(),
+    }
+}
+
+/// A gate of the study shown beside the designer's gates in their table, with its verdict
+/// in the words theirs are given.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BesidePlaced {
+    /// `paper gate`, `balanced gate` or `aesthetic gate`.
+    pub name: String,
+    /// Its point, mm.
+    pub point: [f64; 3],
+    /// Wall thickness along D at the point, mm (`None` for the aesthetic gate).
+    pub thickness_mm: Option<f64>,
+    /// Smallest wall thickness along D under its disc, mm.
+    pub disc_thickness_mm: Option<f64>,
+    /// The verdict, and which of them is the answer.
+    pub verdict: String,
+}
+
+/// The study's gates beside the designer's in their table: the paper gate, judged in the
+/// same words (on a flat seat or not), and the answer when it is another gate (the
+/// balanced gate, judged as a placed gate; the aesthetic gate, an edge gate that the
+/// paper's rules along D do not judge). Empty without placed gates.
+pub fn beside_placed(r: &crate::report::Report) -> Vec<BesidePlaced> {
+    use crate::flow::Strategy;
+    use crate::GateMode;
+    let Some(placed) = &r.placed_gates else {
+        return Vec::new();
+    };
+    let answer = r.gate.as_ref().map(|g| (g.mode, g.strategy));
+    let balanced_is_paper = r
+        .fill
+        .as_ref()
+        .and_then(|f| f.balanced.as_ref())
+        .is_some_and(|b| b.is_paper_gate);
+    let mut rows = Vec::new();
+    if let Some(g) = &r.paper_gate {
+        let role = match answer {
+            Some((GateMode::Paper, Strategy::Paper)) => "; the method's proposal",
+            Some((GateMode::Paper, Strategy::Balanced)) if balanced_is_paper => {
+                "; the answer (the balanced gate is the paper gate)"
+            }
+            _ => "",
+        };
+        rows.push(BesidePlaced {
+            name: "paper gate".into(),
+            point: g.point,
+            thickness_mm: g.thickness_mm,
+            disc_thickness_mm: g.disc_thickness_mm,
+            verdict: format!("{}{role}", qualifies_words(g.off_flat_mm())),
+        });
+    }
+    if let Some(g) = &placed.balanced {
+        let verdict = match &g.why {
+            None => qualifies_words(g.off_flat_mm()),
+            Some(why) => format!("fails: {why}"),
+        };
+        rows.push(BesidePlaced {
+            name: "balanced gate".into(),
+            point: g.point,
+            thickness_mm: g.thickness_mm,
+            disc_thickness_mm: g.disc_thickness_mm,
+            verdict: format!("{verdict}; the answer, chosen by the fill"),
+        });
+    }
+    if let (Some((GateMode::Aesthetic, _)), Some(g)) = (answer, &r.aesthetic_gate) {
+        rows.push(BesidePlaced {
+            name: "aesthetic gate".into(),
+            point: g.point,
+            thickness_mm: None,
+            disc_thickness_mm: None,
+            verdict: "the answer, an edge gate on the parting line: the paper's rules along D are not its rules (a gate placed there fails them)".into(),
+        });
+    }
+    rows
 }
 
 /// The distance beyond which a point is refused for `mesh`.
@@ -253,7 +347,21 @@ pub(crate) fn judge(mesh: &Mesh, analysis: &Analysis, snapped: &[Snapped]) -> Pl
         snap_limit_mm: snap_limit_mm(mesh),
         fill: None,
         no_fill_reason: Some("the fill analysis was not asked for (--fill)".into()),
+        balanced: None,
     }
+}
+
+/// `gates` with the balanced gate at `point` (a point of the surface) judged beside them.
+pub(crate) fn with_balanced(
+    mut gates: PlacedGates,
+    mesh: &Mesh,
+    analysis: &Analysis,
+    point: DVec3,
+) -> PlacedGates {
+    gates.balanced = snap(mesh, &[point])
+        .ok()
+        .and_then(|s| judge(mesh, analysis, &s).gates.pop());
+    gates
 }
 
 fn judge_one(

@@ -353,6 +353,18 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
         ),
         (None, _) => p,
     });
+    // The answer's verdict beside the designer's gates, when it is the balanced gate.
+    let placed = placed.map(|p| match fill.as_ref().and_then(|f| f.balanced.as_ref()) {
+        Some(b)
+            if s.fill
+                .as_ref()
+                .is_some_and(|o| o.strategy == flow::Strategy::Balanced && o.gates == 1)
+                && !b.is_paper_gate =>
+        {
+            judge::with_balanced(p, mesh, &analysis, DVec3::from_array(b.fill.gate))
+        }
+        _ => p,
+    });
     // Every analysis has run: the report is made even past a cancellation (it takes
     // milliseconds), rather than throw the study away at its last step.
     if let Some(p) = hooks.progress {
