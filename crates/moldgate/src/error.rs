@@ -31,6 +31,11 @@ pub(crate) fn non_finite(value: &f64) -> String {
     }
 }
 
+/// Bytes in GiB.
+fn gib(bytes: u64) -> f64 {
+    bytes as f64 / f64::from(1u32 << 30)
+}
+
 /// A mesh file that cannot be read.
 #[derive(Debug, Error)]
 pub enum LoadError {
@@ -140,6 +145,25 @@ pub enum LoadError {
         /// How many were given.
         count: u64,
         /// The limit.
+        limit: u64,
+    },
+    /// The faces read so far make more triangles than this process has the memory to
+    /// analyse (a file of large polygons makes many triangles of few bytes each): counted as
+    /// they are read, by [`crate::mesh::check_triangle_memory`].
+    #[error(
+        "{place}: the faces read so far make {triangles} triangles, which may take {:.1} GiB of memory to analyse ({} bytes a triangle), more than the {:.1} GiB this process may use (the memory available, or its limit): use a machine with more memory or a coarser mesh",
+        gib(*.need),
+        crate::mesh::BYTES_PER_TRIANGLE,
+        gib(*.limit)
+    )]
+    TooMuchMemory {
+        /// Where the reading stopped.
+        place: Place,
+        /// The triangles read so far.
+        triangles: u64,
+        /// The memory they may take, bytes.
+        need: u64,
+        /// The memory this process may use, bytes.
         limit: u64,
     },
     /// A file whose format is not supported.

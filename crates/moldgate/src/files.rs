@@ -472,8 +472,9 @@ fn check_memory_of(
 /// The memory this process may still take, in bytes, when the system says (Linux): the
 /// least of the memory available (`MemAvailable`), the process's soft limits on its address
 /// space and data (`ulimit -v`, `ulimit -d`, from `/proc/self/limits`) and its control
-/// group's limit less its use (cgroup v2). What the process uses already is not subtracted
-/// from its limits: the reading comes first.
+/// group's limit less its use (cgroup v2). The limits on address space and data are less
+/// what the process has mapped already (`VmSize`, `VmData`: its threads' stacks and the
+/// allocator's arenas count against them before a byte is used).
 pub fn memory_limit() -> Option<u64> {
     let mut least: Option<u64> = None;
     let mut take = |v: u64| least = Some(least.map_or(v, |l| l.min(v)));
@@ -488,7 +489,21 @@ pub fn memory_limit() -> Option<u64> {
         }
     }
     if let Some(text) = read("/proc/self/limits") {
-        for name in ["Max address space", "Max data size"] {
+        // What the process has mapped already counts against its limits on address space
+        // and data (its threads' stacks and allocator arenas are reserved, not used, yet
+        // count): the room left is the limit less that.
+        let status = read("/proc/self/status").unwrap_or_default();
+        let mapped = |field: &str| {
+            status
+                .lines()
+                .find_map(|l| l.strip_prefix(field))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+                .map_or(0, |kib| kib.saturating_mul(1024))
+        };
+        for (name, field) in [
+            ("Max address space", "VmSize:"),
+            ("Max data size", "VmData:"),
+        ] {
             // "Max address space   4096000000   unlimited   bytes": the soft limit.
             if let Some(soft) = text
                 .lines()
@@ -496,7 +511,7 @@ pub fn memory_limit() -> Option<u64> {
                 .and_then(|rest| rest.split_whitespace().next())
                 .and_then(|v| v.parse::<u64>().ok())
             {
-                take(soft);
+                take(soft.saturating_sub(mapped(field)));
             }
         }
     }

@@ -234,3 +234,59 @@ fn a_file_name_with_a_line_break_prints_on_one_line() {
     let first = stdout(&out).lines().next().unwrap_or("").to_string();
     assert!(first.starts_with("a\\nmoldgate: ok.stl: "), "{first}");
 }
+
+/// A binary PLY of faces of 255 corners with 16-bit indices makes 253 triangles from 511
+/// bytes: 20,000 such faces (10 MB) are 5 M triangles, about 0.5 GB to analyse. Under a
+/// 400 MB limit on the address space the reading stops as the triangles outgrow the memory
+/// (exit 3, the byte where it stopped), where it passed the check of the file's size and
+/// was then killed by a failed allocation in the topology.
+#[test]
+fn a_ply_of_large_polygons_is_refused_as_its_triangles_outgrow_the_memory() {
+    if !Path::new("/proc/self/limits").exists() {
+        println!("a_ply_of_large_polygons_is_refused_as_its_triangles_outgrow_the_memory: skipped (no /proc: the memory limit is not known here)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("polygons.ply");
+    let (vertices, faces) = (65_536u32, 20_000u32);
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar ushort vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    let mut seed = 1u64;
+    let mut next = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 33) as u32
+    };
+    for _ in 0..vertices {
+        for _ in 0..3 {
+            bytes.extend((next() as f32 / 2e7).to_le_bytes());
+        }
+    }
+    for _ in 0..faces {
+        bytes.push(255);
+        for _ in 0..255 {
+            bytes.extend(((next() % vertices) as u16).to_le_bytes());
+        }
+    }
+    std::fs::write(&path, bytes).unwrap();
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 400000 && exec {} locate -q {}",
+            env!("CARGO_BIN_EXE_moldgate"),
+            path.display()
+        ))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("polygons.ply: byte ")
+            && stderr.contains("the faces read so far make")
+            && stderr.contains("more than the"),
+        "{stderr}"
+    );
+}

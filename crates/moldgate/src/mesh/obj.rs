@@ -71,6 +71,7 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
     let mut positions: Vec<DVec3> = Vec::new();
     let mut corners: Vec<usize> = Vec::new();
     let mut facets = 0u64;
+    let mut next_memory_check = super::TRIANGLES_PER_MEMORY_CHECK as u64;
     // Texture coordinates and normals defined so far: a face's references to them are
     // checked as its vertices are, though neither is used.
     let mut defined = Defined::default();
@@ -148,6 +149,10 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
                         positions[corners[k + 1]],
                     ]);
                     facets += 1;
+                }
+                if facets >= next_memory_check {
+                    super::check_triangle_memory(facets as usize, Place::Line(line_no))?;
+                    next_memory_check += super::TRIANGLES_PER_MEMORY_CHECK as u64;
                 }
             }
             b"vt" => defined.textures += 1,

@@ -138,6 +138,7 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
     let mut positions: Vec<DVec3> = Vec::with_capacity(vertex_count.min(1 << 20) as usize);
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
+    let mut next_memory_check = super::TRIANGLES_PER_MEMORY_CHECK;
     for element in &elements {
         // A binary element without properties takes no bytes: however large its count, there
         // is nothing to read (counting through 10^15 of them would never end).
@@ -226,6 +227,10 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
                         // A fan from the first corner: (0, k, k + 1).
                         for k in 1..corners.len() - 1 {
                             triangles.push([corners[0], corners[k], corners[k + 1]]);
+                        }
+                        if triangles.len() >= next_memory_check {
+                            super::check_triangle_memory(triangles.len(), place)?;
+                            next_memory_check += super::TRIANGLES_PER_MEMORY_CHECK;
                         }
                     }
                 }
