@@ -77,7 +77,8 @@ impl ApiError {
         match e {
             LoadError::Syntax { place, .. }
             | LoadError::NonFinite { place, .. }
-            | LoadError::OutOfRange { place, .. } => e422.at(place.to_string()),
+            | LoadError::OutOfRange { place, .. }
+            | LoadError::TooMuchMemory { place, .. } => e422.at(place.to_string()),
             LoadError::Truncated { offset, .. } => e422.at(format!("byte {offset}")),
             LoadError::CountMismatch { expected, .. } => e422.at(format!("byte {expected}")),
             LoadError::TruncatedHeader { .. } => e422.at("byte 0"),
