@@ -10,7 +10,6 @@ use moldgate::mesh::{self, LoadedMesh, Units};
 use moldgate::render::RenderError;
 use moldgate::report::Input;
 use moldgate::study::{self, Hooks, Study, StudyError};
-use moldgate::OptionsError;
 
 use crate::args::LocateArgs;
 use crate::Failure;
@@ -83,11 +82,7 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
             "--material: {e} (`moldgate materials` lists them all)"
         )),
         // The part's fault, not an option's: an input error that names the file.
-        StudyError::Locate(
-            l @ (OptionsError::PartTooLarge { .. }
-            | OptionsError::OverlappingSurface { .. }
-            | OptionsError::TangledSurface { .. }),
-        ) => Failure::input(format!("{part}: {l}")),
+        StudyError::Locate(l) if l.is_the_parts() => Failure::input(format!("{part}: {l}")),
         StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),

@@ -92,6 +92,8 @@ fn python_message(e: &StudyError) -> String {
 fn study_error(e: &StudyError) -> (Status, PyErrBox) {
     let m = python_message(e);
     match e {
+        // The part's fault, not an option's (as the command line's exit code 3).
+        StudyError::Locate(l) if l.is_the_parts() => (Status::InputError, PyErrBox::Load(m)),
         StudyError::Invalid { .. }
         | StudyError::Parse { .. }
         | StudyError::Conflict { .. }

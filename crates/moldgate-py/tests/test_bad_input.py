@@ -1,5 +1,7 @@
 """Bad input: each case a clear exception with the library's message and place."""
 
+import struct
+
 import numpy as np
 import pytest
 
@@ -366,3 +368,23 @@ def test_directions_as_numbers_and_other_pythonic_forms():
 def test_a_path_of_bytes_is_refused_by_its_type():
     with pytest.raises(TypeError, match=r"^path must be text or a path \(str or os.PathLike\), got bytes$"):
         moldgate.load(b"cover.stl")
+
+
+def test_a_part_the_analysis_refuses_is_a_load_error_and_an_input_error(tmp_path):
+    # A tetrahedron 2e8 mm long: too large for the automatic spacing. The part is at fault,
+    # not an option: LoadError, and batch_row's input_error with the command line's exit 3.
+    s = 2e8
+    corners = [(0, 0, 0), (s, 0, 0), (0, s, 0), (0, 0, s)]
+    facets = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+    data = bytearray(b" " * 80) + struct.pack("<I", 4)
+    for f in facets:
+        data += struct.pack("<3f", 0, 0, 0)
+        for v in f:
+            data += struct.pack("<3f", *corners[v])
+        data += b"\0\0"
+    path = tmp_path / "huge.stl"
+    path.write_bytes(bytes(data))
+    with pytest.raises(moldgate.LoadError, match="automatic spacing"):
+        moldgate.study(str(path))
+    row = moldgate.batch_row(str(path))
+    assert (row["status"], row["exit_code"]) == ("input_error", 3), row

@@ -108,11 +108,9 @@ impl ApiError {
                 ApiError::options(message).at("material")
             }
             // The part's fault, not an option's (as the command line's exit code 3).
-            StudyError::Locate(
-                OptionsError::PartTooLarge { .. }
-                | OptionsError::OverlappingSurface { .. }
-                | OptionsError::TangledSurface { .. },
-            ) => ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message),
+            StudyError::Locate(l) if l.is_the_parts() => {
+                ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "mesh", message)
+            }
             // An option over its limit or budget, or a grid over max_nodes for the spacing.
             StudyError::Locate(l) => match l.field() {
                 Some(field) => ApiError::options(message).at(field),

@@ -376,6 +376,19 @@ pub enum OptionsError {
 }
 
 impl OptionsError {
+    /// Whether the part is at fault, not an option: a part too large for the automatic
+    /// spacing, or triangles overlapping far beyond a surface's depth. Every front end
+    /// reports these as the input's error (the command line's exit code 3, the service's
+    /// 422 `mesh`, Python's `LoadError`), the others as an option's.
+    pub fn is_the_parts(&self) -> bool {
+        matches!(
+            self,
+            OptionsError::PartTooLarge { .. }
+                | OptionsError::OverlappingSurface { .. }
+                | OptionsError::TangledSurface { .. }
+        )
+    }
+
     /// The [`crate::study::StudyOptions`] field the error is about, where one is (the
     /// service's `at`): `spacing`, `circle_points`, `max_nodes`, ...
     pub fn field(&self) -> Option<&'static str> {

@@ -917,6 +917,20 @@ impl StudyOptions {
 
 #[cfg(test)]
 mod tests {
+    /// Decimal options read from JSON (the service's query and form, Python's keywords) are
+    /// the nearest doubles, as the command line reads them: a radius of 17 digits keeps its
+    /// last one, and a grid offset a double above -1 is not rounded to -1 and refused.
+    #[test]
+    fn decimal_options_in_json_are_read_to_the_last_digit() {
+        let o: super::StudyOptions = serde_json::from_str(
+            r#"{ "gate_radius": 2.3497464368498266, "grid_offset": -0.9999999999999999 }"#,
+        )
+        .unwrap();
+        assert_eq!(o.gate_radius, Some("2.3497464368498266".parse().unwrap()));
+        assert_eq!(o.grid_offset, "-0.9999999999999999".parse::<f64>().unwrap());
+        assert!(o.validate().is_ok());
+    }
+
     #[test]
     fn what_takes_less_time_is_said_for_the_stage_stopped_in() {
         use crate::study::Stage;
