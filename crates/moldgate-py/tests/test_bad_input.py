@@ -388,3 +388,14 @@ def test_a_part_the_analysis_refuses_is_a_load_error_and_an_input_error(tmp_path
         moldgate.study(str(path))
     row = moldgate.batch_row(str(path))
     assert (row["status"], row["exit_code"]) == ("input_error", 3), row
+
+
+def test_a_materials_file_or_batch_path_of_the_wrong_type_is_named():
+    plate = moldgate.sample("plate")
+    for bad in (b"x.toml", 3):
+        with pytest.raises(moldgate.OptionsError, match=r"^materials_file must be text or a path \(str or os.PathLike\), got "):
+            moldgate.study(plate, materials_file=bad)
+        with pytest.raises(moldgate.OptionsError, match=r"^materials_file must be text or a path"):
+            moldgate.check_options(materials_file=bad)
+    with pytest.raises(TypeError, match=r"^path must be text or a path \(str or os.PathLike\), got bytes$"):
+        moldgate.batch_row(b"cover.stl")

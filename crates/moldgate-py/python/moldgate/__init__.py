@@ -92,10 +92,7 @@ def load(
     Raises :class:`LoadError` (with the file and place) for a file that cannot be read.
     """
     _check_units_type(units)
-    if isinstance(path, bytes) or not isinstance(path, (str, _os.PathLike)):
-        raise TypeError(
-            f"path must be text or a path (str or os.PathLike), got {type(path).__name__}"
-        )
+    path = _path_text(path, "path", TypeError)
     if _is_step(path):
         from . import _step
 
@@ -109,6 +106,17 @@ def load(
     if step_tolerance_mm is not None:
         raise OptionsError("step_tolerance_mm applies to STEP and IGES files only")
     return _moldgate.load(_os.fspath(path), units)
+
+
+def _path_text(value: Any, name: str, error: type = OptionsError) -> Optional[str]:
+    """A path given as text or an ``os.PathLike`` of text, as text (``None`` stays
+    ``None``); anything else, bytes included, raises ``error`` naming ``name``."""
+    if value is None:
+        return None
+    text = _os.fspath(value) if isinstance(value, _os.PathLike) else value
+    if not isinstance(text, str):
+        raise error(f"{name} must be text or a path (str or os.PathLike), got {type(text).__name__}")
+    return text
 
 
 def _check_units_type(units: Any) -> None:
@@ -406,7 +414,7 @@ def study(
     options.update(unknown)
     options_json = _options_json(options)
     p = _part(part, units, step_tolerance_mm)
-    mf = _os.fspath(materials_file) if materials_file is not None else None
+    mf = _path_text(materials_file, "materials_file")
     s = _moldgate.study(p, options_json, mf, None if timeout is None else float(timeout))
     if s.gate is None and not allow_no_gate:
         reason = s.report.get("no_gate_reason") or "no position qualifies for a gate"
@@ -440,10 +448,10 @@ def batch_row(
     _check_units_type(units)
     if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, _numbers.Real)):
         raise OptionsError(f"timeout must be a number of seconds or None, got {timeout!r}")
-    mf = _os.fspath(materials_file) if materials_file is not None else None
+    mf = _path_text(materials_file, "materials_file")
     return _json.loads(
         _moldgate.batch_row(
-            _os.fspath(path), _options_json(options), mf, units, None,
+            _path_text(path, "path", TypeError), _options_json(options), mf, units, None,
             None if timeout is None else float(timeout),
         )
     )
@@ -463,7 +471,7 @@ def check_options(
     :class:`OptionsError` with the library's message for an unknown name or a bad value."""
     _check_part_keywords(units, step_tolerance_mm)
     _check_run_keywords(allow_no_gate, timeout)
-    mf = _os.fspath(materials_file) if materials_file is not None else None
+    mf = _path_text(materials_file, "materials_file")
     _moldgate.check_options(_options_json(options), mf, None if timeout is None else float(timeout))
 
 
@@ -476,5 +484,5 @@ def materials(materials_file: Optional[Union[str, "_os.PathLike[str]"]] = None) 
     ``gate_radius_mm``), its ``aliases``, ``description``, ``family``, whether its values
     are ``typical`` of the family, the ``sources`` of each value, and its ``origin``
     (``"built-in"`` or the file's path)."""
-    mf = _os.fspath(materials_file) if materials_file is not None else None
+    mf = _path_text(materials_file, "materials_file")
     return _moldgate.materials(mf)
