@@ -227,6 +227,23 @@ mod tests {
         }
     }
 
+    /// A polymer's full name finds its grade, as the abbreviation does: "polypropylene"
+    /// once suggested PP-C, POM and PP-H, and "polycarbonate" POM first.
+    #[test]
+    fn full_names_find_their_grades() {
+        for (full, grade) in [
+            ("polypropylene", "PP"),
+            ("Polycarbonate", "PC"),
+            ("acrylonitrile butadiene styrene", "ABS"),
+            ("polyoxymethylene", "POM"),
+            ("polyamide 66", "PA66"),
+            ("high-density polyethylene", "PE-HD"),
+        ] {
+            let found = find(full).unwrap_or_else(|| panic!("{full}"));
+            assert_eq!(found.material.name, grade, "{full}");
+        }
+    }
+
     #[test]
     fn names_and_aliases_are_unambiguous() {
         let mut seen = BTreeMap::new();
