@@ -770,15 +770,8 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
         }
     }
     if n > 1 {
-        for (i, g) in p.gates.iter().enumerate() {
-            if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
-                let _ = writeln!(
-                    s,
-                    "    your gate {} fills {:.1} % of the volume (the share it reaches first by flow length), longest flow {l:.1} mm in it",
-                    i + 1,
-                    100.0 * share
-                );
-            }
+        for words in (0..n).filter_map(|i| p.share_words(i)) {
+            let _ = writeln!(s, "    {words}");
         }
     }
 }

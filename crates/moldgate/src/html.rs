@@ -576,15 +576,8 @@ fn placed_table(h: &mut String, r: &Report) {
     let _ = writeln!(h, "</table>");
     if p.gates.len() > 1 {
         let _ = writeln!(h, "<ul>");
-        for (i, g) in p.gates.iter().enumerate() {
-            if let (Some(share), Some(l)) = (g.volume_share, g.l_max_mm) {
-                let _ = writeln!(
-                    h,
-                    "<li>your gate {} fills {:.1} % of the volume (the share it reaches first by flow length), longest flow path L_max {l:.1} mm in it</li>",
-                    i + 1,
-                    100.0 * share
-                );
-            }
+        for words in (0..p.gates.len()).filter_map(|i| p.share_words(i)) {
+            let _ = writeln!(h, "<li>{}</li>", escape(&words));
         }
         let _ = writeln!(h, "</ul>");
     }

@@ -814,3 +814,41 @@ fn the_placed_gates_table_gives_the_answers_verdict() {
     assert!(!aesthetic.contains("the method's proposal"), "{aesthetic}");
     assert!(!aesthetic.contains("  balanced gate  ("), "{aesthetic}");
 }
+
+/// A gate given twice (or two whose discs overlap) acts as one: a warning says so, and the
+/// later one's share is said as a share of the volume the gates reach.
+#[test]
+fn gates_given_twice_are_warned_as_one() {
+    let out = moldgate(&[
+        "locate",
+        "--sample",
+        "plate",
+        "--fill",
+        "--gate-at",
+        "10,10,3",
+        "--gate-at",
+        "10,10,3",
+        "--gate-at",
+        "-20,5,3",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("warning: your gates 1 and 2 (0.00 mm apart) overlap"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("gates 1 and 3") && !text.contains("gates 2 and 3"),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "your gate 2 fills 0.0 % of the volume (the share it reaches first by flow length)"
+        ),
+        "{text}"
+    );
+}

@@ -527,6 +527,47 @@ impl PlacedGates {
         }
     }
 
+    /// Gate `i`'s share of the layout's fill in words, when the fill ran: the share of the
+    /// volume the gates reach that it reaches first (of the part's whole volume when they
+    /// reach all of it), and the longest flow path inside that share.
+    pub fn share_words(&self, i: usize) -> Option<String> {
+        let g = self.gates.get(i)?;
+        let (share, l) = (g.volume_share?, g.l_max_mm?);
+        let of = match self.fill.as_ref().map(|f| f.reached_share) {
+            Some(r) if r < 0.9995 => format!(
+                "of the volume your gates reach, {:.1} % of the part's,",
+                100.0 * r
+            ),
+            _ => "of the volume".to_string(),
+        };
+        Some(format!(
+            "your gate {} fills {:.1} % {of} (the share it reaches first by flow length), longest flow path L_max {l:.1} mm in it",
+            i + 1,
+            100.0 * share
+        ))
+    }
+
+    /// A warning for gates whose discs overlap (closer than twice the gate radius `r`, mm,
+    /// once on the surface): they act as one gate, the later filling next to nothing.
+    pub fn overlap_warning(&self, r: f64) -> Option<String> {
+        let mut pairs = Vec::new();
+        for (i, a) in self.gates.iter().enumerate() {
+            for (j, b) in self.gates.iter().enumerate().skip(i + 1) {
+                let d = DVec3::from_array(a.point).distance(DVec3::from_array(b.point));
+                if d < 2.0 * r {
+                    pairs.push(format!("gates {} and {} ({d:.2} mm apart)", i + 1, j + 1));
+                }
+            }
+        }
+        (!pairs.is_empty()).then(|| {
+            format!(
+                "your {} overlap (closer than twice the gate radius, {:.3} mm, on the surface): each pair acts as one gate, the later filling next to nothing; give each gate once",
+                pairs.join(", "),
+                2.0 * r
+            )
+        })
+    }
+
     /// The snapped points, in order.
     pub fn points(&self) -> Vec<DVec3> {
         self.gates

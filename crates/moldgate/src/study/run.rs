@@ -427,6 +427,12 @@ pub(super) fn run(part: &LoadedMesh, s: &Settings, hooks: &Hooks) -> Result<Stud
     {
         report.warnings.push(w);
     }
+    if let Some(w) = placed
+        .as_ref()
+        .and_then(|p| p.overlap_warning(analysis.options.gate_radius_mm))
+    {
+        report.warnings.push(w);
+    }
     report.placed_gates = placed;
     let wall_per_vertex = wall.as_ref().map(|(w, _)| w.per_vertex(mesh));
     if let Some(p) = hooks.progress {
