@@ -815,40 +815,43 @@ fn the_placed_gates_table_gives_the_answers_verdict() {
     assert!(!aesthetic.contains("  balanced gate  ("), "{aesthetic}");
 }
 
-/// A gate given twice (or two whose discs overlap) acts as one: a warning says so, and the
-/// later one's share is said as a share of the volume the gates reach.
+/// Two gates whose discs overlap are one gate in the mould: a warning says so (a point
+/// given twice has its own warning, not this one).
 #[test]
-fn gates_given_twice_are_warned_as_one() {
-    let out = moldgate(&[
-        "locate",
-        "--sample",
-        "plate",
-        "--fill",
-        "--gate-at",
-        "10,10,3",
-        "--gate-at",
-        "10,10,3",
-        "--gate-at",
-        "-20,5,3",
-    ]);
-    let text = String::from_utf8_lossy(&out.stdout);
+fn gates_whose_discs_overlap_are_warned_as_one() {
+    let run = |second: &str| {
+        let out = moldgate(&[
+            "locate",
+            "--sample",
+            "plate",
+            "--fill",
+            "--gate-at",
+            "10,10,3",
+            "--gate-at",
+            second,
+            "--gate-at",
+            "-20,5,3",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let text = run("11,10,3");
     assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        text.contains("warning: your gates 1 and 2 (0.00 mm apart) overlap"),
+        text.contains("warning: your gates 1 and 2 (1.00 mm apart) overlap"),
         "{text}"
     );
     assert!(
         !text.contains("gates 1 and 3") && !text.contains("gates 2 and 3"),
         "{text}"
     );
+    let text = run("10,10,3");
     assert!(
-        text.contains(
-            "your gate 2 fills 0.0 % of the volume (the share it reaches first by flow length)"
-        ),
+        text.contains("warning: --gate-at gives gate 2 at the point of gate 1"),
         "{text}"
     );
+    assert!(!text.contains("overlap"), "{text}");
 }

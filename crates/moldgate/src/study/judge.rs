@@ -548,20 +548,21 @@ impl PlacedGates {
     }
 
     /// A warning for gates whose discs overlap (closer than twice the gate radius `r`, mm,
-    /// once on the surface): they act as one gate, the later filling next to nothing.
+    /// once on the surface): in the mould they are one gate. A
+    /// point given twice has the options' own warning, and is left out here.
     pub fn overlap_warning(&self, r: f64) -> Option<String> {
         let mut pairs = Vec::new();
         for (i, a) in self.gates.iter().enumerate() {
             for (j, b) in self.gates.iter().enumerate().skip(i + 1) {
                 let d = DVec3::from_array(a.point).distance(DVec3::from_array(b.point));
-                if d < 2.0 * r {
+                if d < 2.0 * r && a.asked != b.asked {
                     pairs.push(format!("gates {} and {} ({d:.2} mm apart)", i + 1, j + 1));
                 }
             }
         }
         (!pairs.is_empty()).then(|| {
             format!(
-                "your {} overlap (closer than twice the gate radius, {:.3} mm, on the surface): each pair acts as one gate, the later filling next to nothing; give each gate once",
+                "your {} overlap (closer than twice the gate radius, {:.3} mm, on the surface): each pair is one gate in the mould, though the fill shares the volume between them",
                 pairs.join(", "),
                 2.0 * r
             )
