@@ -334,6 +334,11 @@ pub const MIN_GATE_RADIUS_MM: f64 = 0.001;
 /// warned about (the built-in library's span 0.78 to 1.92 mm).
 const PLAUSIBLE_RADIUS_MM: (f64, f64) = (0.2, 10.0);
 
+/// How far, in degrees C, a melt or mould-wall temperature given beside a named material may
+/// lie from that grade's own before a warning says so: processing windows span about 40 C
+/// either side (PC 280-320 C), and one farther off is most often another grade's or a unit's.
+const FAR_FROM_THE_GRADE_C: f64 = 50.0;
+
 /// How many names an unknown material is answered with.
 const SUGGESTIONS: usize = 3;
 
@@ -758,6 +763,27 @@ impl StudyOptions {
                 ));
             }
         }
+        // A temperature far from the named grade's own: said, not refused (a designer may
+        // mean it), since it moves Eq. 8's radius and the fill's numbers.
+        if let MaterialChoice::Name(name) = &self.material {
+            if let Ok(grade) = lookup(name, user) {
+                for (flag, given, own) in [
+                    ("--t-melt", self.t_melt, grade.t_melt),
+                    ("--t-wall", self.t_wall, grade.t_wall),
+                ] {
+                    if let Some(v) = given.filter(|v| (v - own).abs() > FAR_FROM_THE_GRADE_C) {
+                        warnings.push(format!(
+                            "{flag} {} C is {} C {} {}'s own {} C: a temperature that far from the grade's is most often another grade's or another unit's (degrees C); check it",
+                            crate::report::three_figures(v),
+                            crate::report::three_figures((v - own).abs()),
+                            if v < own { "below" } else { "above" },
+                            grade.name,
+                            crate::report::three_figures(own),
+                        ));
+                    }
+                }
+            }
+        }
         // Eq. 8's radius far outside moulding practice is most often a parameter in the
         // wrong unit (a shear rate of 1 for 10,000 1/s), a forced one a diameter or inches:
         // said, not refused.
@@ -917,6 +943,30 @@ impl StudyOptions {
 
 #[cfg(test)]
 mod tests {
+    /// A melt temperature far from the named grade's is said: PC's 305 C given as 200.
+    #[test]
+    fn a_temperature_far_from_the_grades_is_said() {
+        let warnings = |json: &str| {
+            serde_json::from_str::<super::StudyOptions>(json)
+                .unwrap()
+                .validate()
+                .unwrap()
+                .warnings
+        };
+        let w = warnings(r#"{ "material": "PC", "t_melt": 200 }"#);
+        assert!(
+            w.iter()
+                .any(|w| w.starts_with("--t-melt 200 C is 105 C below PC's own 305 C")),
+            "{w:?}"
+        );
+        assert!(warnings(r#"{ "material": "PC", "t_melt": 290 }"#).is_empty());
+        let w = warnings(r#"{ "material": "PP", "t_wall": 120 }"#);
+        assert!(
+            w.iter().any(|w| w.starts_with("--t-wall 120 C is")),
+            "{w:?}"
+        );
+    }
+
     /// Decimal options read from JSON (the service's query and form, Python's keywords) are
     /// the nearest doubles, as the command line reads them: a radius of 17 digits keeps its
     /// last one, and a grid offset a double above -1 is not rounded to -1 and refused.
