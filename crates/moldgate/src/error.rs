@@ -484,8 +484,9 @@ pub(crate) fn figures(x: f64) -> String {
     if !(x.is_finite() && x != 0.0) {
         return x.to_string();
     }
-    // Past a part's largest coordinate, the exponent says more than its digits.
-    if x.abs() >= 1e9 {
+    // Past a part's largest coordinate, or below a nanometre's thousandth, the exponent
+    // says more than its digits (1e-200 would read 0).
+    if x.abs() >= 1e9 || x.abs() < 1e-6 {
         return format!("{x:.3e}");
     }
     let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;

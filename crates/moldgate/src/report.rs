@@ -654,6 +654,10 @@ pub fn three_figures(t: f64) -> String {
     if !t.is_finite() || t <= 0.0 {
         return format!("{t:.3}");
     }
+    // A number past any part's size reads by its exponent, not its 300 digits.
+    if t >= 1e9 {
+        return format!("{t:.2e}");
+    }
     let decimals = |v: f64| (2 - v.log10().floor() as i64).clamp(0, 9) as usize;
     let d = decimals(t);
     let text = format!("{t:.d$}");

@@ -343,7 +343,13 @@ fn choose_cell(
             }) => {
                 let most = MAX_CELL_OF_DIAGONAL * diagonal;
                 let keeps = |h: f64| check_limits(mesh, body_of, h, sums, options).is_ok();
-                let least = match coarsen(least_cell_mm.max(h), most, |h| {
+                // A cell so small that its count overflows (1e-200 mm) gives no estimate:
+                // the search starts from the cell chosen by itself.
+                let start = match least_cell_mm.is_finite() {
+                    true => least_cell_mm.max(h),
+                    false => (nominal_wall_mm / 2.0).clamp(h, most),
+                };
+                let least = match coarsen(start, most, |h| {
                     check_limits(mesh, body_of, h, sums, options)
                 }) {
                     Ok((above, _)) => {
@@ -3090,7 +3096,7 @@ pub enum FillError {
     #[error("the fill analysis was cancelled")]
     Cancelled,
     /// The work would break a limit of [`FlowOptions`]; nothing was allocated.
-    #[error("{what}: {count:.3e} at a cell of {cell} mm, over the limit of {limit:.3e}; choose a cell of at least {least} mm", cell = crate::error::figures(*.cell_mm), least = crate::error::figures(*.least_cell_mm))]
+    #[error("{what}: {} at a cell of {cell} mm, over the limit of {limit:.3e}; choose a cell of at least {least} mm", if .count.is_finite() { format!("{:.3e}", .count) } else { "more than a double can hold".to_string() }, cell = crate::error::figures(*.cell_mm), least = crate::error::figures(*.least_cell_mm))]
     TooLarge {
         /// What is counted.
         what: &'static str,

@@ -685,6 +685,34 @@ fn fill_refuses_a_fine_cell_over_the_solid_cell_limit_before_the_work() {
         ),
         "{least_cell_mm}"
     );
+    // A cell so fine that its count overflows names the same least cell, and itself in
+    // figures (it read "inf at a cell of 0 mm ... at least inf mm").
+    let e = analyse_with(
+        &cover,
+        flow::FlowOptions {
+            cell_mm: Some(1e-200),
+            ..flow::FlowOptions::default()
+        },
+    )
+    .unwrap_err();
+    let flow::FillError::TooLarge {
+        least_cell_mm: least_of_tiny,
+        ..
+    } = e
+    else {
+        panic!("not a refusal of the limits: {e}");
+    };
+    // The same to the bisection's millionth, and so in the figures the message gives.
+    assert!(
+        (least_of_tiny - least_cell_mm).abs() <= 1e-5 * least_cell_mm,
+        "{least_of_tiny} against {least_cell_mm}"
+    );
+    assert_eq!(format!("{least_of_tiny:.4}"), format!("{least_cell_mm:.4}"));
+    assert!(
+        e.to_string()
+            .contains("more than a double can hold at a cell of 1.000e-200 mm"),
+        "{e}"
+    );
 }
 
 #[test]
