@@ -1064,6 +1064,38 @@ fn late_tail_warning(fill: &GateFill) -> Option<String> {
     ))
 }
 
+/// Under the resistance objective, the warning for one slow place (a thin wall) that fills
+/// last from the paper gate and from the balanced gate alike (their last places within two
+/// and a half cells `h` of each other) when the balanced gate moved to within half its L_max
+/// of it: the fill time to that place, not the fill of the part, chose the gate, at the cost
+/// of a longer L_max. Gating beside a thin place goes against gating into the thick
+/// sections; the 99 % times tell the fill of the part.
+fn slow_place_warning(
+    paper: &GateFill,
+    balanced: &BalancedFill,
+    objective: Objective,
+    h: f64,
+) -> Option<String> {
+    if objective != Objective::Resistance || balanced.is_paper_gate {
+        return None;
+    }
+    let b = &balanced.fill;
+    let (p_last, b_last) = (paper.last_to_fill.first()?, b.last_to_fill.first()?);
+    let apart = DVec3::from_array(p_last.point).distance(DVec3::from_array(b_last.point));
+    if apart > 2.5 * h || b_last.flow_length_mm >= 0.5 * b.l_max_mm {
+        return None;
+    }
+    let [x, y, z] = b_last.point;
+    Some(format!(
+        "one slow place, at ({x:.3}, {y:.3}, {z:.3}) mm, fills last from the paper gate and from the balanced gate alike (a thin wall holds the front there): the balanced gate minimises the fill time to it, and moved to {:.1} mm of flow path from it, at the cost of L_max {:.1} -> {:.1} mm; a gate beside a thin place goes against gating into the thick sections: read the 99 % times ({} s and {} s) and L_max, or thicken that place",
+        b_last.flow_length_mm,
+        paper.l_max_mm,
+        b.l_max_mm,
+        crate::report::seconds_text(paper.fill_time_99_s),
+        crate::report::seconds_text(b.fill_time_99_s),
+    ))
+}
+
 /// The 99th percentile of a field's finite values (0 when there is none): the least value
 /// at or below which 99 % of them lie (the value of rank ceil(0.99 n), counted from 1).
 fn percentile_99(t: &[f64]) -> f64 {
@@ -4235,6 +4267,9 @@ pub fn analyse_prepared(
         placed.as_ref(),
     ));
     warnings.extend(late_tail_warning(&paper));
+    if let Some(b) = &balanced {
+        warnings.extend(slow_place_warning(&paper, b, options.objective, h));
+    }
     check()?;
     Ok(FillAnalysis {
         cell_mm: h,
@@ -4613,6 +4648,61 @@ mod tests {
         let w = late_tail_warning(&fill(0.0344, 0.0161)).expect("over twice");
         assert!(w.contains("0.0344 s") && w.contains("0.0161 s"), "{w}");
         assert!(late_tail_warning(&fill(0.01, 0.0)).is_none());
+    }
+
+    /// Under the resistance objective, one thin place that fills last from the paper gate
+    /// and from the balanced gate alike, with the balanced gate moved next to it, is said
+    /// (the deskhop case's floor: 13.3 mm of flow path from it, L_max 61.2 -> 96.8 mm); a
+    /// different last place, a gate still far from it or the length objective is not.
+    #[test]
+    fn a_slow_place_that_chose_the_balanced_gate_is_said() {
+        let gate_fill = |l_max: f64, last: [f64; 3], to_last: f64| GateFill {
+            gate: [0.0; 3],
+            body: 0,
+            reached_share: 1.0,
+            wall_across_mm: 2.0,
+            l_max_mm: l_max,
+            l_mean_mm: l_max / 2.0,
+            farthest: [0.0; 3],
+            fill_time_s: 0.03,
+            fill_time_99_s: 0.02,
+            flow_ratio: 5.0,
+            flow_ratio_limit: None,
+            exceeds_flow_ratio: false,
+            pressure_mpa: 1.0,
+            last_to_fill: vec![PointValue {
+                point: last,
+                flow_length_mm: to_last,
+                fill_time_s: 0.03,
+            }],
+            weld_lines: Vec::new(),
+        };
+        let balanced = |fill: GateFill| BalancedFill {
+            fill,
+            search: Balanced {
+                candidate: 0,
+                value: 0.02,
+                lower_bound: 0.02,
+                runs: 3,
+                proven: true,
+            },
+            improvement_pct: 40.0,
+            is_paper_gate: false,
+        };
+        let paper = gate_fill(61.2, [32.3, -96.2, 10.6], 49.8);
+        let near = balanced(gate_fill(96.8, [32.5, -96.0, 10.6], 13.3));
+        let w = slow_place_warning(&paper, &near, Objective::Resistance, 0.9).expect("said");
+        assert!(
+            w.contains(
+                "moved to 13.3 mm of flow path from it, at the cost of L_max 61.2 -> 96.8 mm"
+            ),
+            "{w}"
+        );
+        assert!(slow_place_warning(&paper, &near, Objective::Length, 0.9).is_none());
+        let elsewhere = balanced(gate_fill(96.8, [60.0, -96.0, 10.6], 13.3));
+        assert!(slow_place_warning(&paper, &elsewhere, Objective::Resistance, 0.9).is_none());
+        let far = balanced(gate_fill(96.8, [32.5, -96.0, 10.6], 60.0));
+        assert!(slow_place_warning(&paper, &far, Objective::Resistance, 0.9).is_none());
     }
 
     #[test]
