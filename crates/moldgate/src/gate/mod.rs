@@ -889,6 +889,24 @@ fn locate_once(
     if centres.get(options.centre).is_none() {
         warnings.push("the mesh encloses no volume, so the surface centre of mass is used".into());
     }
+    // The aesthetic gate on a line that is not one closed rim may sit on a hole, a thread or
+    // an inner edge rather than where the mould splits.
+    if let (GateMode::Aesthetic, Some(g)) = (options.mode, &aesthetic_gate) {
+        if !parting.edges.is_empty() && !parting.closed {
+            warnings.push(format!(
+                "the parting line the aesthetic gate lies on is open ({:.1} mm of edges found as {} connected pieces): the gate at ({:.3}, {:.3}, {:.3}) mm may sit on a hole, a thread or an inner edge, not on the rim where the mould splits; {}",
+                parting.length_mm,
+                parting.loops,
+                g.point.x,
+                g.point.y,
+                g.point.z,
+                match options.parting {
+                    PartingRule::Longest => "the default line (--parting-line outline) is the part's outer rim, closed",
+                    PartingRule::Outline => "check the mesh's rim there",
+                }
+            ));
+        }
+    }
     let hits = hits.ok_or(OptionsError::Stopped)?;
     times.projection_s = projection_s;
     times.parting_s = parting_s;

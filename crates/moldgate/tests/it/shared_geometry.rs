@@ -727,3 +727,30 @@ fn the_suitability_map_refines_the_best_of_each_body() {
         .unwrap();
     assert!(bodies.contains(&map.score_text(best)), "{bodies}");
 }
+
+/// The aesthetic gate on an open parting line is warned: the screw cap's longest line along
+/// +z is 40 pieces over its thread (500 mm on an 18 mm cap), where the gate lands; its
+/// outline (the default) is closed and not warned.
+#[test]
+fn an_aesthetic_gate_on_an_open_parting_line_is_warned() {
+    let test = "an_aesthetic_gate_on_an_open_parting_line_is_warned";
+    if parts_dir().is_none() {
+        return skip(test);
+    }
+    let cap = load("screwcap_oralb_75ml_ascii.stl");
+    let warned = |rule: &str| {
+        let options: moldgate::StudyOptions = serde_json::from_value(serde_json::json!({
+            "demold": "+z", "aesthetic": true, "parting_line": rule
+        }))
+        .unwrap();
+        let s = moldgate::study(&cap, &options).unwrap();
+        let r = s.report();
+        let open = r
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("the parting line the aesthetic gate lies on is open"));
+        (open, r.parting_line.closed)
+    };
+    assert_eq!(warned("longest"), (true, false));
+    assert_eq!(warned("outline"), (false, true));
+}
