@@ -135,7 +135,8 @@ async fn web_file(root: Arc<std::path::PathBuf>, req: axum::extract::Request) ->
 
 /// Whether the URL path `url` names something under `root` (a real path) that may be
 /// served: its names decoded as the file server decodes them, none hidden or holding a
-/// backslash or NUL, and, when it exists, its real path (links followed) inside `root`.
+/// backslash or NUL, and, when it exists, its real path (links followed) inside `root` and
+/// a regular file (not a FIFO, a device or a socket).
 fn servable(root: &Path, url: &str) -> bool {
     let Some(decoded) = percent_decoded(url) else {
         return false;
@@ -150,9 +151,11 @@ fn servable(root: &Path, url: &str) -> bool {
     if file.is_dir() {
         file.push("index.html");
     }
-    // A missing file is answered 404 by the file server.
-    file.canonicalize()
-        .map_or(true, |real| real.starts_with(root))
+    // A missing file is answered 404 by the file server. Only a regular file is served: a
+    // FIFO would hold the request (and its thread) until something writes to it.
+    file.canonicalize().map_or(true, |real| {
+        real.starts_with(root) && std::fs::metadata(&real).is_ok_and(|m| m.is_file())
+    })
 }
 
 /// `url` with its `%XX` escapes decoded; `None` when the bytes are not UTF-8.
