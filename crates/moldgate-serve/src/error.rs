@@ -66,10 +66,17 @@ impl ApiError {
             LoadError::NotAMesh { what, advice } if advice.contains("extension") => {
                 let (media, format) = if what.contains("PLY") {
                     ("application/x-ply", "ply")
+                } else if what.contains("STL") {
+                    ("model/stl", "stl")
                 } else {
                     ("model/obj", "obj")
                 };
-                format!("this is {what}, not an STL: send it as {media}, or give format={format}")
+                let not = if format == "stl" {
+                    "not the format asked for"
+                } else {
+                    "not an STL"
+                };
+                format!("this is {what}, {not}: send it as {media}, or give format={format}")
             }
             _ => e.to_string(),
         };

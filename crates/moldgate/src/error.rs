@@ -185,7 +185,7 @@ pub enum LoadError {
         limit_mm: f64,
     },
     /// A file that is another kind of file than a mesh, recognised by its first bytes.
-    #[error("this is {what}, not a mesh: {advice}")]
+    #[error("this is {what}, {}: {advice}", if .advice.contains("extension") { "not what its extension says" } else { "not a mesh" })]
     NotAMesh {
         /// What the file is, with its article ("a STEP file (ISO-10303-21)").
         what: &'static str,

@@ -290,3 +290,27 @@ fn a_ply_of_large_polygons_is_refused_as_its_triangles_outgrow_the_memory() {
         "{stderr}"
     );
 }
+
+/// A binary STL named .obj or .ply is named as such, with the extension to give it (it
+/// read "unknown OBJ statement" and "the PLY header is not text"), as an OBJ named .stl is.
+#[test]
+fn an_stl_named_obj_or_ply_is_named_as_an_stl() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["part.obj", "part.ply"] {
+        let path = dir.path().join(name);
+        let mut stl = tetrahedron(10.0);
+        // Over a kilobyte of facets, as a real part's.
+        for _ in 0..30 {
+            stl.extend_from_slice(&tetrahedron(10.0)[84..]);
+        }
+        std::fs::write(&path, stl).unwrap();
+        let out = moldgate(&["locate", path.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(3), "{stderr}");
+        assert!(
+            stderr.contains("most likely a binary STL")
+                && stderr.contains("not what its extension says: give it an .stl extension"),
+            "{stderr}"
+        );
+    }
+}

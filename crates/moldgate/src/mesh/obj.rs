@@ -62,7 +62,9 @@ const SKIPPED: &[&[u8]] = &[
 /// Reads an OBJ written in `units` from `reader` into a welded mesh in file units.
 pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError> {
     let head = reader.fill_buf()?;
-    if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false) {
+    if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false)
+        .or_else(|| sniff::stl_by_another_name(&head[..head.len().min(1024)]))
+    {
         return Err(e);
     }
     let limit = MAX_COORDINATE_MM / units.mm_per_unit();

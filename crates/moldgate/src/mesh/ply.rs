@@ -275,7 +275,9 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
 fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64, u64), LoadError> {
     let head = reader.fill_buf()?;
     if !head.starts_with(b"ply") {
-        if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false) {
+        if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false)
+            .or_else(|| sniff::stl_by_another_name(&head[..head.len().min(1024)]))
+        {
             return Err(e);
         }
     }

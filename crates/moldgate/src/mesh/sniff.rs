@@ -80,6 +80,25 @@ pub fn not_a_mesh(head: &[u8], text: bool) -> Option<LoadError> {
     Some(LoadError::NotAMesh { what, advice })
 }
 
+/// For the OBJ and PLY readers: an STL given another extension, named as the STL reader
+/// names an OBJ or a PLY given `.stl` (`head` as for [`not_a_mesh`]): an ASCII STL (`solid`
+/// then a `facet`), or binary data past a binary STL's 84-byte header, which neither OBJ
+/// nor PLY (whose header is text) starts with.
+pub fn stl_by_another_name(head: &[u8]) -> Option<LoadError> {
+    let trimmed = head.trim_ascii_start();
+    let what = if trimmed.starts_with(b"solid") && contains(head, b"facet") {
+        "an ASCII STL"
+    } else if head.len() >= 84 && !head.starts_with(b"ply") && !is_text(head) {
+        "binary data, most likely a binary STL (an 80-byte header, a count and 50-byte facets)"
+    } else {
+        return None;
+    };
+    Some(LoadError::NotAMesh {
+        what,
+        advice: "give it an .stl extension so that it is read as STL",
+    })
+}
+
 fn contains(haystack: &[u8], needle: &[u8]) -> bool {
     haystack.windows(needle.len()).any(|w| w == needle)
 }
@@ -111,6 +130,28 @@ mod tests {
         match not_a_mesh(head, true) {
             Some(LoadError::NotAMesh { what, .. }) => Some(what),
             _ => None,
+        }
+    }
+
+    /// An STL given an .obj or .ply extension is named, as an OBJ or PLY given .stl is.
+    #[test]
+    fn an_stl_by_another_name_is_named() {
+        let ascii = b"solid part\n  facet normal 0 0 1\n    outer loop\n";
+        let mut binary = vec![b' '; 80];
+        binary.extend(1u32.to_le_bytes());
+        binary.extend([0u8; 50]);
+        for head in [&ascii[..], &binary] {
+            let Some(LoadError::NotAMesh { advice, .. }) = stl_by_another_name(head) else {
+                panic!("{head:?}");
+            };
+            assert!(advice.contains(".stl extension"));
+        }
+        for head in [
+            &b"v 0 0 0\nv 1 0 0\nf 1 2 3\n"[..],
+            b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n",
+            b"solid but nothing else here\n",
+        ] {
+            assert!(stl_by_another_name(head).is_none(), "{head:?}");
         }
     }
 
