@@ -62,6 +62,9 @@ const SKIPPED: &[&[u8]] = &[
 /// Reads an OBJ written in `units` from `reader` into a welded mesh in file units.
 pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError> {
     let head = reader.fill_buf()?;
+    if head.is_empty() {
+        return Err(LoadError::Empty);
+    }
     if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false)
         .or_else(|| sniff::stl_by_another_name(&head[..head.len().min(1024)]))
     {
@@ -282,6 +285,12 @@ mod tests {
             } => n,
             other => panic!("expected a syntax error with a line, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn an_empty_file_is_said_empty_as_an_empty_stl_is() {
+        let e = read(&b""[..], Units::Mm).unwrap_err();
+        assert_eq!(e.to_string(), "empty file");
     }
 
     #[test]
