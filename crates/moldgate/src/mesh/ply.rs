@@ -298,6 +298,16 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
         }
         line_no = lines.line_no;
         let place = Place::Line(line_no);
+        // A comment is free text, often in an exporter's own 8-bit encoding: skipped
+        // before the header's lines are read as text.
+        let first_word = line
+            .trim_ascii_start()
+            .split(|b| b.is_ascii_whitespace())
+            .next()
+            .unwrap_or_default();
+        if line_no > 1 && matches!(first_word, b"comment" | b"obj_info") {
+            continue;
+        }
         let text = std::str::from_utf8(&line).map_err(|_| {
             syntax(
                 place,
@@ -680,6 +690,21 @@ mod tests {
         assert_eq!(raw.mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(raw.mesh.vertices[2], DVec3::new(1.0, 1.0, 0.0));
         assert!(raw.warnings.is_empty());
+    }
+
+    /// A comment in an exporter's 8-bit encoding (Latin-1 "café") is skipped, not refused
+    /// as a header that is not text.
+    #[test]
+    fn a_comment_not_in_utf8_is_skipped() {
+        let text = format!("{HEADER}0 0 0 9\n1 0 0 9\n1 1 0 9\n0 1 0 9\n4 0 1 2 3\n0 1\n")
+            .replace("comment made by hand", "comment caf\u{1}");
+        let bytes = text.replace('\u{1}', "").into_bytes();
+        let mut latin1 = bytes.clone();
+        let at = latin1.windows(4).position(|w| w == b"caf\n").unwrap() + 3;
+        latin1.insert(at, 0xE9);
+        assert!(std::str::from_utf8(&latin1).is_err());
+        let raw = read(&latin1[..], Units::Mm).unwrap();
+        assert_eq!(raw.mesh.triangles.len(), 2);
     }
 
     #[test]
