@@ -421,21 +421,33 @@ pub const EXCERPT_CHARS: usize = 40;
 
 /// A short, printable excerpt of input bytes for an error message: at most
 /// [`EXCERPT_CHARS`] characters (then `...` and the full length), with control characters,
-/// escape sequences and invalid UTF-8 written as escapes (`\u{1b}`, `\u{fffd}`), so nothing
+/// escape sequences and bytes that are not UTF-8 written as escapes (`\u{1b}`, `\xff`), so nothing
 /// read from a file can move the terminal's cursor or make a message longer than a line.
 pub fn excerpt(bytes: &[u8]) -> String {
-    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(4 * EXCERPT_CHARS)]);
     let mut out = String::new();
     let mut cut = bytes.len() > 4 * EXCERPT_CHARS;
-    for (n, c) in text.chars().enumerate() {
-        if n == EXCERPT_CHARS {
-            cut = true;
-            break;
-        }
-        if c.is_control() || c == '\u{feff}' || c == '\u{fffd}' {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
+    let mut n = 0;
+    // Bytes that are not UTF-8 are shown as themselves (`\xff`), not as a replacement
+    // character that hides them.
+    'chunks: for chunk in bytes[..bytes.len().min(4 * EXCERPT_CHARS)].utf8_chunks() {
+        let shown = chunk
+            .valid()
+            .chars()
+            .map(Ok)
+            .chain(chunk.invalid().iter().map(|&b| Err(b)));
+        for c in shown {
+            if n == EXCERPT_CHARS {
+                cut = true;
+                break 'chunks;
+            }
+            n += 1;
+            match c {
+                Ok(c) if c.is_control() || c == '\u{feff}' || c == '\u{fffd}' => {
+                    out.extend(c.escape_default());
+                }
+                Ok(c) => out.push(c),
+                Err(b) => out += &format!("\\x{b:02x}"),
+            }
         }
     }
     if cut {
@@ -612,6 +624,9 @@ mod tests {
         assert!(long.len() < 80, "{long}");
         assert!(long.ends_with("... (100000000 bytes)"), "{long}");
         assert!(!excerpt(&[0xff, 0xfe, b'a']).chars().any(|c| c.is_control()));
+        // Bytes that are not UTF-8 are shown as themselves, beside the text around them.
+        assert_eq!(excerpt(&[b'c', b'a', b'f', 0xe9, 0xff]), "caf\\xe9\\xff");
+        assert_eq!(excerpt("café".as_bytes()), "café");
     }
 
     #[test]
