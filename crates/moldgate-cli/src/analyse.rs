@@ -83,7 +83,12 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         )),
         // The part's fault, not an option's: an input error that names the file.
         StudyError::Locate(l) if l.is_the_parts() => Failure::input(format!("{part}: {l}")),
-        StudyError::Material(_) | StudyError::Locate(_) => Failure::usage(e.to_string()),
+        // An option over its limit named as its flag, when the message does not name it.
+        StudyError::Locate(l) => match l.field().map(flag) {
+            Some(f) if !e.to_string().starts_with(&f) => Failure::usage(format!("{f}: {e}")),
+            _ => Failure::usage(e.to_string()),
+        },
+        StudyError::Material(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
         StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
         // The part's fault: its surface encloses no solid at the gate.

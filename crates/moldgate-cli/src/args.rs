@@ -388,7 +388,7 @@ pub struct BatchArgs {
     /// Time limit of each part's study, seconds: past it the study stops (within one step
     /// of the fill's cells, one march of the fill analysis, one facet of a wall map or one
     /// block of triangles of the gate's rays; the load runs to its end) and the part fails
-    /// with exit code 6; above 0 and at most 86400 (a day) [default: none].
+    /// with exit code 6; from 0.001 to 86400 (a day) [default: none].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub timeout: Option<f64>,
     /// No progress bar and no closing count.

@@ -245,7 +245,7 @@ fn less_time_keywords(settings: &Settings, stage: moldgate::study::Stage) -> Str
     moldgate::study::keyword_words(&hint, "True")
 }
 
-/// A time limit in seconds as a duration: above 0 and at most a day (the library's
+/// A time limit in seconds as a duration: from a millisecond to a day (the library's
 /// [`moldgate::study::MAX_TIMEOUT_S`]).
 fn time_limit(timeout: Option<f64>) -> PyResult<Option<std::time::Duration>> {
     timeout

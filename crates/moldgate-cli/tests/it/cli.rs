@@ -343,7 +343,7 @@ fn non_positive_lengths_and_counts() {
         (&["--timeout", "-1"], "--timeout"),
         (
             &["--timeout", "-inf"],
-            "--timeout must be a number of seconds above 0 and at most 86400 (a day), got -inf",
+            "--timeout must be a number of seconds from 0.001 to 86400 (a day), got -inf",
         ),
         (
             &["--no-such-option"],

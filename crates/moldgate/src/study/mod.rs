@@ -245,14 +245,19 @@ pub enum StudyError {
 /// line's `--timeout`, the service's limits, the Python package's `timeout`).
 pub const MAX_TIMEOUT_S: f64 = 86_400.0;
 
-/// A time limit of `seconds` as a duration: a number above 0 and at most
+/// The shortest time limit of a study, seconds (a millisecond): a shorter one stops every
+/// study before its first stage, and its messages would read 0 s.
+pub const MIN_TIMEOUT_S: f64 = 0.001;
+
+/// A time limit of `seconds` as a duration: a number from [`MIN_TIMEOUT_S`] to
 /// [`MAX_TIMEOUT_S`]; else the message, which names the limit as `name`.
 pub fn time_limit(name: &str, seconds: f64) -> Result<std::time::Duration, String> {
-    if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_TIMEOUT_S {
+    if seconds.is_finite() && (MIN_TIMEOUT_S..=MAX_TIMEOUT_S).contains(&seconds) {
         Ok(std::time::Duration::from_secs_f64(seconds))
     } else {
         Err(format!(
-            "{name} must be a number of seconds above 0 and at most {MAX_TIMEOUT_S} (a day), got {seconds}"
+            "{name} must be a number of seconds from {MIN_TIMEOUT_S} to {MAX_TIMEOUT_S} (a day), got {}",
+            crate::error::figures(seconds)
         ))
     }
 }

@@ -609,7 +609,7 @@ impl StudyOptions {
         // A radius no part could hold is refused before any work (and before a message
         // writes it out in hundreds of digits).
         if !(MIN_GATE_RADIUS_MM..=MAX_GATE_RADIUS_MM).contains(&gate_radius_mm) {
-            let said = format!("{gate_radius_mm:.3e}");
+            let said = crate::error::figures(gate_radius_mm);
             let beyond = match gate_radius_mm > MAX_GATE_RADIUS_MM {
                 true => format!("more than {MAX_GATE_RADIUS_MM} mm"),
                 false => format!("less than {MIN_GATE_RADIUS_MM} mm"),
@@ -1253,7 +1253,7 @@ color_by = "flow_length"
         );
         assert_eq!(
             refused(r#"{ "gate_radius": 1e-6 }"#),
-            "gate_radius must be from 0.001 to 1000 mm, got 1.000e-6"
+            "gate_radius must be from 0.001 to 1000 mm, got 0.000001"
         );
         let e = refused(
             r#"{ "material": { "name": "Fast", "n": 0.3, "t_melt": 230, "t_wall": 50,
