@@ -249,10 +249,11 @@ fn malformed_files_name_the_place() {
             "{bad}: {err}"
         );
     }
-    // An empty OBJ or one without faces has nothing to analyse.
+    // An empty OBJ is an empty file (as an empty STL or PLY); one without faces has
+    // nothing to analyse.
     assert!(matches!(
         read_obj(&b""[..], Units::Mm),
-        Err(LoadError::NoArea { facets: 0 })
+        Err(LoadError::Empty)
     ));
     assert!(matches!(
         read_ply(&b""[..], Units::Mm),
