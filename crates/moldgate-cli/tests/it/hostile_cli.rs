@@ -266,10 +266,12 @@ fn a_ply_of_large_polygons_is_refused_as_its_triangles_outgrow_the_memory() {
         }
     }
     for _ in 0..faces {
-        bytes.push(255);
+        // The corner count, then the corners.
+        let mut face = vec![255u8];
         for _ in 0..255 {
-            bytes.extend(((next() % vertices) as u16).to_le_bytes());
+            face.extend(((next() % vertices) as u16).to_le_bytes());
         }
+        bytes.extend(face);
     }
     std::fs::write(&path, bytes).unwrap();
     let out = Command::new("bash")
