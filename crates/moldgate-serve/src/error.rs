@@ -89,7 +89,9 @@ impl ApiError {
             LoadError::Truncated { offset, .. } => e422.at(format!("byte {offset}")),
             LoadError::CountMismatch { expected, .. } => e422.at(format!("byte {expected}")),
             LoadError::TruncatedHeader { .. } => e422.at("byte 0"),
-            _ => e422,
+            // No place in the mesh: the body as a whole (an empty or unreadable mesh, another
+            // kind of file, no facet with area), as the OpenAPI document says.
+            _ => e422.at("body"),
         }
     }
 

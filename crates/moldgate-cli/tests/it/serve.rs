@@ -557,6 +557,11 @@ fn malformed_meshes_are_422_with_their_place() {
             .ends_with("not an STL: send it as model/obj, or give format=obj"),
         "{e}"
     );
+    // A mesh with no place to name (another kind of file) is the body's fault.
+    assert_eq!(e["where"], "body", "{e}");
+    let gzip = b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x00\x03".repeat(20);
+    let e = assert_error(&s, &study_stl(s.addr, "", &gzip), 422, "mesh");
+    assert_eq!(e["where"], "body", "{e}");
 }
 
 #[test]
