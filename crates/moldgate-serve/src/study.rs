@@ -356,8 +356,14 @@ async fn multipart(
                     .await
                     .map_err(|e| bad(format!("the options part cannot be read: {e}")))?;
                 let fail = |m: String| ApiError::options(m).at("options");
-                let v: Value = serde_json::from_slice(&text)
-                    .map_err(|e| fail(format!("the options part is not JSON: {e}")))?;
+                // A number beyond a double (1e400) is not finite, as the query form says.
+                let v: Value = serde_json::from_slice(&text).map_err(|e| {
+                    let e = e.to_string().replace(
+                        "number out of range",
+                        "a number too large to be finite (beyond 1.8e308)",
+                    );
+                    fail(format!("the options part is not JSON: {e}"))
+                })?;
                 if !v.is_object() {
                     return Err(fail("the options part must be a JSON object".into()));
                 }

@@ -257,6 +257,15 @@ fn multipart_options_and_formats_give_the_same_report() {
             .starts_with("units is a parameter of the request's query (POST /v1/study?units=...)"),
         "{e}"
     );
+    // A number beyond a double is said not finite, as in the query form.
+    let e = refused(b"\"cell\": 1e400, ");
+    assert!(
+        e["message"]
+            .as_str()
+            .unwrap()
+            .contains("a number too large to be finite (beyond 1.8e308)"),
+        "{e}"
+    );
     // A multipart body without its boundary cannot be read: 400, not a format's 415.
     let unbounded = request(
         s.addr,
