@@ -151,7 +151,7 @@ pub enum LoadError {
     /// analyse (a file of large polygons makes many triangles of few bytes each): counted as
     /// they are read, by [`crate::mesh::check_triangle_memory`].
     #[error(
-        "{place}: the faces read so far make {triangles} triangles, which may take {:.1} GiB of memory to analyse ({} bytes a triangle), more than the {:.1} GiB this process may use (the memory available, or its limit): use a machine with more memory or a coarser mesh",
+        "{place}: the faces read so far make {triangles} triangles, which may take {:.2} GiB of memory to analyse ({} bytes a triangle), more than the {:.2} GiB this process may use (the memory available, or its limit): use a machine with more memory or a coarser mesh",
         gib(*.need),
         crate::mesh::BYTES_PER_TRIANGLE,
         gib(*.limit)

@@ -441,7 +441,7 @@ def batch_row(
     command line reads (STL, OBJ, PLY): a STEP or IGES file is a failed row, as in the
     command line's batch, with what to do; :func:`study` and :func:`load` tessellate them.
     ``timeout=SECONDS`` stops a study past that time: its row has status ``timeout`` (exit
-    code 2) and says so, as the command line's batch gives for ``--timeout``; stopped after
+    code 6) and says so, as the command line's batch gives for ``--timeout``; stopped after
     the gate was located, it keeps the method's gate found before the stop when that is the
     answer asked for (no balanced gate nor layout).
     """

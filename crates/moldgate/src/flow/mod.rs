@@ -1037,7 +1037,7 @@ fn summarise_layout(
         .iter()
         .map(|s| domain.body[s.cell as usize])
         .collect();
-    let shares = shares_of(length, points, &bodies);
+    let shares = shares_of(domain, length, points, &bodies);
     (gate_fill, shares)
 }
 
@@ -1082,12 +1082,15 @@ fn slow_place_warning(
     let b = &balanced.fill;
     let (p_last, b_last) = (paper.last_to_fill.first()?, b.last_to_fill.first()?);
     let apart = DVec3::from_array(p_last.point).distance(DVec3::from_array(b_last.point));
-    if apart > 2.5 * h || b_last.flow_length_mm >= 0.5 * b.l_max_mm {
+    let moved_to_it = b_last.flow_length_mm < 0.5 * b.l_max_mm
+        && 1.5 * b_last.flow_length_mm < p_last.flow_length_mm;
+    if apart > 2.5 * h || !moved_to_it {
         return None;
     }
     let [x, y, z] = b_last.point;
     Some(format!(
-        "one slow place, at ({x:.3}, {y:.3}, {z:.3}) mm, fills last from the paper gate and from the balanced gate alike (a thin wall holds the front there): the balanced gate minimises the fill time to it, and moved to {:.1} mm of flow path from it, at the cost of L_max {:.1} -> {:.1} mm; a gate beside a thin place goes against gating into the thick sections: read the 99 % times ({} s and {} s) and L_max, or thicken that place",
+        "one slow place, at ({x:.3}, {y:.3}, {z:.3}) mm, fills last from the paper gate and from the balanced gate alike (a thin wall holds the front there): the balanced gate minimises the fill time to it, and moved from {:.1} to {:.1} mm of flow path from it, at the cost of L_max {:.1} -> {:.1} mm; a gate beside a thin place goes against gating into the thick sections: read the 99 % times (paper {} s, balanced {} s) and L_max, or thicken that place",
+        p_last.flow_length_mm,
         b_last.flow_length_mm,
         paper.l_max_mm,
         b.l_max_mm,
@@ -1106,9 +1109,12 @@ fn percentile_99(t: &[f64]) -> f64 {
     *reached.select_nth_unstable_by(rank, f64::total_cmp).1
 }
 
-/// Each source's share of the cells a multi-source field reaches, and its largest value
-/// inside that share.
-fn shares_of(field: &Field, points: &[DVec3], bodies: &[u32]) -> Vec<GateShare> {
+/// Each source's share of the volume a multi-source field reaches, and its largest value
+/// inside that share. On a part of several bodies a cell stands for its body's volume over
+/// its body's cells (the bodies' cells are of one size but not of one fill of solid), so
+/// that a gate that alone fills a body has that body's share of the volume, as the report
+/// gives it.
+fn shares_of(domain: &Domain, field: &Field, points: &[DVec3], bodies: &[u32]) -> Vec<GateShare> {
     let mut count = vec![0usize; points.len()];
     let mut l_max = vec![0.0f64; points.len()];
     for (&s, &t) in field.source.iter().zip(&field.t) {
@@ -1118,6 +1124,30 @@ fn shares_of(field: &Field, points: &[DVec3], bodies: &[u32]) -> Vec<GateShare> 
         }
     }
     let reached = count.iter().sum::<usize>().max(1);
+    let share: Vec<f64> = if domain.body_volume_mm3.len() > 1 {
+        let mut cells = vec![0usize; domain.body_volume_mm3.len()];
+        for &b in &domain.body {
+            if let Some(c) = cells.get_mut(b as usize) {
+                *c += 1;
+            }
+        }
+        let weight: Vec<f64> = domain
+            .body_volume_mm3
+            .iter()
+            .zip(&cells)
+            .map(|(v, &c)| v.abs() / c.max(1) as f64)
+            .collect();
+        let mut weighed = vec![0.0f64; points.len()];
+        for (&s, &b) in field.source.iter().zip(&domain.body) {
+            if let (Some(w), Some(x)) = (weighed.get_mut(s as usize), weight.get(b as usize)) {
+                *w += x;
+            }
+        }
+        let total = weighed.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+        weighed.iter().map(|w| w / total).collect()
+    } else {
+        count.iter().map(|&c| c as f64 / reached as f64).collect()
+    };
     points
         .iter()
         .enumerate()
@@ -1125,7 +1155,7 @@ fn shares_of(field: &Field, points: &[DVec3], bodies: &[u32]) -> Vec<GateShare> 
             candidate: g,
             point: p.to_array(),
             body: bodies[g],
-            volume_share: count[g] as f64 / reached as f64,
+            volume_share: share[g],
             l_max_mm: Some(l_max[g]),
             fill_time_s: None,
         })
@@ -4694,7 +4724,7 @@ mod tests {
         let w = slow_place_warning(&paper, &near, Objective::Resistance, 0.9).expect("said");
         assert!(
             w.contains(
-                "moved to 13.3 mm of flow path from it, at the cost of L_max 61.2 -> 96.8 mm"
+                "moved from 49.8 to 13.3 mm of flow path from it, at the cost of L_max 61.2 -> 96.8 mm"
             ),
             "{w}"
         );
@@ -4703,6 +4733,11 @@ mod tests {
         assert!(slow_place_warning(&paper, &elsewhere, Objective::Resistance, 0.9).is_none());
         let far = balanced(gate_fill(96.8, [32.5, -96.0, 10.6], 60.0));
         assert!(slow_place_warning(&paper, &far, Objective::Resistance, 0.9).is_none());
+        // The paper gate already near the place (the watchy top's 14.9 against 11.6 mm): the
+        // balanced gate did not move to it.
+        let near_paper = gate_fill(61.2, [32.3, -96.2, 10.6], 14.9);
+        let close = balanced(gate_fill(63.9, [32.5, -96.0, 10.6], 11.6));
+        assert!(slow_place_warning(&near_paper, &close, Objective::Resistance, 0.9).is_none());
     }
 
     #[test]

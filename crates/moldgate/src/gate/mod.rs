@@ -894,7 +894,7 @@ fn locate_once(
     if let (GateMode::Aesthetic, Some(g)) = (options.mode, &aesthetic_gate) {
         if !parting.edges.is_empty() && !parting.closed {
             warnings.push(format!(
-                "the parting line the aesthetic gate lies on is open ({:.1} mm of edges found as {} connected pieces): the gate at ({:.3}, {:.3}, {:.3}) mm may sit on a hole, a thread or an inner edge, not on the rim where the mould splits; {}",
+                "the parting line the aesthetic gate lies on is open ({:.1} mm long, the line kept of {} connected pieces of edges between the two sides): the gate at ({:.3}, {:.3}, {:.3}) mm may sit on a hole, a thread or an inner edge, not on the rim where the mould splits; {}",
                 parting.length_mm,
                 parting.loops,
                 g.point.x,

@@ -49,8 +49,9 @@ fn distances_to_prefixes(a: &str, b: &str) -> Vec<usize> {
 }
 
 /// Up to `count` of `names` closest to `query`, closest first, comparing normalised names:
-/// ranked by the distance to the closest prefix of a name, then by the whole-name
-/// distance, then alphabetically. Each name appears once.
+/// ranked by the distance to the closest prefix of a name (none for a name that holds the
+/// query whole), then by the whole-name distance, then alphabetically. Each name appears
+/// once.
 pub fn closest<'a>(
     query: &str,
     names: impl IntoIterator<Item = &'a str>,
@@ -71,11 +72,13 @@ pub fn closest_of<'a>(
         .into_iter()
         .map(|(spelling, name)| {
             let key = normalized(spelling);
-            (
-                prefix_distance(&query, &key),
-                edit_distance(&query, &key),
-                name,
-            )
+            // A spelling that holds the query whole ("polyethylene" in "high-density
+            // polyethylene") is as close as one that starts with it.
+            let near = match key.contains(query.as_str()) {
+                true => 0,
+                false => prefix_distance(&query, &key),
+            };
+            (near, edit_distance(&query, &key), name)
         })
         .collect();
     ranked.sort();

@@ -535,13 +535,13 @@ impl PlacedGates {
         let (share, l) = (g.volume_share?, g.l_max_mm?);
         let of = match self.fill.as_ref().map(|f| f.reached_share) {
             Some(r) if r < 0.9995 => format!(
-                "of the volume your gates reach, {:.1} % of the part's,",
+                "of the volume your gates reach ({:.1} % of the part's; the share it reaches first by flow length)",
                 100.0 * r
             ),
-            _ => "of the volume".to_string(),
+            _ => "of the volume (the share it reaches first by flow length)".to_string(),
         };
         Some(format!(
-            "your gate {} fills {:.1} % {of} (the share it reaches first by flow length), longest flow path L_max {l:.1} mm in it",
+            "your gate {} fills {:.1} % {of}, longest flow path L_max {l:.1} mm in it",
             i + 1,
             100.0 * share
         ))

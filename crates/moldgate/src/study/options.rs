@@ -774,11 +774,11 @@ impl StudyOptions {
                     if let Some(v) = given.filter(|v| (v - own).abs() > FAR_FROM_THE_GRADE_C) {
                         warnings.push(format!(
                             "{flag} {} C is {} C {} {}'s own {} C: a temperature that far from the grade's is most often another grade's or another unit's (degrees C); check it",
-                            crate::report::three_figures(v),
-                            crate::report::three_figures((v - own).abs()),
+                            crate::error::figures(v),
+                            crate::error::figures((v - own).abs()),
                             if v < own { "below" } else { "above" },
                             grade.name,
-                            crate::report::three_figures(own),
+                            crate::error::figures(own),
                         ));
                     }
                 }
@@ -943,6 +943,18 @@ impl StudyOptions {
 
 #[cfg(test)]
 mod tests {
+    /// An unknown name held whole by some grades' names suggests them first: the two
+    /// polyethylenes for "polyethylene" (it suggested PET, PS and PEEK).
+    #[test]
+    fn a_family_name_suggests_its_grades() {
+        let o: super::StudyOptions =
+            serde_json::from_str(r#"{ "material": "polyethylene" }"#).unwrap();
+        let Err(crate::study::StudyError::UnknownMaterial { closest, .. }) = o.validate() else {
+            panic!("polyethylene is not one grade");
+        };
+        assert_eq!(closest[..2], ["PE-LD", "PE-HD"], "{closest:?}");
+    }
+
     /// A melt temperature far from the named grade's is said: PC's 305 C given as 200.
     #[test]
     fn a_temperature_far_from_the_grades_is_said() {
