@@ -49,8 +49,12 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
     let web_dir = match a.web_dir {
         Some(d) if !d.is_dir() => {
             return Err(Failure::input(format!(
-                "--web-dir {}: not a folder",
-                d.display()
+                "--web-dir {}: {}",
+                d.display(),
+                match d.exists() {
+                    true => "not a folder",
+                    false => "no such folder",
+                }
             )))
         }
         Some(d) => Some(d),

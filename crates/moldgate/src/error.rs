@@ -244,7 +244,12 @@ pub enum OptionsError {
     /// Parameters each in range whose gate radius (Eq. 7-8) is not a positive finite length
     /// (extreme values that overflow or vanish together).
     #[error(
-        "material '{material}': its parameters give a gate radius of {radius_mm:?} mm by Eq. 7-8, not a positive finite length (check n, k, mu_opt, gamma_opt and the temperatures)"
+        "material '{material}': its parameters give {} by Eq. 7-8, not a positive finite length (check n, k, mu_opt, gamma_opt and the temperatures)",
+        match .radius_mm {
+            r if r.is_infinite() => "an infinite gate radius (the numbers overflow)".to_string(),
+            r if r.is_nan() => "no gate radius (the numbers overflow or vanish together)".to_string(),
+            r => format!("a gate radius of {r:?} mm"),
+        }
     )]
     MaterialRadius {
         /// The material's name.

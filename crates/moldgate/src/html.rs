@@ -570,7 +570,12 @@ fn placed_table(h: &mut String, r: &Report) {
             line(h, &answer_gate_name(r), paper);
         }
         if let Some(b) = &f.balanced {
-            line(h, "balanced gate", &b.fill);
+            // Beside the aesthetic gate, the balanced gate may be the paper's grid gate.
+            let label = match r.balanced_is_paper_gate_beside_another() {
+                true => "balanced gate (the paper gate)",
+                false => "balanced gate",
+            };
+            line(h, label, &b.fill);
         }
     }
     let _ = writeln!(h, "</table>");

@@ -554,7 +554,7 @@ mod tests {
             .replace("mu_opt = 200.0", "mu_opt = 1e-308");
         let e = materials_from_toml(&huge).unwrap_err();
         assert!(
-            e.starts_with("line 1: material 'MyPA': its parameters give a gate radius of inf mm"),
+            e.starts_with("line 1: material 'MyPA': its parameters give an infinite gate radius"),
             "{e}"
         );
         // A huge value is written short, not in 309 digits.

@@ -723,7 +723,11 @@ fn extreme_material_parameters_name_the_material_and_read_short() {
     assert_fails(
         &out,
         USAGE,
-        &["materials.toml", "material 'MyPP'", "gate radius of inf mm"],
+        &[
+            "materials.toml",
+            "material 'MyPP'",
+            "an infinite gate radius",
+        ],
     );
     // A huge option value is written in a few characters.
     let out = moldgate(

@@ -301,4 +301,32 @@ fn the_html_fill_table_names_the_parting_line_gate_in_aesthetic_mode() {
     let said = "(an edge gate in the parting plane: the paper's rules for a gate seen along D, its disc on the part and the wall along D, do not apply to it; check the wall where it enters)";
     assert!(String::from_utf8_lossy(&out.stdout).contains(said));
     assert!(html.contains(said), "the page");
+    // With a gate of the designer's, the table of their fill names the aesthetic gate's row
+    // so, and the balanced gate, the cover's paper gate here, as the paper gate.
+    let out = moldgate(&[
+        "locate",
+        "--sample",
+        "cover",
+        "--fill",
+        "--aesthetic",
+        "--gate-at",
+        "0,0,30",
+        "--report",
+        page.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("\n  aesthetic gate    "),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n  balanced gate (the paper gate)  "),
+        "{text}"
+    );
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains("<tr><th>balanced gate (the paper gate)</th>"),
+        "the page"
+    );
 }
