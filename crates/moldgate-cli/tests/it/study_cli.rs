@@ -316,10 +316,7 @@ fn the_html_fill_table_names_the_parting_line_gate_in_aesthetic_mode() {
     ]);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        text.contains("\n  aesthetic gate    "),
-        "{text}"
-    );
+    assert!(text.contains("\n  aesthetic gate    "), "{text}");
     assert!(
         text.contains("\n  balanced gate (the paper gate)  "),
         "{text}"
