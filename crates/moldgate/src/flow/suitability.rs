@@ -33,7 +33,7 @@
 //! hold to that tolerance (one cell, in the objective's units).
 //!
 //! **Cost.** In the fill analysis, at most twice the marches of the balanced search (and
-//! at most [`MAX_RUNS`]; marches times solid cells within
+//! at most [`MAX_RUNS`]), that many for each body holding nodes (marches times solid cells within
 //! [`super::FlowOptions::max_march_cells`], checked before the work), two at a time on two
 //! threads, plus one pass over the nodes per march. Marches already made by the fill
 //! analysis (the paper gate's field, and the balanced gate's, exact for its node) are used
@@ -46,7 +46,8 @@ use serde::Serialize;
 use super::{argmax, march, Domain, Field, FillError, Objective, Source};
 use crate::math::DVec3;
 
-/// Most marches the map runs (beyond the fields given to it), whatever the budget asked.
+/// Most marches the map runs for each body holding nodes (beyond the fields given to it),
+/// whatever the budget asked.
 pub const MAX_RUNS: usize = 40;
 
 /// Whether a node's score is its exact value or a lower bound.
@@ -172,7 +173,8 @@ pub struct Given<'a> {
 
 /// The map of the nodes at `points` (the qualifying points) for `objective`. `given` are
 /// fields already marched (free sources). At most `max_runs` marches more are run (and at
-/// most [`MAX_RUNS`]); the fill analysis gives twice the balanced search's runs. `scale`
+/// most [`MAX_RUNS`]) for each body holding nodes; the fill analysis gives twice the
+/// balanced search's runs. `scale`
 /// turns the arrival values into the reported unit (1 for mm, seconds per mm for the fill
 /// time); `tolerance` is in arrival units (the cell side). Refused before the work when the
 /// marches would visit more than `max_march_cells` cells.
@@ -189,7 +191,18 @@ pub fn suitability(
 ) -> Result<Suitability, FillError> {
     let v = &domain.voxels;
     let cost = domain.cost(objective);
-    let max_runs = max_runs.min(MAX_RUNS);
+    // Nodes by their cell; nodes sharing a cell share its bounds.
+    let sources: Vec<Option<Source>> = points.iter().map(|&p| domain.source(p)).collect();
+    // Each body holding nodes has its own best to refine (scores compare within a body),
+    // so the budget is a body's: a second body's best does not take the first's marches.
+    let mut bodies_with_nodes: Vec<u32> = sources
+        .iter()
+        .flatten()
+        .map(|s| domain.body[s.cell as usize])
+        .collect();
+    bodies_with_nodes.sort_unstable();
+    bodies_with_nodes.dedup();
+    let max_runs = max_runs.min(MAX_RUNS) * bodies_with_nodes.len().max(1);
     let work = v.len() as f64 * max_runs as f64;
     if work > max_march_cells {
         return Err(FillError::too_large(
@@ -200,8 +213,6 @@ pub fn suitability(
             3.0,
         ));
     }
-    // Nodes by their cell; nodes sharing a cell share its bounds.
-    let sources: Vec<Option<Source>> = points.iter().map(|&p| domain.source(p)).collect();
     let mut cells: Vec<u32> = sources.iter().flatten().map(|s| s.cell).collect();
     cells.sort_unstable();
     cells.dedup();

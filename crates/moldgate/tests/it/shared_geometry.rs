@@ -686,7 +686,8 @@ fn the_balanced_gate_is_the_same_beside_the_aesthetic_gate() {
 }
 
 /// On the PSU cover (a box and its lid, two bodies) the suitability map refines each body's
-/// best, not only the lid's, whose scores are the least: the box's best is within 3 % of
+/// best with a budget of its own, not only the lid's, whose scores are the least: the box's
+/// best is exact and within 3 % of
 /// the balanced gate's L_max (the balanced search works on the box), and a best left at a
 /// lower bound is said so. Refining the least lower bound of the whole part left the box's
 /// best at 133.7 mm (a bound 7 % under the balanced gate's 143.4, its upper 153.3) behind 40
@@ -712,6 +713,14 @@ fn the_suitability_map_refines_the_best_of_each_body() {
         (best.score - l_max).abs() <= 0.03 * l_max,
         "the box's best {best:?} against the balanced gate's L_max {l_max:.1} mm"
     );
+    // Each body has the map's budget of marches: the box's best is exact (it was a bound
+    // with the 40 marches shared by the two bodies).
+    assert_eq!(
+        best.kind,
+        moldgate::flow::suitability::ScoreKind::Exact,
+        "{best:?}"
+    );
+    assert!(map.runs > 40 && map.runs <= 80, "{} marches", map.runs);
     for (_, n) in map.body_bests() {
         let text = map.score_text(n);
         assert_eq!(
