@@ -765,11 +765,7 @@ fn placed_gates(s: &mut String, r: &Report, p: &moldgate::study::judge::PlacedGa
                     if b.search.proven { "is" } else { "tried was" }
                 );
             }
-            // Beside the aesthetic gate, the balanced gate may be the paper's grid gate.
-            Some(b) if r.balanced_is_paper_gate_beside_another() => {
-                row(s, "balanced gate (the paper gate)", &b.fill)
-            }
-            Some(b) => row(s, "balanced gate", &b.fill),
+            Some(b) => row(s, r.balanced_row_name(), &b.fill),
             None => {}
         }
     }

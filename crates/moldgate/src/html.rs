@@ -570,12 +570,7 @@ fn placed_table(h: &mut String, r: &Report) {
             line(h, &answer_gate_name(r), paper);
         }
         if let Some(b) = &f.balanced {
-            // Beside the aesthetic gate, the balanced gate may be the paper's grid gate.
-            let label = match r.balanced_is_paper_gate_beside_another() {
-                true => "balanced gate (the paper gate)",
-                false => "balanced gate",
-            };
-            line(h, label, &b.fill);
+            line(h, r.balanced_row_name(), &b.fill);
         }
     }
     let _ = writeln!(h, "</table>");

@@ -390,6 +390,16 @@ impl Report {
         }
     }
 
+    /// The balanced gate's name in a table beside the answer's gate: "balanced gate (the
+    /// paper gate)" when it is the paper's grid gate beside another
+    /// ([`Report::balanced_is_paper_gate_beside_another`]), else "balanced gate".
+    pub fn balanced_row_name(&self) -> &'static str {
+        match self.balanced_is_paper_gate_beside_another() {
+            true => "balanced gate (the paper gate)",
+            false => "balanced gate",
+        }
+    }
+
     /// This report with its sentences (the warnings, the reasons for no gate, no fill or a
     /// refused radius, why a placed gate does not qualify) in the words of a front end
     /// whose options are keywords ([`crate::study::keyword_words`]): `--require-flat`

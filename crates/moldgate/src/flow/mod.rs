@@ -1110,44 +1110,10 @@ fn percentile_99(t: &[f64]) -> f64 {
 }
 
 /// Each source's share of the volume a multi-source field reaches, and its largest value
-/// inside that share. On a part of several bodies a cell stands for its body's volume over
-/// its body's cells (the bodies' cells are of one size but not of one fill of solid), so
-/// that a gate that alone fills a body has that body's share of the volume, as the report
-/// gives it.
+/// inside that share (the shares of [`volumes_of`]).
 fn shares_of(domain: &Domain, field: &Field, points: &[DVec3], bodies: &[u32]) -> Vec<GateShare> {
-    let mut count = vec![0usize; points.len()];
-    let mut l_max = vec![0.0f64; points.len()];
-    for (&s, &t) in field.source.iter().zip(&field.t) {
-        if let Some(g) = count.get_mut(s as usize) {
-            *g += 1;
-            l_max[s as usize] = l_max[s as usize].max(t);
-        }
-    }
-    let reached = count.iter().sum::<usize>().max(1);
-    let share: Vec<f64> = if domain.body_volume_mm3.len() > 1 {
-        let mut cells = vec![0usize; domain.body_volume_mm3.len()];
-        for &b in &domain.body {
-            if let Some(c) = cells.get_mut(b as usize) {
-                *c += 1;
-            }
-        }
-        let weight: Vec<f64> = domain
-            .body_volume_mm3
-            .iter()
-            .zip(&cells)
-            .map(|(v, &c)| v.abs() / c.max(1) as f64)
-            .collect();
-        let mut weighed = vec![0.0f64; points.len()];
-        for (&s, &b) in field.source.iter().zip(&domain.body) {
-            if let (Some(w), Some(x)) = (weighed.get_mut(s as usize), weight.get(b as usize)) {
-                *w += x;
-            }
-        }
-        let total = weighed.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-        weighed.iter().map(|w| w / total).collect()
-    } else {
-        count.iter().map(|&c| c as f64 / reached as f64).collect()
-    };
+    let (volumes, l_max) = volumes_of(domain, field, points.len());
+    let reached = volumes.iter().sum::<f64>().max(f64::MIN_POSITIVE);
     points
         .iter()
         .enumerate()
@@ -1155,11 +1121,43 @@ fn shares_of(domain: &Domain, field: &Field, points: &[DVec3], bodies: &[u32]) -
             candidate: g,
             point: p.to_array(),
             body: bodies[g],
-            volume_share: share[g],
+            volume_share: volumes[g] / reached,
             l_max_mm: Some(l_max[g]),
             fill_time_s: None,
         })
         .collect()
+}
+
+/// The volume, mm^3, each of the `n` sources of a multi-source field reaches first, and its
+/// largest value inside it. A cell stands for its body's volume over its body's cells (the
+/// bodies' cells are of one size but not of one fill of solid), so that a source that alone
+/// fills a body has that body's volume, as the report gives it.
+fn volumes_of(domain: &Domain, field: &Field, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let bodies = domain.bodies.max(1);
+    // Cells of each body, and of each source in each body.
+    let mut cells = vec![0usize; bodies];
+    let mut count = vec![0usize; n * bodies];
+    let mut l_max = vec![0.0f64; n];
+    for c in 0..field.t.len() {
+        let b = domain.body[c] as usize;
+        cells[b] += 1;
+        let g = field.source[c] as usize;
+        if g < n && field.t[c].is_finite() {
+            count[g * bodies + b] += 1;
+            l_max[g] = l_max[g].max(field.t[c]);
+        }
+    }
+    let volumes = (0..n)
+        .map(|g| {
+            (0..bodies)
+                .map(|b| {
+                    count[g * bodies + b] as f64 / cells[b].max(1) as f64
+                        * domain.body_volume_mm3.get(b).copied().unwrap_or(1.0)
+                })
+                .sum::<f64>()
+        })
+        .collect();
+    (volumes, l_max)
 }
 
 /// The cell with the largest finite value and that value (lowest cell on ties).
@@ -2617,28 +2615,7 @@ fn layout_of(
     runs: usize,
 ) -> MultiGate {
     let bodies = domain.bodies.max(1);
-    // Cells of each body, and of each gate in each body.
-    let mut cells = vec![0usize; bodies];
-    let mut count = vec![0usize; chosen.len() * bodies];
-    let mut l_max = vec![0.0f64; chosen.len()];
-    for c in 0..field.t.len() {
-        let b = domain.body[c] as usize;
-        cells[b] += 1;
-        let g = field.source[c] as usize;
-        if g < chosen.len() && field.t[c].is_finite() {
-            count[g * bodies + b] += 1;
-            l_max[g] = l_max[g].max(field.t[c]);
-        }
-    }
-    let volume = |g: usize| {
-        (0..bodies)
-            .map(|b| {
-                count[g * bodies + b] as f64 / cells[b].max(1) as f64
-                    * domain.body_volume_mm3.get(b).copied().unwrap_or(1.0)
-            })
-            .sum::<f64>()
-    };
-    let volumes: Vec<f64> = (0..chosen.len()).map(volume).collect();
+    let (volumes, l_max) = volumes_of(domain, field, chosen.len());
     let body_of = |i: usize| domain.body[candidates[i].cell as usize] as usize;
     let reached = volumes.iter().sum::<f64>().max(f64::MIN_POSITIVE);
     let gates: Vec<GateShare> = chosen

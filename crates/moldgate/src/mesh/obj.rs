@@ -65,9 +65,8 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
     if head.is_empty() {
         return Err(LoadError::Empty);
     }
-    if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false)
-        .or_else(|| sniff::stl_by_another_name(&head[..head.len().min(1024)]))
-    {
+    let head = &head[..head.len().min(1024)];
+    if let Some(e) = sniff::not_a_mesh(head, false).or_else(|| sniff::stl_by_another_name(head)) {
         return Err(e);
     }
     let limit = MAX_COORDINATE_MM / units.mm_per_unit();

@@ -275,8 +275,8 @@ pub fn read(mut reader: impl BufRead, units: Units) -> Result<RawMesh, LoadError
 fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64, u64), LoadError> {
     let head = reader.fill_buf()?;
     if !head.starts_with(b"ply") {
-        if let Some(e) = sniff::not_a_mesh(&head[..head.len().min(1024)], false)
-            .or_else(|| sniff::stl_by_another_name(&head[..head.len().min(1024)]))
+        let head = &head[..head.len().min(1024)];
+        if let Some(e) = sniff::not_a_mesh(head, false).or_else(|| sniff::stl_by_another_name(head))
         {
             return Err(e);
         }
@@ -326,7 +326,8 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Encoding, Vec<Element>, u64
             continue;
         }
         match keyword {
-            "" | "comment" | "obj_info" => {}
+            // Comments were skipped above, as free text.
+            "" => {}
             "format" => {
                 let enc = match words.next() {
                     Some("ascii") => Encoding::Ascii,

@@ -596,7 +596,7 @@ impl StudyOptions {
             });
         }
         let gate_at = self.gate_at()?;
-        let material = self.material(user)?;
+        let (material, grade) = self.material(user)?;
         let demold = if self.auto_demold() {
             Demold::Auto
         } else {
@@ -765,22 +765,20 @@ impl StudyOptions {
         }
         // A temperature far from the named grade's own: said, not refused (a designer may
         // mean it), since it moves Eq. 8's radius and the fill's numbers.
-        if let MaterialChoice::Name(name) = &self.material {
-            if let Ok(grade) = lookup(name, user) {
-                for (flag, given, own) in [
-                    ("--t-melt", self.t_melt, grade.t_melt),
-                    ("--t-wall", self.t_wall, grade.t_wall),
-                ] {
-                    if let Some(v) = given.filter(|v| (v - own).abs() > FAR_FROM_THE_GRADE_C) {
-                        warnings.push(format!(
-                            "{flag} {} C is {} C {} {}'s own {} C: a temperature that far from the grade's is most often another grade's or another unit's (degrees C); check it",
-                            crate::error::figures(v),
-                            crate::error::figures((v - own).abs()),
-                            if v < own { "below" } else { "above" },
-                            grade.name,
-                            crate::error::figures(own),
-                        ));
-                    }
+        if let Some(grade) = &grade {
+            for (flag, given, own) in [
+                ("--t-melt", self.t_melt, grade.t_melt),
+                ("--t-wall", self.t_wall, grade.t_wall),
+            ] {
+                if let Some(v) = given.filter(|v| (v - own).abs() > FAR_FROM_THE_GRADE_C) {
+                    warnings.push(format!(
+                        "{flag} {} C is {} C {} {}'s own {} C: a temperature that far from the grade's is most often another grade's or another unit's (degrees C); check it",
+                        crate::error::figures(v),
+                        crate::error::figures((v - own).abs()),
+                        if v < own { "below" } else { "above" },
+                        grade.name,
+                        crate::error::figures(own),
+                    ));
                 }
             }
         }
@@ -864,11 +862,15 @@ impl StudyOptions {
     }
 
     /// The material: a user material or a built-in by name, or given in full, then the
-    /// single-parameter overrides (which add " (modified)" to the name).
-    fn material(&self, user: &[Material]) -> Result<Material, StudyError> {
-        let mut m = match &self.material {
-            MaterialChoice::Parameters(m) => m.clone(),
-            MaterialChoice::Name(name) => lookup(name, user)?,
+    /// single-parameter overrides (which add " (modified)" to the name); and the named
+    /// grade before them (`None` for a material given in full).
+    fn material(&self, user: &[Material]) -> Result<(Material, Option<Material>), StudyError> {
+        let (mut m, grade) = match &self.material {
+            MaterialChoice::Parameters(m) => (m.clone(), None),
+            MaterialChoice::Name(name) => {
+                let grade = lookup(name, user)?;
+                (grade.clone(), Some(grade))
+            }
         };
         let overrides = [
             (&mut m.n, self.n),
@@ -889,7 +891,7 @@ impl StudyOptions {
             m.name += " (modified)";
         }
         m.validate().map_err(StudyError::Material)?;
-        Ok(m)
+        Ok((m, grade))
     }
 
     /// The fill analysis's options, or `None` when it was not asked for.
