@@ -116,11 +116,7 @@ impl Source<'_> {
     /// The title of a picture or 3D file: the file's name, or the sample's.
     pub fn title(self) -> String {
         match self {
-            Source::File(f) => f
-                .file_name()
-                .unwrap_or(f.as_os_str())
-                .to_string_lossy()
-                .into_owned(),
+            Source::File(f) => moldgate::files::shown(f.file_name().unwrap_or(f.as_os_str())),
             Source::Sample(s) => format!("sample '{s}'"),
         }
     }
@@ -130,7 +126,7 @@ impl Source<'_> {
 pub fn load_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), Failure> {
     crate::output::register_input(path);
     moldgate::files::read_mesh_file(path, units)
-        .map_err(|e| Failure::input(format!("{}: {e}", path.display())))
+        .map_err(|e| Failure::input(format!("{}: {e}", moldgate::files::shown(&path))))
 }
 
 /// One studied part: the mesh, and its study.
@@ -149,7 +145,7 @@ pub fn analyse(source: Source, s: &Settings, hooks: &Hooks) -> Result<Analysed, 
         Source::File(path) => {
             let (part, bytes) = load_file(path, s.units)?;
             let input = Input {
-                path: Some(path.display().to_string()),
+                path: Some(moldgate::files::shown(&path)),
                 sample: None,
                 bytes,
             };

@@ -128,7 +128,7 @@ pub fn run(a: LocateArgs) -> Result<(), Failure> {
         let m = b.manifest.as_deref().unwrap_or(Path::new("manifest"));
         return Err(Failure::usage(format!(
             "{}: lists no part ([[part]] tables with file = \"...\")",
-            m.display()
+            moldgate::files::shown(&m)
         )));
     }
     let outputs = check_outputs(&parts, b.out_dir.as_deref(), b.summary.as_deref())?;
@@ -275,7 +275,7 @@ fn summary_format(path: &Path) -> Result<SummaryFormat, Failure> {
         "csv" => Ok(SummaryFormat::Csv),
         _ => Err(Failure::usage(format!(
             "--summary {}: the name must end in .jsonl, .ndjson or .csv",
-            path.display()
+            moldgate::files::shown(&path)
         ))),
     }
 }
@@ -293,7 +293,9 @@ fn expand(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Option<String>)>, Failure>
             out.push((input.clone(), None));
             continue;
         }
-        let fail = |e: &dyn std::fmt::Display| Failure::input(format!("{}: {e}", input.display()));
+        let fail = |e: &dyn std::fmt::Display| {
+            Failure::input(format!("{}: {e}", moldgate::files::shown(&input)))
+        };
         let mut found: Vec<(PathBuf, Option<String>)> = std::fs::read_dir(input)
             .map_err(|e| fail(&format_args!("cannot list the folder: {e}")))?
             .filter_map(|entry| entry.ok().map(|e| e.path()))
@@ -316,7 +318,9 @@ fn expand(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Option<String>)>, Failure>
         if found.iter().all(|(_, skipped)| skipped.is_some()) {
             let skipped: Vec<String> = found
                 .iter()
-                .filter_map(|(p, why)| Some(format!("{} {}", p.display(), why.as_ref()?)))
+                .filter_map(|(p, why)| {
+                    Some(format!("{} {}", moldgate::files::shown(&p), why.as_ref()?))
+                })
                 .collect();
             return Err(fail(&format_args!(
                 "is a folder holding no .stl, .obj or .ply file{}",
@@ -373,16 +377,16 @@ fn read_manifest(path: &Path, base: &Settings, demold: &str) -> Result<Vec<Part>
         let fail = |at: usize, what: String| {
             Failure::usage(format!(
                 "{}: line {}: part {} ({}): {what}",
-                path.display(),
+                moldgate::files::shown(&path),
                 line_of(at),
                 i + 1,
-                file.display()
+                moldgate::files::shown(&file)
             ))
         };
         if file.as_os_str().is_empty() {
             return Err(Failure::usage(format!(
                 "{}: line {}: part {}: file is empty: give the mesh file's path, relative to the manifest",
-                path.display(),
+                moldgate::files::shown(&path),
                 line_of(entry.file.span().start),
                 i + 1
             )));
@@ -446,7 +450,7 @@ fn check_outputs(
         if inputs.contains(&same_file(out)) || crate::output::is_input(out) {
             Err(Failure::output(format!(
                 "{}: refusing to write the output over an input file",
-                out.display()
+                moldgate::files::shown(&out)
             )))
         } else {
             Ok(())
@@ -456,7 +460,7 @@ fn check_outputs(
         if summary.is_dir() {
             return Err(Failure::output(format!(
                 "{}: is a folder, not a file",
-                summary.display()
+                moldgate::files::shown(&summary)
             )));
         }
         let folder = match summary.parent() {
@@ -481,16 +485,21 @@ fn check_outputs(
         let stem = part
             .path
             .file_stem()
-            .ok_or_else(|| Failure::usage(format!("{}: not a file name", part.path.display())))?
+            .ok_or_else(|| {
+                Failure::usage(format!(
+                    "{}: not a file name",
+                    moldgate::files::shown(&part.path)
+                ))
+            })?
             .to_string_lossy()
             .into_owned();
         if let Some(first) = taken.insert(stem.to_lowercase(), &part.path) {
             return Err(Failure::usage(format!(
                 "{} and {} would both write {}.json in {}; run them separately",
-                first.display(),
-                part.path.display(),
+                moldgate::files::shown(&first),
+                moldgate::files::shown(&part.path),
                 stem,
-                dir.display()
+                moldgate::files::shown(&dir)
             )));
         }
         let out = dir.join(format!("{stem}.json"));
@@ -500,8 +509,8 @@ fn check_outputs(
         if let Some(summary) = summary.filter(|s| crate::output::same_file(s, &out)) {
             return Err(Failure::usage(format!(
                 "--summary {} and the report of {} in --out-dir are one file; give the summary another name",
-                summary.display(),
-                part.path.display()
+                moldgate::files::shown(&summary),
+                moldgate::files::shown(&part.path)
             )));
         }
         outputs.push(Some(out));
@@ -512,15 +521,20 @@ fn check_outputs(
 /// Fails unless `folder` exists and a file can be created in it (`what` names the output in
 /// the message).
 fn writable_folder(folder: &Path, what: &Path) -> Result<(), Failure> {
-    let fail = |e: &dyn std::fmt::Display| Failure::output(format!("{}: {e}", what.display()));
+    let fail = |e: &dyn std::fmt::Display| {
+        Failure::output(format!("{}: {e}", moldgate::files::shown(&what)))
+    };
     if !folder.exists() {
         return Err(fail(&format_args!(
             "cannot write: the folder {} does not exist",
-            folder.display()
+            moldgate::files::shown(&folder)
         )));
     }
     if !folder.is_dir() {
-        return Err(fail(&format_args!("{} is not a folder", folder.display())));
+        return Err(fail(&format_args!(
+            "{} is not a folder",
+            moldgate::files::shown(&folder)
+        )));
     }
     // Created exclusively under a random name, removed when dropped.
     crate::output::temporary_in(folder)
@@ -545,7 +559,7 @@ fn direction_name(d: [f64; 3]) -> String {
 /// The summary's row of one part: the library's [`BatchRow`], with the direction chosen for
 /// `auto` ("-z (auto)") and a folder's skipped entry as its own status.
 fn row(part: &Part, o: &Outcome) -> BatchRow {
-    let file = part.path.display().to_string();
+    let file = moldgate::files::shown(&part.path);
     let report = o.report.as_ref();
     let failure = match (&part.skipped, &o.failure) {
         (Some(reason), _) => Some((Status::Skipped, reason.as_str())),

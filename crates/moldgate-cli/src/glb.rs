@@ -12,7 +12,7 @@ pub fn check_path(glb: &Path, input: Option<&Path>, report: Option<&Path>) -> Re
     if report.is_some_and(|r| same_file(glb, r)) {
         return Err(Failure::usage(format!(
             "--glb and -o name the same file: {}",
-            glb.display()
+            moldgate::files::shown(&glb)
         )));
     }
     Ok(())

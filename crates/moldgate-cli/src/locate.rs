@@ -53,9 +53,9 @@ fn locate_one(a: LocateArgs) -> Result<(), Failure> {
     if let Some(path) = &a.glb {
         let bytes = study
             .glb(&part, source.title())
-            .map_err(|e| failure(&e, &path.display().to_string()))?;
+            .map_err(|e| failure(&e, &moldgate::files::shown(&path)))?;
         write_atomic(path, &bytes)?;
-        eprintln!("wrote {}", path.display());
+        eprintln!("wrote {}", moldgate::files::shown(&path));
     }
     crate::pictures::write(&a, &study, &part, source.title())?;
     let report = study.report();

@@ -17,7 +17,7 @@ use crate::Failure;
 pub fn read_materials(path: &Path) -> Result<Vec<Material>, Failure> {
     let text = read_toml_text(path, moldgate::files::MAX_MATERIALS_BYTES)?;
     material::materials_from_toml(&text)
-        .map_err(|e| Failure::usage(format!("{}: {e}", path.display())))
+        .map_err(|e| Failure::usage(format!("{}: {e}", moldgate::files::shown(&path))))
 }
 
 /// The listing as a table: name, Eq. 8's radius, L/t, what the values rest on, family and
@@ -56,7 +56,7 @@ pub fn run_materials(a: MaterialsArgs) -> Result<(), Failure> {
     let origin = a
         .materials_file
         .as_deref()
-        .map(|p| p.display().to_string())
+        .map(|p| moldgate::files::shown(&p))
         .unwrap_or_default();
     let listing = Listing::new(user, &origin);
     print_stdout(&if a.json {

@@ -15,7 +15,7 @@ pub fn refuse_input(output: &Path, input: Option<&Path>) -> Result<(), Failure> 
     if same_file(output, input) {
         return Err(Failure::output(format!(
             "{}: refusing to write the output over the input file",
-            output.display()
+            moldgate::files::shown(&output)
         )));
     }
     Ok(())
@@ -126,7 +126,10 @@ static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// power cut or a crash of the system the file is the old one or the complete new one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     let fail = |e: &dyn std::fmt::Display| {
-        Failure::output(format!("{}: cannot write: {e}", path.display()))
+        Failure::output(format!(
+            "{}: cannot write: {e}",
+            moldgate::files::shown(&path)
+        ))
     };
     let target = match std::fs::symlink_metadata(path) {
         Err(e) if e.kind() == ErrorKind::NotFound => path.to_path_buf(),
@@ -152,13 +155,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     if target.file_name().is_none() {
         return Err(Failure::output(format!(
             "{}: not a file name",
-            path.display()
+            moldgate::files::shown(&path)
         )));
     }
     let over_input = || {
         Failure::output(format!(
             "{}: refusing to write the output over an input file",
-            path.display()
+            moldgate::files::shown(&path)
         ))
     };
     if is_input(&target) {
@@ -183,7 +186,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     let mut tmp = temporary_in(dir).map_err(|e| {
         fail(&format_args!(
             "no file can be created in its folder {} ({e})",
-            dir.display()
+            moldgate::files::shown(&dir)
         ))
     })?;
     let registered = tmp.path().to_path_buf();
@@ -268,7 +271,10 @@ pub fn release(tmp: &Path) {
 /// Writes into a FIFO or a character device as a stream; refuses the other special files.
 fn write_special(path: &Path, m: &std::fs::Metadata, bytes: &[u8]) -> Result<(), Failure> {
     let fail = |e: &dyn std::fmt::Display| {
-        Failure::output(format!("{}: cannot write: {e}", path.display()))
+        Failure::output(format!(
+            "{}: cannot write: {e}",
+            moldgate::files::shown(&path)
+        ))
     };
     let kind = moldgate::files::file_kind(m);
     if !matches!(kind, "a FIFO" | "a character device") {

@@ -30,7 +30,7 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
         if let Some((other, _)) = outputs[..i].iter().find(|(_, q)| same_file(q, path)) {
             return Err(Failure::usage(format!(
                 "{other} and {flag} name the same file {}",
-                path.display()
+                moldgate::files::shown(&path)
             )));
         }
         let dir = match path.parent() {
@@ -40,8 +40,8 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
         if !dir.is_dir() {
             return Err(Failure::output(format!(
                 "{}: cannot write: folder {} does not exist",
-                path.display(),
-                dir.display()
+                moldgate::files::shown(&path),
+                moldgate::files::shown(&dir)
             )));
         }
     }
@@ -59,7 +59,7 @@ pub fn check_outputs(a: &LocateArgs) -> Result<(), Failure> {
         if !special && !ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
             return Err(Failure::usage(format!(
                 "{flag} {}: the file name must end in .{} (it writes that format only)",
-                path.display(),
+                moldgate::files::shown(&path),
                 extensions.join(" or .")
             )));
         }
@@ -85,7 +85,7 @@ pub fn write(
         let options = RenderOptions::default();
         eprintln!(
             "wrote {} ({}x{} pixels, drawn in {:.0} ms)",
-            path.display(),
+            moldgate::files::shown(&path),
             options.width,
             options.height,
             render_s * 1e3
@@ -94,7 +94,7 @@ pub fn write(
     if let Some(path) = &a.report {
         let page = study.html(Some(&png)).map_err(|e| failure(&e, ""))?;
         write_atomic(path, page.as_bytes())?;
-        eprintln!("wrote {}", path.display());
+        eprintln!("wrote {}", moldgate::files::shown(&path));
     }
     Ok(())
 }

@@ -34,7 +34,7 @@ pub fn run_sample(a: SampleArgs) -> Result<(), Failure> {
     write_atomic(&path, &bytes)?;
     eprintln!(
         "wrote {} ({} triangles, mm)",
-        path.display(),
+        moldgate::files::shown(&path),
         mesh.triangles.len()
     );
     Ok(())

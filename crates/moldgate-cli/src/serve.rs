@@ -50,7 +50,7 @@ pub fn run_serve(a: ServeArgs) -> Result<(), Failure> {
         Some(d) if !d.is_dir() => {
             return Err(Failure::input(format!(
                 "--web-dir {}: {}",
-                d.display(),
+                moldgate::files::shown(&d),
                 match d.exists() {
                     true => "not a folder",
                     false => "no such folder",

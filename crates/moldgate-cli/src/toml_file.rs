@@ -15,7 +15,7 @@ use crate::Failure;
 pub fn read_toml_text(path: &Path, limit: u64) -> Result<String, Failure> {
     crate::output::register_input(path);
     moldgate::files::read_toml_text(path, limit).map_err(|e| {
-        let message = format!("{}: {e}", path.display());
+        let message = format!("{}: {e}", moldgate::files::shown(&path));
         match e {
             TextError::Unreadable(_) => Failure::input(message),
             TextError::NotUtf8 { .. } => Failure::usage(message),
@@ -31,7 +31,12 @@ pub fn read_toml<T: serde::de::DeserializeOwned>(
     limit: u64,
 ) -> Result<(T, String), Failure> {
     let text = read_toml_text(path, limit)?;
-    let value = toml::from_str(&text)
-        .map_err(|e| Failure::usage(format!("{}: {}", path.display(), toml_message(&text, &e))))?;
+    let value = toml::from_str(&text).map_err(|e| {
+        Failure::usage(format!(
+            "{}: {}",
+            moldgate::files::shown(&path),
+            toml_message(&text, &e)
+        ))
+    })?;
     Ok((value, text))
 }

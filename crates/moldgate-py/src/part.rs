@@ -64,7 +64,8 @@ impl<'a, 'py> FromPyObject<'a, 'py> for UnitsArg {
 /// Reads a mesh file by its extension (`.obj`, `.ply`, any case; STL otherwise), as the
 /// command line does: only a regular file (a FIFO would hang the call).
 pub(crate) fn read_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), String> {
-    moldgate::files::read_mesh_file(path, units).map_err(|e| format!("{}: {e}", path.display()))
+    moldgate::files::read_mesh_file(path, units)
+        .map_err(|e| format!("{}: {e}", moldgate::files::shown(&path)))
 }
 
 /// Reads a mesh file (STL, OBJ or PLY by its extension; STL for any other) in `units`.
@@ -74,7 +75,7 @@ fn load_part(py: Python<'_>, path: PathBuf, units: Units) -> PyResult<Part> {
     Ok(Part {
         mesh: Arc::new(mesh),
         input: Input {
-            path: Some(path.display().to_string()),
+            path: Some(moldgate::files::shown(&path)),
             sample: None,
             bytes,
         },

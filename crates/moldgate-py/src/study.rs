@@ -35,7 +35,7 @@ fn serde_message(e: &serde_json::Error) -> String {
 /// Reads a TOML file of user materials, each named by its table (the command line's
 /// `--materials-file`): a regular file of at most `MAX_MATERIALS_BYTES`.
 fn read_materials(path: &Path) -> Result<Vec<Material>, String> {
-    let fail = |e: String| format!("{}: {e}", path.display());
+    let fail = |e: String| format!("{}: {e}", moldgate::files::shown(&path));
     let text = moldgate::files::read_toml_text(path, moldgate::files::MAX_MATERIALS_BYTES)
         .map_err(|e| fail(e.to_string()))?;
     moldgate::material::materials_from_toml(&text).map_err(fail)
@@ -285,7 +285,7 @@ pub fn batch_row(
             .map(|o| o.demold)
             .map_err(OptionsError::new_err)?,
     };
-    let file = path.display().to_string();
+    let file = moldgate::files::shown(&path);
     let t = Instant::now();
     let row = py.detach(|| {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -401,7 +401,7 @@ pub fn materials<'py>(
     };
     let origin = materials_file
         .as_deref()
-        .map(|p| p.display().to_string())
+        .map(|p| moldgate::files::shown(&p))
         .unwrap_or_default();
     let listing = moldgate::material::Listing::new(user, &origin);
     let list = PyList::empty(py);
@@ -536,7 +536,7 @@ impl Study {
         match (&input.path, &input.sample) {
             (Some(p), _) => Path::new(p)
                 .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
+                .map(moldgate::files::shown)
                 .unwrap_or_else(|| p.clone()),
             (None, Some(name)) => format!("sample '{name}'"),
             (None, None) => "part".into(),

@@ -60,6 +60,34 @@ pub fn file_kind(m: &std::fs::Metadata) -> &'static str {
     "not a regular file"
 }
 
+/// A path as messages and reports show it: bytes that are not UTF-8 as `\xe9` (a
+/// replacement character would make `caf\xe9.stl` and `caf\xe8.stl` read alike) and
+/// control characters escaped (a newline in a name would break a message's line), as
+/// [`crate::error::excerpt`] shows the bytes inside a file.
+pub fn shown(path: &(impl AsRef<Path> + ?Sized)) -> String {
+    let path = path.as_ref();
+    #[cfg(unix)]
+    let bytes = std::os::unix::ffi::OsStrExt::as_bytes(path.as_os_str());
+    #[cfg(not(unix))]
+    let lossy = path.to_string_lossy();
+    #[cfg(not(unix))]
+    let bytes = lossy.as_bytes();
+    let mut out = String::with_capacity(bytes.len());
+    for chunk in bytes.utf8_chunks() {
+        for c in chunk.valid().chars() {
+            if c.is_control() {
+                out.extend(c.escape_default());
+            } else {
+                out.push(c);
+            }
+        }
+        for b in chunk.invalid() {
+            out += &format!("\\x{b:02x}");
+        }
+    }
+    out
+}
+
 /// Opens `path` for reading when it is a regular file (following links); the error says what
 /// it is otherwise, with `noun` ("is a FIFO, not a mesh file"). The kind is checked before
 /// opening, and the file is opened without blocking (`O_NONBLOCK`) and checked again, so a
@@ -562,6 +590,24 @@ pub fn read_mesh_file(path: &Path, units: Units) -> Result<(LoadedMesh, u64), St
 
 #[cfg(test)]
 mod tests {
+    #[cfg(unix)]
+    #[test]
+    fn paths_are_shown_byte_for_byte() {
+        use std::os::unix::ffi::OsStrExt;
+        let path = |b: &[u8]| std::path::PathBuf::from(std::ffi::OsStr::from_bytes(b));
+        assert_eq!(shown(&path(b"/parts/caf\xe9.stl")), "/parts/caf\\xe9.stl");
+        assert_ne!(
+            shown(&path(b"caf\xe9.stl")),
+            shown(&path(b"caf\xe8.stl")),
+            "two names that differ by a byte read alike"
+        );
+        assert_eq!(shown(&path(b"two\nlines.stl")), "two\\nlines.stl");
+        assert_eq!(
+            shown(Path::new("d\u{e9}j\u{e0}/part.stl")),
+            "d\u{e9}j\u{e0}/part.stl"
+        );
+    }
+
     use super::*;
 
     #[test]

@@ -657,3 +657,34 @@ fn an_output_hard_linked_to_an_input_is_refused_before_the_work() {
     assert!(stderr(&out).contains("refusing to write the output over the input file"));
     assert_eq!(std::fs::read(dir.path().join("a.stl")).unwrap(), before);
 }
+
+/// A file name that is not UTF-8 is named byte for byte in messages, the batch's table and
+/// the picture's title, not with a replacement character that makes two names alike.
+#[test]
+fn names_that_are_not_utf8_are_shown_byte_for_byte() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let bad = OsStr::from_bytes(b"bad\xe9.stl");
+    std::fs::write(dir.path().join(bad), "xx").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_moldgate"))
+        .arg("locate")
+        .arg(bad)
+        .current_dir(dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let err = assert_fails(&out, INPUT, &["bad\\xe9.stl: this is a short text file"]);
+    assert!(!err.contains('\u{fffd}'), "{err}");
+    // A good part beside it: the batch names both, each by its own bytes.
+    sample(dir.path(), "cover", "cover.stl");
+    std::fs::rename(
+        dir.path().join("cover.stl"),
+        dir.path().join(OsStr::from_bytes(b"caf\xe8.stl")),
+    )
+    .unwrap();
+    let out = moldgate(dir.path(), &["locate", ".", "--demold", "+z"]);
+    let table = stdout(&out);
+    assert!(table.contains("caf\\xe8.stl  ok"), "{table}");
+    assert!(stderr(&out).contains("bad\\xe9.stl:"), "{}", stderr(&out));
+}
