@@ -529,7 +529,8 @@ fn work(
 }
 
 /// The validated settings of an options part's object and the query's option pairs (an
-/// option in both is refused), within the server's `max_nodes`.
+/// option in both is refused), within the server's `max_nodes` (which a request that does
+/// not give its own takes when it is below the options' default).
 fn settings(
     mut object: Map<String, Value>,
     pairs: Vec<(String, String)>,
@@ -544,7 +545,13 @@ fn settings(
         }
         object.insert(k, v);
     }
-    let options = study_options(object)?;
+    // A request that does not ask for a grid size gets the server's: the options' default
+    // (the command line's) may be above it.
+    let asked_nodes = object.contains_key("max_nodes");
+    let mut options = study_options(object)?;
+    if !asked_nodes {
+        options.max_nodes = options.max_nodes.min(max_nodes);
+    }
     if options.max_nodes > max_nodes {
         return Err(ApiError::options(format!(
             "max_nodes must be at most {max_nodes} on this server (its operator sets it: moldgate serve --max-nodes), got {}",

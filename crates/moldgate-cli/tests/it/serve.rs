@@ -1229,3 +1229,20 @@ fn bad_limits_are_refused_at_start() {
         assert_eq!(out.status.code(), Some(common::USAGE), "{args:?}");
     }
 }
+
+/// A server whose node limit is below the options' default serves requests that do not ask
+/// for a grid size, within its limit, and still refuses one that asks for more.
+#[test]
+fn a_lower_node_limit_is_the_default_of_requests_that_give_none() {
+    let s = start(&["--max-nodes", "5000"]);
+    let stl = sample_stl("cover");
+    let r = study_stl(s.addr, "spacing=2", &stl);
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    // A grid finer than the limit allows is refused for its spacing, with the limit named.
+    let r = study_stl(s.addr, "spacing=0.01", &stl);
+    let e = assert_error(&s, &r, 400, "options");
+    assert_eq!(e["where"], "spacing", "{e}");
+    let r = study_stl(s.addr, "max_nodes=6000", &stl);
+    let e = assert_error(&s, &r, 400, "options");
+    assert_eq!(e["where"], "max_nodes", "{e}");
+}
