@@ -491,8 +491,13 @@ impl Analysis {
                 }),
             GateMode::Aesthetic => self.aesthetic_gate.map(ChosenGate::Aesthetic).ok_or_else(|| {
                 LocateError::NoCandidate {
-                    reason: if self.parting.edges.is_empty() {
+                    reason: if self.parting.edges_all == 0 {
                         "the part has no parting line for this demolding direction (no edge between a face towards +D and one away from it)".into()
+                    } else if self.parting.edges.is_empty() {
+                        format!(
+                            "no parting line was kept of the part's {} edges between faces towards +D and away from it (--parting-line longest takes their longest loop)",
+                            self.parting.edges_all
+                        )
                     } else {
                         "the keep-out regions cover the whole parting line".into()
                     },
@@ -888,6 +893,26 @@ fn locate_once(
     );
     if centres.get(options.centre).is_none() {
         warnings.push("the mesh encloses no volume, so the surface centre of mass is used".into());
+    }
+    // A body whose outline the rule could not close (walls seen at a slant) has its
+    // longest loop instead: said, as the line in the pictures is then not the outline.
+    let fell_back: Vec<&crate::parting::Rim> = parting.longest_loop_rims().collect();
+    if !fell_back.is_empty() {
+        let whose = if parting.rims.len() == 1 {
+            "the part".to_string()
+        } else {
+            let numbers: Vec<String> = fell_back.iter().map(|r| (r.body + 1).to_string()).collect();
+            format!(
+                "{} {}",
+                if numbers.len() == 1 { "body" } else { "bodies" },
+                numbers.join(", ")
+            )
+        };
+        warnings.push(format!(
+            "no closed rim runs round the outline of {whose} seen along D (its walls do not run along D, so the outline is made of edges at different depths that no edges near it join): the parting line there is the longest loop of edges between faces towards +D and faces away from it ({:.1} mm, {}), the silhouette seen along D; check it in the picture",
+            fell_back.iter().map(|r| r.length_mm).sum::<f64>(),
+            if fell_back.iter().all(|r| r.closed) { "closed" } else { "open" },
+        ));
     }
     // The aesthetic gate on a line that is not one closed rim may sit on a hole, a thread or
     // an inner edge rather than where the mould splits.

@@ -78,6 +78,11 @@ pub struct Rim {
     pub length_mm: f64,
     /// Whether each of its vertices has two of its edges.
     pub closed: bool,
+    /// Whether the outline rule found no cycle round this body's outline, so that the loop
+    /// is the body's longest loop of edges between the two sides (as
+    /// [`PartingRule::Longest`] takes it): on a body whose walls do not run along D, whose
+    /// outline seen along D is the silhouette of faces at different depths.
+    pub longest_loop: bool,
 }
 
 /// A gate on the parting line.
@@ -217,10 +222,17 @@ impl PartingLine {
                 edges: kept.len(),
                 length_mm,
                 closed,
+                longest_loop: false,
             }],
             edges: kept,
             length_mm,
         }
+    }
+
+    /// The bodies whose loop is their longest loop of edges between the sides, the outline
+    /// rule having found no cycle round their outline ([`Rim::longest_loop`]).
+    pub fn longest_loop_rims(&self) -> impl Iterator<Item = &Rim> {
+        self.rims.iter().filter(|r| r.longest_loop)
     }
 
     /// Extracts the parting line of `mesh` for the frame's demolding direction by the

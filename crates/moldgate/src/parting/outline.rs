@@ -118,6 +118,10 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
             .filter(|(_, s)| raster.on_rim(s, tolerance))
             .unzip();
         if rim.is_empty() {
+            // No edge of the body's on its outline at its +D end: its longest loop.
+            let (cycle, rim_of) = longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
+            rims.push(rim_of);
+            kept.extend(cycle);
             continue;
         }
         rim.sort_unstable();
@@ -178,7 +182,16 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
                 edges: cycle.len(),
                 length_mm,
                 closed: degree.values().all(|&d| d == 2),
+                longest_loop: false,
             });
+            kept.extend(cycle);
+        } else {
+            // The band does not go round: the outline seen along D is made of pieces of the
+            // body at different depths (walls that do not run along D, seen at a slant),
+            // which no edges of the mesh near the outline join. The body's longest loop of
+            // edges between the sides is its silhouette there.
+            let (cycle, rim_of) = longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
+            rims.push(rim_of);
             kept.extend(cycle);
         }
         all_rim.extend(rim);
@@ -192,6 +205,57 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         edges: kept,
         rims,
     }
+}
+
+/// Of `edges` (a body's edges between the sides), the connected set of the greatest length
+/// (of two alike, the one holding the least vertex), as sorted vertex pairs, with its
+/// [`Rim`] (`longest_loop` set).
+fn longest_loop(
+    mesh: &Mesh,
+    edges: impl Iterator<Item = [u32; 2]> + Clone,
+    body: u32,
+) -> (Vec<[u32; 2]>, Rim) {
+    let mut parent = FxHashMap::<u32, u32>::default();
+    fn find(parent: &mut FxHashMap<u32, u32>, v: u32) -> u32 {
+        let mut r = v;
+        while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
+            r = p;
+        }
+        parent.insert(v, r);
+        r
+    }
+    for [a, b] in edges.clone() {
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        if ra != rb {
+            parent.insert(ra.max(rb), ra.min(rb));
+        }
+    }
+    let length = |[a, b]: [u32; 2]| mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
+    let mut per_set = FxHashMap::<u32, f64>::default();
+    for e in edges.clone() {
+        *per_set.entry(find(&mut parent, e[0])).or_default() += length(e);
+    }
+    let best = per_set
+        .iter()
+        .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
+        .map(|(&r, _)| r);
+    let mut cycle: Vec<[u32; 2]> = edges
+        .filter(|e| Some(find(&mut parent, e[0])) == best)
+        .collect();
+    cycle.sort_unstable();
+    let mut degree = FxHashMap::<u32, u32>::default();
+    for &[a, b] in &cycle {
+        *degree.entry(a).or_default() += 1;
+        *degree.entry(b).or_default() += 1;
+    }
+    let rim = Rim {
+        body,
+        edges: cycle.len(),
+        length_mm: cycle.iter().map(|&e| length(e)).sum(),
+        closed: !cycle.is_empty() && degree.values().all(|&d| d == 2),
+        longest_loop: true,
+    };
+    (cycle, rim)
 }
 
 /// The number of connected sets of `edges` (union-find on their vertices).
@@ -603,6 +667,26 @@ mod tests {
     use super::*;
     use crate::frame::Direction;
     use crate::samples::sample;
+
+    /// Seen at a slant, the plate's outline is made of its top and bottom faces' edges,
+    /// which no edges near the outline join: the rule falls back to the longest loop of
+    /// edges between the sides (the silhouette, closed), which the longest-loop rule finds
+    /// too, and says so. Along +z the plate keeps its outline cycle.
+    #[test]
+    fn an_outline_seen_at_a_slant_falls_back_to_the_longest_loop() {
+        let mesh = sample("plate").unwrap();
+        let topology = Topology::new(&mesh);
+        let slant = Frame::new("1,0.3,0.2".parse::<Direction>().unwrap());
+        let line = outline(&mesh, &topology, &slant);
+        assert!(!line.edges.is_empty(), "no parting line at a slant");
+        assert_eq!(line.rims.len(), 1);
+        assert!(line.rims[0].longest_loop && line.rims[0].closed, "{:?}", line.rims);
+        let longest = PartingLine::new(&mesh, &topology, &slant);
+        assert_eq!(line.edges, longest.edges);
+        assert!((line.length_mm - longest.length_mm).abs() < 1e-9);
+        let along = outline(&mesh, &topology, &Frame::new("+z".parse::<Direction>().unwrap()));
+        assert!(along.rims.iter().all(|r| !r.longest_loop && r.closed), "{:?}", along.rims);
+    }
 
     /// The band built by the counting sort of edges taken once is the one a sort of both
     /// directions of every triangle's edges gives (the construction it replaced): the same
