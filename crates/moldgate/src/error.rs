@@ -327,6 +327,31 @@ pub enum OptionsError {
         /// The least spacing whose grid over this part is within the budget, mm.
         min_spacing_mm: f64,
     },
+    /// The rays' hit records of the part's grid, on the threads that draw them, would take
+    /// more memory than the process may still use (its limits, the memory available):
+    /// refused before the rays instead of failing an allocation part way.
+    #[error(
+        "a grid of {nodes} nodes with {circle_points} circle points may need {} MiB for the ray hits (twice {runs} sets of one 24-byte and {circle_points} 8-byte records a node, for their arrays' growth), more than the {} MiB this process may still use (its memory limits and the memory available); use at most {points_within} circle points, or a spacing of at least {} mm (at most {nodes_within} nodes)",
+        .bytes >> 20, .room >> 20, figures(*.min_spacing_mm)
+    )]
+    MachineMemory {
+        /// The grid's nodes.
+        nodes: u64,
+        /// Points on each node's circle.
+        circle_points: u64,
+        /// Sets of hits drawn apart (one per thread drawing).
+        runs: u64,
+        /// Bytes the hits would take.
+        bytes: u64,
+        /// Bytes the process may still use.
+        room: u64,
+        /// The most circle points within that room on this grid.
+        points_within: u64,
+        /// The largest grid within that room with these circle points.
+        nodes_within: u64,
+        /// The least spacing whose grid over this part fits that room, mm.
+        min_spacing_mm: f64,
+    },
     /// The automatic spacing gives too many nodes: the part is too large for its gate (most
     /// often a file in other units than the ones it was read in).
     #[error(
@@ -413,7 +438,9 @@ impl OptionsError {
             }
             OptionsError::GridTooLarge { .. } => Some("spacing"),
             OptionsError::GridOffset(_) => Some("grid_offset"),
-            OptionsError::RayMemory { .. } => Some("circle_points"),
+            OptionsError::RayMemory { .. } | OptionsError::MachineMemory { .. } => {
+                Some("circle_points")
+            }
             OptionsError::BadRegion(_) => Some("keep_out"),
             OptionsError::ZeroDirection(..) | OptionsError::BadDirection(_) => Some("demold"),
             _ => None,

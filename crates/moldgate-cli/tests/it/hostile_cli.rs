@@ -316,3 +316,40 @@ fn an_stl_named_obj_or_ply_is_named_as_an_stl() {
         );
     }
 }
+
+/// A grid within the node limit whose rays' hits would not fit the memory the process may
+/// use is refused before the rays, naming what fits (it failed an allocation part way and
+/// aborted, exit 134); the spacing it names runs.
+#[test]
+fn a_grid_beyond_the_memory_left_is_refused_before_its_rays() {
+    let run = |spacing: &str| {
+        Command::new("bash")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 400000 && exec {} locate -q --sample plate --spacing {spacing}",
+                env!("CARGO_BIN_EXE_moldgate"),
+            ))
+            .output()
+            .unwrap()
+    };
+    let out = run("0.04");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--circle-points: a grid of ")
+            && stderr.contains("this process may still use"),
+        "{stderr}"
+    );
+    let least = stderr
+        .split("a spacing of at least ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .expect("a spacing named");
+    let out = run(least);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{least}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

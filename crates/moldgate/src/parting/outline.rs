@@ -119,7 +119,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
             .unzip();
         if rim.is_empty() {
             // No edge of the body's on its outline at its +D end: its longest loop.
-            let (cycle, rim_of) = longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
+            let (cycle, rim_of) =
+                longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
             rims.push(rim_of);
             kept.extend(cycle);
             continue;
@@ -190,7 +191,8 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
             // body at different depths (walls that do not run along D, seen at a slant),
             // which no edges of the mesh near the outline join. The body's longest loop of
             // edges between the sides is its silhouette there.
-            let (cycle, rim_of) = longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
+            let (cycle, rim_of) =
+                longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
             rims.push(rim_of);
             kept.extend(cycle);
         }
@@ -680,12 +682,24 @@ mod tests {
         let line = outline(&mesh, &topology, &slant);
         assert!(!line.edges.is_empty(), "no parting line at a slant");
         assert_eq!(line.rims.len(), 1);
-        assert!(line.rims[0].longest_loop && line.rims[0].closed, "{:?}", line.rims);
+        assert!(
+            line.rims[0].longest_loop && line.rims[0].closed,
+            "{:?}",
+            line.rims
+        );
         let longest = PartingLine::new(&mesh, &topology, &slant);
         assert_eq!(line.edges, longest.edges);
         assert!((line.length_mm - longest.length_mm).abs() < 1e-9);
-        let along = outline(&mesh, &topology, &Frame::new("+z".parse::<Direction>().unwrap()));
-        assert!(along.rims.iter().all(|r| !r.longest_loop && r.closed), "{:?}", along.rims);
+        let along = outline(
+            &mesh,
+            &topology,
+            &Frame::new("+z".parse::<Direction>().unwrap()),
+        );
+        assert!(
+            along.rims.iter().all(|r| !r.longest_loop && r.closed),
+            "{:?}",
+            along.rims
+        );
     }
 
     /// The band built by the counting sort of edges taken once is the one a sort of both
