@@ -1384,3 +1384,78 @@ fn help_that_cannot_be_written_is_an_output_error() {
         assert_fails(&out, 5, &["stdout: No space left on device"]);
     }
 }
+
+/// Facets wound against their neighbours, or all wound inwards, are turned round at load
+/// and said: the box's volume and volume centre are the solid's (the inverted box read a
+/// volume of -1000 mm^3, the one with two facets turned 666.7 with a centre off by 1 mm).
+#[test]
+fn facets_wound_the_wrong_way_are_turned_round_and_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let right = box_facets([0.0, 0.0, 0.0], [20.0, 10.0, 5.0]);
+    let turned = |f: &Facet| [f[0], f[2], f[1]];
+    let inverted: Vec<Facet> = right.iter().map(turned).collect();
+    let mut two: Vec<Facet> = right.clone();
+    two[3] = turned(&two[3]);
+    two[8] = turned(&two[8]);
+    for (name, facets, said, count) in [
+        (
+            "inverted.stl",
+            &inverted,
+            "every facet was wound inwards",
+            12,
+        ),
+        (
+            "two.stl",
+            &two,
+            "2 facets were wound against their neighbours",
+            2,
+        ),
+    ] {
+        std::fs::write(dir.path().join(name), binary_stl(facets)).unwrap();
+        let out = moldgate(
+            dir.path(),
+            &[
+                "locate",
+                name,
+                "--centre",
+                "volume",
+                "--json",
+                "--spacing",
+                "1",
+            ],
+        );
+        assert_eq!(out.status.code(), Some(OK), "{}", stderr(&out));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["mesh"]["reoriented_triangles"], count, "{name}");
+        let volume = v["centre_of_mass"]["volume_mm3"].as_f64().unwrap();
+        assert!((volume - 1000.0).abs() < 1e-6, "{name}: {volume}");
+        let centre = &v["centre_of_mass"]["volume"];
+        for (k, want) in [10.0, 5.0, 2.5].into_iter().enumerate() {
+            assert!(
+                (centre[k].as_f64().unwrap() - want).abs() < 1e-9,
+                "{name}: {centre}"
+            );
+        }
+        let warnings = v["warnings"].to_string();
+        assert!(warnings.contains(said), "{name}: {warnings}");
+    }
+}
+
+/// The volume centre of an open mesh is said to be the surface's closed across its holes,
+/// not the solid's.
+#[test]
+fn the_volume_centre_of_an_open_mesh_is_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut facets = box_facets([0.0, 0.0, 0.0], [20.0, 10.0, 5.0]);
+    facets.truncate(10);
+    std::fs::write(dir.path().join("open.stl"), binary_stl(&facets)).unwrap();
+    let out = moldgate(
+        dir.path(),
+        &["locate", "open.stl", "--centre", "volume", "--spacing", "1"],
+    );
+    let said = format!("{}{}", stdout(&out), stderr(&out));
+    assert!(
+        said.contains("the mesh is open (4 edges of one facet), so the volume centre of mass is that of the surface closed"),
+        "{said}"
+    );
+}

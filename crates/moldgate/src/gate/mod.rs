@@ -939,6 +939,13 @@ fn locate_once(
     );
     if centres.get(options.centre).is_none() {
         warnings.push("the mesh encloses no volume, so the surface centre of mass is used".into());
+    } else if options.centre == crate::centre::CentreKind::Volume && part.topology.open_edges > 0 {
+        // An open surface encloses no definite volume: its sum depends on where the hole is
+        // closed, straight across from the origin.
+        warnings.push(format!(
+            "the mesh is open ({} edges of one facet), so the volume centre of mass is that of the surface closed across its holes by straight lines to a point, not of the solid: close the mesh, or use the surface centre (the default)",
+            part.topology.open_edges
+        ));
     }
     // A body whose outline the rule could not close (walls seen at a slant) has its
     // longest loop instead: said, as the line in the pictures is then not the outline.

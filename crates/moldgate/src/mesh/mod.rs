@@ -6,6 +6,7 @@
 
 pub mod arrays;
 pub mod obj;
+mod orient;
 pub mod ply;
 pub mod sniff;
 pub mod stl;
@@ -155,6 +156,9 @@ pub struct MeshStats {
     /// order): a repeated facet adds no surface, and stacks of them multiply the cost of
     /// the rays.
     pub duplicate_triangles: u64,
+    /// Triangles turned round at load: wound against their neighbours, or in a connected
+    /// set that faced inwards (`mesh/orient.rs`).
+    pub reoriented_triangles: u64,
     /// Kept triangles with zero area (three distinct but collinear corners).
     pub zero_area_triangles: u64,
     /// Edges used by one triangle only (0 on a closed mesh).
@@ -321,6 +325,28 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
             "{duplicate_triangles} triangles repeat an earlier triangle's three vertices and were dropped"
         ));
     }
+    // Facets wound against their neighbours, or a set of them facing inwards, are turned
+    // round before anything reads which side a facet faces.
+    let (reoriented_triangles, all_turned) =
+        orient::outward(&mut mesh, &topology, sums.centres.volume_mm3);
+    if reoriented_triangles > 0 {
+        topology = Topology::new(&mesh);
+        sums = Sums::of(&mesh);
+        warnings.push(if all_turned {
+            format!(
+                "every facet was wound inwards (the normals pointed into the solid, so the volume came out negative) and all {reoriented_triangles} were turned round"
+            )
+        } else {
+            let (facets, were, their) = if reoriented_triangles == 1 {
+                ("facet", "was", "its")
+            } else {
+                ("facets", "were", "their")
+            };
+            format!(
+                "{reoriented_triangles} {facets} {were} wound against {their} neighbours or faced into the solid and {were} turned round (the volume, the parting line and the walls read which side a facet faces)"
+            )
+        });
+    }
     let Sums {
         bounds,
         area,
@@ -373,6 +399,7 @@ fn finish(raw: RawMesh, units: Units) -> Result<LoadedMesh, LoadError> {
         triangles: mesh.triangles.len() as u64,
         collapsed_facets,
         duplicate_triangles,
+        reoriented_triangles,
         zero_area_triangles: zero_area,
         open_edges: topology.open_edges,
         non_manifold_edges: topology.non_manifold_edges,
