@@ -1459,3 +1459,24 @@ fn the_volume_centre_of_an_open_mesh_is_warned() {
         "{said}"
     );
 }
+
+/// The README's first run is what the command prints (all but its times).
+#[test]
+fn the_readmes_first_run_is_what_the_command_prints() {
+    let readme = include_str!("../../../../README.md");
+    let start = readme
+        .find("$ moldgate locate --sample cover\n")
+        .expect("the first run in the README")
+        + "$ moldgate locate --sample cover\n".len();
+    let block = &readme[start..start + readme[start..].find("```").expect("its end")];
+    let dir = tempfile::tempdir().unwrap();
+    let out = moldgate(dir.path(), &["locate", "--sample", "cover"]);
+    let printed = stdout(&out);
+    let without_times = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| !l.starts_with("time:"))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(without_times(block), without_times(&printed));
+}
