@@ -90,7 +90,13 @@ pub fn failure(e: &StudyError, part: &str) -> Failure {
         },
         StudyError::Material(_) => Failure::usage(e.to_string()),
         StudyError::Demold(e) => Failure::input(format!("{part}: --demold auto: {e}")),
-        StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => Failure::no_gate(f.to_string()),
+        StudyError::Fill(f @ FillError::TooFewCandidates { .. }) => {
+            Failure::no_gate(if part.is_empty() {
+                f.to_string()
+            } else {
+                format!("{part}: {f}")
+            })
+        }
         // The part's fault: its surface encloses no solid at the gate.
         StudyError::Fill(f @ FillError::GateOffPart(..)) => Failure::input(format!("{part}: {f}")),
         StudyError::Fill(f) => Failure::usage(f.to_string()),

@@ -219,7 +219,18 @@ pub fn study(
         }
         let mut s = match outcome {
             Ok(Ok(s)) => s,
-            Ok(Err(e)) => return Err(study_error(&e).1.into_py_err()),
+            // No layout of the gates asked for: named by its part, as every other no-gate
+            // error is.
+            Ok(Err(e)) => {
+                return Err(match study_error(&e).1 {
+                    PyErrBox::NoGate(m) => PyErrBox::NoGate(format!(
+                        "{}: {m}",
+                        input.path.as_deref().unwrap_or("part")
+                    )),
+                    other => other,
+                }
+                .into_py_err())
+            }
             Err(panic) => return Err(crate::panicked(&*panic)),
         };
         s.set_input(input, load_s);

@@ -87,6 +87,11 @@ def test_an_object_without_arrays():
         ({"material": {"n": "x"}}, 'material.n: got the text "x", expected a number'),
         ({"demold": "sideways"}, "demold: cannot read direction 'sideways'"),
         ({"demold": "0,0,0"}, "demold: a direction must be a non-zero"),
+        # Numbers of a direction in a list of the wrong length, or not numbers: the
+        # direction's own message (it said "got a list, expected a string").
+        ({"demold": [0, 0, 1, 0]}, "demold: cannot read direction '0.0,0.0,1.0,0.0': expected"),
+        ({"demold": ["0", "0", "x"]}, "demold: cannot read direction '0,0,x'"),
+        ({"demold": np.array([0, 1])}, "demold: cannot read direction '0.0,1.0': expected"),
         ({"grid_offset": 1.5}, "grid_offset must be a fraction of the spacing, above -1 and below 1, got 1.5"),
         # Advice names this package's arguments, not the command line's flags.
         ({"spacing": 1e-9}, r"or raise the node limit \(max_nodes\)$"),

@@ -1480,3 +1480,21 @@ fn the_readmes_first_run_is_what_the_command_prints() {
     };
     assert_eq!(without_times(block), without_times(&printed));
 }
+
+/// No layout of the gates asked for is named by its file, as every other error of a part.
+#[test]
+fn too_few_places_for_the_gates_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let facets = box_facets([0.0, 0.0, 0.0], [20.0, 10.0, 5.0]);
+    std::fs::write(dir.path().join("box.stl"), binary_stl(&facets)).unwrap();
+    let out = moldgate(
+        dir.path(),
+        &["locate", "box.stl", "--spacing", "30", "--gates", "2"],
+    );
+    assert_eq!(out.status.code(), Some(NO_GATE), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("error: box.stl: 2 gates asked for"),
+        "{}",
+        stderr(&out)
+    );
+}

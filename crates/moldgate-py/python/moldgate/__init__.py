@@ -157,12 +157,14 @@ def _options_json(options: Mapping[str, Any]) -> str:
     for name, value in options.items():
         if isinstance(value, _abc.Iterator):
             raise OptionsError(_not_an_option_value(name, value))
-    # A direction as three numbers (a list, a tuple, a numpy array) is the "x,y,z" text.
+    # A direction as numbers (a list, a tuple, a numpy array) is the "x,y,z" text: three
+    # of them read, any other count or a value that is not a number meets the library's
+    # message for a direction ("expected three numbers"), not one about JSON types.
     for name in ("demold", "cosmetic"):
         d = options.get(name)
         if (
-            d is not None and not isinstance(d, str) and hasattr(d, "__len__") and len(d) == 3
-            and all(_is_number(v) for v in d)
+            d is not None and not isinstance(d, (str, bytes, Mapping))
+            and (hasattr(d, "__len__") or hasattr(d, "tolist"))
         ):
             options[name] = _point_text(d)
     gate_at = options.get("gate_at")
