@@ -780,7 +780,9 @@ fn fill_table(h: &mut String, r: &Report) {
             );
         }
         if let (crate::flow::Objective::Length, Some(t)) = (f.objective, m.layout_fill_time_s) {
+            // The suitability map takes the pictures' place when it was made.
             let pictured = r.placed_gates.as_ref().is_none_or(|p| p.fill.is_none())
+                && f.suitability.is_none()
                 && !f.per_vertex.fill_time_s.is_empty();
             let _ = writeln!(
                 h,

@@ -680,6 +680,10 @@ fn a_layout_gives_its_fill_time_whichever_objective_chose_it() {
     assert_eq!(other.layout_fill_time_s, Some(t));
     let page = with_placed.html(None).unwrap();
     assert!(page.contains(&said) && !page.contains("The pictures colour this fill time."));
+    // So does the suitability map.
+    let with_map = study(&tray, &options(r#"{"gates": 2, "suitability": true}"#)).unwrap();
+    let page = with_map.html(None).unwrap();
+    assert!(page.contains(&said) && !page.contains("The pictures colour this fill time."));
     // Chosen by the fill time, it is the value minimised.
     let s = study(
         &tray,
