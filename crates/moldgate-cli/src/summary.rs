@@ -172,7 +172,7 @@ fn fill(
         None => {
             let _ = writeln!(
                 s,
-                "  balanced gate: no qualifying candidate feeds the gate's body"
+                "  balanced gate: none, no qualifying grid node lies on the gate's body"
             );
         }
     }

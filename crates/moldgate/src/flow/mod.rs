@@ -1044,7 +1044,7 @@ fn summarise_layout(
 /// The warning for a fill whose last 1 % fills far later than the rest (more than
 /// [`crate::display::TAIL_FACTOR`] times the 99 % time, where the pictures' colours stop at
 /// that time): a few thin places then set the fill time whatever the gate.
-fn late_tail_warning(fill: &GateFill) -> Option<String> {
+fn late_tail_warning(fill: &GateFill, gate: &str) -> Option<String> {
     let (last, most) = (fill.fill_time_s, fill.fill_time_99_s);
     if !(most > 0.0 && last > f64::from(crate::display::TAIL_FACTOR) * most) {
         return None;
@@ -1058,7 +1058,7 @@ fn late_tail_warning(fill: &GateFill) -> Option<String> {
         })
         .unwrap_or_default();
     Some(format!(
-        "the last 1 % of the volume fills far later than the rest: the paper gate's fill time is {} s, yet 99 % of the volume is filled by {} s; a few places of thin walls fill last{place} and set the fill time of nearly any gate: to compare gates, read L_max and the pressure first",
+        "the last 1 % of the volume fills far later than the rest: the {gate}'s fill time is {} s, yet 99 % of the volume is filled by {} s; a few places of thin walls fill last{place} and set the fill time of nearly any gate: to compare gates, read L_max and the pressure first",
         crate::report::seconds_text(last),
         crate::report::seconds_text(most),
     ))
@@ -3746,13 +3746,14 @@ pub fn analyse_prepared(
         },
     );
     drop(pressure);
+    let answer_name = match analysis.options.mode {
+        crate::GateMode::Aesthetic => "aesthetic gate",
+        _ => "paper gate",
+    };
     if paper.reached_share < 0.999 {
         warnings.push(format!(
             "the {} feeds {} only: {:.1} % of the part's volume is not reached",
-            match analysis.options.mode {
-                crate::GateMode::Aesthetic => "aesthetic gate",
-                _ => "paper gate",
-            },
+            answer_name,
             body_name(paper.body),
             100.0 * (1.0 - paper.reached_share)
         ));
@@ -3800,7 +3801,16 @@ pub fn analyse_prepared(
     let paper_value = objective_value(&paper);
     let beats = |value: f64| value < paper_value - cell_value;
     if head.is_none() {
-        warnings.push("no qualifying candidate feeds the gate's body".into());
+        warnings.push(if candidates.is_empty() {
+            format!(
+                "no balanced gate: no grid node qualifies for a gate ({}), so the fill is the {answer_name}'s alone",
+                analysis.why_no_candidate()
+            )
+        } else {
+            format!(
+                "no balanced gate: no qualifying grid node lies on the body the {answer_name} feeds, so the fill is the {answer_name}'s alone"
+            )
+        });
     }
     times.balanced_s = searched_s + seconds(t);
     // The balanced gate's objective field, when it is the balanced gate's own (it beat the
@@ -4273,7 +4283,7 @@ pub fn analyse_prepared(
         several.as_ref(),
         placed.as_ref(),
     ));
-    warnings.extend(late_tail_warning(&paper));
+    warnings.extend(late_tail_warning(&paper, answer_name));
     if let Some(b) = &balanced {
         warnings.extend(slow_place_warning(&paper, b, options.objective, h));
     }
@@ -4649,12 +4659,17 @@ mod tests {
             weld_lines: Vec::new(),
         };
         assert!(
-            late_tail_warning(&fill(0.02, 0.01)).is_none(),
+            late_tail_warning(&fill(0.02, 0.01), "paper gate").is_none(),
             "twice is not far"
         );
-        let w = late_tail_warning(&fill(0.0344, 0.0161)).expect("over twice");
+        let w = late_tail_warning(&fill(0.0344, 0.0161), "paper gate").expect("over twice");
         assert!(w.contains("0.0344 s") && w.contains("0.0161 s"), "{w}");
-        assert!(late_tail_warning(&fill(0.01, 0.0)).is_none());
+        assert!(late_tail_warning(&fill(0.01, 0.0), "paper gate").is_none());
+        let w = late_tail_warning(&fill(0.0344, 0.0161), "aesthetic gate").expect("over twice");
+        assert!(
+            w.contains("the aesthetic gate's fill time is 0.0344 s"),
+            "{w}"
+        );
     }
 
     /// Under the resistance objective, one thin place that fills last from the paper gate

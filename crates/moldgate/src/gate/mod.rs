@@ -572,8 +572,9 @@ impl Analysis {
         // so that comes first.
         let across = self.diagonal_mm;
         // The parting line's gate is suggested only when there is one (keep-out regions may
-        // cover the whole line too).
-        let aesthetic = if self.aesthetic_gate.is_some() {
+        // cover the whole line too), and not to a study that already asked for it.
+        let aesthetic = if self.aesthetic_gate.is_some() && self.options.mode != GateMode::Aesthetic
+        {
             ", or --aesthetic"
         } else {
             ""

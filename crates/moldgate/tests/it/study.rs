@@ -864,3 +864,23 @@ fn the_centre_used_is_reported_when_the_volume_s_cannot_be() {
     let s = study(&sample("cover"), &options(r#"{ "centre": "volume" }"#)).unwrap();
     assert_eq!(s.report().centre_of_mass.kind, moldgate::CentreKind::Volume);
 }
+
+/// With the aesthetic gate and no grid node qualifying, the fill says there is no balanced
+/// gate and why, names the aesthetic gate (it said "the paper gate's fill time" and "no
+/// qualifying candidate feeds the gate's body"), and suggests nothing already asked for.
+#[test]
+fn an_aesthetic_fill_without_a_qualifying_node_says_why_there_is_no_balanced_gate() {
+    let s = study(
+        &sample("cover"),
+        &options(r#"{"aesthetic": true, "fill": true, "gate_radius": 8}"#),
+    )
+    .unwrap();
+    let warnings = s.report().warnings.join("\n");
+    assert!(
+        warnings.contains("no balanced gate: no grid node qualifies for a gate (")
+            && warnings.contains("so the fill is the aesthetic gate's alone"),
+        "{warnings}"
+    );
+    assert!(!warnings.contains("--aesthetic"), "{warnings}");
+    assert!(!warnings.contains("paper gate"), "{warnings}");
+}
