@@ -222,6 +222,18 @@ impl LocateOptions {
         })
     }
 
+    /// The parting line's gate as if there were no keep-out regions (the point a region that
+    /// moved the aesthetic gate holds).
+    fn parting_gate_ignoring_keep_outs(
+        &self,
+        parting: &PartingLine,
+        mesh: &crate::mesh::Mesh,
+        frame: &Frame,
+        centre: DVec3,
+    ) -> Option<AestheticGate> {
+        parting.nearest_allowed(mesh, frame, centre, 0.25 * self.gate_radius_mm, |_| true)
+    }
+
     /// Checks every option against its range and stated limit before any work: a front end
     /// calls it when it builds the options, and [`locate`] calls it again.
     pub fn validate(&self) -> Result<(), OptionsError> {
@@ -1054,12 +1066,27 @@ fn locate_once(
         }
     }
     counts.qualifying = pool.len();
+    // The aesthetic gate is the parting line's point nearest the centre of mass outside the
+    // regions: a region that holds that point of the whole line moved the gate.
+    if options.mode == GateMode::Aesthetic && !options.keep_out.is_empty() {
+        let free = options.parting_gate_ignoring_keep_outs(&parting, mesh, &frame, centre);
+        if let Some(g) = free {
+            for (used, k) in region_used.iter_mut().zip(&options.keep_out) {
+                *used |= k.touches(g.point, r);
+            }
+        }
+    }
     for (k, region) in options.keep_out.iter().enumerate() {
         if !region_used[k] {
             warnings.push(format!(
-                "keep-out region {} ({}) keeps out no node that qualifies: {}",
+                "keep-out region {} ({}) keeps out no node that qualifies{}: {}",
                 k + 1,
                 region.describe(),
+                if options.mode == GateMode::Aesthetic {
+                    " nor the aesthetic gate's point of the parting line"
+                } else {
+                    ""
+                },
                 match region.meets_box(bounds.min, bounds.max, r) {
                     false => "it lies outside the part's box (check its coordinates and units)",
                     true =>

@@ -884,3 +884,36 @@ fn an_aesthetic_fill_without_a_qualifying_node_says_why_there_is_no_balanced_gat
     assert!(!warnings.contains("--aesthetic"), "{warnings}");
     assert!(!warnings.contains("paper gate"), "{warnings}");
 }
+
+/// A keep-out region that moves the aesthetic gate is not said to keep nothing out (it
+/// was, as it held no qualifying node); one that holds neither is.
+#[test]
+fn a_keep_out_that_moves_the_aesthetic_gate_is_not_said_to_do_nothing() {
+    let plate = sample("plate");
+    let free = study(&plate, &options(r#"{"aesthetic": true}"#)).unwrap();
+    let [x, y, z] = free.report().gate.as_ref().unwrap().point;
+    let kept = study(
+        &plate,
+        &options(&format!(
+            r#"{{"aesthetic": true, "keep_out": ["sphere:{x},{y},{z},2"]}}"#
+        )),
+    )
+    .unwrap();
+    let moved = kept.report().gate.as_ref().unwrap().point;
+    assert!(moved != [x, y, z], "the region did not move the gate");
+    let warnings = kept.report().warnings.join("\n");
+    assert!(!warnings.contains("keeps out no node"), "{warnings}");
+    let far = study(
+        &plate,
+        &options(&format!(
+            r#"{{"aesthetic": true, "keep_out": ["sphere:{x},{y},{},2"]}}"#,
+            z + 50.0
+        )),
+    )
+    .unwrap();
+    let warnings = far.report().warnings.join("\n");
+    assert!(
+        warnings.contains("keeps out no node that qualifies nor the aesthetic gate's point"),
+        "{warnings}"
+    );
+}
