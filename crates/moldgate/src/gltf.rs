@@ -14,6 +14,7 @@
 //! | `centre of mass` | an octahedron, half-diagonal max(R, 1 % of the part's diagonal) | cyan |
 //! | `parting line` | LINES | white, unlit |
 //! | `qualifying nodes` | POINTS at the surface points of the nodes that qualify | orange, unlit |
+//! | `keep-out 1`, `keep-out 2`, … | the designer's keep-out regions: a box's 12 edges, a sphere's three great circles (LINES) | near-black, unlit |
 //! | `gate suitability` | with the suitability map only: a square of the grid spacing facing +D at each scored node, lifted 2 % of the spacing off the surface, COLOR_0 by its score | unlit, times the vertex colours |
 //!
 //! Nodes with nothing to show (no gate, an empty parting line, no qualifying node) are left
@@ -90,6 +91,7 @@ enum Look {
     Parting,
     Qualifying,
     Suitability,
+    KeepOut,
 }
 
 impl Look {
@@ -106,6 +108,7 @@ impl Look {
             Look::Parting => ("parting line", [255, 255, 255], true),
             Look::Qualifying => ("qualifying nodes", [255, 140, 0], true),
             Look::Suitability => ("gate suitability (vertex colours)", [255, 255, 255], true),
+            Look::KeepOut => ("keep-out region", [25, 25, 30], true),
         };
         let [r, g, b] = srgb.map(colormap::srgb_to_linear);
         let mut m = json!({
@@ -127,7 +130,10 @@ impl Look {
     }
 
     fn unlit(self) -> bool {
-        matches!(self, Look::Parting | Look::Qualifying | Look::Suitability)
+        matches!(
+            self,
+            Look::Parting | Look::Qualifying | Look::Suitability | Look::KeepOut
+        )
     }
 }
 
@@ -213,6 +219,12 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
         children.push(doc.node("qualifying nodes", m));
     }
 
+    for (i, region) in scene.keep_out.iter().enumerate() {
+        let name = format!("keep-out {}", i + 1);
+        let m = doc.lines_or_points(&name, keep_out_lines(region), MODE_LINES, Look::KeepOut);
+        children.push(doc.node(&name, m));
+    }
+
     if let Some(g) = suitability_squares(scene) {
         let m = doc.triangles("gate suitability", g, Look::Suitability);
         children.push(doc.node("gate suitability", m));
@@ -229,6 +241,49 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, GlbError> {
     doc.nodes.push(root);
     let root_index = doc.nodes.len() - 1;
     doc.finish(scene, span, root_index)
+}
+
+/// The segments that outline a keep-out region: a box's 12 edges, or a sphere's three
+/// great circles across the axes (48 segments each).
+fn keep_out_lines(region: &crate::keepout::Region) -> Vec<[f32; 3]> {
+    use crate::keepout::Region;
+    match *region {
+        Region::Box { min, max } => {
+            let corner = |i: usize| {
+                DVec3::new(
+                    if i & 1 == 0 { min[0] } else { max[0] },
+                    if i & 2 == 0 { min[1] } else { max[1] },
+                    if i & 4 == 0 { min[2] } else { max[2] },
+                )
+            };
+            // Corners that differ in one bit are joined by an edge.
+            (0..8usize)
+                .flat_map(|i| [1usize, 2, 4].map(move |bit| (i, i | bit)))
+                .filter(|&(i, j)| i != j)
+                .flat_map(|(i, j)| [f32s(corner(i)), f32s(corner(j))])
+                .collect()
+        }
+        Region::Sphere { centre, radius } => {
+            const SEGMENTS: usize = 48;
+            let c = DVec3::from_array(centre);
+            let axes = [
+                (DVec3::X, DVec3::Y),
+                (DVec3::Y, DVec3::Z),
+                (DVec3::Z, DVec3::X),
+            ];
+            axes.iter()
+                .flat_map(|&(a, b)| {
+                    (0..SEGMENTS).flat_map(move |k| {
+                        let at = |k: usize| {
+                            let t = std::f64::consts::TAU * k as f64 / SEGMENTS as f64;
+                            c + (a * t.cos() + b * t.sin()) * radius
+                        };
+                        [f32s(at(k)), f32s(at(k + 1))]
+                    })
+                })
+                .collect()
+        }
+    }
 }
 
 /// A node per gate the designer placed, named `your gate N`: a cylinder like the answer's
@@ -890,6 +945,7 @@ mod tests {
                     title: String::new(),
                     subtitle: String::new(),
                     grid_spacing_mm: 1.0,
+                    keep_out: Vec::new(),
                 };
                 rotation_to_y_up(&scene)
             };

@@ -422,7 +422,26 @@ fn counts_table(h: &mut String, r: &Report) {
         ),
         ("Qualifying (every rule in force)", c.qualifying),
     ];
-    for (name, n) in rows {
+    // The designer's own regions, when given: the nodes that passed the paper's rules and
+    // that they took.
+    let kept_out = (!r.options.keep_out.is_empty()).then_some((
+        "... of the nodes passing the rules, kept out by the keep-out regions",
+        c.kept_out,
+    ));
+    let cosmetic = r.options.cosmetic.map(|_| {
+        (
+            "... of the nodes passing the rules, on a cosmetic face",
+            c.cosmetic,
+        )
+    });
+    let last = rows.len() - 1;
+    for (name, n) in rows[..last]
+        .iter()
+        .copied()
+        .chain(kept_out)
+        .chain(cosmetic)
+        .chain(std::iter::once(rows[last]))
+    {
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td class=\"n\">{n}</td></tr>",
@@ -430,6 +449,29 @@ fn counts_table(h: &mut String, r: &Report) {
         );
     }
     let _ = writeln!(h, "</table>");
+    if !r.options.keep_out.is_empty() {
+        let regions: Vec<String> = r
+            .options
+            .keep_out
+            .iter()
+            .enumerate()
+            .map(|(i, k)| format!("{}. {}", i + 1, k.describe()))
+            .collect();
+        let _ = writeln!(
+            h,
+            "<p id=\"keep-out\">Keep-out regions (dashed on the pictures): {}. A node is kept out \
+             when its gate disc reaches into one; so is a point of the parting line for the \
+             aesthetic gate.</p>",
+            escape(&regions.join("; "))
+        );
+    }
+    if let Some([x, y, z]) = r.options.cosmetic {
+        let _ = writeln!(
+            h,
+            "<p id=\"cosmetic\">Cosmetic side ({x:.3}, {y:.3}, {z:.3}): no gate on a face turned \
+             towards it.</p>"
+        );
+    }
 }
 
 /// With the automatic direction, every line tried: its undercut (or the bound that ruled

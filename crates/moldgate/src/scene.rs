@@ -122,6 +122,8 @@ pub struct Scene<'a> {
     /// Distance between neighbouring grid nodes, mm (each qualifying point stands for a
     /// square of this side).
     pub grid_spacing_mm: f64,
+    /// The designer's keep-out regions, drawn dashed.
+    pub keep_out: Vec<crate::keepout::Region>,
     /// First title line (file or sample name).
     pub title: String,
     /// Second title line (material, gate coordinates).
@@ -182,6 +184,7 @@ impl<'a> Scene<'a> {
             qualifying: analysis.qualifying_points.clone(),
             node_field: None,
             grid_spacing_mm: analysis.grid.spacing,
+            keep_out: analysis.options.keep_out.clone(),
             title: title.into(),
             subtitle,
         }

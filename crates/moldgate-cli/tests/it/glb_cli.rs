@@ -207,3 +207,39 @@ fn no_gate_still_writes_the_part() {
     assert!(!names.contains(&"gate 1"), "{names:?}");
     assert_eq!(json["asset"]["extras"]["gates"], serde_json::json!([]));
 }
+
+/// The keep-out regions are in the file, each a node of lines: a box's 12 edges, a sphere's
+/// three great circles.
+#[test]
+fn keep_out_regions_are_nodes_of_lines() {
+    let dir = folder_with_part();
+    let out = moldgate(
+        dir.path(),
+        &[
+            "locate",
+            "part.stl",
+            "--glb",
+            "part.glb",
+            "--keep-out",
+            "box:-10,-10,0,10,10,40",
+            "--keep-out",
+            "sphere:30,0,30,5",
+        ],
+    );
+    assert_ok(&out);
+    let json = glb_json(&std::fs::read(dir.path().join("part.glb")).unwrap());
+    for (name, points) in [("keep-out 1", 24), ("keep-out 2", 3 * 48 * 2)] {
+        let node = json["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|n| n["name"] == name)
+            .unwrap_or_else(|| panic!("no node {name}"));
+        let mesh = &json["meshes"][node["mesh"].as_u64().unwrap() as usize];
+        let primitive = &mesh["primitives"][0];
+        assert_eq!(primitive["mode"], 1, "{name}: LINES");
+        let accessor =
+            &json["accessors"][primitive["attributes"]["POSITION"].as_u64().unwrap() as usize];
+        assert_eq!(accessor["count"], points, "{name}");
+    }
+}

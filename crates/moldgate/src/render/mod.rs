@@ -26,6 +26,7 @@
 
 mod canvas;
 mod encode;
+mod keepout;
 mod placed;
 mod pool;
 mod raster;
@@ -618,6 +619,27 @@ fn draw_overlays(
     canvas.stroke_polylines(&hidden, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
     canvas.stroke_polylines(&shown, false, BLACK, 4.5 * k, None);
     canvas.stroke_polylines(&shown, false, WHITE, 2.0 * k, None);
+    let panel_box = [
+        view.panel.x as f32,
+        view.panel.y as f32,
+        (view.panel.x + view.panel.w) as f32,
+        (view.panel.y + view.panel.h) as f32,
+    ];
+    let marks: Vec<[f32; 2]> = std::iter::once(scene.centre)
+        .chain(scene.gates.iter().map(|g| g.point))
+        .map(|p| {
+            let q = cam.to_pixel(p);
+            [q.x as f32, q.y as f32]
+        })
+        .collect();
+    let keep_out_labels = keepout::draw_keep_outs(
+        canvas,
+        cam,
+        &scene.keep_out,
+        (panel_box, 48.0 * k),
+        &marks,
+        k,
+    );
 
     // Centre of mass under the gate: its cross reaches beyond the disc, so both show when
     // the gate lies right above it.
@@ -638,6 +660,7 @@ fn draw_overlays(
         [cx - reach, cy - arm, cx + reach, cy + arm],
         [cx - arm, cy - reach, cx + arm, cy + reach],
     ];
+    taken.extend(keep_out_labels);
     let centre_label = if depths.visible(c.x, c.y, cam.depth(scene.centre), tolerance) {
         "centre of mass"
     } else {
@@ -1880,6 +1903,23 @@ fn draw_side_bar(
         let pts = [[sx - 13.0 * k, cy], [sx + 13.0 * k, cy]];
         c.stroke_polyline(&pts, false, GREY, 1.2 * k, Some([5.0 * k, 4.0 * k]));
     });
+    if !scene.keep_out.is_empty() {
+        item(
+            canvas,
+            &mut y,
+            "keep-out region (no gate disc reaches into it)",
+            &|c, cy| {
+                let pts = [
+                    [sx - 12.0 * k, cy - 8.0 * k],
+                    [sx + 12.0 * k, cy - 8.0 * k],
+                    [sx + 12.0 * k, cy + 8.0 * k],
+                    [sx - 12.0 * k, cy + 8.0 * k],
+                ];
+                c.stroke_polyline(&pts, true, WHITE, 4.0 * k, None);
+                c.stroke_polyline(&pts, true, BLACK, 2.0 * k, Some([7.0 * k, 5.0 * k]));
+            },
+        );
+    }
     let qualifying = if scene.node_field.is_some() {
         format!(
             "qualifying region ({} grid nodes), each coloured by its score",

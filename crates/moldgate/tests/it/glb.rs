@@ -342,6 +342,7 @@ fn cube_has_sharp_edges() {
         title: "cube".into(),
         subtitle: String::new(),
         grid_spacing_mm: 1.0,
+        keep_out: Vec::new(),
     };
     let bytes = glb(&scene).unwrap();
     let g = check_round_trip(&scene, &bytes);
@@ -410,6 +411,7 @@ fn empty_scene(mesh: &Mesh) -> Scene<'_> {
         title: "empty".into(),
         subtitle: String::new(),
         grid_spacing_mm: 1.0,
+        keep_out: Vec::new(),
     }
 }
 

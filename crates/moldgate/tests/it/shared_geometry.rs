@@ -802,3 +802,25 @@ fn a_placed_gate_that_alone_fills_a_body_has_that_bodys_share() {
         );
     }
 }
+
+/// A keep-out region is drawn on the picture: the picture with one differs from the one
+/// without, and only in the parts' panels and the legend (a region off the part's side is
+/// clipped to its panel).
+#[test]
+fn keep_out_regions_are_drawn_on_the_picture() {
+    let plate = mesh::from_generated(moldgate::samples::sample("plate").unwrap());
+    let picture = |json: &str| {
+        let options: moldgate::StudyOptions = serde_json::from_str(json).unwrap();
+        let s = moldgate::study(&plate, &options).unwrap();
+        let scene = s.scene(&plate, "part").unwrap();
+        moldgate::render::render(&scene, &Default::default()).unwrap()
+    };
+    let without = picture(r#"{ "demold": "+z" }"#);
+    // A sphere away from the gate, so that the answer is the same.
+    let with = picture(r#"{ "demold": "+z", "keep_out": ["sphere:35,20,3,4"] }"#);
+    let differ = (0..with.height())
+        .flat_map(|y| (0..with.width()).map(move |x| (x, y)))
+        .filter(|&(x, y)| with.pixel(x, y) != without.pixel(x, y))
+        .count();
+    assert!(differ > 500, "{differ} pixels differ");
+}
