@@ -904,9 +904,14 @@ impl Sampling {
 
     /// Calls `f` with each sample point of the facet; the points are the centroids of equal
     /// triangles, so each stands for the same share of the facet's area.
-    pub fn for_each(self, corners: [DVec3; 3], mut f: impl FnMut(DVec3)) {
+    pub fn for_each(self, corners: [DVec3; 3], f: impl FnMut(DVec3)) {
+        Self::for_each_k(corners, self.subdivision(corners), f);
+    }
+
+    /// [`Sampling::for_each`] with the subdivision `k` given (at least 1).
+    pub fn for_each_k(corners: [DVec3; 3], k: usize, mut f: impl FnMut(DVec3)) {
         let [a, b, c] = corners;
-        let k = self.subdivision(corners);
+        let k = k.max(1);
         if k == 1 {
             f((a + b + c) / 3.0);
             return;
