@@ -284,6 +284,28 @@ fn toml_message_whole(text: &str, e: &toml::de::Error) -> String {
             return format!("line {}: {key}: {NO_VALUE}", i + 1);
         }
     }
+    // A value a person wrote as a number in another way: a decimal comma (`20,5`), or a
+    // word left bare; the parser's words ("expected newline", "string values must be
+    // quoted") say what it expected, not what was wrong.
+    if let Some((k, raw)) = line.split_once('=') {
+        let (k, raw) = (k.trim(), raw.split('#').next().unwrap_or_default().trim());
+        let digits = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+        let decimal_comma = raw
+            .trim_start_matches(['-', '+'])
+            .split_once(',')
+            .is_some_and(|(a, b)| digits(a) && digits(b));
+        if decimal_comma {
+            return format!(
+                "line {line_no}: {k}: {raw} is not a number: write a decimal point ({})",
+                raw.replace(',', ".")
+            );
+        }
+        if what.starts_with("string values must be quoted") {
+            return format!(
+                "line {line_no}: {k}: {raw} is neither a number nor quoted text (numbers as 230 or 0.32; a name in quotes)"
+            );
+        }
+    }
     // The error's line as a table's header: its name, and whether it opens a list of
     // tables (`[[X]]`) or one (`[X]`).
     let header = match line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {
@@ -323,6 +345,15 @@ fn toml_message_whole(text: &str, e: &toml::de::Error) -> String {
             // A table's own fault (a field missing): the table by its name.
             key = Some(inner.trim_matches('"').to_string());
         }
+    }
+    // A number in quotes is text to TOML.
+    if let Some(quoted) = what
+        .strip_prefix("got the text \"")
+        .and_then(|rest| rest.split_once("\", expected a number"))
+        .map(|(q, _)| q.to_string())
+        .filter(|q| q.trim().parse::<f64>().is_ok())
+    {
+        what = format!("{what} (a number goes without quotes: {})", quoted.trim());
     }
     match key {
         Some(key) => format!("line {line_no}: {key}: {what}"),
@@ -654,6 +685,37 @@ mod tests {
         // This machine says how much it has.
         #[cfg(target_os = "linux")]
         assert!(memory_limit().is_some_and(|m| m > 0));
+    }
+
+    /// A number written another way is said so, with the way to write it: a decimal
+    /// comma, a bare word, a number in quotes (the parser said "expected newline", "string
+    /// values must be quoted", and "got the text").
+    #[test]
+    fn numbers_written_another_way_are_said_so() {
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct M {
+            #[serde(rename = "X")]
+            x: N,
+        }
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct N {
+            mu_opt: f64,
+        }
+        for (value, said) in [
+            ("20,5", "line 2: mu_opt: 20,5 is not a number: write a decimal point (20.5)"),
+            ("bad", "line 2: mu_opt: bad is neither a number nor quoted text"),
+            (
+                "\"20\"",
+                "line 2: mu_opt: got the text \"20\", expected a number (a number goes without quotes: 20)",
+            ),
+        ] {
+            let text = format!("[X]\nmu_opt = {value}\n");
+            let e = toml::from_str::<M>(&text).unwrap_err();
+            let got = toml_message(&text, &e);
+            assert!(got.starts_with(said), "{value}: {got}");
+        }
     }
 
     #[test]

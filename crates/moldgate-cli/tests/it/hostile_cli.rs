@@ -326,7 +326,7 @@ fn a_grid_beyond_the_memory_left_is_refused_before_its_rays() {
         Command::new("bash")
             .arg("-c")
             .arg(format!(
-                "ulimit -v 400000 && exec {} locate -q --sample plate --spacing {spacing}",
+                "ulimit -v 1000000 && exec {} locate -q --sample plate --spacing {spacing}",
                 env!("CARGO_BIN_EXE_moldgate"),
             ))
             .output()

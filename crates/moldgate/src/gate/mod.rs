@@ -348,14 +348,18 @@ fn check_machine_memory(grid: &Grid, circle_points: usize) -> Result<(), Options
     if bytes <= room {
         return Ok(());
     }
-    let nodes_within = room / (per_node * runs);
+    // What fits is named with a quarter of the room to spare: the room itself moves from
+    // run to run (the threads' allocator arenas are mapped as they first allocate, and a
+    // limit on address space counts them).
+    let spare = room / 4 * 3;
+    let nodes_within = spare / (per_node * runs);
     Err(OptionsError::MachineMemory {
         nodes,
         circle_points: circle_points as u64,
         runs,
         bytes,
         room,
-        points_within: (room / (2 * nodes.max(1) * runs)).saturating_sub(24) / 8,
+        points_within: (spare / (2 * nodes.max(1) * runs)).saturating_sub(24) / 8,
         nodes_within,
         min_spacing_mm: quadrature::least_spacing(
             DVec2::from_array(grid.box_hi) - DVec2::from_array(grid.box_lo),
