@@ -128,7 +128,8 @@ export function inPageWords(message) {
     message = `${OPTION_LABELS[m[1]]} and ${OPTION_LABELS[m[2]]} cannot be used together: ${message.slice(m[0].length)}`;
   }
   // "gate_at 2 ...": the second of the own gates (typed ones first, then those placed).
-  message = message.replace(/^(?:options: )?gate_at (\d+)\b/, (_, n) => `'Your own gates', gate ${n},`);
+  // A part's error comes after its file's name ("part.stl: gate_at 1 ...").
+  message = message.replace(/(^|: )(?:options: )?gate_at (\d+)\b/, (_, before, n) => `${before}'Your own gates', gate ${n},`);
   // The rays' memory: what fits, by the controls that set it.
   message = message.replace(/use at most (\d+) circle points, or a spacing of at least ([\d.e+-]+) mm/, "set 'Points on each circle' to at most $1, or 'Grid spacing' to at least $2 mm");
   // The library's own names of a few options ("circle points must be at most 360").

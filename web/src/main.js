@@ -409,7 +409,7 @@ async function analyse({ keepCamera = false, again = false } = {}) {
     const total = performance.now() - started;
     current = { report, name: part.sample ?? part.name, asked };
     $("stale").hidden = true;
-    showReport($("result-body"), report, r.times);
+    showReport($("result-body"), report, r.times, request.options);
     $("clear-placed")?.addEventListener("click", clearPlaced);
     showColourBar(barField(extras));
     offerColourings(report, request.options);

@@ -102,16 +102,23 @@ function gateSection(r) {
   return section("gate-result", "Gate", ...content);
 }
 
-function noGateSection(r) {
+function noGateSection(r, gates) {
   const tries = el("ul", { id: "no-gate-tries" });
   // A part whose size suggests other units fails for that reason more often than any.
   if (r.mesh.size_suggests_other_units) tries.append(el("li", { id: "try-units" }, `'Units of the file': the part is read as ${r.mesh.units}, which makes it ${r.mesh.units === "mm" ? "very small or very large" : "an unlikely size"} for a moulded part`));
+  const aesthetic = r.options.mode === "aesthetic";
+  // The wall rule removed the last nodes: the largest radius that fits is one tick away.
+  const wallRule = r.counts.circle_on_part > 0 && r.counts.thicker_than_radius === 0;
+  if (wallRule && r.options.gate_radius_source !== "fitted") tries.append(el("li", { id: "try-fit-radius" }, "'When no node passes the wall rule, take the largest gate radius that fits' (Advanced)"));
   tries.append(
     el("li", {}, "a smaller gate radius (Advanced) or a finer grid spacing"),
     el("li", {}, "another demolding direction, or 'auto'"),
     el("li", {}, "'Wall thicker than the gate radius: not required' when the walls are thin"),
-    el("li", {}, "'Aesthetic: gate on the parting line'"),
   );
+  // The parting line's gate, unless it is what failed or several gates were asked (the
+  // two cannot be used together); when it failed, the other rule of the parting line.
+  if (aesthetic) tries.append(el("li", { id: "try-parting-line" }, "'Parting line: the longest loop between the sides' (Advanced), or the paper's gate (untick 'Aesthetic')"));
+  else if (!(gates > 1)) tries.append(el("li", { id: "try-aesthetic" }, "'Aesthetic: gate on the parting line'"));
   if (r.counts.kept_out + r.counts.cosmetic > 0) tries.append(el("li", {}, "smaller keep-out regions, or no cosmetic side"));
   return section("no-gate", "No gate",
     el("p", { id: "no-gate-reason", class: "warning", "data-reason": r.no_gate_reason }, inPageWords(r.no_gate_reason ?? "no node qualifies")),
@@ -324,7 +331,6 @@ function placedSection(r) {
   return section("placed-result", "Your gates", ...content);
 }
 
-/** Fills `container` with the report's results; `page` holds the page's own timings. */
 /** The nominal wall's source in words, as the library's `WallSource::words`. */
 const WALL_SOURCE = {
   measured: "measured",
@@ -332,9 +338,11 @@ const WALL_SOURCE = {
   diagonal_share: "a hundredth of the part's diagonal: the mesh encloses no volume",
 };
 
-export function showReport(container, r, page) {
+/** Fills `container` with the report's results; `page` holds the page's own timings,
+ * `asked` the options the study was asked with (`gates`). */
+export function showReport(container, r, page, asked = {}) {
   container.replaceChildren();
-  container.append(r.gate ? gateSection(r) : noGateSection(r));
+  container.append(r.gate ? gateSection(r) : noGateSection(r, asked.gates));
   if (r.fill) container.append(fillSection(r.fill, r.options.mode));
   if (r.placed_gates) container.append(placedSection(r));
   const warnings = el("ul", { id: "warnings" });

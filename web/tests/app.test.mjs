@@ -281,6 +281,17 @@ describe("moldgate in the browser", () => {
     assert.ok(expected.no_gate_reason.includes("--aesthetic"), expected.no_gate_reason);
     const reason = await page.$eval("#no-gate-reason", (e) => e.textContent);
     assert.ok(reason.includes("'Aesthetic: gate on the parting line'") && !/--[a-z]/.test(reason), reason);
+    // The wall rule removed the last nodes (the plate is 3 mm thick): the largest radius
+    // that fits is offered; with several gates asked, the aesthetic gate is not (the two
+    // cannot be used together).
+    await page.fill("#gate_radius", "5");
+    assert.equal(await studySample(page, "plate"), "done");
+    assert.ok(await page.$("#try-fit-radius"), "the largest radius that fits is offered");
+    assert.ok(await page.$("#try-aesthetic"), "the aesthetic gate is offered");
+    await page.fill("#gates", "2");
+    assert.equal(await studySample(page, "plate"), "done");
+    assert.equal(await page.$("#try-aesthetic"), null, "the aesthetic gate is not offered beside two gates");
+    await page.fill("#gates", "");
     await page.fill("#gate_radius", "");
   });
 

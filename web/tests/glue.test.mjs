@@ -86,6 +86,11 @@ test("the library's messages read in the page's words", () => {
   assert.equal(inPageWords("its undercut, 499 mm^2, is"), "its undercut, 499 mm², is");
   // Option errors name the control at fault.
   assert.equal(inPageWords("spacing must be a positive number, got 0"), "'Grid spacing' must be a positive number, got 0");
+  // An own gate far from the part, after its file's name as the study says it.
+  assert.equal(
+    inPageWords("part.stl: gate_at 1 (500.000, 0.000, 0.000) is 450.000 mm from the part's surface"),
+    "part.stl: 'Your own gates', gate 1, (500.000, 0.000, 0.000) is 450.000 mm from the part's surface",
+  );
   assert.equal(inPageWords("options: material.n: got no value (null), expected a number"), "'Material': 'Power-law index n': got no value (null), expected a number");
   assert.equal(inPageWords("max_nodes must be between 1 and 20000000"), "'Largest grid (nodes)' must be between 1 and 20000000");
   assert.equal(
