@@ -15,9 +15,11 @@
 //! out as a whole: a closed set (none of its facets' edges open) so that its signed volume
 //! is positive, an open one as most of its area was wound in the file (an open surface
 //! has no inside to face out of). A set that cannot agree with itself (a Moebius band)
-//! keeps the walk's choice. A mesh whose every edge pairs up by direction, of one body
-//! with a positive volume, is left as it is without the walk: the shared parts and most
-//! files.
+//! keeps the walk's choice. A mesh whose every edge pairs up by direction has no facet at
+//! odds with its neighbours: of one body with a positive volume it is left as it is (the
+//! shared parts and most files); of several, each body's signed volume is summed beside
+//! the topology (on its forest of vertices) and a body wound inwards is turned whole,
+//! without the walk (which took 0.8 s on 23 copies of the 352k housing).
 
 use super::{Mesh, Topology};
 use crate::mesh::topology::NO_TRIANGLE;
@@ -29,6 +31,15 @@ pub(crate) fn outward(mesh: &mut Mesh, topology: &Topology, volume_mm3: f64) -> 
     let n = mesh.triangles.len();
     if n == 0 || (topology.sides_pair_up() && topology.bodies <= 1 && volume_mm3 > 0.0) {
         return (0, false);
+    }
+    if topology.sides_pair_up() {
+        // Every edge met by its reverse: each body is closed and agrees with itself, and
+        // only a body wound inwards as a whole is turned, told by its own signed volume
+        // (summed beside the topology, `Topology::inward_body`; no walk over the edges).
+        if topology.bodies > 1 && !topology.inward_body {
+            return (0, false);
+        }
+        return whole_bodies_outward(mesh);
     }
     let tris = &mesh.triangles;
     // Whether triangle `m` runs the edge a -> b (so disagrees with a triangle that runs it
@@ -116,6 +127,61 @@ pub(crate) fn outward(mesh: &mut Mesh, topology: &Topology, volume_mm3: f64) -> 
     (turned, turned == n as u64)
 }
 
+/// [`outward`] for a mesh whose every edge is met by its reverse: the bodies of negative
+/// signed volume turned round whole.
+fn whole_bodies_outward(mesh: &mut Mesh) -> (u64, bool) {
+    let body = crate::mesh::topology::body_of_vertex(mesh);
+    let bodies = mesh
+        .triangles
+        .iter()
+        .map(|t| body[t[0] as usize] as usize + 1)
+        .max()
+        .unwrap_or(0);
+    // Moments about the box's centre, summed body by body: in fixed runs of triangles on
+    // all threads when the bodies are few (each run a sum a body), the runs' sums added in
+    // order, so the signs do not depend on the threads.
+    use rayon::prelude::*;
+    const RUN: usize = 1 << 16;
+    let origin = mesh.bounds().centre();
+    let add = |volume: &mut [f64], first: usize, run: &[[u32; 3]]| {
+        for (k, tri) in run.iter().enumerate() {
+            let [a, b, c] = mesh.corners(first + k).map(|p| p - origin);
+            volume[body[tri[0] as usize] as usize] += a.dot(b.cross(c));
+        }
+    };
+    let mut volume = vec![0.0f64; bodies];
+    if bodies <= 4096 {
+        let runs: Vec<Vec<f64>> = mesh
+            .triangles
+            .par_chunks(RUN)
+            .enumerate()
+            .map(|(i, run)| {
+                let mut v = vec![0.0f64; bodies];
+                add(&mut v, i * RUN, run);
+                v
+            })
+            .collect();
+        for run in runs {
+            for (total, v) in volume.iter_mut().zip(run) {
+                *total += v;
+            }
+        }
+    } else {
+        add(&mut volume, 0, &mesh.triangles);
+    }
+    if volume.iter().all(|&v| v >= 0.0) {
+        return (0, false);
+    }
+    let mut turned = 0u64;
+    for tri in mesh.triangles.iter_mut() {
+        if volume[body[tri[0] as usize] as usize] < 0.0 {
+            tri.swap(1, 2);
+            turned += 1;
+        }
+    }
+    (turned, turned == mesh.triangles.len() as u64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,6 +228,41 @@ mod tests {
                 assert!(topology.sides_pair_up() && volume > 0.0, "{name}");
             }
         }
+    }
+
+    /// Of two closed bodies, the one wound inwards as a whole is turned round, the other
+    /// left; the total volume alone (positive here) would not tell.
+    #[test]
+    fn a_body_wound_inwards_beside_another_is_turned_round() {
+        let cover = sample("cover").unwrap();
+        let cap = sample("cap").unwrap();
+        let mut mesh = cover.clone();
+        let offset = mesh.vertices.len() as u32;
+        // The cap beside the cover (away from it), wound inwards.
+        mesh.vertices.extend(
+            cap.vertices
+                .iter()
+                .map(|&p| p + crate::math::DVec3::new(200.0, 0.0, 0.0)),
+        );
+        mesh.triangles.extend(
+            cap.triangles
+                .iter()
+                .map(|t| [t[0] + offset, t[2] + offset, t[1] + offset]),
+        );
+        let (topology, volume) = topology_and_volume(&mesh);
+        assert!(topology.sides_pair_up() && topology.bodies == 2 && volume > 0.0);
+        let (turned, all) = outward(&mut mesh, &topology, volume);
+        assert_eq!((turned, all), (cap.triangles.len() as u64, false));
+        for (t, o) in mesh.triangles[cover.triangles.len()..]
+            .iter()
+            .zip(&cap.triangles)
+        {
+            assert_eq!(*t, [o[0] + offset, o[1] + offset, o[2] + offset]);
+        }
+        assert_eq!(
+            &mesh.triangles[..cover.triangles.len()],
+            &cover.triangles[..]
+        );
     }
 
     /// An open surface keeps the winding most of its area has: a plate's top face alone,

@@ -35,13 +35,18 @@ pub struct Topology {
     /// Number of bodies: sets of triangles linked through shared vertices (see
     /// [`body_of_triangle`] for which triangle is in which).
     pub bodies: u64,
+    /// Of a mesh of several bodies, whether one has a negative signed volume (its facets
+    /// wound inwards as a whole, when it is closed); `false` for one body, whose volume the
+    /// centres of mass give.
+    pub inward_body: bool,
 }
 
 impl Topology {
     /// Builds the neighbour table (edges grouped under their smaller vertex, no global
     /// sort) and, in parallel with it, the bodies.
     pub fn new(mesh: &Mesh) -> Topology {
-        let ((across, counts), bodies) = rayon::join(|| neighbours(mesh), || body_count(mesh));
+        let ((across, counts), (bodies, inward_body)) =
+            rayon::join(|| neighbours(mesh), || body_count(mesh));
         Topology {
             across,
             edges: counts.edges,
@@ -49,6 +54,7 @@ impl Topology {
             non_manifold_edges: counts.non_manifold,
             unpaired_edges: counts.unpaired,
             bodies,
+            inward_body,
         }
     }
 
@@ -403,20 +409,45 @@ pub(crate) fn joined_vertices(mesh: &Mesh) -> Vec<u32> {
 /// and a vertex alone in its set, left by a collapsed facet or handed over unused, is no
 /// body): counted on the vertices rather than on another pass over the triangles. A root
 /// with a set of two or more has one of them linked to it directly.
-fn body_count(mesh: &Mesh) -> u64 {
-    let parent = joined_vertices(mesh);
+///
+/// With several bodies, also whether one has a negative signed volume: each triangle's
+/// moment summed to its body's root, the last root's slot kept (a body's triangles run
+/// together in most files), on the forest already made, beside the neighbour table.
+fn body_count(mesh: &Mesh) -> (u64, bool) {
+    let mut parent = joined_vertices(mesh);
     let mut below = vec![false; parent.len()];
     for (v, &p) in parent.iter().enumerate() {
         if p != v as u32 {
             below[p as usize] = true;
         }
     }
-    parent
+    let count = parent
         .iter()
         .zip(&below)
         .enumerate()
         .filter(|&(v, (&p, &below))| below && p == v as u32)
-        .count() as u64
+        .count() as u64;
+    drop(below);
+    if count <= 1 {
+        return (count, false);
+    }
+    let origin = mesh.bounds().centre();
+    let mut slot = rustc_hash::FxHashMap::<u32, usize>::default();
+    let mut volume: Vec<f64> = Vec::new();
+    let (mut last_root, mut last_slot) = (u32::MAX, 0);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let r = root(&mut parent, tri[0]);
+        if r != last_root {
+            last_slot = *slot.entry(r).or_insert_with(|| {
+                volume.push(0.0);
+                volume.len() - 1
+            });
+            last_root = r;
+        }
+        let [a, b, c] = mesh.corners(t).map(|p| p - origin);
+        volume[last_slot] += a.dot(b.cross(c));
+    }
+    (count, volume.iter().any(|&v| v < 0.0))
 }
 
 /// The body of each triangle, numbered from 0 in order of first appearance (computed on
@@ -774,7 +805,11 @@ mod tests {
             for tri in &mesh.triangles {
                 seen.insert(root(&mut parent, tri[0]));
             }
-            assert_eq!(body_count(&mesh), seen.len() as u64, "{vertices} vertices");
+            assert_eq!(
+                body_count(&mesh).0,
+                seen.len() as u64,
+                "{vertices} vertices"
+            );
             // Each vertex's body is the body of the triangles it is a corner of (numbered as
             // `body_of_triangle` numbers them), 0 for a vertex of none.
             let mut expected = vec![0u32; vertices as usize];
