@@ -209,6 +209,17 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
     }
 }
 
+/// The root of `v` in a union-find forest of edge vertices kept in a map (a vertex not in
+/// it is its own root), `v` linked to it directly.
+fn find(parent: &mut FxHashMap<u32, u32>, v: u32) -> u32 {
+    let mut r = v;
+    while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
+        r = p;
+    }
+    parent.insert(v, r);
+    r
+}
+
 /// Of `edges` (a body's edges between the sides), the connected set of the greatest length
 /// (of two alike, the one holding the least vertex), as sorted vertex pairs, with its
 /// [`Rim`] (`longest_loop` set).
@@ -218,14 +229,6 @@ fn longest_loop(
     body: u32,
 ) -> (Vec<[u32; 2]>, Rim) {
     let mut parent = FxHashMap::<u32, u32>::default();
-    fn find(parent: &mut FxHashMap<u32, u32>, v: u32) -> u32 {
-        let mut r = v;
-        while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
-            r = p;
-        }
-        parent.insert(v, r);
-        r
-    }
     for [a, b] in edges.clone() {
         let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
         if ra != rb {
@@ -263,14 +266,6 @@ fn longest_loop(
 /// The number of connected sets of `edges` (union-find on their vertices).
 fn components(edges: &[[u32; 2]]) -> usize {
     let mut parent = FxHashMap::<u32, u32>::default();
-    fn find(parent: &mut FxHashMap<u32, u32>, v: u32) -> u32 {
-        let mut r = v;
-        while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
-            r = p;
-        }
-        parent.insert(v, r);
-        r
-    }
     for &[a, b] in edges {
         let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
         if ra != rb {
