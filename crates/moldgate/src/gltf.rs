@@ -249,18 +249,12 @@ fn keep_out_lines(region: &crate::keepout::Region) -> Vec<[f32; 3]> {
     use crate::keepout::Region;
     match *region {
         Region::Box { min, max } => {
-            let corner = |i: usize| {
-                DVec3::new(
-                    if i & 1 == 0 { min[0] } else { max[0] },
-                    if i & 2 == 0 { min[1] } else { max[1] },
-                    if i & 4 == 0 { min[2] } else { max[2] },
-                )
-            };
+            let corner = Region::box_corners(min, max);
             // Corners that differ in one bit are joined by an edge.
             (0..8usize)
                 .flat_map(|i| [1usize, 2, 4].map(move |bit| (i, i | bit)))
                 .filter(|&(i, j)| i != j)
-                .flat_map(|(i, j)| [f32s(corner(i)), f32s(corner(j))])
+                .flat_map(|(i, j)| [f32s(corner[i]), f32s(corner[j])])
                 .collect()
         }
         Region::Sphere { centre, radius } => {

@@ -66,6 +66,19 @@ impl Region {
         }
     }
 
+    /// The eight corners of a box between `min` and `max`, corner i taking `max` on the
+    /// axes whose bit is set in i (x 1, y 2, z 4): two corners whose numbers differ in one
+    /// bit share an edge.
+    pub fn box_corners(min: [f64; 3], max: [f64; 3]) -> [DVec3; 8] {
+        std::array::from_fn(|i| {
+            DVec3::new(
+                if i & 1 == 0 { min[0] } else { max[0] },
+                if i & 2 == 0 { min[1] } else { max[1] },
+                if i & 4 == 0 { min[2] } else { max[2] },
+            )
+        })
+    }
+
     /// The region in words, mm.
     pub fn describe(&self) -> String {
         let v = |p: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", p[0], p[1], p[2]);

@@ -137,37 +137,13 @@ fn whole_bodies_outward(mesh: &mut Mesh) -> (u64, bool) {
         .map(|t| body[t[0] as usize] as usize + 1)
         .max()
         .unwrap_or(0);
-    // Moments about the box's centre, summed body by body: in fixed runs of triangles on
-    // all threads when the bodies are few (each run a sum a body), the runs' sums added in
-    // order, so the signs do not depend on the threads.
-    use rayon::prelude::*;
-    const RUN: usize = 1 << 16;
+    // Moments about the box's centre, summed body by body (one pass on this thread: only
+    // a mesh with a body wound inwards comes here, `Topology::inward_body`).
     let origin = mesh.bounds().centre();
-    let add = |volume: &mut [f64], first: usize, run: &[[u32; 3]]| {
-        for (k, tri) in run.iter().enumerate() {
-            let [a, b, c] = mesh.corners(first + k).map(|p| p - origin);
-            volume[body[tri[0] as usize] as usize] += a.dot(b.cross(c));
-        }
-    };
     let mut volume = vec![0.0f64; bodies];
-    if bodies <= 4096 {
-        let runs: Vec<Vec<f64>> = mesh
-            .triangles
-            .par_chunks(RUN)
-            .enumerate()
-            .map(|(i, run)| {
-                let mut v = vec![0.0f64; bodies];
-                add(&mut v, i * RUN, run);
-                v
-            })
-            .collect();
-        for run in runs {
-            for (total, v) in volume.iter_mut().zip(run) {
-                *total += v;
-            }
-        }
-    } else {
-        add(&mut volume, 0, &mesh.triangles);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = mesh.corners(t).map(|p| p - origin);
+        volume[body[tri[0] as usize] as usize] += a.dot(b.cross(c));
     }
     if volume.iter().all(|&v| v >= 0.0) {
         return (0, false);

@@ -33,6 +33,7 @@ use crate::frame::Frame;
 use crate::math::{nearest_on_segment, DVec3};
 use crate::mesh::topology::{root, NO_TRIANGLE};
 use crate::mesh::{Mesh, Topology};
+use rustc_hash::FxHashMap;
 
 /// Which edges make the parting line (`parting_line` in the study options).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -155,6 +156,61 @@ fn side_edges(mesh: &Mesh, topology: &Topology, frame: &Frame, tilt: f64) -> Vec
     edges
 }
 
+/// The root of `v` in a union-find forest of edge vertices kept in a map (a vertex not in
+/// it is its own root), `v` linked to it directly.
+pub(super) fn find(parent: &mut FxHashMap<u32, u32>, v: u32) -> u32 {
+    let mut r = v;
+    while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
+        r = p;
+    }
+    parent.insert(v, r);
+    r
+}
+
+/// Of `edges` (edges between the sides: a body's, or the whole mesh's), the connected set of
+/// the greatest length (of two alike, the one holding the least vertex), as sorted vertex
+/// pairs, with its [`Rim`] (`longest_loop` set) and the number of connected sets. A map
+/// holds the forest, so a body's few edges cost their own count, not the mesh's vertices.
+pub(super) fn longest_loop(
+    mesh: &Mesh,
+    edges: impl Iterator<Item = [u32; 2]> + Clone,
+    body: u32,
+) -> (Vec<[u32; 2]>, Rim, usize) {
+    let mut parent = FxHashMap::<u32, u32>::default();
+    for [a, b] in edges.clone() {
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        if ra != rb {
+            parent.insert(ra.max(rb), ra.min(rb));
+        }
+    }
+    let length = |[a, b]: [u32; 2]| mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
+    let mut per_set = FxHashMap::<u32, f64>::default();
+    for e in edges.clone() {
+        *per_set.entry(find(&mut parent, e[0])).or_default() += length(e);
+    }
+    let best = per_set
+        .iter()
+        .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
+        .map(|(&r, _)| r);
+    let mut cycle: Vec<[u32; 2]> = edges
+        .filter(|e| Some(find(&mut parent, e[0])) == best)
+        .collect();
+    cycle.sort_unstable();
+    let mut degree = FxHashMap::<u32, u32>::default();
+    for &[a, b] in &cycle {
+        *degree.entry(a).or_default() += 1;
+        *degree.entry(b).or_default() += 1;
+    }
+    let rim = Rim {
+        body,
+        edges: cycle.len(),
+        length_mm: cycle.iter().map(|&e| length(e)).sum(),
+        closed: !cycle.is_empty() && degree.values().all(|&d| d == 2),
+        longest_loop: true,
+    };
+    (cycle, rim, per_set.len())
+}
+
 impl PartingLine {
     /// Extracts the parting line of `mesh` for the frame's demolding direction by the
     /// [`PartingRule::Longest`] rule: the longest loop of the edges between the two sides
@@ -165,36 +221,8 @@ impl PartingLine {
         if edges.is_empty() {
             return PartingLine::default();
         }
-        // Loops are the connected components of the edges (union-find on vertices).
-        let mut parent: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
-        for &[a, b] in &edges {
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            if ra != rb {
-                parent[ra.max(rb) as usize] = ra.min(rb);
-            }
-        }
-        let mut length = rustc_hash::FxHashMap::<u32, f64>::default();
-        for &[a, b] in &edges {
-            let r = root(&mut parent, a);
-            *length.entry(r).or_default() +=
-                mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
-        }
-        // The longest loop; ties go to the loop with the smallest root vertex.
-        let (&best, &length_mm) = length
-            .iter()
-            .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
-            .expect("at least one edge");
-        let kept: Vec<[u32; 2]> = edges
-            .iter()
-            .copied()
-            .filter(|&[a, _]| root(&mut parent, a) == best)
-            .collect();
-        let mut degree = rustc_hash::FxHashMap::<u32, u32>::default();
-        for &[a, b] in &kept {
-            *degree.entry(a).or_default() += 1;
-            *degree.entry(b).or_default() += 1;
-        }
-        let closed = degree.values().all(|&d| d == 2);
+        let (kept, rim, loops) = longest_loop(mesh, edges.iter().copied(), 0);
+        let best = kept[0][0];
         // The body of the kept loop, numbered as `body_of_triangle` numbers them: bodies
         // in the order of their first triangle.
         let body = {
@@ -214,18 +242,17 @@ impl PartingLine {
             body
         };
         PartingLine {
-            closed,
+            closed: rim.closed,
             edges_all: edges.len(),
-            loops: length.len(),
+            loops,
+            length_mm: rim.length_mm,
             rims: vec![Rim {
                 body,
-                edges: kept.len(),
-                length_mm,
-                closed,
+                // The rule itself, not the outline rule's stand-in.
                 longest_loop: false,
+                ..rim
             }],
             edges: kept,
-            length_mm,
         }
     }
 

@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::outside::{Outside, Segment};
-use super::{side_edges, PartingLine, Rim};
+use super::{find, longest_loop, side_edges, PartingLine, Rim};
 use crate::frame::Frame;
 use crate::math::DVec2;
 use crate::mesh::topology::{body_of_vertex, NO_TRIANGLE};
@@ -119,7 +119,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
             .unzip();
         if rim.is_empty() {
             // No edge of the body's on its outline at its +D end: its longest loop.
-            let (cycle, rim_of) =
+            let (cycle, rim_of, _) =
                 longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
             rims.push(rim_of);
             kept.extend(cycle);
@@ -191,7 +191,7 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
             // body at different depths (walls that do not run along D, seen at a slant),
             // which no edges of the mesh near the outline join. The body's longest loop of
             // edges between the sides is its silhouette there.
-            let (cycle, rim_of) =
+            let (cycle, rim_of, _) =
                 longest_loop(mesh, group.iter().map(|&e| edges[e as usize]), body);
             rims.push(rim_of);
             kept.extend(cycle);
@@ -207,60 +207,6 @@ pub(super) fn outline(mesh: &Mesh, topology: &Topology, frame: &Frame) -> Partin
         edges: kept,
         rims,
     }
-}
-
-/// The root of `v` in a union-find forest of edge vertices kept in a map (a vertex not in
-/// it is its own root), `v` linked to it directly.
-fn find(parent: &mut FxHashMap<u32, u32>, v: u32) -> u32 {
-    let mut r = v;
-    while let Some(&p) = parent.get(&r).filter(|&&p| p != r) {
-        r = p;
-    }
-    parent.insert(v, r);
-    r
-}
-
-/// Of `edges` (a body's edges between the sides), the connected set of the greatest length
-/// (of two alike, the one holding the least vertex), as sorted vertex pairs, with its
-/// [`Rim`] (`longest_loop` set).
-fn longest_loop(
-    mesh: &Mesh,
-    edges: impl Iterator<Item = [u32; 2]> + Clone,
-    body: u32,
-) -> (Vec<[u32; 2]>, Rim) {
-    let mut parent = FxHashMap::<u32, u32>::default();
-    for [a, b] in edges.clone() {
-        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-        if ra != rb {
-            parent.insert(ra.max(rb), ra.min(rb));
-        }
-    }
-    let length = |[a, b]: [u32; 2]| mesh.vertices[a as usize].distance(mesh.vertices[b as usize]);
-    let mut per_set = FxHashMap::<u32, f64>::default();
-    for e in edges.clone() {
-        *per_set.entry(find(&mut parent, e[0])).or_default() += length(e);
-    }
-    let best = per_set
-        .iter()
-        .max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0)))
-        .map(|(&r, _)| r);
-    let mut cycle: Vec<[u32; 2]> = edges
-        .filter(|e| Some(find(&mut parent, e[0])) == best)
-        .collect();
-    cycle.sort_unstable();
-    let mut degree = FxHashMap::<u32, u32>::default();
-    for &[a, b] in &cycle {
-        *degree.entry(a).or_default() += 1;
-        *degree.entry(b).or_default() += 1;
-    }
-    let rim = Rim {
-        body,
-        edges: cycle.len(),
-        length_mm: cycle.iter().map(|&e| length(e)).sum(),
-        closed: !cycle.is_empty() && degree.values().all(|&d| d == 2),
-        longest_loop: true,
-    };
-    (cycle, rim)
 }
 
 /// The number of connected sets of `edges` (union-find on their vertices).

@@ -26,13 +26,9 @@ fn outline(cam: &Camera, region: &Region) -> Vec<[f32; 2]> {
                 .collect()
         }
         Region::Box { min, max } => {
-            let corners: Vec<[f32; 2]> = (0..8)
-                .map(|i| {
-                    let p = DVec3::new(
-                        if i & 1 == 0 { min[0] } else { max[0] },
-                        if i & 2 == 0 { min[1] } else { max[1] },
-                        if i & 4 == 0 { min[2] } else { max[2] },
-                    );
+            let corners: Vec<[f32; 2]> = Region::box_corners(min, max)
+                .iter()
+                .map(|&p| {
                     let q = cam.to_pixel(p);
                     [q.x as f32, q.y as f32]
                 })

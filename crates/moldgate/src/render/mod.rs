@@ -690,13 +690,7 @@ fn draw_overlays(
         let ([x, y], r) = (d.at, d.r);
         [x - r, y - r, x + r, y + r]
     }));
-    let panel = view.panel;
-    let inside = [
-        panel.x as f32,
-        panel.y as f32,
-        (panel.x + panel.w) as f32,
-        (panel.y + panel.h) as f32,
-    ];
+    let inside = panel_box;
     // The centre's label: lower left of the cross as usual, elsewhere around it when a
     // gate's disc lies there (a gate of a layout often sits beside the centre).
     let centre_style = TextStyle::new(13.0 * k, INK).halo(WHITE);
